@@ -1,0 +1,39 @@
+# Every habit is one target; CI calls `make test`, so a local run and CI cannot drift.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: install test lint typecheck pytest bench run clean error-analysis
+
+$(STAMP): pyproject.toml
+	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+typecheck: $(STAMP)
+	$(BIN)/mypy
+
+pytest: $(STAMP)
+	$(BIN)/pytest
+
+test: lint typecheck pytest
+
+bench: $(STAMP)
+	$(BIN)/python -m benchmarks
+
+error-analysis: $(STAMP)
+	$(BIN)/python -m models.error_analysis --plot docs/error_analysis.png
+
+run: $(STAMP)
+	$(BIN)/python -m service --host 127.0.0.1 --port 8000
+
+clean:
+	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache

@@ -1,0 +1,342 @@
+"""Every `casadi.Function` of a robot, built once per robot structure.
+
+The graphs depend only on the structure of a description (the joint type of
+each chain link; the hexapod always has six legs): nominal values, base, tool
+and data are inputs. So every IWR, whatever its nominal geometry, shares one
+set of Functions, and a request never triggers a build.
+
+Internal units: mm and rad. `q` is the joint vector `[q_chain..., l1..l6]`,
+`params` the full parameter vector, `platform` the hexapod pose
+`[x, y, z, α, β, γ]` of frame {5} in {4} (Z-Y-X Euler).
+
+Two routes to the same numbers, from the same expressions:
+- `hexapod_fk`, `fk`, `fk_jacobian`: Newton through `casadi.rootfinder`,
+  derivatives by the implicit function theorem inside CasADi's AD. Fully
+  differentiable MX graphs, for NLPs that nest the hexapod FK.
+- `*_at` Functions take the solved platform pose as an input and apply the
+  implicit function theorem explicitly (`dx/dθ = -G_x⁻¹ G_θ`), in SX; with
+  `newton_solve` (unrolled Newton steps) they evaluate whole batches at native
+  speed (see `native`). Tests check that both routes agree.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
+
+from models import hexapod as hx
+from models.hybrid import RobotDescription, carriage_transform, tcp_transform
+from models.native import compile_functions
+from models.serial_chain import JointType
+from models.transforms import matrix_to_rotvec
+
+NEWTON_OPTIONS = {
+    "abstol": 1e-11,
+    "abstolStep": 1e-12,
+    "max_iter": 30,
+    "error_on_fail": False,
+    "print_iteration": False,
+}
+NEWTON_STEPS_PER_CALL = 6
+"""Newton steps unrolled in `newton_solve`; from the home seed the workspace needs 4-5."""
+
+_MAP_CACHE_SIZE = 64
+
+Structure = tuple[JointType, ...]
+
+
+def rotation_jacobian(r: ca.SX | ca.MX, dr_dp: ca.SX | ca.MX) -> ca.SX | ca.MX:
+    """Columns vee(∂R/∂p_j · Rᵀ): the small world-frame rotation per unit change of each p_j.
+
+    `dr_dp` is the Jacobian of vec(R) (column-major) with respect to p.
+    """
+
+    def d(a: int, k: int) -> ca.SX | ca.MX:
+        return dr_dp[a + 3 * k, :]
+
+    wx = d(2, 0) * r[1, 0] + d(2, 1) * r[1, 1] + d(2, 2) * r[1, 2]
+    wy = d(0, 0) * r[2, 0] + d(0, 1) * r[2, 1] + d(0, 2) * r[2, 2]
+    wz = d(1, 0) * r[0, 0] + d(1, 1) * r[0, 1] + d(1, 2) * r[0, 2]
+    return ca.vertcat(wx, wy, wz)
+
+
+def pose_jacobian(position: ca.SX | ca.MX, rotation: ca.SX | ca.MX, dvec_dp: ca.SX | ca.MX) -> ca.SX | ca.MX:
+    """6 x n pose Jacobian (dp; dω) from the Jacobian of [position; vec(R)]."""
+    return ca.vertcat(dvec_dp[0:3, :], rotation_jacobian(rotation, dvec_dp[3:12, :]))
+
+
+@dataclass
+class RobotFunctions:
+    """The Functions of one robot structure; see the module docstring for the conventions."""
+
+    structure: Structure
+    n_joints: int
+    n_params: int
+    functions: dict[str, ca.Function]
+    """Differentiable CasADi Functions (SX, or MX around the rootfinder)."""
+    native: dict[str, ca.Function]
+    """Compiled versions of the batch Functions (or the same SX ones when no compiler is available)."""
+    build_seconds: float
+    _maps: OrderedDict[tuple[str, int], ca.Function] = field(default_factory=OrderedDict, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+
+    def __getitem__(self, name: str) -> ca.Function:
+        return self.functions[name]
+
+    def batch(self, name: str, *args: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        """Evaluate native `name` over N poses, reading and writing numpy memory directly.
+
+        Per-pose inputs are arrays (N, k) or (N, r, c); shared inputs (params)
+        are 1-D and broadcast. Outputs are (N, k) for vectors, (N, r, c) for
+        matrices. Going through CasADi's buffer interface skips DM conversion,
+        which otherwise costs ten times the evaluation itself.
+        """
+        n = max((a.shape[0] for a in args if a.ndim >= 2), default=1)
+        base = self.native[name]
+        mapped = self.mapped(name, n)
+        buffer, trigger = mapped.buffer()
+        keep: list[NDArray[np.float64]] = []
+        for i, arg in enumerate(args):
+            rows, cols = base.size_in(i)
+            if arg.ndim == 1:
+                arg = np.broadcast_to(arg, (n, arg.size))  # noqa: PLW2901
+            elif arg.ndim == 3:
+                arg = arg.transpose(0, 2, 1)  # noqa: PLW2901  (CasADi stores matrices column by column)
+            flat = np.ascontiguousarray(arg, dtype=float).reshape(n, rows * cols)
+            keep.append(flat)
+            buffer.set_arg(i, flat.data)
+        outputs = []
+        for i in range(base.n_out()):
+            rows, cols = base.size_out(i)
+            out = np.empty((n, cols, rows))
+            buffer.set_res(i, out.data)
+            outputs.append(out)
+        trigger()
+        return tuple(o[:, 0, :] if o.shape[1] == 1 else o.transpose(0, 2, 1) for o in outputs)
+
+    def mapped(self, name: str, n: int) -> ca.Function:
+        """The native `name` over n poses at once: per-pose inputs become columns, `params` is shared.
+
+        Mapping wraps the compiled function (no re-derivation, no compiling),
+        so a new n costs microseconds; the most recent maps are kept.
+        """
+        key = (name, n)
+        with self._lock:
+            found = self._maps.get(key)
+            if found is not None:
+                self._maps.move_to_end(key)
+                return found
+        # Inputs given as a single column (params) are broadcast to all n by CasADi.
+        mapped = self.native[name].map(n, "thread", 2)
+        with self._lock:
+            self._maps[key] = mapped
+            while len(self._maps) > _MAP_CACHE_SIZE:
+                self._maps.popitem(last=False)
+        return mapped
+
+
+def _symbolic(desc: RobotDescription) -> dict[str, ca.Function]:
+    n_chain = desc.n_chain
+    s_hex = desc.slices["hexapod"]
+    n_hex = s_hex.stop - s_hex.start
+
+    q = ca.SX.sym("q", desc.n_joints)
+    params = ca.SX.sym("params", desc.n_params)
+    x = ca.SX.sym("platform", 6)
+    q_chain, legs, hp = q[:n_chain], q[n_chain:], params[s_hex]
+    fn: dict[str, ca.Function] = {}
+
+    # ---- hexapod alone
+    hp_only = ca.SX.sym("hexapod_params", n_hex)
+    fn["hexapod_ik"] = ca.Function(
+        "hexapod_ik",
+        [x, hp_only],
+        [hx.actuator_lengths(x, hp_only)],
+        ["platform", "hexapod_params"],
+        ["legs"],
+    )
+    fn["hexapod_jacobian"] = ca.Function(
+        "hexapod_jacobian",
+        [x, hp_only],
+        [hx.thesis_jacobian(x, hp_only)],
+        ["platform", "hexapod_params"],
+        ["J"],
+    )
+
+    # ---- closure and Newton, with the platform pose as unknown
+    g = hx.closure_residual(x, legs, hp)
+    g_x = ca.jacobian(g, x)
+    names_at = ["q", "params", "platform"]
+    fn["closure"] = ca.Function("closure", [q, params, x], [g], names_at, ["residual"])
+    x_k = x
+    for _ in range(NEWTON_STEPS_PER_CALL):
+        g_k = ca.substitute(g, x, x_k)
+        x_k = x_k - ca.solve(ca.substitute(g_x, x, x_k), g_k)
+    fn["newton_solve"] = ca.Function(
+        "newton_solve",
+        [q, params, x],
+        [x_k, ca.norm_inf(ca.substitute(g, x, x_k))],
+        ["q", "params", "platform_seed"],
+        ["platform", "closure_inf"],
+    )
+
+    # ---- TCP pose given the solved platform; implicit-function-theorem derivatives
+    t = tcp_transform(desc, q_chain, x, params)
+    position, rotation = t[0:3, 3], t[0:3, 0:3]
+    vec = ca.vertcat(position, ca.vec(rotation))
+    dvec_dx = ca.jacobian(vec, x)
+    dx_dparams = -ca.solve(g_x, ca.jacobian(g, params))
+    dx_dq = -ca.solve(g_x, ca.jacobian(g, q))
+    d_params = ca.jacobian(vec, params) + dvec_dx @ dx_dparams
+    d_q = ca.jacobian(vec, q) + dvec_dx @ dx_dq
+    j_params = pose_jacobian(position, rotation, d_params)
+    fn["pose_at"] = ca.Function("pose_at", [q, params, x], [position, rotation], names_at, ["position", "rotation"])
+    fn["pose_jacobian_at"] = ca.Function(
+        "pose_jacobian_at",
+        [q, params, x],
+        [position, rotation, j_params],
+        names_at,
+        ["position", "rotation", "J"],
+    )
+    fn["joint_jacobian_at"] = ca.Function(
+        "joint_jacobian_at",
+        [q, params, x],
+        [position, rotation, pose_jacobian(position, rotation, d_q)],
+        names_at,
+        ["position", "rotation", "J_q"],
+    )
+
+    p_meas = ca.SX.sym("position_meas", 3)
+    r_meas = ca.SX.sym("rotation_meas", 3, 3)
+    residual = ca.vertcat(position - p_meas, matrix_to_rotvec(rotation @ r_meas.T))
+    d_res = ca.jacobian(residual, params) + ca.jacobian(residual, x) @ dx_dparams
+    res_names = [*names_at, "position_meas", "rotation_meas"]
+    fn["residual_at"] = ca.Function("residual_at", [q, params, x, p_meas, r_meas], [residual], res_names, ["residual"])
+    fn["residual_jacobian_at"] = ca.Function(
+        "residual_jacobian_at",
+        [q, params, x, p_meas, r_meas],
+        [residual, d_res],
+        res_names,
+        ["residual", "J"],
+    )
+
+    # ---- carriage alone (world <- {n}) and the TCP as a function of the platform pose
+    fn["carriage_fk"] = ca.Function(
+        "carriage_fk",
+        [q_chain, params],
+        [carriage_transform(desc, q_chain, params)],
+        ["q_chain", "params"],
+        ["T"],
+    )
+    fn["tcp_from_platform"] = ca.Function(
+        "tcp_from_platform", [q_chain, x, params], [t], ["q_chain", "platform", "params"], ["T"]
+    )
+
+    # ---- the rootfinder route (MX): Newton inside CasADi, derivatives by its IFT
+    newton = ca.rootfinder(
+        "hexapod_newton", "newton", ca.Function("g", [x, ca.vertcat(legs, hp, q_chain)], [g]), NEWTON_OPTIONS
+    )
+    # (q_chain is carried as an unused rootfinder parameter so the closure keeps one signature)
+    q_mx = ca.MX.sym("q", desc.n_joints)
+    p_mx = ca.MX.sym("params", desc.n_params)
+    seed = ca.MX.sym("platform_seed", 6)
+    platform = newton(seed, ca.vertcat(q_mx[n_chain:], p_mx[s_hex], q_mx[:n_chain]))
+    pos_mx, rot_mx = fn["pose_at"](q_mx, p_mx, platform)
+    fk_names = ["q", "params", "platform_seed"]
+    fn["fk"] = ca.Function(
+        "fk", [q_mx, p_mx, seed], [pos_mx, rot_mx, platform], fk_names, ["position", "rotation", "platform"]
+    )
+    vec_mx = ca.vertcat(pos_mx, ca.vec(rot_mx))
+    fn["fk_jacobian"] = ca.Function(
+        "fk_jacobian",
+        [q_mx, p_mx, seed],
+        [pos_mx, rot_mx, platform, pose_jacobian(pos_mx, rot_mx, ca.jacobian(vec_mx, p_mx))],
+        fk_names,
+        ["position", "rotation", "platform", "J"],
+    )
+    legs_mx = ca.MX.sym("legs", 6)
+    hp_mx = ca.MX.sym("hexapod_params", n_hex)
+    q_dummy = ca.MX.zeros(n_chain)
+    fn["hexapod_fk"] = ca.Function(
+        "hexapod_fk",
+        [legs_mx, hp_mx, seed],
+        [newton(seed, ca.vertcat(legs_mx, hp_mx, q_dummy))],
+        ["legs", "hexapod_params", "platform_seed"],
+        ["platform"],
+    )
+    return fn
+
+
+NATIVE_FUNCTIONS = (
+    "newton_solve",
+    "closure",
+    "pose_at",
+    "pose_jacobian_at",
+    "joint_jacobian_at",
+    "residual_at",
+    "residual_jacobian_at",
+    "hexapod_ik",
+    "hexapod_jacobian",
+    "carriage_fk",
+)
+
+
+def _densified(f: ca.Function) -> ca.Function:
+    sx_in = f.sx_in()
+    outs = [ca.densify(o) for o in f.call(sx_in)]
+    return ca.Function(f.name(), sx_in, outs, f.name_in(), f.name_out())
+
+
+def build_functions(desc: RobotDescription) -> RobotFunctions:
+    """Derive (and compile) all Functions of a structure. Depends only on the chain's joint types."""
+    started = time.perf_counter()
+    fn = _symbolic(desc)
+    structure = tuple(link.joint for link in desc.links)
+    tag = "robot_" + "".join("p" if j is JointType.PRISMATIC else "r" for j in structure)
+    # Dense outputs: the batch interface reads results as plain arrays.
+    dense = [_densified(fn[name]) for name in NATIVE_FUNCTIONS]
+    native = compile_functions(tag, dense)
+    return RobotFunctions(
+        structure=structure,
+        n_joints=desc.n_joints,
+        n_params=desc.n_params,
+        functions=fn,
+        native=native,
+        build_seconds=time.perf_counter() - started,
+    )
+
+
+class FunctionCache:
+    """Memoises `build_functions` by robot structure and counts builds (tests assert one build)."""
+
+    def __init__(self) -> None:
+        self._built: dict[Structure, RobotFunctions] = {}
+        self._lock = threading.Lock()
+        self.builds = 0
+
+    def get(self, desc: RobotDescription) -> RobotFunctions:
+        key = tuple(link.joint for link in desc.links)
+        with self._lock:
+            found = self._built.get(key)
+            if found is None:
+                found = build_functions(desc)
+                self._built[key] = found
+                self.builds += 1
+            return found
+
+    def clear(self) -> None:
+        with self._lock:
+            self._built.clear()
+
+
+FUNCTIONS = FunctionCache()
+
+
+def functions_for(desc: RobotDescription) -> RobotFunctions:
+    return FUNCTIONS.get(desc)

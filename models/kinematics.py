@@ -1,0 +1,207 @@
+"""Numeric kinematics on batches of joint vectors: validation, FK, Jacobians.
+
+Everything here is in internal units (mm, rad) and works on arrays of shape
+(N, n_joints). Each call validates its input and raises a domain error naming
+the pose, the joint, the value and the limit; the compiled Functions are
+fetched from the cache, never rebuilt.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from models.errors import JointOutOfRange, NonFiniteValue, UnreachablePose, WrongShape
+from models.function_cache import RobotFunctions, functions_for
+from models.hybrid import RobotDescription
+
+Array = NDArray[np.float64]
+
+JOINT_RANGE_SLACK = 1e-9
+"""Joints may exceed their range by this much (mm or rad) before they are rejected: float round-off."""
+CLOSURE_TOLERANCE_MM = 1e-8
+"""A hexapod pose counts as assembled when every leg equation holds to this (mm)."""
+ENVELOPE_MARGIN_MM = 20.0
+ENVELOPE_MARGIN_RAD = float(np.radians(5.0))
+"""How far outside the workspace box the FK may land before the legs are rejected as not assembling
+(Newton can converge to a mirror assembly far from the working one)."""
+MAX_NEWTON_CALLS = 5
+
+
+def as_joint_array(desc: RobotDescription, joints: ArrayLike) -> Array:
+    """Joint vectors as an (N, n_joints) float array; shape and finiteness checked."""
+    try:
+        arr = np.array(joints, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise WrongShape(f"joint vectors must be numbers: {exc}") from exc
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != desc.n_joints:
+        raise WrongShape(
+            f"each joint vector must have {desc.n_joints} numbers {list(desc.joint_names)}, got shape {arr.shape}",
+            expected=desc.n_joints,
+            got=list(arr.shape),
+        )
+    bad = np.argwhere(~np.isfinite(arr))
+    if bad.size:
+        i, j = (int(v) for v in bad[0])
+        raise NonFiniteValue(
+            f"pose {i}: joint {desc.joint_names[j]} is {arr[i, j]}, not a finite number",
+            pose=i,
+            joint=desc.joint_names[j],
+        )
+    return arr
+
+
+def check_joint_ranges(desc: RobotDescription, joints: Array) -> None:
+    """Raise JointOutOfRange for the first joint outside its range (internal units)."""
+    low = joints < desc.joint_min - JOINT_RANGE_SLACK
+    high = joints > desc.joint_max + JOINT_RANGE_SLACK
+    bad = np.argwhere(low | high)
+    if bad.size:
+        i, j = (int(v) for v in bad[0])
+        scale = desc.joint_to_boundary[j]
+        unit = desc.joint_kinds[j].boundary_unit
+        value, lo, hi = joints[i, j] * scale, desc.joint_min[j] * scale, desc.joint_max[j] * scale
+        raise JointOutOfRange(
+            f"pose {i}: joint {desc.joint_names[j]} = {value:.6g} {unit} is outside its range "
+            f"[{lo:.6g}, {hi:.6g}] {unit}",
+            pose=i,
+            joint=desc.joint_names[j],
+            value=float(value),
+            min=float(lo),
+            max=float(hi),
+            unit=unit,
+            count=len(np.unique(bad[:, 0])),
+        )
+
+
+def solve_platforms(
+    desc: RobotDescription, joints: Array, params: ArrayLike, seeds: Array | None = None
+) -> tuple[Array, Array]:
+    """Hexapod forward kinematics for a batch: platform poses (N, 6) and closure error (N,) in mm.
+
+    Newton from the home pose (or the given seeds), all poses at once; poses not
+    yet converged get more steps. Nothing is checked here: see `forward_kinematics`.
+    """
+    fns = functions_for(desc)
+    n = joints.shape[0]
+    theta = np.asarray(params, dtype=float)
+    x = np.tile(np.asarray(desc.hexapod.home, dtype=float), (n, 1)) if seeds is None else np.array(seeds, dtype=float)
+    todo = np.arange(n)
+    closure = np.full(n, np.inf)
+    for _ in range(MAX_NEWTON_CALLS):
+        x_new, res = fns.batch("newton_solve", joints[todo], theta, x[todo])
+        x[todo] = x_new
+        closure[todo] = res[:, 0]
+        todo = todo[~(closure[todo] <= CLOSURE_TOLERANCE_MM)]
+        if todo.size == 0:
+            break
+    return x, closure
+
+
+def hexapod_condition(desc: RobotDescription, platforms: Array, params: ArrayLike) -> Array:
+    """Condition number of the hexapod Jacobian (eq. 48), rotations scaled by the platform radius.
+
+    Unit-free; grows without bound near a singularity.
+    """
+    fns = functions_for(desc)
+    hp = np.asarray(params, dtype=float)[desc.slices["hexapod"]]
+    (blocks,) = fns.batch("hexapod_jacobian", platforms, hp)
+    blocks[:, :, 3:] /= desc.hexapod.characteristic_length
+    s = np.linalg.svd(blocks, compute_uv=False)
+    with np.errstate(divide="ignore"):
+        return np.where(s[:, -1] > 0, s[:, 0] / s[:, -1], np.inf)
+
+
+def platform_envelope(desc: RobotDescription) -> tuple[Array, Array]:
+    margin = np.array([ENVELOPE_MARGIN_MM] * 3 + [ENVELOPE_MARGIN_RAD] * 3)
+    return np.array(desc.hexapod.workspace_min) - margin, np.array(desc.hexapod.workspace_max) + margin
+
+
+def check_assembly(desc: RobotDescription, platforms: Array, closure: Array, params: ArrayLike) -> None:
+    """UnreachablePose for the first pose whose legs do not assemble into a usable hexapod pose."""
+    failed = np.flatnonzero(~(closure <= CLOSURE_TOLERANCE_MM))
+    if failed.size:
+        i = int(failed[0])
+        raise UnreachablePose(
+            f"pose {i}: the hexapod cannot assemble with these leg lengths (forward kinematics did not converge; "
+            f"leg equations off by {closure[i]:.3g} mm)",
+            pose=i,
+            reason="no_assembly",
+            count=int(failed.size),
+        )
+    low, high = platform_envelope(desc)
+    outside = np.flatnonzero(np.any((platforms < low) | (platforms > high), axis=1))
+    if outside.size:
+        i = int(outside[0])
+        shown = np.r_[platforms[i, :3], np.degrees(platforms[i, 3:])]
+        raise UnreachablePose(
+            f"pose {i}: the leg lengths put the platform at {np.round(shown, 3).tolist()} (mm, deg), "
+            "outside the hexapod's workspace",
+            pose=i,
+            reason="outside_workspace",
+            count=int(outside.size),
+        )
+    cond = hexapod_condition(desc, platforms, params)
+    singular = np.flatnonzero(cond > desc.hexapod.max_condition)
+    if singular.size:
+        i = int(singular[0])
+        raise UnreachablePose(
+            f"pose {i}: the hexapod is too close to a singularity (condition number {cond[i]:.3g} > "
+            f"{desc.hexapod.max_condition:.3g})",
+            pose=i,
+            reason="near_singularity",
+            count=int(singular.size),
+        )
+
+
+@dataclass(frozen=True)
+class ForwardResult:
+    positions: Array
+    """(N, 3) mm, world frame."""
+    rotations: Array
+    """(N, 3, 3) TCP orientation in the world frame."""
+    platforms: Array
+    """(N, 6) hexapod platform poses (mm, rad)."""
+    jacobians: Array | None = None
+    """(N, 6, n_params) identification Jacobians (rows dp, dω), when asked for."""
+
+
+def forward_kinematics(
+    desc: RobotDescription,
+    joints: ArrayLike,
+    params: ArrayLike | None = None,
+    *,
+    jacobian: bool = False,
+    check_ranges: bool = True,
+    seeds: Array | None = None,
+) -> ForwardResult:
+    """TCP poses (and optionally identification Jacobians) for a batch of joint vectors."""
+    theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
+    q = as_joint_array(desc, joints)
+    if check_ranges:
+        check_joint_ranges(desc, q)
+    platforms, closure = solve_platforms(desc, q, theta, seeds)
+    check_assembly(desc, platforms, closure, theta)
+    return pose_batch(desc, q, theta, platforms, jacobian=jacobian)
+
+
+def pose_batch(desc: RobotDescription, q: Array, theta: Array, platforms: Array, *, jacobian: bool) -> ForwardResult:
+    """TCP poses (and Jacobians) for already solved platform poses; no checks."""
+    fns: RobotFunctions = functions_for(desc)
+    if jacobian:
+        pos, rot, jac = fns.batch("pose_jacobian_at", q, theta, platforms)
+        return ForwardResult(pos, rot, platforms, jac)
+    pos, rot = fns.batch("pose_at", q, theta, platforms)
+    return ForwardResult(pos, rot, platforms)
+
+
+def inverse_hexapod(desc: RobotDescription, platforms: ArrayLike, params: ArrayLike | None = None) -> Array:
+    """Closed-form hexapod IK: commanded leg lengths (N, 6) for platform poses (N, 6)."""
+    theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
+    x = np.atleast_2d(np.asarray(platforms, dtype=float))
+    (legs,) = functions_for(desc).batch("hexapod_ik", x, theta[desc.slices["hexapod"]])
+    return legs

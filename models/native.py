@@ -1,0 +1,79 @@
+"""Compile CasADi Functions to a native library once, and keep it on disk.
+
+CasADi's virtual machine costs ~6 ns per SX instruction; the same graph
+compiled by the system C compiler runs 5-10x faster, which is what makes
+batched kinematics of 10 000 poses fit in a fraction of a second. The C
+source is generated from the Functions, hashed, and compiled only when no
+library with that hash exists in the cache directory, so a warm start loads
+in milliseconds and a changed model can never load a stale library.
+
+No compiler (or `IWR_NATIVE=0`): the original Functions are returned and
+everything still works, more slowly.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import casadi as ca
+
+log = logging.getLogger(__name__)
+
+COMPILE_FLAGS = ("-O1", "-fPIC", "-shared")
+
+
+def cache_dir() -> Path:
+    configured = os.environ.get("IWR_CACHE_DIR")
+    if configured:
+        return Path(configured)
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "iwr-calibration"
+
+
+def native_enabled() -> bool:
+    return os.environ.get("IWR_NATIVE", "1") != "0" and shutil.which(_compiler()) is not None
+
+
+def _compiler() -> str:
+    return os.environ.get("CC", "cc")
+
+
+def compile_functions(name: str, functions: list[ca.Function]) -> dict[str, ca.Function]:
+    """Native versions of `functions` (same names and signatures), or the originals if compiling fails."""
+    if not native_enabled():
+        return {f.name(): f for f in functions}
+    gen = ca.CodeGenerator(f"{name}.c", {"with_header": False, "casadi_real": "double"})
+    for f in functions:
+        gen.add(f)
+    source = gen.dump()
+    digest = hashlib.sha256((source + " ".join(COMPILE_FLAGS)).encode()).hexdigest()[:16]
+    directory = cache_dir()
+    library = directory / f"{name}-{digest}.so"
+    if not library.exists():
+        try:
+            _build(source, library)
+        except (OSError, subprocess.CalledProcessError) as exc:
+            log.warning("native compilation of %s failed (%s); using the CasADi VM", name, exc)
+            return {f.name(): f for f in functions}
+    return {f.name(): ca.external(f.name(), str(library)) for f in functions}
+
+
+def _build(source: str, library: Path) -> None:
+    library.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=library.parent) as tmp:
+        c_file = Path(tmp) / "functions.c"
+        c_file.write_text(source)
+        tmp_lib = Path(tmp) / library.name
+        subprocess.run(
+            [_compiler(), *COMPILE_FLAGS, str(c_file), "-o", str(tmp_lib), "-lm"],
+            check=True,
+            capture_output=True,
+            timeout=300,
+        )
+        # Atomic rename: concurrent processes never load a half-written library.
+        os.replace(tmp_lib, library)

@@ -1,0 +1,127 @@
+"""Named geometric parameters: the calibration unknowns.
+
+Each parameter has a kind (a length in mm or an angle, rad inside / degrees at
+the boundary), a nominal value and a scale. The scale is the expected size of
+its error (a manufacturing tolerance); identification and pose design divide
+Jacobian columns by it so that "one unit" means the same for every parameter.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from enum import StrEnum
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from models.errors import UnknownParameter, WrongShape
+
+
+class Kind(StrEnum):
+    LENGTH = "length"
+    ANGLE = "angle"
+
+    @property
+    def boundary_unit(self) -> str:
+        return "mm" if self is Kind.LENGTH else "deg"
+
+    @property
+    def to_boundary(self) -> float:
+        """Factor from internal units (mm, rad) to boundary units (mm, deg)."""
+        return 1.0 if self is Kind.LENGTH else float(np.degrees(1.0))
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    name: str
+    group: str
+    kind: Kind
+    nominal: float
+    """Internal units: mm or rad."""
+    scale: float
+    """Expected error size, internal units; > 0."""
+
+    @property
+    def unit(self) -> str:
+        return self.kind.boundary_unit
+
+
+@dataclass(frozen=True)
+class ParameterTable:
+    """The ordered parameter list of one robot description."""
+
+    specs: tuple[ParameterSpec, ...]
+
+    def __len__(self) -> int:
+        return len(self.specs)
+
+    @cached_property
+    def names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.specs)
+
+    @cached_property
+    def index(self) -> dict[str, int]:
+        return {name: i for i, name in enumerate(self.names)}
+
+    @cached_property
+    def groups(self) -> dict[str, tuple[int, ...]]:
+        out: dict[str, list[int]] = {}
+        for i, s in enumerate(self.specs):
+            out.setdefault(s.group, []).append(i)
+        return {g: tuple(ix) for g, ix in out.items()}
+
+    @property
+    def nominal(self) -> NDArray[np.float64]:
+        return np.array([s.nominal for s in self.specs])
+
+    @property
+    def scales(self) -> NDArray[np.float64]:
+        return np.array([s.scale for s in self.specs])
+
+    @cached_property
+    def to_boundary(self) -> NDArray[np.float64]:
+        """Per-parameter factor from internal to boundary units."""
+        return np.array([s.kind.to_boundary for s in self.specs])
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        return tuple(s.unit for s in self.specs)
+
+    def indices(self, names_or_groups: Iterable[str]) -> tuple[int, ...]:
+        """Indices for a mix of parameter names and group names, in table order."""
+        chosen: set[int] = set()
+        for key in names_or_groups:
+            if key in self.groups:
+                chosen.update(self.groups[key])
+            elif key in self.index:
+                chosen.add(self.index[key])
+            else:
+                raise UnknownParameter(
+                    f"unknown parameter or group {key!r}; groups are {sorted(self.groups)}",
+                    name=key,
+                )
+        return tuple(sorted(chosen))
+
+    def vector(self, values: ArrayLike) -> NDArray[np.float64]:
+        """Validate a full parameter vector in internal units."""
+        vec = np.asarray(values, dtype=float).reshape(-1)
+        if vec.shape != (len(self),):
+            raise WrongShape(f"expected {len(self)} parameters, got {vec.size}", expected=len(self), got=vec.size)
+        return vec
+
+    def with_values(self, base: ArrayLike, updates: dict[str, float]) -> NDArray[np.float64]:
+        """Copy of `base` with some parameters replaced (internal units)."""
+        vec = self.vector(base).copy()
+        for name, value in updates.items():
+            if name not in self.index:
+                raise UnknownParameter(f"unknown parameter {name!r}", name=name)
+            vec[self.index[name]] = value
+        return vec
+
+    def from_boundary(self, values: Sequence[float]) -> NDArray[np.float64]:
+        return self.vector(values) / self.to_boundary
+
+    def as_boundary(self, values: ArrayLike) -> NDArray[np.float64]:
+        return self.vector(values) * self.to_boundary
