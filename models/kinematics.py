@@ -111,9 +111,11 @@ def hexapod_condition(desc: RobotDescription, platforms: Array, params: ArrayLik
     hp = np.asarray(params, dtype=float)[desc.slices["hexapod"]]
     (blocks,) = fns.batch("hexapod_jacobian", platforms, hp)
     blocks[:, :, 3:] /= desc.hexapod.characteristic_length
-    s = np.linalg.svd(blocks, compute_uv=False)
-    with np.errstate(divide="ignore"):
-        return np.where(s[:, -1] > 0, s[:, 0] / s[:, -1], np.inf)
+    # Eigenvalues of JᵀJ (symmetric 6x6) cost a third of an SVD; accurate for conditions up to ~1e7,
+    # far beyond any usable pose.
+    eig = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", blocks, blocks))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(eig[:, 0] > 0, np.sqrt(eig[:, -1] / eig[:, 0]), np.inf)
 
 
 def platform_envelope(desc: RobotDescription) -> tuple[Array, Array]:

@@ -1,0 +1,75 @@
+"""Foundation: batched FK + identification Jacobian, and the cost of building the Functions."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from benchmarks.timing import best_of, target
+from models import forward_kinematics, functions_for, iwr, sample_workspace
+
+N = 10_000
+
+_COLD = """
+import time
+t = time.perf_counter()
+from models import functions_for, iwr
+t_import = time.perf_counter()
+functions_for(iwr())
+print(t_import - t, time.perf_counter() - t_import)
+"""
+
+
+def _start(cache_dir: str) -> tuple[float, float]:
+    env = {**os.environ, "IWR_CACHE_DIR": cache_dir}
+    out = subprocess.run([sys.executable, "-c", _COLD], env=env, capture_output=True, text=True, check=True)
+    imp, build = (float(v) for v in out.stdout.split())
+    return imp, build
+
+
+def run() -> dict[str, object]:
+    with tempfile.TemporaryDirectory() as cache:
+        import_s, cold_build = _start(cache)  # empty cache: derive + generate C + compile
+        _, warm_build = _start(cache)  # library on disk: derive + load
+    desc = iwr()
+    functions_for(desc)
+    joints = sample_workspace(desc, N, seed=1)
+    forward_kinematics(desc, joints, jacobian=True)  # first map of this size
+    batch = best_of(lambda: forward_kinematics(desc, joints, jacobian=True), 5)
+
+    fns = functions_for(desc)
+    theta = desc.parameters.nominal
+    home = np.array(desc.hexapod.home)
+
+    def loop_same_functions() -> None:
+        for q in joints:
+            x, _ = fns.native["newton_solve"](q, theta, home)
+            fns.native["pose_jacobian_at"](q, theta, x)
+
+    started = time.perf_counter()
+    loop_same_functions()
+    loop = time.perf_counter() - started
+    started = time.perf_counter()
+    for q in joints[:1000]:
+        forward_kinematics(desc, q, jacobian=True)
+    loop_api = (time.perf_counter() - started) * N / 1000
+    return {
+        "poses": N,
+        "batch_fk_jacobian_s": batch,
+        "loop_same_functions_s": loop,
+        "loop_public_api_s_extrapolated": loop_api,
+        "speedup_vs_loop": loop / batch,
+        "import_s": import_s,
+        "cold_build_s": cold_build,
+        "warm_start_build_s": warm_build,
+        "targets": [
+            target("batched FK + Jacobian, 10 000 poses (s)", batch, 1.0),
+            target("speed-up vs pose-by-pose loop of the same Functions", loop / batch, 10.0, ">="),
+            target("cold build of all IWR Functions, empty cache (s)", cold_build, 5.0),
+        ],
+    }
