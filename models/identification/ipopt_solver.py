@@ -1,0 +1,188 @@
+"""IPOPT through CasADi, built once per number of unknowns and reused for every campaign.
+
+Why not a CasADi graph of the whole campaign: its size, and so its build time,
+grows with N, and a service sees a new N in almost every request (measured in
+`benchmarks/bench_identification.py`: the nested-rootfinder NLP and the
+implicit formulation with platform poses as variables both pay seconds of
+building per new N). Here the NLP handed to IPOPT has only the n free
+parameters as variables; its objective, gradient and Gauss–Newton Hessian are
+callbacks into `CampaignProblem`, which evaluates the compiled per-pose CasADi
+Functions (exact AD derivatives, implicit-function-theorem through the
+hexapod) over the batch. The NLP therefore depends on n alone: one build of a
+few milliseconds per n, then pooled.
+
+Gauss–Newton rather than the exact Hessian: at a well-posed calibration the
+residuals are noise, so the second-order term is O(σ) of the first and only
+costs time; Gauss–Newton is also positive semi-definite, which IPOPT needs no
+regularisation for.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from models.identification.residuals import CampaignProblem
+from models.kinematics import Array
+
+IPOPT_OPTIONS: dict[str, Any] = {
+    "ipopt.print_level": 0,
+    "ipopt.sb": "yes",
+    "print_time": False,
+    # A NaN objective is our signal that a trial step broke a hexapod closure; IPOPT backtracks.
+    "show_eval_warnings": False,
+    # The objective is a mean per equation (≈ ½ at the solution) and the unknowns are in tolerances.
+    # Below ~1e-7 the objective's round-off (warm-started hexapod Newton, rotation logarithms) makes line
+    # searches stall; a remaining gradient of 1e-6 moves the TCP by well under 0.1 µm (tested).
+    "ipopt.tol": 1e-9,
+    "ipopt.acceptable_tol": 1e-6,
+    "ipopt.acceptable_iter": 1,
+    "ipopt.mu_strategy": "adaptive",
+    # The Jacobian is in σ per tolerance, already well scaled; IPOPT's own gradient scaling would only
+    # loosen the stopping test.
+    "ipopt.nlp_scaling_method": "none",
+}
+
+
+class _Callback(ca.Callback):
+    """A CasADi Function whose value comes from Python (the current campaign's problem)."""
+
+    def __init__(self, name: str, owner: _Solver, kind: str, n: int, jacobian: ca.Function | None = None) -> None:
+        ca.Callback.__init__(self)
+        self.owner, self.kind, self.n, self.jac = owner, kind, n, jacobian
+        self.inputs = {"f": [n, 0], "grad": [n, 0], "jac": [n, 0, 1], "hess": [n, 0, 1, 0]}[kind]
+        self.construct(name, {})
+
+    def get_n_in(self) -> int:
+        return len(self.inputs)
+
+    def get_n_out(self) -> int:
+        return {"f": 1, "grad": 2, "jac": 2, "hess": 1}[self.kind]
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self.inputs[i], 1)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        n = self.n
+        shapes = {
+            "f": [ca.Sparsity.dense(1, 1)],
+            "grad": [ca.Sparsity.dense(1, 1), ca.Sparsity.dense(n, 1)],
+            "jac": [ca.Sparsity.dense(1, n), ca.Sparsity.dense(1, 0)],
+            "hess": [ca.Sparsity.upper(n)],
+        }
+        return shapes[self.kind][i]
+
+    def has_jacobian(self) -> bool:
+        return self.jac is not None
+
+    def get_jacobian(self, name: str, inames: list[str], onames: list[str], opts: dict[str, Any]) -> ca.Function:
+        return self.jac
+
+    def eval(self, args: list[ca.DM]) -> list[Any]:
+        z = np.asarray(args[0], dtype=float).reshape(-1)
+        ev = self.owner.problem().evaluate(z)
+        if ev is None:
+            # IPOPT treats a non-finite value as "step too long" and backtracks.
+            nan = float("nan")
+            failed: dict[str, list[Any]] = {
+                "f": [nan],
+                "grad": [nan, np.full(self.n, nan)],
+                "jac": [np.full((1, self.n), nan), np.zeros((1, 0))],
+                "hess": [ca.DM(ca.Sparsity.upper(self.n), nan)],
+            }
+            return failed[self.kind]
+        if self.kind == "f":
+            return [ev.objective]
+        if self.kind == "grad":
+            return [ev.objective, ev.gradient]
+        if self.kind == "jac":
+            return [ev.gradient[None, :], np.zeros((1, 0))]
+        sigma = float(np.asarray(args[2]).reshape(-1)[0])
+        return [ca.triu(ca.DM(sigma * ev.hessian))]
+
+
+class _Solver:
+    def __init__(self, n: int, max_iter: int) -> None:
+        self.n = n
+        self._problem: CampaignProblem | None = None
+        self._callbacks = [
+            _Callback("lsq_grad", self, "grad", n),
+            _Callback("lsq_hess", self, "hess", n),
+        ]
+        jac = _Callback("lsq_jac", self, "jac", n)
+        f = _Callback("lsq_f", self, "f", n, jacobian=jac)
+        self._callbacks += [jac, f]
+        z = ca.MX.sym("z", n)
+        options = {
+            **IPOPT_OPTIONS,
+            "ipopt.max_iter": max_iter,
+            "grad_f": self._callbacks[0],
+            "hess_lag": self._callbacks[1],
+        }
+        self.nlp = ca.nlpsol(f"calibration_{n}", "ipopt", {"x": z, "f": f(z, ca.MX(0, 1))}, options)
+
+    def problem(self) -> CampaignProblem:
+        if self._problem is None:
+            raise RuntimeError("solver called without a problem")
+        return self._problem
+
+    def solve(self, problem: CampaignProblem, z0: Array, lower: Array, upper: Array) -> SolveReport:
+        self._problem = problem
+        started = time.perf_counter()
+        try:
+            out = self.nlp(x0=z0, lbx=lower, ubx=upper)
+        finally:
+            self._problem = None
+        stats = self.nlp.stats()
+        return SolveReport(
+            z=np.asarray(out["x"], dtype=float).reshape(-1),
+            status=str(stats.get("return_status", "unknown")),
+            success=bool(stats.get("success", False)),
+            iterations=int(stats.get("iter_count", -1)),
+            seconds=time.perf_counter() - started,
+            objective=float(out["f"]),
+        )
+
+
+@dataclass(frozen=True)
+class SolveReport:
+    z: Array
+    status: str
+    success: bool
+    iterations: int
+    seconds: float
+    objective: float
+
+
+class SolverPool:
+    """Idle solvers by (n, iteration limit); a solver serves one campaign at a time, so threads never share one."""
+
+    def __init__(self) -> None:
+        self._idle: dict[tuple[int, int], list[_Solver]] = {}
+        self._lock = threading.Lock()
+        self.builds = 0
+
+    def solve(
+        self, problem: CampaignProblem, z0: Array, lower: Array, upper: Array, max_iter: int = 100
+    ) -> SolveReport:
+        key = (problem.n_free, max_iter)
+        with self._lock:
+            idle = self._idle.setdefault(key, [])
+            solver = idle.pop() if idle else None
+        if solver is None:
+            solver = _Solver(*key)
+            with self._lock:
+                self.builds += 1
+        try:
+            return solver.solve(problem, z0, lower, upper)
+        finally:
+            with self._lock:
+                self._idle[key].append(solver)
+
+
+SOLVERS = SolverPool()

@@ -1,0 +1,144 @@
+"""The weighted least-squares problem of one campaign, evaluated in native batches.
+
+Unknowns are `z`, the free parameters in units of their scale:
+`θ[free] = θ_start[free] + scale[free] · z`. Residuals are divided by the
+instrument's σ, so a residual of 1 is one standard deviation and every column
+of the Jacobian is "σ per tolerance". The hexapod's forward kinematics is
+solved inside each evaluation (Newton, warm-started from the last platform
+poses) and differentiated by the implicit function theorem in the compiled
+`residual_jacobian_at`; nothing here depends on N except array sizes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from models.campaign import Campaign
+from models.function_cache import RobotFunctions
+from models.hybrid import RobotDescription
+from models.identifiability import NoiseModel, measurement_rows
+from models.identification.options import RobustLoss
+from models.kinematics import CLOSURE_TOLERANCE_MM, Array, solve_platforms
+
+
+@dataclass(frozen=True)
+class Loss:
+    """ρ(s) of a squared standardised residual s, applied element-wise; `scale` in σ."""
+
+    kind: RobustLoss = RobustLoss.NONE
+    scale: float = 3.0
+
+    def rho(self, s: Array) -> tuple[Array, Array]:
+        """(ρ(s), ρ'(s)); ρ(s) = s for plain least squares."""
+        c2 = self.scale**2
+        if self.kind is RobustLoss.HUBER:
+            root = np.sqrt(s)
+            inside = s <= c2
+            value = np.where(inside, s, 2.0 * self.scale * root - c2)
+            slope = np.where(inside, 1.0, self.scale / np.maximum(root, 1e-300))
+            return value, slope
+        if self.kind is RobustLoss.SOFT_L1:
+            root = np.sqrt(1.0 + s / c2)
+            return 2.0 * c2 * (root - 1.0), 1.0 / root
+        return s, np.ones_like(s)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    theta: Array
+    platforms: Array
+    residuals: Array
+    """(N, rows) standardised residuals (σ units)."""
+    jacobian: Array
+    """(N·rows, n_free) d residual / d z."""
+    raw_jacobian: Array
+    """(N, 6, n_params) unweighted d residual / d θ."""
+    objective: float
+    """½ Σ ρ(rᵢ²) / m: half the mean loss per equation (m equations)."""
+    gradient: Array
+    hessian: Array
+    """Gauss–Newton (IRLS for robust losses): Σ ρ'ᵢ Jᵢᵀ Jᵢ, positive semi-definite."""
+
+
+@dataclass
+class CampaignProblem:
+    desc: RobotDescription
+    functions: RobotFunctions
+    campaign: Campaign
+    noise: NoiseModel
+    theta_start: Array
+    free: Array
+    """Indices of the estimated parameters."""
+    loss: Loss = Loss()
+    active: NDArray[np.intp] | None = None
+    """Poses that count (outliers removed); None: all."""
+    platforms: Array | None = None
+    _last: tuple[bytes, Evaluation | None] | None = field(default=None, repr=False)
+    evaluations: int = 0
+
+    def __post_init__(self) -> None:
+        rows = measurement_rows(self.campaign.position_only)
+        weights = np.array([1 / self.noise.position_mm] * 3 + [1 / self.noise.orientation_rad] * 3)
+        self.rows = rows
+        self.weights = weights[:rows]
+        self.scales = self.desc.parameters.scales[self.free]
+        n = self.campaign.size
+        self.rotations = (
+            np.broadcast_to(np.eye(3), (n, 3, 3)).copy() if self.campaign.position_only else self.campaign.rotations
+        )
+        if self.active is None:
+            self.active = np.arange(n, dtype=np.intp)
+
+    @property
+    def n_free(self) -> int:
+        return int(self.free.size)
+
+    def theta(self, z: Array) -> Array:
+        theta = self.theta_start.copy()
+        theta[self.free] += self.scales * z
+        return theta
+
+    def evaluate(self, z: Array) -> Evaluation | None:
+        """Everything at z (cached: IPOPT asks for f, ∇f and ∇²f at the same point).
+
+        None where the model is undefined: a hexapod that does not close, or non-finite numbers.
+        """
+        key = np.asarray(z, dtype=float).tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        result = self._evaluate(np.asarray(z, dtype=float))
+        self._last = (key, result)
+        return result
+
+    def _evaluate(self, z: Array) -> Evaluation | None:
+        self.evaluations += 1
+        assert self.active is not None
+        theta = self.theta(z)
+        c = self.campaign
+        q = c.joints[self.active]
+        seeds = None if self.platforms is None else self.platforms[self.active]
+        platforms, closure = solve_platforms(self.desc, q, theta, seeds)
+        if not np.all(closure <= CLOSURE_TOLERANCE_MM):
+            return None
+        res, jac = self.functions.batch(
+            "residual_jacobian_at", q, theta, platforms, c.positions[self.active], self.rotations[self.active]
+        )
+        r = res[:, : self.rows] * self.weights
+        j = jac[:, : self.rows, :][:, :, self.free] * self.weights[None, :, None] * self.scales[None, None, :]
+        j = j.reshape(-1, self.n_free)
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(j))):
+            return None
+        flat = r.reshape(-1)
+        value, slope = self.loss.rho(flat**2)
+        # Per equation, so that IPOPT's absolute stopping test means the same for 30 poses and for 1000.
+        per = 1.0 / flat.size
+        objective = 0.5 * per * float(value.sum())
+        gradient = per * (j.T @ (slope * flat))
+        hessian = per * ((j * slope[:, None]).T @ j)
+        if self.platforms is None:
+            self.platforms = np.tile(np.asarray(self.desc.hexapod.home, dtype=float), (c.size, 1))
+        self.platforms[self.active] = platforms
+        return Evaluation(theta, platforms, r, j, jac[:, : self.rows, :], objective, gradient, hessian)

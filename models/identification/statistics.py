@@ -1,0 +1,93 @@
+"""What a fit says about itself: covariance, variance factor, outliers, predicted accuracy.
+
+All from the standardised Jacobian `J` (residuals in σ, unknowns in
+tolerances) at the solution. With m equations and n unknowns the a-posteriori
+variance factor is `s0² = Σr² / (m − n)`; it should be near 1 when the stated
+noise is right, and the a-posteriori covariance is `s0² · (JᵀJ)⁻¹`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.stats
+
+from models.kinematics import Array
+
+CORRELATED_PAIRS = 10
+NOISE_CONSISTENCY_LEVEL = 0.99
+"""Two-sided confidence level of the χ² test of the variance factor."""
+
+
+@dataclass(frozen=True)
+class Covariance:
+    z: Array
+    """(n, n) a-posteriori covariance of the unknowns in tolerance units."""
+    variance_factor: float
+    dof: int
+    noise_consistent: bool
+    """Whether Σr² lies inside the central χ²(dof) interval at `NOISE_CONSISTENCY_LEVEL`."""
+    chi2_interval: tuple[float, float]
+    """That interval, expressed as bounds on the variance factor."""
+
+
+def covariance(jacobian: Array, residuals: Array) -> Covariance:
+    m, n = jacobian.shape
+    dof = m - n
+    ssr = float(np.sum(residuals**2))
+    s02 = ssr / dof if dof > 0 else float("nan")
+    # Through the SVD rather than (JᵀJ)⁻¹: the condition number is squared in the normal equations.
+    _, s, vt = np.linalg.svd(jacobian, full_matrices=False)
+    inv = (vt.T / s**2) @ vt
+    tail = (1 - NOISE_CONSISTENCY_LEVEL) / 2
+    lo, hi = (scipy.stats.chi2.ppf([tail, 1 - tail], dof) / dof) if dof > 0 else (np.nan, np.nan)
+    return Covariance(
+        z=s02 * inv if dof > 0 else inv,
+        variance_factor=s02,
+        dof=dof,
+        noise_consistent=bool(dof > 0 and lo <= s02 <= hi),
+        chi2_interval=(float(lo), float(hi)),
+    )
+
+
+def correlated_pairs(
+    cov: Array, names: tuple[str, ...], count: int = CORRELATED_PAIRS
+) -> tuple[tuple[str, str, float], ...]:
+    """The `count` pairs of estimated parameters with the largest |correlation|."""
+    sd = np.sqrt(np.diag(cov))
+    corr = cov / np.outer(sd, sd)
+    iu = np.triu_indices(len(names), k=1)
+    values = corr[iu]
+    order = np.argsort(-np.abs(values))[:count]
+    return tuple((names[iu[0][k]], names[iu[1][k]], float(values[k])) for k in order)
+
+
+def outlier_threshold(n_poses: int, rows: int, alpha: float) -> float:
+    """χ² value a clean pose's Σr² exceeds with probability alpha/N (Bonferroni over the campaign)."""
+    return float(scipy.stats.chi2.isf(alpha / max(n_poses, 1), rows))
+
+
+@dataclass(frozen=True)
+class PoseErrors:
+    position_mm: Array
+    """(N,) norm of the position error per pose."""
+    orientation_rad: Array | None
+    """(N,) rotation angle of the orientation error per pose; None for position-only data."""
+
+    @staticmethod
+    def from_raw(raw: Array) -> PoseErrors:
+        """From unweighted residual rows (N, 3 or 6): position mm, rotation vector rad."""
+        orientation = np.linalg.norm(raw[:, 3:6], axis=1) if raw.shape[1] == 6 else None
+        return PoseErrors(np.linalg.norm(raw[:, :3], axis=1), orientation)
+
+
+def tcp_accuracy(jacobians: Array, cov_theta: Array) -> tuple[Array, Array]:
+    """Per-pose 1-σ TCP position (mm) and orientation (rad) uncertainty, √trace of each 3×3 covariance.
+
+    `jacobians` are (M, 6, n) pose Jacobians on the estimated parameters, `cov_theta` their covariance.
+    """
+    prop = (jacobians @ cov_theta) @ np.swapaxes(jacobians, 1, 2)
+    pos = np.sqrt(np.clip(np.trace(prop[:, :3, :3], axis1=1, axis2=2), 0, None))
+    rot = np.sqrt(np.clip(np.trace(prop[:, 3:, 3:], axis1=1, axis2=2), 0, None))
+    return pos, rot

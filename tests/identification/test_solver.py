@@ -1,0 +1,68 @@
+"""The solver: converged to far below a micrometre, no graph built per campaign size, validation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from models import NoiseModel, RobotDescription, forward_kinematics, functions_for, sample_workspace
+from models.campaign import Campaign
+from models.identification import identify, rigid_fit, validate
+from models.identification.ipopt_solver import SOLVERS
+from models.identification.residuals import CampaignProblem
+from models.simulation import measure, perturbed_robot
+from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
+
+
+def test_solution_is_stationary_to_well_below_a_micrometre(desc: RobotDescription) -> None:
+    sim = perturbed_robot(desc, seed=3)
+    joints = sample_workspace(desc, 50, seed=5)
+    campaign = measure(sim, joints, seed=6)
+    result = identify(desc, campaign)
+    free = np.array(result.estimated)
+    problem = CampaignProblem(desc, functions_for(desc), campaign, NoiseModel(), result.parameters, free)
+    ev = problem.evaluate(np.zeros(free.size))
+    assert ev is not None
+    step = np.linalg.solve(ev.hessian, -ev.gradient)  # one more Gauss–Newton step from the solution
+    moved = result.parameters.copy()
+    moved[free] += problem.scales * step
+    check = sample_workspace(desc, 50, seed=7)
+    shift = (
+        forward_kinematics(desc, check, moved).positions - forward_kinematics(desc, check, result.parameters).positions
+    )
+    assert np.abs(shift).max() < 1e-4  # mm
+
+
+def test_new_campaign_sizes_build_no_new_solver(desc: RobotDescription) -> None:
+    sim = perturbed_robot(desc, seed=4)
+    identify(desc, measure(sim, sample_workspace(desc, 40, seed=1), seed=2))
+    builds = SOLVERS.builds
+    for n in (33, 47, 71):
+        result = identify(desc, measure(sim, sample_workspace(desc, n, seed=n), seed=n))
+        assert result.succeeded
+        assert result.solver.iterations <= 10
+    assert SOLVERS.builds == builds
+
+
+def test_validation_on_a_second_campaign_and_after_moving_the_instrument(desc: RobotDescription) -> None:
+    sim = perturbed_robot(desc, seed=8)
+    result = identify(desc, measure(sim, sample_workspace(desc, 60, seed=9), seed=10))
+    second = measure(sim, sample_workspace(desc, 40, seed=11), seed=12)
+    report = validate(desc, result.parameters, second)
+    truth = forward_kinematics(desc, second.joints, sim.truth).positions
+    model = forward_kinematics(desc, second.joints, result.parameters).positions
+    expected = np.linalg.norm(model - second.positions, axis=1)
+    np.testing.assert_allclose(report.errors.per_pose_mm, expected, rtol=1e-12)
+    assert report.errors.rms_mm < 0.1
+    assert np.sqrt(np.mean(np.sum((model - truth) ** 2, axis=1))) < report.errors.rms_mm  # noise adds
+
+    # The instrument moved 1 m and turned 10°: without re-registering the errors are ~1 m, with it they are back.
+    rot = rotvec_to_matrix_np(np.radians([0.0, 0.0, 10.0]))
+    shift = np.array([1000.0, -200.0, 50.0])
+    assert second.quaternions is not None
+    moved = Campaign(second.joints, second.positions @ rot.T + shift, matrix_to_quaternion(rot @ second.rotations))
+    assert validate(desc, result.parameters, moved).errors.rms_mm > 100
+    again = validate(desc, result.parameters, moved, register=True)
+    assert again.registered
+    assert again.errors.rms_mm == pytest.approx(report.errors.rms_mm, rel=0.05)
+    assert rigid_fit(second.positions, moved.positions).rms_mm < 1e-9
