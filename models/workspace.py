@@ -8,12 +8,36 @@ hexapod is near a singularity are rejected and redrawn.
 
 from __future__ import annotations
 
+from typing import Literal, overload
+
 import numpy as np
 
 from models.hybrid import RobotDescription
 from models.kinematics import Array, hexapod_condition, inverse_hexapod
 
 _MAX_ROUNDS = 50
+
+
+@overload
+def sample_workspace(
+    desc: RobotDescription,
+    n: int,
+    seed: int | np.random.Generator | None = 0,
+    params: Array | None = None,
+    *,
+    return_platforms: Literal[False] = False,
+) -> Array: ...
+
+
+@overload
+def sample_workspace(
+    desc: RobotDescription,
+    n: int,
+    seed: int | np.random.Generator | None = 0,
+    params: Array | None = None,
+    *,
+    return_platforms: Literal[True],
+) -> tuple[Array, Array]: ...
 
 
 def sample_workspace(

@@ -323,9 +323,7 @@ def _pose_errors(desc: RobotDescription, campaign: Campaign, theta: Array, seeds
 
 @lru_cache(maxsize=16)
 def _workspace(desc: RobotDescription, n: int) -> Array:
-    joints = sample_workspace(desc, n, seed=WORKSPACE_SEED + 1)
-    assert isinstance(joints, np.ndarray)
-    return joints
+    return sample_workspace(desc, n, seed=WORKSPACE_SEED + 1)
 
 
 def predicted_accuracy(

@@ -113,6 +113,20 @@ class CampaignProblem:
         self._last = (key, result)
         return result
 
+    def residual_vector(self, z: Array) -> Array:
+        """Standardised residuals only (no Jacobian), flattened; NaN where the model is undefined."""
+        assert self.active is not None
+        theta = self.theta(np.asarray(z, dtype=float))
+        q = self.campaign.joints[self.active]
+        seeds = None if self.platforms is None else self.platforms[self.active]
+        platforms, closure = solve_platforms(self.desc, q, theta, seeds)
+        (res,) = self.functions.batch(
+            "residual_at", q, theta, platforms, self.campaign.positions[self.active], self.rotations[self.active]
+        )
+        r = res[:, : self.rows] * self.weights
+        r[~(closure <= CLOSURE_TOLERANCE_MM)] = np.nan
+        return r.reshape(-1)
+
     def _evaluate(self, z: Array) -> Evaluation | None:
         self.evaluations += 1
         assert self.active is not None
