@@ -51,8 +51,9 @@ def test_calibrated_model_reaches_the_cramer_rao_accuracy(
     assert result.residuals_after.rms_mm < 0.1 * result.residuals_before.rms_mm
 
 
+@pytest.mark.parametrize("loss", [RobustLoss.HUBER, RobustLoss.SOFT_L1])
 def test_robust_fit_flags_and_survives_a_broken_beam(
-    desc: RobotDescription, sim: SimulatedRobot, check_joints: np.ndarray
+    desc: RobotDescription, sim: SimulatedRobot, check_joints: np.ndarray, loss: RobustLoss
 ) -> None:
     joints = sample_workspace(desc, 60, seed=21)
     clean = measure(sim, joints, NOISE, seed=22)
@@ -64,7 +65,7 @@ def test_robust_fit_flags_and_survives_a_broken_beam(
     positions[broken] += directions * rng.uniform(2.0, 3.0, size=(3, 1))
     campaign = type(clean)(clean.joints, positions, clean.quaternions)
 
-    robust = identify(desc, campaign, noise=NOISE, options=IdentificationOptions(robust=RobustLoss.HUBER))
+    robust = identify(desc, campaign, noise=NOISE, options=IdentificationOptions(robust=loss))
     assert robust.succeeded, robust.reason
     assert sorted(o.pose for o in robust.outliers) == broken.tolist()
     assert all(o.excluded and 2.0 <= o.position_mm <= 3.5 for o in robust.outliers)

@@ -82,3 +82,10 @@ def test_bounds_hold(desc: RobotDescription, campaign: Campaign) -> None:
     lo, hi = 252.0 - 0.01, 252.0 + 0.01
     bounded = identify(desc, campaign, options=IdentificationOptions(bounds={"link3.a": (lo, hi)}))
     assert lo - 1e-7 <= bounded.parameters[i] <= hi + 1e-7
+
+
+def test_solver_failure_gives_a_failed_result(desc: RobotDescription, campaign: Campaign) -> None:
+    result = identify(desc, campaign, options=IdentificationOptions(max_iterations=1))
+    assert result.status == "failed"
+    assert result.reason is not None and "IPOPT did not converge" in result.reason
+    assert result.to_dict()["status"] == "failed"
