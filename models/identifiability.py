@@ -93,7 +93,10 @@ class Identifiability:
 
 
 def analyse_identifiability(
-    scaled: Array, table: ParameterTable, candidates: tuple[int, ...] | None = None, rtol: float = RANK_RTOL
+    scaled: Array,
+    table: ParameterTable,
+    candidates: tuple[int, ...] | None = None,
+    rtol: float = RANK_RTOL,
 ) -> Identifiability:
     """Which of `candidates` (default: all) the scaled Jacobian can identify, and what the rest are confounded with."""
     cand = tuple(range(len(table))) if candidates is None else tuple(candidates)
@@ -104,7 +107,7 @@ def analyse_identifiability(
     _, _, pivots = scipy.linalg.qr(sub, mode="economic", pivoting=True)
     chosen = sorted(cand[int(p)] for p in pivots[:rank])
     rest = sorted(set(cand) - set(chosen))
-    confounding = []
+    confounding: list[Confounding] = []
     if rest and chosen:
         coef, *_ = np.linalg.lstsq(scaled[:, chosen], scaled[:, rest], rcond=None)
         for k, j in enumerate(rest):

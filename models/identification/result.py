@@ -72,6 +72,8 @@ class SolverReport:
     seconds: float
     objective: float
     evaluations: int
+    polish_steps: int = 0
+    """Gauss–Newton steps taken after IPOPT (see identify._polish)."""
 
 
 @dataclass(frozen=True)
@@ -186,6 +188,7 @@ class IdentificationResult:
                 "iterations": self.solver.iterations,
                 "seconds": self.solver.seconds,
                 "evaluations": self.solver.evaluations,
+                "polish_steps": self.solver.polish_steps,
             },
             "predicted_accuracy": {
                 "rms_position_mm": acc.rms_position_mm,
