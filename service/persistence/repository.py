@@ -1,0 +1,154 @@
+"""Reads and writes of the stored records; every method works inside the caller's transaction."""
+
+from __future__ import annotations
+
+import uuid
+from datetime import UTC, datetime
+from typing import Any
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from service.persistence.tables import CalibrationRecord, CampaignRecord, Job, ParameterVersion, PoseDesignRecord, Robot
+from service.problems import NotFound
+
+
+def new_id() -> str:
+    return str(uuid.uuid4())
+
+
+class Repository:
+    def __init__(self, session: Session) -> None:
+        self.s = session
+
+    # ---------------------------------------------------------------- robots
+    def add_robot(self, name: str, model: str, base: list[float], tool: list[float], nominal: list[float]) -> Robot:
+        robot = Robot(id=new_id(), name=name, model=model, base=base, tool=tool, current_version=1)
+        self.s.add(robot)
+        self.s.flush()
+        self.s.add(ParameterVersion(robot_id=robot.id, version=1, values=nominal, provenance="nominal"))
+        self.s.flush()
+        return robot
+
+    def robot(self, robot_id: str, *, lock: bool = False) -> Robot:
+        query = select(Robot).where(Robot.id == robot_id)
+        if lock:
+            query = query.with_for_update()
+        found = self.s.scalars(query).first()
+        if found is None:
+            raise NotFound(f"no robot with id {robot_id!r}", resource="robot", id=robot_id)
+        return found
+
+    def robots(self, limit: int, offset: int) -> list[Robot]:
+        return list(self.s.scalars(select(Robot).order_by(Robot.created_at, Robot.id).limit(limit).offset(offset)))
+
+    def delete_robot(self, robot_id: str) -> None:
+        robot = self.robot(robot_id)
+        for table in (CalibrationRecord, CampaignRecord, PoseDesignRecord, ParameterVersion):
+            for row in self.s.scalars(select(table).where(table.robot_id == robot_id)):
+                self.s.delete(row)
+        self.s.delete(robot)
+
+    # ---------------------------------------------------------------- parameter versions
+    def version(self, robot_id: str, version: int | None = None) -> ParameterVersion:
+        robot = self.robot(robot_id)
+        wanted = robot.current_version if version is None else version
+        found = self.s.scalars(
+            select(ParameterVersion).where(ParameterVersion.robot_id == robot_id, ParameterVersion.version == wanted)
+        ).first()
+        if found is None:
+            raise NotFound(f"robot {robot_id!r} has no parameter version {wanted}", resource="parameter_version")
+        return found
+
+    def add_version(
+        self, robot: Robot, values: list[float], std_errors: list[Any], identifiable: list[bool], calibration_id: str
+    ) -> int:
+        latest = self.s.scalar(select(func.max(ParameterVersion.version)).where(ParameterVersion.robot_id == robot.id))
+        version = int(latest or 0) + 1
+        self.s.add(
+            ParameterVersion(
+                robot_id=robot.id,
+                version=version,
+                values=values,
+                std_errors=std_errors,
+                identifiable=identifiable,
+                provenance="calibration",
+                calibration_id=calibration_id,
+            )
+        )
+        robot.current_version = version
+        self.s.flush()
+        return version
+
+    # ---------------------------------------------------------------- campaigns and calibrations
+    def add_campaign(self, robot_id: str, records: list[dict[str, Any]]) -> CampaignRecord:
+        campaign = CampaignRecord(id=new_id(), robot_id=robot_id, records=records)
+        self.s.add(campaign)
+        self.s.flush()
+        return campaign
+
+    def add_calibration(
+        self, calibration_id: str, robot_id: str, campaign_id: str, status: str, result: dict[str, Any]
+    ) -> CalibrationRecord:
+        record = CalibrationRecord(
+            id=calibration_id, robot_id=robot_id, campaign_id=campaign_id, status=status, result=result
+        )
+        self.s.add(record)
+        self.s.flush()
+        return record
+
+    def calibration(self, calibration_id: str) -> CalibrationRecord:
+        found = self.s.get(CalibrationRecord, calibration_id)
+        if found is None:
+            raise NotFound(f"no calibration with id {calibration_id!r}", resource="calibration", id=calibration_id)
+        return found
+
+    def calibrations(self, robot_id: str, limit: int, offset: int) -> list[CalibrationRecord]:
+        self.robot(robot_id)
+        query = (
+            select(CalibrationRecord)
+            .where(CalibrationRecord.robot_id == robot_id)
+            .order_by(CalibrationRecord.created_at, CalibrationRecord.id)
+            .limit(limit)
+            .offset(offset)
+        )
+        return list(self.s.scalars(query))
+
+    # ---------------------------------------------------------------- designs
+    def add_design(self, robot_id: str, request: dict[str, Any], result: dict[str, Any]) -> PoseDesignRecord:
+        record = PoseDesignRecord(id=new_id(), robot_id=robot_id, request=request, result=result)
+        self.s.add(record)
+        self.s.flush()
+        return record
+
+    def design(self, design_id: str) -> PoseDesignRecord:
+        found = self.s.get(PoseDesignRecord, design_id)
+        if found is None:
+            raise NotFound(f"no pose design with id {design_id!r}", resource="pose_design", id=design_id)
+        return found
+
+    # ---------------------------------------------------------------- jobs
+    def add_job(self, kind: str, robot_id: str, request: dict[str, Any]) -> Job:
+        job = Job(id=new_id(), kind=kind, robot_id=robot_id, request=request, status="queued")
+        self.s.add(job)
+        self.s.flush()
+        return job
+
+    def job(self, job_id: str) -> Job:
+        found = self.s.get(Job, job_id)
+        if found is None:
+            raise NotFound(f"no job with id {job_id!r}", resource="job", id=job_id)
+        return found
+
+    def jobs_with_status(self, status: str) -> list[Job]:
+        return list(self.s.scalars(select(Job).where(Job.status == status).order_by(Job.created_at)))
+
+    def count_jobs(self, status: str) -> int:
+        return int(self.s.scalar(select(func.count()).select_from(Job).where(Job.status == status)) or 0)
+
+    def start_job(self, job: Job) -> None:
+        job.status, job.started_at = "running", datetime.now(UTC)
+
+    def finish_job(self, job: Job, *, result_id: str | None = None, error: dict[str, Any] | None = None) -> None:
+        job.status = "failed" if error is not None else "succeeded"
+        job.result_id, job.error, job.finished_at = result_id, error, datetime.now(UTC)

@@ -1,0 +1,1 @@
+"""HTTP routes: parse, convert, call `operations` or `models`, shape the answer. Nothing else."""

@@ -1,0 +1,117 @@
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from fastapi import APIRouter, Depends, Query, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from pydantic import ValidationError
+
+from service import operations
+from service.persistence import Database, Repository
+from service.problems import BadRequest, PayloadTooLarge, UnsupportedMediaType
+from service.routes.csv_io import CAMPAIGN_HEADER, parse_campaign
+from service.routes.deps import compute, database
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
+
+router = APIRouter(tags=["calibrations"])
+
+_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {
+            "application/json": {"schema": {"$ref": "#/components/schemas/CalibrationCreate"}},
+            "text/csv": {
+                "schema": {"type": "string", "description": "header " + ",".join(CAMPAIGN_HEADER)},
+                "example": ",".join(CAMPAIGN_HEADER) + "\n400,150,90,45,420,420,420,420,420,420,1,2,3,1,0,0,0\n",
+            },
+        },
+    },
+    "responses": {
+        "202": {
+            "description": "Accepted as a job (?async=true)",
+            "content": {"application/json": {"schema": {"$ref": "#/components/schemas/JobAccepted"}}},
+        }
+    },
+}
+
+
+async def _body(
+    request: Request, *, apply: bool | None, noise_position_mm: float | None, noise_orientation_deg: float | None
+) -> CalibrationCreate:
+    content_type = request.headers.get("content-type", "application/json").split(";")[0].strip().lower()
+    raw = await request.body()
+    try:
+        if content_type == "text/csv":
+            try:
+                text = raw.decode("utf-8")
+            except UnicodeDecodeError as exc:
+                raise BadRequest("the CSV body must be UTF-8 text") from exc
+            payload: dict[str, Any] = {"measurements": parse_campaign(text)}
+            noise = {}
+            if noise_position_mm is not None:
+                noise["position_mm"] = noise_position_mm
+            if noise_orientation_deg is not None:
+                noise["orientation_deg"] = noise_orientation_deg
+            if noise:
+                payload["noise"] = noise
+            if apply is not None:
+                payload["apply"] = apply
+            return CalibrationCreate.model_validate(payload)
+        if content_type in ("application/json", ""):
+            body = CalibrationCreate.model_validate_json(raw or b"null")
+            return body.model_copy(update={"apply": apply}) if apply is not None else body
+    except ValidationError as exc:
+        raise RequestValidationError(exc.errors(include_url=False, include_context=False)) from exc
+    raise UnsupportedMediaType(f"send the campaign as application/json or text/csv, not {content_type!r}")
+
+
+@router.post(
+    "/v1/robots/{robot_id}/calibrations",
+    status_code=201,
+    response_model=CalibrationPublic,
+    openapi_extra=_BODY,
+)
+async def create_calibration(
+    robot_id: str,
+    request: Request,
+    *,
+    run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
+    apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
+    noise_position_mm: float | None = Query(None, gt=0, le=1000, description="σ position, CSV bodies"),
+    noise_orientation_deg: float | None = Query(None, gt=0, le=180, description="σ orientation, CSV bodies"),
+    db: Database = Depends(database),
+) -> Any:
+    body = await _body(
+        request, apply=apply, noise_position_mm=noise_position_mm, noise_orientation_deg=noise_orientation_deg
+    )
+    if run_async:
+        with db.session() as s:
+            repo = Repository(s)
+            repo.robot(robot_id)
+            job = repo.add_job("calibration", robot_id, json.loads(body.model_dump_json()))
+        request.app.state.jobs.submit(job.id)
+        return JSONResponse({"job_id": job.id, "status_url": f"/v1/jobs/{job.id}"}, status_code=202)
+    record = await compute(request, "identification", lambda: operations.calibrate(db, robot_id, body))
+    return operations.calibration_public(record)
+
+
+@router.get("/v1/robots/{robot_id}/calibrations", response_model=list[CalibrationPublic])
+def list_calibrations(
+    robot_id: str,
+    limit: int = Query(100, ge=1, le=1000),
+    offset: int = Query(0, ge=0),
+    db: Database = Depends(database),
+) -> list[dict[str, Any]]:
+    with db.session() as s:
+        return [operations.calibration_public(r) for r in Repository(s).calibrations(robot_id, limit, offset)]
+
+
+@router.get("/v1/calibrations/{calibration_id}", response_model=CalibrationPublic)
+def get_calibration(calibration_id: str, db: Database = Depends(database)) -> dict[str, Any]:
+    with db.session() as s:
+        return operations.calibration_public(Repository(s).calibration(calibration_id))
+
+
+__all__ = ["PayloadTooLarge"]

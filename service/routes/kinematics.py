@@ -1,0 +1,53 @@
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from fastapi import APIRouter, Depends, Request, Response
+
+from models import forward_kinematics
+from models.compensation import inverse_kinematics
+from service import operations
+from service.conversions import joints_in, joints_out, poses_out
+from service.persistence import Database
+from service.routes.csv_io import joints_csv
+from service.routes.deps import compute, database, wants_csv
+from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
+
+router = APIRouter(prefix="/v1/robots/{robot_id}", tags=["kinematics"])
+
+
+@router.post("/forward-kinematics", response_model=ForwardResponse)
+async def forward(robot_id: str, body: ForwardRequest, request: Request, db: Database = Depends(database)) -> Any:
+    desc, theta = operations.current_model(db, robot_id)
+    joints = joints_in(desc, body.joints)
+
+    def run() -> dict[str, Any]:
+        fk = forward_kinematics(desc, joints, theta)
+        return {"poses": poses_out(fk.positions, fk.rotations)}
+
+    # A handful of poses costs less than the hop to a worker thread.
+    return run() if joints.shape[0] <= 16 else await compute(request, "forward_kinematics", run)
+
+
+@router.post(
+    "/inverse-kinematics",
+    response_model=InverseResponse,
+    responses={200: {"content": {"text/csv": {"schema": {"type": "string"}}}}},
+)
+async def inverse(robot_id: str, body: InverseRequest, request: Request, db: Database = Depends(database)) -> Any:
+    desc, theta = operations.current_model(db, robot_id)
+    positions, quats = operations.targets_in(body.targets)
+    seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
+    weights = np.asarray(body.weights, dtype=float) if body.weights is not None else None
+
+    def run() -> dict[str, Any]:
+        answer = inverse_kinematics(desc, positions, quats, theta, seed=seed, weights=weights, follow=body.follow)
+        out = answer.to_dict(desc)
+        out["joints"] = joints_out(desc, answer.joints)
+        return out
+
+    out = await compute(request, "inverse_kinematics", run)
+    if wants_csv(request):
+        return Response(joints_csv(out["joints"]), media_type="text/csv")
+    return out

@@ -1,0 +1,32 @@
+"""Service settings, from the environment (prefix `IWR_`, plus the conventional `DATABASE_URL`)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+from pydantic import AliasChoices, Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="IWR_", extra="ignore")
+
+    database_url: str = Field(
+        default="sqlite:///./data/iwr.db",
+        validation_alias=AliasChoices("DATABASE_URL", "IWR_DATABASE_URL"),
+        description="SQLAlchemy URL; postgresql+psycopg://user@host:5432/db for PostgreSQL.",
+    )
+    api_keys: str = Field(default="", description="Comma-separated API keys; empty: no authentication.")
+    max_body_bytes: int = Field(default=20_000_000, description="Larger request bodies get 413.")
+    job_workers: int = Field(default=2, ge=0, description="Worker processes for ?async=true jobs (0: in-process).")
+    log_level: str = "INFO"
+    warm_up: bool = Field(default=True, description="Build the CasADi Functions and solvers at start-up.")
+
+    @property
+    def keys(self) -> frozenset[str]:
+        return frozenset(k.strip() for k in self.api_keys.split(",") if k.strip())
+
+
+@lru_cache(maxsize=1)
+def get_settings() -> Settings:
+    return Settings()

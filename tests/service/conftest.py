@@ -1,0 +1,61 @@
+"""Apps on a fresh SQLite file, and on a fresh PostgreSQL database when the server answers."""
+
+from __future__ import annotations
+
+import os
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+
+from service.app import create_app
+from service.settings import Settings
+
+POSTGRES_ADMIN = os.environ.get("IWR_TEST_POSTGRES", "postgresql://postgres@127.0.0.1:5432/postgres")
+
+
+def postgres_url() -> Iterator[str]:
+    """A new, empty PostgreSQL database for one test module; dropped afterwards."""
+    psycopg = pytest.importorskip("psycopg")
+    try:
+        admin = psycopg.connect(POSTGRES_ADMIN, autocommit=True, connect_timeout=3)
+    except psycopg.OperationalError as exc:
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"PostgreSQL must be running for CI on this machine: {exc}")
+        pytest.skip(f"PostgreSQL is not reachable at {POSTGRES_ADMIN}: {exc}")
+    name = f"iwr_test_{uuid.uuid4().hex[:12]}"
+    admin.execute(f'CREATE DATABASE "{name}"')
+    try:
+        yield f"postgresql+psycopg://postgres@127.0.0.1:5432/{name}"
+    finally:
+        admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+        admin.close()
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
+    if request.param == "sqlite":
+        yield f"sqlite:///{tmp_path}/iwr.db"
+    else:
+        yield from postgres_url()
+
+
+def make_client(url: str, **settings: object) -> TestClient:
+    options: dict[str, object] = {"database_url": url, "job_workers": 0, "warm_up": False, "log_level": "WARNING"}
+    options.update(settings)
+    return TestClient(create_app(Settings(**options)))  # type: ignore[arg-type]
+
+
+@pytest.fixture
+def client(tmp_path: Path) -> Iterator[TestClient]:
+    with make_client(f"sqlite:///{tmp_path}/iwr.db") as c:
+        yield c
+
+
+@pytest.fixture
+def robot_id(client: TestClient) -> str:
+    response = client.post("/v1/robots", json={"name": "cell-3"})
+    assert response.status_code == 201
+    return str(response.json()["id"])

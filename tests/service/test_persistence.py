@@ -1,0 +1,93 @@
+"""The same persistence tests on SQLite and on PostgreSQL (skipped, with the reason, where it is absent)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+from models import iwr, sample_workspace
+from models.simulation import perturbed_robot
+from service import operations
+from service.jobs import JobRunner, execute_job
+from service.persistence import Database, Repository
+from service.problems import NotFound
+from service.schemas.calibrations import CalibrationCreate
+from service.schemas.robots import RobotCreate
+from tests.service.helpers import records
+
+DESC = iwr()
+
+
+@pytest.fixture
+def db(database_url: str) -> Iterator[Database]:
+    database = Database(database_url)
+    database.migrate()
+    database.migrate()  # idempotent: a restart migrates again
+    yield database
+    database.dispose()
+
+
+def test_calibration_and_version_are_written_together(db: Database) -> None:
+    robot = operations.create_robot(db, RobotCreate(name="r"))
+    sim = perturbed_robot(DESC, seed=5)
+    body = CalibrationCreate.model_validate(
+        {"measurements": records(DESC, sim, sample_workspace(DESC, 30, seed=1), seed=2)}
+    )
+    record = operations.calibrate(db, robot.id, body)
+    assert record.status == "succeeded" and record.parameter_version == 2
+    with db.session() as s:
+        repo = Repository(s)
+        assert repo.robot(robot.id).current_version == 2
+        version = repo.version(robot.id)
+        assert version.calibration_id == record.id and version.provenance == "calibration"
+        assert repo.version(robot.id, 1).provenance == "nominal"
+        assert len(repo.calibrations(robot.id, 10, 0)) == 1
+    # apply = false: stored, not applied
+    again = operations.calibrate(db, robot.id, body.model_copy(update={"apply": False}))
+    assert not again.applied and again.parameter_version is None
+    with db.session() as s:
+        assert Repository(s).robot(robot.id).current_version == 2
+
+
+def test_a_failed_transaction_leaves_nothing(db: Database) -> None:
+    robot = operations.create_robot(db, RobotCreate(name="r"))
+    with pytest.raises(RuntimeError), db.session() as s:
+        repo = Repository(s)
+        campaign = repo.add_campaign(robot.id, [{"joints": [0] * 10}])
+        repo.add_calibration("c1", robot.id, campaign.id, "succeeded", {})
+        raise RuntimeError("the computation failed after writing began")
+    with db.session() as s, pytest.raises(NotFound):
+        Repository(s).calibration("c1")
+
+
+def test_delete_cascades_and_jobs_survive_a_restart(db: Database) -> None:
+    robot = operations.create_robot(db, RobotCreate(name="r"))
+    sim = perturbed_robot(DESC, seed=6)
+    request = {"measurements": records(DESC, sim, sample_workspace(DESC, 25, seed=3), seed=4)}
+    with db.session() as s:
+        repo = Repository(s)
+        queued = repo.add_job("calibration", robot.id, request)
+        running = repo.add_job("calibration", robot.id, request)
+        repo.start_job(running)
+    # A new process starts: the running job was interrupted, the queued one runs.
+    runner = JobRunner(db, workers=0)
+    assert runner.recover() == (1, 1)
+    runner.shutdown()
+    assert execute_job(db.url, queued.id, db) in ("succeeded", "running")
+    with db.session() as s:
+        repo = Repository(s)
+        for _ in range(100):
+            s.expire_all()
+            if repo.job(queued.id).status == "succeeded":
+                break
+            import time
+
+            time.sleep(0.05)
+        assert repo.job(queued.id).status == "succeeded"
+        failed = repo.job(running.id)
+        assert failed.status == "failed" and failed.error is not None and "interrupted" in failed.error["detail"]
+    with db.session() as s:
+        Repository(s).delete_robot(robot.id)
+    with db.session() as s, pytest.raises(NotFound):
+        Repository(s).robot(robot.id)
