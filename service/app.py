@@ -25,7 +25,32 @@ from service.schemas.common import JobAccepted
 from service.settings import Settings, get_settings
 
 log = logging.getLogger("service.http")
-OPEN_PATHS = ("/healthz", "/readyz", "/metrics", "/docs", "/openapi.json", "/redoc")
+PROBLEM_SCHEMA: dict[str, Any] = {
+    "title": "Problem",
+    "description": "RFC 9457 problem document; more members may carry data about the error",
+    "type": "object",
+    "required": ["type", "title", "status", "detail"],
+    "properties": {
+        "type": {"type": "string"},
+        "title": {"type": "string"},
+        "status": {"type": "integer"},
+        "detail": {"type": "string"},
+        "errors": {
+            "type": "array",
+            "items": {"type": "object", "properties": {"loc": {"type": "array"}, "msg": {"type": "string"}}},
+        },
+    },
+    "additionalProperties": True,
+}
+PROBLEM_RESPONSES = {
+    "400": "Malformed request (e.g. a CSV body that does not follow the header)",
+    "401": "Missing or wrong API key (when keys are configured)",
+    "404": "Unknown id",
+    "413": "Request body too large",
+    "415": "Unsupported media type",
+    "422": "Invalid input: what is wrong and where",
+    "503": "Not ready",
+}
 
 
 class BodyLimit:
@@ -147,6 +172,19 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 for name, sub in extra.pop("$defs", {}).items():
                     components.setdefault(name, sub)
                 components[model.__name__] = extra
+            components["Problem"] = PROBLEM_SCHEMA
+            components.pop("HTTPValidationError", None)
+            components.pop("ValidationError", None)
+            for path, operations in schema.get("paths", {}).items():
+                for operation in operations.values():
+                    responses = operation.setdefault("responses", {})
+                    for status, description in PROBLEM_RESPONSES.items():
+                        if status == "404" and "{" not in path:
+                            continue
+                        responses[status] = {
+                            "description": description,
+                            "content": {problems.PROBLEM_JSON: {"schema": {"$ref": "#/components/schemas/Problem"}}},
+                        }
             if keys:
                 schema["components"]["securitySchemes"] = {
                     "ApiKey": {"type": "apiKey", "in": "header", "name": "X-API-Key"}

@@ -30,7 +30,8 @@ def joints_out(desc: RobotDescription, joints: Array) -> list[list[float | None]
 
 def unit_quaternion(q: Sequence[float], what: str) -> Array:
     arr = np.asarray(q, dtype=float)
-    norm = float(np.linalg.norm(arr))
+    # Components beyond ±2 cannot belong to a near-unit quaternion, and squaring 1e154 would overflow.
+    norm = float(np.linalg.norm(arr)) if np.all(np.abs(arr) <= 2.0) else float("inf")
     if abs(norm - 1.0) > QUATERNION_TOLERANCE:
         raise InvalidQuaternion(
             f"{what}: orientation quaternion has norm {norm:.6g}; a unit quaternion [w, x, y, z] is required",

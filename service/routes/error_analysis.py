@@ -4,7 +4,7 @@ import math
 from typing import Any, Literal
 
 from fastapi import APIRouter, Request
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from models import iwr
 from models.error_analysis import Tolerances, error_analysis
@@ -12,6 +12,7 @@ from service.routes.deps import compute
 from service.schemas.common import Strict
 
 router = APIRouter(tags=["error analysis"])
+MAX_EVALUATIONS = 40_000
 
 
 class ErrorAnalysisRequest(Strict):
@@ -23,6 +24,12 @@ class ErrorAnalysisRequest(Strict):
     joint_position_mm: float = Field(default=0.1, ge=0, le=100)
     dh_angle_deg: float = Field(default=0.1, ge=0, le=10)
     dh_length_mm: float = Field(default=0.5, ge=0, le=100)
+
+    @model_validator(mode="after")
+    def _bounded(self) -> ErrorAnalysisRequest:
+        if self.poses * self.draws > MAX_EVALUATIONS:
+            raise ValueError(f"poses × draws must stay within {MAX_EVALUATIONS} (a synchronous request)")
+        return self
 
 
 @router.post("/v1/error-analysis")

@@ -15,8 +15,9 @@ class Public(BaseModel):
     model_config = ConfigDict(extra="allow")
 
 
+JointValue = Annotated[float, Field(ge=-1e6, le=1e6)]
 JointVector = Annotated[
-    list[float],
+    list[JointValue],
     Field(
         min_length=10,
         max_length=10,
@@ -24,9 +25,12 @@ JointVector = Annotated[
         examples=[[400.0, 150.0, 90.0, 45.0, 420.0, 420.0, 420.0, 420.0, 420.0, 420.0]],
     ),
 ]
-Position = Annotated[list[float], Field(min_length=3, max_length=3, description="x, y, z in mm")]
+Coordinate = Annotated[float, Field(ge=-1e7, le=1e7)]
+Position = Annotated[list[Coordinate], Field(min_length=3, max_length=3, description="x, y, z in mm (within ±10 km)")]
+Component = Annotated[float, Field(ge=-2.0, le=2.0)]
 Quaternion = Annotated[
-    list[float], Field(min_length=4, max_length=4, description="unit quaternion [w, x, y, z]", examples=[[1, 0, 0, 0]])
+    list[Component],
+    Field(min_length=4, max_length=4, description="unit quaternion [w, x, y, z]", examples=[[1, 0, 0, 0]]),
 ]
 
 
