@@ -24,12 +24,14 @@ class Database:
         if parsed.get_backend_name() == "sqlite":
             if parsed.database and parsed.database != ":memory:":
                 Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
-            kwargs["connect_args"] = {"check_same_thread": False, "timeout": 30}
+            # pysqlite's own transaction handling off, so that `begin` below decides how transactions start.
+            kwargs["connect_args"] = {"check_same_thread": False, "timeout": 30, "isolation_level": None}
         else:
             kwargs |= {"pool_size": 10, "max_overflow": 20}
         self.engine: Engine = create_engine(url, **kwargs)
         if parsed.get_backend_name() == "sqlite":
             event.listen(self.engine, "connect", _sqlite_pragmas)
+            event.listen(self.engine, "begin", _sqlite_begin)
         self.sessions = sessionmaker(self.engine, expire_on_commit=False)
 
     def migrate(self) -> None:
@@ -64,3 +66,10 @@ def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
     cursor.execute("PRAGMA journal_mode=WAL")
     cursor.execute("PRAGMA busy_timeout=30000")
     cursor.close()
+
+
+def _sqlite_begin(connection: Any) -> None:
+    # Take the write lock up front: a deferred transaction that reads, then writes, fails outright in WAL mode
+    # when another writer committed in between, instead of waiting its turn. Transactions here are short
+    # (computations run outside them), so serialising them costs little.
+    connection.exec_driver_sql("BEGIN IMMEDIATE")

