@@ -47,6 +47,8 @@ NEWTON_STEPS_PER_CALL = 6
 """Newton steps unrolled in `newton_solve`; from the home seed the workspace needs 4-5."""
 
 _MAP_CACHE_SIZE = 64
+PARALLEL_FROM = 256
+"""Batches of at least this many poses are evaluated on two threads."""
 
 Structure = tuple[JointType, ...]
 
@@ -132,8 +134,9 @@ class RobotFunctions:
             if found is not None:
                 self._maps.move_to_end(key)
                 return found
-        # Inputs given as a single column (params) are broadcast to all n by CasADi.
-        mapped = self.native[name].map(n, "thread", 2)
+        # Inputs given as a single column (params) are broadcast to all n by CasADi. Small batches run
+        # serially: starting threads costs more than they save below a few hundred poses.
+        mapped = self.native[name].map(n, "thread", 2) if n >= PARALLEL_FROM else self.native[name].map(n, "serial")
         with self._lock:
             self._maps[key] = mapped
             while len(self._maps) > _MAP_CACHE_SIZE:

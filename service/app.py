@@ -6,12 +6,12 @@ import logging
 import secrets
 import time
 import uuid
-from collections.abc import AsyncIterator, Awaitable, Callable
+from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
 import anyio
-from fastapi import FastAPI, Request, Response
+from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -90,6 +90,55 @@ class BodyLimit:
         await response(scope, receive, send)
 
 
+class Observe:
+    """Request id, API key, metrics and a structured log line per request (plain ASGI: no extra task per call)."""
+
+    def __init__(self, app: ASGIApp, metrics: Metrics, keys: frozenset[str]) -> None:
+        self.app, self.metrics, self.keys = app, metrics, keys
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = dict(scope.get("headers", []))
+        rid = headers.get(b"x-request-id", b"").decode("latin-1")[:200] or uuid.uuid4().hex
+        token = logs.request_id.set(rid)
+        started = time.perf_counter()
+        status = 500
+
+        async def send_with_id(message: Message) -> None:
+            nonlocal status
+            if message["type"] == "http.response.start":
+                status = int(message["status"])
+                message["headers"] = [*message.get("headers", []), (b"x-request-id", rid.encode("latin-1"))]
+            await send(message)
+
+        try:
+            path = scope["path"]
+            if self.keys and path.startswith("/v1") and not _authorised(headers.get(b"x-api-key", b""), self.keys):
+                denied = problems.from_exception(problems.Unauthorized("send a valid API key in the X-API-Key header"))
+                await denied(scope, receive, send_with_id)
+            else:
+                await self.app(scope, receive, send_with_id)
+        finally:
+            elapsed = time.perf_counter() - started
+            template = getattr(scope.get("route"), "path", "unmatched")
+            method = scope.get("method", "")
+            self.metrics.requests.labels(method, template, str(status)).inc()
+            self.metrics.latency.labels(method, template).observe(elapsed)
+            if log.isEnabledFor(logging.INFO):
+                log.info(
+                    "request",
+                    extra={
+                        "method": method,
+                        "path": scope["path"],
+                        "status": status,
+                        "duration_ms": round(1e3 * elapsed, 3),
+                    },
+                )
+            logs.request_id.reset(token)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or get_settings()
     logs.configure(settings.log_level)
@@ -126,42 +175,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.include_router(module.router)
     keys = settings.keys
 
-    @app.middleware("http")
-    async def observe(request: Request, call_next: Callable[[Request], Awaitable[Response]]) -> Response:
-        rid = request.headers.get("x-request-id") or uuid.uuid4().hex
-        token = logs.request_id.set(rid)
-        started = time.perf_counter()
-        try:
-            if keys and request.url.path.startswith("/v1") and not _authorised(request, keys):
-                response: Response = problems.from_exception(
-                    problems.Unauthorized("send a valid API key in the X-API-Key header")
-                )
-            else:
-                try:
-                    response = await call_next(request)
-                except problems.PayloadTooLarge as exc:
-                    response = problems.from_exception(exc)
-            elapsed = time.perf_counter() - started
-            route = request.scope.get("route")
-            template = getattr(route, "path", "unmatched")
-            metrics: Metrics = app.state.metrics
-            metrics.requests.labels(request.method, template, str(response.status_code)).inc()
-            metrics.latency.labels(request.method, template).observe(elapsed)
-            response.headers["X-Request-ID"] = rid
-            log.info(
-                "request",
-                extra={
-                    "method": request.method,
-                    "path": request.url.path,
-                    "status": response.status_code,
-                    "duration_ms": round(1e3 * elapsed, 3),
-                },
-            )
-            return response
-        finally:
-            logs.request_id.reset(token)
-
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
+    app.add_middleware(Observe, metrics=app.state.metrics, keys=keys)
 
     def openapi() -> dict[str, Any]:
         if app.openapi_schema is None:
@@ -196,6 +211,5 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     return app
 
 
-def _authorised(request: Request, keys: frozenset[str]) -> bool:
-    given = request.headers.get("x-api-key", "")
-    return any(secrets.compare_digest(given, key) for key in keys)
+def _authorised(given: bytes, keys: frozenset[str]) -> bool:
+    return any(secrets.compare_digest(given, key.encode()) for key in keys)

@@ -7,6 +7,8 @@ version are written together, and only when the identification succeeded.
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from typing import Any
 
 import numpy as np
@@ -78,12 +80,31 @@ def parameters_public(desc: RobotDescription, version: ParameterVersion) -> dict
     }
 
 
+_MODELS: OrderedDict[tuple[str, str, int], tuple[RobotDescription, np.ndarray]] = OrderedDict()
+_MODELS_LOCK = threading.Lock()
+
+
 def current_model(db: Database, robot_id: str) -> tuple[RobotDescription, np.ndarray]:
-    with db.session() as s:
+    """The robot's description and current parameters; parameter versions are immutable, so one small query for
+    the current version number is all a request needs once the version has been seen."""
+    version = db.current_version(robot_id)
+    if version is not None:
+        with _MODELS_LOCK:
+            found = _MODELS.get((db.url, robot_id, version))
+        if found is not None:
+            return found
+    with db.reader() as s:
         repo = Repository(s)
+        version = repo.current_version(robot_id)
+        key = (db.url, robot_id, version)
         robot = repo.robot(robot_id)
-        version = repo.version(robot_id)
-        return description(robot), np.asarray(version.values, dtype=float)
+        values = np.asarray(repo.version(robot_id, version).values, dtype=float)
+    model = (description(robot), values)
+    with _MODELS_LOCK:
+        _MODELS[key] = model
+        while len(_MODELS) > 256:
+            _MODELS.popitem(last=False)
+    return model
 
 
 def calibration_public(record: CalibrationRecord) -> dict[str, Any]:

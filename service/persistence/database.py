@@ -29,10 +29,15 @@ class Database:
         else:
             kwargs |= {"pool_size": 10, "max_overflow": 20}
         self.engine: Engine = create_engine(url, **kwargs)
+        self.read_engine: Engine = self.engine
         if parsed.get_backend_name() == "sqlite":
+            # Readers on their own engine: in WAL mode they never wait for the writer.
+            self.read_engine = create_engine(url, **kwargs)
+            event.listen(self.read_engine, "connect", _sqlite_pragmas)
             event.listen(self.engine, "connect", _sqlite_pragmas)
             event.listen(self.engine, "begin", _sqlite_begin)
         self.sessions = sessionmaker(self.engine, expire_on_commit=False)
+        self.read_sessions = sessionmaker(self.read_engine, expire_on_commit=False)
 
     def migrate(self) -> None:
         config = Config()
@@ -48,6 +53,20 @@ class Database:
         with self.sessions() as session, session.begin():
             yield session
 
+    @contextmanager
+    def reader(self) -> Iterator[Session]:
+        """A read-only transaction (on SQLite: no write lock)."""
+        with self.read_sessions() as session, session.begin():
+            yield session
+
+    def current_version(self, robot_id: str) -> int | None:
+        """The robot's current parameter version, by one indexed lookup without the ORM (hot path)."""
+        with self.read_engine.connect() as connection:
+            found = connection.execute(
+                text("SELECT current_version FROM robots WHERE id = :id"), {"id": robot_id}
+            ).scalar()
+        return None if found is None else int(found)
+
     def ping(self) -> bool:
         try:
             with self.engine.connect() as connection:
@@ -58,6 +77,7 @@ class Database:
 
     def dispose(self) -> None:
         self.engine.dispose()
+        self.read_engine.dispose()
 
 
 def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:

@@ -39,6 +39,12 @@ class Repository:
             raise NotFound(f"no robot with id {robot_id!r}", resource="robot", id=robot_id)
         return found
 
+    def current_version(self, robot_id: str) -> int:
+        found = self.s.scalar(select(Robot.current_version).where(Robot.id == robot_id))
+        if found is None:
+            raise NotFound(f"no robot with id {robot_id!r}", resource="robot", id=robot_id)
+        return int(found)
+
     def robots(self, limit: int, offset: int) -> list[Robot]:
         return list(self.s.scalars(select(Robot).order_by(Robot.created_at, Robot.id).limit(limit).offset(offset)))
 

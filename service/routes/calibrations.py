@@ -101,16 +101,16 @@ async def create_calibration(
 def list_calibrations(
     robot_id: str,
     limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0),
+    offset: int = Query(0, ge=0, le=1_000_000_000),
     db: Database = Depends(database),
 ) -> list[dict[str, Any]]:
-    with db.session() as s:
+    with db.reader() as s:
         return [operations.calibration_public(r) for r in Repository(s).calibrations(robot_id, limit, offset)]
 
 
 @router.get("/v1/calibrations/{calibration_id}", response_model=CalibrationPublic)
 def get_calibration(calibration_id: str, db: Database = Depends(database)) -> dict[str, Any]:
-    with db.session() as s:
+    with db.reader() as s:
         return operations.calibration_public(Repository(s).calibration(calibration_id))
 
 

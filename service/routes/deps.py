@@ -13,7 +13,8 @@ from service.persistence import Database
 T = TypeVar("T")
 
 
-def database(request: Request) -> Database:
+async def database(request: Request) -> Database:
+    # async on purpose: a plain `def` dependency costs a thread-pool hop on every request.
     db: Database = request.app.state.db
     return db
 

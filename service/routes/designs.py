@@ -48,5 +48,5 @@ async def create_design(
 
 @router.get("/v1/pose-designs/{design_id}", response_model=PoseDesignPublic, responses=_CSV)  # type: ignore[arg-type]
 def get_design(design_id: str, request: Request, db: Database = Depends(database)) -> Any:
-    with db.session() as s:
+    with db.reader() as s:
         return _answer(request, operations.design_public(Repository(s).design(design_id)))

@@ -26,7 +26,7 @@ def readyz(db: Database = Depends(database)) -> Response:
 def prometheus(request: Request, db: Database = Depends(database)) -> Response:
     m = metrics(request)
     try:
-        with db.session() as s:
+        with db.reader() as s:
             repo = Repository(s)
             for status in ("queued", "running"):
                 m.queue.labels(status).set(repo.count_jobs(status))

@@ -22,7 +22,7 @@ class JobPublic(Public):
 
 @router.get("/v1/jobs/{job_id}", response_model=JobPublic)
 def get_job(job_id: str, db: Database = Depends(database)) -> dict[str, Any]:
-    with db.session() as s:
+    with db.reader() as s:
         repo = Repository(s)
         job = repo.job(job_id)
         result = None

@@ -18,16 +18,11 @@ router = APIRouter(prefix="/v1/robots/{robot_id}", tags=["kinematics"])
 
 
 @router.post("/forward-kinematics", response_model=ForwardResponse)
-async def forward(robot_id: str, body: ForwardRequest, request: Request, db: Database = Depends(database)) -> Any:
+def forward(robot_id: str, body: ForwardRequest, db: Database = Depends(database)) -> Any:
+    # A plain `def`: FastAPI runs it in its thread pool, database read and computation together, off the loop.
     desc, theta = operations.current_model(db, robot_id)
-    joints = joints_in(desc, body.joints)
-
-    def run() -> dict[str, Any]:
-        fk = forward_kinematics(desc, joints, theta)
-        return {"poses": poses_out(fk.positions, fk.rotations)}
-
-    # A handful of poses costs less than the hop to a worker thread.
-    return run() if joints.shape[0] <= 16 else await compute(request, "forward_kinematics", run)
+    fk = forward_kinematics(desc, joints_in(desc, body.joints), theta)
+    return {"poses": poses_out(fk.positions, fk.rotations)}
 
 
 @router.post(
@@ -36,12 +31,12 @@ async def forward(robot_id: str, body: ForwardRequest, request: Request, db: Dat
     responses={200: {"content": {"text/csv": {"schema": {"type": "string"}}}}},
 )
 async def inverse(robot_id: str, body: InverseRequest, request: Request, db: Database = Depends(database)) -> Any:
-    desc, theta = operations.current_model(db, robot_id)
     positions, quats = operations.targets_in(body.targets)
-    seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
     weights = np.asarray(body.weights, dtype=float) if body.weights is not None else None
 
     def run() -> dict[str, Any]:
+        desc, theta = operations.current_model(db, robot_id)
+        seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
         answer = inverse_kinematics(desc, positions, quats, theta, seed=seed, weights=weights, follow=body.follow)
         out = answer.to_dict(desc)
         out["joints"] = joints_out(desc, answer.joints)

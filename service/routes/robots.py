@@ -19,15 +19,17 @@ def create_robot(body: RobotCreate, db: Database = Depends(database)) -> dict[st
 
 @router.get("", response_model=list[RobotPublic])
 def list_robots(
-    limit: int = Query(100, ge=1, le=1000), offset: int = Query(0, ge=0), db: Database = Depends(database)
+    limit: int = Query(100, ge=1, le=1000),
+    offset: int = Query(0, ge=0, le=1_000_000_000),
+    db: Database = Depends(database),
 ) -> list[dict[str, Any]]:
-    with db.session() as s:
+    with db.reader() as s:
         return [operations.robot_public(r) for r in Repository(s).robots(limit, offset)]
 
 
 @router.get("/{robot_id}", response_model=RobotPublic)
 def get_robot(robot_id: str, db: Database = Depends(database)) -> dict[str, Any]:
-    with db.session() as s:
+    with db.reader() as s:
         return operations.robot_public(Repository(s).robot(robot_id))
 
 
@@ -44,7 +46,7 @@ def get_parameters(
     version: int | None = Query(None, ge=1, description="A past version (default: current)"),
     db: Database = Depends(database),
 ) -> dict[str, Any]:
-    with db.session() as s:
+    with db.reader() as s:
         repo = Repository(s)
         desc = operations.description(repo.robot(robot_id))
         return operations.parameters_public(desc, repo.version(robot_id, version))

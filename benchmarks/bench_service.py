@@ -1,0 +1,110 @@
+"""The HTTP service on loopback: batch FK, single-pose latency under 50 concurrent clients, calibration overhead.
+
+The load generator is asyncio + httpx in this process: 50 connections, each sending a single-pose FK request
+every `PERIOD_S` (an open-loop rate, 50 / PERIOD_S requests per second in all), so the latencies are those
+of a server under that load rather than of a queue that a closed loop would build up on two cores.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import statistics
+import tempfile
+import time
+
+import httpx
+import numpy as np
+
+from benchmarks.timing import target
+from models import iwr, sample_workspace
+from models.campaign import make_campaign
+from models.identification import identify
+from models.simulation import measure, perturbed_robot
+from service.live import running_server
+
+CLIENTS = 50
+PERIOD_S = 0.25
+DURATION_S = 10.0
+
+
+async def _load(url: str, robot: str, joints: list[list[float]]) -> tuple[list[float], int]:
+    latencies: list[float] = []
+    errors = 0
+    limits = httpx.Limits(max_connections=CLIENTS, max_keepalive_connections=CLIENTS)
+    async with httpx.AsyncClient(base_url=url, limits=limits, timeout=30) as http:
+        stop = time.perf_counter() + DURATION_S
+
+        async def client(k: int) -> None:
+            nonlocal errors
+            i = 0
+            await asyncio.sleep(PERIOD_S * k / CLIENTS)  # spread the clients over one period
+            while time.perf_counter() < stop:
+                due = time.perf_counter() + PERIOD_S
+                started = time.perf_counter()
+                r = await http.post(
+                    f"/v1/robots/{robot}/forward-kinematics", json={"joints": [joints[(k + i) % len(joints)]]}
+                )
+                latencies.append(time.perf_counter() - started)
+                errors += r.status_code != 200
+                i += 1
+                await asyncio.sleep(max(0.0, due - time.perf_counter()))
+
+        await asyncio.gather(*(client(k) for k in range(CLIENTS)))
+    return latencies, errors
+
+
+def run() -> dict[str, object]:
+    desc = iwr()
+    joints = (sample_workspace(desc, 1000, seed=3) * desc.joint_to_boundary).tolist()
+    sim = perturbed_robot(desc, seed=1)
+    campaign = measure(sim, sample_workspace(desc, 60, seed=4), seed=5)
+    assert campaign.quaternions is not None
+    body = {
+        "measurements": [
+            {"joints": (q * desc.joint_to_boundary).tolist(), "position": p.tolist(), "orientation": o.tolist()}
+            for q, p, o in zip(campaign.joints, campaign.positions, campaign.quaternions, strict=True)
+        ],
+        "apply": False,
+    }
+    with tempfile.TemporaryDirectory() as tmp, running_server(f"sqlite:///{tmp}/bench.db", IWR_JOB_WORKERS="0") as url:
+        with httpx.Client(base_url=url, timeout=60) as http:
+            robot = http.post("/v1/robots", json={"name": "bench"}).json()["id"]
+            fk_times = []
+            for _ in range(15):
+                started = time.perf_counter()
+                r = http.post(f"/v1/robots/{robot}/forward-kinematics", json={"joints": joints})
+                fk_times.append(time.perf_counter() - started)
+                assert r.status_code == 200 and len(r.json()["poses"]) == 1000
+            calib_times = []
+            for _ in range(7):
+                started = time.perf_counter()
+                r = http.post(f"/v1/robots/{robot}/calibrations", json=body)
+                calib_times.append(time.perf_counter() - started)
+                assert r.status_code == 201 and r.json()["status"] == "succeeded"
+        latencies, errors = asyncio.run(_load(url, robot, joints))
+    bare = []
+    for _ in range(7):
+        started = time.perf_counter()
+        identify(desc, make_campaign(desc, campaign.joints, campaign.positions, campaign.quaternions))
+        bare.append(time.perf_counter() - started)
+    lat = np.sort(np.array(latencies)) * 1e3
+    fk_1000 = statistics.median(fk_times)
+    calib = statistics.median(calib_times)
+    bare_s = statistics.median(bare)
+    return {
+        "fk_1000_request_s": fk_1000,
+        "single_pose_p50_ms": float(np.percentile(lat, 50)),
+        "single_pose_p99_ms": float(np.percentile(lat, 99)),
+        "single_pose_requests": int(lat.size),
+        "single_pose_errors": errors,
+        "offered_rate_per_s": CLIENTS / PERIOD_S,
+        "achieved_rate_per_s": lat.size / DURATION_S,
+        "calibration_60_http_s": calib,
+        "identification_60_bare_s": bare_s,
+        "targets": [
+            target("FK of 1000 joint vectors in one request (s)", fk_1000, 0.1),
+            target("single-pose FK p50 at 50 concurrent clients (ms)", float(np.percentile(lat, 50)), 5.0),
+            target("single-pose FK p99 at 50 concurrent clients (ms)", float(np.percentile(lat, 99)), 20.0),
+            target("60-pose calibration over HTTP / bare identification", calib / bare_s, 1.5),
+        ],
+    }
