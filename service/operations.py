@@ -36,6 +36,17 @@ def description(robot: Robot) -> RobotDescription:
     return iwr(base, tool)
 
 
+def strict_json(value: Any) -> Any:
+    """NaN and infinities as null: JSON (and PostgreSQL's JSON type) has no such numbers."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [strict_json(v) for v in value]
+    return value
+
+
 def create_robot(db: Database, body: RobotCreate) -> Robot:
     base = pose6_in(body.base.position, body.base.orientation, "base") if body.base else pose6_in(None, None, "base")
     tool = pose6_in(body.tool.position, body.tool.orientation, "tool") if body.tool else pose6_in(None, None, "tool")
@@ -107,7 +118,7 @@ def current_model(db: Database, robot_id: str) -> tuple[RobotDescription, np.nda
     return model
 
 
-def calibration_public(record: CalibrationRecord) -> dict[str, Any]:
+def calibration_public(record: CalibrationRecord, *, json_ready: bool = False) -> dict[str, Any]:
     return {
         **record.result,
         "id": record.id,
@@ -116,7 +127,7 @@ def calibration_public(record: CalibrationRecord) -> dict[str, Any]:
         "status": record.status,
         "applied": record.applied,
         "parameter_version": record.parameter_version,
-        "created_at": record.created_at,
+        "created_at": record.created_at.isoformat() if json_ready else record.created_at,
     }
 
 
@@ -142,7 +153,7 @@ def calibrate(db: Database, robot_id: str, body: CalibrationCreate) -> Calibrati
         robust_scale=body.options.robust_scale,
     )
     result = identify(desc, campaign, noise=noise, options=options)
-    payload = result.to_dict()
+    payload = strict_json(result.to_dict())
     calibration_id = new_id()
     with db.session() as s:
         repo = Repository(s)
@@ -173,7 +184,7 @@ def design(db: Database, robot_id: str, body: PoseDesignCreate) -> PoseDesignRec
         fixed=fixed,
         params=theta,
     )
-    payload = result.to_dict(desc, include_indices=candidates is not None)
+    payload = strict_json(result.to_dict(desc, include_indices=candidates is not None))
     if candidates is None:
         payload["indices"] = None
     with db.session() as s:
