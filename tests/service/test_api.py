@@ -205,3 +205,19 @@ def test_error_analysis(client: TestClient) -> None:
     assert r.status_code == 200
     assert r.json()
     assert client.post("/v1/error-analysis", json={"poses": 0}).status_code == 422
+
+
+def test_jobs_in_a_worker_process(tmp_path: object) -> None:
+    """The production path: a spawned worker process picks the job from the database and writes the result."""
+    import time
+
+    with make_client(f"sqlite:///{tmp_path}/pool.db", job_workers=1) as c:
+        rid = c.post("/v1/robots", json={"name": "pool"}).json()["id"]
+        sim = perturbed_robot(DESC, seed=41)
+        recs = records(DESC, sim, sample_workspace(DESC, 25, seed=42), seed=43)
+        job_url = c.post(f"/v1/robots/{rid}/calibrations?async=true", json={"measurements": recs}).json()["status_url"]
+        deadline = time.monotonic() + 120
+        while (job := c.get(job_url).json())["status"] in ("queued", "running") and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert job["status"] == "succeeded", job
+        assert c.get(f"/v1/robots/{rid}/parameters").json()["version"] == 2
