@@ -1,15 +1,13 @@
 """The HTTP service on loopback: batch FK, single-pose latency under 50 concurrent clients, calibration overhead.
 
-The load generator is asyncio + httpx in `PROCESSES` processes: 50 connections in all, each sending a
-single-pose FK request every `PERIOD_S` (an open-loop rate, 50 / PERIOD_S requests per second), so the
-latencies are those of a server under that load rather than of a queue that a closed loop would build up on
-two cores; several processes keep the client's own event loop from adding its queueing to the numbers.
+The load generator (`benchmarks/load.py`) keeps 50 connections, each sending a single-pose FK request every
+`PERIOD_S` (an open-loop rate, 50 / PERIOD_S requests per second), so the latencies are those of a server
+under that load rather than of a queue that a closed loop would build up on two cores.
 """
 
 from __future__ import annotations
 
 import asyncio
-import multiprocessing
 import statistics
 import tempfile
 import time
@@ -17,6 +15,7 @@ import time
 import httpx
 import numpy as np
 
+from benchmarks.load import open_loop, request_bytes
 from benchmarks.timing import target
 from models import iwr, sample_workspace
 from models.campaign import make_campaign
@@ -25,40 +24,8 @@ from models.simulation import measure, perturbed_robot
 from service.live import running_server
 
 CLIENTS = 50
-PROCESSES = 5
 PERIOD_S = 0.25
 DURATION_S = 10.0
-
-
-def _load_process(args: tuple[str, str, list[list[float]], int]) -> tuple[list[float], int]:
-    url, robot, joints, first = args
-    return asyncio.run(_load(url, robot, joints, range(first, first + CLIENTS // PROCESSES)))
-
-
-async def _load(url: str, robot: str, joints: list[list[float]], clients: range) -> tuple[list[float], int]:
-    latencies: list[float] = []
-    errors = 0
-    limits = httpx.Limits(max_connections=len(clients), max_keepalive_connections=len(clients))
-    async with httpx.AsyncClient(base_url=url, limits=limits, timeout=30) as http:
-        stop = time.perf_counter() + DURATION_S
-
-        async def client(k: int) -> None:
-            nonlocal errors
-            i = 0
-            await asyncio.sleep(PERIOD_S * k / CLIENTS)  # spread the clients over one period
-            while time.perf_counter() < stop:
-                due = time.perf_counter() + PERIOD_S
-                started = time.perf_counter()
-                r = await http.post(
-                    f"/v1/robots/{robot}/forward-kinematics", json={"joints": [joints[(k + i) % len(joints)]]}
-                )
-                latencies.append(time.perf_counter() - started)
-                errors += r.status_code != 200
-                i += 1
-                await asyncio.sleep(max(0.0, due - time.perf_counter()))
-
-        await asyncio.gather(*(client(k) for k in clients))
-    return latencies, errors
 
 
 def run() -> dict[str, object]:
@@ -89,11 +56,11 @@ def run() -> dict[str, object]:
                 r = http.post(f"/v1/robots/{robot}/calibrations", json=body)
                 calib_times.append(time.perf_counter() - started)
                 assert r.status_code == 201 and r.json()["status"] == "succeeded"
-        per = CLIENTS // PROCESSES
-        with multiprocessing.get_context("spawn").Pool(PROCESSES) as pool:
-            parts = pool.map(_load_process, [(url, robot, joints, k * per) for k in range(PROCESSES)])
-        latencies = [t for part in parts for t in part[0]]
-        errors = sum(part[1] for part in parts)
+        host = url.removeprefix("http://")
+        path = f"/v1/robots/{robot}/forward-kinematics"
+        prepared = [request_bytes(host, path, {"joints": [j]}) for j in joints[:200]]
+        latencies, errors = asyncio.run(open_loop(url, prepared, CLIENTS, PERIOD_S, DURATION_S))
+        heavier, heavier_errors = asyncio.run(open_loop(url, prepared, CLIENTS, PERIOD_S / 2.5, DURATION_S))
     bare = []
     for _ in range(15):
         started = time.perf_counter()
@@ -111,6 +78,12 @@ def run() -> dict[str, object]:
         "single_pose_errors": errors,
         "offered_rate_per_s": CLIENTS / PERIOD_S,
         "achieved_rate_per_s": lat.size / DURATION_S,
+        "at_500_per_s": {
+            "p50_ms": float(np.percentile(heavier, 50) * 1e3),
+            "p99_ms": float(np.percentile(heavier, 99) * 1e3),
+            "achieved_rate_per_s": len(heavier) / DURATION_S,
+            "errors": heavier_errors,
+        },
         "calibration_60_http_s": calib,
         "identification_60_bare_s": bare_s,
         "targets": [
