@@ -15,6 +15,7 @@ import numpy as np
 
 from models import RobotDescription, iwr
 from models.campaign import make_campaign
+from models.errors import InvalidInput
 from models.hybrid import Pose6
 from models.identifiability import NoiseModel
 from models.identification import IdentificationOptions, RobustLoss, identify
@@ -127,13 +128,20 @@ def calibration_public(record: CalibrationRecord, *, json_ready: bool = False) -
         "status": record.status,
         "applied": record.applied,
         "parameter_version": record.parameter_version,
+        "start_version": record.start_version,
         "created_at": record.created_at.isoformat() if json_ready else record.created_at,
     }
 
 
 def calibrate(db: Database, robot_id: str, body: CalibrationCreate) -> CalibrationRecord:
-    with db.session() as s:
-        desc = description(Repository(s).robot(robot_id))
+    with db.reader() as s:
+        repo = Repository(s)
+        desc = description(repo.robot(robot_id))
+        start_row = _start_version(repo, robot_id, body.start_version)
+        start_version = start_row.version
+        start_values = np.asarray(start_row.values, dtype=float)
+        start_std = list(start_row.std_errors or [None] * len(start_values))
+        start_ident = list(start_row.identifiable or [False] * len(start_values))
     records = [r.model_dump() for r in body.measurements]
     with_orientation = [r.orientation is not None for r in body.measurements]
     if any(with_orientation) and not all(with_orientation):
@@ -152,21 +160,43 @@ def calibrate(db: Database, robot_id: str, body: CalibrationCreate) -> Calibrati
         robust=RobustLoss(body.options.robust),
         robust_scale=body.options.robust_scale,
     )
-    result = identify(desc, campaign, noise=noise, options=options)
+    # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
+    # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
+    result = identify(desc, campaign, noise=noise, nominal=start_values, options=options)
     payload = strict_json(result.to_dict())
+    nominal = desc.parameters.as_boundary(desc.parameters.nominal)
+    start = desc.parameters.as_boundary(start_values)
+    for i, entry in enumerate(payload["parameters"]):
+        entry["nominal"], entry["start"] = float(nominal[i]), float(start[i])
+    payload["start_version"] = start_version
     calibration_id = new_id()
     with db.session() as s:
         repo = Repository(s)
         robot = repo.robot(robot_id, lock=True)  # still there, and one calibration at a time per robot
         stored = repo.add_campaign(robot_id, records)
         record = repo.add_calibration(calibration_id, robot_id, stored.id, result.status, payload)
+        record.start_version = start_version
         if result.succeeded and body.apply:
-            std = [None if not np.isfinite(v) else float(v) for v in result.std_errors]
-            chosen = set(result.estimated)
-            ident = [i in chosen for i in range(len(std))]
+            # What this fit estimated carries its new statistics; the rest keeps the start version's.
+            std, ident = start_std, start_ident
+            for i in result.estimated:
+                value = float(result.std_errors[i])
+                std[i], ident[i] = (value if np.isfinite(value) else None), True
             record.parameter_version = repo.add_version(robot, result.parameters.tolist(), std, ident, calibration_id)
             record.applied = True
         return record
+
+
+def _start_version(repo: Repository, robot_id: str, version: int | None) -> ParameterVersion:
+    if version is None:
+        return repo.version(robot_id)
+    latest = repo.latest_version(robot_id)
+    if version > latest:
+        raise InvalidInput(
+            f"start_version {version} does not exist: robot {robot_id!r} has versions 1 to {latest}",
+            field="start_version",
+        )
+    return repo.version(robot_id, version)
 
 
 def design(db: Database, robot_id: str, body: PoseDesignCreate) -> PoseDesignRecord:

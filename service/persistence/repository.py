@@ -66,6 +66,12 @@ class Repository:
             raise NotFound(f"robot {robot_id!r} has no parameter version {wanted}", resource="parameter_version")
         return found
 
+    def latest_version(self, robot_id: str) -> int:
+        latest = self.s.scalar(select(func.max(ParameterVersion.version)).where(ParameterVersion.robot_id == robot_id))
+        if latest is None:
+            raise NotFound(f"no robot with id {robot_id!r}", resource="robot", id=robot_id)
+        return int(latest)
+
     def add_version(
         self, robot: Robot, values: list[float], std_errors: list[Any], identifiable: list[bool], calibration_id: str
     ) -> int:

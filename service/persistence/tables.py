@@ -73,6 +73,8 @@ class CalibrationRecord(Base):
     status: Mapped[str] = mapped_column(String(20))
     applied: Mapped[bool] = mapped_column(default=False)
     parameter_version: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    start_version: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    """The parameter version the fit started from (null for calibrations stored before it was recorded)."""
     result: Mapped[dict[str, Any]] = mapped_column(JSON)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
 

@@ -13,7 +13,13 @@ JOINT_HEADER = CAMPAIGN_HEADER[:10]
 
 
 def parse_campaign(text: str) -> list[dict[str, object]]:
-    rows = list(csv.reader(io.StringIO(text)))
+    # Universal newlines: CR-only files (old Mac exports) and CRLF read like LF; csv.Error (a stray NUL, a
+    # field beyond the csv module's limit) is the sender's data, so it is a 400 that names the line.
+    reader = csv.reader(io.StringIO(text, newline=None))
+    try:
+        rows = list(reader)
+    except csv.Error as exc:
+        raise BadRequest(f"CSV line {reader.line_num}: {exc}", line=reader.line_num) from exc
     rows = [r for r in rows if any(cell.strip() for cell in r)]
     if not rows:
         raise BadRequest("the CSV body is empty; expected the header " + ",".join(CAMPAIGN_HEADER))

@@ -32,6 +32,13 @@ class CalibrationCreate(Strict):
     noise: Noise = Noise()
     apply: bool = True
     options: CalibrationOptions = CalibrationOptions()
+    start_version: int | None = Field(
+        default=None,
+        ge=1,
+        le=2**31 - 1,
+        description="Parameter version the fit starts from (default: the robot's current one); the parameters "
+        "it does not estimate keep this version's values",
+    )
 
 
 class CalibrationPublic(Public):
@@ -40,6 +47,7 @@ class CalibrationPublic(Public):
     status: str
     reason: str | None
     parameter_version: int | None
+    start_version: int | None
     applied: bool
     created_at: datetime
     parameters: list[dict[str, Any]]

@@ -153,6 +153,13 @@ def test_rejected_or_failed_calibrations_change_nothing(client: TestClient, robo
         f"/v1/robots/{robot_id}/calibrations", content="a,b\n1,2", headers={"content-type": "text/csv"}
     )
     assert bad_csv.status_code == 400 and "header" in bad_csv.json()["detail"]
+    # Found by schemathesis: CR-only line endings and a field over the csv module's 128 KiB limit were 500s.
+    cr_only = "\r".join(["q1,q2,q3,q4,l1,l2,l3,l4,l5,l6,x,y,z", *[",".join(["400"] * 13)] * 3])
+    r = client.post(f"/v1/robots/{robot_id}/calibrations", content=cr_only, headers={"content-type": "text/csv"})
+    assert r.status_code == 422, r.text  # parsed (three rows), then refused: too few poses
+    huge = "q1,q2,q3,q4,l1,l2,l3,l4,l5,l6,x,y,z\n" + "1," * 12 + "9" * 200_000
+    r = client.post(f"/v1/robots/{robot_id}/calibrations", content=huge, headers={"content-type": "text/csv"})
+    assert r.status_code == 400 and "line 2" in r.json()["detail"]
     xml = client.post(
         f"/v1/robots/{robot_id}/calibrations", content="<x/>", headers={"content-type": "application/xml"}
     )
