@@ -42,7 +42,7 @@ def test_orientation_accuracy_and_repeatability_by_hand() -> None:
     # c readings straddle ±π: 3.1 + {0.02, 0.06, 0.1} wraps past π for the last two.
     cs = [3.12, 3.16 - 2 * math.pi, 3.20 - 2 * math.pi]
     rotations = np.stack([_rz_ry_rx(0.1 + da, -0.2, c) for da, c in zip((0.0, 0.01, 0.02), cs, strict=True)])
-    got = pose_characteristics([0, 0, 0], np.zeros((3, 3)) + [[0, 0, 0], [0, 0, 1], [0, 0, 2]], command, rotations)
+    got = pose_characteristics([0, 0, 0], np.array([[0.0, 0, 0], [0, 0, 1], [0, 0, 2]]), command, rotations)
     assert got.orientation_accuracy_rad is not None and got.orientation_repeatability_rad is not None
     np.testing.assert_allclose(got.orientation_accuracy_rad, [0.01, 0.0, 0.06], atol=1e-12)
     # S of {0, .01, .02} = 0.01, of {.02, .06, .10} = 0.04.
