@@ -1,0 +1,290 @@
+"""A calibration report an engineer can hand on: one self-contained HTML page, or a PDF with the same content.
+
+The report is built from what the API serves (the stored calibration document, its campaign, optionally the
+validations of the versions it produced), so every number in it is one a client can read back; the test compares
+them. HTML: inline SVG figures and CSS, nothing fetched (plant networks are offline). PDF: matplotlib's PdfPages,
+a title page with the summary, then the same figures and the parameter table.
+"""
+
+from __future__ import annotations
+
+import html
+import io
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.stats
+from matplotlib.backends.backend_pdf import PdfPages
+from matplotlib.figure import Figure
+
+from models.identification.statistics import NOISE_CONSISTENCY_LEVEL
+from service.reports import figures
+from service.reports.figures import Array
+
+PARAMETER_ROWS_PER_PDF_PAGE = 38
+
+
+@dataclass(frozen=True)
+class CalibrationReport:
+    """What a report shows; `calibration` is the calibration document of the API (api.md keys)."""
+
+    calibration: Mapping[str, Any]
+    robot_name: str
+    measured_positions: Array | None = None
+    """(N, 3) the campaign's measured TCP positions, mm."""
+    correlation: tuple[Sequence[str], Array] | None = None
+    """Names and correlation matrix of the estimated parameters."""
+    noise_position_mm: float | None = None
+    validations: Sequence[Mapping[str, Any]] = field(default=())
+    """Validation documents of this robot (api.md, validations) to show after the calibration."""
+
+    # ------------------------------------------------------------------ numbers, as the API states them
+    @property
+    def before(self) -> Mapping[str, Any]:
+        return dict(self.calibration["residuals"]["before"])
+
+    @property
+    def after(self) -> Mapping[str, Any]:
+        return dict(self.calibration["residuals"]["after"])
+
+    @property
+    def excluded(self) -> list[int]:
+        return [int(o["pose"]) for o in self.calibration.get("outliers", []) if o.get("excluded")]
+
+    @property
+    def variance_interval(self) -> tuple[float, float] | None:
+        stated = self.calibration.get("variance_factor_interval")
+        if stated is not None:
+            return float(stated[0]), float(stated[1])
+        dof = int(self.calibration.get("degrees_of_freedom") or 0)
+        if dof <= 0:
+            return None
+        tail = (1 - NOISE_CONSISTENCY_LEVEL) / 2
+        bounds = np.asarray(scipy.stats.chi2.ppf([tail, 1 - tail], dof), dtype=float) / dof
+        return float(bounds[0]), float(bounds[1])
+
+    def summary(self) -> list[tuple[str, str, Any]]:
+        """(key, label, value) rows of the summary table; keys are the API's, dotted."""
+        c, acc = self.calibration, self.calibration.get("predicted_accuracy") or {}
+        rows: list[tuple[str, str, Any]] = [
+            ("status", "Status", c.get("status")),
+            ("reason", "Reason", c.get("reason")),
+            ("applied", "Applied", c.get("applied")),
+            ("start_version", "Started from version", c.get("start_version")),
+            ("parameter_version", "Produced version", c.get("parameter_version")),
+            ("measurement", "Measurement", c.get("measurement")),
+            ("measurements", "Poses", c.get("measurements")),
+            ("residuals.before.rms_mm", "RMS error before (mm)", self.before.get("rms_mm")),
+            ("residuals.after.rms_mm", "RMS error after (mm)", self.after.get("rms_mm")),
+            ("residuals.before.max_mm", "Max error before (mm)", self.before.get("max_mm")),
+            ("residuals.after.max_mm", "Max error after (mm)", self.after.get("max_mm")),
+            ("residuals.before.rms_deg", "RMS orientation error before (°)", self.before.get("rms_deg")),
+            ("residuals.after.rms_deg", "RMS orientation error after (°)", self.after.get("rms_deg")),
+            ("predicted_accuracy.rms_position_mm", "Predicted TCP accuracy, RMS (mm)", acc.get("rms_position_mm")),
+            ("predicted_accuracy.max_position_mm", "Predicted TCP accuracy, max (mm)", acc.get("max_position_mm")),
+            ("variance_factor", "Variance factor", c.get("variance_factor")),
+            ("noise_consistent", "Noise as stated", c.get("noise_consistent")),
+            ("rank", "Identifiable parameters", c.get("rank")),
+            ("condition_number", "Condition number", c.get("condition_number")),
+            ("solver.status", "Solver", (c.get("solver") or {}).get("status")),
+            ("solver.iterations", "Solver iterations", (c.get("solver") or {}).get("iterations")),
+        ]
+        return [r for r in rows if r[2] is not None]
+
+    def parameter_rows(self) -> list[dict[str, Any]]:
+        confounding = self.calibration.get("confounding") or {}
+        rows = []
+        for p in self.calibration["parameters"]:
+            start = p.get("start", p["nominal"])
+            partners = ", ".join(f"{q['with']} ({q['coefficient']:+.3g})" for q in confounding.get(p["name"], []))
+            rows.append(
+                {
+                    "name": p["name"],
+                    "unit": p["unit"],
+                    "value": p["value"],
+                    "nominal": p["nominal"],
+                    "change": p["value"] - start,
+                    "std_error": p["std_error"],
+                    "identifiable": p["identifiable"],
+                    "confounded_with": partners,
+                }
+            )
+        return rows
+
+    # ------------------------------------------------------------------ figures
+    def figures(self) -> list[tuple[str, Figure]]:
+        before = np.asarray(self.before.get("per_pose_mm") or [], dtype=float)
+        after = np.asarray(self.after.get("per_pose_mm") or [], dtype=float)
+        out: list[tuple[str, Figure]] = []
+        if before.size and after.size == before.size:
+            out.append(("residual-bars", figures.residual_bars(before, after, self.excluded)))
+            out.append(("residual-histograms", figures.residual_histograms(before, after, self.noise_position_mm)))
+        if self.measured_positions is not None and after.size == len(self.measured_positions):
+            out.append(("measured-poses", figures.measured_poses_3d(self.measured_positions, after)))
+        interval = self.variance_interval
+        vf = self.calibration.get("variance_factor")
+        if interval is not None and vf is not None and math.isfinite(vf):
+            dof = int(self.calibration["degrees_of_freedom"])
+            out.append(("variance-factor", figures.variance_factor_test(vf, interval, dof, NOISE_CONSISTENCY_LEVEL)))
+        estimated = [r for r in self.parameter_rows() if r["identifiable"] and r["std_error"]]
+        if estimated:
+            out.append(
+                (
+                    "parameter-changes",
+                    figures.parameter_changes(
+                        [r["name"] for r in estimated],
+                        np.array([r["change"] for r in estimated], dtype=float),
+                        np.array([r["std_error"] for r in estimated], dtype=float),
+                    ),
+                )
+            )
+        if self.correlation is not None:
+            names, matrix = self.correlation
+            out.append(("correlation", figures.correlation_heatmap(names, np.asarray(matrix, dtype=float))))
+        return out
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return "—"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return html.escape(str(value))
+
+
+def _data(value: Any) -> str:
+    """The exact value, for machines reading the page (the browser test compares it with the API's)."""
+    return html.escape(repr(value) if isinstance(value, float) else str(value), quote=True)
+
+
+STYLE = """
+body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:2rem auto;max-width:62rem;color:#222}
+h1{font-size:1.5rem}h2{font-size:1.15rem;margin-top:2rem;border-bottom:1px solid #ddd}
+table{border-collapse:collapse;font-size:.85rem}td,th{padding:.2rem .6rem;border-bottom:1px solid #eee;text-align:left}
+td.num{text-align:right;font-variant-numeric:tabular-nums}.failed{color:#a00}.ok{color:#070}
+figure{margin:1rem 0}svg{max-width:100%;height:auto}.note{background:#fff8e1;padding:.4rem .8rem}
+"""
+
+
+def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]], *, css: str = "") -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in headers)
+    body = "".join(
+        "<tr>"
+        + "".join(
+            f'<td class="num">{_cell(v)}</td>' if isinstance(v, int | float) else f"<td>{_cell(v)}</td>" for v in row
+        )
+        + "</tr>"
+        for row in rows
+    )
+    return f'<table class="{css}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def _validation_html(validations: Sequence[Mapping[str, Any]]) -> str:
+    parts = ["<h2>Validation</h2>"]
+    for v in validations:
+        for r in v.get("results", []):
+            pos = r["position_mm"]
+            parts.append(
+                f"<p>Validation <code>{html.escape(str(v.get('id')))}</code>, version {r['version']}: "
+                f'RMS <span data-key="validation.rms">{_cell(pos["rms"])}</span> mm, max {_cell(pos["max"])} mm'
+                f" over {len(r.get('per_pose', []))} poses.</p>"
+            )
+            iso = (r.get("iso9283") or {}).get("poses") or []
+            if iso:
+                parts.append(
+                    _table(
+                        ["ISO 9283 pose", "cycles", "AP (mm)", "RP (mm)"],
+                        [[k + 1, p["cycles"], p["AP_mm"], p["RP_mm"]] for k, p in enumerate(iso)],
+                    )
+                )
+    return "".join(parts)
+
+
+def render_html(report: CalibrationReport) -> str:
+    c = report.calibration
+    title = f"Calibration of {report.robot_name}"
+    status_class = "ok" if c.get("status") == "succeeded" else "failed"
+    summary = "".join(
+        f'<tr><th>{html.escape(label)}</th><td class="num" data-key="{key}" data-value="{_data(value)}">'
+        f"{_cell(value)}</td></tr>"
+        for key, label, value in report.summary()
+    )
+    figures_html = "".join(f'<figure id="fig-{name}">{figures.svg(fig)}</figure>' for name, fig in report.figures())
+    outliers = c.get("outliers") or []
+    outlier_html = (
+        _table(
+            ["pose", "position error (mm)", "orientation error (°)", "statistic", "threshold", "excluded"],
+            [
+                [o["pose"], o["position_mm"], o.get("orientation_deg"), o["statistic"], o["threshold"], o["excluded"]]
+                for o in sorted(outliers, key=lambda o: -float(o["statistic"]))
+            ],
+        )
+        if outliers
+        else "<p>No pose failed the outlier test.</p>"
+    )
+    params = _table(
+        ["parameter", "unit", "value", "nominal", "change", "std error", "identifiable", "confounded with"],
+        [
+            [
+                r["name"],
+                r["unit"],
+                r["value"],
+                r["nominal"],
+                r["change"],
+                r["std_error"],
+                r["identifiable"],
+                r["confounded_with"],
+            ]
+            for r in report.parameter_rows()
+        ],
+        css="parameters",
+    )
+    notes = "".join(f'<p class="note">{html.escape(str(n))}</p>' for n in c.get("notes") or [])
+    validation = _validation_html(report.validations) if report.validations else ""
+    return (
+        f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
+        f"<style>{STYLE}</style></head><body>"
+        f"<h1>{html.escape(title)}</h1>"
+        f'<p>Calibration <code data-key="id">{html.escape(str(c.get("id")))}</code>, '
+        f"{html.escape(str(c.get('created_at')))}: "
+        f'<b class="{status_class}">{html.escape(str(c.get("status")))}</b></p>'
+        f'{notes}<h2>Summary</h2><table class="summary">{summary}</table>'
+        f"<h2>Figures</h2>{figures_html}"
+        f"<h2>Outliers</h2>{outlier_html}{validation}"
+        f"<h2>Parameters</h2>{params}</body></html>"
+    )
+
+
+def _text_page(title: str, lines: Sequence[str]) -> Figure:
+    fig = Figure(figsize=(8.27, 11.69))  # A4
+    fig.text(0.08, 0.95, title, fontsize=14, weight="bold", va="top")
+    fig.text(0.08, 0.91, "\n".join(lines), fontsize=8, va="top", family="monospace")
+    return fig
+
+
+def render_pdf(report: CalibrationReport) -> bytes:
+    c = report.calibration
+    summary = [f"{label:<36} {_cell(value)}" for _, label, value in report.summary()]
+    summary += ["", *(str(n) for n in c.get("notes") or [])]
+    out = io.BytesIO()
+    with PdfPages(out, metadata={"Title": f"Calibration of {report.robot_name}", "Subject": str(c.get("id"))}) as pdf:
+        pdf.savefig(_text_page(f"Calibration of {report.robot_name} — {c.get('id')}", summary))
+        for _, fig in report.figures():
+            pdf.savefig(fig, bbox_inches="tight")
+        rows = [
+            f"{r['name']:<14} {r['unit']:<4} {_cell(r['value']):>14} {_cell(r['nominal']):>12} "
+            f"{_cell(r['change']):>12} {_cell(r['std_error']):>12} {'yes' if r['identifiable'] else 'no':>4}"
+            for r in report.parameter_rows()
+        ]
+        header = (
+            f"{'parameter':<14} {'unit':<4} {'value':>14} {'nominal':>12} {'change':>12} {'std error':>12} {'id.':>4}"
+        )
+        for start in range(0, len(rows), PARAMETER_ROWS_PER_PDF_PAGE):
+            page = [header, *rows[start : start + PARAMETER_ROWS_PER_PDF_PAGE]]
+            pdf.savefig(_text_page("Parameters", page))
+    return out.getvalue()
