@@ -15,7 +15,7 @@ from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service import logs, problems, warmup
+from service import logs, problems, ui, warmup
 from service.jobs import JobRunner
 from service.metrics import Metrics
 from service.persistence import Database
@@ -167,10 +167,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         description="Calibration of the Intersector Welding Robot: models, pose design, identification, "
         "compensation. Millimetres and degrees; orientations as unit quaternions [w, x, y, z].",
         lifespan=lifespan,
+        docs_url=None,  # served by service.ui with local assets: the default loads Swagger UI from a CDN
+        redoc_url=None,
     )
     app.state.settings = settings
     app.state.metrics = Metrics()
     problems.install(app)
+    ui.install(app)
     for module in (robots, kinematics, designs, calibrations, jobs, error_analysis, health):
         app.include_router(module.router)
     keys = settings.keys
