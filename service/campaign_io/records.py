@@ -1,0 +1,242 @@
+"""Tables → the API's measurement records: columns by name, units and conventions as the file states them.
+
+A campaign arrives as one table (joints and measurements per row) or as two that the user's tools wrote
+separately: the controller's joint file and the instrument's point file, joined by a pose id. Lengths become mm
+(from the header's unit, else the chosen `length_unit`), quaternions `[w, x, y, z]`, an instrument's U95 becomes
+σ = U95 / 2 (a 95 % expanded uncertainty with coverage factor 2).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any
+
+from service.campaign_io.errors import CampaignFileError
+from service.campaign_io.tabular import Row, Table
+
+MM_PER: dict[str, float] = {"mm": 1.0, "m": 1000.0, "cm": 10.0, "um": 1e-3, "µm": 1e-3, "in": 25.4, "inch": 25.4}
+"""Length units a file may use, in mm: the only conversion of file lengths (the API itself takes mm)."""
+
+U95_COVERAGE = 2.0
+
+ALIASES: dict[str, tuple[str, ...]] = {
+    "pose_id": ("pose_id", "pose", "id", "point_id", "point", "name", "point_name", "target"),
+    "x": ("x",),
+    "y": ("y",),
+    "z": ("z",),
+    "qw": ("qw", "w"),
+    "qx": ("qx",),
+    "qy": ("qy",),
+    "qz": ("qz",),
+    "sigma_mm": ("sigma_mm", "sigma", "uncertainty", "std", "rms"),
+    "u95": ("u95", "u95_mm"),
+    "temperature_c": ("temperature_c", "temperature", "temp"),
+    "timestamp": ("timestamp", "time", "datetime", "date_time", "date"),
+    "collection": ("collection",),
+    "group": ("group",),
+}
+KNOWN_IGNORED = ("timestamp", "collection", "group")
+"""Columns instrument software writes that a calibration does not use: recognised, and not reported as unknown."""
+
+
+class QuaternionOrder(StrEnum):
+    WXYZ = "wxyz"
+    XYZW = "xyzw"
+
+
+class UncertaintyKind(StrEnum):
+    SIGMA = "sigma"
+    U95 = "u95"
+
+
+@dataclass(frozen=True)
+class ImportOptions:
+    length_unit: str = "mm"
+    """Unit of x, y, z and uncertainties when the header does not state one."""
+    quaternion_order: QuaternionOrder = QuaternionOrder.WXYZ
+    """Of the columns qw/qx/qy/qz or q0…q3 when they are not named by component."""
+    uncertainty: UncertaintyKind = UncertaintyKind.SIGMA
+    """What a column called `uncertainty` holds; a column called `u95` is always read as U95."""
+
+    def __post_init__(self) -> None:
+        if self.length_unit.lower() not in MM_PER:
+            raise CampaignFileError(f"unknown length unit {self.length_unit!r}; use one of {', '.join(MM_PER)}")
+
+
+@dataclass(frozen=True)
+class Measured:
+    line: int
+    pose_id: str | None
+    position: list[float]
+    orientation: list[float] | None
+    sigma_mm: float | None
+    temperature_c: float | None
+
+
+def _column_map(table: Table, joint_names: Sequence[str]) -> tuple[dict[str, str], list[str]]:
+    """Canonical name → the table's column; and the table's columns nobody uses."""
+    columns = set(table.columns)
+    found: dict[str, str] = {}
+    for canonical, aliases in ALIASES.items():
+        for alias in aliases:
+            if alias in columns:
+                found[canonical] = alias
+                break
+    joints = {normalise_joint(n) for n in joint_names}
+    # Leica-style q0…q3 are quaternion components (q0 the scalar), unless the robot's own joints are named so and
+    # the table has no q0: a joint file.
+    if "q0" in columns and "qw" not in found:
+        clash = sorted(joints & {"q1", "q2", "q3"} & columns)
+        if clash:
+            raise CampaignFileError(
+                f"columns q0…q3 read as a quaternion (scalar first, as Leica writes it) clash with the robot's joints "
+                f"{', '.join(clash)}: name the quaternion columns qw, qx, qy, qz in a table that also has joints",
+                line=1,
+            )
+        for canonical, alias in zip(("qw", "qx", "qy", "qz"), ("q0", "q1", "q2", "q3"), strict=True):
+            if alias in columns:
+                found[canonical] = alias
+    for name in joints & columns:
+        if name not in found.values():
+            found[name] = name
+    used = set(found.values())
+    unknown = [c for c in table.columns if c not in used and c]
+    return found, unknown
+
+
+def normalise_joint(name: str) -> str:
+    return name.strip().lower()
+
+
+def _length(table: Table, column: str, options: ImportOptions) -> float:
+    unit = table.units.get(column, options.length_unit).lower()
+    if unit not in MM_PER:
+        raise CampaignFileError(
+            f"column {column}: unknown length unit {unit!r} in the header; use one of {', '.join(MM_PER)}",
+            column=table.column_number(column),
+        )
+    return MM_PER[unit]
+
+
+def measured_points(
+    table: Table, options: ImportOptions, joint_names: Sequence[str] = ()
+) -> tuple[list[Measured], list[str]]:
+    """The measured points of each row; notes say which columns were ignored and which units were converted."""
+    found, unknown = _column_map(table, joint_names)
+    missing = [c for c in ("x", "y", "z") if c not in found]
+    if missing:
+        raise CampaignFileError(
+            f"the header has no column {', '.join(missing)} (found: {', '.join(table.columns)})", line=1
+        )
+    notes = list(table.notes)
+    ignored = [c for c in unknown if c not in KNOWN_IGNORED]
+    if ignored:
+        notes.append(f"columns ignored (unknown): {', '.join(ignored)}")
+    scale = _length(table, found["x"], options)
+    if scale != 1.0:
+        notes.append(f"positions converted to mm (×{scale:g})")
+    quaternion = [found.get(c) for c in ("qw", "qx", "qy", "qz")]
+    if any(quaternion) and not all(quaternion):
+        raise CampaignFileError("give all four quaternion columns (qw, qx, qy, qz or q0…q3) or none", line=1)
+    order = options.quaternion_order
+    if all(quaternion) and "qw" in table.columns and order is QuaternionOrder.XYZW:
+        raise CampaignFileError("the columns name the quaternion's components; quaternion_order does not apply")
+    points = []
+    for row in table.rows:
+        position = [table.number(row, found[c]) * scale for c in ("x", "y", "z")]
+        orientation = None
+        if all(quaternion):
+            values = [table.number(row, str(c)) for c in quaternion]
+            orientation = values if order is QuaternionOrder.WXYZ else [values[3], *values[:3]]
+        points.append(
+            Measured(
+                line=row.line,
+                pose_id=row.cells[found["pose_id"]].strip() if "pose_id" in found else None,
+                position=position,
+                orientation=orientation,
+                sigma_mm=_sigma(table, row, found, options),
+                temperature_c=table.number(row, found["temperature_c"]) if "temperature_c" in found else None,
+            )
+        )
+    return points, notes
+
+
+def _sigma(table: Table, row: Row, found: dict[str, str], options: ImportOptions) -> float | None:
+    if "u95" in found:
+        return table.number(row, found["u95"]) * _length(table, found["u95"], options) / U95_COVERAGE
+    if "sigma_mm" in found:
+        value = table.number(row, found["sigma_mm"]) * _length(table, found["sigma_mm"], options)
+        return value / U95_COVERAGE if options.uncertainty is UncertaintyKind.U95 else value
+    return None
+
+
+def joint_rows(table: Table, joint_names: Sequence[str]) -> list[tuple[int, str | None, list[float]]]:
+    """(line, pose id, joints) of each row; every joint of the robot must have its column."""
+    found, _ = _column_map(table, joint_names)
+    names = [normalise_joint(n) for n in joint_names]
+    missing = [n for n in names if n not in found]
+    if missing:
+        raise CampaignFileError(
+            f"the header has no column for the joint(s) {', '.join(missing)}: the robot's joints are "
+            f"{', '.join(names)} (found: {', '.join(table.columns)})",
+            line=1,
+        )
+    out = []
+    for row in table.rows:
+        pose_id = row.cells[found["pose_id"]].strip() if "pose_id" in found else None
+        out.append((row.line, pose_id, [table.number(row, n) for n in names]))
+    return out
+
+
+def record(joints: list[float], point: Measured) -> dict[str, Any]:
+    rec: dict[str, Any] = {"joints": joints, "position": point.position, "orientation": point.orientation}
+    if point.sigma_mm is not None:
+        rec["sigma_mm"] = point.sigma_mm
+    if point.temperature_c is not None:
+        rec["temperature_c"] = point.temperature_c
+    return rec
+
+
+def campaign_records(
+    table: Table, joint_names: Sequence[str], options: ImportOptions
+) -> tuple[list[dict[str, Any]], list[str]]:
+    """One table with the joints and the measurement of each pose."""
+    points, notes = measured_points(table, options, joint_names)
+    joints = joint_rows(table, joint_names)
+    return [record(q, p) for (_, _, q), p in zip(joints, points, strict=True)], notes
+
+
+def joined_records(
+    joint_table: Table, point_table: Table, joint_names: Sequence[str], options: ImportOptions
+) -> tuple[list[dict[str, Any]], list[str]]:
+    """The controller's joint file and the instrument's point file, joined by pose id (in the joint file's order)."""
+    joints = joint_rows(joint_table, joint_names)
+    points, notes = measured_points(point_table, options)
+    if any(pid is None for _, pid, _ in joints) or any(p.pose_id is None for p in points):
+        raise CampaignFileError(
+            "to join a joint file and a point file both need a pose id column (pose_id, id, point, name or target)"
+        )
+    by_id: dict[str, Measured] = {}
+    for p in points:
+        if p.pose_id in by_id:
+            raise CampaignFileError(f"point file line {p.line}: pose id {p.pose_id!r} appears twice", line=p.line)
+        by_id[str(p.pose_id)] = p
+    joint_ids = [str(pid) for _, pid, _ in joints]
+    seen: set[str] = set()
+    for (line, pid, _), key in zip(joints, joint_ids, strict=True):
+        if key in seen:
+            raise CampaignFileError(f"joint file line {line}: pose id {pid!r} appears twice", line=line)
+        seen.add(key)
+    only_joints = [k for k in joint_ids if k not in by_id]
+    only_points = [k for k in by_id if k not in seen]
+    if only_joints:
+        raise CampaignFileError(
+            f"{len(only_joints)} pose id(s) of the joint file have no measured point: {', '.join(only_joints[:10])}"
+        )
+    if only_points:
+        notes.append(
+            f"{len(only_points)} measured point(s) have no joints and were ignored: {', '.join(only_points[:10])}"
+        )
+    return [record(q, by_id[key]) for (_, _, q), key in zip(joints, joint_ids, strict=True)], notes

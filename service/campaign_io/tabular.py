@@ -1,0 +1,146 @@
+"""A tolerant reader of campaign tables, as instrument software and spreadsheets write them.
+
+What it accepts, because real files come that way: a UTF-8 byte-order mark (Excel), `,` `;` or tab as delimiter
+(sniffed), decimal commas (European locales, with `;` or tab), `#` comment lines, blank lines, CR, LF or CRLF line
+ends, columns in any order matched by name (case, spaces and a trailing unit such as `X [mm]` ignored; the unit
+is read), unknown columns (named in a note, ignored). What it refuses, with the line and column: a cell that is
+not a number, a missing column, a row with too many or too few cells, a body whose line breaks were stripped.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+from service.campaign_io.errors import CampaignFileError
+
+UNIT_IN_NAME = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
+DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+(?:[eE][+-]?\d+)?$")
+SNIFF_DELIMITERS = ",;\t"
+
+
+def normalise(name: str) -> str:
+    """`" X [mm] "` → `"x"`; `"Point ID"` → `"point_id"`."""
+    match = UNIT_IN_NAME.match(name.strip())
+    core = match.group("name") if match else name
+    return re.sub(r"[\s\-]+", "_", core.strip().lower())
+
+
+def unit_of(name: str) -> str | None:
+    match = UNIT_IN_NAME.match(name.strip())
+    return match.group("unit").strip().lower() if match else None
+
+
+@dataclass(frozen=True)
+class Row:
+    line: int
+    """1-based line number in the file, for messages."""
+    cells: Mapping[str, str]
+    """Normalised column name → raw cell text."""
+
+
+@dataclass(frozen=True)
+class Table:
+    columns: tuple[str, ...]
+    """Normalised names, in file order."""
+    units: Mapping[str, str]
+    """Normalised name → unit given in the header (e.g. `x` → `m` for a column `X [m]`)."""
+    rows: tuple[Row, ...]
+    delimiter: str
+    decimal_comma: bool
+    notes: tuple[str, ...] = field(default=())
+
+    def column_number(self, name: str) -> int:
+        return self.columns.index(name) + 1
+
+    def number(self, row: Row, name: str) -> float:
+        """The cell as a float, or a CampaignFileError naming the line and column."""
+        text = row.cells.get(name, "").strip()
+        if self.decimal_comma:
+            text = text.replace(",", ".")
+        try:
+            value = float(text)
+        except ValueError:
+            raise CampaignFileError(
+                f"line {row.line}, column {self.column_number(name)} ({name}): {text!r} is not a number",
+                line=row.line,
+                column=self.column_number(name),
+            ) from None
+        if not math.isfinite(value):
+            raise CampaignFileError(
+                f"line {row.line}, column {self.column_number(name)} ({name}): {text!r} is not a finite number",
+                line=row.line,
+                column=self.column_number(name),
+            )
+        return value
+
+
+def _content_lines(text: str, comment: str) -> list[tuple[int, str]]:
+    lines = text.splitlines()  # universal: CR-only, LF, CRLF
+    return [(k + 1, line) for k, line in enumerate(lines) if line.strip() and not line.lstrip().startswith(comment)]
+
+
+def _sniff(header: str, sample: Sequence[str]) -> str:
+    try:
+        return csv.Sniffer().sniff("\n".join([header, *sample[:20]]), delimiters=SNIFF_DELIMITERS).delimiter
+    except csv.Error:
+        # The sniffer gives up on short or irregular samples: the delimiter the header uses most is the answer.
+        counts = {d: header.count(d) for d in SNIFF_DELIMITERS}
+        best = max(counts, key=lambda d: counts[d])
+        return best if counts[best] else ","
+
+
+def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -> Table:
+    """Parse `text` into rows keyed by normalised header names. `expected` (normalised names) is only used to
+    recognise a body whose line breaks were stripped and to word the messages."""
+    text = text.removeprefix("\ufeff")
+    lines = _content_lines(text, comment)
+    if not lines:
+        raise CampaignFileError("the file has no header and no data (only blank or comment lines)", line=1)
+    header_line, header = lines[0]
+    data_lines = [t for _, t in lines[1:]]
+    delimiter = _sniff(header, data_lines)
+    reader = csv.reader([t for _, t in lines], delimiter=delimiter)
+    try:
+        parsed = list(reader)
+    except csv.Error as exc:
+        raise CampaignFileError(
+            f"line {lines[reader.line_num - 1][0]}: {exc}", line=lines[reader.line_num - 1][0]
+        ) from exc
+    raw_names = parsed[0]
+    names = [normalise(n) for n in raw_names]
+    expected_names = list(expected)
+    if len(lines) == 1 and expected_names and len(names) > len(expected_names) + 1:
+        raise CampaignFileError(
+            f"the body is a single line of {len(names)} fields: its line breaks were stripped (curl -d does that; "
+            "send the file with curl --data-binary @file)",
+            line=1,
+        )
+    duplicates = sorted({n for n in names if names.count(n) > 1 and n})
+    if duplicates:
+        raise CampaignFileError(f"line {header_line}: columns {', '.join(duplicates)} appear twice", line=header_line)
+    cells_rows = parsed[1:]
+    decimal_comma = delimiter != "," and any(DECIMAL_COMMA.match(c.strip()) for r in cells_rows[:50] for c in r)
+    rows = []
+    for (line, _), cells in zip(lines[1:], cells_rows, strict=True):
+        if len(cells) != len(names):
+            raise CampaignFileError(
+                f"line {line}: {len(cells)} cells for the {len(names)} columns of the header (delimiter {delimiter!r})",
+                line=line,
+            )
+        rows.append(Row(line=line, cells=dict(zip(names, cells, strict=True))))
+    units = {n: u for n, raw in zip(names, raw_names, strict=True) if (u := unit_of(raw))}
+    notes = []
+    if decimal_comma:
+        notes.append("numbers were read with decimal commas")
+    return Table(
+        columns=tuple(names),
+        units=units,
+        rows=tuple(rows),
+        delimiter=delimiter,
+        decimal_comma=decimal_comma,
+        notes=tuple(notes),
+    )
