@@ -93,15 +93,10 @@ def test_a_spatial_analyzer_point_export(truth: list) -> None:
 
 
 def test_quaternions_in_xyzw_order_by_option(truth: list) -> None:
-    header = ",".join([*JOINTS, "x", "y", "z", "q0", "q1", "q2", "q3"])
-    rows = [
-        ",".join(map(repr, r["joints"] + r["position"] + r["orientation"][1:] + r["orientation"][:1])) for r in truth
-    ]
-    # q1…q3 here would clash with the robot's joints q1…q3: a single table names them qx/qy/qz; a point file may not.
+    # A table with the robot's joints q1…q4 cannot also hold a Leica-style quaternion q0…q3.
+    clash = read_table(",".join(["q0", *JOINTS, "x", "y", "z"]) + "\n" + ",".join(["1"] * 14))
     with pytest.raises(CampaignFileError, match="clash with the robot's joints q1, q2, q3"):
-        campaign_records(
-            read_table("\n".join([header, *rows])), JOINTS, ImportOptions(quaternion_order=QuaternionOrder.XYZW)
-        )
+        campaign_records(clash, JOINTS, ImportOptions())
     points = ["id,x,y,z,q0,q1,q2,q3"] + [
         f"{k}," + ",".join(map(repr, r["position"] + r["orientation"][1:] + r["orientation"][:1]))
         for k, r in enumerate(truth)
@@ -122,7 +117,7 @@ def test_quaternions_in_xyzw_order_by_option(truth: list) -> None:
         ("q1,q2\n1,2", "no column x, y, z"),
         (",".join([*JOINTS, "x", "y", "z"]) + "\n" + ",".join(["1"] * 12 + ["abc"]), "line 2, column 13 (z): 'abc'"),
         (",".join([*JOINTS, "x", "y", "z"]) + "\n" + ",".join(["1"] * 12), "line 2: 12 cells for the 13 columns"),
-        (",".join(JOINTS[:9] + ["x", "y", "z"]) + "\n" + ",".join(["1"] * 12), "no column for the joint(s) l6"),
+        (",".join([*JOINTS[:9], "x", "y", "z"]) + "\n" + ",".join(["1"] * 12), "no column for the joint(s) l6"),
         # curl -d strips line breaks: header and rows end up on one line.
         (",".join([*JOINTS, "x", "y", "z"]) + ",".join(["1"] * 26), "line breaks were stripped"),
         ("# only a comment\n\n", "no header"),
