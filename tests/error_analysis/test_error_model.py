@@ -145,6 +145,7 @@ def test_carriage_frame_errors_match_a_hand_written_dh_chain(desc: RobotDescript
     assert 1e-4 < gap < 0.05 * np.abs(errors.exact).max()
 
 
+@pytest.mark.slow  # Monte Carlo: 500 draws per distribution
 @pytest.mark.parametrize(("distribution", "variance"), [("sign", 1.0), ("uniform", 1.0 / 3.0)])
 def test_monte_carlo_rms_matches_the_expected_variance(
     desc: RobotDescription, distribution: str, variance: float
