@@ -67,4 +67,4 @@ run: $(RUNTIME_STAMP)
 	$(BIN)/python -m service --host 127.0.0.1 --port 8000
 
 clean:
-	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .coverage
+	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .coverage .import_linter_cache
