@@ -1,22 +1,48 @@
 # Every habit is one target; CI calls `make test`, so a local run and CI cannot drift.
+# Installs come from the lock files (requirements/*.lock, `make lock` regenerates them from pyproject.toml):
+# a clean clone gets the versions the suite last passed with, not whatever was released since.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
-STAMP := $(VENV)/.installed
+RUNTIME_LOCK := requirements/runtime.lock
+DEV_LOCK := requirements/dev.lock
+STAMP := $(VENV)/.installed-dev
+RUNTIME_STAMP := $(VENV)/.installed-runtime
+# --no-emit-*: the locks name packages and versions only, never this machine's index or wheel folder.
+LOCK_FLAGS := --quiet --no-emit-index-url --no-emit-find-links --no-emit-trusted-host --strip-extras \
+	--annotation-style=line
 
-.PHONY: install test lint typecheck pytest bench run clean error-analysis browser
+.PHONY: install install-runtime lock test test-fast lint typecheck pytest bench run clean error-analysis browser
 
-$(STAMP): pyproject.toml
-	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
+$(VENV)/bin/python:
+	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev]'
-	touch $(STAMP)
+
+# The developer's install: runtime + tools, exactly as locked, then the project itself without re-resolving.
+$(STAMP): $(DEV_LOCK) pyproject.toml | $(VENV)/bin/python
+	$(BIN)/pip install --quiet -r $(DEV_LOCK)
+	$(BIN)/pip install --quiet --no-deps -e .
+	touch $(STAMP) $(RUNTIME_STAMP)
+
+# A user's install (`make run`): the runtime lock only, none of the dev tools.
+$(RUNTIME_STAMP): $(RUNTIME_LOCK) pyproject.toml | $(VENV)/bin/python
+	$(BIN)/pip install --quiet -r $(RUNTIME_LOCK)
+	$(BIN)/pip install --quiet --no-deps -e .
+	touch $(RUNTIME_STAMP)
 
 install: $(STAMP)
+
+install-runtime: $(RUNTIME_STAMP)
+
+# The dev lock is constrained by the runtime lock, so both agree on every shared package.
+lock: $(STAMP)
+	$(BIN)/pip-compile $(LOCK_FLAGS) --upgrade -o $(RUNTIME_LOCK) pyproject.toml
+	$(BIN)/pip-compile $(LOCK_FLAGS) --upgrade --extra dev -c $(RUNTIME_LOCK) -o $(DEV_LOCK) pyproject.toml
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(BIN)/lint-imports
 
 typecheck: $(STAMP)
 	$(BIN)/mypy
@@ -29,8 +55,13 @@ browser:
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium >/dev/null; } || \
 	  echo "note: $(CHROMIUM) is missing (apt-get install chromium): the browser tests will be skipped"
 
+# Everything, with coverage and its floor ([tool.coverage] in pyproject.toml).
 pytest: $(STAMP) browser
-	$(BIN)/pytest
+	$(BIN)/pytest --cov
+
+# The inner loop: no tests marked slow, no coverage.
+test-fast: $(STAMP)
+	$(BIN)/pytest -m "not slow"
 
 test: lint typecheck pytest
 
@@ -40,8 +71,8 @@ bench: $(STAMP)
 error-analysis: $(STAMP)
 	$(BIN)/python -m models.error_analysis --plot docs/error_analysis.png
 
-run: $(STAMP)
+run: $(RUNTIME_STAMP)
 	$(BIN)/python -m service --host 127.0.0.1 --port 8000
 
 clean:
-	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache
+	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .coverage .import_linter_cache

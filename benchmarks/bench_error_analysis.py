@@ -17,7 +17,7 @@ import numpy as np
 
 from benchmarks.timing import best_of, target
 from models import forward_kinematics, functions_for, iwr
-from models.error_analysis import Tolerances, draw_errors, error_analysis, summary
+from models.error_analysis import ErrorMagnitudes, draw_errors, error_analysis, summary
 from models.kinematics import solve_platforms
 from models.workspace import sample_workspace
 
@@ -34,7 +34,7 @@ def run() -> dict[str, object]:
     joints = sample_workspace(desc, 40, 0)
     assert isinstance(joints, np.ndarray)
     theta0 = desc.parameters.nominal
-    deltas = draw_errors(desc, 200, Tolerances(), "sign", np.random.default_rng(0))
+    deltas = draw_errors(desc, 200, ErrorMagnitudes(), "sign", np.random.default_rng(0))
     seeds = forward_kinematics(desc, joints).platforms
 
     def per_draw() -> np.ndarray:

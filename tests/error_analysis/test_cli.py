@@ -12,7 +12,8 @@ from typing import Any
 import pytest
 
 from models import RobotDescription
-from models.error_analysis import SUBSYSTEMS, error_analysis, main
+from models.error_analysis import SUBSYSTEMS, error_analysis
+from models.error_analysis.__main__ import main
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

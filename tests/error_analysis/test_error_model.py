@@ -10,7 +10,7 @@ import pytest
 from models import RobotDescription, forward_kinematics, sample_workspace
 from models.error_analysis import (
     SUBSYSTEMS,
-    Tolerances,
+    ErrorMagnitudes,
     carriage_frame_errors,
     error_analysis,
     pose_errors,
@@ -33,7 +33,7 @@ def test_linearisation_gap_shrinks_quadratically(desc: RobotDescription, distrib
     first_order: list[float] = []
     for s in SCALES:
         res = error_analysis(
-            desc, n_poses=6, n_draws=8, tolerances=Tolerances().scaled(s), distribution=distribution, seed=5
+            desc, n_poses=6, n_draws=8, tolerances=ErrorMagnitudes().scaled(s), distribution=distribution, seed=5
         )
         for sub in SUBSYSTEMS:
             gap = res.errors[sub].gap
@@ -53,7 +53,7 @@ def test_linearisation_gap_shrinks_quadratically(desc: RobotDescription, distrib
 
 
 def test_zero_tolerances_give_zero_errors(desc: RobotDescription) -> None:
-    res = error_analysis(desc, n_poses=5, n_draws=3, tolerances=Tolerances(0.0, 0.0, 0.0, 0.0), seed=2)
+    res = error_analysis(desc, n_poses=5, n_draws=3, tolerances=ErrorMagnitudes(0.0, 0.0, 0.0, 0.0), seed=2)
     assert not np.any(res.deltas)
     for sub in SUBSYSTEMS:
         assert np.max(np.abs(res.errors[sub].exact)) < 1e-10
@@ -145,6 +145,7 @@ def test_carriage_frame_errors_match_a_hand_written_dh_chain(desc: RobotDescript
     assert 1e-4 < gap < 0.05 * np.abs(errors.exact).max()
 
 
+@pytest.mark.slow  # Monte Carlo: 500 draws per distribution
 @pytest.mark.parametrize(("distribution", "variance"), [("sign", 1.0), ("uniform", 1.0 / 3.0)])
 def test_monte_carlo_rms_matches_the_expected_variance(
     desc: RobotDescription, distribution: str, variance: float

@@ -81,6 +81,7 @@ def test_robust_fit_flags_and_survives_a_broken_beam(
     assert rms_position_error(desc, plain.parameters, sim, check_joints) > 2 * bound
 
 
+@pytest.mark.slow  # Monte Carlo: 25 noise draws, a calibration each
 def test_reported_covariance_is_honest(desc: RobotDescription, sim: SimulatedRobot) -> None:
     """Over noise draws, (θ̂ − θ*)ᵀ Σ⁻¹ (θ̂ − θ*) follows χ² with as many degrees of freedom as parameters.
 

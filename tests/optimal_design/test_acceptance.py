@@ -11,6 +11,9 @@ from models.simulation import measure, perturbed_robot
 from optimal_design import PoseDesign, design_poses, metrics
 from optimal_design.information import candidate_information
 
+# M = 2 000 candidate designs and their random baselines: ~35 s together on the 2-core machine.
+pytestmark = pytest.mark.slow
+
 M, K, SEED = 2000, 30, 1
 
 

@@ -13,6 +13,16 @@ from fastapi.testclient import TestClient
 from service.app import create_app
 from service.settings import Settings
 
+SLOW_CONTRACT_CASES = ("test_api_contract[POST /v1/error-analysis]",)
+"""Contract cases that take long (see test_contract.py): `make test-fast` skips them."""
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if item.name in SLOW_CONTRACT_CASES:
+            item.add_marker(pytest.mark.slow)
+
+
 POSTGRES_ADMIN = os.environ.get("IWR_TEST_POSTGRES", "postgresql://postgres@127.0.0.1:5432/postgres")
 
 

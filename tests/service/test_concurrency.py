@@ -9,11 +9,15 @@ from pathlib import Path
 
 import httpx
 import numpy as np
+import pytest
 
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.live import running_server
 from tests.service.helpers import records
+
+# A load test: a live server under fifty clients for IWR_CONCURRENCY_SECONDS (20 s by default).
+pytestmark = pytest.mark.slow
 
 DESC = iwr()
 CLIENTS = 50

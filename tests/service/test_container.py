@@ -46,6 +46,14 @@ def test_runtime_stage_is_slim_non_root_and_checked() -> None:
     assert not any("apt-get install" in line and "gcc" in line for line in lines), "no compiler at runtime"
 
 
+def test_image_installs_the_runtime_lock_and_nothing_unpinned() -> None:
+    text = re.sub(r"\\\n", " ", DOCKERFILE.read_text())
+    installs = [cmd for cmd in re.findall(r"pip install [^&\n]*", text)]
+    assert any("-r requirements/runtime.lock" in cmd for cmd in installs)
+    assert all("-r requirements/runtime.lock" in cmd or "--no-deps" in cmd for cmd in installs), installs
+    assert "dev.lock" not in text
+
+
 def test_compose_file_is_well_formed() -> None:
     doc = yaml.safe_load(COMPOSE.read_text())
     assert set(doc["services"]) == {"api", "db"}
@@ -75,6 +83,7 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+@pytest.mark.slow  # starts the service as the image would: ~5 s
 def test_the_image_command_and_environment_start_the_service(tmp_path: Path) -> None:
     lines = _runtime_stage()
     cmd = json.loads(next(line for line in lines if line.startswith("CMD "))[4:])

@@ -10,6 +10,9 @@ import pytest
 
 from service.live import ROOT, running_server
 
+# A live server and a full calibration through the example client: ~14 s.
+pytestmark = pytest.mark.slow
+
 
 def test_example_session(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     sys.path.insert(0, str(ROOT / "examples"))

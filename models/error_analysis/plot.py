@@ -12,11 +12,12 @@ from typing import Any
 
 import numpy as np
 
-from models.error_analysis import AXES, MODELS, SUBSYSTEMS, ErrorAnalysisResult
+from models.error_analysis.result import MODELS, SUBSYSTEMS, ErrorAnalysisResult
+from models.error_analysis.statistics import AXES, UNITS
 
 _COLOURS = {"carriage": "tab:blue", "hexapod": "tab:orange", "whole": "tab:green", "carriage_frame": "tab:purple"}
 _LABELS = {"carriage": "carriage", "hexapod": "hexapod", "whole": "whole robot", "carriage_frame": "carriage frame {4}"}
-_QUANTITIES = (("position", "mm", 1.0), ("orientation", "deg", float(np.degrees(1.0))))
+_QUANTITIES = tuple((quantity, unit, factor) for quantity, (unit, factor) in UNITS.items())
 
 
 def _pyplot() -> Any:
