@@ -1,0 +1,253 @@
+"""Cheap checks before a fit that name the likely slip and the records it touches.
+
+A campaign in the wrong units or conventions ends, without these, in a generic failure ("the hexapod poses do
+not assemble", a fit 10⁴ σ off) that names no cause. Each check compares the data with the nominal (or
+starting) model in closed form: no iteration, milliseconds for hundreds of poses.
+
+- `RADIANS`: every revolute joint reads within ±π although its range is far wider: degrees were expected.
+- `LENGTH_SCALE`: the best similarity fit of the model's TCP positions onto the measured ones has a scale near
+  0.001 (metres), 1/25.4 (inches) or 1000 (µm) instead of 1.
+- `REFLECTION`: a mirrored fit is much better than any rotation: a left-handed instrument frame (one axis
+  flipped), which no rigid base can represent.
+- `QUATERNION_ORDER`: the orientations fit far better read as `[x, y, z, w]` than as `[w, x, y, z]`.
+- `ORIENTATION_FLIP`: orientation residuals near 180° after registration (a sign or frame convention).
+- `FAR_RECORDS`: single records far off the rest after a robust registration (this record, not the campaign).
+Internal units throughout (mm, rad); the messages state boundary units.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+from numpy.typing import NDArray
+
+from models.errors import CalibrationError
+from models.hybrid import RobotDescription
+from models.kinematics import Array, forward_kinematics
+from models.parameters import Kind
+from models.transforms import quaternion_to_matrix
+
+MIN_RECORDS = 5
+RADIANS_RANGE_DEG = 20.0
+"""Only revolute joints whose range is wider than this can betray radians (a ±3° joint reads ±π either way)."""
+SCALE_TOLERANCE = 0.2
+"""A similarity scale within ±20 % of 1/1000, 1/25.4 or 1000 names that unit."""
+REFLECTION_GAIN = 0.5
+"""A mirrored fit whose RMS is below this fraction of the best rotation's marks a left-handed frame."""
+FLIP_DEG = 150.0
+FAR_MAD = 8.0
+"""A record is far off when its residual exceeds the median by this many robust σ (1.4826 MAD)…"""
+FAR_MIN_MM = 10.0
+"""…and by at least this much: the nominal model itself is millimetres off before a calibration."""
+MAX_LISTED = 10
+
+
+class Finding(StrEnum):
+    RADIANS = "radians"
+    LENGTH_SCALE = "length_scale"
+    REFLECTION = "reflection"
+    QUATERNION_ORDER = "quaternion_order"
+    ORIENTATION_FLIP = "orientation_flip"
+    FAR_RECORDS = "far_records"
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    finding: Finding
+    message: str
+    """What is wrong and what to do, in boundary units."""
+    records: tuple[int, ...] = ()
+    """The records concerned (0-based, campaign order); empty when it is the whole campaign."""
+    blocking: bool = True
+    """True when no fit can succeed until it is fixed; False for records a robust fit can leave out."""
+
+
+def _listed(records: list[int]) -> str:
+    shown = ", ".join(str(r) for r in records[:MAX_LISTED])
+    return shown + (f" and {len(records) - MAX_LISTED} more" if len(records) > MAX_LISTED else "")
+
+
+def check_radians(desc: RobotDescription, joints: Array) -> Diagnosis | None:
+    """Revolute readings (rad inside) that, as degrees, all lie within ±π although the range is wide."""
+    wide = [
+        j
+        for j, kind in enumerate(desc.joint_kinds)
+        if kind is Kind.ANGLE and math.degrees(desc.joint_max[j] - desc.joint_min[j]) > RADIANS_RANGE_DEG
+    ]
+    if not wide or joints.shape[0] < MIN_RECORDS:
+        return None
+    as_degrees = np.degrees(joints[:, wide])
+    if np.all(np.abs(as_degrees) <= math.pi + 1e-9):
+        names = ", ".join(desc.joint_names[j] for j in wide)
+        return Diagnosis(
+            Finding.RADIANS,
+            f"every reading of the revolute joint(s) {names} lies within ±3.14 although their ranges span tens of "
+            "degrees: the joints look like radians; send them in degrees",
+        )
+    return None
+
+
+@dataclass(frozen=True)
+class _Similarity:
+    scale: float
+    rotation: Array
+    translation: Array
+    rms_mm: float
+    reflected: bool
+
+
+def _similarity(source: Array, target: Array, *, allow_reflection: bool, with_scale: bool) -> _Similarity:
+    """Umeyama's closed form: target ≈ s R source + t."""
+    mu_s, mu_t = source.mean(axis=0), target.mean(axis=0)
+    a, b = source - mu_s, target - mu_t
+    u, sv, vt = np.linalg.svd(b.T @ a)
+    d = np.ones(3)
+    if not allow_reflection and np.linalg.det(u @ vt) < 0:
+        d[2] = -1.0
+    rotation = u @ np.diag(d) @ vt
+    variance = float(np.sum(a**2))
+    scale = float(np.sum(sv * d) / variance) if with_scale and variance > 0 else 1.0
+    translation = mu_t - scale * rotation @ mu_s
+    fitted = scale * a @ rotation.T + mu_t
+    rms = float(np.sqrt(np.mean(np.sum((fitted - target) ** 2, axis=1))))
+    return _Similarity(scale, rotation, translation, rms, bool(np.linalg.det(rotation) < 0))
+
+
+UNIT_SCALES = (("metres", 1e-3), ("inches", 1 / 25.4), ("micrometres", 1e3), ("centimetres", 0.1))
+
+
+def check_length_scale(model: Array, measured: Array) -> Diagnosis | None:
+    fit = _similarity(model, measured, allow_reflection=True, with_scale=True)
+    for unit, scale in UNIT_SCALES:
+        if abs(fit.scale / scale - 1) < SCALE_TOLERANCE:
+            return Diagnosis(
+                Finding.LENGTH_SCALE,
+                f"the measured positions are {fit.scale:.4g}× the robot's size: they look like {unit}; "
+                "send positions in millimetres (or choose the file's length unit)",
+            )
+    return None
+
+
+def check_reflection(model: Array, measured: Array) -> Diagnosis | None:
+    proper = _similarity(model, measured, allow_reflection=False, with_scale=False)
+    mirrored = _similarity(model, measured, allow_reflection=True, with_scale=False)
+    if mirrored.reflected and mirrored.rms_mm < REFLECTION_GAIN * proper.rms_mm:
+        return Diagnosis(
+            Finding.REFLECTION,
+            f"the measured positions fit the robot mirrored ({mirrored.rms_mm:.3g} mm RMS) far better than by any "
+            f"rotation ({proper.rms_mm:.3g} mm): the instrument frame looks left-handed (one axis flipped); "
+            "check the instrument's axis convention",
+        )
+    return None
+
+
+def _angles(a: Array, b: Array) -> Array:
+    """Rotation angles between two stacks of rotation matrices."""
+    cos = (np.einsum("nij,nij->n", a, b) - 1.0) / 2.0
+    return np.asarray(np.arccos(np.clip(cos, -1.0, 1.0)), dtype=float)
+
+
+def check_orientations(
+    rotation_fit: Array, model_rotations: Array, quaternions: Array, index: NDArray[np.intp]
+) -> Diagnosis | None:
+    predicted = np.einsum("ij,njk->nik", rotation_fit, model_rotations)
+    as_given = _angles(quaternion_to_matrix(quaternions), predicted)
+    reordered = _angles(quaternion_to_matrix(np.roll(quaternions, 1, axis=1)), predicted)
+    # Register the remaining constant offset away (the tool's orientation may be far from nominal): compare the
+    # spread of each reading's error around its median, which a wrong component order cannot keep small.
+    if np.median(reordered) < 0.2 * np.median(as_given) and np.median(as_given) > math.radians(5):
+        return Diagnosis(
+            Finding.QUATERNION_ORDER,
+            f"the orientations fit {math.degrees(np.median(reordered)):.3g}° (median) read as [x, y, z, w] against "
+            f"{math.degrees(np.median(as_given)):.3g}° as sent: send quaternions as [w, x, y, z] (scalar first)",
+        )
+    flipped = [int(index[k]) for k in np.flatnonzero(as_given > math.radians(FLIP_DEG))]
+    if flipped:
+        return Diagnosis(
+            Finding.ORIENTATION_FLIP,
+            f"records {_listed(flipped)} have orientations about 180° from the robot's: a flipped axis or frame "
+            "convention in the instrument's orientation output",
+            tuple(flipped),
+        )
+    return None
+
+
+def check_far_records(model: Array, measured: Array, index: NDArray[np.intp]) -> Diagnosis | None:
+    """Records far off after a robust registration: refit without the worst until the rest agree."""
+    keep = np.ones(model.shape[0], dtype=bool)
+    residual = np.zeros(model.shape[0])
+    for _ in range(max(1, model.shape[0] // 10)):
+        fit = _similarity(model[keep], measured[keep], allow_reflection=False, with_scale=False)
+        residual = np.linalg.norm(fit.scale * model @ fit.rotation.T + fit.translation - measured, axis=1)
+        median = float(np.median(residual[keep]))
+        spread = 1.4826 * float(np.median(np.abs(residual[keep] - median)))
+        far = residual > median + max(FAR_MAD * spread, FAR_MIN_MM)
+        if not (far & keep).any():
+            break
+        keep &= ~far
+        if keep.sum() < MIN_RECORDS:
+            return None  # nothing agrees: a campaign-wide problem, which the other checks name
+    records = [int(k) for k in np.flatnonzero(~keep)]
+    if not records:
+        return None
+    worst = sorted(records, key=lambda k: -residual[k])
+    details = ", ".join(f"{index[k]} ({residual[k]:.3g} mm)" for k in worst[:MAX_LISTED])
+    return Diagnosis(
+        Finding.FAR_RECORDS,
+        f"{len(records)} record(s) lie far off all the others after registration: {details}"
+        + (" …" if len(records) > MAX_LISTED else "")
+        + "; check these records (joint row, point name) — the rest of the campaign agrees",
+        tuple(int(index[k]) for k in worst),
+        blocking=False,
+    )
+
+
+def _model_poses(desc: RobotDescription, joints: Array, params: Array) -> tuple[Array, Array, NDArray[np.intp]]:
+    """Nominal TCP positions and rotations of the records the model can evaluate, and which those are."""
+    try:
+        fk = forward_kinematics(desc, joints, params, check_ranges=False)
+        return fk.positions, fk.rotations, np.arange(joints.shape[0])
+    except CalibrationError:
+        pass
+    good, positions, rotations = [], [], []
+    for k in range(joints.shape[0]):
+        try:
+            fk = forward_kinematics(desc, joints[k : k + 1], params, check_ranges=False)
+        except CalibrationError:
+            continue
+        good.append(k)
+        positions.append(fk.positions[0])
+        rotations.append(fk.rotations[0])
+    if not good:
+        return np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, dtype=int)
+    return np.array(positions), np.array(rotations), np.array(good)
+
+
+def diagnose(
+    desc: RobotDescription, joints: Array, positions: Array, quaternions: Array | None, params: Array
+) -> tuple[Diagnosis, ...]:
+    """Every finding for a campaign (internal units), most fundamental first; empty when nothing looks wrong."""
+    found: list[Diagnosis] = []
+    radians = check_radians(desc, joints)
+    if radians is not None:
+        return (radians,)  # with the joints wrong, any geometric comparison is meaningless
+    model, model_rotations, usable = _model_poses(desc, joints, params)
+    if usable.size < MIN_RECORDS:
+        return ()
+    measured = positions[usable]
+    for check in (check_length_scale, check_reflection):
+        finding = check(model, measured)
+        if finding is not None:
+            return (finding,)
+    if quaternions is not None:
+        fit = _similarity(model, measured, allow_reflection=False, with_scale=False)
+        finding = check_orientations(fit.rotation, model_rotations, quaternions[usable], usable)
+        if finding is not None:
+            found.append(finding)
+    far = check_far_records(model, measured, usable)
+    if far is not None:
+        found.append(far)
+    return tuple(found)
