@@ -1,0 +1,103 @@
+"""Schema for the calibration lifecycle, distributed jobs and writers that cannot lose each other's work.
+
+- robots: free-text notes and a revision (the ETag of If-Match).
+- parameter_versions: who made a version (the API key's name) and, for a restore, which version it copies.
+- calibrations: notes and the instrument (name, serial).
+- validations: measurements evaluated against parameter versions, never fitted.
+- audit_events: every change of a robot or of its current version; kept when the robot is deleted.
+- jobs: attempts, the lease of the worker that runs it, progress, cancellation.
+- idempotency_keys: the first answer to a POST with an Idempotency-Key, replayed to retries.
+
+Revision ID: 0003
+Revises: 0002
+"""
+
+from __future__ import annotations
+
+import sqlalchemy as sa
+from alembic import op
+
+revision = "0003"
+down_revision = "0002"
+branch_labels = None
+depends_on = None
+
+
+def _created() -> sa.Column:
+    return sa.Column("created_at", sa.DateTime(timezone=True), nullable=False)
+
+
+def upgrade() -> None:
+    with op.batch_alter_table("robots") as batch:
+        batch.add_column(sa.Column("notes", sa.Text(), nullable=True))
+        batch.add_column(sa.Column("revision", sa.Integer(), nullable=False, server_default="1"))
+    with op.batch_alter_table("parameter_versions") as batch:
+        batch.add_column(sa.Column("actor", sa.String(100), nullable=True))
+        batch.add_column(sa.Column("restored_from", sa.Integer(), nullable=True))
+    with op.batch_alter_table("calibrations") as batch:
+        batch.add_column(sa.Column("notes", sa.Text(), nullable=True))
+        batch.add_column(sa.Column("instrument", sa.JSON(), nullable=True))
+    with op.batch_alter_table("jobs") as batch:
+        batch.add_column(sa.Column("attempts", sa.Integer(), nullable=False, server_default="0"))
+        batch.add_column(sa.Column("worker", sa.String(200), nullable=True))
+        batch.add_column(sa.Column("lease_expires_at", sa.DateTime(timezone=True), nullable=True))
+        batch.add_column(sa.Column("progress", sa.JSON(), nullable=True))
+        batch.add_column(sa.Column("cancel_requested", sa.Boolean(), nullable=False, server_default=sa.false()))
+    op.create_index("ix_jobs_lease_expires_at", "jobs", ["lease_expires_at"])
+    op.create_table(
+        "validations",
+        sa.Column("id", sa.String(36), primary_key=True),
+        sa.Column("robot_id", sa.String(36), sa.ForeignKey("robots.id", ondelete="CASCADE"), nullable=False),
+        sa.Column("campaign_id", sa.String(36), sa.ForeignKey("campaigns.id", ondelete="CASCADE"), nullable=False),
+        sa.Column("result", sa.JSON(), nullable=False),
+        sa.Column("notes", sa.Text(), nullable=True),
+        sa.Column("instrument", sa.JSON(), nullable=True),
+        _created(),
+    )
+    op.create_index("ix_validations_robot_id", "validations", ["robot_id"])
+    op.create_table(
+        "audit_events",
+        sa.Column("id", sa.Integer(), primary_key=True, autoincrement=True),
+        sa.Column("at", sa.DateTime(timezone=True), nullable=False),
+        sa.Column("actor", sa.String(100), nullable=True),
+        sa.Column("request_id", sa.String(64), nullable=True),
+        sa.Column("action", sa.String(40), nullable=False),
+        # No foreign key: the trail of a deleted robot stays.
+        sa.Column("robot_id", sa.String(36), nullable=True),
+        sa.Column("version", sa.Integer(), nullable=True),
+        sa.Column("details", sa.JSON(), nullable=True),
+    )
+    op.create_index("ix_audit_events_robot_id", "audit_events", ["robot_id"])
+    op.create_index("ix_audit_events_at", "audit_events", ["at"])
+    op.create_table(
+        "idempotency_keys",
+        sa.Column("actor", sa.String(100), primary_key=True),
+        sa.Column("key", sa.String(200), primary_key=True),
+        sa.Column("method", sa.String(10), nullable=False),
+        sa.Column("path", sa.String(500), nullable=False),
+        sa.Column("body_sha256", sa.String(64), nullable=False),
+        sa.Column("status", sa.Integer(), nullable=True),
+        sa.Column("content_type", sa.String(100), nullable=True),
+        sa.Column("body", sa.LargeBinary(), nullable=True),
+        _created(),
+        sa.Column("expires_at", sa.DateTime(timezone=True), nullable=False),
+    )
+    op.create_index("ix_idempotency_keys_expires_at", "idempotency_keys", ["expires_at"])
+
+
+def downgrade() -> None:
+    for table in ("idempotency_keys", "audit_events", "validations"):
+        op.drop_table(table)
+    op.drop_index("ix_jobs_lease_expires_at", "jobs")
+    with op.batch_alter_table("jobs") as batch:
+        for column in ("cancel_requested", "progress", "lease_expires_at", "worker", "attempts"):
+            batch.drop_column(column)
+    with op.batch_alter_table("calibrations") as batch:
+        batch.drop_column("instrument")
+        batch.drop_column("notes")
+    with op.batch_alter_table("parameter_versions") as batch:
+        batch.drop_column("restored_from")
+        batch.drop_column("actor")
+    with op.batch_alter_table("robots") as batch:
+        batch.drop_column("revision")
+        batch.drop_column("notes")
