@@ -71,8 +71,11 @@ bench: $(STAMP)
 error-analysis: $(STAMP)
 	$(BIN)/python -m models.error_analysis --plot docs/error_analysis.png
 
+# `make run PORT=8080 HOST=0.0.0.0` to serve elsewhere.
+HOST ?= 127.0.0.1
+PORT ?= 8000
 run: $(RUNTIME_STAMP)
-	$(BIN)/python -m service --host 127.0.0.1 --port 8000
+	$(BIN)/python -m service --host $(HOST) --port $(PORT)
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .coverage .import_linter_cache
