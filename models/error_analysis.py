@@ -38,11 +38,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from models.errors import CalibrationError, InvalidInput, NonFiniteValue, UnreachablePose, WrongShape
-from models.function_cache import functions_for
-from models.hybrid import RobotDescription
 from models.iwr import iwr
 from models.kinematics import ForwardResult, as_joint_array, forward_kinematics
 from models.parameters import Kind
+from models.robot import RobotDescription
+from models.runtime import runtime_for
 from models.transforms import matrix_to_rotvec_np
 from models.workspace import sample_workspace
 
@@ -73,7 +73,7 @@ class Tolerances:
 
     Each number is the size of the error of every parameter it covers, per
     coordinate: `joint_position` applies to each of x, y, z of every base
-    joint `a_i` and platform joint `b_i`. (Not `models.hybrid.Tolerances`,
+    joint `a_i` and platform joint `b_i`. (Not `models.parameters.ParameterScales`,
     the expected error sizes that scale the identification Jacobian, although
     their defaults agree.)
     """
@@ -182,8 +182,7 @@ class _Nominal:
 def _nominal(desc: RobotDescription, joints: Array) -> _Nominal:
     theta0 = desc.parameters.nominal
     fk = forward_kinematics(desc, joints, theta0, jacobian=True)
-    assert fk.jacobians is not None
-    (frames,) = functions_for(desc).batch("carriage_fk", joints[:, : desc.n_chain], theta0)
+    (frames,) = runtime_for(desc).kinematics.batch("carriage_fk", joints[:, : desc.n_chain], theta0)
     return _Nominal(joints, fk.positions, fk.rotations, fk.platforms, fk.jacobians, frames)
 
 
@@ -211,7 +210,7 @@ def _perturbed_fk(
             "use smaller tolerances",
             pose=where,
             draw=draw,
-            reason=exc.data.get("reason"),
+            reason=exc.data["reason"],
         ) from exc
 
 
@@ -232,7 +231,7 @@ def _carriage_frame_errors(desc: RobotDescription, nominal: _Nominal, deltas: Ar
     and the TCP move as one rigid body, so they share the rotation error dω and
     dp_frame = dp_tcp − dω × (p_tcp − p_frame).
     """
-    fns = functions_for(desc)
+    fns = runtime_for(desc).kinematics
     theta0 = desc.parameters.nominal
     q_chain = nominal.joints[:, : desc.n_chain]
     ref = nominal.carriage_frames
@@ -269,7 +268,8 @@ def _deltas_array(desc: RobotDescription, deltas: ArrayLike) -> Array:
     if d.ndim != 2 or d.shape[1] != desc.n_params:
         raise WrongShape(
             f"parameter errors must have {desc.n_params} numbers per draw, got shape {np.shape(deltas)}",
-            expected=desc.n_params,
+            field="deltas",
+            expected=[-1, desc.n_params],
             got=list(np.shape(deltas)),
         )
     if not np.all(np.isfinite(d)):

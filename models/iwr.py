@@ -6,8 +6,9 @@ from functools import cache
 
 import numpy as np
 
+from models._types import IDENTITY, Pose6
 from models.hexapod import HexapodGeometry
-from models.hybrid import IDENTITY, Pose6, RobotDescription
+from models.robot import RobotDescription
 from models.serial_chain import DHLink, JointType
 
 _DEG = float(np.pi / 180.0)

@@ -6,12 +6,14 @@ import numpy as np
 import pytest
 
 from models import RobotDescription, forward_kinematics, sample_workspace
-from models.compensation import compensate as comp
 from models.compensation import correct_program, inverse_kinematics
-from models.compensation.kkt import kkt_functions, newton_kkt
-from models.compensation.nlp import bounds
 from models.identification import IdentificationResult, identify
 from models.identification.statistics import tcp_accuracy
+from models.inverse import solve as comp
+from models.inverse import starts
+from models.inverse.kkt import kkt_functions, newton_kkt
+from models.inverse.nlp import bounds
+from models.inverse.problem import joint_weights
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np
 
@@ -75,11 +77,11 @@ def test_batch_newton_finds_the_ipopt_optimum(desc: RobotDescription, calibrated
     fk = forward_kinematics(desc, sample_workspace(desc, 120, seed=33), theta)
     n = 120
     target = np.hstack([fk.positions, fk.rotations.transpose(0, 2, 1).reshape(n, 9)])
-    table = comp._table(desc, theta)
-    _, nearest = table.pose_tree.query(comp._features(fk.positions, fk.rotations))
+    table = starts.start_table(desc, theta)
+    _, nearest = table.pose_tree.query(starts.features(fk.positions, fk.rotations))
     start = table.start[nearest]
     seeds = np.tile(comp.default_seed(desc), (n, 1))
-    w = comp._weights(desc, None)
+    w = joint_weights(desc, None)
     lbx, ubx, _, _ = bounds(desc)
     v, ok = newton_kkt(
         kkt_functions(desc),

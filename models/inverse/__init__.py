@@ -1,0 +1,8 @@
+"""Inverse kinematics: joint commands that put a robot's TCP on target (NLP + batched KKT Newton).
+
+`models.compensation` uses it on the calibrated model; the service's kinematics routes on any model.
+"""
+
+from models.inverse.solve import IkSolution, default_seed, inverse_kinematics
+
+__all__ = ["IkSolution", "default_seed", "inverse_kinematics"]
