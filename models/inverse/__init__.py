@@ -3,6 +3,8 @@
 `models.compensation` uses it on the calibrated model; the service's kinematics routes on any model.
 """
 
-from models.inverse.solve import IkSolution, default_seed, inverse_kinematics
+from models.inverse.report import IkSolution
+from models.inverse.solve import inverse_kinematics
+from models.inverse.targets import default_seed
 
 __all__ = ["IkSolution", "default_seed", "inverse_kinematics"]
