@@ -106,3 +106,14 @@ def test_strict_identification_raises_what_a_failed_result_reports(desc: RobotDe
     with pytest.raises(errors.InconsistentData) as bad:
         identify(desc, wrong, strict=True)
     assert bad.value.data["limit_sigma"] == 100.0
+
+
+def test_bounds_are_numbers_in_order_and_name_parameters(desc: RobotDescription) -> None:
+    sim = perturbed_robot(desc, seed=8)
+    campaign = measure(sim, sample_workspace(desc, 30, seed=9), seed=10)
+    for bad in ({"link1.a": (92.0, 90.0)}, {"link1.a": (float("nan"), 95.0)}, {"link9.a": (0.0, 1.0)}):
+        with pytest.raises(errors.InvalidInput) as err:
+            identify(desc, campaign, options=IdentificationOptions(bounds=bad))
+        assert err.value.data["field"] == next(iter(bad))
+    # Infinite bounds mean "no bound" on that side.
+    assert identify(desc, campaign, options=IdentificationOptions(bounds={"link1.a": (-np.inf, np.inf)})).succeeded
