@@ -9,9 +9,10 @@ import numpy as np
 
 from benchmarks.timing import best_of, median_of, target
 from models import forward_kinematics, iwr, sample_workspace
-from models.compensation import compensate as comp
 from models.compensation import inverse_kinematics
 from models.identification import identify
+from models.inverse import default_seed, routing, starts
+from models.inverse.problem import joint_weights
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion
 
@@ -34,16 +35,16 @@ def run() -> dict[str, object]:
     # Baseline: IPOPT on every target from the same starting points (one mapped call).
     n = positions.shape[0]
     target_rows = np.hstack([positions, fk.rotations.transpose(0, 2, 1).reshape(n, 9)])
-    table = comp._table(desc, theta)
-    _, nearest = table.pose_tree.query(comp._features(positions, fk.rotations))
-    seeds = np.tile(comp.default_seed(desc), (n, 1))
+    table = starts.start_table(desc, theta)
+    _, nearest = table.pose_tree.query(starts.features(positions, fk.rotations))
+    seeds = np.tile(default_seed(desc), (n, 1))
     started = time.perf_counter()
-    comp._ipopt(
+    routing.ipopt_solutions(
         desc,
         theta,
         target_rows,
         seeds,
-        comp._weights(desc, None),
+        joint_weights(desc, None),
         start=table.start[nearest],
         position_only=False,
         exact=True,

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from benchmarks.timing import best_of, target
-from models import forward_kinematics, functions_for, iwr
+from models import default_registry, forward_kinematics, iwr
 from models.error_analysis import ErrorMagnitudes, draw_errors, error_analysis, summary
 from models.kinematics import solve_platforms
 from models.workspace import sample_workspace
@@ -26,7 +26,7 @@ SERVING_BUDGET_S = 2.0
 
 def run() -> dict[str, object]:
     desc = iwr()
-    functions_for(desc)
+    _ = default_registry().runtime(desc).kinematics
     error_analysis(desc, n_poses=4, n_draws=2)  # warm the mapped Functions
     default_s = best_of(lambda: error_analysis(desc), repeat=3)
     big_s = best_of(lambda: error_analysis(desc, n_poses=100, n_draws=1000), repeat=1)
@@ -44,7 +44,7 @@ def run() -> dict[str, object]:
         q = np.tile(joints, (len(deltas), 1))
         params = np.repeat(theta0 + deltas, len(joints), axis=0)
         platforms, _ = solve_platforms(desc, q, params, np.tile(seeds, (len(deltas), 1)))
-        pos, _ = functions_for(desc).batch("pose_at", q, params, platforms)
+        pos, _ = default_registry().runtime(desc).kinematics.batch("pose_at", q, params, platforms)
         return pos.reshape(len(deltas), len(joints), 3)
 
     per_draw_s, stacked_s = best_of(per_draw, 3), best_of(stacked, 3)

@@ -20,7 +20,7 @@ import scipy.optimize
 
 from benchmarks.identification_formulations import solve_implicit, solve_nested
 from benchmarks.timing import median_of, target
-from models import NoiseModel, forward_kinematics, functions_for, iwr, sample_workspace
+from models import NoiseModel, default_registry, forward_kinematics, iwr, sample_workspace
 from models.campaign import Campaign
 from models.identification import identify
 from models.identification.residuals import CampaignProblem
@@ -52,7 +52,7 @@ def _scipy(campaign: Campaign, method: str) -> tuple[float, float, np.ndarray]:
     desc = iwr()
     result = identify(desc, campaign)  # only for the start point and the subset, not timed
     free = np.array(result.estimated)
-    problem = CampaignProblem(desc, functions_for(desc), campaign, NoiseModel(), result.start, free)
+    problem = CampaignProblem(desc, default_registry().runtime(desc), campaign, NoiseModel(), result.start, free)
     started = time.perf_counter()
     if method == "trf":
         out = scipy.optimize.least_squares(problem.residual_vector, np.zeros(free.size), method="trf", xtol=1e-12)
@@ -73,7 +73,7 @@ def _scipy(campaign: Campaign, method: str) -> tuple[float, float, np.ndarray]:
 
 def run() -> dict[str, object]:
     desc = iwr()
-    functions_for(desc)
+    _ = default_registry().runtime(desc).kinematics
     sim = perturbed_robot(desc, seed=1)
     identify(desc, _campaign(sim, 45, 999))  # the service warms up like this at start-up
     out: dict[str, object] = {}

@@ -11,16 +11,16 @@ import time
 import numpy as np
 
 from benchmarks.timing import best_of, target
-from models import forward_kinematics, functions_for, iwr, sample_workspace
+from models import default_registry, forward_kinematics, iwr, sample_workspace
 
 N = 10_000
 
 _COLD = """
 import time
 t = time.perf_counter()
-from models import functions_for, iwr
+from models import default_registry, iwr
 t_import = time.perf_counter()
-functions_for(iwr())
+default_registry().runtime(iwr()).kinematics
 print(t_import - t, time.perf_counter() - t_import)
 """
 
@@ -37,12 +37,12 @@ def run() -> dict[str, object]:
         import_s, cold_build = _start(cache)  # empty cache: derive + generate C + compile
         _, warm_build = _start(cache)  # library on disk: derive + load
     desc = iwr()
-    functions_for(desc)
+    _ = default_registry().runtime(desc).kinematics
     joints = sample_workspace(desc, N, seed=1)
     forward_kinematics(desc, joints, jacobian=True)  # first map of this size
     batch = best_of(lambda: forward_kinematics(desc, joints, jacobian=True), 5)
 
-    fns = functions_for(desc)
+    fns = default_registry().runtime(desc).kinematics
     theta = desc.parameters.nominal
     home = np.array(desc.hexapod.home)
 

@@ -1,7 +1,7 @@
 """The two textbook CasADi formulations of the identification NLP, for comparison only.
 
 Both build one graph per campaign (its size grows with N), which is why the
-product does not use them (see `models.identification.ipopt_solver`):
+product does not use them (see `models.identification.solver`):
 - nested: the hexapod FK inside the objective through `casadi.rootfinder`,
   derivatives by CasADi's implicit-function-theorem AD, exact Hessian;
 - implicit: the platform poses are decision variables and the leg-length
@@ -15,7 +15,7 @@ import time
 import casadi as ca
 import numpy as np
 
-from models import NoiseModel, RobotDescription, functions_for
+from models import NoiseModel, RobotDescription, default_registry
 from models.campaign import Campaign
 from models.kinematics import Array, solve_platforms
 from models.transforms import matrix_to_rotvec
@@ -40,7 +40,7 @@ def solve_nested(
     desc: RobotDescription, campaign: Campaign, theta_start: Array, free: Array, noise: NoiseModel
 ) -> dict[str, float]:
     started = time.perf_counter()
-    fns = functions_for(desc)
+    fns = default_registry().runtime(desc).kinematics
     n = campaign.size
     scales = desc.parameters.scales[free]
     q, pm, rm = (ca.MX.sym(k, *a.shape) for k, a in zip(("q", "pm", "rm"), _data(campaign), strict=True))
@@ -70,7 +70,7 @@ def solve_implicit(
     desc: RobotDescription, campaign: Campaign, theta_start: Array, free: Array, noise: NoiseModel
 ) -> dict[str, float]:
     started = time.perf_counter()
-    fns = functions_for(desc)
+    fns = default_registry().runtime(desc).kinematics
     n = campaign.size
     scales = desc.parameters.scales[free]
     z = ca.SX.sym("z", free.size)

@@ -2,8 +2,14 @@
 
 Pure mathematics: numpy, scipy and CasADi only; nothing here knows about HTTP
 or databases. Internal units are millimetres and radians.
+
+Everything built from a robot structure (CasADi Functions, solvers, tables)
+lives in a `Runtime`, held by a `Registry`; calls given no `runtime=` use
+`default_registry()`.
 """
 
+from models._types import IDENTITY, Array, Pose6, Vec3
+from models.campaign import Campaign, make_campaign
 from models.errors import (
     CalibrationError,
     InconsistentData,
@@ -18,22 +24,34 @@ from models.errors import (
     UnreachablePose,
     WrongShape,
 )
-from models.function_cache import FUNCTIONS, RobotFunctions, functions_for
-from models.hybrid import RobotDescription, Tolerances
 from models.identifiability import (
     Identifiability,
     NoiseModel,
     analyse_identifiability,
     scaled_jacobian,
+    structural_identifiability,
 )
 from models.iwr import iwr
-from models.kinematics import ForwardResult, forward_kinematics, inverse_hexapod, solve_platforms
-from models.parameters import Kind, ParameterSpec, ParameterTable
+from models.kinematics import (
+    ForwardJacobianResult,
+    ForwardResult,
+    forward_kinematics,
+    inverse_hexapod,
+    solve_platforms,
+)
+from models.measurement import MeasurementKind
+from models.parameters import Kind, ParameterScales, ParameterSpec, ParameterTable
+from models.robot import RobotDescription, Structure
+from models.runtime import Registry, Runtime, default_registry
+from models.simulation import SimulatedRobot, measure, perturbed_robot
 from models.workspace import sample_workspace
 
 __all__ = [
-    "FUNCTIONS",
+    "IDENTITY",
+    "Array",
     "CalibrationError",
+    "Campaign",
+    "ForwardJacobianResult",
     "ForwardResult",
     "Identifiability",
     "InconsistentData",
@@ -41,25 +59,35 @@ __all__ = [
     "InvalidQuaternion",
     "JointOutOfRange",
     "Kind",
+    "MeasurementKind",
     "NoiseModel",
     "NonFiniteValue",
     "NotIdentifiable",
+    "ParameterScales",
     "ParameterSpec",
     "ParameterTable",
+    "Pose6",
+    "Registry",
     "RobotDescription",
-    "RobotFunctions",
+    "Runtime",
+    "SimulatedRobot",
     "SolverFailed",
-    "Tolerances",
+    "Structure",
     "TooFewMeasurements",
     "UnknownParameter",
     "UnreachablePose",
+    "Vec3",
     "WrongShape",
     "analyse_identifiability",
+    "default_registry",
     "forward_kinematics",
-    "functions_for",
     "inverse_hexapod",
     "iwr",
+    "make_campaign",
+    "measure",
+    "perturbed_robot",
     "sample_workspace",
     "scaled_jacobian",
     "solve_platforms",
+    "structural_identifiability",
 ]

@@ -17,7 +17,6 @@ import numpy as np
 from models.campaign import Campaign
 from models.compensation import inverse_kinematics
 from models.errors import InvalidInput
-from models.hybrid import RobotDescription
 from models.identification.registration import rigid_fit
 from models.iso9283 import (
     DistanceCharacteristics,
@@ -29,6 +28,7 @@ from models.iso9283 import (
     pose_characteristics,
 )
 from models.kinematics import Array, forward_kinematics
+from models.robot import RobotDescription
 from models.transforms import matrix_to_quaternion, quaternion_to_matrix
 from models.workspace import sample_workspace
 

@@ -12,9 +12,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from models.errors import InvalidQuaternion, NonFiniteValue, WrongShape
-from models.hybrid import RobotDescription
-from models.kinematics import Array, as_joint_array, check_joint_ranges
+from models._types import Array
+from models.errors import InvalidInput, InvalidQuaternion, NonFiniteValue, WrongShape
+from models.kinematics import as_joint_array, check_joint_ranges
+from models.measurement import MeasurementKind
+from models.robot import RobotDescription
 from models.transforms import quaternion_to_matrix
 
 QUATERNION_NORM_TOLERANCE = 1e-3
@@ -35,13 +37,17 @@ class Campaign:
         return int(self.joints.shape[0])
 
     @property
+    def kind(self) -> MeasurementKind:
+        return MeasurementKind.POSITION if self.quaternions is None else MeasurementKind.POSE
+
+    @property
     def position_only(self) -> bool:
         return self.quaternions is None
 
     @property
     def rotations(self) -> Array:
         if self.quaternions is None:
-            raise ValueError("a position-only campaign has no orientations")
+            raise InvalidInput("a position-only campaign has no orientations", field="quaternions")
         return quaternion_to_matrix(self.quaternions)
 
     def subset(self, index: ArrayLike) -> Campaign:
@@ -66,7 +72,12 @@ def make_campaign(
     if p.ndim == 1:
         p = p[None, :]
     if p.shape != (q.shape[0], 3):
-        raise WrongShape(f"expected {q.shape[0]} positions of 3 numbers, got shape {p.shape}")
+        raise WrongShape(
+            f"expected {q.shape[0]} positions of 3 numbers, got shape {p.shape}",
+            field="positions",
+            expected=[q.shape[0], 3],
+            got=list(p.shape),
+        )
     _check_finite(p, "position")
     if quaternions is None:
         return Campaign(q, p, None)
@@ -74,7 +85,12 @@ def make_campaign(
     if quat.ndim == 1:
         quat = quat[None, :]
     if quat.shape != (q.shape[0], 4):
-        raise WrongShape(f"expected {q.shape[0]} orientations of 4 numbers [w, x, y, z], got shape {quat.shape}")
+        raise WrongShape(
+            f"expected {q.shape[0]} orientations of 4 numbers [w, x, y, z], got shape {quat.shape}",
+            field="quaternions",
+            expected=[q.shape[0], 4],
+            got=list(quat.shape),
+        )
     _check_finite(quat, "orientation")
     norms = np.linalg.norm(quat, axis=1)
     bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
@@ -83,7 +99,7 @@ def make_campaign(
         raise InvalidQuaternion(
             f"record {i}: orientation quaternion has norm {norms[i]:.6g}; a unit quaternion [w, x, y, z] is "
             f"required (norms within {QUATERNION_NORM_TOLERANCE} of 1 are normalised)",
-            record=i,
+            pose=i,
             norm=float(norms[i]),
             count=int(bad.size),
         )
@@ -94,4 +110,4 @@ def _check_finite(a: Array, what: str) -> None:
     bad = np.argwhere(~np.isfinite(a))
     if bad.size:
         i = int(bad[0][0])
-        raise NonFiniteValue(f"record {i}: {what} contains {a[i].tolist()}, not finite numbers", record=i)
+        raise NonFiniteValue(f"record {i}: {what} contains {a[i].tolist()}, not finite numbers", pose=i)

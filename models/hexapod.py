@@ -7,7 +7,7 @@ commanded length plus the leg offset. The platform pose `x = [p (mm); α, β, γ
 
 Inverse kinematics (pose → legs) is closed form. Forward kinematics (legs →
 pose) is the root of the six closure equations, solved by Newton (see
-`function_cache`); CasADi differentiates it through the implicit function
+`symbolic`); CasADi differentiates it through the implicit function
 theorem.
 """
 

@@ -1,7 +1,10 @@
 """The weighted, column-scaled identification Jacobian and what it can identify.
 
-One source for identification and pose design: both call `scaled_jacobian`
-and `analyse_identifiability`.
+One source for identification and pose design: both call `scaled_jacobian`,
+`analyse_identifiability`, and the rules below: the structural subset
+(`structural_identifiability`), the minimum number of poses
+(`minimum_poses`) and "the structural subset if the data support it, else
+their own" (`identifiable_subset`).
 
 Scaling. Rows are divided by the instrument noise (position σ in mm,
 orientation σ in rad), columns multiplied by each parameter's scale (its
@@ -21,20 +24,27 @@ QR with column pivoting.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
 
+from models._types import Array
 from models.errors import WrongShape
+from models.kinematics import forward_kinematics
+from models.measurement import MeasurementKind
 from models.parameters import ParameterTable
-
-Array = np.ndarray
+from models.robot import RobotDescription
+from models.runtime import Runtime, runtime_for
+from models.workspace import workspace_samples
 
 RANK_RTOL = 1e-9
 """Singular values below this fraction of the largest count as zero (see module docstring)."""
 CONFOUNDING_REPORT = 4
 """How many identifiable partners to report for each unidentifiable parameter."""
+STRUCTURAL_POSES = 60
+STRUCTURAL_SEED = 20_090_101
 
 
 @dataclass(frozen=True)
@@ -45,15 +55,31 @@ class NoiseModel:
     orientation_rad: float = float(np.radians(0.01))
 
 
-def measurement_rows(position_only: bool) -> int:
-    return 3 if position_only else 6
+def measurement_rows(kind: MeasurementKind | bool) -> int:
+    """Equations per pose; `kind` may still be given as the older `position_only` flag."""
+    return MeasurementKind.of(kind).rows
 
 
-def scaled_jacobian(jacobians: Array, table: ParameterTable, noise: NoiseModel, *, position_only: bool) -> Array:
-    """Stack per-pose Jacobians (N, 6, P) into the weighted, column-scaled (N·rows, P) matrix."""
+def scaled_jacobian(
+    jacobians: Array,
+    table: ParameterTable,
+    noise: NoiseModel,
+    *,
+    kind: MeasurementKind | None = None,
+    position_only: bool | None = None,
+) -> Array:
+    """Stack per-pose Jacobians (N, 6, P) into the weighted, column-scaled (N·rows, P) matrix.
+
+    `kind` says what is measured (`position_only=True` is the older spelling of `kind=POSITION`).
+    """
     if jacobians.ndim != 3 or jacobians.shape[1] != 6 or jacobians.shape[2] != len(table):
-        raise WrongShape(f"expected Jacobians of shape (N, 6, {len(table)}), got {jacobians.shape}")
-    rows = measurement_rows(position_only)
+        raise WrongShape(
+            f"expected Jacobians of shape (N, 6, {len(table)}), got {jacobians.shape}",
+            field="jacobians",
+            expected=[-1, 6, len(table)],
+            got=list(jacobians.shape),
+        )
+    rows = (kind or MeasurementKind.of(bool(position_only))).rows
     weights = np.array([1 / noise.position_mm] * 3 + [1 / noise.orientation_rad] * 3)[:rows]
     blocks = jacobians[:, :rows, :] * weights[None, :, None] * table.scales[None, None, :]
     return blocks.reshape(-1, len(table))
@@ -122,7 +148,76 @@ def analyse_identifiability(
         identifiable=tuple(chosen),
         unidentifiable=tuple(rest),
         rank=rank,
-        singular_values=s,
+        singular_values=np.asarray(s, dtype=np.float64),
         threshold=threshold,
         confounding=tuple(confounding),
     )
+
+
+def structural_identifiability(
+    desc: RobotDescription,
+    candidates: tuple[int, ...],
+    kind: MeasurementKind | bool,
+    *,
+    runtime: Runtime | None = None,
+) -> Identifiability:
+    """What rich data could identify on this robot: the analysis on many random poses of the nominal model.
+
+    Exact redundancies are properties of the structure, so the subset chosen here is the one every campaign of
+    this robot uses (when its data support it): two calibrations name the same parameters, instead of subsets
+    that differ wherever noise breaks a tie between equivalent columns. QR with column pivoting keeps the
+    strongest columns, so the chosen parametrisation is also the best conditioned (measured: choosing the
+    tool over platform joints instead makes the covariance 250 times worse conditioned). Kept by the runtime.
+    """
+    rt = runtime_for(desc, runtime)
+    kind = MeasurementKind.of(kind)
+
+    def analyse() -> Identifiability:
+        joints = workspace_samples(desc, STRUCTURAL_POSES, STRUCTURAL_SEED, runtime=rt)
+        fk = forward_kinematics(desc, joints, jacobian=True, runtime=rt)
+        scaled = scaled_jacobian(fk.jacobians, desc.parameters, NoiseModel(), kind=kind)
+        return analyse_identifiability(scaled, desc.parameters, candidates)
+
+    return rt.artefact("structural_subset", (desc, tuple(candidates), kind), analyse, capacity=64)
+
+
+def minimum_poses(
+    desc: RobotDescription,
+    candidates: tuple[int, ...],
+    kind: MeasurementKind | bool,
+    *,
+    runtime: Runtime | None = None,
+) -> tuple[int, int]:
+    """(rank the structure allows for these parameters, fewest poses that can determine them and the noise)."""
+    rank = structural_identifiability(desc, candidates, kind, runtime=runtime).rank
+    return rank, math.ceil((rank + 1) / measurement_rows(kind))
+
+
+@dataclass(frozen=True)
+class StructuralSupport:
+    """Whether a campaign's data determine the structural subset: the one rule identification and design share.
+
+    Estimate the structural subset if the data support it, otherwise the data's own (smaller) subset,
+    `analyse_identifiability(scaled, table, candidates)`.
+    """
+
+    structural: Identifiability
+    data_rank: int
+    """Rank of the data's scaled Jacobian on the structural subset."""
+
+    @property
+    def supported(self) -> bool:
+        return self.data_rank == self.structural.rank
+
+
+def structural_support(
+    desc: RobotDescription,
+    scaled: Array,
+    candidates: tuple[int, ...],
+    kind: MeasurementKind,
+    *,
+    runtime: Runtime | None = None,
+) -> StructuralSupport:
+    structural = structural_identifiability(desc, candidates, kind, runtime=runtime)
+    own = analyse_identifiability(scaled, desc.parameters, structural.identifiable)
+    return StructuralSupport(structural, own.rank)

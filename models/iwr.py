@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from functools import cache
+from functools import lru_cache
 
 import numpy as np
 
+from models._types import IDENTITY, Pose6
 from models.hexapod import HexapodGeometry
-from models.hybrid import IDENTITY, Pose6, RobotDescription
+from models.robot import RobotDescription
 from models.serial_chain import DHLink, JointType
 
 _DEG = float(np.pi / 180.0)
@@ -42,7 +43,10 @@ IWR_HEXAPOD = HexapodGeometry(
 )
 
 
-@cache
+# A memo of immutable values, not of built artefacts (those live in `models.runtime`): a description
+# with its derived tables costs ~75 µs to rebuild, most of a single-pose FK request. Bounded, since a
+# service sees one (base, tool) pair per robot.
+@lru_cache(maxsize=256)
 def iwr(base: Pose6 = IDENTITY, tool: Pose6 = IDENTITY) -> RobotDescription:
     """The IWR description; `base` and `tool` are the user's nominal guesses (mm, rotation vector rad)."""
     return RobotDescription(name="iwr", links=IWR_LINKS, hexapod=IWR_HEXAPOD, base=base, tool=tool)

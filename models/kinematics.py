@@ -3,21 +3,21 @@
 Everything here is in internal units (mm, rad) and works on arrays of shape
 (N, n_joints). Each call validates its input and raises a domain error naming
 the pose, the joint, the value and the limit; the compiled Functions are
-fetched from the cache, never rebuilt.
+those of the structure's runtime (`models.runtime`), never rebuilt.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal, overload
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from models._types import Array
 from models.errors import JointOutOfRange, NonFiniteValue, UnreachablePose, WrongShape
-from models.function_cache import RobotFunctions, functions_for
-from models.hybrid import RobotDescription
-
-Array = NDArray[np.float64]
+from models.robot import RobotDescription
+from models.runtime import Runtime, runtime_for
 
 JOINT_RANGE_SLACK = 1e-9
 """Joints may exceed their range by this much (mm or rad) before they are rejected: float round-off."""
@@ -35,13 +35,14 @@ def as_joint_array(desc: RobotDescription, joints: ArrayLike) -> Array:
     try:
         arr = np.array(joints, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise WrongShape(f"joint vectors must be numbers: {exc}") from exc
+        raise WrongShape(f"joint vectors must be numbers: {exc}", field="joints") from exc
     if arr.ndim == 1:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != desc.n_joints:
         raise WrongShape(
             f"each joint vector must have {desc.n_joints} numbers {list(desc.joint_names)}, got shape {arr.shape}",
-            expected=desc.n_joints,
+            field="joints",
+            expected=[-1, desc.n_joints],
             got=list(arr.shape),
         )
     bad = np.argwhere(~np.isfinite(arr))
@@ -79,14 +80,19 @@ def check_joint_ranges(desc: RobotDescription, joints: Array) -> None:
 
 
 def solve_platforms(
-    desc: RobotDescription, joints: Array, params: ArrayLike, seeds: Array | None = None
+    desc: RobotDescription,
+    joints: Array,
+    params: ArrayLike,
+    seeds: Array | None = None,
+    *,
+    runtime: Runtime | None = None,
 ) -> tuple[Array, Array]:
     """Hexapod forward kinematics for a batch: platform poses (N, 6) and closure error (N,) in mm.
 
     Newton from the home pose (or the given seeds), all poses at once; poses not
     yet converged get more steps. Nothing is checked here: see `forward_kinematics`.
     """
-    fns = functions_for(desc)
+    fns = runtime_for(desc, runtime).kinematics
     n = joints.shape[0]
     theta = np.asarray(params, dtype=float)
     x = np.tile(np.asarray(desc.hexapod.home, dtype=float), (n, 1)) if seeds is None else np.array(seeds, dtype=float)
@@ -102,12 +108,14 @@ def solve_platforms(
     return x, closure
 
 
-def hexapod_condition(desc: RobotDescription, platforms: Array, params: ArrayLike) -> Array:
+def hexapod_condition(
+    desc: RobotDescription, platforms: Array, params: ArrayLike, *, runtime: Runtime | None = None
+) -> Array:
     """Condition number of the hexapod Jacobian (eq. 48), rotations scaled by the platform radius.
 
     Unit-free; grows without bound near a singularity.
     """
-    fns = functions_for(desc)
+    fns = runtime_for(desc, runtime).kinematics
     hp = np.asarray(params, dtype=float)[desc.slices["hexapod"]]
     (blocks,) = fns.batch("hexapod_jacobian", platforms, hp)
     blocks[:, :, 3:] /= desc.hexapod.characteristic_length
@@ -123,7 +131,9 @@ def platform_envelope(desc: RobotDescription) -> tuple[Array, Array]:
     return np.array(desc.hexapod.workspace_min) - margin, np.array(desc.hexapod.workspace_max) + margin
 
 
-def check_assembly(desc: RobotDescription, platforms: Array, closure: Array, params: ArrayLike) -> None:
+def check_assembly(
+    desc: RobotDescription, platforms: Array, closure: Array, params: ArrayLike, *, runtime: Runtime | None = None
+) -> None:
     """UnreachablePose for the first pose whose legs do not assemble into a usable hexapod pose."""
     failed = np.flatnonzero(~(closure <= CLOSURE_TOLERANCE_MM))
     if failed.size:
@@ -147,7 +157,7 @@ def check_assembly(desc: RobotDescription, platforms: Array, closure: Array, par
             reason="outside_workspace",
             count=int(outside.size),
         )
-    cond = hexapod_condition(desc, platforms, params)
+    cond = hexapod_condition(desc, platforms, params, runtime=runtime)
     singular = np.flatnonzero(cond > desc.hexapod.max_condition)
     if singular.size:
         i = int(singular[0])
@@ -168,8 +178,40 @@ class ForwardResult:
     """(N, 3, 3) TCP orientation in the world frame."""
     platforms: Array
     """(N, 6) hexapod platform poses (mm, rad)."""
-    jacobians: Array | None = None
-    """(N, 6, n_params) identification Jacobians (rows dp, dω), when asked for."""
+
+
+@dataclass(frozen=True)
+class ForwardJacobianResult(ForwardResult):
+    """Forward kinematics with the identification Jacobians (`jacobian=True`)."""
+
+    jacobians: Array
+    """(N, 6, n_params) identification Jacobians (rows dp, dω)."""
+
+
+@overload
+def forward_kinematics(
+    desc: RobotDescription,
+    joints: ArrayLike,
+    params: ArrayLike | None = None,
+    *,
+    jacobian: Literal[False] = False,
+    check_ranges: bool = True,
+    seeds: Array | None = None,
+    runtime: Runtime | None = None,
+) -> ForwardResult: ...
+
+
+@overload
+def forward_kinematics(
+    desc: RobotDescription,
+    joints: ArrayLike,
+    params: ArrayLike | None = None,
+    *,
+    jacobian: Literal[True],
+    check_ranges: bool = True,
+    seeds: Array | None = None,
+    runtime: Runtime | None = None,
+) -> ForwardJacobianResult: ...
 
 
 def forward_kinematics(
@@ -180,30 +222,42 @@ def forward_kinematics(
     jacobian: bool = False,
     check_ranges: bool = True,
     seeds: Array | None = None,
+    runtime: Runtime | None = None,
 ) -> ForwardResult:
     """TCP poses (and optionally identification Jacobians) for a batch of joint vectors."""
+    rt = runtime_for(desc, runtime)
     theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
     q = as_joint_array(desc, joints)
     if check_ranges:
         check_joint_ranges(desc, q)
-    platforms, closure = solve_platforms(desc, q, theta, seeds)
-    check_assembly(desc, platforms, closure, theta)
-    return pose_batch(desc, q, theta, platforms, jacobian=jacobian)
-
-
-def pose_batch(desc: RobotDescription, q: Array, theta: Array, platforms: Array, *, jacobian: bool) -> ForwardResult:
-    """TCP poses (and Jacobians) for already solved platform poses; no checks."""
-    fns: RobotFunctions = functions_for(desc)
+    platforms, closure = solve_platforms(desc, q, theta, seeds, runtime=rt)
+    check_assembly(desc, platforms, closure, theta, runtime=rt)
     if jacobian:
-        pos, rot, jac = fns.batch("pose_jacobian_at", q, theta, platforms)
-        return ForwardResult(pos, rot, platforms, jac)
-    pos, rot = fns.batch("pose_at", q, theta, platforms)
+        return pose_jacobian_batch(desc, q, theta, platforms, runtime=rt)
+    return pose_batch(desc, q, theta, platforms, runtime=rt)
+
+
+def pose_batch(
+    desc: RobotDescription, q: Array, theta: Array, platforms: Array, *, runtime: Runtime | None = None
+) -> ForwardResult:
+    """TCP poses for already solved platform poses; no checks."""
+    pos, rot = runtime_for(desc, runtime).kinematics.batch("pose_at", q, theta, platforms)
     return ForwardResult(pos, rot, platforms)
 
 
-def inverse_hexapod(desc: RobotDescription, platforms: ArrayLike, params: ArrayLike | None = None) -> Array:
+def pose_jacobian_batch(
+    desc: RobotDescription, q: Array, theta: Array, platforms: Array, *, runtime: Runtime | None = None
+) -> ForwardJacobianResult:
+    """TCP poses and identification Jacobians for already solved platform poses; no checks."""
+    pos, rot, jac = runtime_for(desc, runtime).kinematics.batch("pose_jacobian_at", q, theta, platforms)
+    return ForwardJacobianResult(pos, rot, platforms, jac)
+
+
+def inverse_hexapod(
+    desc: RobotDescription, platforms: ArrayLike, params: ArrayLike | None = None, *, runtime: Runtime | None = None
+) -> Array:
     """Closed-form hexapod IK: commanded leg lengths (N, 6) for platform poses (N, 6)."""
     theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
     x = np.atleast_2d(np.asarray(platforms, dtype=float))
-    (legs,) = functions_for(desc).batch("hexapod_ik", x, theta[desc.slices["hexapod"]])
+    (legs,) = runtime_for(desc, runtime).kinematics.batch("hexapod_ik", x, theta[desc.slices["hexapod"]])
     return legs

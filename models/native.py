@@ -7,8 +7,11 @@ source is generated from the Functions, hashed, and compiled only when no
 library with that hash exists in the cache directory, so a warm start loads
 in milliseconds and a changed model can never load a stale library.
 
-No compiler (or `IWR_NATIVE=0`): the original Functions are returned and
-everything still works, more slowly.
+A library already in the cache is loaded whether or not a compiler is on
+PATH: a runtime image built in two stages ships the library the build stage
+compiled, and no compiler. Nothing to load and no compiler (or
+`IWR_NATIVE=0`): the original Functions are returned and everything still
+works, more slowly.
 """
 
 from __future__ import annotations
@@ -36,25 +39,41 @@ def cache_dir() -> Path:
 
 
 def native_enabled() -> bool:
-    return os.environ.get("IWR_NATIVE", "1") != "0" and shutil.which(_compiler()) is not None
+    """Whether native libraries are used at all (`IWR_NATIVE=0` turns them off)."""
+    return os.environ.get("IWR_NATIVE", "1") != "0"
+
+
+def compiler_available() -> bool:
+    return shutil.which(_compiler()) is not None
 
 
 def _compiler() -> str:
     return os.environ.get("CC", "cc")
 
 
-def compile_functions(name: str, functions: list[ca.Function]) -> dict[str, ca.Function]:
-    """Native versions of `functions` (same names and signatures), or the originals if compiling fails."""
-    if not native_enabled():
-        return {f.name(): f for f in functions}
+def library_path(name: str, functions: list[ca.Function]) -> tuple[Path, str]:
+    """Where the library of `functions` lives (named by the hash of its C source), and that source."""
     gen = ca.CodeGenerator(f"{name}.c", {"with_header": False, "casadi_real": "double"})
     for f in functions:
         gen.add(f)
     source = gen.dump()
     digest = hashlib.sha256((source + " ".join(COMPILE_FLAGS)).encode()).hexdigest()[:16]
-    directory = cache_dir()
-    library = directory / f"{name}-{digest}.so"
+    return cache_dir() / f"{name}-{digest}.so", source
+
+
+def compile_functions(name: str, functions: list[ca.Function]) -> dict[str, ca.Function]:
+    """Native versions of `functions` (same names and signatures), or the originals if there are none.
+
+    Generating the C source needs no compiler, so an existing library is found by its hash and loaded
+    even where none is installed.
+    """
+    if not native_enabled():
+        return {f.name(): f for f in functions}
+    library, source = library_path(name, functions)
     if not library.exists():
+        if not compiler_available():
+            log.warning("no C compiler (%s) and no built library %s; using the CasADi VM", _compiler(), library.name)
+            return {f.name(): f for f in functions}
         try:
             _build(source, library)
         except (OSError, subprocess.CalledProcessError) as exc:

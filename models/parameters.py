@@ -19,6 +19,24 @@ from numpy.typing import ArrayLike, NDArray
 from models.errors import UnknownParameter, WrongShape
 
 
+@dataclass(frozen=True)
+class ParameterScales:
+    """Expected error sizes per kind of parameter (internal units: mm, rad).
+
+    Identification and pose design multiply Jacobian columns by them, so that "one unit" of every parameter
+    is one expected error. Not the tolerance study's magnitudes (`models.error_analysis`).
+    """
+
+    base_length: float = 1.0
+    base_angle: float = float(np.radians(0.1))
+    dh_length: float = 0.5
+    dh_angle: float = float(np.radians(0.1))
+    hexapod_joint: float = 0.1
+    leg_offset: float = 0.5
+    tool_length: float = 0.5
+    tool_angle: float = float(np.radians(0.2))
+
+
 class Kind(StrEnum):
     LENGTH = "length"
     ANGLE = "angle"
@@ -108,7 +126,9 @@ class ParameterTable:
         """Validate a full parameter vector in internal units."""
         vec = np.asarray(values, dtype=float).reshape(-1)
         if vec.shape != (len(self),):
-            raise WrongShape(f"expected {len(self)} parameters, got {vec.size}", expected=len(self), got=vec.size)
+            raise WrongShape(
+                f"expected {len(self)} parameters, got {vec.size}", field="params", expected=[len(self)], got=[vec.size]
+            )
         return vec
 
     def with_values(self, base: ArrayLike, updates: dict[str, float]) -> NDArray[np.float64]:

@@ -13,9 +13,9 @@ import numpy as np
 
 from models.campaign import Campaign
 from models.error_analysis.magnitudes import ErrorMagnitudes
-from models.hybrid import RobotDescription
 from models.identifiability import NoiseModel
 from models.kinematics import Array, forward_kinematics
+from models.robot import RobotDescription
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np
 
 

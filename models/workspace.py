@@ -12,8 +12,11 @@ from typing import Literal, overload
 
 import numpy as np
 
-from models.hybrid import RobotDescription
-from models.kinematics import Array, hexapod_condition, inverse_hexapod
+from models._types import Array
+from models.errors import InvalidInput
+from models.kinematics import hexapod_condition, inverse_hexapod
+from models.robot import RobotDescription
+from models.runtime import Runtime, runtime_for
 
 _MAX_ROUNDS = 50
 
@@ -26,6 +29,7 @@ def sample_workspace(
     params: Array | None = None,
     *,
     return_platforms: Literal[False] = False,
+    runtime: Runtime | None = None,
 ) -> Array: ...
 
 
@@ -37,6 +41,7 @@ def sample_workspace(
     params: Array | None = None,
     *,
     return_platforms: Literal[True],
+    runtime: Runtime | None = None,
 ) -> tuple[Array, Array]: ...
 
 
@@ -47,10 +52,12 @@ def sample_workspace(
     params: Array | None = None,
     *,
     return_platforms: bool = False,
+    runtime: Runtime | None = None,
 ) -> Array | tuple[Array, Array]:
     """n joint vectors (n, n_joints), internal units; optionally also their platform poses (n, 6)."""
     if n < 0:
-        raise ValueError("n must be non-negative")
+        raise InvalidInput(f"the number of poses must be non-negative, got {n}", field="n", value=n, min=0)
+    rt = runtime_for(desc, runtime)
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     theta = desc.parameters.nominal if params is None else params
     lo_w, hi_w = np.array(desc.hexapod.workspace_min), np.array(desc.hexapod.workspace_max)
@@ -64,14 +71,32 @@ def sample_workspace(
         m = max(16, int(1.3 * (n - have)))
         chain = lo_c + rng.random((m, desc.n_chain)) * (hi_c - lo_c)
         plat = lo_w + rng.random((m, 6)) * (hi_w - lo_w)
-        legs = inverse_hexapod(desc, plat, theta)
+        legs = inverse_hexapod(desc, plat, theta, runtime=rt)
         ok = np.all((legs >= desc.hexapod.stroke_min) & (legs <= desc.hexapod.stroke_max), axis=1)
-        ok &= hexapod_condition(desc, plat, theta) <= desc.hexapod.max_condition
+        ok &= hexapod_condition(desc, plat, theta, runtime=rt) <= desc.hexapod.max_condition
         joints.append(np.hstack([chain, legs])[ok])
         platforms.append(plat[ok])
         have += int(ok.sum())
     q = np.vstack(joints)[:n] if joints else np.empty((0, desc.n_joints))
     x = np.vstack(platforms)[:n] if platforms else np.empty((0, 6))
     if q.shape[0] < n:
-        raise RuntimeError("the workspace description admits almost no pose: check strokes and ranges")
+        raise InvalidInput(
+            "the workspace description admits almost no pose: check strokes and ranges", field="workspace"
+        )
     return (q, x) if return_platforms else q
+
+
+def workspace_samples(desc: RobotDescription, n: int, seed: int, *, runtime: Runtime | None = None) -> Array:
+    """`sample_workspace(desc, n, seed)`, drawn once per description and kept by the runtime (read-only).
+
+    For the fixed sample sets of the pipelines (structural identifiability, predicted accuracy, design's task
+    matrix): the same poses every call, so drawing them again would only cost time.
+    """
+    rt = runtime_for(desc, runtime)
+
+    def draw() -> Array:
+        joints = sample_workspace(desc, n, seed, runtime=rt)
+        joints.setflags(write=False)
+        return joints
+
+    return rt.artefact("workspace_samples", (desc, n, seed), draw, capacity=32)

@@ -28,7 +28,9 @@ class Criterion(StrEnum):
         for c in cls:
             if c.value.lower() == str(name).lower():
                 return c
-        raise InvalidInput(f"unknown criterion {name!r}; choose one of {[c.value for c in cls]}", criterion=str(name))
+        raise InvalidInput(
+            f"unknown criterion {name!r}; choose one of {[c.value for c in cls]}", field="criterion", value=str(name)
+        )
 
 
 def eigenvalues(m: Array) -> Array:

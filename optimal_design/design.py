@@ -102,7 +102,12 @@ def design_poses(
     started = time.perf_counter()
     crit = criterion if isinstance(criterion, Criterion) else Criterion.parse(criterion)
     if measurement not in ("pose", "position"):
-        raise InvalidInput(f"measurement must be 'pose' or 'position', got {measurement!r}", measurement=measurement)
+        raise InvalidInput(
+            f"measurement must be 'pose' or 'position', got {measurement!r}",
+            field="measurement",
+            value=str(measurement),
+            allowed=["pose", "position"],
+        )
     position_only = measurement == "position"
     theta = None if params is None else desc.parameters.vector(params)
     if candidates is not None:
@@ -124,8 +129,10 @@ def design_poses(
     if count < 1 or count > cand.shape[0]:
         raise InvalidInput(
             f"count must be between 1 and the number of candidates ({cand.shape[0]}), got {count}",
-            count=count,
-            candidates=int(cand.shape[0]),
+            field="count",
+            value=count,
+            min=1,
+            max=int(cand.shape[0]),
         )
     info_all = candidate_information(desc, joints, position_only=position_only, noise=noise, params=theta)
     base = info_all.subset_information(np.arange(n_fixed)) if n_fixed else np.zeros((info_all.n_params,) * 2)
@@ -143,8 +150,10 @@ def design_poses(
         raise TooFewMeasurements(
             f"{count} {'position-only' if position_only else 'full-pose'} measurements cannot identify the "
             f"{info.n_params} identifiable parameters: choose at least {minimum}",
-            count=count,
-            minimum=minimum,
+            got=count,
+            needed=minimum,
+            missing=minimum - count,
+            kind="position" if position_only else "pose",
         )
     allowed = np.ones(info.size, dtype=bool)
     notes: list[str] = []

@@ -16,16 +16,17 @@ predicted TCP position variance over random workspace poses, `trace(L M⁻¹)`
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from models import NoiseModel, RobotDescription, forward_kinematics, sample_workspace, scaled_jacobian
-from models.identifiability import analyse_identifiability, measurement_rows
-from models.identification.identify import structural_identifiability
+from models import NoiseModel, RobotDescription, forward_kinematics, scaled_jacobian
+from models.identifiability import analyse_identifiability, measurement_rows, structural_support
 from models.kinematics import Array
+from models.measurement import MeasurementKind
+from models.runtime import Runtime, runtime_for
+from models.workspace import workspace_samples
 
 WORKSPACE_POSES = 400
 WORKSPACE_SEED = 20_091_231
@@ -73,36 +74,41 @@ def candidate_information(
     position_only: bool,
     noise: NoiseModel | None = None,
     params: Array | None = None,
+    runtime: Runtime | None = None,
 ) -> CandidateInformation:
+    rt = runtime_for(desc, runtime)
     noise = noise or NoiseModel()
     table = desc.parameters
-    fk = forward_kinematics(desc, joints, params, jacobian=True)
-    assert fk.jacobians is not None
-    scaled = scaled_jacobian(fk.jacobians, table, noise, position_only=position_only)
+    kind = MeasurementKind.of(position_only)
+    fk = forward_kinematics(desc, joints, params, jacobian=True, runtime=rt)
+    scaled = scaled_jacobian(fk.jacobians, table, noise, kind=kind)
     everything = tuple(range(len(table)))
-    structural = structural_identifiability(desc, everything, position_only)
-    own = analyse_identifiability(scaled, table, structural.identifiable)
-    free = (
-        structural.identifiable if own.rank == structural.rank else analyse_identifiability(scaled, table).identifiable
-    )
+    support = structural_support(desc, scaled, everything, kind, runtime=rt)
+    free = support.structural.identifiable if support.supported else analyse_identifiability(scaled, table).identifiable
     rows = measurement_rows(position_only)
     blocks = scaled.reshape(joints.shape[0], rows, len(table))[:, :, list(free)]
     return CandidateInformation(
         joints=np.asarray(joints, dtype=float),
         blocks=blocks,
         free=tuple(free),
-        task=task_matrix(desc, tuple(free)),
+        task=task_matrix(desc, tuple(free), runtime=rt),
         position_only=position_only,
     )
 
 
-@lru_cache(maxsize=16)
-def task_matrix(desc: RobotDescription, free: tuple[int, ...]) -> Array:
-    """L = mean over workspace poses of (S Jₚ)ᵀ (S Jₚ): Jₚ the TCP position rows, S the parameter tolerances."""
-    joints = sample_workspace(desc, WORKSPACE_POSES, seed=WORKSPACE_SEED)
-    jac = forward_kinematics(desc, joints, jacobian=True).jacobians
-    assert jac is not None
-    scales = desc.parameters.scales[list(free)]
-    jp = jac[:, :3, :][:, :, list(free)] * scales[None, None, :]
-    flat = jp.reshape(-1, len(free))
-    return (flat.T @ flat) / joints.shape[0]
+def task_matrix(desc: RobotDescription, free: tuple[int, ...], *, runtime: Runtime | None = None) -> Array:
+    """L = mean over workspace poses of (S Jₚ)ᵀ (S Jₚ): Jₚ the TCP position rows, S the parameter tolerances.
+
+    Kept by the structure's runtime, per description and subset.
+    """
+    rt = runtime_for(desc, runtime)
+
+    def build() -> Array:
+        joints = workspace_samples(desc, WORKSPACE_POSES, WORKSPACE_SEED, runtime=rt)
+        jac = forward_kinematics(desc, joints, jacobian=True, runtime=rt).jacobians
+        scales = desc.parameters.scales[list(free)]
+        jp = jac[:, :3, :][:, :, list(free)] * scales[None, None, :]
+        flat = jp.reshape(-1, len(free))
+        return (flat.T @ flat) / joints.shape[0]
+
+    return rt.artefact("task_matrix", (desc, free), build, capacity=16)

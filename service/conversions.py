@@ -11,8 +11,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from models import RobotDescription
+from models._types import IDENTITY, Pose6
 from models.errors import InvalidQuaternion
-from models.hybrid import IDENTITY, Pose6
 from models.kinematics import Array
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, quaternion_to_matrix
 

@@ -14,9 +14,9 @@ from typing import Any
 import numpy as np
 
 from models import RobotDescription, iwr
+from models._types import Pose6
 from models.campaign import make_campaign
 from models.errors import InvalidInput
-from models.hybrid import Pose6
 from models.identifiability import NoiseModel
 from models.identification import IdentificationOptions, RobustLoss, identify
 from optimal_design import design_poses

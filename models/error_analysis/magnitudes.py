@@ -2,7 +2,7 @@
 
 One type for the thesis's four numbers (§4.5): the study draws its parameter
 errors from them, `models.simulation` perturbs its "true" robots with them.
-Not `models.hybrid.Tolerances`, the expected error sizes that scale the
+Not `models.parameters.ParameterScales`, the expected error sizes that scale the
 identification Jacobian, although their defaults agree.
 """
 
@@ -15,8 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models.errors import InvalidInput
-from models.hybrid import RobotDescription
 from models.parameters import Kind
+from models.robot import RobotDescription
 
 _DEG = float(np.degrees(1.0))
 

@@ -35,9 +35,9 @@ from models.error_analysis.magnitudes import ErrorMagnitudes
 from models.error_analysis.result import SUBSYSTEMS, ErrorAnalysisResult, PoseErrors, WorstCase
 from models.error_analysis.statistics import Array
 from models.errors import InvalidInput, NonFiniteValue, UnreachablePose, WrongShape
-from models.function_cache import functions_for
-from models.hybrid import RobotDescription
 from models.kinematics import ForwardResult, as_joint_array, forward_kinematics
+from models.robot import RobotDescription
+from models.runtime import runtime_for
 from models.transforms import matrix_to_rotvec_np
 from models.workspace import sample_workspace
 
@@ -67,8 +67,7 @@ class _Nominal:
 def _nominal(desc: RobotDescription, joints: Array) -> _Nominal:
     theta0 = desc.parameters.nominal
     fk = forward_kinematics(desc, joints, theta0, jacobian=True)
-    assert fk.jacobians is not None
-    (frames,) = functions_for(desc).batch("carriage_fk", joints[:, : desc.n_chain], theta0)
+    (frames,) = runtime_for(desc).kinematics.batch("carriage_fk", joints[:, : desc.n_chain], theta0)
     return _Nominal(joints, fk.positions, fk.rotations, fk.platforms, fk.jacobians, frames)
 
 
@@ -96,7 +95,7 @@ def _perturbed_fk(
             "use smaller tolerances",
             pose=where,
             draw=draw,
-            reason=exc.data.get("reason"),
+            reason=str(exc.data.get("reason", "")),
         ) from exc
 
 
@@ -117,7 +116,7 @@ def _carriage_frame_errors(desc: RobotDescription, nominal: _Nominal, deltas: Ar
     and the TCP move as one rigid body, so they share the rotation error dω and
     dp_frame = dp_tcp − dω × (p_tcp − p_frame).
     """
-    fns = functions_for(desc)
+    fns = runtime_for(desc).kinematics
     theta0 = desc.parameters.nominal
     q_chain = nominal.joints[:, : desc.n_chain]
     ref = nominal.carriage_frames
@@ -154,7 +153,8 @@ def _deltas_array(desc: RobotDescription, deltas: ArrayLike) -> Array:
     if d.ndim != 2 or d.shape[1] != desc.n_params:
         raise WrongShape(
             f"parameter errors must have {desc.n_params} numbers per draw, got shape {np.shape(deltas)}",
-            expected=desc.n_params,
+            field="deltas",
+            expected=[-1, desc.n_params],
             got=list(np.shape(deltas)),
         )
     if not np.all(np.isfinite(d)):

@@ -1,9 +1,18 @@
 """Identification: measured poses → the robot's real parameters, by IPOPT through CasADi."""
 
-from models.identification.identify import identify, minimum_poses, predicted_accuracy
+from models.identifiability import minimum_poses, structural_identifiability
+from models.identification.accuracy import predicted_accuracy
 from models.identification.options import IdentificationOptions, RobustLoss
+from models.identification.pipeline import identify
 from models.identification.registration import RigidFit, registered_base, rigid_fit
-from models.identification.result import IdentificationResult, Outlier, PredictedAccuracy, ResidualSummary, SolverReport
+from models.identification.result import (
+    IdentificationResult,
+    Outlier,
+    PredictedAccuracy,
+    ResidualSummary,
+    SolverReport,
+    Status,
+)
 from models.identification.validation import ValidationReport, validate
 
 __all__ = [
@@ -15,11 +24,13 @@ __all__ = [
     "RigidFit",
     "RobustLoss",
     "SolverReport",
+    "Status",
     "ValidationReport",
     "identify",
     "minimum_poses",
     "predicted_accuracy",
     "registered_base",
     "rigid_fit",
+    "structural_identifiability",
     "validate",
 ]

@@ -25,9 +25,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models.errors import CalibrationError
-from models.hybrid import RobotDescription
 from models.kinematics import Array, forward_kinematics
 from models.parameters import Kind
+from models.robot import RobotDescription
 from models.transforms import quaternion_to_matrix
 
 MIN_RECORDS = 5

@@ -16,12 +16,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from models._types import Array
 from models.campaign import Campaign
-from models.function_cache import RobotFunctions
-from models.hybrid import RobotDescription
-from models.identifiability import NoiseModel, measurement_rows
+from models.identifiability import NoiseModel
 from models.identification.options import RobustLoss
-from models.kinematics import CLOSURE_TOLERANCE_MM, Array, solve_platforms
+from models.kinematics import CLOSURE_TOLERANCE_MM, solve_platforms
+from models.robot import RobotDescription
+from models.runtime import Runtime
 
 
 @dataclass(frozen=True)
@@ -66,7 +67,8 @@ class Evaluation:
 @dataclass
 class CampaignProblem:
     desc: RobotDescription
-    functions: RobotFunctions
+    runtime: Runtime
+    """Of `desc`'s structure: its compiled Functions evaluate every batch."""
     campaign: Campaign
     noise: NoiseModel
     theta_start: Array
@@ -80,7 +82,9 @@ class CampaignProblem:
     evaluations: int = 0
 
     def __post_init__(self) -> None:
-        rows = measurement_rows(self.campaign.position_only)
+        self.runtime.check(self.desc)
+        self.functions = self.runtime.kinematics
+        rows = self.campaign.kind.rows
         weights = np.array([1 / self.noise.position_mm] * 3 + [1 / self.noise.orientation_rad] * 3)
         self.rows = rows
         self.weights = weights[:rows]
@@ -91,6 +95,11 @@ class CampaignProblem:
         )
         if self.active is None:
             self.active = np.arange(n, dtype=np.intp)
+
+    @property
+    def active_poses(self) -> NDArray[np.intp]:
+        assert self.active is not None  # set in __post_init__
+        return self.active
 
     @property
     def n_free(self) -> int:
@@ -119,7 +128,7 @@ class CampaignProblem:
         theta = self.theta(np.asarray(z, dtype=float))
         q = self.campaign.joints[self.active]
         seeds = None if self.platforms is None else self.platforms[self.active]
-        platforms, closure = solve_platforms(self.desc, q, theta, seeds)
+        platforms, closure = solve_platforms(self.desc, q, theta, seeds, runtime=self.runtime)
         (res,) = self.functions.batch(
             "residual_at", q, theta, platforms, self.campaign.positions[self.active], self.rotations[self.active]
         )
@@ -134,7 +143,7 @@ class CampaignProblem:
         c = self.campaign
         q = c.joints[self.active]
         seeds = None if self.platforms is None else self.platforms[self.active]
-        platforms, closure = solve_platforms(self.desc, q, theta, seeds)
+        platforms, closure = solve_platforms(self.desc, q, theta, seeds, runtime=self.runtime)
         if not np.all(closure <= CLOSURE_TOLERANCE_MM):
             return None
         res, jac = self.functions.batch(

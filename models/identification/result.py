@@ -1,54 +1,65 @@
-"""The frozen outcome of an identification, and its boundary-unit (mm, deg) dictionary."""
+"""The frozen outcome of an identification (internal units), and its boundary-unit (mm, deg) dictionary."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
 
+from models._types import Array, finite_or_none
 from models.identifiability import Confounding
 from models.identification.statistics import PoseErrors
-from models.kinematics import Array
+from models.measurement import MeasurementKind
 from models.parameters import ParameterTable
 
 DEG = float(np.degrees(1.0))
 
 
-def _num(x: float | None) -> float | None:
-    return None if x is None or not np.isfinite(x) else float(x)
+def _rms(a: Array) -> float:
+    return float(np.sqrt(np.mean(a**2)))
+
+
+class Status(StrEnum):
+    SUCCEEDED = "succeeded"
+    FAILED = "failed"
 
 
 @dataclass(frozen=True)
 class ResidualSummary:
+    """Per-pose error norms of a model against measurements: position mm, orientation angle rad."""
+
     rms_mm: float
     max_mm: float
-    rms_deg: float | None
-    max_deg: float | None
+    rms_rad: float | None
+    """None for position-only data."""
+    max_rad: float | None
     per_pose_mm: Array
-    per_pose_deg: Array | None
+    per_pose_rad: Array | None
 
     @staticmethod
     def of(errors: PoseErrors) -> ResidualSummary:
-        pos = errors.position_mm
-        rot = None if errors.orientation_rad is None else errors.orientation_rad * DEG
+        pos, rot = errors.position_mm, errors.orientation_rad
         return ResidualSummary(
-            rms_mm=float(np.sqrt(np.mean(pos**2))),
+            rms_mm=_rms(pos),
             max_mm=float(pos.max()),
-            rms_deg=None if rot is None else float(np.sqrt(np.mean(rot**2))),
-            max_deg=None if rot is None else float(rot.max()),
+            rms_rad=None if rot is None else _rms(rot),
+            max_rad=None if rot is None else float(rot.max()),
             per_pose_mm=pos,
-            per_pose_deg=rot,
+            per_pose_rad=rot,
         )
 
     def to_dict(self, per_pose: bool = True) -> dict[str, Any]:
         out: dict[str, Any] = {"rms_mm": self.rms_mm, "max_mm": self.max_mm}
-        if self.rms_deg is not None:
-            out |= {"rms_deg": self.rms_deg, "max_deg": self.max_deg}
+        # Degrees from the per-pose values, as the boundary always reported them (bit for bit).
+        rot = None if self.per_pose_rad is None else self.per_pose_rad * DEG
+        if rot is not None:
+            out |= {"rms_deg": _rms(rot), "max_deg": float(rot.max())}
         if per_pose:
             out["per_pose_mm"] = self.per_pose_mm.tolist()
-            if self.per_pose_deg is not None:
-                out["per_pose_deg"] = self.per_pose_deg.tolist()
+            if rot is not None:
+                out["per_pose_deg"] = rot.tolist()
         return out
 
 
@@ -56,7 +67,8 @@ class ResidualSummary:
 class Outlier:
     pose: int
     position_mm: float
-    orientation_deg: float | None
+    orientation_rad: float | None
+    """Angle of the orientation residual; None for position-only data."""
     statistic: float
     """Σ of the pose's squared standardised residuals (≈ χ² with 3 or 6 degrees of freedom when clean)."""
     threshold: float
@@ -65,6 +77,8 @@ class Outlier:
 
 @dataclass(frozen=True)
 class SolverReport:
+    """How the solver went, summed over its runs (the robust fit, then the refit without outliers)."""
+
     name: str
     status: str
     success: bool
@@ -73,7 +87,7 @@ class SolverReport:
     objective: float
     evaluations: int
     polish_steps: int = 0
-    """Gauss–Newton steps taken after IPOPT (see identify._polish)."""
+    """Gauss–Newton steps taken after IPOPT (see `polish`)."""
 
 
 @dataclass(frozen=True)
@@ -82,15 +96,21 @@ class PredictedAccuracy:
 
     rms_position_mm: float
     max_position_mm: float
-    rms_orientation_deg: float
-    max_orientation_deg: float
+    rms_orientation_rad: float
+    max_orientation_rad: float
     poses: int
+
+    @staticmethod
+    def undefined() -> PredictedAccuracy:
+        nan = float("nan")
+        return PredictedAccuracy(nan, nan, nan, nan, 0)
 
 
 @dataclass(frozen=True)
 class IdentificationResult:
-    status: str
-    """"succeeded" or "failed"; a failed result must never be applied to a robot."""
+    status: Status
+    """SUCCEEDED or FAILED (equal to the strings "succeeded", "failed"); a failed result must never be applied
+    to a robot."""
     reason: str | None
     table: ParameterTable = field(repr=False)
     parameters: Array
@@ -118,14 +138,18 @@ class IdentificationResult:
     outliers: tuple[Outlier, ...]
     solver: SolverReport
     predicted_accuracy: PredictedAccuracy
-    position_only: bool
+    kind: MeasurementKind
     measurements: int
     seconds: float
     notes: tuple[str, ...] = ()
 
     @property
     def succeeded(self) -> bool:
-        return self.status == "succeeded"
+        return self.status is Status.SUCCEEDED
+
+    @property
+    def position_only(self) -> bool:
+        return self.kind is MeasurementKind.POSITION
 
     @property
     def identifiable_names(self) -> tuple[str, ...]:
@@ -143,7 +167,7 @@ class IdentificationResult:
         value, nominal, std = (t.as_boundary(v) for v in (self.parameters, self.nominal, self.std_errors))
         acc = self.predicted_accuracy
         return {
-            "status": self.status,
+            "status": self.status.value,
             "reason": self.reason,
             "parameters": [
                 {
@@ -151,7 +175,7 @@ class IdentificationResult:
                     "value": float(value[i]),
                     "unit": t.units[i],
                     "nominal": float(nominal[i]),
-                    "std_error": _num(std[i]) if i in chosen else None,
+                    "std_error": finite_or_none(std[i]) if i in chosen else None,
                     "identifiable": i in chosen,
                 }
                 for i, name in enumerate(t.names)
@@ -161,20 +185,20 @@ class IdentificationResult:
             "confounding": {c.name: [{"with": p, "coefficient": k} for p, k in c.partners] for c in self.confounding},
             "correlated_pairs": [{"a": a, "b": b, "correlation": r} for a, b, r in self.correlated_pairs],
             "rank": self.rank,
-            "condition_number": _num(self.condition_number),
+            "condition_number": finite_or_none(self.condition_number),
             "identifiability_rechecked": self.identifiability_rechecked,
             "residuals": {
                 "before": self.residuals_before.to_dict(per_pose),
                 "after": self.residuals_after.to_dict(per_pose),
             },
-            "variance_factor": _num(self.variance_factor),
+            "variance_factor": finite_or_none(self.variance_factor),
             "degrees_of_freedom": self.dof,
             "noise_consistent": self.noise_consistent,
             "outliers": [
                 {
                     "pose": o.pose,
                     "position_mm": o.position_mm,
-                    "orientation_deg": o.orientation_deg,
+                    "orientation_deg": None if o.orientation_rad is None else float(np.degrees(o.orientation_rad)),
                     "statistic": o.statistic,
                     "threshold": o.threshold,
                     "excluded": o.excluded,
@@ -191,13 +215,13 @@ class IdentificationResult:
                 "polish_steps": self.solver.polish_steps,
             },
             "predicted_accuracy": {
-                "rms_position_mm": _num(acc.rms_position_mm),
-                "max_position_mm": _num(acc.max_position_mm),
-                "rms_orientation_deg": _num(acc.rms_orientation_deg),
-                "max_orientation_deg": _num(acc.max_orientation_deg),
+                "rms_position_mm": finite_or_none(acc.rms_position_mm),
+                "max_position_mm": finite_or_none(acc.max_position_mm),
+                "rms_orientation_deg": finite_or_none(float(np.degrees(acc.rms_orientation_rad))),
+                "max_orientation_deg": finite_or_none(float(np.degrees(acc.max_orientation_rad))),
                 "workspace_poses": acc.poses,
             },
-            "measurement": "position" if self.position_only else "pose",
+            "measurement": self.kind.value,
             "measurements": self.measurements,
             "seconds": self.seconds,
             "notes": list(self.notes),

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.stats
 
-from models.kinematics import Array
+from models._types import Array
 
 CORRELATED_PAIRS = 10
 NOISE_CONSISTENCY_LEVEL = 0.99

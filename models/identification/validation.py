@@ -7,12 +7,14 @@ from typing import Any
 
 import numpy as np
 
+from models._types import Array
 from models.campaign import Campaign
-from models.hybrid import RobotDescription
 from models.identification.registration import registered_base, rigid_fit
 from models.identification.result import ResidualSummary
 from models.identification.statistics import PoseErrors
-from models.kinematics import Array, forward_kinematics
+from models.kinematics import forward_kinematics
+from models.robot import RobotDescription
+from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np
 
 
@@ -26,13 +28,20 @@ class ValidationReport:
         return {"errors": self.errors.to_dict(), "registered": self.registered}
 
 
-def validate(desc: RobotDescription, params: Array, campaign: Campaign, *, register: bool = False) -> ValidationReport:
+def validate(
+    desc: RobotDescription,
+    params: Array,
+    campaign: Campaign,
+    *,
+    register: bool = False,
+    runtime: Runtime | None = None,
+) -> ValidationReport:
     """Errors of the model `params` on `campaign`: the instrument in the same place, unless `register`."""
     theta = desc.parameters.vector(params)
-    fk = forward_kinematics(desc, campaign.joints, theta)
+    fk = forward_kinematics(desc, campaign.joints, theta, runtime=runtime)
     if register:
         theta = registered_base(desc, theta, rigid_fit(fk.positions, campaign.positions))
-        fk = forward_kinematics(desc, campaign.joints, theta, seeds=fk.platforms)
+        fk = forward_kinematics(desc, campaign.joints, theta, seeds=fk.platforms, runtime=runtime)
     position = np.linalg.norm(fk.positions - campaign.positions, axis=1)
     orientation = None
     if not campaign.position_only:

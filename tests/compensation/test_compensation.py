@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 
 from models import RobotDescription, forward_kinematics, sample_workspace
-from models.compensation import compensate as comp
 from models.compensation import correct_program, inverse_kinematics
-from models.compensation.kkt import kkt_functions, newton_kkt
-from models.compensation.nlp import bounds
 from models.identification import IdentificationResult, identify
 from models.identification.statistics import tcp_accuracy
+from models.inverse import default_seed, routing, starts
+from models.inverse.kkt import kkt_functions, newton_kkt
+from models.inverse.nlp import bounds
+from models.inverse.problem import joint_weights
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np
 
@@ -75,11 +76,11 @@ def test_batch_newton_finds_the_ipopt_optimum(desc: RobotDescription, calibrated
     fk = forward_kinematics(desc, sample_workspace(desc, 120, seed=33), theta)
     n = 120
     target = np.hstack([fk.positions, fk.rotations.transpose(0, 2, 1).reshape(n, 9)])
-    table = comp._table(desc, theta)
-    _, nearest = table.pose_tree.query(comp._features(fk.positions, fk.rotations))
+    table = starts.start_table(desc, theta)
+    _, nearest = table.pose_tree.query(starts.features(fk.positions, fk.rotations))
     start = table.start[nearest]
-    seeds = np.tile(comp.default_seed(desc), (n, 1))
-    w = comp._weights(desc, None)
+    seeds = np.tile(default_seed(desc), (n, 1))
+    w = joint_weights(desc, None)
     lbx, ubx, _, _ = bounds(desc)
     v, ok = newton_kkt(
         kkt_functions(desc),
@@ -92,8 +93,10 @@ def test_batch_newton_finds_the_ipopt_optimum(desc: RobotDescription, calibrated
         upper=ubx,
         position_only=False,
     )
-    ok &= comp._within_bounds(desc, theta, v)
-    reference, met = comp._ipopt(desc, theta, target, seeds, w, start=start, position_only=False, exact=True)
+    ok &= routing.within_bounds(desc, theta, v)
+    reference, met = routing.ipopt_solutions(
+        desc, theta, target, seeds, w, start=start, position_only=False, exact=True
+    )
     assert ok.mean() > 0.8 and met.all()
     assert np.abs(v[ok] - reference[ok]).max() < 1e-5  # mm and rad: IPOPT's own tolerance
 
@@ -106,7 +109,7 @@ def test_position_only_targets_leave_orientation_free(desc: RobotDescription, ca
     # With the orientation free the answer is at least as close to the seed as the full-pose one.
     full = inverse_kinematics(desc, fk.positions, matrix_to_quaternion(fk.rotations), calibrated.parameters)
     span = desc.joint_max - desc.joint_min
-    seed = comp.default_seed(desc)
+    seed = default_seed(desc)
     d_free = np.sum(((answer.joints - seed) / span) ** 2, axis=1)
     d_full = np.sum(((full.joints - seed) / span) ** 2, axis=1)
     assert np.all(d_free <= d_full + 1e-9)

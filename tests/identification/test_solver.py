@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import NoiseModel, RobotDescription, forward_kinematics, functions_for, sample_workspace
+from models import NoiseModel, RobotDescription, default_registry, forward_kinematics, sample_workspace
 from models.campaign import Campaign
 from models.identification import identify, rigid_fit, validate
-from models.identification.ipopt_solver import SOLVERS
 from models.identification.residuals import CampaignProblem
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
@@ -20,7 +19,7 @@ def test_solution_is_stationary_to_well_below_a_micrometre(desc: RobotDescriptio
     campaign = measure(sim, joints, seed=6)
     result = identify(desc, campaign)
     free = np.array(result.estimated)
-    problem = CampaignProblem(desc, functions_for(desc), campaign, NoiseModel(), result.parameters, free)
+    problem = CampaignProblem(desc, default_registry().runtime(desc), campaign, NoiseModel(), result.parameters, free)
     ev = problem.evaluate(np.zeros(free.size))
     assert ev is not None
     step = np.linalg.solve(ev.hessian, -ev.gradient)  # one more Gauss–Newton step from the solution
@@ -36,12 +35,12 @@ def test_solution_is_stationary_to_well_below_a_micrometre(desc: RobotDescriptio
 def test_new_campaign_sizes_build_no_new_solver(desc: RobotDescription) -> None:
     sim = perturbed_robot(desc, seed=4)
     identify(desc, measure(sim, sample_workspace(desc, 40, seed=1), seed=2))
-    builds = SOLVERS.builds
+    builds = default_registry().runtime(desc).builds.get("ipopt_solver", 0)
     for n in (33, 47, 71):
         result = identify(desc, measure(sim, sample_workspace(desc, n, seed=n), seed=n))
         assert result.succeeded
         assert result.solver.iterations <= 10
-    assert SOLVERS.builds == builds
+    assert default_registry().runtime(desc).builds.get("ipopt_solver", 0) == builds
 
 
 def test_validation_on_a_second_campaign_and_after_moving_the_instrument(desc: RobotDescription) -> None:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from models import RobotDescription, functions_for
+from models import RobotDescription, default_registry
 
 
 def test_carriage_matches_closed_form(desc: RobotDescription, rng: np.random.Generator) -> None:
-    fk = functions_for(desc)["carriage_fk"]
+    fk = default_registry().runtime(desc).kinematics["carriage_fk"]
     theta = desc.parameters.nominal
     a1, a3, a4, d3 = 91.0, 252.0, 354.0, 331.0
     for _ in range(200):

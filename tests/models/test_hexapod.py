@@ -7,7 +7,7 @@ import itertools
 import casadi as ca
 import numpy as np
 
-from models import RobotDescription, functions_for, inverse_hexapod, sample_workspace, solve_platforms
+from models import RobotDescription, default_registry, inverse_hexapod, sample_workspace, solve_platforms
 from models.hexapod import split_hexapod_params
 from models.kinematics import hexapod_condition
 from models.transforms import euler_zyx, rotvec_to_matrix
@@ -33,7 +33,7 @@ def test_ik_fk_round_trip_over_the_workspace(desc: RobotDescription) -> None:
 
 
 def test_rootfinder_fk_converges_from_home(desc: RobotDescription) -> None:
-    fk = functions_for(desc)["hexapod_fk"]
+    fk = default_registry().runtime(desc).kinematics["hexapod_fk"]
     hp = desc.parameters.nominal[desc.slices["hexapod"]]
     platforms = np.vstack([_workspace_corners(desc), sample_workspace(desc, 50, 3, return_platforms=True)[1]])
     for x in platforms:
@@ -55,7 +55,7 @@ def test_thesis_jacobian_equals_automatic_differentiation(desc: RobotDescription
     lengths = ca.sqrt(ca.sum1(v * v)).T
     twist = ca.vertcat(dp, w)
     ad = ca.Function("ad", [x, hp, twist], [ca.jacobian(lengths, twist)])
-    closed = functions_for(desc)["hexapod_jacobian"]
+    closed = default_registry().runtime(desc).kinematics["hexapod_jacobian"]
     for platform in sample_workspace(desc, 30, 11, return_platforms=True)[1]:
         np.testing.assert_allclose(
             np.array(ad(platform, hp_num, np.zeros(6))), np.array(closed(platform, hp_num)), atol=1e-12

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import RobotDescription, forward_kinematics, functions_for, sample_workspace
+from models import RobotDescription, default_registry, forward_kinematics, sample_workspace
 from models.parameters import Kind
 from models.simulation import perturbed_robot
 from models.transforms import matrix_to_rotvec_np
@@ -50,7 +50,7 @@ def test_identification_jacobian_matches_finite_differences(desc: RobotDescripti
 
 def test_rootfinder_route_equals_explicit_implicit_function_theorem(desc: RobotDescription) -> None:
     """CasADi's AD through `rootfinder` and our explicit IFT give the same Jacobian."""
-    fns = functions_for(desc)
+    fns = default_registry().runtime(desc).kinematics
     theta = perturbed_robot(desc, 5).truth
     joints = sample_workspace(desc, 5, seed=2)
     batch = forward_kinematics(desc, joints, theta, jacobian=True)
@@ -62,7 +62,7 @@ def test_rootfinder_route_equals_explicit_implicit_function_theorem(desc: RobotD
 
 
 def test_residual_jacobian_matches_finite_differences(desc: RobotDescription) -> None:
-    fns = functions_for(desc)
+    fns = default_registry().runtime(desc).kinematics
     sim = perturbed_robot(desc, 9)
     joints = sample_workspace(desc, 3, seed=4)
     fk = forward_kinematics(desc, joints, sim.truth)

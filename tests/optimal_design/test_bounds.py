@@ -84,7 +84,7 @@ def test_bad_input(desc: RobotDescription) -> None:
         design_poses(desc, 60, "D", candidates=joints)
     with pytest.raises(TooFewMeasurements, match="at least 9") as err:
         design_poses(desc, 5, "D", candidates=joints)
-    assert err.value.data["minimum"] == 9
+    assert err.value.data["needed"] == 9
     with pytest.raises(TooFewMeasurements, match="at least 17"):
         design_poses(desc, 10, "D", "position", candidates=joints)
     with pytest.raises(InvalidInput, match="unknown criterion"):

@@ -1,4 +1,4 @@
-"""A hybrid robot: base transform · DH chain · hexapod · tool.
+"""A robot description: base transform · DH chain · hexapod · tool.
 
 A `RobotDescription` is a frozen, hashable value: everything needed to build
 the robot's CasADi functions. The IWR is one instance (`models.iwr`); another
@@ -11,33 +11,20 @@ vector (rad).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
 
+from models._types import IDENTITY, Pose6
 from models.hexapod import N_LEGS, PARAMS_PER_LEG, HexapodGeometry, hexapod_parameter_specs, platform_rotation
-from models.parameters import Kind, ParameterSpec, ParameterTable
+from models.parameters import Kind, ParameterScales, ParameterSpec, ParameterTable
 from models.serial_chain import DHLink, JointType, chain_transform, dh_parameter_specs
 from models.transforms import Sym, homogeneous, rotvec_to_matrix
 
-Pose6 = tuple[float, float, float, float, float, float]
-IDENTITY: Pose6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-
-
-@dataclass(frozen=True)
-class Tolerances:
-    """Expected error sizes (internal units) used to scale parameters."""
-
-    base_length: float = 1.0
-    base_angle: float = float(np.radians(0.1))
-    dh_length: float = 0.5
-    dh_angle: float = float(np.radians(0.1))
-    hexapod_joint: float = 0.1
-    leg_offset: float = 0.5
-    tool_length: float = 0.5
-    tool_angle: float = float(np.radians(0.2))
+Structure = tuple[JointType, ...]
+"""What the CasADi graphs depend on: the joint type of each chain link (the hexapod always has six legs)."""
 
 
 @dataclass(frozen=True)
@@ -49,7 +36,14 @@ class RobotDescription:
     """World <- {0}: x, y, z (mm), rotation vector (rad)."""
     tool: Pose6 = IDENTITY
     """{platform} -> TCP: x, y, z (mm), rotation vector (rad)."""
-    tolerances: Tolerances = Tolerances()
+    scales: ParameterScales = field(default_factory=ParameterScales)
+    """Expected error per parameter kind: the column scaling of identification and design."""
+
+    @cached_property
+    def structure(self) -> Structure:
+        """The key of everything built from this description (`models.runtime`): geometry, base and tool are
+        inputs of the graphs, so every description with these joint types shares one runtime."""
+        return tuple(link.joint for link in self.links)
 
     # ------------------------------------------------------------ joints
     @property
@@ -86,7 +80,7 @@ class RobotDescription:
     # -------------------------------------------------------- parameters
     @cached_property
     def parameters(self) -> ParameterTable:
-        tol = self.tolerances
+        tol = self.scales
         specs: list[ParameterSpec] = []
         specs += _pose_specs("base", self.base, tol.base_length, tol.base_angle)
         specs += dh_parameter_specs(self.links, tol.dh_length, tol.dh_angle)
@@ -110,8 +104,6 @@ class RobotDescription:
         }
 
     def with_base_tool(self, base: Pose6 | None = None, tool: Pose6 | None = None) -> RobotDescription:
-        from dataclasses import replace
-
         return replace(self, base=base if base is not None else self.base, tool=tool if tool is not None else self.tool)
 
 
@@ -145,15 +137,3 @@ def tcp_transform(desc: RobotDescription, q_chain: Sym, platform: Sym, params: S
     s = desc.slices
     hexapod = homogeneous(platform_rotation(platform), platform[0:3])
     return carriage_transform(desc, q_chain, params) @ hexapod @ pose_transform(params[s["tool"]])
-
-
-__all__ = [
-    "IDENTITY",
-    "DHLink",
-    "JointType",
-    "RobotDescription",
-    "Tolerances",
-    "carriage_transform",
-    "pose_transform",
-    "tcp_transform",
-]

@@ -1,59 +1,40 @@
 """Newton on the optimality conditions of the inverse-kinematics NLP, for whole batches.
 
 The NLP of `nlp.py` without its bounds: minimise Σ wⱼ (jointⱼ(v) − seedⱼ)² subject to
-c(v) = 0 (TCP on target), v = [carriage joints, platform pose]. Its KKT
-conditions F(v, λ) = [∇d + Aᵀλ; c] = 0 are solved by Newton's method with the
-exact Jacobian of F (second derivatives of the constraints included), from
-CasADi's AD, compiled and evaluated over all targets at once. Where no bound is
-active at the result, it is the IPOPT solution (a KKT point of the bounded
-problem too); a test checks that the two agree. Targets where a bound would be
-violated, or Newton does not converge, go to IPOPT.
+c(v) = 0 (TCP on target), v = [carriage joints, platform pose] (the same
+`ik_problem`, the same weights). Its KKT conditions F(v, λ) = [∇d + Aᵀλ; c] = 0
+are solved by Newton's method with the exact Jacobian of F (second derivatives
+of the constraints included), from CasADi's AD, compiled and evaluated over
+all targets at once. Where no bound is active at the result, it is the IPOPT
+solution (a KKT point of the bounded problem too); a test checks that the two
+agree. Targets where a bound would be violated, or Newton does not converge,
+go to IPOPT.
 """
 
 from __future__ import annotations
 
-import threading
-from typing import Any
-
 import casadi as ca
 import numpy as np
 
-from models import hexapod as hx
-from models.compensation.nlp import ORIENTATION_LENGTH_MM, orientation_error
-from models.function_cache import RobotFunctions
-from models.hybrid import RobotDescription, tcp_transform
+from models.batch import BatchFunctions
+from models.inverse.problem import ik_problem
 from models.native import compile_functions
-
-_LOCK = threading.Lock()
-_BUILT: dict[tuple[Any, ...], RobotFunctions] = {}
+from models.robot import RobotDescription
+from models.runtime import Runtime, runtime_for
 
 
 def _functions(desc: RobotDescription) -> list[ca.Function]:
-    n_chain = desc.n_chain
-    s_hex = desc.slices["hexapod"]
-    q = ca.SX.sym("q_chain", n_chain)
-    x = ca.SX.sym("platform", 6)
-    theta = ca.SX.sym("params", desc.n_params)
-    target = ca.SX.sym("target", 12)
-    seed = ca.SX.sym("seed", desc.n_joints)
-    weights = ca.SX.sym("weights", desc.n_joints)
-    """Already divided by the squared range of each joint."""
-    v = ca.vertcat(q, x)
-    joints = ca.vertcat(q, hx.actuator_lengths(x, theta[s_hex]))
-    distance = ca.sum1(weights * (joints - seed) ** 2)
-    t = tcp_transform(desc, q, x, theta)
-    position_error = t[0:3, 3] - target[0:3]
-    rotation_error = orientation_error(t[0:3, 0:3], ca.reshape(target[3:12], 3, 3)) * ORIENTATION_LENGTH_MM
+    ik = ik_problem(desc)
     out = []
-    for label, c in (("pose", ca.vertcat(position_error, rotation_error)), ("position", position_error)):
+    for label, c in (("pose", ik.equations(position_only=False)), ("position", ik.equations(position_only=True))):
         lam = ca.SX.sym("lam", c.numel())
-        f = ca.vertcat(ca.gradient(distance + ca.dot(lam, c), v), c)
-        jf = ca.jacobian(f, ca.vertcat(v, lam))
+        f = ca.vertcat(ca.gradient(ik.distance + ca.dot(lam, c), ik.v), c)
+        jf = ca.jacobian(f, ca.vertcat(ik.v, lam))
         out.append(
             ca.Function(
                 f"ik_kkt_{label}",
-                [v, lam, target, seed, weights, theta],
-                [ca.densify(f), ca.densify(jf), joints],
+                [ik.v, lam, ik.target, ik.seed, ik.weights, ik.theta],
+                [ca.densify(f), ca.densify(jf), ik.joints],
                 ["v", "lam", "target", "seed", "weights", "params"],
                 ["F", "JF", "joints"],
             )
@@ -61,24 +42,15 @@ def _functions(desc: RobotDescription) -> list[ca.Function]:
     return out
 
 
-def kkt_functions(desc: RobotDescription) -> RobotFunctions:
-    """Compiled KKT residuals and Jacobians, once per robot structure."""
-    structure = tuple(link.joint for link in desc.links)
-    with _LOCK:
-        found = _BUILT.get(structure)
-        if found is None:
-            fns = _functions(desc)
-            tag = "ik_" + "".join("p" if j.value == "prismatic" else "r" for j in structure)
-            found = RobotFunctions(
-                structure=structure,
-                n_joints=desc.n_joints,
-                n_params=desc.n_params,
-                functions={f.name(): f for f in fns},
-                native=compile_functions(tag, fns),
-                build_seconds=0.0,
-            )
-            _BUILT[structure] = found
-        return found
+def kkt_functions(desc: RobotDescription, runtime: Runtime | None = None) -> BatchFunctions:
+    """Compiled KKT residuals and Jacobians of this structure, built once by its runtime."""
+    rt = runtime_for(desc, runtime)
+
+    def build() -> BatchFunctions:
+        fns = _functions(desc)
+        return BatchFunctions(functions={f.name(): f for f in fns}, native=compile_functions("ik_" + rt.tag, fns))
+
+    return rt.artefact("kkt", None, build)
 
 
 def _solve(jf: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -96,7 +68,7 @@ def _solve(jf: np.ndarray, f: np.ndarray) -> np.ndarray:
 
 
 def _newton(
-    fns: RobotFunctions,
+    fns: BatchFunctions,
     name: str,
     m: int,
     v: np.ndarray,
@@ -136,7 +108,7 @@ def _newton(
 
 
 def newton_kkt(
-    fns: RobotFunctions,
+    fns: BatchFunctions,
     v: np.ndarray,
     target: np.ndarray,
     *,

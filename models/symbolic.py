@@ -1,9 +1,10 @@
-"""Every `casadi.Function` of a robot, built once per robot structure.
+"""The kinematic model as CasADi expressions: FK, residuals, implicit-function Jacobians.
 
 The graphs depend only on the structure of a description (the joint type of
 each chain link; the hexapod always has six legs): nominal values, base, tool
 and data are inputs. So every IWR, whatever its nominal geometry, shares one
-set of Functions, and a request never triggers a build.
+set of Functions (held by its `models.runtime.Runtime`), and a request never
+triggers a build.
 
 Internal units: mm and rad. `q` is the joint vector `[q_chain..., l1..l6]`,
 `params` the full parameter vector, `platform` the hexapod pose
@@ -16,24 +17,15 @@ Two routes to the same numbers, from the same expressions:
 - `*_at` Functions take the solved platform pose as an input and apply the
   implicit function theorem explicitly (`dx/dθ = -G_x⁻¹ G_θ`), in SX; with
   `newton_solve` (unrolled Newton steps) they evaluate whole batches at native
-  speed (see `native`). Tests check that both routes agree.
+  speed (see `native` and `batch`). Tests check that both routes agree.
 """
 
 from __future__ import annotations
 
-import threading
-import time
-from collections import OrderedDict
-from dataclasses import dataclass, field
-
 import casadi as ca
-import numpy as np
-from numpy.typing import NDArray
 
 from models import hexapod as hx
-from models.hybrid import RobotDescription, carriage_transform, tcp_transform
-from models.native import compile_functions
-from models.serial_chain import JointType
+from models.robot import RobotDescription, carriage_transform, tcp_transform
 from models.transforms import matrix_to_rotvec
 
 NEWTON_OPTIONS = {
@@ -45,12 +37,6 @@ NEWTON_OPTIONS = {
 }
 NEWTON_STEPS_PER_CALL = 6
 """Newton steps unrolled in `newton_solve`; from the home seed the workspace needs 4-5."""
-
-_MAP_CACHE_SIZE = 64
-PARALLEL_FROM = 256
-"""Batches of at least this many poses are evaluated on two threads."""
-
-Structure = tuple[JointType, ...]
 
 
 def rotation_jacobian(r: ca.SX | ca.MX, dr_dp: ca.SX | ca.MX) -> ca.SX | ca.MX:
@@ -73,78 +59,8 @@ def pose_jacobian(position: ca.SX | ca.MX, rotation: ca.SX | ca.MX, dvec_dp: ca.
     return ca.vertcat(dvec_dp[0:3, :], rotation_jacobian(rotation, dvec_dp[3:12, :]))
 
 
-@dataclass
-class RobotFunctions:
-    """The Functions of one robot structure; see the module docstring for the conventions."""
-
-    structure: Structure
-    n_joints: int
-    n_params: int
-    functions: dict[str, ca.Function]
-    """Differentiable CasADi Functions (SX, or MX around the rootfinder)."""
-    native: dict[str, ca.Function]
-    """Compiled versions of the batch Functions (or the same SX ones when no compiler is available)."""
-    build_seconds: float
-    _maps: OrderedDict[tuple[str, int], ca.Function] = field(default_factory=OrderedDict, repr=False)
-    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
-
-    def __getitem__(self, name: str) -> ca.Function:
-        return self.functions[name]
-
-    def batch(self, name: str, *args: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-        """Evaluate native `name` over N poses, reading and writing numpy memory directly.
-
-        Per-pose inputs are arrays (N, k) or (N, r, c); shared inputs (params)
-        are 1-D and broadcast. Outputs are (N, k) for vectors, (N, r, c) for
-        matrices. Going through CasADi's buffer interface skips DM conversion,
-        which otherwise costs ten times the evaluation itself.
-        """
-        n = max((a.shape[0] for a in args if a.ndim >= 2), default=1)
-        base = self.native[name]
-        mapped = self.mapped(name, n)
-        buffer, trigger = mapped.buffer()
-        keep: list[NDArray[np.float64]] = []
-        for i, arg in enumerate(args):
-            rows, cols = base.size_in(i)
-            if arg.ndim == 1:
-                arg = np.broadcast_to(arg, (n, arg.size))  # noqa: PLW2901
-            elif arg.ndim == 3:
-                arg = arg.transpose(0, 2, 1)  # noqa: PLW2901  (CasADi stores matrices column by column)
-            flat = np.ascontiguousarray(arg, dtype=float).reshape(n, rows * cols)
-            keep.append(flat)
-            buffer.set_arg(i, flat.data)
-        outputs = []
-        for i in range(base.n_out()):
-            rows, cols = base.size_out(i)
-            out = np.empty((n, cols, rows))
-            buffer.set_res(i, out.data)
-            outputs.append(out)
-        trigger()
-        return tuple(o[:, 0, :] if o.shape[1] == 1 else o.transpose(0, 2, 1) for o in outputs)
-
-    def mapped(self, name: str, n: int) -> ca.Function:
-        """The native `name` over n poses at once: per-pose inputs become columns, `params` is shared.
-
-        Mapping wraps the compiled function (no re-derivation, no compiling),
-        so a new n costs microseconds; the most recent maps are kept.
-        """
-        key = (name, n)
-        with self._lock:
-            found = self._maps.get(key)
-            if found is not None:
-                self._maps.move_to_end(key)
-                return found
-        # Inputs given as a single column (params) are broadcast to all n by CasADi. Small batches run
-        # serially: starting threads costs more than they save below a few hundred poses.
-        mapped = self.native[name].map(n, "thread", 2) if n >= PARALLEL_FROM else self.native[name].map(n, "serial")
-        with self._lock:
-            self._maps[key] = mapped
-            while len(self._maps) > _MAP_CACHE_SIZE:
-                self._maps.popitem(last=False)
-        return mapped
-
-
-def _symbolic(desc: RobotDescription) -> dict[str, ca.Function]:
+def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
+    """Every kinematic Function of `desc`'s structure (see the module docstring for the two routes)."""
     n_chain = desc.n_chain
     s_hex = desc.slices["hexapod"]
     n_hex = s_hex.stop - s_hex.start
@@ -290,56 +206,7 @@ NATIVE_FUNCTIONS = (
 )
 
 
-def _densified(f: ca.Function) -> ca.Function:
+def densified(f: ca.Function) -> ca.Function:
     sx_in = f.sx_in()
     outs = [ca.densify(o) for o in f.call(sx_in)]
     return ca.Function(f.name(), sx_in, outs, f.name_in(), f.name_out())
-
-
-def build_functions(desc: RobotDescription) -> RobotFunctions:
-    """Derive (and compile) all Functions of a structure. Depends only on the chain's joint types."""
-    started = time.perf_counter()
-    fn = _symbolic(desc)
-    structure = tuple(link.joint for link in desc.links)
-    tag = "robot_" + "".join("p" if j is JointType.PRISMATIC else "r" for j in structure)
-    # Dense outputs: the batch interface reads results as plain arrays.
-    dense = [_densified(fn[name]) for name in NATIVE_FUNCTIONS]
-    native = compile_functions(tag, dense)
-    return RobotFunctions(
-        structure=structure,
-        n_joints=desc.n_joints,
-        n_params=desc.n_params,
-        functions=fn,
-        native=native,
-        build_seconds=time.perf_counter() - started,
-    )
-
-
-class FunctionCache:
-    """Memoises `build_functions` by robot structure and counts builds (tests assert one build)."""
-
-    def __init__(self) -> None:
-        self._built: dict[Structure, RobotFunctions] = {}
-        self._lock = threading.Lock()
-        self.builds = 0
-
-    def get(self, desc: RobotDescription) -> RobotFunctions:
-        key = tuple(link.joint for link in desc.links)
-        with self._lock:
-            found = self._built.get(key)
-            if found is None:
-                found = build_functions(desc)
-                self._built[key] = found
-                self.builds += 1
-            return found
-
-    def clear(self) -> None:
-        with self._lock:
-            self._built.clear()
-
-
-FUNCTIONS = FunctionCache()
-
-
-def functions_for(desc: RobotDescription) -> RobotFunctions:
-    return FUNCTIONS.get(desc)

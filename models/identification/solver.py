@@ -1,5 +1,7 @@
 """IPOPT through CasADi, built once per number of unknowns and reused for every campaign.
 
+The pool of solvers belongs to the structure's runtime (`solver_pool`).
+
 Why not a CasADi graph of the whole campaign: its size, and so its build time,
 grows with N, and a service sees a new N in almost every request (measured in
 `benchmarks/bench_identification.py`: the nested-rootfinder NLP and the
@@ -27,8 +29,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from models._types import Array
 from models.identification.residuals import CampaignProblem
-from models.kinematics import Array
+from models.runtime import Runtime
 
 IPOPT_OPTIONS: dict[str, Any] = {
     "ipopt.print_level": 0,
@@ -128,10 +131,10 @@ class _Solver:
 
     def problem(self) -> CampaignProblem:
         if self._problem is None:
-            raise RuntimeError("solver called without a problem")
+            raise RuntimeError("solver called without a problem")  # a bug here, never the user's data
         return self._problem
 
-    def solve(self, problem: CampaignProblem, z0: Array, lower: Array, upper: Array) -> SolveReport:
+    def solve(self, problem: CampaignProblem, z0: Array, lower: Array, upper: Array) -> IpoptRun:
         self._problem = problem
         started = time.perf_counter()
         try:
@@ -139,7 +142,7 @@ class _Solver:
         finally:
             self._problem = None
         stats = self.nlp.stats()
-        return SolveReport(
+        return IpoptRun(
             z=np.asarray(out["x"], dtype=float).reshape(-1),
             status=str(stats.get("return_status", "unknown")),
             success=bool(stats.get("success", False)),
@@ -150,7 +153,9 @@ class _Solver:
 
 
 @dataclass(frozen=True)
-class SolveReport:
+class IpoptRun:
+    """One IPOPT run: where it ended (`z`) and how. The result reports their sum as a `SolverReport`."""
+
     z: Array
     status: str
     success: bool
@@ -160,29 +165,42 @@ class SolveReport:
 
 
 class SolverPool:
-    """Idle solvers by (n, iteration limit); a solver serves one campaign at a time, so threads never share one."""
+    """Idle solvers by (n, iteration limit); a solver serves one campaign at a time, so threads never share one.
 
-    def __init__(self) -> None:
+    Each new solver counts as an "ipopt_solver" build of the owning runtime.
+    """
+
+    def __init__(self, runtime: Runtime) -> None:
+        self._runtime = runtime
         self._idle: dict[tuple[int, int], list[_Solver]] = {}
         self._lock = threading.Lock()
-        self.builds = 0
 
-    def solve(
-        self, problem: CampaignProblem, z0: Array, lower: Array, upper: Array, max_iter: int = 100
-    ) -> SolveReport:
-        key = (problem.n_free, max_iter)
-        with self._lock:
-            idle = self._idle.setdefault(key, [])
-            solver = idle.pop() if idle else None
-        if solver is None:
-            solver = _Solver(*key)
-            with self._lock:
-                self.builds += 1
+    def solve(self, problem: CampaignProblem, z0: Array, lower: Array, upper: Array, max_iter: int = 100) -> IpoptRun:
+        solver = self._take(problem.n_free, max_iter)
         try:
             return solver.solve(problem, z0, lower, upper)
         finally:
-            with self._lock:
-                self._idle[key].append(solver)
+            self._give(solver, max_iter)
+
+    def prepare(self, n: int, max_iter: int = 100) -> None:
+        """Have one idle solver for n unknowns ready (warm-up)."""
+        self._give(self._take(n, max_iter), max_iter)
+
+    def _take(self, n: int, max_iter: int) -> _Solver:
+        with self._lock:
+            idle = self._idle.setdefault((n, max_iter), [])
+            if idle:
+                return idle.pop()
+        started = time.perf_counter()
+        solver = _Solver(n, max_iter)
+        self._runtime.count("ipopt_solver", time.perf_counter() - started)
+        return solver
+
+    def _give(self, solver: _Solver, max_iter: int) -> None:
+        with self._lock:
+            self._idle.setdefault((solver.n, max_iter), []).append(solver)
 
 
-SOLVERS = SolverPool()
+def solver_pool(runtime: Runtime) -> SolverPool:
+    """The runtime's pool of identification solvers."""
+    return runtime.artefact("ipopt_pool", None, lambda: SolverPool(runtime))

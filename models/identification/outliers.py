@@ -1,0 +1,39 @@
+"""Poses whose standardised residuals no clean measurement would show (Bonferroni χ² test)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from models._types import Array
+from models.identification.options import IdentificationOptions, RobustLoss
+from models.identification.residuals import CampaignProblem
+from models.identification.result import Outlier
+from models.identification.statistics import PoseErrors, outlier_threshold
+
+
+def find_outliers(
+    problem: CampaignProblem, z: Array, options: IdentificationOptions
+) -> tuple[tuple[Outlier, ...], NDArray[np.intp]]:
+    """The flagged poses at z, and those to exclude (only with a robust loss and `exclude_outliers`)."""
+    ev = problem.evaluate(z)
+    if ev is None:
+        return (), np.empty(0, dtype=np.intp)
+    active = problem.active_poses
+    stat = np.sum(ev.residuals**2, axis=1)
+    threshold = outlier_threshold(active.size, problem.rows, options.outlier_alpha)
+    flagged = np.flatnonzero(stat > threshold)
+    exclude = options.robust is not RobustLoss.NONE and options.exclude_outliers
+    errors = PoseErrors.from_raw(ev.residuals / problem.weights)
+    found = tuple(
+        Outlier(
+            pose=int(active[k]),
+            position_mm=float(errors.position_mm[k]),
+            orientation_rad=None if errors.orientation_rad is None else float(errors.orientation_rad[k]),
+            statistic=float(stat[k]),
+            threshold=threshold,
+            excluded=exclude,
+        )
+        for k in flagged
+    )
+    return found, (active[flagged] if exclude else np.empty(0, dtype=np.intp))

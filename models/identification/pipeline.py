@@ -1,0 +1,381 @@
+"""Measured poses → the robot's real parameters.
+
+Steps: validate and register the instrument frame in closed form; find the
+identifiable subset from the weighted, column-scaled Jacobian (the same
+analysis pose design uses, `models.identifiability`); solve the weighted
+least-squares problem with IPOPT (optionally robust, then without the flagged
+outliers) and polish it; report the a-posteriori statistics, re-check
+identifiability at the solution, and predict the TCP accuracy the result gives
+over the workspace.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from models._types import Array
+from models.blas import single_threaded_blas
+from models.campaign import Campaign
+from models.errors import (
+    InconsistentData,
+    InvalidInput,
+    NonFiniteValue,
+    NotIdentifiable,
+    SolverFailed,
+    TooFewMeasurements,
+    UnreachablePose,
+)
+from models.identifiability import (
+    Identifiability,
+    NoiseModel,
+    analyse_identifiability,
+    minimum_poses,
+    scaled_jacobian,
+    structural_support,
+)
+from models.identification.accuracy import pose_errors, predicted_accuracy
+from models.identification.bounds import solver_bounds
+from models.identification.options import IdentificationOptions
+from models.identification.outliers import find_outliers
+from models.identification.polish import polish
+from models.identification.registration import registered_base, rigid_fit
+from models.identification.residuals import CampaignProblem, Evaluation, Loss
+from models.identification.result import (
+    IdentificationResult,
+    Outlier,
+    PredictedAccuracy,
+    ResidualSummary,
+    SolverReport,
+    Status,
+)
+from models.identification.solver import solver_pool
+from models.identification.statistics import Covariance, correlated_pairs, covariance
+from models.kinematics import forward_kinematics
+from models.parameters import ParameterTable
+from models.robot import RobotDescription
+from models.runtime import Runtime, runtime_for
+
+INCONSISTENT_SIGMA = 100.0
+"""A fit whose RMS standardised residual exceeds this cannot come from this robot with the stated noise."""
+UNDEFINED_MODEL = (
+    "the solver ended where the model is undefined (some measured hexapod poses do not assemble): these "
+    "measurements cannot come from this robot (check the joint order and units, and the robot)"
+)
+
+
+@single_threaded_blas
+def identify(
+    desc: RobotDescription,
+    campaign: Campaign,
+    *,
+    noise: NoiseModel | None = None,
+    nominal: Array | None = None,
+    options: IdentificationOptions | None = None,
+    runtime: Runtime | None = None,
+    strict: bool = False,
+) -> IdentificationResult:
+    """Identify the parameters of `desc` from `campaign` (internal units throughout).
+
+    A fit that fails comes back with `status` FAILED and its reason; with `strict=True` it raises instead:
+    `SolverFailed` when IPOPT did not converge, `InconsistentData` when the data cannot come from this robot.
+    """
+    started = time.perf_counter()
+    rt = runtime_for(desc, runtime)
+    noise, options = _checked(noise or NoiseModel()), options or IdentificationOptions()
+    table = desc.parameters
+    theta_nom = table.nominal if nominal is None else table.vector(nominal)
+    if not np.all(np.isfinite(theta_nom)):
+        raise NonFiniteValue("the nominal parameters contain non-finite numbers")
+    candidates = table.indices(options.estimate)
+    check_enough(desc, campaign, candidates, runtime=rt)
+    notes: list[str] = []
+
+    # 1. the instrument frame, in closed form
+    theta_start, seeds = _registered_start(
+        desc, campaign, theta_nom=theta_nom, candidates=candidates, notes=notes, rt=rt
+    )
+    # 2. what these data can identify, at the start
+    start = forward_kinematics(desc, campaign.joints, theta_start, jacobian=True, seeds=seeds, runtime=rt)
+    scaled = scaled_jacobian(start.jacobians, table, noise, kind=campaign.kind)
+    ident = _identifiable(desc, scaled, candidates=candidates, campaign=campaign, notes=notes, rt=rt)
+    # 3. the weighted least squares: robust first if asked, then without the outliers; polished
+    free = np.array(ident.identifiable)
+    loss = Loss(options.robust, options.robust_scale)
+    problem = CampaignProblem(desc, rt, campaign, noise, theta_start, free, loss, platforms=start.platforms.copy())
+    problem, final, solver, outliers = _solve(problem, options)
+    # 4. what the fit says about itself (nothing, where the model is undefined at the solution)
+    estimate = (
+        None
+        if final is None
+        else _estimate(problem, final, ident=ident, candidates=candidates, options=options, notes=notes)
+    )
+    reason: str | None
+    if estimate is None:
+        before = pose_errors(desc, campaign, theta_start, None, runtime=rt)
+        status, reason, notes = Status.FAILED, UNDEFINED_MODEL, []
+    else:
+        before = pose_errors(desc, campaign, theta_start, start.platforms, runtime=rt)
+        status, reason = _verdict(solver, estimate.cov, notes)
+    result = make_result(
+        table,
+        campaign,
+        status=status,
+        reason=reason,
+        nominal=theta_nom,
+        start=theta_start,
+        solver=solver,
+        before=ResidualSummary.of(before),
+        estimate=estimate,
+        outliers=outliers,
+        notes=notes,
+        started=started,
+    )
+    if strict and not result.succeeded:
+        _raise(result, estimate)
+    return result
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What a fit that ended where the model is defined says about itself."""
+
+    theta: Array
+    free: Array
+    cov: Covariance
+    cov_theta: Array
+    """A-posteriori covariance of the estimated parameters, internal units."""
+    ident: Identifiability
+    rechecked: bool
+    after: ResidualSummary
+    accuracy: PredictedAccuracy
+
+
+def _checked(noise: NoiseModel) -> NoiseModel:
+    values = [noise.position_mm, noise.orientation_rad]
+    if not (noise.position_mm > 0 and noise.orientation_rad > 0 and np.isfinite(values).all()):
+        raise InvalidInput(
+            "the instrument noise must be positive and finite (σ position in mm, σ orientation)", field="noise"
+        )
+    return noise
+
+
+def check_enough(
+    desc: RobotDescription, campaign: Campaign, candidates: tuple[int, ...], *, runtime: Runtime | None = None
+) -> None:
+    """TooFewMeasurements unless the campaign has the poses the structure needs for these parameters."""
+    rank, needed = minimum_poses(desc, candidates, campaign.kind, runtime=runtime)
+    if campaign.size < needed:
+        raise TooFewMeasurements(
+            f"{campaign.size} {campaign.kind.label} measurements cannot determine the {rank} identifiable "
+            f"parameters: at least {needed} are needed, so measure {needed - campaign.size} more (for a useful "
+            "accuracy, 3-5 times that)",
+            got=campaign.size,
+            needed=needed,
+            missing=needed - campaign.size,
+            kind=campaign.kind.value,
+        )
+
+
+def _registered_start(
+    desc: RobotDescription,
+    campaign: Campaign,
+    *,
+    theta_nom: Array,
+    candidates: tuple[int, ...],
+    notes: list[str],
+    rt: Runtime,
+) -> tuple[Array, Array]:
+    """The nominal parameters with the instrument frame as base (when estimated), and the platform poses."""
+    fk = forward_kinematics(desc, campaign.joints, theta_nom, runtime=rt)
+    if set(desc.parameters.groups["base"]) <= set(candidates):
+        return registered_base(desc, theta_nom, rigid_fit(fk.positions, campaign.positions)), fk.platforms
+    notes.append("the base (instrument frame) is not estimated: the given base is taken as exact")
+    return theta_nom, fk.platforms
+
+
+def _identifiable(
+    desc: RobotDescription,
+    scaled: Array,
+    *,
+    candidates: tuple[int, ...],
+    campaign: Campaign,
+    notes: list[str],
+    rt: Runtime,
+) -> Identifiability:
+    """The structural subset if these data determine it; otherwise the data's own (smaller) subset."""
+    support = structural_support(desc, scaled, candidates, campaign.kind, runtime=rt)
+    full = analyse_identifiability(scaled, desc.parameters, candidates)
+    if support.supported:
+        structural = support.structural
+        full = replace(
+            full,
+            identifiable=structural.identifiable,
+            unidentifiable=structural.unidentifiable,
+            confounding=structural.confounding,
+        )
+    else:
+        notes.append(
+            f"these poses determine only {support.data_rank} of the {support.structural.rank} parameters rich "
+            "data would: the weakest directions stay at their nominal values (measure more varied poses)"
+        )
+    if not full.identifiable:
+        raise NotIdentifiable("the measurements determine none of the requested parameters")
+    return full
+
+
+def _solve(
+    problem: CampaignProblem, options: IdentificationOptions
+) -> tuple[CampaignProblem, Evaluation | None, SolverReport, tuple[Outlier, ...]]:
+    """IPOPT (with the robust loss if asked); again without the excluded outliers; then Gauss–Newton polish.
+
+    Returns the problem of the last solve and its evaluation at the polished solution (None where the model
+    is undefined there).
+    """
+    pool = solver_pool(problem.runtime)
+    lower, upper = solver_bounds(problem, options)
+    z0 = np.clip(np.zeros(problem.n_free), lower, upper)
+    runs = [pool.solve(problem, z0, lower, upper, options.max_iterations)]
+    evaluations = 0  # of the problems already left behind
+    first = problem.evaluate(runs[0].z)
+    outliers, excluded = find_outliers(problem, runs[0].z, options)
+    if first is not None and excluded.size:
+        evaluations += problem.evaluations
+        keep = np.setdiff1d(np.arange(problem.campaign.size), excluded)
+        problem = replace(problem, loss=Loss(), active=keep, _last=None, evaluations=0)
+        runs.append(pool.solve(problem, runs[0].z, lower, upper, options.max_iterations))
+    polished, polish_steps = polish(problem, runs[-1].z, lower, upper)
+    final = problem.evaluate(polished)
+    solver = SolverReport(
+        name="ipopt",
+        status=runs[-1].status,
+        success=all(r.success for r in runs),
+        iterations=sum(r.iterations for r in runs),
+        seconds=sum(r.seconds for r in runs),
+        objective=runs[-1].objective,
+        evaluations=evaluations + problem.evaluations,
+        polish_steps=polish_steps,
+    )
+    return problem, final, solver, outliers
+
+
+def _estimate(
+    problem: CampaignProblem,
+    ev: Evaluation,
+    *,
+    ident: Identifiability,
+    candidates: tuple[int, ...],
+    options: IdentificationOptions,
+    notes: list[str],
+) -> Estimate | None:
+    """Covariance, residuals, re-checked identifiability and predicted accuracy at the solution `ev` (None
+    where the final forward kinematics finds the model undefined)."""
+    rt = problem.runtime
+    desc, campaign, table, free = problem.desc, problem.campaign, problem.desc.parameters, problem.free
+    cov = covariance(ev.jacobian, ev.residuals)
+    scales = table.scales[free]
+    cov_theta = cov.z * np.outer(scales, scales)
+    after = pose_errors(desc, campaign, ev.theta, problem.platforms, runtime=rt)
+    try:
+        final = forward_kinematics(
+            desc, campaign.joints, ev.theta, jacobian=True, seeds=problem.platforms, check_ranges=False, runtime=rt
+        )
+    except UnreachablePose:
+        return None
+    scaled = scaled_jacobian(final.jacobians, table, problem.noise, kind=campaign.kind)
+    recheck = analyse_identifiability(scaled, table, candidates)
+    if recheck.rank != ident.rank:
+        notes.append(
+            f"at the solution {recheck.rank} parameters are identifiable (at the start: {ident.rank}); "
+            "the estimate used the starting subset"
+        )
+    accuracy = predicted_accuracy(desc, ev.theta, free, cov_theta, options.workspace_samples, runtime=rt)
+    rechecked = recheck.rank == ident.rank
+    return Estimate(ev.theta, free, cov, cov_theta, ident, rechecked, ResidualSummary.of(after), accuracy)
+
+
+def _verdict(solver: SolverReport, cov: Covariance, notes: list[str]) -> tuple[Status, str | None]:
+    rms_sigma = math.sqrt(cov.variance_factor) if np.isfinite(cov.variance_factor) else float("nan")
+    if not solver.success:
+        return Status.FAILED, f"IPOPT did not converge: {solver.status}"
+    if rms_sigma > INCONSISTENT_SIGMA:
+        return Status.FAILED, (
+            f"after the fit the residuals are still {rms_sigma:.0f} σ (RMS): these measurements cannot come from "
+            "this robot with the stated noise (check the joint order and units, the robot, and the noise)"
+        )
+    if not cov.noise_consistent:
+        notes.append(
+            f"variance factor {cov.variance_factor:.3g} is outside [{cov.chi2_interval[0]:.3g}, "
+            f"{cov.chi2_interval[1]:.3g}]: the stated instrument noise does not match the residuals"
+        )
+    return Status.SUCCEEDED, None
+
+
+def make_result(
+    table: ParameterTable,
+    campaign: Campaign,
+    *,
+    status: Status,
+    reason: str | None,
+    nominal: Array,
+    start: Array,
+    solver: SolverReport,
+    before: ResidualSummary,
+    estimate: Estimate | None,
+    outliers: tuple[Outlier, ...],
+    notes: list[str],
+    started: float,
+) -> IdentificationResult:
+    """The one constructor of a result; without an estimate, the parameters stay nominal and nothing is
+    reported as estimated."""
+    e = estimate
+    nan = float("nan")
+    free = () if e is None else tuple(int(i) for i in e.free)
+    std = np.full(len(table), np.nan)
+    if e is not None:
+        std[e.free] = np.sqrt(np.diag(e.cov_theta))
+    return IdentificationResult(
+        status=status,
+        reason=reason,
+        table=table,
+        parameters=nominal if e is None else e.theta,
+        nominal=nominal,
+        start=start,
+        estimated=free,
+        std_errors=std,
+        covariance=np.empty((0, 0)) if e is None else e.cov_theta,
+        correlated_pairs=() if e is None else correlated_pairs(e.cov_theta, tuple(table.names[i] for i in free)),
+        confounding=() if e is None else e.ident.confounding,
+        rank=0 if e is None else e.ident.rank,
+        condition_number=nan if e is None else e.ident.condition_number,
+        identifiability_rechecked=False if e is None else e.rechecked,
+        residuals_before=before,
+        residuals_after=before if e is None else e.after,
+        variance_factor=nan if e is None else e.cov.variance_factor,
+        dof=0 if e is None else e.cov.dof,
+        noise_consistent=False if e is None else e.cov.noise_consistent,
+        outliers=() if e is None else outliers,
+        solver=solver,
+        predicted_accuracy=PredictedAccuracy.undefined() if e is None else e.accuracy,
+        kind=campaign.kind,
+        measurements=campaign.size,
+        seconds=time.perf_counter() - started,
+        notes=tuple(notes),
+    )
+
+
+def _raise(result: IdentificationResult, estimate: Estimate | None) -> None:
+    """`strict=True`: a failed result becomes the domain error naming why."""
+    reason = result.reason or "the identification failed"
+    if estimate is None:  # the model is undefined at the solution: not this robot's data
+        raise InconsistentData(reason, rms_sigma=None, limit_sigma=INCONSISTENT_SIGMA)
+    if not result.solver.success:
+        raise SolverFailed(
+            reason, solver=result.solver.name, status=result.solver.status, iterations=result.solver.iterations
+        )
+    factor = estimate.cov.variance_factor
+    rms_sigma = math.sqrt(factor) if np.isfinite(factor) else None
+    raise InconsistentData(reason, rms_sigma=rms_sigma, limit_sigma=INCONSISTENT_SIGMA)

@@ -1,0 +1,155 @@
+"""The answer of an inverse-kinematics call: checked by forward kinematics, with a reason per miss."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from models._types import Array, finite_or_none
+from models.inverse.nlp import bounds
+from models.inverse.routing import REACHED_MM, joints_of
+from models.kinematics import hexapod_condition, pose_batch, solve_platforms
+from models.robot import RobotDescription
+from models.runtime import Runtime
+from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np
+
+REACHED_RAD = float(np.radians(1e-6))
+
+
+@dataclass(frozen=True)
+class IkSolution:
+    """Joint commands for a batch of targets, with what they reach and how they were found."""
+
+    joints: Array
+    """(N, n_joints) commands, internal units; for an unreachable target those of the nearest reachable pose,
+    NaN for an invalid target."""
+    reachable: NDArray[np.bool_]
+    position_error_mm: Array
+    """Model TCP minus target for the returned joints (≈1e-9 mm when reachable; the miss otherwise)."""
+    orientation_error_rad: Array | None
+    reasons: tuple[str | None, ...]
+    positions: Array
+    """(N, 3) the TCP the returned joints give on the calibrated model."""
+    rotations: Array
+    condition: Array
+    """Hexapod condition number at each answer (length-scaled eq. 48 Jacobian)."""
+    methods: tuple[str, ...]
+    """"newton" (KKT Newton, no bound active), "ipopt", "ipopt-nearest" (unreachable) or "invalid"."""
+    seconds: float
+
+    @property
+    def size(self) -> int:
+        return int(self.joints.shape[0])
+
+    def to_dict(self, desc: RobotDescription) -> dict[str, Any]:
+        """Boundary units: mm and degrees."""
+        joints = self.joints * desc.joint_to_boundary
+        quats = matrix_to_quaternion(self.rotations)
+        orientation = None if self.orientation_error_rad is None else np.degrees(self.orientation_error_rad)
+        num = finite_or_none
+
+        return {
+            "joints": [[num(v) for v in row] for row in joints],
+            "position_error_mm": [num(v) for v in self.position_error_mm],
+            "orientation_error_deg": None if orientation is None else [num(v) for v in orientation],
+            "reachable": self.reachable.tolist(),
+            "reasons": list(self.reasons),
+            "reached_poses": [
+                {"position": [num(v) for v in p], "orientation": [num(v) for v in q]}
+                for p, q in zip(self.positions, quats, strict=True)
+            ],
+            "hexapod_condition": [num(v) for v in self.condition],
+            "methods": list(self.methods),
+            "seconds": self.seconds,
+        }
+
+
+def report(
+    desc: RobotDescription,
+    theta: Array,
+    v: Array,
+    p: Array,
+    rot: Array | None,
+    *,
+    reasons: list[str | None],
+    methods: list[str],
+    started: float,
+    runtime: Runtime,
+) -> IkSolution:
+    n = p.shape[0]
+    joints = np.full((n, desc.n_joints), np.nan)
+    positions = np.full((n, 3), np.nan)
+    rotations = np.tile(np.eye(3), (n, 1, 1))
+    condition = np.full(n, np.nan)
+    solved = np.flatnonzero(np.isfinite(v).all(axis=1))
+    if solved.size:
+        joints[solved] = joints_of(desc, theta, v[solved], runtime)
+        # The check goes the other way: legs -> platform by the hexapod's forward solution, then the TCP.
+        platforms, _ = solve_platforms(desc, joints[solved], theta, v[solved, desc.n_chain :], runtime=runtime)
+        fk = pose_batch(desc, joints[solved], theta, platforms, runtime=runtime)
+        positions[solved], rotations[solved] = fk.positions, fk.rotations
+        condition[solved] = hexapod_condition(desc, platforms, theta, runtime=runtime)
+    pos_err = np.linalg.norm(positions - p, axis=1)
+    rot_err = None
+    if rot is not None:
+        rot_err = np.linalg.norm(matrix_to_rotvec_np(rotations @ np.swapaxes(rot, 1, 2)), axis=1)
+    reachable = np.isfinite(pos_err) & (pos_err <= REACHED_MM)
+    if rot_err is not None:
+        reachable &= rot_err <= REACHED_RAD
+    reachable &= np.array([r is None for r in reasons])
+    final_reasons = list(reasons)
+    for i in np.flatnonzero(~reachable):
+        if final_reasons[i] is None:
+            final_reasons[i] = why_unreachable(
+                desc, theta, v[i], pos_err[i], None if rot_err is None else rot_err[i], runtime=runtime
+            )
+    return IkSolution(
+        joints=joints,
+        reachable=reachable,
+        position_error_mm=pos_err,
+        orientation_error_rad=rot_err,
+        reasons=tuple(final_reasons),
+        positions=positions,
+        rotations=rotations,
+        condition=condition,
+        methods=tuple(methods),
+        seconds=time.perf_counter() - started,
+    )
+
+
+def why_unreachable(
+    desc: RobotDescription, theta: Array, v: Array, miss_mm: float, miss_rad: float | None, *, runtime: Runtime
+) -> str:
+    """Why a target is unreachable: the miss, and which joints, legs or workspace limits hold the answer."""
+    lbx, ubx, lbl, ubl = bounds(desc)
+    names = [
+        *desc.joint_names[: desc.n_chain],
+        "platform x",
+        "platform y",
+        "platform z",
+        "platform α",
+        "platform β",
+        "platform γ",
+    ]
+    units = [*(k.boundary_unit for k in desc.joint_kinds[: desc.n_chain]), "mm", "mm", "mm", "deg", "deg", "deg"]
+    scale = np.r_[desc.joint_to_boundary[: desc.n_chain], 1, 1, 1, *([np.degrees(1.0)] * 3)]
+    limits = []
+    for k in range(v.size):
+        for bound, word in ((lbx[k], "minimum"), (ubx[k], "maximum")):
+            if abs(v[k] - bound) <= 1e-6 * max(1.0, abs(bound)):
+                where = "the workspace limit" if k >= desc.n_chain else f"its {word}"
+                limits.append(f"{names[k]} at {where} ({bound * scale[k]:.4g} {units[k]})")
+    legs = joints_of(desc, theta, v[None, :], runtime)[0, desc.n_chain :]
+    for k, leg in enumerate(legs):
+        for bound, word in ((lbl[k], "shortest"), (ubl[k], "longest")):
+            if abs(leg - bound) <= 1e-6 * bound:
+                limits.append(f"leg l{k + 1} at its {word} stroke ({bound:.4g} mm)")
+    miss = f"the nearest reachable pose misses it by {miss_mm:.4g} mm"
+    if miss_rad is not None:
+        miss += f" and {np.degrees(miss_rad):.4g}°"
+    cause = "; ".join(limits) if limits else "no joint at a limit (the solver did not converge)"
+    return f"unreachable: {miss}; there {cause}"
