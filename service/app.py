@@ -16,6 +16,7 @@ from fastapi.openapi.utils import get_openapi
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service import logs, problems, warmup
+from service.errors import PayloadTooLarge, Unauthorized
 from service.jobs import JobRunner
 from service.metrics import Metrics
 from service.persistence import Database
@@ -75,19 +76,14 @@ class BodyLimit:
             if message["type"] == "http.request":
                 seen += len(message.get("body", b""))
                 if seen > self.limit:
-                    raise problems.PayloadTooLarge(f"the request body exceeds {self.limit} bytes")
+                    raise PayloadTooLarge(f"the request body exceeds {self.limit} bytes", limit=self.limit)
             return message
 
         await self.app(scope, counted, send)
 
     async def _reject(self, scope: Scope, receive: Receive, send: Send) -> None:
-        response = problems.problem(
-            413,
-            "payload-too-large",
-            "Request body too large",
-            f"the request body exceeds {self.limit} bytes; send less",
-        )
-        await response(scope, receive, send)
+        exc = PayloadTooLarge(f"the request body exceeds {self.limit} bytes; send less", limit=self.limit)
+        await problems.response(problems.to_problem(exc))(scope, receive, send)
 
 
 class Observe:
@@ -116,7 +112,9 @@ class Observe:
         try:
             path = scope["path"]
             if self.keys and path.startswith("/v1") and not _authorised(headers.get(b"x-api-key", b""), self.keys):
-                denied = problems.from_exception(problems.Unauthorized("send a valid API key in the X-API-Key header"))
+                denied = problems.response(
+                    problems.to_problem(Unauthorized("send a valid API key in the X-API-Key header"))
+                )
                 await denied(scope, receive, send_with_id)
             else:
                 await self.app(scope, receive, send_with_id)

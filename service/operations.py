@@ -21,10 +21,10 @@ from models.identifiability import NoiseModel
 from models.identification import IdentificationOptions, RobustLoss, identify
 from optimal_design import design_poses
 from service.conversions import joints_in, pose6_in, pose6_out, unit_quaternion
+from service.errors import BadRequest
 from service.persistence import Database, Repository
 from service.persistence.repository import new_id
 from service.persistence.tables import CalibrationRecord, ParameterVersion, PoseDesignRecord, Robot
-from service.problems import BadRequest
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.designs import PoseDesignCreate
 from service.schemas.robots import RobotCreate

@@ -13,10 +13,10 @@ from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPool
 from functools import lru_cache
 from typing import Any
 
-from models.errors import CalibrationError
 from service import operations
+from service.errors import Interrupted
 from service.persistence import Database, Repository
-from service.problems import ServiceError, lookup
+from service.problems import lookup, to_problem
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.designs import PoseDesignCreate
 
@@ -49,13 +49,11 @@ def execute_job(database_url: str, job_id: str, db: Database | None = None) -> s
         elif kind == "pose_design":
             result_id = operations.design(db, robot_id, PoseDesignCreate.model_validate(request)).id
         else:
-            error = {"status": 500, "title": "Unknown job kind", "detail": f"no such job kind {kind!r}"}
-    except (CalibrationError, ServiceError) as exc:
-        status, slug, title = lookup(exc)
-        error = {"status": status, "type": slug, "title": title, "detail": exc.detail}
-    except Exception as exc:  # a job records every failure instead of dying silently
-        log.exception("job %s failed", job_id)
-        error = {"status": 500, "title": "Internal error", "detail": f"{type(exc).__name__}: {exc}"}
+            raise ValueError(f"no such job kind {kind!r}")
+    except Exception as exc:  # a job records every failure, as the synchronous request would have answered it
+        if lookup(exc)[0] >= 500:
+            log.exception("job %s failed", job_id)
+        error = to_problem(exc)
     with db.session() as s:
         repo = Repository(s)
         job = repo.job(job_id)
@@ -92,14 +90,8 @@ class JobRunner:
             repo = Repository(s)
             interrupted = repo.jobs_with_status("running")
             for job in interrupted:
-                repo.finish_job(
-                    job,
-                    error={
-                        "status": 503,
-                        "title": "Interrupted",
-                        "detail": "interrupted: the service stopped while this job ran; submit it again",
-                    },
-                )
+                stopped = Interrupted("interrupted: the service stopped while this job ran; submit it again")
+                repo.finish_job(job, error=to_problem(stopped))
             queued = [job.id for job in repo.jobs_with_status("queued")]
         for job_id in queued:
             self.submit(job_id)

@@ -9,8 +9,8 @@ from fastapi.responses import JSONResponse
 from pydantic import ValidationError
 
 from service import operations
+from service.errors import BadRequest, UnsupportedMediaType
 from service.persistence import Database, Repository
-from service.problems import BadRequest, PayloadTooLarge, UnsupportedMediaType
 from service.routes.csv_io import CAMPAIGN_HEADER, parse_campaign
 from service.routes.deps import compute, database
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
@@ -64,7 +64,9 @@ async def _body(
             return body.model_copy(update={"apply": apply}) if apply is not None else body
     except ValidationError as exc:
         raise RequestValidationError(exc.errors(include_url=False, include_context=False)) from exc
-    raise UnsupportedMediaType(f"send the campaign as application/json or text/csv, not {content_type!r}")
+    raise UnsupportedMediaType(
+        f"send the campaign as application/json or text/csv, not {content_type!r}", content_type=content_type
+    )
 
 
 @router.post(
@@ -114,6 +116,3 @@ def list_calibrations(
 def get_calibration(calibration_id: str, db: Database = Depends(database)) -> dict[str, Any]:
     with db.reader() as s:
         return operations.calibration_public(Repository(s).calibration(calibration_id))
-
-
-__all__ = ["PayloadTooLarge"]

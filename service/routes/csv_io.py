@@ -6,7 +6,7 @@ import csv
 import io
 from collections.abc import Sequence
 
-from service.problems import BadRequest
+from service.errors import BadRequest
 
 CAMPAIGN_HEADER = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6", "x", "y", "z", "qw", "qx", "qy", "qz"]
 JOINT_HEADER = CAMPAIGN_HEADER[:10]

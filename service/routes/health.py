@@ -3,8 +3,8 @@ from __future__ import annotations
 from fastapi import APIRouter, Depends, Request, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
+from service.errors import NotReady
 from service.persistence import Database, Repository
-from service.problems import problem
 from service.routes.deps import database, metrics
 
 router = APIRouter(tags=["health"])
@@ -19,7 +19,7 @@ def healthz() -> dict[str, str]:
 def readyz(db: Database = Depends(database)) -> Response:
     if db.ping():
         return Response('{"status":"ready"}', media_type="application/json")
-    return problem(503, "not-ready", "Not ready", "the database does not answer")
+    raise NotReady("the database does not answer")
 
 
 @router.get("/metrics", include_in_schema=False)

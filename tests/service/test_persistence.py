@@ -10,9 +10,9 @@ import pytest
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service import operations
+from service.errors import NotFound
 from service.jobs import JobRunner, execute_job
 from service.persistence import Database, Repository
-from service.problems import NotFound
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.robots import RobotCreate
 from tests.service.helpers import records
