@@ -10,30 +10,48 @@ from __future__ import annotations
 import logging
 import multiprocessing
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
-from functools import lru_cache
+from dataclasses import dataclass
 from typing import Any
 
-from service import operations
+from service import warmup
 from service.errors import Interrupted
+from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.problems import lookup, to_problem
-from service.schemas.calibrations import CalibrationCreate
-from service.schemas.designs import PoseDesignCreate
+from service.services.jobs import run_job
 
 log = logging.getLogger("service.jobs")
 
 
-@lru_cache(maxsize=4)
-def _database(url: str) -> Database:
-    return Database(url)
+@dataclass(frozen=True)
+class WorkerContext:
+    """What one process needs to run jobs: its engine and its model cache, created once."""
+
+    db: Database
+    models: ModelCache
 
 
-def execute_job(database_url: str, job_id: str, db: Database | None = None) -> str:
+_worker: WorkerContext | None = None
+"""Set once per worker process by `start_worker` (the pool's initializer); never in the app's process."""
+
+
+def start_worker(database_url: str, warm_up: bool) -> None:
+    global _worker  # noqa: PLW0603  (a pool initializer can leave its state only in the worker's module)
+    db = Database(database_url)
+    _worker = WorkerContext(db, ModelCache(db))
+    if warm_up:  # the first job then does not pay for building the CasADi Functions and solvers
+        warmup.warm_up()
+
+
+def execute_job(job_id: str, context: WorkerContext | None = None) -> str:
     """Run one job to completion in this process; returns its final status.
 
-    Worker processes open one engine per database URL and keep it; in-process runs pass the app's own.
+    Worker processes use the context their initializer made; in-process runs pass the app's own.
     """
-    db = db or _database(database_url)
+    ctx = context or _worker
+    if ctx is None:
+        raise RuntimeError("execute_job outside a worker started by start_worker, and no context given")
+    db = ctx.db
     with db.session() as s:
         repo = Repository(s)
         job = repo.job(job_id)
@@ -44,12 +62,7 @@ def execute_job(database_url: str, job_id: str, db: Database | None = None) -> s
     result_id: str | None = None
     error: dict[str, Any] | None = None
     try:
-        if kind == "calibration":
-            result_id = operations.calibrate(db, robot_id, CalibrationCreate.model_validate(request)).id
-        elif kind == "pose_design":
-            result_id = operations.design(db, robot_id, PoseDesignCreate.model_validate(request)).id
-        else:
-            raise ValueError(f"no such job kind {kind!r}")
+        result_id = run_job(db=db, models=ctx.models, kind=kind, robot_id=robot_id, request=request)
     except Exception as exc:  # a job records every failure, as the synchronous request would have answered it
         if lookup(exc)[0] >= 500:
             log.exception("job %s failed", job_id)
@@ -62,10 +75,15 @@ def execute_job(database_url: str, job_id: str, db: Database | None = None) -> s
 
 
 class JobRunner:
-    def __init__(self, db: Database, workers: int) -> None:
-        self.db = db
+    def __init__(self, db: Database, models: ModelCache, workers: int, *, warm_up: bool = False) -> None:
+        self.context = WorkerContext(db, models)
         self.executor: Executor = (
-            ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+            ProcessPoolExecutor(
+                max_workers=workers,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=start_worker,
+                initargs=(db.url, warm_up),
+            )
             if workers > 0
             else ThreadPoolExecutor(max_workers=1)
         )
@@ -73,9 +91,9 @@ class JobRunner:
 
     def submit(self, job_id: str) -> None:
         if isinstance(self.executor, ThreadPoolExecutor):
-            future = self.executor.submit(execute_job, self.db.url, job_id, self.db)
+            future = self.executor.submit(execute_job, job_id, self.context)
         else:
-            future = self.executor.submit(execute_job, self.db.url, job_id)
+            future = self.executor.submit(execute_job, job_id)
         self.futures.add(future)
         future.add_done_callback(self._done)
 
@@ -86,7 +104,7 @@ class JobRunner:
 
     def recover(self) -> tuple[int, int]:
         """(interrupted jobs marked failed, queued jobs resubmitted) after a restart."""
-        with self.db.session() as s:
+        with self.context.db.session() as s:
             repo = Repository(s)
             interrupted = repo.jobs_with_status("running")
             for job in interrupted:

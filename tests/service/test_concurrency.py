@@ -12,7 +12,7 @@ import numpy as np
 
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
-from service.live import running_server
+from tests.live import running_server
 from tests.service.helpers import records
 
 DESC = iwr()

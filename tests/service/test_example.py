@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from service.live import ROOT, running_server
+from tests.live import ROOT, running_server
 
 
 def test_example_session(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -1,4 +1,4 @@
-"""CSV in (campaigns, with the spec's header) and out (joint vectors)."""
+"""CSV in (campaigns, with the spec's header) and out (joint vectors): the codec of `text/csv` bodies."""
 
 from __future__ import annotations
 

@@ -1,0 +1,26 @@
+"""Answers built once: a response model serialised by pydantic-core, or a stored report as stored.
+
+Routes declare their `response_model` (the contract, in the OpenAPI document) and return these, so FastAPI
+does not validate and serialise the same data a second time.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi.responses import JSONResponse, Response
+from pydantic import BaseModel, TypeAdapter
+
+
+def model_json(model: BaseModel, status_code: int = 200) -> Response:
+    body = model.__pydantic_serializer__.to_json(model)
+    return Response(body, status_code=status_code, media_type="application/json")
+
+
+def models_json(models: list[Any], adapter: TypeAdapter[Any], status_code: int = 200) -> Response:
+    return Response(adapter.dump_json(models), status_code=status_code, media_type="application/json")
+
+
+def stored_json(payload: Any, status_code: int = 200) -> Response:
+    """A report stored as validated JSON (plain dicts and lists), with its row's columns."""
+    return JSONResponse(payload, status_code=status_code)
