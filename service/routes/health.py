@@ -1,21 +1,28 @@
 from __future__ import annotations
 
+from typing import Literal
+
 from fastapi import APIRouter, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
 from service.deps import DatabaseDep, MetricsDep
 from service.errors import NotReady
+from service.schemas.common import Public
 from service.services.jobs import queue_depth
 
 router = APIRouter(tags=["health"])
 
 
-@router.get("/healthz")
-def healthz() -> dict[str, str]:
-    return {"status": "ok"}
+class StatusPublic(Public):
+    status: Literal["ok", "ready"]
 
 
-@router.get("/readyz", responses={503: {"description": "The database does not answer"}})
+@router.get("/healthz", response_model=StatusPublic)
+def healthz() -> Response:
+    return Response('{"status":"ok"}', media_type="application/json")
+
+
+@router.get("/readyz", response_model=StatusPublic, responses={503: {"description": "The database does not answer"}})
 def readyz(db: DatabaseDep) -> Response:
     if db.ping():
         return Response('{"status":"ready"}', media_type="application/json")

@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 
 from service.app import create_app
 from service.settings import Settings
+from tests.service.contract_check import ContractClient
 
 POSTGRES_ADMIN = os.environ.get("IWR_TEST_POSTGRES", "postgresql://postgres@127.0.0.1:5432/postgres")
 
@@ -42,16 +43,18 @@ def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str
         yield from postgres_url()
 
 
-def make_client(url: str, **settings: object) -> TestClient:
+def make_client(url: str, **settings: object) -> ContractClient:
+    """Every response it receives is checked against the app's OpenAPI document (`contract_check`)."""
     options: dict[str, object] = {"database_url": url, "job_workers": 0, "warm_up": False, "log_level": "WARNING"}
     options.update(settings)
-    return TestClient(create_app(Settings(**options)))  # type: ignore[arg-type]
+    return ContractClient(create_app(Settings(**options)))  # type: ignore[arg-type]
 
 
 @pytest.fixture
 def client(tmp_path: Path) -> Iterator[TestClient]:
     with make_client(f"sqlite:///{tmp_path}/iwr.db") as c:
         yield c
+    assert c.contract.checked > 0, "the test's responses went unchecked"
 
 
 @pytest.fixture

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+import json
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -55,3 +56,30 @@ def running_app() -> Iterator[TestClient]:
 def test_api_contract(case: schemathesis.Case) -> None:
     """Every operation: no 5xx, responses conform to their schemas."""
     case.call_and_validate(checks=[not_a_server_error, response_schema_conformance, content_type_conformance])
+
+
+def test_the_response_checker_refuses_unknown_keys_and_undeclared_answers() -> None:
+    from tests.service.contract_check import ContractChecker
+
+    checker = ContractChecker(APP.openapi())
+    robot = {
+        "id": "r",
+        "name": "n",
+        "model": "iwr",
+        "parameter_version": 1,
+        "created_at": "2026-01-01T00:00:00Z",
+        "base": {"position": [0, 0, 0], "orientation": [1, 0, 0, 0]},
+        "tool": {"position": [0, 0, 0], "orientation": [1, 0, 0, 0]},
+    }
+    checker.check("GET", "/v1/robots/r", 200, "application/json", json.dumps(robot).encode())
+    with pytest.raises(AssertionError, match="unexpected"):
+        checker.check("GET", "/v1/robots/r", 200, "application/json", json.dumps({**robot, "extra": 1}).encode())
+    with pytest.raises(AssertionError, match="unexpected"):  # nested too: a pose with one more key
+        bad = {**robot, "base": {**robot["base"], "frame": "world"}}  # type: ignore[dict-item]
+        checker.check("GET", "/v1/robots/r", 200, "application/json", json.dumps(bad).encode())
+    with pytest.raises(AssertionError, match="does not declare"):
+        checker.check("GET", "/v1/robots/r", 201, "application/json", json.dumps(robot).encode())
+    with pytest.raises(AssertionError, match="not declared"):
+        checker.check("GET", "/v1/robots/r", 200, "text/csv", b"a,b\n")
+    with pytest.raises(AssertionError, match="required"):
+        checker.check("GET", "/v1/robots/r/parameters", 200, "application/json", b'{"version": 1}')
