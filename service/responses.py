@@ -1,14 +1,14 @@
-"""Answers built once: a response model serialised by pydantic-core, or a stored report as stored.
+"""Answers from response models the service has just built (validated once, in `conversions`).
 
 Routes declare their `response_model` (the contract, in the OpenAPI document) and return these, so FastAPI
-does not validate and serialise the same data a second time.
+does not dump, validate and serialise the same model a second time.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from fastapi.responses import JSONResponse, Response
+from fastapi.responses import Response
 from pydantic import BaseModel, TypeAdapter
 
 
@@ -19,8 +19,3 @@ def model_json(model: BaseModel, status_code: int = 200) -> Response:
 
 def models_json(models: list[Any], adapter: TypeAdapter[Any], status_code: int = 200) -> Response:
     return Response(adapter.dump_json(models), status_code=status_code, media_type="application/json")
-
-
-def stored_json(payload: Any, status_code: int = 200) -> Response:
-    """A report stored as validated JSON (plain dicts and lists), with its row's columns."""
-    return JSONResponse(payload, status_code=status_code)

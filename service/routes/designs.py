@@ -6,7 +6,7 @@ from fastapi import APIRouter, Query, Request, Response
 
 from service.csv_codec import joints_csv
 from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, compute, wants_csv
-from service.responses import model_json, stored_json
+from service.responses import model_json
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic
 from service.schemas.jobs import JobAccepted
 from service.services import designs
@@ -21,10 +21,11 @@ _CREATED: dict[int | str, dict[str, Any]] = {
 _FOUND: dict[int | str, dict[str, Any]] = {200: _CSV_BODY}
 
 
-def _answer(request: Request, design: dict[str, Any], status_code: int) -> Response:
+def _answer(request: Request, design: dict[str, Any], status_code: int) -> dict[str, Any] | Response:
+    """The stored report through the declared response model (see routes/calibrations.py), or its poses as CSV."""
     if wants_csv(request):
         return Response(joints_csv(design["poses"]), media_type="text/csv", status_code=status_code)
-    return stored_json(design, status_code)
+    return design
 
 
 @router.post("/v1/robots/{robot_id}/pose-designs", status_code=201, response_model=PoseDesignPublic, responses=_CREATED)
@@ -38,7 +39,7 @@ async def create_design(
     jobs: JobsDep,
     m: MetricsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
-) -> Response:
+) -> dict[str, Any] | Response:
     if run_async:
         accepted = submit_job(db=db, jobs=jobs, kind="pose_design", robot_id=robot_id, body=body)
         return model_json(accepted, status_code=202)
@@ -49,5 +50,5 @@ async def create_design(
 
 
 @router.get("/v1/pose-designs/{design_id}", response_model=PoseDesignPublic, responses=_FOUND)
-def get_design(design_id: str, request: Request, db: DatabaseDep) -> Response:
+def get_design(design_id: str, request: Request, db: DatabaseDep) -> dict[str, Any] | Response:
     return _answer(request, designs.get_design(db=db, design_id=design_id), 200)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from datetime import datetime
 from typing import Literal
 
@@ -11,6 +10,7 @@ from pydantic import ConfigDict, Field
 from models.identifiability import NoiseModel
 from models.identification import IdentificationOptions, RobustLoss
 from models.identification.options import DEFAULT_GROUPS
+from service.conversions.units import degrees_default
 from service.schemas.common import (
     JointVector,
     OptionalFloat,
@@ -18,7 +18,6 @@ from service.schemas.common import (
     Public,
     Quaternion,
     Strict,
-    boundary_default,
 )
 from service.schemas.robots import ParameterPublic
 
@@ -35,7 +34,7 @@ class Record(Strict):
 
 class Noise(Strict):
     position_mm: float = Field(default=_NOISE.position_mm, gt=0, le=1000)
-    orientation_deg: float = Field(default=boundary_default(math.degrees(_NOISE.orientation_rad)), gt=0, le=180)
+    orientation_deg: float = Field(default=degrees_default(_NOISE.orientation_rad), gt=0, le=180)
 
 
 class CalibrationOptions(Strict):
@@ -69,7 +68,11 @@ def _absent_if_none(value: object) -> bool:
 
 class CalibratedParameterPublic(ParameterPublic):
     identifiable: bool  # a calibration always knows
-    start: float = Field(description="The value the fit started from (the start version's)")
+    start: OptionalFloat = Field(
+        default=None,
+        description="The value the fit started from (the start version's); "
+        "null in calibrations stored before start versions existed",
+    )
 
 
 class ConfoundingPartnerPublic(Public):

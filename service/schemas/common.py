@@ -40,11 +40,6 @@ def timestamp(value: datetime) -> str:
     return str(_DATETIME.dump_python(value, mode="json"))
 
 
-def boundary_default(value: float) -> float:
-    """A domain default converted to boundary units, without the last-bit noise of a degrees round trip."""
-    return float(f"{value:.12g}")
-
-
 JointValue = Annotated[float, Field(ge=-1e6, le=1e6)]
 JointVector = Annotated[
     list[JointValue],

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from typing import Literal
 
 from pydantic import Field, model_validator
 
 from models.error_analysis import MAX_EVALUATIONS, Tolerances
-from service.schemas.common import OptionalFloat, Public, Strict, boundary_default
+from service.conversions.units import degrees_default
+from service.schemas.common import OptionalFloat, Public, Strict
 
 SYNC_MAX_EVALUATIONS = MAX_EVALUATIONS * 2 // 5
 """poses × draws of one synchronous request: two fifths of the library's cap (100 000 evaluations ≈ 7 s on
@@ -24,7 +24,7 @@ class ErrorAnalysisRequest(Strict):
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
     leg_offset_mm: float = Field(default=_DEFAULT.leg_offset, ge=0, le=100)
     joint_position_mm: float = Field(default=_DEFAULT.joint_position, ge=0, le=100)
-    dh_angle_deg: float = Field(default=boundary_default(math.degrees(_DEFAULT.dh_angle)), ge=0, le=10)
+    dh_angle_deg: float = Field(default=degrees_default(_DEFAULT.dh_angle), ge=0, le=10)
     dh_length_mm: float = Field(default=_DEFAULT.dh_length, ge=0, le=100)
 
     @model_validator(mode="after")

@@ -25,7 +25,7 @@ class ProblemPublic(Public):
     them open, so this is the one response object that allows more keys."""
 
     model_config = ConfigDict(extra="allow")
-    type: str
+    type: str = Field(default="about:blank", description="RFC 9457's default when a problem names no type")
     title: str
     status: int
     detail: str
