@@ -112,7 +112,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         if settings.warm_up:
             await anyio.to_thread.run_sync(warmup.warm_up)
         models = ModelCache(db)
-        runner = JobRunner(db, models, settings.job_workers, warm_up=settings.warm_up)
+        runner = JobRunner(db, models, settings.job_workers)
         app.state.db, app.state.models, app.state.jobs = db, models, runner
         interrupted, resubmitted = runner.recover()
         log.info("ready", extra={"path": settings.database_url.split("@")[-1]})

@@ -13,7 +13,6 @@ from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPool
 from dataclasses import dataclass
 from typing import Any
 
-from service import warmup
 from service.errors import Interrupted
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
@@ -35,12 +34,14 @@ _worker: WorkerContext | None = None
 """Set once per worker process by `start_worker` (the pool's initializer); never in the app's process."""
 
 
-def start_worker(database_url: str, warm_up: bool) -> None:
+def start_worker(database_url: str) -> None:
+    """The pool's initializer: one engine and one model cache per worker process, kept for its lifetime.
+
+    (No warm-up here: a worker builds what its first job uses, as before; building every Function and solver
+    per worker belongs to the per-structure runtime the models package is getting.)"""
     global _worker  # noqa: PLW0603  (a pool initializer can leave its state only in the worker's module)
     db = Database(database_url)
     _worker = WorkerContext(db, ModelCache(db))
-    if warm_up:  # the first job then does not pay for building the CasADi Functions and solvers
-        warmup.warm_up()
 
 
 def execute_job(job_id: str, context: WorkerContext | None = None) -> str:
@@ -75,14 +76,14 @@ def execute_job(job_id: str, context: WorkerContext | None = None) -> str:
 
 
 class JobRunner:
-    def __init__(self, db: Database, models: ModelCache, workers: int, *, warm_up: bool = False) -> None:
+    def __init__(self, db: Database, models: ModelCache, workers: int) -> None:
         self.context = WorkerContext(db, models)
         self.executor: Executor = (
             ProcessPoolExecutor(
                 max_workers=workers,
                 mp_context=multiprocessing.get_context("spawn"),
                 initializer=start_worker,
-                initargs=(db.url, warm_up),
+                initargs=(db.url,),
             )
             if workers > 0
             else ThreadPoolExecutor(max_workers=1)
