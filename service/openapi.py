@@ -15,24 +15,8 @@ from pydantic import BaseModel
 from service.problems import PROBLEM_JSON
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.jobs import JobAccepted
+from service.schemas.problems import Problem
 
-PROBLEM_SCHEMA: dict[str, Any] = {
-    "title": "Problem",
-    "description": "RFC 9457 problem document; more members may carry data about the error",
-    "type": "object",
-    "required": ["type", "title", "status", "detail"],
-    "properties": {
-        "type": {"type": "string"},
-        "title": {"type": "string"},
-        "status": {"type": "integer"},
-        "detail": {"type": "string"},
-        "errors": {
-            "type": "array",
-            "items": {"type": "object", "properties": {"loc": {"type": "array"}, "msg": {"type": "string"}}},
-        },
-    },
-    "additionalProperties": True,
-}
 PROBLEM_RESPONSES = {
     "400": "Malformed request (e.g. a CSV body that does not follow the header)",
     "401": "Missing or wrong API key (when keys are configured)",
@@ -42,8 +26,9 @@ PROBLEM_RESPONSES = {
     "422": "Invalid input: what is wrong and where",
     "503": "Not ready",
 }
-EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted)
-"""Referenced from `openapi_extra` (the calibration route parses its body itself), so FastAPI does not see them."""
+EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted, Problem)
+"""Referenced from `openapi_extra` (the calibration route parses its body itself) or from the error responses
+added below, so FastAPI does not see them all."""
 
 
 def build(app: FastAPI, *, api_keys: bool) -> dict[str, Any]:
@@ -54,7 +39,6 @@ def build(app: FastAPI, *, api_keys: bool) -> dict[str, Any]:
         for name, sub in extra.pop("$defs", {}).items():
             components.setdefault(name, sub)
         components[model.__name__] = extra
-    components["Problem"] = PROBLEM_SCHEMA
     components.pop("HTTPValidationError", None)
     components.pop("ValidationError", None)
     for path, operations in schema.get("paths", {}).items():
