@@ -45,6 +45,9 @@ class ModelCache:
                 self._entries.popitem(last=False)
         return model
 
+    def __len__(self) -> int:
+        return len(self._entries)
+
     def clear(self) -> None:
         with self._lock:
             self._entries.clear()
