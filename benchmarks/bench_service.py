@@ -21,7 +21,7 @@ from models import iwr, sample_workspace
 from models.campaign import make_campaign
 from models.identification import identify
 from models.simulation import measure, perturbed_robot
-from service.live import running_server
+from tests.live import running_server
 
 CLIENTS = 50
 PERIOD_S = 0.25

@@ -1,7 +1,9 @@
-"""RFC 9457 problem documents: one table from domain errors to HTTP, and the handlers that use it.
+"""RFC 9457 problem documents: one table from error classes to HTTP, and one renderer, `to_problem`.
 
-Routes never build HTTP errors by hand: they raise domain errors (`models.errors`) or the few service
-errors below, and this module turns every one into `application/problem+json`.
+Routes never build HTTP errors by hand: they raise domain errors (`models.errors`) or the service's own
+(`service.errors`). The exception handlers, the body-limit middleware and the job runner all turn an exception
+into a body with `to_problem`, so a job's stored error is exactly what the synchronous request would have
+answered.
 """
 
 from __future__ import annotations
@@ -15,40 +17,12 @@ from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from models import errors as domain
+from service import errors as service
 
 PROBLEM_JSON = "application/problem+json"
 TYPE_BASE = "https://iwr-calibration.example/problems/"
+RESERVED = frozenset({"type", "title", "status", "detail"})
 log = logging.getLogger("service.problems")
-
-
-class ServiceError(Exception):
-    """Errors of the service layer itself (not of the mathematics)."""
-
-    def __init__(self, detail: str, **data: Any) -> None:
-        super().__init__(detail)
-        self.detail = detail
-        self.data = data
-
-
-class NotFound(ServiceError):
-    pass
-
-
-class Unauthorized(ServiceError):
-    pass
-
-
-class PayloadTooLarge(ServiceError):
-    pass
-
-
-class UnsupportedMediaType(ServiceError):
-    pass
-
-
-class BadRequest(ServiceError):
-    pass
-
 
 PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     # domain errors: the caller's data
@@ -65,58 +39,75 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     domain.SolverFailed: (422, "solver-failed", "The solver did not converge"),
     domain.CalibrationError: (422, "calibration-error", "Calibration error"),
     # the service's own
-    NotFound: (404, "not-found", "Not found"),
-    Unauthorized: (401, "unauthorized", "API key missing or wrong"),
-    PayloadTooLarge: (413, "payload-too-large", "Request body too large"),
-    UnsupportedMediaType: (415, "unsupported-media-type", "Unsupported media type"),
-    BadRequest: (400, "bad-request", "Bad request"),
+    service.BadRequest: (400, "bad-request", "Bad request"),
+    service.Unauthorized: (401, "unauthorized", "API key missing or wrong"),
+    service.NotFound: (404, "not-found", "Not found"),
+    service.PayloadTooLarge: (413, "payload-too-large", "Request body too large"),
+    service.UnsupportedMediaType: (415, "unsupported-media-type", "Unsupported media type"),
+    service.Interrupted: (503, "interrupted", "Interrupted"),
+    service.NotReady: (503, "not-ready", "Not ready"),
+    service.ServiceError: (500, "service-error", "Service error"),
+    # the framework's: request validation, and HTTP errors Starlette raises itself (unknown path, method)
+    RequestValidationError: (422, "validation-error", "Invalid request"),
 }
+HTTP_TITLES: dict[int, str] = {
+    404: "Not found",
+    405: "Method not allowed",
+    406: "Not acceptable",
+    415: "Unsupported media type",
+}
+"""Starlette's HTTP errors keep their `http-<status>` type (what clients have seen since v1)."""
+INTERNAL = (500, "internal-error", "Internal error")
 
 
-def lookup(exc: Exception) -> tuple[int, str, str]:
+def lookup(exc: BaseException) -> tuple[int, str, str]:
+    """(status, slug, title) of the nearest mapped class; 500 for anything unmapped (a bug, logged)."""
+    if isinstance(exc, StarletteHTTPException):
+        return exc.status_code, f"http-{exc.status_code}", HTTP_TITLES.get(exc.status_code, "HTTP error")
     for cls in type(exc).__mro__:
         if cls in PROBLEMS:
             return PROBLEMS[cls]
-    return 500, "internal-error", "Internal error"
+    return INTERNAL
 
 
-def problem(status: int, slug: str, title: str, detail: str, **extra: Any) -> JSONResponse:
-    body = {"type": TYPE_BASE + slug, "title": title, "status": status, "detail": detail, **extra}
+def to_problem(exc: BaseException) -> dict[str, Any]:
+    """The RFC 9457 body for any exception: type, title, status, detail, then the error's own data."""
+    status, slug, title = lookup(exc)
+    extra: dict[str, Any] = {}
+    if isinstance(exc, RequestValidationError):
+        locs = [list(e.get("loc", ())) for e in exc.errors()]
+        msgs = [str(e.get("msg", "")) for e in exc.errors()]
+        where = ".".join(str(p) for p in locs[0]) if locs else ""
+        msg = msgs[0] if msgs else "invalid request"
+        detail = f"{where}: {msg}" if where else msg
+        extra["errors"] = [{"loc": loc, "msg": m} for loc, m in zip(locs, msgs, strict=True)]
+    elif isinstance(exc, StarletteHTTPException):
+        detail = str(exc.detail)
+    elif isinstance(exc, domain.CalibrationError | service.ServiceError):
+        detail = exc.detail
+        extra = {k: v for k, v in exc.data.items() if k not in RESERVED}
+    else:
+        detail = "an unexpected error occurred; it has been logged"
+    return {"type": TYPE_BASE + slug, "title": title, "status": status, "detail": detail, **extra}
+
+
+def response(body: dict[str, Any]) -> JSONResponse:
+    status = int(body["status"])
     headers = {"WWW-Authenticate": "ApiKey"} if status == 401 else None
     return JSONResponse(body, status_code=status, media_type=PROBLEM_JSON, headers=headers)
 
 
-def from_exception(exc: domain.CalibrationError | ServiceError) -> JSONResponse:
-    status, slug, title = lookup(exc)
-    data = {k: v for k, v in exc.data.items() if k not in {"type", "title", "status", "detail"}}
-    return problem(status, slug, title, exc.detail, **data)
-
-
 def install(app: FastAPI) -> None:
-    @app.exception_handler(domain.CalibrationError)
-    async def _domain(request: Request, exc: domain.CalibrationError) -> JSONResponse:
-        return from_exception(exc)
+    async def handle(request: Request, exc: Exception) -> JSONResponse:
+        if lookup(exc) == INTERNAL:
+            log.exception("unhandled error", exc_info=exc)
+        return response(to_problem(exc))
 
-    @app.exception_handler(ServiceError)
-    async def _service(request: Request, exc: ServiceError) -> JSONResponse:
-        return from_exception(exc)
-
-    @app.exception_handler(RequestValidationError)
-    async def _validation(request: Request, exc: RequestValidationError) -> JSONResponse:
-        errors = [{"loc": list(e.get("loc", ())), "msg": str(e.get("msg", ""))} for e in exc.errors()]
-        loc: list[object] = list(errors[0]["loc"]) if errors else []
-        msg = str(errors[0]["msg"]) if errors else "invalid request"
-        where = ".".join(str(p) for p in loc)
-        return problem(422, "validation-error", "Invalid request", f"{where}: {msg}" if where else msg, errors=errors)
-
-    @app.exception_handler(StarletteHTTPException)
-    async def _http(request: Request, exc: StarletteHTTPException) -> JSONResponse:
-        titles = {404: "Not found", 405: "Method not allowed", 406: "Not acceptable", 415: "Unsupported media type"}
-        return problem(
-            exc.status_code, f"http-{exc.status_code}", titles.get(exc.status_code, "HTTP error"), str(exc.detail)
-        )
-
-    @app.exception_handler(Exception)
-    async def _unexpected(request: Request, exc: Exception) -> JSONResponse:
-        log.exception("unhandled error")
-        return problem(500, "internal-error", "Internal error", "an unexpected error occurred; it has been logged")
+    for cls in (
+        domain.CalibrationError,
+        service.ServiceError,
+        RequestValidationError,
+        StarletteHTTPException,
+        Exception,
+    ):
+        app.add_exception_handler(cls, handle)

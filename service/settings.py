@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 from pydantic import AliasChoices, Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
@@ -27,6 +25,6 @@ class Settings(BaseSettings):
         return frozenset(k.strip() for k in self.api_keys.split(",") if k.strip())
 
 
-@lru_cache(maxsize=1)
 def get_settings() -> Settings:
+    """Read once per application, by `create_app`, which keeps them on `app.state.settings`."""
     return Settings()

@@ -11,6 +11,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from models.error_analysis.export import magnitudes_json, result_json
 from models.error_analysis.magnitudes import ErrorMagnitudes
 from models.error_analysis.plot import plot_absolute, plot_axes
 from models.error_analysis.report import summary
@@ -20,7 +21,7 @@ from models.iwr import iwr
 
 
 def _parser() -> argparse.ArgumentParser:
-    defaults = ErrorMagnitudes().to_dict()
+    defaults = magnitudes_json(ErrorMagnitudes())
     parser = argparse.ArgumentParser(
         prog="python -m models.error_analysis",
         description="The thesis's tolerance study (§4.5) on the IWR: TCP errors of the carriage, the hexapod "
@@ -63,7 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(summary(result))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(result.to_dict(), indent=1) + "\n")
+        args.json.write_text(json.dumps(result_json(result), indent=1) + "\n")
         print(f"\nwrote {args.json}")
     if args.plot or args.plot_axes:
         if args.plot:

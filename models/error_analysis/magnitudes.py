@@ -84,11 +84,3 @@ class ErrorMagnitudes:
             elif spec.group == "hexapod":
                 out[i] = self.leg_offset if spec.name.endswith(".offset") else self.joint_position
         return out
-
-    def to_dict(self) -> dict[str, float]:
-        return {
-            "leg_offset_mm": float(self.leg_offset),
-            "joint_position_mm": float(self.joint_position),
-            "dh_angle_deg": float(self.dh_angle) * _DEG,
-            "dh_length_mm": float(self.dh_length),
-        }

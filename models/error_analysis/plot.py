@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from models.error_analysis.export import magnitudes_json
 from models.error_analysis.result import MODELS, SUBSYSTEMS, ErrorAnalysisResult
 from models.error_analysis.statistics import AXES, UNITS
 
@@ -30,7 +31,7 @@ def _pyplot() -> Any:
 
 
 def _title(result: ErrorAnalysisResult) -> str:
-    tol = result.tolerances.to_dict()
+    tol = magnitudes_json(result.tolerances)
     return (
         f"{result.robot}: {result.n_poses} poses, {result.n_draws} draws ({result.distribution}); "
         f"|δL| {tol['leg_offset_mm']:g} mm, |δP| {tol['joint_position_mm']:g} mm, "

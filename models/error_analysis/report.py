@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from models.error_analysis.export import magnitudes_json
 from models.error_analysis.result import MODELS, SUBSYSTEMS, ErrorAnalysisResult
 from models.error_analysis.statistics import UNITS, quantity_of
 
 
 def summary(result: ErrorAnalysisResult) -> str:
     """A readable report of the study (mm, degrees)."""
-    tol = result.tolerances.to_dict()
+    tol = magnitudes_json(result.tolerances)
     lines = [
         f"Error analysis of {result.robot}: {result.n_poses} poses x {result.n_draws} draws "
         f"({result.distribution} errors, seed {result.seed}, {result.seconds:.2f} s)",

@@ -1,7 +1,7 @@
 """The outcome of the tolerance study: pose errors per case and model, and the shares derived from them.
 
-Arrays in internal units (mm, rad); `ErrorAnalysisResult.to_dict` gives the
-JSON summary in mm and degrees.
+Arrays in internal units (mm, rad); `models.error_analysis.export` writes the command line's JSON file in mm
+and degrees (the HTTP service builds its own answer in `service.conversions`).
 """
 
 from __future__ import annotations
@@ -15,12 +15,7 @@ import numpy as np
 from models.error_analysis.magnitudes import ErrorMagnitudes
 from models.error_analysis.statistics import (
     AXES,
-    UNITS,
     Array,
-    block_stats,
-    by_axis,
-    gap_stats,
-    json_safe,
     quantity_of,
 )
 
@@ -60,7 +55,7 @@ class WorstCase:
 
 @dataclass(frozen=True, eq=False)
 class ErrorAnalysisResult:
-    """Outcome of `error_analysis`: arrays in internal units (mm, rad), `to_dict` in mm and degrees."""
+    """Outcome of `error_analysis`: arrays in internal units (mm, rad)."""
 
     robot: str
     tolerances: ErrorMagnitudes
@@ -132,35 +127,6 @@ class ErrorAnalysisResult:
         values = quantity_of(getattr(self.case_errors(subsystem), model), quantity).reshape(-1, 3)
         return AXES[int(np.argmax(np.mean(values**2, axis=0)))]
 
-    # ------------------------------------------------------------ boundary
-    def _case_dict(self, subsystem: str) -> dict[str, Any]:
-        pe = self.case_errors(subsystem)
-        entry: dict[str, Any] = {}
-        for model in MODELS:
-            entry[model] = {}
-            for quantity, (unit, factor) in UNITS.items():
-                block = block_stats(getattr(pe, model), quantity)
-                if subsystem in self.worst_cases:
-                    worst = getattr(self.worst_cases[subsystem][quantity], model) * factor
-                    block[f"worst_case_abs_{unit}"] = by_axis(worst)
-                entry[model][quantity] = block
-        entry["linearisation_gap"] = {q: gap_stats(pe.gap, pe.exact, q) for q in UNITS}
-        return entry
-
-    def _per_pose_dict(self, subsystem: str) -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for model in MODELS:
-            errors = getattr(self.case_errors(subsystem), model)
-            block: dict[str, Any] = {}
-            for quantity, (unit, factor) in UNITS.items():
-                absolute = self.absolute(subsystem, model, quantity) * factor
-                axes_rms = np.sqrt(np.mean(quantity_of(errors, quantity) ** 2, axis=0)) * factor
-                block[f"{quantity}_rms_{unit}"] = np.sqrt(np.mean(absolute**2, axis=0)).tolist()
-                block[f"{quantity}_first_draw_{unit}"] = absolute[0].tolist()
-                block[f"{quantity}_axes_rms_{unit}"] = {a: axes_rms[:, k].tolist() for k, a in enumerate(AXES)}
-            out[model] = block
-        return out
-
     def claims(self) -> dict[str, Any]:
         """The thesis's three findings, measured here (exact model)."""
         whole = self.absolute("whole", "exact", "position")
@@ -178,44 +144,3 @@ class ErrorAnalysisResult:
             "position_error_under_10_mm": bool(np.max(whole) < 10.0),
             "worst_case_under_10_mm": bool(worst < 10.0),
         }
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary in mm and degrees: statistics per case, shares, claims, per-pose values."""
-        shares = {
-            model: {
-                quantity: {
-                    sub: {
-                        "mean_abs_ratio": self.mean_abs_ratio(sub, model, quantity),
-                        "variance_share": self.variance_share(sub, model, quantity),
-                    }
-                    for sub in ("carriage", "hexapod")
-                }
-                for quantity in UNITS
-            }
-            for model in MODELS
-        }
-        gap = self.superposition_gap()
-        superposition = {q: gap_stats(gap, self.errors["whole"].exact, q) for q in UNITS}
-        carriage_frame = self._case_dict("carriage_frame")
-        carriage_frame["mean_abs_ratio_to_whole"] = {
-            q: self.mean_abs_ratio("carriage_frame", "exact", q) for q in UNITS
-        }
-        per_pose: dict[str, Any] = {"joints": (self.joints * self.joint_to_boundary).tolist()}
-        per_pose.update({sub: self._per_pose_dict(sub) for sub in (*SUBSYSTEMS, "carriage_frame")})
-        return json_safe(
-            {
-                "robot": self.robot,
-                "n_poses": self.n_poses,
-                "n_draws": self.n_draws,
-                "seed": self.seed,
-                "distribution": self.distribution,
-                "tolerances": self.tolerances.to_dict(),
-                "subsystems": {sub: self._case_dict(sub) for sub in SUBSYSTEMS},
-                "carriage_frame": carriage_frame,
-                "shares": shares,
-                "superposition_gap": superposition,
-                "thesis_claims": self.claims(),
-                "per_pose": per_pose,
-                "seconds": self.seconds,
-            }
-        )

@@ -4,17 +4,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
 
 import numpy as np
 
-from models._types import Array, finite_or_none
+from models._types import Array
 from models.identifiability import Confounding
 from models.identification.statistics import PoseErrors
 from models.measurement import MeasurementKind
 from models.parameters import ParameterTable
-
-DEG = float(np.degrees(1.0))
 
 
 def _rms(a: Array) -> float:
@@ -49,18 +46,6 @@ class ResidualSummary:
             per_pose_mm=pos,
             per_pose_rad=rot,
         )
-
-    def to_dict(self, per_pose: bool = True) -> dict[str, Any]:
-        out: dict[str, Any] = {"rms_mm": self.rms_mm, "max_mm": self.max_mm}
-        # Degrees from the per-pose values, as the boundary always reported them (bit for bit).
-        rot = None if self.per_pose_rad is None else self.per_pose_rad * DEG
-        if rot is not None:
-            out |= {"rms_deg": _rms(rot), "max_deg": float(rot.max())}
-        if per_pose:
-            out["per_pose_mm"] = self.per_pose_mm.tolist()
-            if rot is not None:
-                out["per_pose_deg"] = rot.tolist()
-        return out
 
 
 @dataclass(frozen=True)
@@ -159,70 +144,3 @@ class IdentificationResult:
     def unidentifiable_names(self) -> tuple[str, ...]:
         chosen = set(self.estimated)
         return tuple(n for i, n in enumerate(self.table.names) if i not in chosen)
-
-    def to_dict(self, per_pose: bool = True) -> dict[str, Any]:
-        """Boundary units: mm and degrees."""
-        t = self.table
-        chosen = set(self.estimated)
-        value, nominal, std = (t.as_boundary(v) for v in (self.parameters, self.nominal, self.std_errors))
-        acc = self.predicted_accuracy
-        return {
-            "status": self.status.value,
-            "reason": self.reason,
-            "parameters": [
-                {
-                    "name": name,
-                    "value": float(value[i]),
-                    "unit": t.units[i],
-                    "nominal": float(nominal[i]),
-                    "std_error": finite_or_none(std[i]) if i in chosen else None,
-                    "identifiable": i in chosen,
-                }
-                for i, name in enumerate(t.names)
-            ],
-            "identifiable": list(self.identifiable_names),
-            "unidentifiable": list(self.unidentifiable_names),
-            "confounding": {c.name: [{"with": p, "coefficient": k} for p, k in c.partners] for c in self.confounding},
-            "correlated_pairs": [{"a": a, "b": b, "correlation": r} for a, b, r in self.correlated_pairs],
-            "rank": self.rank,
-            "condition_number": finite_or_none(self.condition_number),
-            "identifiability_rechecked": self.identifiability_rechecked,
-            "residuals": {
-                "before": self.residuals_before.to_dict(per_pose),
-                "after": self.residuals_after.to_dict(per_pose),
-            },
-            "variance_factor": finite_or_none(self.variance_factor),
-            "degrees_of_freedom": self.dof,
-            "noise_consistent": self.noise_consistent,
-            "outliers": [
-                {
-                    "pose": o.pose,
-                    "position_mm": o.position_mm,
-                    "orientation_deg": None if o.orientation_rad is None else float(np.degrees(o.orientation_rad)),
-                    "statistic": o.statistic,
-                    "threshold": o.threshold,
-                    "excluded": o.excluded,
-                }
-                for o in self.outliers
-            ],
-            "solver": {
-                "name": self.solver.name,
-                "status": self.solver.status,
-                "success": self.solver.success,
-                "iterations": self.solver.iterations,
-                "seconds": self.solver.seconds,
-                "evaluations": self.solver.evaluations,
-                "polish_steps": self.solver.polish_steps,
-            },
-            "predicted_accuracy": {
-                "rms_position_mm": finite_or_none(acc.rms_position_mm),
-                "max_position_mm": finite_or_none(acc.max_position_mm),
-                "rms_orientation_deg": finite_or_none(float(np.degrees(acc.rms_orientation_rad))),
-                "max_orientation_deg": finite_or_none(float(np.degrees(acc.max_orientation_rad))),
-                "workspace_poses": acc.poses,
-            },
-            "measurement": self.kind.value,
-            "measurements": self.measurements,
-            "seconds": self.seconds,
-            "notes": list(self.notes),
-        }

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -23,9 +22,6 @@ class ValidationReport:
     errors: ResidualSummary
     registered: bool
     """Whether the instrument frame was re-fitted first (the instrument moved between campaigns)."""
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"errors": self.errors.to_dict(), "registered": self.registered}
 
 
 def validate(

@@ -4,18 +4,17 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from models._types import Array, finite_or_none
+from models._types import Array
 from models.inverse.nlp import bounds
 from models.inverse.routing import REACHED_MM, joints_of
 from models.kinematics import hexapod_condition, pose_batch, solve_platforms
 from models.robot import RobotDescription
 from models.runtime import Runtime
-from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np
+from models.transforms import matrix_to_rotvec_np
 
 REACHED_RAD = float(np.radians(1e-6))
 
@@ -44,28 +43,6 @@ class IkSolution:
     @property
     def size(self) -> int:
         return int(self.joints.shape[0])
-
-    def to_dict(self, desc: RobotDescription) -> dict[str, Any]:
-        """Boundary units: mm and degrees."""
-        joints = self.joints * desc.joint_to_boundary
-        quats = matrix_to_quaternion(self.rotations)
-        orientation = None if self.orientation_error_rad is None else np.degrees(self.orientation_error_rad)
-        num = finite_or_none
-
-        return {
-            "joints": [[num(v) for v in row] for row in joints],
-            "position_error_mm": [num(v) for v in self.position_error_mm],
-            "orientation_error_deg": None if orientation is None else [num(v) for v in orientation],
-            "reachable": self.reachable.tolist(),
-            "reasons": list(self.reasons),
-            "reached_poses": [
-                {"position": [num(v) for v in p], "orientation": [num(v) for v in q]}
-                for p, q in zip(self.positions, quats, strict=True)
-            ],
-            "hexapod_condition": [num(v) for v in self.condition],
-            "methods": list(self.methods),
-            "seconds": self.seconds,
-        }
 
 
 def report(

@@ -10,30 +10,49 @@ from __future__ import annotations
 import logging
 import multiprocessing
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
-from functools import lru_cache
+from dataclasses import dataclass
 from typing import Any
 
-from models.errors import CalibrationError
-from service import operations
+from service.errors import Interrupted
+from service.model_cache import ModelCache
 from service.persistence import Database, Repository
-from service.problems import ServiceError, lookup
-from service.schemas.calibrations import CalibrationCreate
-from service.schemas.designs import PoseDesignCreate
+from service.problems import lookup, to_problem
+from service.services.jobs import run_job
 
 log = logging.getLogger("service.jobs")
 
 
-@lru_cache(maxsize=4)
-def _database(url: str) -> Database:
-    return Database(url)
+@dataclass(frozen=True)
+class WorkerContext:
+    """What one process needs to run jobs: its engine and its model cache, created once."""
+
+    db: Database
+    models: ModelCache
 
 
-def execute_job(database_url: str, job_id: str, db: Database | None = None) -> str:
+_worker: WorkerContext | None = None
+"""Set once per worker process by `start_worker` (the pool's initializer); never in the app's process."""
+
+
+def start_worker(database_url: str) -> None:
+    """The pool's initializer: one engine and one model cache per worker process, kept for its lifetime.
+
+    (No warm-up here: a worker builds what its first job uses, as before; building every Function and solver
+    per worker belongs to the per-structure runtime the models package is getting.)"""
+    global _worker  # noqa: PLW0603  (a pool initializer can leave its state only in the worker's module)
+    db = Database(database_url)
+    _worker = WorkerContext(db, ModelCache(db))
+
+
+def execute_job(job_id: str, context: WorkerContext | None = None) -> str:
     """Run one job to completion in this process; returns its final status.
 
-    Worker processes open one engine per database URL and keep it; in-process runs pass the app's own.
+    Worker processes use the context their initializer made; in-process runs pass the app's own.
     """
-    db = db or _database(database_url)
+    ctx = context or _worker
+    if ctx is None:
+        raise RuntimeError("execute_job outside a worker started by start_worker, and no context given")
+    db = ctx.db
     with db.session() as s:
         repo = Repository(s)
         job = repo.job(job_id)
@@ -44,18 +63,11 @@ def execute_job(database_url: str, job_id: str, db: Database | None = None) -> s
     result_id: str | None = None
     error: dict[str, Any] | None = None
     try:
-        if kind == "calibration":
-            result_id = operations.calibrate(db, robot_id, CalibrationCreate.model_validate(request)).id
-        elif kind == "pose_design":
-            result_id = operations.design(db, robot_id, PoseDesignCreate.model_validate(request)).id
-        else:
-            error = {"status": 500, "title": "Unknown job kind", "detail": f"no such job kind {kind!r}"}
-    except (CalibrationError, ServiceError) as exc:
-        status, slug, title = lookup(exc)
-        error = {"status": status, "type": slug, "title": title, "detail": exc.detail}
-    except Exception as exc:  # a job records every failure instead of dying silently
-        log.exception("job %s failed", job_id)
-        error = {"status": 500, "title": "Internal error", "detail": f"{type(exc).__name__}: {exc}"}
+        result_id = run_job(db=db, models=ctx.models, kind=kind, robot_id=robot_id, request=request)
+    except Exception as exc:  # a job records every failure, as the synchronous request would have answered it
+        if lookup(exc)[0] >= 500:
+            log.exception("job %s failed", job_id)
+        error = to_problem(exc)
     with db.session() as s:
         repo = Repository(s)
         job = repo.job(job_id)
@@ -64,10 +76,15 @@ def execute_job(database_url: str, job_id: str, db: Database | None = None) -> s
 
 
 class JobRunner:
-    def __init__(self, db: Database, workers: int) -> None:
-        self.db = db
+    def __init__(self, db: Database, models: ModelCache, workers: int) -> None:
+        self.context = WorkerContext(db, models)
         self.executor: Executor = (
-            ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+            ProcessPoolExecutor(
+                max_workers=workers,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=start_worker,
+                initargs=(db.url,),
+            )
             if workers > 0
             else ThreadPoolExecutor(max_workers=1)
         )
@@ -75,9 +92,9 @@ class JobRunner:
 
     def submit(self, job_id: str) -> None:
         if isinstance(self.executor, ThreadPoolExecutor):
-            future = self.executor.submit(execute_job, self.db.url, job_id, self.db)
+            future = self.executor.submit(execute_job, job_id, self.context)
         else:
-            future = self.executor.submit(execute_job, self.db.url, job_id)
+            future = self.executor.submit(execute_job, job_id)
         self.futures.add(future)
         future.add_done_callback(self._done)
 
@@ -88,18 +105,12 @@ class JobRunner:
 
     def recover(self) -> tuple[int, int]:
         """(interrupted jobs marked failed, queued jobs resubmitted) after a restart."""
-        with self.db.session() as s:
+        with self.context.db.session() as s:
             repo = Repository(s)
             interrupted = repo.jobs_with_status("running")
             for job in interrupted:
-                repo.finish_job(
-                    job,
-                    error={
-                        "status": 503,
-                        "title": "Interrupted",
-                        "detail": "interrupted: the service stopped while this job ran; submit it again",
-                    },
-                )
+                stopped = Interrupted("interrupted: the service stopped while this job ran; submit it again")
+                repo.finish_job(job, error=to_problem(stopped))
             queued = [job.id for job in repo.jobs_with_status("queued")]
         for job_id in queued:
             self.submit(job_id)

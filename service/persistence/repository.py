@@ -9,8 +9,8 @@ from typing import Any
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from service.errors import NotFound
 from service.persistence.tables import CalibrationRecord, CampaignRecord, Job, ParameterVersion, PoseDesignRecord, Robot
-from service.problems import NotFound
 
 
 def new_id() -> str:

@@ -1,1 +1,1 @@
-"""HTTP routes: parse, convert, call `operations` or `models`, shape the answer. Nothing else."""
+"""HTTP routes: thin. Parse the request, call one service function, answer with what it returns."""

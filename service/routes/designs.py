@@ -2,51 +2,53 @@ from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter, Depends, Query, Request, Response
-from fastapi.responses import JSONResponse
+from fastapi import APIRouter, Query, Request, Response
 
-from service import operations
-from service.persistence import Database, Repository
-from service.routes.csv_io import joints_csv
-from service.routes.deps import compute, database, wants_csv
-from service.schemas.common import JobAccepted
+from service.csv_codec import joints_csv
+from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, compute, wants_csv
+from service.responses import model_json
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic
+from service.schemas.jobs import JobAccepted
+from service.services import designs
+from service.services.jobs import submit_job
 
 router = APIRouter(tags=["pose designs"])
-_CSV = {200: {"content": {"text/csv": {"schema": {"type": "string"}}}}, 202: {"model": JobAccepted}}
+_CSV_BODY = {"content": {"text/csv": {"schema": {"type": "string", "description": "header q1,…,l6"}}}}
+_CREATED: dict[int | str, dict[str, Any]] = {
+    201: _CSV_BODY,
+    202: {"model": JobAccepted, "description": "Accepted as a job (?async=true)"},
+}
+_FOUND: dict[int | str, dict[str, Any]] = {200: _CSV_BODY}
 
 
-def _answer(request: Request, record_public: dict[str, Any]) -> Any:
+def _answer(request: Request, design: dict[str, Any], status_code: int) -> dict[str, Any] | Response:
+    """The stored report through the declared response model (see routes/calibrations.py), or its poses as CSV."""
     if wants_csv(request):
-        return Response(joints_csv(record_public["poses"]), media_type="text/csv")
-    return record_public
+        return Response(joints_csv(design["poses"]), media_type="text/csv", status_code=status_code)
+    return design
 
 
-@router.post(
-    "/v1/robots/{robot_id}/pose-designs",
-    status_code=201,
-    response_model=PoseDesignPublic,
-    responses=_CSV,  # type: ignore[arg-type]
-)
+@router.post("/v1/robots/{robot_id}/pose-designs", status_code=201, response_model=PoseDesignPublic, responses=_CREATED)
 async def create_design(
     robot_id: str,
+    *,
     body: PoseDesignCreate,
     request: Request,
+    db: DatabaseDep,
+    models: ModelCacheDep,
+    jobs: JobsDep,
+    m: MetricsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
-    db: Database = Depends(database),
-) -> Any:
+) -> dict[str, Any] | Response:
     if run_async:
-        with db.session() as s:
-            repo = Repository(s)
-            repo.robot(robot_id)
-            job = repo.add_job("pose_design", robot_id, body.model_dump(mode="json"))
-        request.app.state.jobs.submit(job.id)
-        return JSONResponse({"job_id": job.id, "status_url": f"/v1/jobs/{job.id}"}, status_code=202)
-    record = await compute(request, "pose_design", lambda: operations.design(db, robot_id, body))
-    return _answer(request, operations.design_public(record))
+        accepted = submit_job(db=db, jobs=jobs, kind="pose_design", robot_id=robot_id, body=body)
+        return model_json(accepted, status_code=202)
+    design = await compute(
+        m, "pose_design", lambda: designs.create_design(db=db, models=models, robot_id=robot_id, body=body)
+    )
+    return _answer(request, design, 201)
 
 
-@router.get("/v1/pose-designs/{design_id}", response_model=PoseDesignPublic, responses=_CSV)  # type: ignore[arg-type]
-def get_design(design_id: str, request: Request, db: Database = Depends(database)) -> Any:
-    with db.reader() as s:
-        return _answer(request, operations.design_public(Repository(s).design(design_id)))
+@router.get("/v1/pose-designs/{design_id}", response_model=PoseDesignPublic, responses=_FOUND)
+def get_design(design_id: str, request: Request, db: DatabaseDep) -> dict[str, Any] | Response:
+    return _answer(request, designs.get_design(db=db, design_id=design_id), 200)

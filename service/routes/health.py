@@ -1,35 +1,39 @@
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends, Request, Response
+from typing import Literal
+
+from fastapi import APIRouter, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
-from service.persistence import Database, Repository
-from service.problems import problem
-from service.routes.deps import database, metrics
+from service.deps import DatabaseDep, MetricsDep
+from service.errors import NotReady
+from service.schemas.common import Public
+from service.services.jobs import queue_depth
 
 router = APIRouter(tags=["health"])
 
 
-@router.get("/healthz")
-def healthz() -> dict[str, str]:
-    return {"status": "ok"}
+class StatusPublic(Public):
+    status: Literal["ok", "ready"]
 
 
-@router.get("/readyz", responses={503: {"description": "The database does not answer"}})
-def readyz(db: Database = Depends(database)) -> Response:
+@router.get("/healthz", response_model=StatusPublic)
+def healthz() -> Response:
+    return Response('{"status":"ok"}', media_type="application/json")
+
+
+@router.get("/readyz", response_model=StatusPublic, responses={503: {"description": "The database does not answer"}})
+def readyz(db: DatabaseDep) -> Response:
     if db.ping():
         return Response('{"status":"ready"}', media_type="application/json")
-    return problem(503, "not-ready", "Not ready", "the database does not answer")
+    raise NotReady("the database does not answer")
 
 
 @router.get("/metrics", include_in_schema=False)
-def prometheus(request: Request, db: Database = Depends(database)) -> Response:
-    m = metrics(request)
+def prometheus(db: DatabaseDep, m: MetricsDep) -> Response:
     try:
-        with db.reader() as s:
-            repo = Repository(s)
-            for status in ("queued", "running"):
-                m.queue.labels(status).set(repo.count_jobs(status))
+        for status, count in queue_depth(db=db).items():
+            m.queue.labels(status).set(count)
     except Exception:  # metrics still answer when the database does not
         pass
     return Response(generate_latest(m.registry), media_type=CONTENT_TYPE_LATEST)

@@ -1,11 +1,29 @@
+"""Calibration requests and the complete calibration report (boundary units: mm, degrees)."""
+
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any, Literal
+from typing import Literal
 
-from pydantic import Field
+from pydantic import ConfigDict, Field
 
-from service.schemas.common import JointVector, Position, Public, Quaternion, Strict
+from models.identifiability import NoiseModel
+from models.identification import IdentificationOptions, RobustLoss
+from models.identification.options import DEFAULT_GROUPS
+from service.conversions.units import degrees_default
+from service.schemas.common import (
+    JointVector,
+    OptionalFloat,
+    Position,
+    Public,
+    Quaternion,
+    Strict,
+)
+from service.schemas.robots import ParameterPublic
+
+_NOISE = NoiseModel()
+_OPTIONS = IdentificationOptions()
+MAX_MEASUREMENTS = 100_000
 
 
 class Record(Strict):
@@ -15,20 +33,20 @@ class Record(Strict):
 
 
 class Noise(Strict):
-    position_mm: float = Field(default=0.025, gt=0, le=1000)
-    orientation_deg: float = Field(default=0.01, gt=0, le=180)
+    position_mm: float = Field(default=_NOISE.position_mm, gt=0, le=1000)
+    orientation_deg: float = Field(default=degrees_default(_NOISE.orientation_rad), gt=0, le=180)
 
 
 class CalibrationOptions(Strict):
     estimate: list[str] = Field(
-        default=["base", "carriage", "hexapod", "tool"], min_length=1, description="Groups or parameter names"
+        default_factory=lambda: list(DEFAULT_GROUPS), min_length=1, description="Groups or parameter names"
     )
-    robust: Literal["none", "huber", "soft_l1"] = "none"
-    robust_scale: float = Field(default=3.0, gt=0, le=1000, description="In units of σ")
+    robust: RobustLoss = RobustLoss.NONE
+    robust_scale: float = Field(default=_OPTIONS.robust_scale, gt=0, le=1000, description="In units of σ")
 
 
 class CalibrationCreate(Strict):
-    measurements: list[Record] = Field(min_length=1, max_length=100_000)
+    measurements: list[Record] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
     noise: Noise = Noise()
     apply: bool = True
     options: CalibrationOptions = CalibrationOptions()
@@ -41,17 +59,112 @@ class CalibrationCreate(Strict):
     )
 
 
-class CalibrationPublic(Public):
-    id: str
-    robot_id: str
+# ------------------------------------------------------------------ the report
+
+
+def _absent_if_none(value: object) -> bool:
+    return value is None
+
+
+class CalibratedParameterPublic(ParameterPublic):
+    identifiable: bool  # a calibration always knows
+    start: OptionalFloat = Field(
+        default=None,
+        description="The value the fit started from (the start version's); "
+        "null in calibrations stored before start versions existed",
+    )
+
+
+class ConfoundingPartnerPublic(Public):
+    model_config = ConfigDict(extra="forbid", populate_by_name=True, serialize_by_alias=True)
+    with_: str = Field(alias="with", description="An identifiable parameter")
+    coefficient: float
+
+
+class CorrelatedPairPublic(Public):
+    a: str
+    b: str
+    correlation: float
+
+
+class ResidualsPublic(Public):
+    """Per-pose TCP residuals; the orientation keys are absent for a position-only campaign."""
+
+    rms_mm: float
+    max_mm: float
+    rms_deg: float | None = Field(default=None, exclude_if=_absent_if_none)
+    max_deg: float | None = Field(default=None, exclude_if=_absent_if_none)
+    per_pose_mm: list[float]
+    per_pose_deg: list[float] | None = Field(default=None, exclude_if=_absent_if_none)
+
+
+class ResidualsBeforeAfterPublic(Public):
+    before: ResidualsPublic = Field(description="At the registered start")
+    after: ResidualsPublic
+
+
+class OutlierPublic(Public):
+    pose: int
+    position_mm: float
+    orientation_deg: float | None
+    statistic: float = Field(description="Σ of the pose's squared standardised residuals")
+    threshold: float
+    excluded: bool
+
+
+class SolverReportPublic(Public):
+    name: str
     status: str
+    success: bool
+    iterations: int
+    seconds: float
+    evaluations: int
+    polish_steps: int = Field(description="Gauss–Newton steps after IPOPT")
+
+
+class PredictedAccuracyPublic(Public):
+    """1-σ TCP uncertainty over sampled workspace poses, from the a-posteriori covariance."""
+
+    rms_position_mm: OptionalFloat
+    max_position_mm: OptionalFloat
+    rms_orientation_deg: OptionalFloat
+    max_orientation_deg: OptionalFloat
+    workspace_poses: int
+
+
+class CalibrationReportPublic(Public):
+    """What a calibration computed: stored once, as validated here, and served as stored."""
+
+    status: Literal["succeeded", "failed"]
     reason: str | None
-    parameter_version: int | None
-    start_version: int | None
-    applied: bool
-    created_at: datetime
-    parameters: list[dict[str, Any]]
+    parameters: list[CalibratedParameterPublic]
     identifiable: list[str]
     unidentifiable: list[str]
-    residuals: dict[str, Any]
-    solver: dict[str, Any]
+    confounding: dict[str, list[ConfoundingPartnerPublic]] = Field(
+        description="Per unidentifiable parameter: the identifiable ones its column is a combination of"
+    )
+    correlated_pairs: list[CorrelatedPairPublic]
+    rank: int
+    condition_number: OptionalFloat
+    identifiability_rechecked: bool
+    residuals: ResidualsBeforeAfterPublic
+    variance_factor: OptionalFloat
+    degrees_of_freedom: int
+    noise_consistent: bool
+    outliers: list[OutlierPublic]
+    solver: SolverReportPublic
+    predicted_accuracy: PredictedAccuracyPublic
+    measurement: Literal["pose", "position"]
+    measurements: int
+    seconds: float
+    notes: list[str]
+    start_version: int | None
+
+
+class CalibrationPublic(CalibrationReportPublic):
+    id: str
+    robot_id: str
+    campaign_id: str
+    applied: bool
+    parameter_version: int | None = Field(description="The version this calibration created (when applied)")
+    created_at: datetime

@@ -1,10 +1,16 @@
-"""Shared request/response pieces; every request model forbids unknown fields and non-finite numbers."""
+"""Shared request/response pieces.
+
+Requests forbid unknown fields and non-finite numbers. Responses forbid unknown fields too, so a conversion
+that builds a key the schema does not declare fails at once, and the published OpenAPI lists every key.
+"""
 
 from __future__ import annotations
 
-from typing import Annotated
+import math
+from datetime import datetime
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter
 
 
 class Strict(BaseModel):
@@ -12,7 +18,26 @@ class Strict(BaseModel):
 
 
 class Public(BaseModel):
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="forbid")
+
+
+def _finite_or_none(value: Any) -> Any:
+    # The one place NaN and infinities become null: strict JSON (and PostgreSQL's JSON type) has no such numbers.
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+OptionalFloat = Annotated[float | None, BeforeValidator(_finite_or_none)]
+"""A number, or null where the mathematics has none (a NaN standard error, an infinite condition number)."""
+
+
+_DATETIME = TypeAdapter(datetime)
+
+
+def timestamp(value: datetime) -> str:
+    """A datetime as every response model serialises it (RFC 3339, `Z` for UTC)."""
+    return str(_DATETIME.dump_python(value, mode="json"))
 
 
 JointValue = Annotated[float, Field(ge=-1e6, le=1e6)]
@@ -47,10 +72,5 @@ class Target(Strict):
 
 
 class PosePublic(Public):
-    position: list[float]
-    orientation: list[float]
-
-
-class JobAccepted(Public):
-    job_id: str
-    status_url: str
+    position: list[float] = Field(description="mm")
+    orientation: list[float] = Field(description="unit quaternion [w, x, y, z]")

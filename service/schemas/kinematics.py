@@ -2,7 +2,7 @@ from __future__ import annotations
 
 from pydantic import Field
 
-from service.schemas.common import JointVector, PosePublic, Public, Strict, Target
+from service.schemas.common import JointVector, OptionalFloat, PosePublic, Public, Strict, Target
 
 
 class ForwardRequest(Strict):
@@ -20,9 +20,20 @@ class InverseRequest(Strict):
     follow: bool = Field(default=False, description="Seed each target with the previous answer (smooth paths)")
 
 
+class ReachedPosePublic(Public):
+    """Where the returned joints put the TCP on the calibrated model (null for an invalid target)."""
+
+    position: list[OptionalFloat]
+    orientation: list[OptionalFloat]
+
+
 class InverseResponse(Public):
-    joints: list[list[float | None]]
-    position_error_mm: list[float | None]
-    orientation_error_deg: list[float | None] | None
+    joints: list[list[OptionalFloat]] = Field(description="Per target, mm and deg; null for an invalid target")
+    position_error_mm: list[OptionalFloat]
+    orientation_error_deg: list[OptionalFloat] | None = Field(description="null for position-only targets")
     reachable: list[bool]
-    reasons: list[str | None]
+    reasons: list[str | None] = Field(description="Why a target is not reached exactly (joints at their limits)")
+    reached_poses: list[ReachedPosePublic]
+    hexapod_condition: list[OptionalFloat] = Field(description="Condition number of eq. 48 at each answer")
+    methods: list[str] = Field(description="'newton', 'ipopt', 'ipopt-nearest' or 'invalid', per target")
+    seconds: float

@@ -5,7 +5,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from service.schemas.common import Pose, PosePublic, Public, Strict
+from service.schemas.common import OptionalFloat, Pose, PosePublic, Public, Strict
 
 
 class RobotCreate(Strict):
@@ -30,7 +30,7 @@ class ParameterPublic(Public):
     value: float = Field(description="mm or deg (see unit)")
     unit: Literal["mm", "deg"]
     nominal: float
-    std_error: float | None
+    std_error: OptionalFloat = Field(description="Same unit; null until a calibration has estimated it")
     identifiable: bool | None
 
 

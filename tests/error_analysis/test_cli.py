@@ -14,6 +14,7 @@ import pytest
 from models import RobotDescription
 from models.error_analysis import SUBSYSTEMS, error_analysis
 from models.error_analysis.__main__ import main
+from models.error_analysis.export import result_json
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -49,7 +50,7 @@ def test_cli_writes_summary_json_and_plots(tmp_path: Path, capsys: pytest.Captur
 
 def test_to_dict_is_strict_json_in_boundary_units(desc: RobotDescription) -> None:
     res = error_analysis(desc, n_poses=3, n_draws=5, seed=3)
-    data = res.to_dict()
+    data = result_json(res)
     json.dumps(data, allow_nan=False)
     deg = data["subsystems"]["carriage"]["exact"]["orientation"]["max_abs_deg"]["z"]
     rad = abs(res.errors["carriage"].exact[..., 5]).max()

@@ -16,6 +16,7 @@ from models.error_analysis import (
     pose_errors,
     subsystem_mask,
 )
+from models.error_analysis.export import result_json
 from models.transforms import matrix_to_rotvec_np
 
 from .conftest import carriage_frame
@@ -60,7 +61,7 @@ def test_zero_tolerances_give_zero_errors(desc: RobotDescription) -> None:
         assert not np.any(res.errors[sub].first_order)
     assert np.max(np.abs(res.carriage_frame.exact)) < 1e-12
     # No error, no share: null in the JSON rather than NaN.
-    data = res.to_dict()
+    data = result_json(res)
     json.dumps(data, allow_nan=False)
     assert data["shares"]["exact"]["position"]["carriage"]["mean_abs_ratio"] is None
 
@@ -152,7 +153,7 @@ def test_monte_carlo_rms_matches_the_expected_variance(
 ) -> None:
     """E[(J δ)_k²] = var · Σ_j J_kj² tol_j² for independent zero-mean errors: the reported RMS converges to it."""
     res = error_analysis(desc, n_poses=4, n_draws=500, distribution=distribution, seed=11)
-    stats = res.to_dict()["subsystems"]
+    stats = result_json(res)["subsystems"]
     for sub in SUBSYSTEMS:
         tol = res.tolerance_vector * subsystem_mask(desc, sub)
         expected = np.sqrt(variance * np.mean((res.jacobians**2) @ (tol**2), axis=0))
@@ -172,9 +173,9 @@ def test_worst_case_bounds_every_draw(desc: RobotDescription) -> None:
 
 
 def test_same_seed_same_study(desc: RobotDescription) -> None:
-    a = error_analysis(desc, n_poses=3, n_draws=4, seed=21).to_dict()
-    b = error_analysis(desc, n_poses=3, n_draws=6, seed=21).to_dict()
-    c = error_analysis(desc, n_poses=3, n_draws=4, seed=21).to_dict()
+    a = result_json(error_analysis(desc, n_poses=3, n_draws=4, seed=21))
+    b = result_json(error_analysis(desc, n_poses=3, n_draws=6, seed=21))
+    c = result_json(error_analysis(desc, n_poses=3, n_draws=4, seed=21))
     assert a["per_pose"]["joints"] == b["per_pose"]["joints"]
     expected = sample_workspace(desc, 3, 21) * desc.joint_to_boundary
     np.testing.assert_allclose(a["per_pose"]["joints"], expected)

@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 
 from service.app import create_app
 from service.settings import Settings
+from tests.service.contract_check import ContractClient
 
 SLOW_CONTRACT_CASES = ("test_api_contract[POST /v1/error-analysis]",)
 """Contract cases that take long (see test_contract.py): `make test-fast` skips them."""
@@ -52,16 +53,18 @@ def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str
         yield from postgres_url()
 
 
-def make_client(url: str, **settings: object) -> TestClient:
+def make_client(url: str, **settings: object) -> ContractClient:
+    """Every response it receives is checked against the app's OpenAPI document (`contract_check`)."""
     options: dict[str, object] = {"database_url": url, "job_workers": 0, "warm_up": False, "log_level": "WARNING"}
     options.update(settings)
-    return TestClient(create_app(Settings(**options)))  # type: ignore[arg-type]
+    return ContractClient(create_app(Settings(**options)))  # type: ignore[arg-type]
 
 
 @pytest.fixture
 def client(tmp_path: Path) -> Iterator[TestClient]:
     with make_client(f"sqlite:///{tmp_path}/iwr.db") as c:
         yield c
+    assert c.contract.checked > 0, "the test's responses went unchecked"
 
 
 @pytest.fixture

@@ -13,7 +13,7 @@ import pytest
 
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
-from service.live import running_server
+from tests.live import running_server
 from tests.service.helpers import records
 
 # A load test: a live server under fifty clients for IWR_CONCURRENCY_SECONDS (20 s by default).

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+import json
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from schemathesis.checks import not_a_server_error
 from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
 
 from models import errors as domain
+from service import errors
 from service.app import create_app
 from service.openapi_dump import SNAPSHOT, render
 from service.problems import PROBLEMS
@@ -24,10 +26,16 @@ def test_committed_openapi_matches_the_app() -> None:
     assert SNAPSHOT.read_text() == render(), "run `python -m service.openapi_dump` and commit service/openapi.json"
 
 
-def test_every_domain_error_has_a_problem() -> None:
-    classes = [c for _, c in inspect.getmembers(domain, inspect.isclass) if issubclass(c, domain.CalibrationError)]
-    assert classes and all(c in PROBLEMS for c in classes)
-    assert all(400 <= status < 500 for status, _, _ in PROBLEMS.values())
+def test_every_domain_and_service_error_has_a_problem() -> None:
+    members = inspect.getmembers(domain, inspect.isclass)
+    domain_classes = [c for _, c in members if issubclass(c, domain.CalibrationError)]
+    service_classes = [c for _, c in inspect.getmembers(errors, inspect.isclass) if issubclass(c, errors.ServiceError)]
+    assert len(domain_classes) >= 12 and len(service_classes) >= 7
+    unmapped = [c.__name__ for c in (*domain_classes, *service_classes) if c not in PROBLEMS]
+    assert not unmapped, f"add these classes to service.problems.PROBLEMS: {unmapped}"
+    assert all(400 <= PROBLEMS[c][0] < 500 for c in domain_classes), "the caller's data is never a 5xx"
+    slugs = [slug for _, slug, _ in PROBLEMS.values()]
+    assert len(slugs) == len(set(slugs)), "one type per class"
 
 
 _DB = Path(__import__("tempfile").mkdtemp()) / "contract.db"
@@ -50,3 +58,30 @@ def running_app() -> Iterator[TestClient]:
 def test_api_contract(case: schemathesis.Case) -> None:
     """Every operation: no 5xx, responses conform to their schemas."""
     case.call_and_validate(checks=[not_a_server_error, response_schema_conformance, content_type_conformance])
+
+
+def test_the_response_checker_refuses_unknown_keys_and_undeclared_answers() -> None:
+    from tests.service.contract_check import ContractChecker
+
+    checker = ContractChecker(APP.openapi())
+    robot = {
+        "id": "r",
+        "name": "n",
+        "model": "iwr",
+        "parameter_version": 1,
+        "created_at": "2026-01-01T00:00:00Z",
+        "base": {"position": [0, 0, 0], "orientation": [1, 0, 0, 0]},
+        "tool": {"position": [0, 0, 0], "orientation": [1, 0, 0, 0]},
+    }
+    checker.check("GET", "/v1/robots/r", 200, "application/json", json.dumps(robot).encode())
+    with pytest.raises(AssertionError, match="unexpected"):
+        checker.check("GET", "/v1/robots/r", 200, "application/json", json.dumps({**robot, "extra": 1}).encode())
+    with pytest.raises(AssertionError, match="unexpected"):  # nested too: a pose with one more key
+        bad = {**robot, "base": {**robot["base"], "frame": "world"}}  # type: ignore[dict-item]
+        checker.check("GET", "/v1/robots/r", 200, "application/json", json.dumps(bad).encode())
+    with pytest.raises(AssertionError, match="does not declare"):
+        checker.check("GET", "/v1/robots/r", 201, "application/json", json.dumps(robot).encode())
+    with pytest.raises(AssertionError, match="not declared"):
+        checker.check("GET", "/v1/robots/r", 200, "text/csv", b"a,b\n")
+    with pytest.raises(AssertionError, match="required"):
+        checker.check("GET", "/v1/robots/r/parameters", 200, "application/json", b'{"version": 1}')

@@ -29,7 +29,7 @@ import httpx
 import numpy as np
 import pytest
 
-from service.live import ROOT, running_server
+from tests.live import ROOT, running_server
 
 pytestmark = pytest.mark.slow
 

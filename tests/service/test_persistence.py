@@ -9,12 +9,14 @@ import pytest
 
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
-from service import operations
+from service.errors import NotFound
 from service.jobs import JobRunner, execute_job
+from service.model_cache import ModelCache
 from service.persistence import Database, Repository
-from service.problems import NotFound
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.robots import RobotCreate
+from service.services.calibrations import calibrate
+from service.services.robots import create_robot
 from tests.service.helpers import records
 
 DESC = iwr()
@@ -30,29 +32,29 @@ def db(database_url: str) -> Iterator[Database]:
 
 
 def test_calibration_and_version_are_written_together(db: Database) -> None:
-    robot = operations.create_robot(db, RobotCreate(name="r"))
+    robot = create_robot(db=db, body=RobotCreate(name="r"))
     sim = perturbed_robot(DESC, seed=5)
     body = CalibrationCreate.model_validate(
         {"measurements": records(DESC, sim, sample_workspace(DESC, 30, seed=1), seed=2)}
     )
-    record = operations.calibrate(db, robot.id, body)
-    assert record.status == "succeeded" and record.parameter_version == 2
+    record = calibrate(db=db, robot_id=robot.id, body=body)
+    assert record["status"] == "succeeded" and record["parameter_version"] == 2
     with db.session() as s:
         repo = Repository(s)
         assert repo.robot(robot.id).current_version == 2
         version = repo.version(robot.id)
-        assert version.calibration_id == record.id and version.provenance == "calibration"
+        assert version.calibration_id == record["id"] and version.provenance == "calibration"
         assert repo.version(robot.id, 1).provenance == "nominal"
         assert len(repo.calibrations(robot.id, 10, 0)) == 1
     # apply = false: stored, not applied
-    again = operations.calibrate(db, robot.id, body.model_copy(update={"apply": False}))
-    assert not again.applied and again.parameter_version is None
+    again = calibrate(db=db, robot_id=robot.id, body=body.model_copy(update={"apply": False}))
+    assert not again["applied"] and again["parameter_version"] is None
     with db.session() as s:
         assert Repository(s).robot(robot.id).current_version == 2
 
 
 def test_a_failed_transaction_leaves_nothing(db: Database) -> None:
-    robot = operations.create_robot(db, RobotCreate(name="r"))
+    robot = create_robot(db=db, body=RobotCreate(name="r"))
     with pytest.raises(RuntimeError), db.session() as s:
         repo = Repository(s)
         campaign = repo.add_campaign(robot.id, [{"joints": [0] * 10}])
@@ -63,7 +65,7 @@ def test_a_failed_transaction_leaves_nothing(db: Database) -> None:
 
 
 def test_delete_cascades_and_jobs_survive_a_restart(db: Database) -> None:
-    robot = operations.create_robot(db, RobotCreate(name="r"))
+    robot = create_robot(db=db, body=RobotCreate(name="r"))
     sim = perturbed_robot(DESC, seed=6)
     request = {"measurements": records(DESC, sim, sample_workspace(DESC, 25, seed=3), seed=4)}
     with db.session() as s:
@@ -72,10 +74,10 @@ def test_delete_cascades_and_jobs_survive_a_restart(db: Database) -> None:
         running = repo.add_job("calibration", robot.id, request)
         repo.start_job(running)
     # A new process starts: the running job was interrupted, the queued one runs.
-    runner = JobRunner(db, workers=0)
+    runner = JobRunner(db, ModelCache(db), workers=0)
     assert runner.recover() == (1, 1)
     runner.shutdown()
-    assert execute_job(db.url, queued.id, db) in ("succeeded", "running")
+    assert execute_job(queued.id, runner.context) in ("succeeded", "running")
     for _ in range(200):  # the recovered job may still be running in the runner's thread
         with db.session() as s:
             if Repository(s).job(queued.id).status == "succeeded":

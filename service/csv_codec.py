@@ -1,4 +1,4 @@
-"""CSV in (campaigns, with the spec's header) and out (joint vectors)."""
+"""CSV in (campaigns, with the spec's header) and out (joint vectors): the codec of `text/csv` bodies."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import csv
 import io
 from collections.abc import Sequence
 
-from service.problems import BadRequest
+from service.errors import BadRequest
 
 CAMPAIGN_HEADER = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6", "x", "y", "z", "qw", "qx", "qy", "qz"]
 JOINT_HEADER = CAMPAIGN_HEADER[:10]

@@ -1,0 +1,168 @@
+"""Calibrations: the request as a campaign, noise and options; the frozen `IdentificationResult` as the report."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from models import RobotDescription
+from models.campaign import Campaign, make_campaign
+from models.identifiability import NoiseModel
+from models.identification import IdentificationOptions
+from models.identification.result import IdentificationResult, Outlier, PredictedAccuracy, ResidualSummary
+from models.kinematics import Array
+from service.conversions.kinematics import joints_in
+from service.errors import BadRequest
+from service.persistence.tables import CalibrationRecord
+from service.schemas.calibrations import CalibrationCreate, CalibrationReportPublic
+from service.schemas.common import timestamp
+
+
+def campaign_in(desc: RobotDescription, body: CalibrationCreate) -> Campaign:
+    with_orientation = [r.orientation is not None for r in body.measurements]
+    if any(with_orientation) and not all(with_orientation):
+        first = with_orientation.index(not with_orientation[0])
+        raise BadRequest(
+            f"record {first}: either every record has an orientation or none has (position-only campaign)",
+            record=first,
+        )
+    joints = joints_in(desc, [r.joints for r in body.measurements])
+    positions = np.array([r.position for r in body.measurements], dtype=float)
+    quats = np.array([r.orientation for r in body.measurements], dtype=float) if all(with_orientation) else None
+    return make_campaign(desc, joints, positions, quats)
+
+
+def noise_in(body: CalibrationCreate) -> NoiseModel:
+    return NoiseModel(body.noise.position_mm, math.radians(body.noise.orientation_deg))
+
+
+def options_in(body: CalibrationCreate) -> IdentificationOptions:
+    options = body.options
+    return IdentificationOptions(
+        estimate=tuple(options.estimate), robust=options.robust, robust_scale=options.robust_scale
+    )
+
+
+def _degrees(radians: float | None) -> float | None:
+    return None if radians is None else math.degrees(radians)
+
+
+def _residual_orientation_deg(summary: ResidualSummary) -> tuple[float | None, float | None, Array | None]:
+    per_pose = None if summary.per_pose_rad is None else np.degrees(summary.per_pose_rad)
+    return _degrees(summary.rms_rad), _degrees(summary.max_rad), per_pose
+
+
+def _outlier_orientation_deg(outlier: Outlier) -> float | None:
+    return _degrees(outlier.orientation_rad)
+
+
+def _accuracy_orientation_deg(accuracy: PredictedAccuracy) -> tuple[float, float]:
+    return math.degrees(accuracy.rms_orientation_rad), math.degrees(accuracy.max_orientation_rad)
+
+
+def _residuals(summary: ResidualSummary) -> dict[str, Any]:
+    rms_deg, max_deg, per_pose_deg = _residual_orientation_deg(summary)
+    return {
+        "rms_mm": summary.rms_mm,
+        "max_mm": summary.max_mm,
+        "rms_deg": rms_deg,
+        "max_deg": max_deg,
+        "per_pose_mm": summary.per_pose_mm.tolist(),
+        "per_pose_deg": None if per_pose_deg is None else per_pose_deg.tolist(),
+    }
+
+
+def report_out(
+    desc: RobotDescription, result: IdentificationResult, *, start_values: Array, start_version: int
+) -> CalibrationReportPublic:
+    """The whole report, boundary units. `nominal` is the robot's nominal geometry and `start` the start
+    version's values (the fit's `result.nominal`), so a re-fit shows both."""
+    table = desc.parameters
+    chosen = set(result.estimated)
+    value = table.as_boundary(result.parameters).tolist()
+    nominal = table.as_boundary(table.nominal).tolist()
+    start = table.as_boundary(start_values).tolist()
+    std = table.as_boundary(result.std_errors).tolist()
+    rms_orientation_deg, max_orientation_deg = _accuracy_orientation_deg(result.predicted_accuracy)
+    accuracy = result.predicted_accuracy
+    solver = result.solver
+    return CalibrationReportPublic.model_validate(
+        {
+            "status": result.status,
+            "reason": result.reason,
+            "parameters": [
+                {
+                    "name": name,
+                    "value": value[i],
+                    "unit": table.units[i],
+                    "nominal": nominal[i],
+                    "std_error": std[i] if i in chosen else None,
+                    "identifiable": i in chosen,
+                    "start": start[i],
+                }
+                for i, name in enumerate(table.names)
+            ],
+            "identifiable": list(result.identifiable_names),
+            "unidentifiable": list(result.unidentifiable_names),
+            "confounding": {
+                c.name: [{"with": partner, "coefficient": k} for partner, k in c.partners] for c in result.confounding
+            },
+            "correlated_pairs": [{"a": a, "b": b, "correlation": r} for a, b, r in result.correlated_pairs],
+            "rank": result.rank,
+            "condition_number": result.condition_number,
+            "identifiability_rechecked": result.identifiability_rechecked,
+            "residuals": {"before": _residuals(result.residuals_before), "after": _residuals(result.residuals_after)},
+            "variance_factor": result.variance_factor,
+            "degrees_of_freedom": result.dof,
+            "noise_consistent": result.noise_consistent,
+            "outliers": [
+                {
+                    "pose": o.pose,
+                    "position_mm": o.position_mm,
+                    "orientation_deg": _outlier_orientation_deg(o),
+                    "statistic": o.statistic,
+                    "threshold": o.threshold,
+                    "excluded": o.excluded,
+                }
+                for o in result.outliers
+            ],
+            "solver": {
+                "name": solver.name,
+                "status": solver.status,
+                "success": solver.success,
+                "iterations": solver.iterations,
+                "seconds": solver.seconds,
+                "evaluations": solver.evaluations,
+                "polish_steps": solver.polish_steps,
+            },
+            "predicted_accuracy": {
+                "rms_position_mm": accuracy.rms_position_mm,
+                "max_position_mm": accuracy.max_position_mm,
+                "rms_orientation_deg": rms_orientation_deg,
+                "max_orientation_deg": max_orientation_deg,
+                "workspace_poses": accuracy.poses,
+            },
+            "measurement": "position" if result.position_only else "pose",
+            "measurements": result.measurements,
+            "seconds": result.seconds,
+            "notes": list(result.notes),
+            "start_version": start_version,
+        }
+    )
+
+
+def calibration_public(record: CalibrationRecord) -> dict[str, Any]:
+    """The stored report (validated when it was built) with the row's columns: a `CalibrationPublic` as JSON."""
+    return {
+        **record.result,
+        "id": record.id,
+        "robot_id": record.robot_id,
+        "campaign_id": record.campaign_id,
+        "status": record.status,
+        "applied": record.applied,
+        "parameter_version": record.parameter_version,
+        "start_version": record.start_version,
+        "created_at": timestamp(record.created_at),
+    }

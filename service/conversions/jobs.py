@@ -1,0 +1,27 @@
+"""Jobs: the row, with what it created, as `JobPublic`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from service.persistence.tables import Job
+from service.schemas.jobs import JobAccepted, JobPublic
+
+
+def accepted_out(job: Job) -> JobAccepted:
+    return JobAccepted(job_id=job.id, status_url=f"/v1/jobs/{job.id}")
+
+
+def job_out(job: Job, result: dict[str, Any] | None) -> JobPublic:
+    return JobPublic.model_validate(
+        {
+            "id": job.id,
+            "kind": job.kind,
+            "status": job.status,
+            "result": result,
+            "error": job.error,
+            "created_at": job.created_at,
+            "started_at": job.started_at,
+            "finished_at": job.finished_at,
+        }
+    )

@@ -1,0 +1,53 @@
+"""The robots' descriptions and current parameters, owned by the application (or a job worker) and injected.
+
+Parameter versions are immutable, so once a (robot, version) has been seen a request needs only the one
+indexed lookup of the current version number: the single-pose FK hot path reads no ORM row.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+
+import numpy as np
+
+from models import RobotDescription
+from models.kinematics import Array
+from service.conversions.robots import description
+from service.persistence import Database, Repository
+
+Model = tuple[RobotDescription, Array]
+
+
+class ModelCache:
+    """Bounded LRU of (robot id, version) → (description, parameters) over one database."""
+
+    def __init__(self, db: Database, size: int = 256) -> None:
+        self.db, self.size = db, size
+        self._entries: OrderedDict[tuple[str, int], Model] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def current(self, robot_id: str) -> Model:
+        version = self.db.current_version(robot_id)
+        if version is not None:
+            with self._lock:
+                found = self._entries.get((robot_id, version))
+                if found is not None:
+                    self._entries.move_to_end((robot_id, version))
+                    return found
+        with self.db.reader() as s:
+            repo = Repository(s)
+            version = repo.current_version(robot_id)  # NotFound for an unknown robot
+            model = (description(repo.robot(robot_id)), np.asarray(repo.version(robot_id, version).values, dtype=float))
+        with self._lock:
+            self._entries[(robot_id, version)] = model
+            while len(self._entries) > self.size:
+                self._entries.popitem(last=False)
+        return model
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def clear(self) -> None:
+        with self._lock:
+            self._entries.clear()

@@ -1,0 +1,23 @@
+from __future__ import annotations
+
+import numpy as np
+
+from models import forward_kinematics
+from models.compensation import inverse_kinematics
+from service.conversions.kinematics import forward_out, inverse_out, joints_in, targets_in
+from service.model_cache import ModelCache
+from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
+
+
+def forward(*, models: ModelCache, robot_id: str, body: ForwardRequest) -> ForwardResponse:
+    desc, theta = models.current(robot_id)
+    return forward_out(forward_kinematics(desc, joints_in(desc, body.joints), theta))
+
+
+def inverse(*, models: ModelCache, robot_id: str, body: InverseRequest) -> InverseResponse:
+    positions, quats = targets_in(body.targets)
+    weights = np.asarray(body.weights, dtype=float) if body.weights is not None else None
+    desc, theta = models.current(robot_id)
+    seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
+    answer = inverse_kinematics(desc, positions, quats, theta, seed=seed, weights=weights, follow=body.follow)
+    return inverse_out(desc, answer)

@@ -1,0 +1,92 @@
+"""Every response of the API tests checked against the OpenAPI document's schema for its operation and status.
+
+Unknown keys are refused everywhere, even where a schema forgot to say so: each object schema with declared
+properties and no `additionalProperties` is closed before validating. (The RFC 9457 problem document declares
+its extension members open, and stays so.) A response whose status or media type the operation does not
+declare fails too.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import re
+from typing import Any
+
+import httpx
+import jsonschema_rs
+from fastapi import FastAPI
+from fastapi.testclient import TestClient
+
+
+def _closed(schema: Any) -> Any:
+    if isinstance(schema, dict):
+        out = {k: _closed(v) for k, v in schema.items()}
+        if out.get("type") == "object" and "properties" in out and "additionalProperties" not in out:
+            out["additionalProperties"] = False
+        return out
+    if isinstance(schema, list):
+        return [_closed(v) for v in schema]
+    return schema
+
+
+class ContractChecker:
+    def __init__(self, document: dict[str, Any]) -> None:
+        self.document = copy.deepcopy(document)
+        self.components = _closed(self.document.get("components", {}))
+        # Static segments first, so /v1/robots/x/parameters never matches a more general template.
+        paths = sorted(self.document["paths"], key=lambda p: (p.count("{"), -len(p)))
+        self.paths = [(re.compile("^" + re.sub(r"\{[^/]+\}", "[^/]+", p) + "$"), p) for p in paths]
+        self.validators: dict[tuple[str, str, str, str], Any] = {}
+        self.checked = 0
+
+    def operation(self, method: str, path: str) -> tuple[str, dict[str, Any] | None]:
+        for pattern, template in self.paths:
+            if pattern.match(path):
+                return template, self.document["paths"][template].get(method.lower())
+        return path, None
+
+    def check(self, method: str, path: str, status: int, content_type: str, body: bytes) -> None:
+        template, operation = self.operation(method, path)
+        if operation is None:
+            if path.startswith("/v1"):  # an unknown /v1 path answers a problem document
+                assert content_type == "application/problem+json", (path, status, content_type)
+            return  # /metrics, /docs, /openapi.json: not part of the contract
+        declared = operation["responses"].get(str(status))
+        assert declared is not None, f"{method} {path} answered {status}, which its operation does not declare"
+        media = content_type.split(";", maxsplit=1)[0].strip()
+        if status == 204:
+            assert not body, f"{method} {path}: 204 with a body"
+            return
+        content = declared.get("content", {})
+        assert media in content, f"{method} {path} {status}: {media} not declared (declared: {sorted(content)})"
+        if not media.endswith("json"):
+            return
+        schema = content[media].get("schema", {})
+        assert schema, f"{method} {path} {status}: the response schema is empty, so it promises nothing"
+        key = (method, template, str(status), media)
+        if key not in self.validators:
+            self.validators[key] = jsonschema_rs.validator_for({**_closed(schema), "components": self.components})
+        found = self.validators[key].iter_errors(json.loads(body))
+        errors = [f"{'/'.join(map(str, e.instance_path))}: {e.message}" for e in found]
+        assert not errors, f"{method} {path} {status} does not match its schema: {errors[:5]}"
+        self.checked += 1
+
+
+class ContractClient(TestClient):
+    """A TestClient that checks every response it receives against the app's OpenAPI document."""
+
+    def __init__(self, app: FastAPI, **kwargs: Any) -> None:
+        super().__init__(app, **kwargs)
+        self.contract = ContractChecker(app.openapi())
+
+    def request(self, method: str, url: httpx.URL | str, **kwargs: Any) -> httpx.Response:  # type: ignore[override]
+        response = super().request(method, url, **kwargs)
+        self.contract.check(
+            method.upper(),
+            response.request.url.path,
+            response.status_code,
+            response.headers.get("content-type", ""),
+            response.content,
+        )
+        return response
