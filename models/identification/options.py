@@ -13,6 +13,11 @@ DEFAULT_GROUPS = ("base", "carriage", "hexapod", "tool")
 
 
 class RobustLoss(StrEnum):
+    """How gross errors are handled. AUTO (the default): plain least squares; only when the χ² test flags a
+    pose, a soft-ℓ1 refit finds the blunders (least squares smears one blunder over many poses), they are
+    excluded and plain least squares finishes on the rest. NONE: plain least squares, outliers only flagged."""
+
+    AUTO = "auto"
     NONE = "none"
     HUBER = "huber"
     SOFT_L1 = "soft_l1"
@@ -22,11 +27,11 @@ class RobustLoss(StrEnum):
 class IdentificationOptions:
     estimate: tuple[str, ...] = DEFAULT_GROUPS
     """Parameter groups and/or single parameter names to estimate; the rest stay at their nominal values."""
-    robust: RobustLoss = RobustLoss.NONE
+    robust: RobustLoss = RobustLoss.AUTO
     robust_scale: float = 3.0
     """Where the robust loss leaves the quadratic, in units of the instrument's σ."""
     exclude_outliers: bool = True
-    """With a robust loss: drop the flagged poses and finish with plain least squares on the rest."""
+    """With a robust loss (or AUTO when it finds any): drop the flagged poses, finish with plain least squares."""
     outlier_alpha: float = 1e-3
     """Family-wise false-alarm probability of the outlier test over the whole campaign."""
     bounds: Mapping[str, tuple[float, float]] = field(default_factory=lambda: MappingProxyType({}))

@@ -6,16 +6,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
-from models.identification.options import IdentificationOptions, RobustLoss
+from models.identification.options import IdentificationOptions
 from models.identification.residuals import CampaignProblem
 from models.identification.result import Outlier
 from models.identification.statistics import PoseErrors, outlier_threshold
 
 
 def find_outliers(
-    problem: CampaignProblem, z: Array, options: IdentificationOptions
+    problem: CampaignProblem, z: Array, options: IdentificationOptions, *, exclude: bool
 ) -> tuple[tuple[Outlier, ...], NDArray[np.intp]]:
-    """The flagged poses at z, and those to exclude (only with a robust loss and `exclude_outliers`)."""
+    """The flagged poses at z, worst first, and those to exclude (all flagged ones when `exclude`)."""
     ev = problem.evaluate(z)
     if ev is None:
         return (), np.empty(0, dtype=np.intp)
@@ -23,7 +23,7 @@ def find_outliers(
     stat = np.sum(ev.residuals**2, axis=1)
     threshold = outlier_threshold(active.size, problem.rows, options.outlier_alpha)
     flagged = np.flatnonzero(stat > threshold)
-    exclude = options.robust is not RobustLoss.NONE and options.exclude_outliers
+    flagged = flagged[np.argsort(-stat[flagged], kind="stable")]
     errors = PoseErrors.from_raw(ev.residuals / problem.weights)
     found = tuple(
         Outlier(

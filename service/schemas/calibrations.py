@@ -41,7 +41,11 @@ class CalibrationOptions(Strict):
     estimate: list[str] = Field(
         default_factory=lambda: list(DEFAULT_GROUPS), min_length=1, description="Groups or parameter names"
     )
-    robust: RobustLoss = RobustLoss.NONE
+    robust: RobustLoss = Field(
+        default=_OPTIONS.robust,
+        description="auto: plain least squares, and a robust refit that excludes gross errors only when the χ² "
+        "test finds any; none: plain least squares (outliers only flagged); huber / soft_l1: robust from the start",
+    )
     robust_scale: float = Field(default=_OPTIONS.robust_scale, gt=0, le=1000, description="In units of σ")
 
 

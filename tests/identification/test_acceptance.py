@@ -51,7 +51,7 @@ def test_calibrated_model_reaches_the_cramer_rao_accuracy(
     assert result.residuals_after.rms_mm < 0.1 * result.residuals_before.rms_mm
 
 
-@pytest.mark.parametrize("loss", [RobustLoss.HUBER, RobustLoss.SOFT_L1])
+@pytest.mark.parametrize("loss", [RobustLoss.AUTO, RobustLoss.HUBER, RobustLoss.SOFT_L1])
 def test_robust_fit_flags_and_survives_a_broken_beam(
     desc: RobotDescription, sim: SimulatedRobot, check_joints: np.ndarray, loss: RobustLoss
 ) -> None:
@@ -75,8 +75,8 @@ def test_robust_fit_flags_and_survives_a_broken_beam(
     )
     assert rms_position_error(desc, robust.parameters, sim, check_joints) <= 2 * bound
 
-    # Without the robust option the same data are flagged as inconsistent and the estimate is visibly worse.
-    plain = identify(desc, campaign, noise=NOISE)
+    # Plain least squares (robust "none") flags the same data as inconsistent and its estimate is visibly worse.
+    plain = identify(desc, campaign, noise=NOISE, options=IdentificationOptions(robust=RobustLoss.NONE))
     assert not plain.noise_consistent
     assert rms_position_error(desc, plain.parameters, sim, check_joints) > 2 * bound
 
