@@ -4,24 +4,27 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from models import NoiseModel, RobotDescription, forward_kinematics, sample_workspace
 from models.blas import single_threaded_blas
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows
 from models.kinematics import Array, as_joint_array, check_joint_ranges
+from optimal_design.constraints import KeepOut, Spread, joint_range_mask, keep_out_mask
 from optimal_design.criteria import Criterion, metrics, utility, value
 from optimal_design.exchange import exchange, greedy, round_weights
-from optimal_design.information import CandidateInformation, candidate_information
+from optimal_design.information import CandidateInformation, candidate_information, max_tcp_error
 from optimal_design.relaxation import Relaxation, relax
 
 RANDOM_DRAWS = 20
 MAX_CANDIDATES = 100_000
+SAMPLING_ROUNDS = 20
 
 
 @dataclass(frozen=True)
@@ -45,6 +48,10 @@ class PoseDesign:
     fixed: int
     seconds: float
     notes: tuple[str, ...] = field(default=())
+    weights: Array | None = None
+    """The relaxation's weights over the admissible candidates (a warm start for a neighbouring K)."""
+    constraints: dict[str, Any] = field(default_factory=dict)
+    """Candidates offered, excluded by each filter, and the minimum spread."""
 
     def to_dict(self, desc: RobotDescription, include_indices: bool = True) -> dict[str, Any]:
         """Boundary units (mm, deg); the keys of api.md's pose-design response and more."""
@@ -65,6 +72,7 @@ class PoseDesign:
             "fixed": self.fixed,
             "seconds": self.seconds,
             "notes": list(self.notes),
+            "constraints": self.constraints,
         }
         if include_indices:
             out["indices"] = list(self.indices)
@@ -84,6 +92,127 @@ def efficiency(criterion: Criterion, design_utility: float, bound: float, n_para
     return float(bound / design_utility)  # both negative: −trace, −cond
 
 
+@dataclass(frozen=True)
+class Problem:
+    """Candidates after the filters, their information, what is already measured, and the spread constraint."""
+
+    info: CandidateInformation
+    base: Array
+    n_fixed: int
+    rows: int
+    position_only: bool
+    origin: NDArray[Any]
+    """For each admissible candidate, its index among the candidates given or sampled."""
+    excluded: dict[str, int]
+    spread: Spread | None
+    offered: int
+    """How many candidates there were before the filters."""
+
+    @property
+    def allowed(self) -> Array:
+        return np.ones(self.info.size, dtype=bool)
+
+    def minimum_count(self) -> int:
+        base_rank = int(np.linalg.matrix_rank(self.base)) if self.n_fixed else 0
+        return max(0, math.ceil((self.info.n_params - base_rank) / self.rows))
+
+
+def prepare(
+    desc: RobotDescription,
+    measurement: str = "pose",
+    *,
+    candidates: ArrayLike | None = None,
+    candidate_count: int = 2000,
+    seed: int = 0,
+    fixed: ArrayLike | None = None,
+    noise: NoiseModel | None = None,
+    params: ArrayLike | None = None,
+    joint_ranges: Mapping[int, tuple[float, float]] | None = None,
+    keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
+    min_spread: float | None = None,
+) -> Problem:
+    """Validate, sample or check the candidates, apply the filters, and compute every candidate's information."""
+    if measurement not in ("pose", "position"):
+        raise InvalidInput(f"measurement must be 'pose' or 'position', got {measurement!r}", measurement=measurement)
+    position_only = measurement == "position"
+    theta = None if params is None else desc.parameters.vector(params)
+    box = KeepOut.of(keep_out) if keep_out is not None else None
+    ranges = dict(joint_ranges or {})
+
+    def admissible(q: Array) -> tuple[Array, dict[str, int]]:
+        ok = np.ones(q.shape[0], dtype=bool)
+        counts: dict[str, int] = {}
+        if ranges:
+            inside = joint_range_mask(desc, q, ranges)
+            counts["joint_ranges"] = int((~inside).sum())
+            ok &= inside
+        if box is not None:
+            clear = keep_out_mask(desc, q, box, theta)
+            counts["keep_out"] = int((ok & ~clear).sum())
+            ok &= clear
+        return ok, counts
+
+    if candidates is not None:
+        cand = as_joint_array(desc, candidates)
+        check_joint_ranges(desc, cand)
+        forward_kinematics(desc, cand, theta)  # UnreachablePose names the first candidate outside the workspace
+        ok, excluded = admissible(cand)
+        origin = np.flatnonzero(ok)
+        offered = cand.shape[0]
+        cand = cand[ok]
+    else:
+        if not 1 <= candidate_count <= MAX_CANDIDATES:
+            raise InvalidInput(f"candidate_count must be between 1 and {MAX_CANDIDATES}, got {candidate_count}")
+        cand = sample_workspace(desc, candidate_count, seed=seed, params=theta)
+        ok, excluded = admissible(cand)
+        offered = cand.shape[0]
+        if not ok.all():
+            # Sample on until candidate_count admissible candidates are found (at most SAMPLING_ROUNDS batches):
+            # the filters shape where candidates are, not how many the design chooses from.
+            rng = np.random.default_rng([seed, 1])
+            kept, total = [cand[ok]], int(ok.sum())
+            for _ in range(SAMPLING_ROUNDS):
+                if total >= candidate_count:
+                    break
+                more = sample_workspace(desc, candidate_count, seed=rng, params=theta)
+                more_ok, more_excluded = admissible(more)
+                kept.append(more[more_ok])
+                total += int(more_ok.sum())
+                offered += more.shape[0]
+                for k, v in more_excluded.items():
+                    excluded[k] = excluded.get(k, 0) + v
+            cand = np.vstack(kept)[:candidate_count]
+        origin = np.arange(cand.shape[0])
+    if cand.shape[0] == 0:
+        raise InvalidInput(
+            "no candidate pose satisfies the joint sub-ranges and the keep-out box", excluded=excluded, offered=offered
+        )
+    n_fixed = 0
+    done = None
+    if fixed is not None:
+        done = as_joint_array(desc, fixed)
+        check_joint_ranges(desc, done)
+        n_fixed = done.shape[0]
+        joints = np.vstack([done, cand])
+    else:
+        joints = cand
+    info_all = candidate_information(desc, joints, position_only=position_only, noise=noise, params=theta)
+    base = info_all.subset_information(np.arange(n_fixed)) if n_fixed else np.zeros((info_all.n_params,) * 2)
+    info = replace(info_all, joints=info_all.joints[n_fixed:], blocks=info_all.blocks[n_fixed:])
+    spread = Spread.of(desc, info.joints, done, float(min_spread)) if min_spread else None
+    return Problem(
+        info=info,
+        base=base,
+        n_fixed=n_fixed,
+        rows=measurement_rows(position_only),
+        position_only=position_only,
+        origin=origin,
+        excluded=excluded,
+        spread=spread,
+        offered=offered,
+    )
+
+
 @single_threaded_blas
 def design_poses(
     desc: RobotDescription,
@@ -97,48 +226,54 @@ def design_poses(
     fixed: ArrayLike | None = None,
     noise: NoiseModel | None = None,
     params: ArrayLike | None = None,
+    joint_ranges: Mapping[int, tuple[float, float]] | None = None,
+    keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
+    min_spread: float | None = None,
 ) -> PoseDesign:
-    """Choose `count` poses among candidates (given, or `candidate_count` sampled in the workspace)."""
+    """Choose `count` poses among candidates (given, or `candidate_count` sampled in the workspace).
+
+    `joint_ranges` ({joint index: (low, high)}, internal units) and `keep_out` (a world-frame box, two corners in
+    mm, that the TCP and the platform centre must stay outside) filter the candidates; `min_spread` (0-1, the
+    metric of optimal_design.constraints) keeps the chosen poses apart from each other and from `fixed`."""
     started = time.perf_counter()
     crit = criterion if isinstance(criterion, Criterion) else Criterion.parse(criterion)
-    if measurement not in ("pose", "position"):
-        raise InvalidInput(f"measurement must be 'pose' or 'position', got {measurement!r}", measurement=measurement)
-    position_only = measurement == "position"
-    theta = None if params is None else desc.parameters.vector(params)
-    if candidates is not None:
-        cand = as_joint_array(desc, candidates)
-        check_joint_ranges(desc, cand)
-        forward_kinematics(desc, cand, theta)  # UnreachablePose names the first candidate outside the workspace
-    else:
-        if not 1 <= candidate_count <= MAX_CANDIDATES:
-            raise InvalidInput(f"candidate_count must be between 1 and {MAX_CANDIDATES}, got {candidate_count}")
-        cand = sample_workspace(desc, candidate_count, seed=seed, params=theta)
-    n_fixed = 0
-    if fixed is not None:
-        done = as_joint_array(desc, fixed)
-        check_joint_ranges(desc, done)
-        n_fixed = done.shape[0]
-        joints = np.vstack([done, cand])
-    else:
-        joints = cand
-    if count < 1 or count > cand.shape[0]:
-        raise InvalidInput(
-            f"count must be between 1 and the number of candidates ({cand.shape[0]}), got {count}",
-            count=count,
-            candidates=int(cand.shape[0]),
-        )
-    info_all = candidate_information(desc, joints, position_only=position_only, noise=noise, params=theta)
-    base = info_all.subset_information(np.arange(n_fixed)) if n_fixed else np.zeros((info_all.n_params,) * 2)
-    info = CandidateInformation(
-        joints=info_all.joints[n_fixed:],
-        blocks=info_all.blocks[n_fixed:],
-        free=info_all.free,
-        task=info_all.task,
-        position_only=position_only,
+    problem = prepare(
+        desc,
+        measurement,
+        candidates=candidates,
+        candidate_count=candidate_count,
+        seed=seed,
+        fixed=fixed,
+        noise=noise,
+        params=params,
+        joint_ranges=joint_ranges,
+        keep_out=keep_out,
+        min_spread=min_spread,
     )
-    rows = measurement_rows(position_only)
-    base_rank = int(np.linalg.matrix_rank(base)) if n_fixed else 0
-    minimum = math.ceil((info.n_params - base_rank) / rows)
+    return solve(desc, problem, crit, count, seed=seed, started=started)
+
+
+def solve(
+    desc: RobotDescription,
+    problem: Problem,
+    crit: Criterion,
+    count: int,
+    *,
+    seed: int = 0,
+    started: float | None = None,
+    start: Array | None = None,
+) -> PoseDesign:
+    """The design of `count` poses on a prepared problem; `start` warm-starts the relaxation (weights)."""
+    started = time.perf_counter() if started is None else started
+    info, base, n_fixed, rows = problem.info, problem.base, problem.n_fixed, problem.rows
+    position_only = problem.position_only
+    if count < 1 or count > info.size:
+        raise InvalidInput(
+            f"count must be between 1 and the number of candidates ({info.size}), got {count}",
+            count=count,
+            candidates=int(info.size),
+        )
+    minimum = problem.minimum_count()
     if count < minimum:
         raise TooFewMeasurements(
             f"{count} {'position-only' if position_only else 'full-pose'} measurements cannot identify the "
@@ -146,14 +281,15 @@ def design_poses(
             count=count,
             minimum=minimum,
         )
-    allowed = np.ones(info.size, dtype=bool)
+    allowed = problem.allowed
+    spread = problem.spread
     notes: list[str] = []
     timings: dict[str, float] = {"information_s": time.perf_counter() - started}
 
     t0 = time.perf_counter()
     relaxed: Relaxation | None
     try:
-        relaxed = relax(info, crit, count, base)
+        relaxed = relax(info, crit, count, base, start=start)
     except (np.linalg.LinAlgError, ValueError, ArithmeticError) as exc:
         relaxed = None
         notes.append(f"the relaxation failed ({exc}); the design is the greedy one, improved by exchange")
@@ -162,19 +298,23 @@ def design_poses(
         notes.append(relaxed.note)
 
     t0 = time.perf_counter()
-    g_design, g_swaps = exchange(info, crit, greedy(info, count, base, allowed), base=base, allowed=allowed)
+    g_design, g_swaps = exchange(
+        info, crit, greedy(info, count, base, allowed, spread), base=base, allowed=allowed, spread=spread
+    )
     g_seconds = time.perf_counter() - t0
     g_utility = utility(crit, base + info.subset_information(g_design), info.task)
+    timings["greedy_exchange_s"] = g_seconds
 
     t0 = time.perf_counter()
     if relaxed is not None:
         r_design, r_swaps = exchange(
             info,
             crit,
-            round_weights(relaxed.weights, count, allowed),
+            round_weights(relaxed.weights, count, allowed, spread),
             base=base,
             allowed=allowed,
             weights=relaxed.weights,
+            spread=spread,
         )
         r_utility = utility(crit, base + info.subset_information(r_design), info.task)
     else:
@@ -198,24 +338,22 @@ def design_poses(
             "method": relaxed.method,
             "solver_status": relaxed.status,
         }
-    rng = np.random.default_rng(seed + 1)
-    draws = [
-        metrics(
-            base + info.subset_information(rng.choice(info.size, count, replace=False)),
-            rows * (count + n_fixed),
-            info.task,
-        )
-        for _ in range(RANDOM_DRAWS)
-    ]
-    baseline = {k: float(np.median([d[k] for d in draws])) for k in draws[0]}
+        if spread is not None:
+            bound_info["note"] = "the bound ignores min_spread (a relaxation of it), so it stays valid but looser"
+    t0 = time.perf_counter()
+    baseline = random_baseline(problem, count, seed)
+    timings["random_baseline_s"] = time.perf_counter() - t0
     names = desc.parameters.names
+    metric = metrics(m, rows * (count + n_fixed), info.task)
+    if info.task_rows is not None:
+        metric["predicted_max_tcp_mm"] = max_tcp_error(info.task_rows, m)
     return PoseDesign(
         criterion=crit,
         position_only=position_only,
         joints=info.joints[chosen],
-        indices=tuple(int(i) for i in chosen),
+        indices=tuple(int(problem.origin[i]) for i in chosen),
         value=value(crit, m, info.task),
-        metrics=metrics(m, rows * (count + n_fixed), info.task),
+        metrics=metric,
         random_baseline=baseline,
         greedy={
             "value": _finite(value(crit, base + info.subset_information(g_design), info.task)),
@@ -240,7 +378,27 @@ def design_poses(
         fixed=n_fixed,
         seconds=time.perf_counter() - started,
         notes=tuple(notes),
+        weights=relaxed.weights if relaxed is not None else None,
+        constraints={
+            "offered": problem.offered,
+            "excluded": dict(problem.excluded),
+            "min_spread": spread.minimum if spread is not None else None,
+        },
     )
+
+
+def random_baseline(problem: Problem, count: int, seed: int) -> dict[str, float]:
+    """Median metrics over RANDOM_DRAWS random selections of `count` admissible candidates (spread ignored)."""
+    info, base = problem.info, problem.base
+    rng = np.random.default_rng(seed + 1)
+    draws = []
+    for _ in range(RANDOM_DRAWS):
+        m = base + info.subset_information(rng.choice(info.size, count, replace=False))
+        d = metrics(m, problem.rows * (count + problem.n_fixed), info.task)
+        if info.task_rows is not None:
+            d["predicted_max_tcp_mm"] = max_tcp_error(info.task_rows, m)
+        draws.append(d)
+    return {k: float(np.median([d[k] for d in draws])) for k in draws[0]}
 
 
 def _natural(criterion: Criterion, u: float) -> float:

@@ -29,6 +29,7 @@ from models.kinematics import Array
 
 WORKSPACE_POSES = 400
 WORKSPACE_SEED = 20_091_231
+CHUNK_ROWS = 100_000
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,8 @@ class CandidateInformation:
     task: Array
     """(P, P) `L`: mean TCP position sensitivity over the workspace, so that trace(L M⁻¹) is in mm²."""
     position_only: bool
+    task_rows: Array | None = None
+    """(N, 3, P) the scaled TCP position rows at each workspace pose behind `task` (task = mean of their Gram)."""
 
     @property
     def size(self) -> int:
@@ -55,11 +58,26 @@ class CandidateInformation:
     def rows(self) -> int:
         return int(self.blocks.shape[1])
 
-    def information(self, weights: Array) -> Array:
-        """M(w) = Σ wᵢ AᵢᵀAᵢ."""
-        a = self.blocks * np.sqrt(np.maximum(weights, 0.0))[:, None, None]
+    def information(self, weights: Array, index: NDArray[Any] | None = None) -> Array:
+        """M(w) = Σ wᵢ AᵢᵀAᵢ (over `index` only, `weights` then aligned with it)."""
+        blocks = self.blocks if index is None else self.blocks[index]
+        a = blocks * np.sqrt(np.maximum(weights, 0.0))[:, None, None]
         flat = a.reshape(-1, self.n_params)
         return flat.T @ flat
+
+    def quadratic(self, q: NDArray[Any], index: NDArray[Any] | None = None) -> Array:
+        """tr(Q AᵢᵀAᵢ) = Σ_rows aᵣᵀ Q aᵣ for every candidate (or those of `index`), in chunks.
+
+        One (chunk·rows × P) @ (P × P) product then a row-wise dot: the form that uses BLAS 3 and keeps the
+        temporary at CHUNK rows (40 MB at P = 54) whatever M is."""
+        blocks = self.blocks if index is None else self.blocks[index]
+        flat = blocks.reshape(-1, self.n_params)
+        out = np.empty(flat.shape[0])
+        step = CHUNK_ROWS
+        for lo in range(0, flat.shape[0], step):
+            part = flat[lo : lo + step]
+            out[lo : lo + step] = np.einsum("ij,ij->i", part @ q, part)
+        return out.reshape(blocks.shape[0], self.rows).sum(axis=1)
 
     def subset_information(self, index: NDArray[Any]) -> Array:
         flat = self.blocks[index].reshape(-1, self.n_params)
@@ -93,16 +111,35 @@ def candidate_information(
         free=tuple(free),
         task=task_matrix(desc, tuple(free)),
         position_only=position_only,
+        task_rows=task_rows(desc, tuple(free)),
     )
 
 
 @lru_cache(maxsize=16)
-def task_matrix(desc: RobotDescription, free: tuple[int, ...]) -> Array:
-    """L = mean over workspace poses of (S Jₚ)ᵀ (S Jₚ): Jₚ the TCP position rows, S the parameter tolerances."""
+def task_rows(desc: RobotDescription, free: tuple[int, ...]) -> Array:
+    """(N, 3, P) S Jₚ at the workspace poses: Jₚ the TCP position rows, S the parameter tolerances."""
     joints = sample_workspace(desc, WORKSPACE_POSES, seed=WORKSPACE_SEED)
     jac = forward_kinematics(desc, joints, jacobian=True).jacobians
     assert jac is not None
     scales = desc.parameters.scales[list(free)]
-    jp = jac[:, :3, :][:, :, list(free)] * scales[None, None, :]
+    rows = jac[:, :3, :][:, :, list(free)] * scales[None, None, :]
+    rows.setflags(write=False)
+    return np.asarray(rows)
+
+
+@lru_cache(maxsize=16)
+def task_matrix(desc: RobotDescription, free: tuple[int, ...]) -> Array:
+    """L = mean over workspace poses of (S Jₚ)ᵀ (S Jₚ), so that trace(L M⁻¹) is the mean TCP variance (mm²)."""
+    jp = task_rows(desc, free)
     flat = jp.reshape(-1, len(free))
-    return (flat.T @ flat) / joints.shape[0]
+    return (flat.T @ flat) / jp.shape[0]
+
+
+def max_tcp_error(rows: Array, m: Array) -> float:
+    """Predicted TCP position error (mm, root of the 3-D variance) at the worst workspace pose: max_p tr(Jₚ M⁻¹ Jₚᵀ)."""
+    try:
+        inv = np.linalg.inv(m)
+    except np.linalg.LinAlgError:
+        return float("inf")
+    per_pose = np.einsum("pri,ij,prj->p", rows, inv, rows, optimize=True)
+    return float(np.sqrt(max(float(per_pose.max()), 0.0)))
