@@ -59,9 +59,7 @@ def round_weights(weights: Array, count: int, allowed: Index, spread: Spread | N
     return np.sort(np.array(taken))
 
 
-def greedy(
-    info: CandidateInformation, count: int, base: Array, allowed: Index, spread: Spread | None = None
-) -> Index:
+def greedy(info: CandidateInformation, count: int, base: Array, allowed: Index, spread: Spread | None = None) -> Index:
     """Sequential D-greedy: add the candidate with the largest det increase (regularised until full rank).
 
     Lazy (Minoux): the gain log det(I + Aⱼ M⁻¹ Aⱼᵀ) of a candidate can only shrink as poses are added (M grows,
