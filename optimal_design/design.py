@@ -22,6 +22,7 @@ from optimal_design.exchange import exchange, greedy, round_weights
 from optimal_design.information import CandidateInformation, candidate_information, max_tcp_error
 from optimal_design.relaxation import Relaxation, relax
 
+Index = NDArray[Any]
 RANDOM_DRAWS = 20
 MAX_CANDIDATES = 100_000
 SAMPLING_ROUNDS = 20
@@ -298,30 +299,38 @@ def solve(
         notes.append(relaxed.note)
 
     t0 = time.perf_counter()
-    g_design, g_swaps = exchange(
-        info, crit, greedy(info, count, base, allowed, spread), base=base, allowed=allowed, spread=spread
-    )
+    g_design: Index | None = None
+    g_swaps, g_utility = 0, -math.inf
+    try:
+        g_design, g_swaps = exchange(
+            info, crit, greedy(info, count, base, allowed, spread), base=base, allowed=allowed, spread=spread
+        )
+        g_utility = utility(crit, base + info.subset_information(g_design), info.task)
+    except InvalidInput as exc:
+        if spread is None or relaxed is None:
+            raise
+        notes.append(f"no greedy start at this spread ({exc.detail})")
     g_seconds = time.perf_counter() - t0
-    g_utility = utility(crit, base + info.subset_information(g_design), info.task)
     timings["greedy_exchange_s"] = g_seconds
 
     t0 = time.perf_counter()
     if relaxed is not None:
+        try:
+            start_design = round_weights(relaxed.weights, count, allowed, spread)
+        except InvalidInput:
+            if g_design is None:
+                raise
+            start_design = g_design
         r_design, r_swaps = exchange(
-            info,
-            crit,
-            round_weights(relaxed.weights, count, allowed, spread),
-            base=base,
-            allowed=allowed,
-            weights=relaxed.weights,
-            spread=spread,
+            info, crit, start_design, base=base, allowed=allowed, weights=relaxed.weights, spread=spread
         )
         r_utility = utility(crit, base + info.subset_information(r_design), info.task)
     else:
+        assert g_design is not None
         r_design, r_swaps, r_utility = g_design, g_swaps, g_utility
     timings["rounding_exchange_s"] = time.perf_counter() - t0
     chosen, chosen_utility = r_design, r_utility
-    if g_utility > r_utility:
+    if g_design is not None and g_utility > r_utility:
         chosen, chosen_utility = g_design, g_utility
         notes.append("the greedy start ended better than the rounded relaxation after exchange: it is the answer")
 
@@ -356,9 +365,11 @@ def solve(
         metrics=metric,
         random_baseline=baseline,
         greedy={
-            "value": _finite(value(crit, base + info.subset_information(g_design), info.task)),
+            "value": _finite(value(crit, base + info.subset_information(g_design), info.task))
+            if g_design is not None
+            else None,
             "efficiency": _finite(efficiency(crit, g_utility, relaxed.bound, info.n_params))
-            if relaxed is not None and relaxed.bound is not None
+            if relaxed is not None and relaxed.bound is not None and g_design is not None
             else None,
             "swaps": g_swaps,
             "seconds": g_seconds,
