@@ -65,7 +65,7 @@ relaxation's information; at K = 30 of 2 000 that is 12 of 54 weak and 9 strong 
 SUBSPACE_MAX = 24
 SUBSPACE_MISS = 0.05
 """A relaxed design's two weakest (strongest) eigenvectors further than this from the basis enter it."""
-SDP_ROUNDS = 4
+SDP_ROUNDS = 3
 
 
 @dataclass(frozen=True)

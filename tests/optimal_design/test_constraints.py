@@ -115,3 +115,21 @@ def test_bound_holds_under_constraints_by_brute_force(desc: RobotDescription, cr
     assert all(d[a, b] >= minimum for a, b in itertools.combinations(local, 2))
     mine = utility(criterion, info.subset_information(local), info.task)
     assert mine <= best + 1e-9 * max(1.0, abs(best))
+
+
+def test_d_efficiency_floor_for_the_condition_design(desc: RobotDescription) -> None:
+    joints = sample_workspace(desc, 300, seed=86)
+    plain = design_poses(desc, 20, "condition", candidates=joints)
+    floored = design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0.9)
+    d = design_poses(desc, 20, "D", candidates=joints)
+    assert d.bound is not None and floored.bound is not None
+    # independently: log det of the chosen poses against the certified D bound
+    info = candidate_information(desc, joints, position_only=False)
+    log_det = float(np.linalg.slogdet(info.subset_information(np.array(floored.indices)))[1])
+    assert np.exp((log_det - d.bound["utility"]) / info.n_params) >= 0.9 - 1e-12
+    assert floored.metrics["condition_number"] >= plain.bound["value"] - 1e-9  # the bound still holds
+    assert floored.metrics["log_det"] >= plain.metrics["log_det"]
+    with pytest.raises(InvalidInput, match="E and condition"):
+        design_poses(desc, 20, "I", candidates=joints, d_efficiency_floor=0.9)
+    with pytest.raises(InvalidInput, match="above what the D design reaches"):
+        design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0.9999)
