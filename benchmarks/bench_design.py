@@ -23,7 +23,7 @@ from optimal_design import design_poses
 desc = iwr()
 design_poses(desc, 30, "D", candidate_count=200, seed=9)  # warm caches (Functions, structural subset)
 t = time.perf_counter()
-d = design_poses(desc, 30, {criterion!r}, candidate_count={m}, seed=1)
+d = design_poses(desc, 30, {criterion!r}, candidate_count={m}, seed=1{extra})
 wall = time.perf_counter() - t
 print(json.dumps({{
     "wall_s": wall,
@@ -74,8 +74,8 @@ def _run(code: str) -> dict[str, object]:
     return result
 
 
-def _measure(criterion: str, m: int) -> dict[str, object]:
-    return _run(_RUN.format(criterion=criterion, m=m))
+def _measure(criterion: str, m: int, extra: str = "") -> dict[str, object]:
+    return _run(_RUN.format(criterion=criterion, m=m, extra=extra))
 
 
 def _table(results: dict[str, dict[str, object]]) -> list[str]:
@@ -114,15 +114,18 @@ def run() -> dict[str, object]:
             targets.append(target(f"{criterion}: M={m} peak memory (MB)", mem, 1024.0))
             certified = float(bool(res["certified"]))
             targets.append(target(f"{criterion}: M={m} bound certified (1 = yes)", certified, 1.0, ">="))
+    # The condition criterion kept near D-optimality: what the README steers condition users to.
+    floored = _measure("condition", 2000, ", d_efficiency_floor=0.9")
+    designs["condition(D-eff>=0.9)_M2000_K30"] = floored
     out.update(designs)
     d = designs["D_M2000_K30"]
     targets.append(target("D: efficiency against the certified bound", float(d["efficiency"]), 0.985, ">="))  # type: ignore[arg-type]
     for criterion in ("E", "condition"):
         eff = float(designs[f"{criterion}_M2000_K30"]["efficiency"])  # type: ignore[arg-type]
         targets.append(target(f"{criterion}: efficiency against the certified bound", eff, 0.9, ">="))
-    for criterion in CRITERIA:
+    for criterion in (*CRITERIA, "condition(D-eff>=0.9)"):
         ratio = float(designs[f"{criterion}_M2000_K30"]["rms_ratio_to_random"])  # type: ignore[arg-type]
-        limit = 0.7 if criterion in ("condition", "D", "I") else 1.0
+        limit = 0.7 if criterion in ("condition", "condition(D-eff>=0.9)", "D", "I") else 1.0
         targets.append(target(f"{criterion}: predicted TCP error / random, M=2000", ratio, limit))
     for goal, fixed in ((0.03, 0), (0.02, 0), (0.02, 20)):
         res = _run(_TARGET.format(goal=goal, fixed=fixed))
