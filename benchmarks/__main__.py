@@ -44,7 +44,10 @@ def _markdown(results: dict[str, dict[str, object]]) -> str:
                     f"| {t['name']} | {t['value']:.4g} | {t['op']} {t['limit']:.4g} | {'yes' if t['met'] else 'NO'} |"
                 )
             lines.append("")
-        other = {k: v for k, v in res.items() if k != "targets"}
+        markdown = res.get("markdown")
+        if isinstance(markdown, list):
+            lines += [*markdown, ""]
+        other = {k: v for k, v in res.items() if k not in {"targets", "markdown"}}
         if other:
             lines += ["```json", json.dumps(other, indent=1, default=float), "```", ""]
     return "\n".join(lines)

@@ -16,8 +16,9 @@ import casadi as ca
 import numpy as np
 
 from models import NoiseModel, RobotDescription, default_registry
+from models._types import Array
 from models.campaign import Campaign
-from models.kinematics import Array, solve_platforms
+from models.kinematics import solve_platforms
 from models.transforms import matrix_to_rotvec
 
 OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False, "ipopt.tol": 1e-9}

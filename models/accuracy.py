@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from models._types import Array
 from models.campaign import Campaign
 from models.compensation import inverse_kinematics
 from models.errors import InvalidInput
@@ -27,7 +28,7 @@ from models.iso9283 import (
     iso_cube,
     pose_characteristics,
 )
-from models.kinematics import Array, forward_kinematics
+from models.kinematics import forward_kinematics
 from models.robot import RobotDescription
 from models.transforms import matrix_to_quaternion, quaternion_to_matrix
 from models.workspace import sample_workspace

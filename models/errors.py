@@ -13,7 +13,8 @@ members, so a class has the same members wherever it is raised.
     │   ├── UnreachablePose(pose, reason, count, draw)
     │   ├── InvalidQuaternion(pose, norm, count)
     │   ├── TooFewMeasurements(got, needed, missing, kind)
-    │   └── UnknownParameter(name)
+    │   ├── UnknownParameter(name)
+    │   └── TargetUnreachable(field, target_mm, reachable_mm, candidates)   pose design's target mode
     ├── NotIdentifiable()                      the data determine none of the requested parameters
     ├── SolverFailed(solver, status, iterations)
     └── InconsistentData(rms_sigma, limit_sigma)
@@ -182,6 +183,19 @@ class UnknownParameter(InvalidInput):
     def __init__(self, detail: str, *, name: str) -> None:
         super().__init__(detail, field="estimate")
         self.name = name
+
+
+class TargetUnreachable(InvalidInput):
+    """No number of poses up to the candidate count reaches the requested accuracy (pose design's target mode)."""
+
+    fields = ("field", "target_mm", "reachable_mm", "candidates")
+
+    def __init__(self, detail: str, *, field: str, target_mm: float, reachable_mm: float, candidates: int) -> None:
+        super().__init__(detail, field=field)
+        self.target_mm = target_mm
+        self.reachable_mm = reachable_mm
+        """The best predicted error any selection of the candidates (or the best design found) reaches."""
+        self.candidates = candidates
 
 
 class NotIdentifiable(CalibrationError):

@@ -82,7 +82,7 @@ def scaled_jacobian(
     rows = (kind or MeasurementKind.of(bool(position_only))).rows
     weights = np.array([1 / noise.position_mm] * 3 + [1 / noise.orientation_rad] * 3)[:rows]
     blocks = jacobians[:, :rows, :] * weights[None, :, None] * table.scales[None, None, :]
-    return blocks.reshape(-1, len(table))
+    return np.asarray(blocks.reshape(-1, len(table)), dtype=float)
 
 
 @dataclass(frozen=True)

@@ -11,10 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from models._types import Array
 from models.campaign import Campaign
 from models.error_analysis.magnitudes import ErrorMagnitudes
 from models.identifiability import NoiseModel
-from models.kinematics import Array, forward_kinematics
+from models.kinematics import forward_kinematics
 from models.robot import RobotDescription
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np
 

@@ -12,8 +12,8 @@ from enum import StrEnum
 
 import numpy as np
 
+from models._types import Array
 from models.errors import InvalidInput
-from models.kinematics import Array
 
 
 class Criterion(StrEnum):

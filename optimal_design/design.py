@@ -4,24 +4,29 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from models import NoiseModel, RobotDescription, forward_kinematics, sample_workspace
+from models._types import Array
 from models.blas import single_threaded_blas
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows
-from models.kinematics import Array, as_joint_array, check_joint_ranges
+from models.kinematics import as_joint_array, check_joint_ranges
+from optimal_design.constraints import KeepOut, Spread, joint_range_mask, keep_out_mask
 from optimal_design.criteria import Criterion, metrics, utility, value
 from optimal_design.exchange import exchange, greedy, round_weights
-from optimal_design.information import CandidateInformation, candidate_information
+from optimal_design.information import CandidateInformation, candidate_information, max_tcp_error
 from optimal_design.relaxation import Relaxation, relax
 
+Index = NDArray[Any]
 RANDOM_DRAWS = 20
 MAX_CANDIDATES = 100_000
+SAMPLING_ROUNDS = 20
 
 
 @dataclass(frozen=True)
@@ -45,30 +50,10 @@ class PoseDesign:
     fixed: int
     seconds: float
     notes: tuple[str, ...] = field(default=())
-
-    def to_dict(self, desc: RobotDescription, include_indices: bool = True) -> dict[str, Any]:
-        """Boundary units (mm, deg); the keys of api.md's pose-design response and more."""
-        out: dict[str, Any] = {
-            "criterion": self.criterion.value,
-            "measurement": "position" if self.position_only else "pose",
-            "count": len(self.indices),
-            "poses": (self.joints * desc.joint_to_boundary).tolist(),
-            "value": _finite(self.value),
-            "metrics": {k: _finite(v) for k, v in self.metrics.items()},
-            "random_baseline": {k: _finite(v) for k, v in self.random_baseline.items()},
-            "greedy": self.greedy,
-            "bound": self.bound,
-            "efficiency": _finite(self.efficiency),
-            "relaxation": self.relaxation,
-            "identifiable": list(self.identifiable),
-            "candidates": self.candidates,
-            "fixed": self.fixed,
-            "seconds": self.seconds,
-            "notes": list(self.notes),
-        }
-        if include_indices:
-            out["indices"] = list(self.indices)
-        return out
+    weights: Array | None = None
+    """The relaxation's weights over the admissible candidates (a warm start for a neighbouring K)."""
+    constraints: dict[str, Any] = field(default_factory=dict)
+    """Candidates offered, excluded by each filter, and the minimum spread."""
 
 
 def _finite(x: float | None) -> float | None:
@@ -84,6 +69,135 @@ def efficiency(criterion: Criterion, design_utility: float, bound: float, n_para
     return float(bound / design_utility)  # both negative: −trace, −cond
 
 
+@dataclass(frozen=True)
+class Problem:
+    """Candidates after the filters, their information, what is already measured, and the spread constraint."""
+
+    info: CandidateInformation
+    base: Array
+    n_fixed: int
+    rows: int
+    position_only: bool
+    origin: NDArray[Any]
+    """For each admissible candidate, its index among the candidates given or sampled."""
+    excluded: dict[str, int]
+    spread: Spread | None
+    offered: int
+    """How many candidates there were before the filters."""
+
+    @property
+    def allowed(self) -> Array:
+        return np.ones(self.info.size, dtype=bool)
+
+    def minimum_count(self) -> int:
+        base_rank = int(np.linalg.matrix_rank(self.base)) if self.n_fixed else 0
+        return max(0, math.ceil((self.info.n_params - base_rank) / self.rows))
+
+
+def prepare(
+    desc: RobotDescription,
+    measurement: str = "pose",
+    *,
+    candidates: ArrayLike | None = None,
+    candidate_count: int = 2000,
+    seed: int = 0,
+    fixed: ArrayLike | None = None,
+    noise: NoiseModel | None = None,
+    params: ArrayLike | None = None,
+    joint_ranges: Mapping[int, tuple[float, float]] | None = None,
+    keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
+    min_spread: float | None = None,
+) -> Problem:
+    """Validate, sample or check the candidates, apply the filters, and compute every candidate's information."""
+    if measurement not in ("pose", "position"):
+        raise InvalidInput(
+            f"measurement must be 'pose' or 'position', got {measurement!r}",
+            field="measurement",
+            value=str(measurement),
+            allowed=["pose", "position"],
+        )
+    position_only = measurement == "position"
+    theta = None if params is None else desc.parameters.vector(params)
+    box = KeepOut.of(keep_out) if keep_out is not None else None
+    ranges = dict(joint_ranges or {})
+
+    def admissible(q: Array) -> tuple[Array, dict[str, int]]:
+        ok = np.ones(q.shape[0], dtype=bool)
+        counts: dict[str, int] = {}
+        if ranges:
+            inside = joint_range_mask(desc, q, ranges)
+            counts["joint_ranges"] = int((~inside).sum())
+            ok &= inside
+        if box is not None:
+            clear = keep_out_mask(desc, q, box, theta)
+            counts["keep_out"] = int((ok & ~clear).sum())
+            ok &= clear
+        return ok, counts
+
+    if candidates is not None:
+        cand = as_joint_array(desc, candidates)
+        check_joint_ranges(desc, cand)
+        forward_kinematics(desc, cand, theta)  # UnreachablePose names the first candidate outside the workspace
+        ok, excluded = admissible(cand)
+        origin = np.flatnonzero(ok)
+        offered = cand.shape[0]
+        cand = cand[ok]
+    else:
+        if not 1 <= candidate_count <= MAX_CANDIDATES:
+            raise InvalidInput(f"candidate_count must be between 1 and {MAX_CANDIDATES}, got {candidate_count}")
+        cand = sample_workspace(desc, candidate_count, seed=seed, params=theta)
+        ok, excluded = admissible(cand)
+        offered = cand.shape[0]
+        if not ok.all():
+            # Sample on until candidate_count admissible candidates are found (at most SAMPLING_ROUNDS batches):
+            # the filters shape where candidates are, not how many the design chooses from.
+            rng = np.random.default_rng([seed, 1])
+            kept, total = [cand[ok]], int(ok.sum())
+            for _ in range(SAMPLING_ROUNDS):
+                if total >= candidate_count:
+                    break
+                more = sample_workspace(desc, candidate_count, seed=rng, params=theta)
+                more_ok, more_excluded = admissible(more)
+                kept.append(more[more_ok])
+                total += int(more_ok.sum())
+                offered += more.shape[0]
+                for k, v in more_excluded.items():
+                    excluded[k] = excluded.get(k, 0) + v
+            cand = np.vstack(kept)[:candidate_count]
+        origin = np.arange(cand.shape[0])
+    if cand.shape[0] == 0:
+        raise InvalidInput(
+            f"no candidate pose satisfies the joint sub-ranges and the keep-out box (of {offered} offered: "
+            f"{', '.join(f'{n} {why}' for why, n in excluded.items())})",
+            field="candidates",
+            reason="all_filtered",
+        )
+    n_fixed = 0
+    done = None
+    if fixed is not None:
+        done = as_joint_array(desc, fixed)
+        check_joint_ranges(desc, done)
+        n_fixed = done.shape[0]
+        joints = np.vstack([done, cand])
+    else:
+        joints = cand
+    info_all = candidate_information(desc, joints, position_only=position_only, noise=noise, params=theta)
+    base = info_all.subset_information(np.arange(n_fixed)) if n_fixed else np.zeros((info_all.n_params,) * 2)
+    info = replace(info_all, joints=info_all.joints[n_fixed:], blocks=info_all.blocks[n_fixed:])
+    spread = Spread.of(desc, info.joints, done, float(min_spread)) if min_spread else None
+    return Problem(
+        info=info,
+        base=base,
+        n_fixed=n_fixed,
+        rows=measurement_rows(position_only),
+        position_only=position_only,
+        origin=origin,
+        excluded=excluded,
+        spread=spread,
+        offered=offered,
+    )
+
+
 @single_threaded_blas
 def design_poses(
     desc: RobotDescription,
@@ -97,55 +211,61 @@ def design_poses(
     fixed: ArrayLike | None = None,
     noise: NoiseModel | None = None,
     params: ArrayLike | None = None,
+    joint_ranges: Mapping[int, tuple[float, float]] | None = None,
+    keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
+    min_spread: float | None = None,
+    d_efficiency_floor: float | None = None,
 ) -> PoseDesign:
-    """Choose `count` poses among candidates (given, or `candidate_count` sampled in the workspace)."""
+    """Choose `count` poses among candidates (given, or `candidate_count` sampled in the workspace).
+
+    `joint_ranges` ({joint index: (low, high)}, internal units) and `keep_out` (a world-frame box, two corners in
+    mm, that the TCP and the platform centre must stay outside) filter the candidates; `min_spread` (0-1, the
+    metric of optimal_design.constraints) keeps the chosen poses apart from each other and from `fixed`.
+    `d_efficiency_floor` (E and condition only, 0-1): optimise the criterion over designs whose D-efficiency
+    against the certified D bound stays at least this (README: why the plain condition design calibrates the TCP
+    little better than random poses, and what this buys)."""
     started = time.perf_counter()
     crit = criterion if isinstance(criterion, Criterion) else Criterion.parse(criterion)
-    if measurement not in ("pose", "position"):
+    problem = prepare(
+        desc,
+        measurement,
+        candidates=candidates,
+        candidate_count=candidate_count,
+        seed=seed,
+        fixed=fixed,
+        noise=noise,
+        params=params,
+        joint_ranges=joint_ranges,
+        keep_out=keep_out,
+        min_spread=min_spread,
+    )
+    return solve(desc, problem, crit, count, seed=seed, started=started, d_efficiency_floor=d_efficiency_floor)
+
+
+def solve(
+    desc: RobotDescription,
+    problem: Problem,
+    crit: Criterion,
+    count: int,
+    *,
+    seed: int = 0,
+    started: float | None = None,
+    start: Array | None = None,
+    d_efficiency_floor: float | None = None,
+) -> PoseDesign:
+    """The design of `count` poses on a prepared problem; `start` warm-starts the relaxation (weights)."""
+    started = time.perf_counter() if started is None else started
+    info, base, n_fixed, rows = problem.info, problem.base, problem.n_fixed, problem.rows
+    position_only = problem.position_only
+    if count < 1 or count > info.size:
         raise InvalidInput(
-            f"measurement must be 'pose' or 'position', got {measurement!r}",
-            field="measurement",
-            value=str(measurement),
-            allowed=["pose", "position"],
-        )
-    position_only = measurement == "position"
-    theta = None if params is None else desc.parameters.vector(params)
-    if candidates is not None:
-        cand = as_joint_array(desc, candidates)
-        check_joint_ranges(desc, cand)
-        forward_kinematics(desc, cand, theta)  # UnreachablePose names the first candidate outside the workspace
-    else:
-        if not 1 <= candidate_count <= MAX_CANDIDATES:
-            raise InvalidInput(f"candidate_count must be between 1 and {MAX_CANDIDATES}, got {candidate_count}")
-        cand = sample_workspace(desc, candidate_count, seed=seed, params=theta)
-    n_fixed = 0
-    if fixed is not None:
-        done = as_joint_array(desc, fixed)
-        check_joint_ranges(desc, done)
-        n_fixed = done.shape[0]
-        joints = np.vstack([done, cand])
-    else:
-        joints = cand
-    if count < 1 or count > cand.shape[0]:
-        raise InvalidInput(
-            f"count must be between 1 and the number of candidates ({cand.shape[0]}), got {count}",
+            f"count must be between 1 and the number of candidates ({info.size}), got {count}",
             field="count",
             value=count,
             min=1,
-            max=int(cand.shape[0]),
+            max=int(info.size),
         )
-    info_all = candidate_information(desc, joints, position_only=position_only, noise=noise, params=theta)
-    base = info_all.subset_information(np.arange(n_fixed)) if n_fixed else np.zeros((info_all.n_params,) * 2)
-    info = CandidateInformation(
-        joints=info_all.joints[n_fixed:],
-        blocks=info_all.blocks[n_fixed:],
-        free=info_all.free,
-        task=info_all.task,
-        position_only=position_only,
-    )
-    rows = measurement_rows(position_only)
-    base_rank = int(np.linalg.matrix_rank(base)) if n_fixed else 0
-    minimum = math.ceil((info.n_params - base_rank) / rows)
+    minimum = problem.minimum_count()
     if count < minimum:
         raise TooFewMeasurements(
             f"{count} {'position-only' if position_only else 'full-pose'} measurements cannot identify the "
@@ -155,14 +275,15 @@ def design_poses(
             missing=minimum - count,
             kind="position" if position_only else "pose",
         )
-    allowed = np.ones(info.size, dtype=bool)
+    allowed = problem.allowed
+    spread = problem.spread
     notes: list[str] = []
     timings: dict[str, float] = {"information_s": time.perf_counter() - started}
 
     t0 = time.perf_counter()
     relaxed: Relaxation | None
     try:
-        relaxed = relax(info, crit, count, base)
+        relaxed = relax(info, crit, count, base, start=start)
     except (np.linalg.LinAlgError, ValueError, ArithmeticError) as exc:
         relaxed = None
         notes.append(f"the relaxation failed ({exc}); the design is the greedy one, improved by exchange")
@@ -170,27 +291,70 @@ def design_poses(
     if relaxed is not None and relaxed.note:
         notes.append(relaxed.note)
 
+    floor: float | None = None
+    d_start: Index | None = None
+    if d_efficiency_floor is not None:
+        floor, d_start = _d_floor(problem, crit, count, d_efficiency_floor, notes)
+
     t0 = time.perf_counter()
-    g_design, g_swaps = exchange(info, crit, greedy(info, count, base, allowed), base=base, allowed=allowed)
+    g_design: Index | None = None
+    g_swaps, g_utility = 0, -math.inf
+    try:
+        g_start = greedy(info, count, base, allowed, spread)
+        if (
+            floor is not None
+            and d_start is not None
+            and float(np.linalg.slogdet(base + info.subset_information(g_start))[1]) < floor
+        ):
+            g_start = d_start  # the greedy start is below the D-efficiency floor: start it from the D design
+        # The spectral criteria's greedy start is a baseline and a second start; its exchange stays in the small
+        # pool (1.3-2 s at K = 30 of 2 000 with the wide pool; the rounded start, not this one, is the answer in
+        # every benchmark run since the proxy start).
+        g_design, g_swaps = exchange(
+            info,
+            crit,
+            g_start,
+            base=base,
+            allowed=allowed,
+            spread=spread,
+            log_det_floor=floor,
+            wide=crit not in (Criterion.E, Criterion.CONDITION),
+        )
+        g_utility = utility(crit, base + info.subset_information(g_design), info.task)
+    except InvalidInput as exc:
+        if spread is None or relaxed is None:
+            raise
+        notes.append(f"no greedy start at this spread ({exc.detail})")
     g_seconds = time.perf_counter() - t0
-    g_utility = utility(crit, base + info.subset_information(g_design), info.task)
+    timings["greedy_exchange_s"] = g_seconds
 
     t0 = time.perf_counter()
     if relaxed is not None:
+        try:
+            start_design = round_weights(relaxed.weights, count, allowed, spread) if d_start is None else d_start
+        except InvalidInput:
+            if g_design is None:
+                raise
+            start_design = g_design
+        if crit in (Criterion.E, Criterion.CONDITION):
+            start_design = _smooth_start(info, relaxed.weights, start_design, base, spread=spread, floor=floor)
         r_design, r_swaps = exchange(
             info,
             crit,
-            round_weights(relaxed.weights, count, allowed),
+            start_design,
             base=base,
             allowed=allowed,
             weights=relaxed.weights,
+            spread=spread,
+            log_det_floor=floor,
         )
         r_utility = utility(crit, base + info.subset_information(r_design), info.task)
     else:
+        assert g_design is not None
         r_design, r_swaps, r_utility = g_design, g_swaps, g_utility
     timings["rounding_exchange_s"] = time.perf_counter() - t0
     chosen, chosen_utility = r_design, r_utility
-    if g_utility > r_utility:
+    if g_design is not None and g_utility > r_utility:
         chosen, chosen_utility = g_design, g_utility
         notes.append("the greedy start ended better than the rounded relaxation after exchange: it is the answer")
 
@@ -207,29 +371,29 @@ def design_poses(
             "method": relaxed.method,
             "solver_status": relaxed.status,
         }
-    rng = np.random.default_rng(seed + 1)
-    draws = [
-        metrics(
-            base + info.subset_information(rng.choice(info.size, count, replace=False)),
-            rows * (count + n_fixed),
-            info.task,
-        )
-        for _ in range(RANDOM_DRAWS)
-    ]
-    baseline = {k: float(np.median([d[k] for d in draws])) for k in draws[0]}
+        if spread is not None:
+            bound_info["note"] = "the bound ignores min_spread (a relaxation of it), so it stays valid but looser"
+    t0 = time.perf_counter()
+    baseline = random_baseline(problem, count, seed)
+    timings["random_baseline_s"] = time.perf_counter() - t0
     names = desc.parameters.names
+    metric = metrics(m, rows * (count + n_fixed), info.task)
+    if info.task_rows is not None:
+        metric["predicted_max_tcp_mm"] = max_tcp_error(info.task_rows, m)
     return PoseDesign(
         criterion=crit,
         position_only=position_only,
         joints=info.joints[chosen],
-        indices=tuple(int(i) for i in chosen),
+        indices=tuple(int(problem.origin[i]) for i in chosen),
         value=value(crit, m, info.task),
-        metrics=metrics(m, rows * (count + n_fixed), info.task),
+        metrics=metric,
         random_baseline=baseline,
         greedy={
-            "value": _finite(value(crit, base + info.subset_information(g_design), info.task)),
+            "value": _finite(value(crit, base + info.subset_information(g_design), info.task))
+            if g_design is not None
+            else None,
             "efficiency": _finite(efficiency(crit, g_utility, relaxed.bound, info.n_params))
-            if relaxed is not None and relaxed.bound is not None
+            if relaxed is not None and relaxed.bound is not None and g_design is not None
             else None,
             "swaps": g_swaps,
             "seconds": g_seconds,
@@ -249,7 +413,106 @@ def design_poses(
         fixed=n_fixed,
         seconds=time.perf_counter() - started,
         notes=tuple(notes),
+        weights=relaxed.weights if relaxed is not None else None,
+        constraints={
+            "offered": problem.offered,
+            "excluded": dict(problem.excluded),
+            "min_spread": spread.minimum if spread is not None else None,
+            "d_efficiency_floor": d_efficiency_floor,
+        },
     )
+
+
+def _smooth_start(
+    info: CandidateInformation,
+    weights: Array,
+    design: Index,
+    base: Array,
+    *,
+    spread: Spread | None,
+    floor: float | None,
+) -> Index:
+    """Improve an E / condition start on a smooth proxy first: trace(Z M⁻¹) with Z the weakest directions of the
+    relaxed design, each weighted by 1/λ (an A-criterion that only looks where λ_min lives).
+
+    λ_min is flat almost everywhere and jumps where the weakest directions cross, so single spectral swaps stall
+    early; the proxy has exact low-rank swap values (exchange's I route) and moves the design where the relaxation
+    put its weight. Measured at K = 30 of 2 000 (spectral pools 12 / 48): E 0.719 -> 0.743 and condition
+    0.843 -> 0.860 efficiency after the spectral exchange that follows, for ~0.3 s."""
+    ev, vec = np.linalg.eigh(base + info.information(weights))
+    weak = ev <= 1.5 * ev[0]
+    z = (vec[:, weak] / ev[weak]) @ vec[:, weak].T
+    proxy = replace(info, task=z)
+    allowed = np.ones(info.size, dtype=bool)
+    better, _ = exchange(
+        proxy,
+        Criterion.I,
+        design,
+        base=base,
+        allowed=allowed,
+        weights=weights,
+        spread=spread,
+        log_det_floor=floor,
+        wide=False,  # only a start: the spectral exchange that follows checks the wide pool
+    )
+    return better
+
+
+def _d_floor(problem: Problem, crit: Criterion, count: int, floor: float, notes: list[str]) -> tuple[float, Index]:
+    """(log det floor, a D design above it) for an E or condition design that keeps a D-efficiency floor."""
+    if crit not in (Criterion.E, Criterion.CONDITION):
+        raise InvalidInput(
+            f"d_efficiency_floor applies to the E and condition criteria, not {crit.value}",
+            field="d_efficiency_floor",
+            reason="criterion",
+            value=crit.value,
+        )
+    if not math.isfinite(floor) or not 0.0 < floor <= 1.0:
+        raise InvalidInput(
+            f"d_efficiency_floor must be in (0, 1], got {floor}", field="d_efficiency_floor", value=floor, min=0, max=1
+        )
+    info, base = problem.info, problem.base
+    d = relax(info, Criterion.D, count, base)
+    if d.bound is None:
+        raise InvalidInput("the D relaxation gave no bound: no D-efficiency floor can be enforced")
+    threshold = d.bound + info.n_params * math.log(floor)
+    start, _ = exchange(
+        info,
+        Criterion.D,
+        round_weights(d.weights, count, problem.allowed, problem.spread),
+        base=base,
+        allowed=problem.allowed,
+        weights=d.weights,
+        spread=problem.spread,
+    )
+    reached = float(np.linalg.slogdet(base + info.subset_information(start))[1])
+    if reached < threshold:
+        best = math.exp((reached - d.bound) / info.n_params)
+        raise InvalidInput(
+            f"d_efficiency_floor {floor:g} is above what the D design reaches here ({best:.4f}): lower it",
+            field="d_efficiency_floor",
+            value=floor,
+            max=best,
+        )
+    notes.append(
+        f"{crit.value} optimised over designs with D-efficiency >= {floor:g} against the certified D bound; "
+        f"the {crit.value} bound is that of the unconstrained problem (valid, looser)"
+    )
+    return threshold, start
+
+
+def random_baseline(problem: Problem, count: int, seed: int) -> dict[str, float]:
+    """Median metrics over RANDOM_DRAWS random selections of `count` admissible candidates (spread ignored)."""
+    info, base = problem.info, problem.base
+    rng = np.random.default_rng(seed + 1)
+    draws = []
+    for _ in range(RANDOM_DRAWS):
+        m = base + info.subset_information(rng.choice(info.size, count, replace=False))
+        d = metrics(m, problem.rows * (count + problem.n_fixed), info.task)
+        if info.task_rows is not None:
+            d["predicted_max_tcp_mm"] = max_tcp_error(info.task_rows, m)
+        draws.append(d)
+    return {k: float(np.median([d[k] for d in draws])) for k in draws[0]}
 
 
 def _natural(criterion: Criterion, u: float) -> float:

@@ -12,7 +12,7 @@ from collections import OrderedDict
 import numpy as np
 
 from models import RobotDescription
-from models.kinematics import Array
+from models._types import Array
 from service.conversions.robots import description
 from service.persistence import Database, Repository
 

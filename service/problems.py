@@ -32,6 +32,7 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     domain.UnreachablePose: (422, "unreachable-pose", "Pose the robot cannot reach"),
     domain.InvalidQuaternion: (422, "invalid-quaternion", "Not a unit quaternion"),
     domain.TooFewMeasurements: (422, "too-few-measurements", "Too few measurements"),
+    domain.TargetUnreachable: (422, "target-unreachable", "Target accuracy unreachable"),
     domain.UnknownParameter: (422, "unknown-parameter", "Unknown parameter or group"),
     domain.InvalidInput: (422, "invalid-input", "Invalid input"),
     domain.NotIdentifiable: (422, "not-identifiable", "Nothing identifiable"),

@@ -76,7 +76,7 @@ def result_json(result: ErrorAnalysisResult) -> dict[str, Any]:
     carriage_frame["mean_abs_ratio_to_whole"] = {q: result.mean_abs_ratio("carriage_frame", "exact", q) for q in UNITS}
     per_pose: dict[str, Any] = {"joints": (result.joints * result.joint_to_boundary).tolist()}
     per_pose.update({sub: per_pose_json(result, sub) for sub in (*SUBSYSTEMS, "carriage_frame")})
-    return json_safe(
+    summary: dict[str, Any] = json_safe(
         {
             "robot": result.robot,
             "n_poses": result.n_poses,
@@ -93,3 +93,4 @@ def result_json(result: ErrorAnalysisResult) -> dict[str, Any]:
             "seconds": result.seconds,
         }
     )
+    return summary

@@ -11,7 +11,7 @@ alone, all together — and each time by two models:
 
 Position errors are in mm; orientation errors are the small world-frame
 rotation vector `log(R_perturbed R_nominalᵀ)` (rad inside, degrees in
-`to_dict`), the same convention as the Jacobian's rotation rows, so the two
+`export`), the same convention as the Jacobian's rotation rows, so the two
 models are directly comparable and their difference is the linearisation
 error, quadratic in the tolerances.
 

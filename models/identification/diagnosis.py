@@ -24,8 +24,9 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
+from models._types import Array
 from models.errors import CalibrationError
-from models.kinematics import Array, forward_kinematics
+from models.kinematics import forward_kinematics
 from models.parameters import Kind
 from models.robot import RobotDescription
 from models.transforms import quaternion_to_matrix

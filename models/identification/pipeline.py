@@ -60,6 +60,8 @@ from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
 
 INCONSISTENT_SIGMA = 100.0
+MAX_EXCLUDED_SHARE = 0.2
+"""Outlier exclusion removes at most this share of a campaign's poses (blunders are few; more is a misfit)."""
 """A fit whose RMS standardised residual exceeds this cannot come from this robot with the stated noise."""
 UNDEFINED_MODEL = (
     "the solver ended where the model is undefined (some measured hexapod poses do not assemble): these "
@@ -107,7 +109,7 @@ def identify(
     # AUTO starts plain: the robust loss joins only if the χ² test finds gross errors (see _solve).
     loss = Loss(RobustLoss.NONE if options.robust is RobustLoss.AUTO else options.robust, options.robust_scale)
     problem = CampaignProblem(desc, rt, campaign, noise, theta_start, free, loss, platforms=start.platforms.copy())
-    problem, final, solver, outliers = _solve(problem, options)
+    problem, final, solver, outliers = _solve(problem, options, notes)
     # 4. what the fit says about itself (nothing, where the model is undefined at the solution)
     estimate = (
         None
@@ -229,7 +231,7 @@ def _identifiable(
 
 
 def _solve(
-    problem: CampaignProblem, options: IdentificationOptions
+    problem: CampaignProblem, options: IdentificationOptions, notes: list[str]
 ) -> tuple[CampaignProblem, Evaluation | None, SolverReport, tuple[Outlier, ...]]:
     """IPOPT (with the robust loss if asked; AUTO: plain, and robust only when the χ² test flags a pose); again
     without the excluded outliers; then Gauss–Newton polish.
@@ -253,6 +255,16 @@ def _solve(
         problem = replace(problem, loss=Loss(RobustLoss.SOFT_L1, options.robust_scale), _last=None, evaluations=0)
         runs.append(pool.solve(problem, runs[0].z, lower, upper, options.max_iterations))
         outliers, excluded = find_outliers(problem, runs[-1].z, options, exclude=exclude)
+    if excluded.size > MAX_EXCLUDED_SHARE * problem.campaign.size:
+        # Blunders are a few poses; when the test flags this many, the model or the stated noise misfits the
+        # campaign as a whole (a base-only fit of an uncalibrated robot, shuffled records): dropping them would
+        # hide that, and could leave nothing to fit.
+        notes.append(
+            f"{excluded.size} of {problem.campaign.size} poses fail the outlier test: more than a few blunders, "
+            "so none was excluded (the model, its start values or the stated noise do not fit these data)"
+        )
+        outliers = tuple(replace(o, excluded=False) for o in outliers)
+        excluded = excluded[:0]
     if first is not None and excluded.size:
         evaluations += problem.evaluations
         keep = np.setdiff1d(np.arange(problem.campaign.size), excluded)

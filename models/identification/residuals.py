@@ -134,7 +134,7 @@ class CampaignProblem:
         )
         r = res[:, : self.rows] * self.weights
         r[~(closure <= CLOSURE_TOLERANCE_MM)] = np.nan
-        return r.reshape(-1)
+        return np.asarray(r.reshape(-1), dtype=float)
 
     def _evaluate(self, z: Array) -> Evaluation | None:
         self.evaluations += 1

@@ -52,7 +52,7 @@ IPOPT_OPTIONS: dict[str, Any] = {
 }
 
 
-class _Callback(ca.Callback):
+class _Callback(ca.Callback):  # type: ignore[misc]  # CasADi is untyped (pyproject: follow_imports skip)
     """A CasADi Function whose value comes from Python (the current campaign's problem)."""
 
     def __init__(self, name: str, owner: _Solver, kind: str, n: int, jacobian: ca.Function | None = None) -> None:

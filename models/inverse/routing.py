@@ -29,7 +29,8 @@ def within_bounds(desc: RobotDescription, theta: Array, v: Array, runtime: Runti
     lbx, ubx, lbl, ubl = bounds(desc)
     legs = joints_of(desc, theta, v, runtime)[:, desc.n_chain :]
     ok = np.all((v >= lbx - BOUND_SLACK) & (v <= ubx + BOUND_SLACK), axis=1)
-    return ok & np.all((legs >= lbl - BOUND_SLACK) & (legs <= ubl + BOUND_SLACK), axis=1)
+    within: NDArray[np.bool_] = ok & np.all((legs >= lbl - BOUND_SLACK) & (legs <= ubl + BOUND_SLACK), axis=1)
+    return within
 
 
 def route(

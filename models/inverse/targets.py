@@ -18,7 +18,7 @@ def default_seed(desc: RobotDescription, runtime: Runtime | None = None) -> Arra
     """Mid-range carriage joints and the legs of the hexapod's home pose (nominal geometry)."""
     n = desc.n_chain
     legs = inverse_hexapod(desc, np.asarray(desc.hexapod.home, dtype=float)[None, :], runtime=runtime)[0]
-    return np.r_[(desc.joint_min[:n] + desc.joint_max[:n]) / 2, legs]
+    return np.asarray(np.r_[(desc.joint_min[:n] + desc.joint_max[:n]) / 2, legs], dtype=float)
 
 
 def validated_targets(

@@ -8,11 +8,11 @@ from typing import Any
 import numpy as np
 
 from models import RobotDescription
+from models._types import Array
 from models.campaign import Campaign, make_campaign
 from models.identifiability import NoiseModel
 from models.identification import IdentificationOptions
 from models.identification.result import IdentificationResult, Outlier, PredictedAccuracy, ResidualSummary
-from models.kinematics import Array
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord

@@ -5,11 +5,13 @@ from __future__ import annotations
 from typing import Any
 
 from models import RobotDescription
-from optimal_design import PoseDesign
+from models.errors import InvalidInput
+from optimal_design import PoseDesign, TargetDesign
+from optimal_design.criteria import Criterion
 from service.conversions.kinematics import joints_out
 from service.persistence.tables import PoseDesignRecord
 from service.schemas.common import timestamp
-from service.schemas.designs import PoseDesignReportPublic
+from service.schemas.designs import KeepOutBox, PoseDesignCreate, PoseDesignReportPublic
 
 
 def report_out(desc: RobotDescription, design: PoseDesign, *, candidates_given: bool) -> PoseDesignReportPublic:
@@ -33,8 +35,72 @@ def report_out(desc: RobotDescription, design: PoseDesign, *, candidates_given: 
             "fixed": design.fixed,
             "seconds": design.seconds,
             "notes": list(design.notes),
+            "constraints": design.constraints,
         }
     )
+
+
+def target_report_out(
+    desc: RobotDescription, found: TargetDesign, *, candidates_given: bool, criterion: Criterion
+) -> PoseDesignReportPublic:
+    """Target mode: the design at the smallest K (when any pose is needed) with the curve of error against K."""
+    extra = {
+        "target": found.target,
+        "curve": [dict(point) for point in found.curve],
+        "reachable_mm": found.reachable_mm,
+        "fixed_mm": found.fixed_mm,
+    }
+    if found.design is not None:
+        report = report_out(desc, found.design, candidates_given=candidates_given).model_dump()
+        notes = [*report["notes"], *found.notes]
+        return PoseDesignReportPublic.model_validate({**report, **extra, "notes": notes, "count": found.count})
+    return PoseDesignReportPublic.model_validate(
+        {
+            "criterion": criterion,
+            "measurement": "pose",
+            "count": 0,
+            "poses": [],
+            "indices": [] if candidates_given else None,
+            "value": None,
+            "metrics": None,
+            "random_baseline": None,
+            "greedy": None,
+            "bound": None,
+            "efficiency": None,
+            "relaxation": None,
+            "identifiable": [],
+            "candidates": 0,
+            "fixed": 0,
+            "seconds": found.seconds,
+            "notes": list(found.notes),
+            "constraints": None,
+            **extra,
+        }
+    )
+
+
+def constraints_in(
+    desc: RobotDescription, body: PoseDesignCreate
+) -> tuple[dict[int, tuple[float, float]] | None, tuple[list[float], list[float]] | None]:
+    """Joint sub-ranges by name in boundary units → by index in internal units; the keep-out box (mm)."""
+    ranges: dict[int, tuple[float, float]] | None = None
+    if body.joint_ranges is not None:
+        ranges = {}
+        names = list(desc.joint_names)
+        for name, (lo, hi) in body.joint_ranges.items():
+            if name not in names:
+                raise InvalidInput(
+                    f"joint_ranges: {name!r} is not a joint of this robot ({', '.join(names)})",
+                    field="joint_ranges",
+                    value=name,
+                    allowed=names,
+                )
+            k = names.index(name)
+            scale = float(desc.joint_to_boundary[k])
+            ranges[k] = (lo / scale, hi / scale)
+    box: KeepOutBox | None = body.keep_out
+    keep_out = None if box is None else (list(box.lower), list(box.upper))
+    return ranges, keep_out
 
 
 def design_public(record: PoseDesignRecord) -> dict[str, Any]:

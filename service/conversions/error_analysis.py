@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from models._types import Array
 from models.error_analysis import AXES, MODELS, SUBSYSTEMS, ErrorAnalysisResult, ErrorMagnitudes, PoseErrors
-from models.kinematics import Array
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
 
 DEG = math.degrees(1.0)

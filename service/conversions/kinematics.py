@@ -7,10 +7,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from models import RobotDescription
-from models._types import IDENTITY, Pose6
+from models._types import IDENTITY, Array, Pose6
 from models.compensation import Compensation
 from models.errors import InvalidQuaternion
-from models.kinematics import Array, ForwardResult
+from models.kinematics import ForwardResult
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, quaternion_to_matrix, rotvec_to_matrix_np
 from service.errors import BadRequest
 from service.schemas.common import PosePublic, Target
@@ -25,7 +25,8 @@ def joints_in(desc: RobotDescription, rows: Sequence[Sequence[float]]) -> Array:
 
 
 def joints_out(desc: RobotDescription, joints: Array) -> list[list[float]]:
-    return (np.asarray(joints) * desc.joint_to_boundary).tolist()
+    rows: list[list[float]] = (np.asarray(joints) * desc.joint_to_boundary).tolist()
+    return rows
 
 
 def unit_quaternion(q: Sequence[float], what: str) -> Array:

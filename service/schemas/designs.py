@@ -5,23 +5,77 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from optimal_design.criteria import Criterion
 from optimal_design.design import MAX_CANDIDATES
-from service.schemas.common import JointVector, OptionalFloat, Public, Strict
+from service.schemas.common import JointVector, OptionalFloat, Position, Public, Strict
 
 MAX_FIXED = 10_000
 
 
+class DesignTarget(Strict):
+    """The accuracy to reach: the predicted TCP position error after calibration, RMS or worst over the
+    workspace (give one)."""
+
+    rms_tcp_mm: float | None = Field(default=None, gt=0, le=1000, examples=[0.05])
+    max_tcp_mm: float | None = Field(default=None, gt=0, le=1000)
+
+    @model_validator(mode="after")
+    def _one(self) -> DesignTarget:
+        if (self.rms_tcp_mm is None) == (self.max_tcp_mm is None):
+            raise ValueError("give exactly one of rms_tcp_mm and max_tcp_mm")
+        return self
+
+
+class KeepOutBox(Strict):
+    """A box in the world frame (after a calibration: the instrument's) that the TCP and the hexapod's
+    platform centre must stay outside, e.g. a fixture or the tracker itself."""
+
+    lower: Position
+    upper: Position
+
+
 class PoseDesignCreate(Strict):
-    count: int = Field(ge=1, le=10_000, description="K, the number of poses to measure", examples=[30])
-    criterion: Criterion = Criterion.D
+    count: int | None = Field(
+        default=None, ge=1, le=10_000, description="K, the number of poses to measure (or give `target`)", examples=[30]
+    )
+    target: DesignTarget | None = Field(
+        default=None, description="Instead of count: the smallest K whose design reaches this predicted accuracy"
+    )
+    criterion: Criterion = Field(default=Criterion.D, description="With a target: D or I (default there: I)")
     measurement: Literal["pose", "position"] = "pose"
     candidates: list[JointVector] | None = Field(default=None, max_length=MAX_CANDIDATES)
     candidate_count: int = Field(default=2000, ge=1, le=MAX_CANDIDATES)
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
     fixed: list[JointVector] | None = Field(default=None, max_length=MAX_FIXED, description="Poses already measured")
+    joint_ranges: dict[str, tuple[float, float]] | None = Field(
+        default=None,
+        description="Sub-ranges by joint name (q1…, l1…; mm or deg) the candidates must stay within",
+        examples=[{"q1": [100, 700]}],
+    )
+    keep_out: KeepOutBox | None = None
+    min_spread: float | None = Field(
+        default=None,
+        ge=0,
+        le=1,
+        description="Minimum distance between chosen poses (and from `fixed`): RMS over joints of the difference "
+        "divided by each joint's range",
+    )
+    d_efficiency_floor: float | None = Field(
+        default=None,
+        gt=0,
+        le=1,
+        description="E and condition only: optimise over designs whose D-efficiency stays at least this",
+    )
+
+    @model_validator(mode="after")
+    def _count_or_target(self) -> PoseDesignCreate:
+        if (self.count is None) == (self.target is None):
+            raise ValueError("give either count (how many poses) or target (what accuracy), not both")
+        if self.target is not None and "criterion" not in self.model_fields_set:
+            self.criterion = Criterion.I  # the criterion that minimises the predicted RMS TCP error
+        return self
 
 
 class DesignMetricsPublic(Public):
@@ -35,6 +89,7 @@ class DesignMetricsPublic(Public):
     max_singular_value: OptionalFloat
     trace_inverse: OptionalFloat
     predicted_rms_tcp_mm: OptionalFloat
+    predicted_max_tcp_mm: OptionalFloat = Field(description="At the worst workspace pose")
     O1: OptionalFloat = Field(description="Borm & Menq: (σ₁⋯σₚ)^(1/P)/√m")
     O2: OptionalFloat = Field(description="σ_min/σ_max")
     O3: OptionalFloat = Field(description="σ_min")
@@ -61,6 +116,7 @@ class BoundPublic(Public):
     certified: bool
     method: str
     solver_status: str
+    note: str | None = Field(default=None, description="What the bound does not account for (e.g. min_spread)")
 
 
 class RelaxationPublic(Public):
@@ -71,7 +127,32 @@ class RelaxationPublic(Public):
     exchange_swaps: int
     information_s: float
     relaxation_s: float
+    greedy_exchange_s: float
     rounding_exchange_s: float
+    random_baseline_s: float
+
+
+class ConstraintsPublic(Public):
+    offered: int = Field(description="Candidates before the filters")
+    excluded: dict[str, int] = Field(description="Candidates each filter removed")
+    min_spread: float | None
+    d_efficiency_floor: float | None
+
+
+class CurvePointPublic(Public):
+    """Predicted TCP error after calibration with `count` poses (mm): the chosen criterion's design, the D and I
+    designs, the median of random selections, and the certified bound (no selection can do better)."""
+
+    count: int
+    rms_tcp_mm: OptionalFloat = None
+    max_tcp_mm: OptionalFloat = None
+    D_rms_tcp_mm: OptionalFloat = None
+    I_rms_tcp_mm: OptionalFloat = None
+    D_max_tcp_mm: OptionalFloat = None
+    I_max_tcp_mm: OptionalFloat = None
+    random_rms_tcp_mm: OptionalFloat = None
+    random_max_tcp_mm: OptionalFloat = None
+    bound_rms_tcp_mm: OptionalFloat = None
 
 
 class PoseDesignReportPublic(Public):
@@ -82,18 +163,25 @@ class PoseDesignReportPublic(Public):
     count: int
     poses: list[list[float]] = Field(description="K joint vectors, mm and deg")
     indices: list[int] | None = Field(description="Into the given candidates; null when they were sampled")
+    # The design's own reports are null only in target mode when the fixed poses already reach the target
+    # (count 0: nothing to choose).
     value: OptionalFloat = Field(description="The exact criterion of the chosen poses")
-    metrics: DesignMetricsPublic
-    random_baseline: DesignMetricsPublic = Field(description="Median over random selections of the same size")
-    greedy: GreedyPublic
+    metrics: DesignMetricsPublic | None
+    random_baseline: DesignMetricsPublic | None = Field(description="Median over random selections of the same size")
+    greedy: GreedyPublic | None
     bound: BoundPublic | None
     efficiency: OptionalFloat = Field(description="Against the bound; 1 = as good as the relaxation")
-    relaxation: RelaxationPublic
+    relaxation: RelaxationPublic | None
     identifiable: list[str]
     candidates: int
     fixed: int
     seconds: float
     notes: list[str]
+    constraints: ConstraintsPublic | None
+    target: DesignTarget | None = Field(default=None, description="Target mode: what was asked")
+    curve: list[CurvePointPublic] | None = Field(default=None, description="Target mode: error against K")
+    reachable_mm: OptionalFloat = Field(default=None, description="Target mode: with every candidate measured")
+    fixed_mm: OptionalFloat = Field(default=None, description="Target mode: with the fixed poses alone")
 
 
 class PoseDesignPublic(PoseDesignReportPublic):

@@ -2,8 +2,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from optimal_design import design_poses
-from service.conversions.designs import design_public, report_out
+from optimal_design import design_for_target, design_poses
+from service.conversions.designs import constraints_in, design_public, report_out, target_report_out
 from service.conversions.kinematics import joints_in
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
@@ -15,18 +15,43 @@ def create_design(*, db: Database, models: ModelCache, robot_id: str, body: Pose
     desc, theta = models.current(robot_id)
     candidates = joints_in(desc, body.candidates) if body.candidates is not None else None
     fixed = joints_in(desc, body.fixed) if body.fixed is not None else None
-    design = design_poses(
-        desc,
-        body.count,
-        body.criterion,
-        body.measurement,
-        candidates=candidates,
-        candidate_count=body.candidate_count,
-        seed=body.seed,
-        fixed=fixed,
-        params=theta,
-    )
-    report = report_out(desc, design, candidates_given=candidates is not None).model_dump(mode="json")
+    joint_ranges, keep_out = constraints_in(desc, body)
+    if body.target is not None:
+        found = design_for_target(
+            desc,
+            rms_tcp_mm=body.target.rms_tcp_mm,
+            max_tcp_mm=body.target.max_tcp_mm,
+            criterion=body.criterion,
+            measurement=body.measurement,
+            candidates=candidates,
+            candidate_count=body.candidate_count,
+            seed=body.seed,
+            fixed=fixed,
+            params=theta,
+            joint_ranges=joint_ranges,
+            keep_out=keep_out,
+            min_spread=body.min_spread,
+        )
+        report_model = target_report_out(desc, found, candidates_given=candidates is not None, criterion=body.criterion)
+    else:
+        assert body.count is not None  # the schema asks for count or target
+        design = design_poses(
+            desc,
+            body.count,
+            body.criterion,
+            body.measurement,
+            candidates=candidates,
+            candidate_count=body.candidate_count,
+            seed=body.seed,
+            fixed=fixed,
+            params=theta,
+            joint_ranges=joint_ranges,
+            keep_out=keep_out,
+            min_spread=body.min_spread,
+            d_efficiency_floor=body.d_efficiency_floor,
+        )
+        report_model = report_out(desc, design, candidates_given=candidates is not None)
+    report = report_model.model_dump(mode="json")
     with db.session() as s:
         repo = Repository(s)
         repo.robot(robot_id)  # still there

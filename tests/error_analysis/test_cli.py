@@ -48,7 +48,7 @@ def test_cli_writes_summary_json_and_plots(tmp_path: Path, capsys: pytest.Captur
         assert path.stat().st_size > 20_000
 
 
-def test_to_dict_is_strict_json_in_boundary_units(desc: RobotDescription) -> None:
+def test_json_export_is_strict_json_in_boundary_units(desc: RobotDescription) -> None:
     res = error_analysis(desc, n_poses=3, n_draws=5, seed=3)
     data = result_json(res)
     json.dumps(data, allow_nan=False)

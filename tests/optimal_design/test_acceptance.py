@@ -52,6 +52,20 @@ def test_condition_design_beats_every_random_selection(desc: RobotDescription) -
     randoms = [m["condition_number"] for m in _random_metrics(desc)]
     assert design.metrics["condition_number"] < min(randoms)
     assert design.bound is not None and design.bound["value"] <= design.metrics["condition_number"]
+    assert design.efficiency is not None and design.efficiency >= 0.9  # 0.932 measured
+
+
+def test_e_design_is_certified_and_efficient(desc: RobotDescription) -> None:
+    design = design_poses(desc, K, "E", candidate_count=M, seed=SEED)
+    assert design.bound is not None and design.metrics["min_singular_value"] ** 2 <= design.bound["value"]
+    assert design.efficiency is not None and design.efficiency >= 0.9  # 0.914 measured
+
+
+def test_condition_with_a_d_floor_calibrates_the_tcp(desc: RobotDescription) -> None:
+    """The plain condition design is ~0.9x random at the TCP; kept at D-efficiency >= 0.9 it is < 0.7x."""
+    random_rms = float(np.median([m["predicted_rms_tcp_mm"] for m in _random_metrics(desc)]))
+    design = design_poses(desc, K, "condition", candidate_count=M, seed=SEED, d_efficiency_floor=0.9)
+    assert design.metrics["predicted_rms_tcp_mm"] <= 0.7 * random_rms  # 0.678x measured
 
 
 def test_closing_the_loop_designed_poses_calibrate_better(desc: RobotDescription, d_design: PoseDesign) -> None:

@@ -228,3 +228,36 @@ def test_jobs_in_a_worker_process(tmp_path: object) -> None:
             time.sleep(0.2)
         assert job["status"] == "succeeded", job
         assert c.get(f"/v1/robots/{rid}/parameters").json()["version"] == 2
+
+
+def test_pose_design_for_a_target_accuracy(client: TestClient, robot_id: str) -> None:
+    url = f"/v1/robots/{robot_id}/pose-designs"
+    body = {"target": {"rms_tcp_mm": 0.03}, "candidate_count": 400, "seed": 3}
+    r = client.post(url, json=body)
+    assert r.status_code == 201, r.text
+    design = r.json()
+    assert design["criterion"] == "I" and design["count"] == len(design["poses"]) > 0
+    assert design["metrics"]["predicted_rms_tcp_mm"] <= 0.03
+    curve = {p["count"]: p for p in design["curve"]}
+    # The answer is the smallest K: one pose fewer (when it was probed) misses the target.
+    if design["count"] - 1 in curve:
+        assert curve[design["count"] - 1]["rms_tcp_mm"] > 0.03
+    assert all(p["random_rms_tcp_mm"] >= p["I_rms_tcp_mm"] for p in curve.values() if p["I_rms_tcp_mm"])
+    unreachable = client.post(url, json={**body, "target": {"rms_tcp_mm": 1e-5}})
+    assert unreachable.status_code == 422 and unreachable.json()["type"].endswith("target-unreachable")
+    assert unreachable.json()["reachable_mm"] > 1e-5
+    both = client.post(url, json={**body, "count": 20})
+    assert both.status_code == 422 and "either count" in both.json()["detail"]
+
+
+def test_pose_design_constraints(client: TestClient, robot_id: str) -> None:
+    url = f"/v1/robots/{robot_id}/pose-designs"
+    r = client.post(
+        url, json={"count": 20, "candidate_count": 300, "joint_ranges": {"q1": [100, 500]}, "min_spread": 0.05}
+    )
+    assert r.status_code == 201, r.text
+    design = r.json()
+    assert all(100 <= q[0] <= 500 for q in design["poses"])
+    assert design["constraints"]["excluded"] and design["constraints"]["min_spread"] == 0.05
+    wrong = client.post(url, json={"count": 20, "joint_ranges": {"q9": [0, 1]}})
+    assert wrong.status_code == 422 and "q9" in wrong.json()["detail"]
