@@ -12,6 +12,8 @@ starting) model in closed form: no iteration, milliseconds for hundreds of poses
 - `QUATERNION_ORDER`: the orientations fit far better read as `[x, y, z, w]` than as `[w, x, y, z]`.
 - `ORIENTATION_FLIP`: orientation residuals near 180° after registration (a sign or frame convention).
 - `FAR_RECORDS`: single records far off the rest after a robust registration (this record, not the campaign).
+- `MISMATCH`: no placement of the robot, rigid or scaled or mirrored, comes near the measured positions: the
+  joint rows and the measurements do not belong together (shuffled files, another robot's campaign).
 Internal units throughout (mm, rad); the messages state boundary units.
 """
 
@@ -29,6 +31,7 @@ from models.errors import CalibrationError
 from models.kinematics import forward_kinematics
 from models.parameters import Kind
 from models.robot import RobotDescription
+from models.runtime import Runtime
 from models.transforms import quaternion_to_matrix
 
 MIN_RECORDS = 5
@@ -38,12 +41,17 @@ SCALE_TOLERANCE = 0.2
 """A similarity scale within ±20 % of 1/1000, 1/25.4 or 1000 names that unit."""
 REFLECTION_GAIN = 0.5
 """A mirrored fit whose RMS is below this fraction of the best rotation's marks a left-handed frame."""
+FIT_QUALITY = 0.05
+"""A unit or handedness slip leaves a near-perfect similarity fit (the robot's own error, a few mm in a metre of
+spread); a fit worse than this fraction of the spread means the records do not match at all (another finding)."""
 FLIP_DEG = 150.0
 FAR_MAD = 8.0
 """A record is far off when its residual exceeds the median by this many robust σ (1.4826 MAD)…"""
 FAR_MIN_MM = 10.0
 """…and by at least this much: the nominal model itself is millimetres off before a calibration."""
 MAX_LISTED = 10
+MISMATCH_SHARE = 0.25
+"""A best rigid fit whose RMS exceeds this fraction of the points' spread explains nothing (clean: ~0.01)."""
 
 
 class Finding(StrEnum):
@@ -53,6 +61,7 @@ class Finding(StrEnum):
     QUATERNION_ORDER = "quaternion_order"
     ORIENTATION_FLIP = "orientation_flip"
     FAR_RECORDS = "far_records"
+    MISMATCH = "mismatch"
 
 
 @dataclass(frozen=True)
@@ -117,11 +126,18 @@ def _similarity(source: Array, target: Array, *, allow_reflection: bool, with_sc
     return _Similarity(scale, rotation, translation, rms, bool(np.linalg.det(rotation) < 0))
 
 
+def _spread(points: Array) -> float:
+    """RMS distance of the points from their centroid (mm)."""
+    return float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
+
+
 UNIT_SCALES = (("metres", 1e-3), ("inches", 1 / 25.4), ("micrometres", 1e3), ("centimetres", 0.1))
 
 
 def check_length_scale(model: Array, measured: Array) -> Diagnosis | None:
     fit = _similarity(model, measured, allow_reflection=True, with_scale=True)
+    if fit.rms_mm > FIT_QUALITY * _spread(measured):
+        return None  # no similarity explains the data (shuffled records, another robot): not a unit slip
     for unit, scale in UNIT_SCALES:
         if abs(fit.scale / scale - 1) < SCALE_TOLERANCE:
             return Diagnosis(
@@ -135,7 +151,8 @@ def check_length_scale(model: Array, measured: Array) -> Diagnosis | None:
 def check_reflection(model: Array, measured: Array) -> Diagnosis | None:
     proper = _similarity(model, measured, allow_reflection=False, with_scale=False)
     mirrored = _similarity(model, measured, allow_reflection=True, with_scale=False)
-    if mirrored.reflected and mirrored.rms_mm < REFLECTION_GAIN * proper.rms_mm:
+    good = mirrored.rms_mm <= FIT_QUALITY * _spread(measured)
+    if mirrored.reflected and good and mirrored.rms_mm < REFLECTION_GAIN * proper.rms_mm:
         return Diagnosis(
             Finding.REFLECTION,
             f"the measured positions fit the robot mirrored ({mirrored.rms_mm:.3g} mm RMS) far better than by any "
@@ -206,17 +223,19 @@ def check_far_records(model: Array, measured: Array, index: NDArray[np.intp]) ->
     )
 
 
-def _model_poses(desc: RobotDescription, joints: Array, params: Array) -> tuple[Array, Array, NDArray[np.intp]]:
+def _model_poses(
+    desc: RobotDescription, joints: Array, params: Array, runtime: Runtime | None
+) -> tuple[Array, Array, NDArray[np.intp]]:
     """Nominal TCP positions and rotations of the records the model can evaluate, and which those are."""
     try:
-        fk = forward_kinematics(desc, joints, params, check_ranges=False)
+        fk = forward_kinematics(desc, joints, params, check_ranges=False, runtime=runtime)
         return fk.positions, fk.rotations, np.arange(joints.shape[0])
     except CalibrationError:
         pass
     good, positions, rotations = [], [], []
     for k in range(joints.shape[0]):
         try:
-            fk = forward_kinematics(desc, joints[k : k + 1], params, check_ranges=False)
+            fk = forward_kinematics(desc, joints[k : k + 1], params, check_ranges=False, runtime=runtime)
         except CalibrationError:
             continue
         good.append(k)
@@ -228,14 +247,20 @@ def _model_poses(desc: RobotDescription, joints: Array, params: Array) -> tuple[
 
 
 def diagnose(
-    desc: RobotDescription, joints: Array, positions: Array, quaternions: Array | None, params: Array
+    desc: RobotDescription,
+    joints: Array,
+    positions: Array,
+    quaternions: Array | None,
+    params: Array,
+    *,
+    runtime: Runtime | None = None,
 ) -> tuple[Diagnosis, ...]:
     """Every finding for a campaign (internal units), most fundamental first; empty when nothing looks wrong."""
     found: list[Diagnosis] = []
     radians = check_radians(desc, joints)
     if radians is not None:
         return (radians,)  # with the joints wrong, any geometric comparison is meaningless
-    model, model_rotations, usable = _model_poses(desc, joints, params)
+    model, model_rotations, usable = _model_poses(desc, joints, params, runtime)
     if usable.size < MIN_RECORDS:
         return ()
     measured = positions[usable]
@@ -243,6 +268,21 @@ def diagnose(
         finding = check(model, measured)
         if finding is not None:
             return (finding,)
+    rigid = _similarity(model, measured, allow_reflection=False, with_scale=False)
+    # The median residual, not the RMS: a few far records must not hide what the rest says.
+    residual = np.linalg.norm(model @ rigid.rotation.T + rigid.translation - measured, axis=1)
+    typical = float(np.median(residual))
+    if typical > MISMATCH_SHARE * _spread(measured):
+        return (
+            Diagnosis(
+                Finding.MISMATCH,
+                f"no placement of the robot comes near the measured positions (best fit {typical:.4g} mm median "
+                f"over a spread of {_spread(measured):.4g} mm): these measurements cannot come from this robot at "
+                "these joints — are the joint rows and the measurements of the same poses, in the same order?",
+            ),
+        )
+    if typical > FIT_QUALITY * _spread(measured):
+        return tuple(found)  # too poor a fit for the orientation and single-record checks to mean anything
     if quaternions is not None:
         fit = _similarity(model, measured, allow_reflection=False, with_scale=False)
         finding = check_orientations(fit.rotation, model_rotations, quaternions[usable], usable)

@@ -21,6 +21,7 @@ from models._types import Array
 from models.blas import single_threaded_blas
 from models.campaign import Campaign
 from models.errors import (
+    CalibrationError,
     InconsistentData,
     InvalidInput,
     NonFiniteValue,
@@ -39,6 +40,7 @@ from models.identifiability import (
 )
 from models.identification.accuracy import pose_errors, predicted_accuracy
 from models.identification.bounds import solver_bounds
+from models.identification.diagnosis import Diagnosis, Finding, diagnose
 from models.identification.options import IdentificationOptions, RobustLoss
 from models.identification.outliers import find_outliers
 from models.identification.polish import polish
@@ -53,7 +55,7 @@ from models.identification.result import (
     Status,
 )
 from models.identification.solver import solver_pool
-from models.identification.statistics import Covariance, correlated_pairs, covariance
+from models.identification.statistics import Covariance, PoseErrors, correlated_pairs, covariance, outlier_threshold
 from models.kinematics import forward_kinematics
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
@@ -96,9 +98,21 @@ def identify(
     check_enough(desc, campaign, candidates, runtime=rt)
     notes: list[str] = []
 
+    # 0. the slips a user makes (radians, metres, a mirrored frame, a quaternion order): named before any fit
+    found = diagnose(desc, campaign.joints, campaign.positions, campaign.quaternions, theta_nom, runtime=rt)
+    blocking = [d for d in found if d.blocking]
+    if blocking:
+        return _not_fitted(desc, campaign, theta_nom, found, blocking, started=started, rt=rt, strict=strict)
+    notes += [d.message for d in found]
+    # Records far off all the others (a wrong row, another point's name) would drag least squares to where the
+    # hexapod does not assemble before any outlier test could see them: left out from the start, and reported.
+    far = [r for d in found if d.finding is Finding.FAR_RECORDS for r in d.records]
+    drop_far = bool(far) and options.robust is not RobustLoss.NONE and options.exclude_outliers
+    active = np.setdiff1d(np.arange(campaign.size), far) if drop_far else None
+
     # 1. the instrument frame, in closed form
     theta_start, seeds = _registered_start(
-        desc, campaign, theta_nom=theta_nom, candidates=candidates, notes=notes, rt=rt
+        desc, campaign, theta_nom=theta_nom, candidates=candidates, notes=notes, rt=rt, active=active
     )
     # 2. what these data can identify, at the start
     start = forward_kinematics(desc, campaign.joints, theta_start, jacobian=True, seeds=seeds, runtime=rt)
@@ -108,8 +122,12 @@ def identify(
     free = np.array(ident.identifiable)
     # AUTO starts plain: the robust loss joins only if the χ² test finds gross errors (see _solve).
     loss = Loss(RobustLoss.NONE if options.robust is RobustLoss.AUTO else options.robust, options.robust_scale)
-    problem = CampaignProblem(desc, rt, campaign, noise, theta_start, free, loss, platforms=start.platforms.copy())
+    problem = CampaignProblem(
+        desc, rt, campaign, noise, theta_start, free, loss, active=active, platforms=start.platforms.copy()
+    )
     problem, final, solver, outliers = _solve(problem, options, notes)
+    if drop_far and final is not None:
+        outliers = _far_outliers(problem, far, final.theta, options) + outliers
     # 4. what the fit says about itself (nothing, where the model is undefined at the solution)
     estimate = (
         None
@@ -136,6 +154,7 @@ def identify(
         outliers=outliers,
         notes=notes,
         started=started,
+        diagnoses=found,
     )
     if strict and not result.succeeded:
         _raise(result, estimate)
@@ -191,11 +210,15 @@ def _registered_start(
     candidates: tuple[int, ...],
     notes: list[str],
     rt: Runtime,
+    active: Array | None,
 ) -> tuple[Array, Array]:
-    """The nominal parameters with the instrument frame as base (when estimated), and the platform poses."""
+    """The nominal parameters with the instrument frame as base (when estimated, fitted on the `active` poses),
+    and the platform poses."""
     fk = forward_kinematics(desc, campaign.joints, theta_nom, runtime=rt)
     if set(desc.parameters.groups["base"]) <= set(candidates):
-        return registered_base(desc, theta_nom, rigid_fit(fk.positions, campaign.positions)), fk.platforms
+        used = slice(None) if active is None else active
+        fit = rigid_fit(fk.positions[used], campaign.positions[used])
+        return registered_base(desc, theta_nom, fit), fk.platforms
     notes.append("the base (instrument frame) is not estimated: the given base is taken as exact")
     return theta_nom, fk.platforms
 
@@ -267,7 +290,7 @@ def _solve(
         excluded = excluded[:0]
     if first is not None and excluded.size:
         evaluations += problem.evaluations
-        keep = np.setdiff1d(np.arange(problem.campaign.size), excluded)
+        keep = np.setdiff1d(problem.active_poses, excluded)
         problem = replace(problem, loss=Loss(), active=keep, _last=None, evaluations=0)
         runs.append(pool.solve(problem, runs[-1].z, lower, upper, options.max_iterations))
     polished, polish_steps = polish(problem, runs[-1].z, lower, upper)
@@ -283,6 +306,40 @@ def _solve(
         polish_steps=polish_steps,
     )
     return problem, final, solver, outliers
+
+
+def _far_outliers(
+    problem: CampaignProblem, far: list[int], theta: Array, options: IdentificationOptions
+) -> tuple[Outlier, ...]:
+    """The records left out before the fit, with their residual at the solution `theta`, worst first."""
+    campaign = problem.campaign
+    subset = Campaign(
+        campaign.joints[far],
+        campaign.positions[far],
+        None if campaign.quaternions is None else campaign.quaternions[far],
+    )
+    try:
+        errors = pose_errors(problem.desc, subset, theta, None, runtime=problem.runtime)
+    except CalibrationError:  # a record so wrong the model cannot even evaluate it
+        nan = np.full(len(far), np.nan)
+        errors = PoseErrors(nan, None if campaign.position_only else nan)
+    noise = problem.noise
+    statistic = (errors.position_mm / noise.position_mm) ** 2
+    if errors.orientation_rad is not None:
+        statistic = statistic + (errors.orientation_rad / noise.orientation_rad) ** 2
+    threshold = outlier_threshold(campaign.size, problem.rows, options.outlier_alpha)
+    order = np.argsort(-np.nan_to_num(statistic, nan=np.inf), kind="stable")
+    return tuple(
+        Outlier(
+            pose=int(far[k]),
+            position_mm=float(errors.position_mm[k]),
+            orientation_rad=None if errors.orientation_rad is None else float(errors.orientation_rad[k]),
+            statistic=float(statistic[k]),
+            threshold=threshold,
+            excluded=True,
+        )
+        for k in order
+    )
 
 
 def _estimate(
@@ -351,6 +408,7 @@ def make_result(
     outliers: tuple[Outlier, ...],
     notes: list[str],
     started: float,
+    diagnoses: tuple[Diagnosis, ...] = (),
 ) -> IdentificationResult:
     """The one constructor of a result; without an estimate, the parameters stay nominal and nothing is
     reported as estimated."""
@@ -387,6 +445,49 @@ def make_result(
         measurements=campaign.size,
         seconds=time.perf_counter() - started,
         notes=tuple(notes),
+        diagnoses=diagnoses,
+    )
+
+
+NOT_RUN = SolverReport(
+    name="ipopt", status="not_run", success=False, iterations=0, seconds=0.0, objective=0.0, evaluations=0
+)
+
+
+def _not_fitted(
+    desc: RobotDescription,
+    campaign: Campaign,
+    theta_nom: Array,
+    found: tuple[Diagnosis, ...],
+    blocking: list[Diagnosis],
+    *,
+    started: float,
+    rt: Runtime,
+    strict: bool,
+) -> IdentificationResult:
+    """A campaign a pre-fit check refuses: a failed result naming the slip, without running the solver."""
+    reason = " ".join(d.message for d in blocking)
+    if strict:
+        raise InconsistentData(reason, rms_sigma=None, limit_sigma=INCONSISTENT_SIGMA)
+    try:
+        before = ResidualSummary.of(pose_errors(desc, campaign, theta_nom, None, runtime=rt))
+    except CalibrationError:  # the slip may leave the model undefined at these joints
+        nan = np.full(campaign.size, np.nan)
+        before = ResidualSummary.of(PoseErrors(nan, None if campaign.position_only else nan))
+    return make_result(
+        desc.parameters,
+        campaign,
+        status=Status.FAILED,
+        reason=reason,
+        nominal=theta_nom,
+        start=theta_nom,
+        solver=NOT_RUN,
+        before=before,
+        estimate=None,
+        outliers=(),
+        notes=[],
+        started=started,
+        diagnoses=found,
     )
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from models._types import Array
 from models.identifiability import Confounding
+from models.identification.diagnosis import Diagnosis
 from models.identification.statistics import PoseErrors
 from models.measurement import MeasurementKind
 from models.parameters import ParameterTable
@@ -127,6 +128,8 @@ class IdentificationResult:
     measurements: int
     seconds: float
     notes: tuple[str, ...] = ()
+    diagnoses: tuple[Diagnosis, ...] = ()
+    """What the pre-fit checks found (models.identification.diagnosis); a blocking one means no fit was run."""
 
     @property
     def succeeded(self) -> bool:

@@ -96,3 +96,32 @@ def test_the_joint_check_needs_wide_revolute_ranges() -> None:
     wide = c.joints.copy()
     wide[0, 2] = math.radians(120.0)  # one real reading beyond π degrees is enough to rule radians out
     assert Finding.RADIANS not in _findings(wide, c.positions, c.quaternions)
+
+
+def test_identify_names_the_slip_instead_of_failing_blindly() -> None:
+    from models.identification import identify
+
+    c = _campaign(8)
+    metres = Campaign(c.joints, c.positions / 1000.0, c.quaternions)
+    result = identify(DESC, metres)
+    assert not result.succeeded and result.solver.status == "not_run"
+    assert result.reason is not None and "metres" in result.reason
+    assert [d.finding for d in result.diagnoses] == [Finding.LENGTH_SCALE]
+
+
+def test_far_records_are_noted_and_the_fit_goes_on() -> None:
+    from models.identification import identify
+
+    c = _campaign(9, n=50)
+    positions = c.positions.copy()
+    positions[13] += [0.0, 80.0, 0.0]
+    result = identify(DESC, Campaign(c.joints, positions, c.quaternions))
+    assert result.succeeded, result.reason
+    assert any("13 (" in n for n in result.notes)
+    assert [o.pose for o in result.outliers if o.excluded] == [13]
+
+
+def test_joint_rows_of_other_poses_are_a_mismatch() -> None:
+    c = _campaign(10)
+    found = diagnose(DESC, c.joints[::-1].copy(), c.positions, c.quaternions, NOMINAL)
+    assert [d.finding for d in found] == [Finding.MISMATCH] and "same order" in found[0].message
