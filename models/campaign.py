@@ -31,6 +31,8 @@ class Campaign:
     """(N, 3) measured TCP positions, mm, instrument frame."""
     quaternions: Array | None = None
     """(N, 4) measured TCP orientations `[w, x, y, z]`, unit norm; None for position-only data."""
+    sigma_mm: Array | None = None
+    """(N,) each record's own position σ (a tracker's U95 / 2, a per-point RMS), mm; None: the noise model's."""
 
     @property
     def size(self) -> int:
@@ -53,7 +55,8 @@ class Campaign:
     def subset(self, index: ArrayLike) -> Campaign:
         idx = np.asarray(index)
         quats = None if self.quaternions is None else self.quaternions[idx]
-        return Campaign(self.joints[idx], self.positions[idx], quats)
+        sigma = None if self.sigma_mm is None else self.sigma_mm[idx]
+        return Campaign(self.joints[idx], self.positions[idx], quats, sigma)
 
 
 def make_campaign(
@@ -63,6 +66,7 @@ def make_campaign(
     quaternions: ArrayLike | None = None,
     *,
     check_ranges: bool = True,
+    sigma_mm: ArrayLike | None = None,
 ) -> Campaign:
     """Validate raw arrays (internal units) into a Campaign; domain errors name the offending record."""
     q = as_joint_array(desc, joints)
@@ -79,8 +83,9 @@ def make_campaign(
             got=list(p.shape),
         )
     _check_finite(p, "position")
+    sigma = None if sigma_mm is None else _sigmas(sigma_mm, q.shape[0])
     if quaternions is None:
-        return Campaign(q, p, None)
+        return Campaign(q, p, None, sigma)
     quat = np.array(quaternions, dtype=float)
     if quat.ndim == 1:
         quat = quat[None, :]
@@ -103,7 +108,28 @@ def make_campaign(
             norm=float(norms[i]),
             count=int(bad.size),
         )
-    return Campaign(q, p, quat / norms[:, None])
+    return Campaign(q, p, quat / norms[:, None], sigma)
+
+
+def _sigmas(sigma_mm: ArrayLike, n: int) -> Array:
+    sigma = np.array(sigma_mm, dtype=float).reshape(-1)
+    if sigma.shape != (n,):
+        raise WrongShape(
+            f"expected {n} position uncertainties (one per record), got {sigma.size}",
+            field="sigma_mm",
+            expected=[n],
+            got=list(sigma.shape),
+        )
+    bad = np.flatnonzero(~(np.isfinite(sigma) & (sigma > 0)))
+    if bad.size:
+        i = int(bad[0])
+        raise InvalidInput(
+            f"record {i}: sigma_mm must be a positive number of millimetres, got {sigma[i]}",
+            field="sigma_mm",
+            value=float(sigma[i]) if np.isfinite(sigma[i]) else None,
+            min=0.0,
+        )
+    return sigma
 
 
 def _check_finite(a: Array, what: str) -> None:

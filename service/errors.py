@@ -4,6 +4,7 @@ Tree (the domain's `models.errors.CalibrationError` is the other root `service.p
 
     ServiceError
     ├── BadRequest            400  a body the service cannot parse (CSV that does not follow the header)
+    ├── CalibrationFailed     422  the fit failed (stored, never applied): its id, the reason, the diagnoses
     ├── Unauthorized          401  missing or wrong API key
     ├── NotFound              404  an unknown id
     ├── PayloadTooLarge       413  a body over the configured limit
@@ -37,6 +38,13 @@ class BadRequest(ServiceError):
     ) -> None:
         data = {k: v for k, v in (("line", line), ("column", column), ("record", record)) if v is not None}
         super().__init__(detail, **data)
+
+
+class CalibrationFailed(ServiceError):
+    """A calibration whose fit failed: stored for the record (`calibration_id`), never applied."""
+
+    def __init__(self, detail: str, *, calibration_id: str, diagnoses: list[dict[str, Any]]) -> None:
+        super().__init__(detail, calibration_id=calibration_id, diagnoses=diagnoses)
 
 
 class Unauthorized(ServiceError):

@@ -41,6 +41,7 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     domain.CalibrationError: (422, "calibration-error", "Calibration error"),
     # the service's own
     service.BadRequest: (400, "bad-request", "Bad request"),
+    service.CalibrationFailed: (422, "calibration-failed", "The calibration failed"),
     service.Unauthorized: (401, "unauthorized", "API key missing or wrong"),
     service.NotFound: (404, "not-found", "Not found"),
     service.PayloadTooLarge: (413, "payload-too-large", "Request body too large"),

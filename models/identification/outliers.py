@@ -24,7 +24,7 @@ def find_outliers(
     threshold = outlier_threshold(active.size, problem.rows, options.outlier_alpha)
     flagged = np.flatnonzero(stat > threshold)
     flagged = flagged[np.argsort(-stat[flagged], kind="stable")]
-    errors = PoseErrors.from_raw(ev.residuals / problem.weights)
+    errors = PoseErrors.from_raw(ev.residuals / problem.weights[active])
     found = tuple(
         Outlier(
             pose=int(active[k]),

@@ -274,10 +274,26 @@ def _solve(
     if robust is RobustLoss.AUTO and first is not None and outliers:
         # Least squares smears a blunder over many poses (measured: one 2.5 mm blunder flags 27 of 40); a
         # soft-ℓ1 refit from there isolates it, and the χ² test on the robust residuals names the real ones.
-        evaluations += problem.evaluations
-        problem = replace(problem, loss=Loss(RobustLoss.SOFT_L1, options.robust_scale), _last=None, evaluations=0)
-        runs.append(pool.solve(problem, runs[0].z, lower, upper, options.max_iterations))
-        outliers, excluded = find_outliers(problem, runs[-1].z, options, exclude=exclude)
+        # When the robust fit finds more than a few (or does not converge), the data misfit the model as a
+        # whole: the plain fit stands, its flags reported, nothing excluded.
+        plain, plain_run = problem, runs[0]
+        robust_problem = replace(
+            problem, loss=Loss(RobustLoss.SOFT_L1, options.robust_scale), _last=None, evaluations=0
+        )
+        robust_run = pool.solve(robust_problem, runs[0].z, lower, upper, options.max_iterations)
+        found, dropped = find_outliers(robust_problem, robust_run.z, options, exclude=exclude)
+        if robust_run.success and dropped.size <= MAX_EXCLUDED_SHARE * problem.campaign.size:
+            evaluations += problem.evaluations
+            problem, outliers, excluded = robust_problem, found, dropped
+            runs.append(robust_run)
+        else:
+            evaluations += robust_problem.evaluations
+            problem, runs = plain, [plain_run]
+            notes.append(
+                f"{len(outliers)} of {problem.campaign.size} poses fail the outlier test even after a robust "
+                "refit: more than a few blunders, so none was excluded (the model, its start values or the stated "
+                "noise do not fit these data)"
+            )
     if excluded.size > MAX_EXCLUDED_SHARE * problem.campaign.size:
         # Blunders are a few poses; when the test flags this many, the model or the stated noise misfits the
         # campaign as a whole (a base-only fit of an uncalibrated robot, shuffled records): dropping them would
@@ -323,10 +339,10 @@ def _far_outliers(
     except CalibrationError:  # a record so wrong the model cannot even evaluate it
         nan = np.full(len(far), np.nan)
         errors = PoseErrors(nan, None if campaign.position_only else nan)
-    noise = problem.noise
-    statistic = (errors.position_mm / noise.position_mm) ** 2
+    weights = problem.weights[far]  # 1/σ per record (its own σ where the campaign gives one)
+    statistic = (errors.position_mm * weights[:, 0]) ** 2
     if errors.orientation_rad is not None:
-        statistic = statistic + (errors.orientation_rad / noise.orientation_rad) ** 2
+        statistic = statistic + (errors.orientation_rad * weights[:, 3]) ** 2
     threshold = outlier_threshold(campaign.size, problem.rows, options.outlier_alpha)
     order = np.argsort(-np.nan_to_num(statistic, nan=np.inf), kind="stable")
     return tuple(
@@ -438,6 +454,7 @@ def make_result(
         variance_factor=nan if e is None else e.cov.variance_factor,
         dof=0 if e is None else e.cov.dof,
         noise_consistent=False if e is None else e.cov.noise_consistent,
+        variance_interval=(nan, nan) if e is None else e.cov.chi2_interval,
         outliers=() if e is None else outliers,
         solver=solver,
         predicted_accuracy=PredictedAccuracy.undefined() if e is None else e.accuracy,

@@ -85,11 +85,14 @@ class CampaignProblem:
         self.runtime.check(self.desc)
         self.functions = self.runtime.kinematics
         rows = self.campaign.kind.rows
-        weights = np.array([1 / self.noise.position_mm] * 3 + [1 / self.noise.orientation_rad] * 3)
-        self.rows = rows
-        self.weights = weights[:rows]
-        self.scales = self.desc.parameters.scales[self.free]
         n = self.campaign.size
+        weights = np.tile([1 / self.noise.position_mm] * 3 + [1 / self.noise.orientation_rad] * 3, (n, 1))
+        if self.campaign.sigma_mm is not None:
+            weights[:, :3] = 1.0 / self.campaign.sigma_mm[:, None]  # each record weighted by its own σ
+        self.rows = rows
+        self.weights = weights[:, :rows]
+        """(N, rows) 1/σ per record and residual row."""
+        self.scales = self.desc.parameters.scales[self.free]
         self.rotations = (
             np.broadcast_to(np.eye(3), (n, 3, 3)).copy() if self.campaign.position_only else self.campaign.rotations
         )
@@ -132,7 +135,7 @@ class CampaignProblem:
         (res,) = self.functions.batch(
             "residual_at", q, theta, platforms, self.campaign.positions[self.active], self.rotations[self.active]
         )
-        r = res[:, : self.rows] * self.weights
+        r = res[:, : self.rows] * self.weights[self.active]
         r[~(closure <= CLOSURE_TOLERANCE_MM)] = np.nan
         return np.asarray(r.reshape(-1), dtype=float)
 
@@ -149,8 +152,9 @@ class CampaignProblem:
         res, jac = self.functions.batch(
             "residual_jacobian_at", q, theta, platforms, c.positions[self.active], self.rotations[self.active]
         )
-        r = res[:, : self.rows] * self.weights
-        j = jac[:, : self.rows, :][:, :, self.free] * self.weights[None, :, None] * self.scales[None, None, :]
+        w = self.weights[self.active]
+        r = res[:, : self.rows] * w
+        j = jac[:, : self.rows, :][:, :, self.free] * w[:, :, None] * self.scales[None, None, :]
         j = j.reshape(-1, self.n_free)
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(j))):
             return None

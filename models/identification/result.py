@@ -121,6 +121,8 @@ class IdentificationResult:
     variance_factor: float
     dof: int
     noise_consistent: bool
+    variance_interval: tuple[float, float]
+    """The variance factor's acceptance interval (χ² at the statistics' consistency level); NaN without a fit."""
     outliers: tuple[Outlier, ...]
     solver: SolverReport
     predicted_accuracy: PredictedAccuracy

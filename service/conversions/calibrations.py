@@ -12,6 +12,7 @@ from models._types import Array
 from models.campaign import Campaign, make_campaign
 from models.identifiability import NoiseModel
 from models.identification import IdentificationOptions
+from models.identification.acceptance import Check
 from models.identification.result import IdentificationResult, Outlier, PredictedAccuracy, ResidualSummary
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
@@ -31,7 +32,11 @@ def campaign_in(desc: RobotDescription, body: CalibrationCreate) -> Campaign:
     joints = joints_in(desc, [r.joints for r in body.measurements])
     positions = np.array([r.position for r in body.measurements], dtype=float)
     quats = np.array([r.orientation for r in body.measurements], dtype=float) if all(with_orientation) else None
-    return make_campaign(desc, joints, positions, quats)
+    given = [r.sigma_mm for r in body.measurements]
+    sigma = None
+    if any(g is not None for g in given):
+        sigma = [body.noise.position_mm if g is None else g for g in given]  # the rest: the campaign's σ
+    return make_campaign(desc, joints, positions, quats, sigma_mm=sigma)
 
 
 def noise_in(body: CalibrationCreate) -> NoiseModel:
@@ -75,7 +80,12 @@ def _residuals(summary: ResidualSummary) -> dict[str, Any]:
 
 
 def report_out(
-    desc: RobotDescription, result: IdentificationResult, *, start_values: Array, start_version: int
+    desc: RobotDescription,
+    result: IdentificationResult,
+    *,
+    start_values: Array,
+    start_version: int,
+    checks: tuple[Check, ...] = (),
 ) -> CalibrationReportPublic:
     """The whole report, boundary units. `nominal` is the robot's nominal geometry and `start` the start
     version's values (the fit's `result.nominal`), so a re-fit shows both."""
@@ -149,8 +159,17 @@ def report_out(
             "seconds": result.seconds,
             "notes": list(result.notes),
             "start_version": start_version,
+            "diagnoses": diagnoses_out(result),
+            "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail} for c in checks],
         }
     )
+
+
+def diagnoses_out(result: IdentificationResult) -> list[dict[str, Any]]:
+    return [
+        {"finding": d.finding.value, "message": d.message, "records": list(d.records), "blocking": d.blocking}
+        for d in result.diagnoses
+    ]
 
 
 def calibration_public(record: CalibrationRecord) -> dict[str, Any]:

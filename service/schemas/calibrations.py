@@ -30,6 +30,12 @@ class Record(Strict):
     joints: JointVector
     position: Position
     orientation: Quaternion | None = None
+    sigma_mm: float | None = Field(
+        default=None,
+        gt=0,
+        le=100,
+        description="This record's position uncertainty (1 σ, mm; a tracker's U95 / 2); default: noise.position_mm",
+    )
 
 
 class Noise(Strict):
@@ -53,6 +59,11 @@ class CalibrationCreate(Strict):
     measurements: list[Record] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
     noise: Noise = Noise()
     apply: bool = True
+    force_apply: bool = Field(
+        default=False,
+        description="Apply even if a check fails (the variance-factor test, the identifiable count, accuracy "
+        "against the start version); recorded with the calibration. A failed fit is never applied.",
+    )
     options: CalibrationOptions = CalibrationOptions()
     start_version: int | None = Field(
         default=None,
@@ -136,6 +147,21 @@ class PredictedAccuracyPublic(Public):
     workspace_poses: int
 
 
+class DiagnosisPublic(Public):
+    finding: Literal[
+        "radians", "length_scale", "reflection", "quaternion_order", "orientation_flip", "far_records", "mismatch"
+    ]
+    message: str
+    records: list[int] = Field(description="The records concerned (0-based); empty: the whole campaign")
+    blocking: bool = Field(description="No fit can succeed until it is fixed")
+
+
+class CheckPublic(Public):
+    name: Literal["fit", "noise", "identifiable", "residuals", "accuracy"]
+    passed: bool
+    detail: str
+
+
 class CalibrationReportPublic(Public):
     """What a calibration computed: stored once, as validated here, and served as stored."""
 
@@ -163,6 +189,16 @@ class CalibrationReportPublic(Public):
     seconds: float
     notes: list[str]
     start_version: int | None
+    diagnoses: list[DiagnosisPublic] = Field(
+        default_factory=list, description="What the checks before the fit found (a blocking one: no fit was run)"
+    )
+    checks: list[CheckPublic] = Field(
+        default_factory=list, description="The checks a result must pass before it is applied"
+    )
+    not_applied_reason: str | None = Field(
+        default=None, description="Why `apply` was asked and the result not applied (the failed checks)"
+    )
+    forced: bool = Field(default=False, description="Applied although a check failed (force_apply), recorded")
 
 
 class CalibrationPublic(CalibrationReportPublic):

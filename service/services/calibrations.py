@@ -5,9 +5,19 @@ from typing import Any
 import numpy as np
 
 from models.errors import InvalidInput
-from models.identification import identify
-from service.conversions.calibrations import calibration_public, campaign_in, noise_in, options_in, report_out
+from models.identifiability import structural_identifiability
+from models.identification import IdentificationOptions, identify
+from models.identification.acceptance import acceptance_checks, failed_checks
+from service.conversions.calibrations import (
+    calibration_public,
+    campaign_in,
+    diagnoses_out,
+    noise_in,
+    options_in,
+    report_out,
+)
 from service.conversions.robots import description
+from service.errors import CalibrationFailed
 from service.persistence import Database, Repository
 from service.persistence.repository import new_id
 from service.persistence.tables import ParameterVersion
@@ -15,8 +25,9 @@ from service.schemas.calibrations import CalibrationCreate
 
 
 def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[str, Any]:
-    """Identify, then store the campaign, the calibration and (when it succeeded and `apply`) the new version
-    together. The result as `CalibrationPublic` JSON."""
+    """Identify, then store the campaign, the calibration and (when it passed its checks and `apply`) the new
+    version together. The result as `CalibrationPublic` JSON; a failed fit is stored, then raised as
+    `CalibrationFailed` (a 422 naming the stored attempt)."""
     with db.reader() as s:
         repo = Repository(s)
         desc = description(repo.robot(robot_id))
@@ -25,12 +36,32 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
         start_values = np.asarray(start_row.values, dtype=float)
         start_std = list(start_row.std_errors or [None] * len(start_values))
         start_ident = list(start_row.identifiable or [False] * len(start_values))
+        start_accuracy = _predicted_accuracy(repo, start_row)
     campaign = campaign_in(desc, body)
+    options = options_in(body)
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
-    result = identify(desc, campaign, noise=noise_in(body), nominal=start_values, options=options_in(body))
-    report = report_out(desc, result, start_values=start_values, start_version=start_version)
+    result = identify(desc, campaign, noise=noise_in(body), nominal=start_values, options=options)
+    candidates = desc.parameters.indices(options.estimate)
+    expected = structural_identifiability(desc, candidates, campaign.kind).rank
+    everything = structural_identifiability(
+        desc, desc.parameters.indices(IdentificationOptions().estimate), campaign.kind
+    )
+    partial = expected < everything.rank  # parameters held at the start version's (calibrated) values
+    checks = acceptance_checks(
+        result,
+        expected_rank=expected,
+        start_accuracy_mm=start_accuracy,
+        sigma_mm=body.noise.position_mm,
+        held_accuracy_mm=start_accuracy if partial else None,
+    )
+    refused = failed_checks(checks)
+    report = report_out(desc, result, start_values=start_values, start_version=start_version, checks=checks)
     payload = report.model_dump(mode="json")
+    apply = result.succeeded and body.apply and (refused is None or body.force_apply)
+    if result.succeeded and body.apply:
+        payload["not_applied_reason"] = None if apply else refused
+        payload["forced"] = refused is not None and apply
     records = [r.model_dump() for r in body.measurements]
     calibration_id = new_id()
     with db.session() as s:
@@ -39,7 +70,7 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
         stored = repo.add_campaign(robot_id, records)
         record = repo.add_calibration(calibration_id, robot_id, stored.id, result.status, payload)
         record.start_version = start_version
-        if result.succeeded and body.apply:
+        if apply:
             # What this fit estimated carries its new statistics; the rest keeps the start version's.
             std, ident = start_std, start_ident
             for i in result.estimated:
@@ -47,7 +78,23 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
                 std[i], ident[i] = (value if np.isfinite(value) else None), True
             record.parameter_version = repo.add_version(robot, result.parameters.tolist(), std, ident, calibration_id)
             record.applied = True
-        return calibration_public(record)
+        answer = calibration_public(record)
+    if not result.succeeded:
+        raise CalibrationFailed(
+            f"the calibration failed and was not applied: {result.reason} (stored as calibration {calibration_id})",
+            calibration_id=calibration_id,
+            diagnoses=diagnoses_out(result),
+        )
+    return answer
+
+
+def _predicted_accuracy(repo: Repository, version: ParameterVersion) -> float | None:
+    """The start version's predicted RMS TCP accuracy, from the calibration that made it (None: uncalibrated)."""
+    if version.calibration_id is None:
+        return None
+    made_by = repo.calibration(version.calibration_id).result.get("predicted_accuracy") or {}
+    value = made_by.get("rms_position_mm")
+    return float(value) if isinstance(value, int | float) else None
 
 
 def _start_version(repo: Repository, robot_id: str, version: int | None) -> ParameterVersion:

@@ -147,7 +147,13 @@ def test_rejected_or_failed_calibrations_change_nothing(client: TestClient, robo
     assert too_few.status_code == 422 and "more" in too_few.json()["detail"]
     shuffled = [dict(r, joints=recs[-1 - k]["joints"]) for k, r in enumerate(recs)]
     failed = client.post(f"/v1/robots/{robot_id}/calibrations", json={"measurements": shuffled})
-    assert failed.status_code == 201 and failed.json()["status"] == "failed" and not failed.json()["applied"]
+    # A failed fit is not a success anywhere: a 422 naming the cause and the stored attempt.
+    assert failed.status_code == 422, failed.text
+    problem = failed.json()
+    assert problem["type"].endswith("calibration-failed") and "same order" in problem["detail"]
+    assert [d["finding"] for d in problem["diagnoses"]] == ["mismatch"]
+    attempt = client.get(f"/v1/calibrations/{problem['calibration_id']}").json()
+    assert attempt["status"] == "failed" and not attempt["applied"] and attempt["solver"]["status"] == "not_run"
     assert client.get(f"/v1/robots/{robot_id}/parameters").json()["version"] == 1
     bad_csv = client.post(
         f"/v1/robots/{robot_id}/calibrations", content="a,b\n1,2", headers={"content-type": "text/csv"}

@@ -1,0 +1,124 @@
+"""Real campaigns as users send them: each mistake made on purpose, and the answer must name it (issue 13)."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from models import iwr, sample_workspace
+from models.identifiability import NoiseModel
+from models.simulation import measure, perturbed_robot
+
+DESC = iwr()
+
+
+def _campaign(seed: int, n: int = 50, noise: float = 0.025) -> list[dict[str, object]]:
+    sim = perturbed_robot(DESC, seed=seed)
+    c = measure(sim, sample_workspace(DESC, n, seed=seed + 1), NoiseModel(noise, math.radians(0.01)), seed=seed + 2)
+    out = []
+    for k in range(c.size):
+        assert c.quaternions is not None
+        out.append(
+            {
+                "joints": (c.joints[k] * DESC.joint_to_boundary).tolist(),
+                "position": c.positions[k].tolist(),
+                "orientation": c.quaternions[k].tolist(),
+            }
+        )
+    return out
+
+
+def _calibrate(client: TestClient, robot_id: str, body: dict[str, object]) -> tuple[int, dict[str, object]]:
+    r = client.post(f"/v1/robots/{robot_id}/calibrations", json=body)
+    return r.status_code, r.json()
+
+
+def test_noise_stated_five_times_too_small_is_stored_not_applied(client: TestClient, robot_id: str) -> None:
+    recs = _campaign(1, noise=0.125)  # the tracker is 5× noisier than the default σ the body states
+    status, body = _calibrate(client, robot_id, {"measurements": recs})
+    assert status == 201 and body["status"] == "succeeded" and not body["applied"]
+    reason = str(body["not_applied_reason"])
+    ratio = float(reason.split("the residuals look ")[1].split("×", maxsplit=1)[0])
+    # Positions 5× noisier, orientations as stated: the pooled residuals are about 4× the σ.
+    assert 3.5 <= ratio < 6.0 and "larger than the stated σ" in reason
+    assert client.get(f"/v1/robots/{robot_id}/parameters").json()["version"] == 1
+    # The user may insist; it is applied and recorded as forced.
+    status, forced = _calibrate(client, robot_id, {"measurements": recs, "force_apply": True})
+    assert status == 201 and forced["applied"] and forced["forced"] and forced["parameter_version"] == 2
+    # Stating the real σ passes every check.
+    status, honest = _calibrate(client, robot_id, {"measurements": recs, "noise": {"position_mm": 0.125}})
+    assert status == 201 and all(c["passed"] for c in honest["checks"])  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize(
+    ("mistake", "finding", "words"),
+    [
+        ("metres", "length_scale", "metres"),
+        ("radians", "radians", "radians"),
+        ("xyzw", "quaternion_order", "[w, x, y, z]"),
+        ("left_handed", "reflection", "left-handed"),
+    ],
+)
+def test_each_slip_is_a_422_that_names_it(
+    client: TestClient, robot_id: str, mistake: str, finding: str, words: str
+) -> None:
+    recs = _campaign(2)
+    for r in recs:
+        joints, position, q = list(r["joints"]), list(r["position"]), list(r["orientation"])  # type: ignore[call-overload]
+        if mistake == "metres":
+            r["position"] = [v / 1000 for v in position]
+        elif mistake == "radians":
+            joints[2], joints[3] = math.radians(joints[2]), math.radians(joints[3])
+            r["joints"] = joints
+        elif mistake == "xyzw":
+            r["orientation"] = [*q[1:], q[0]]
+        elif mistake == "left_handed":
+            r["position"] = [position[0], -position[1], position[2]]
+    status, problem = _calibrate(client, robot_id, {"measurements": recs})
+    assert status == 422 and problem["type"].endswith("calibration-failed")  # type: ignore[union-attr]
+    assert words in str(problem["detail"])
+    assert [d["finding"] for d in problem["diagnoses"]] == [finding]  # type: ignore[union-attr]
+    stored = client.get(f"/v1/calibrations/{problem['calibration_id']}").json()
+    assert stored["status"] == "failed" and not stored["applied"]
+
+
+def test_a_failed_fit_ends_its_job_failed(client: TestClient, robot_id: str) -> None:
+    recs = _campaign(3)
+    for r in recs:
+        r["position"] = [v / 1000 for v in r["position"]]  # type: ignore[attr-defined]
+    job = client.post(f"/v1/robots/{robot_id}/calibrations?async=true", json={"measurements": recs}).json()
+    for _ in range(300):
+        state = client.get(f"/v1/jobs/{job['job_id']}").json()
+        if state["status"] in ("succeeded", "failed"):
+            break
+        time.sleep(0.05)
+    assert state["status"] == "failed"
+    assert state["error"]["type"].endswith("calibration-failed") and "metres" in state["error"]["detail"]
+
+
+def test_records_carry_their_own_sigma(client: TestClient, robot_id: str) -> None:
+    recs = _campaign(4, noise=0.06)
+    status, stated = _calibrate(client, robot_id, {"measurements": [{**r, "sigma_mm": 0.06} for r in recs]})
+    assert status == 201 and stated["noise_consistent"] and stated["applied"]
+    bad = [{**recs[0], "sigma_mm": -1}, *recs[1:]]
+    status, problem = _calibrate(client, robot_id, {"measurements": bad})
+    assert status == 422 and "sigma_mm" in str(problem["detail"])
+
+
+def test_three_blunders_are_excluded_by_default_and_named(client: TestClient, robot_id: str) -> None:
+    recs = _campaign(5, n=60)
+    rng = np.random.default_rng(6)
+    for k in (4, 17, 44):
+        direction = rng.normal(size=3)
+        shift = direction / np.linalg.norm(direction) * 2.5
+        recs[k]["position"] = (np.array(recs[k]["position"]) + shift).tolist()
+    status, body = _calibrate(client, robot_id, {"measurements": recs})
+    assert status == 201 and body["applied"], body.get("not_applied_reason")
+    excluded = [o for o in body["outliers"] if o["excluded"]]  # type: ignore[union-attr]
+    assert sorted(o["pose"] for o in excluded) == [4, 17, 44]
+    assert [o["statistic"] for o in excluded] == sorted((o["statistic"] for o in excluded), reverse=True)
+    assert all(2.0 < o["position_mm"] < 3.5 for o in excluded)
