@@ -49,9 +49,14 @@ def test_noise_stated_five_times_too_small_is_stored_not_applied(client: TestCli
     # The user may insist; it is applied and recorded as forced.
     status, forced = _calibrate(client, robot_id, {"measurements": recs, "force_apply": True})
     assert status == 201 and forced["applied"] and forced["forced"] and forced["parameter_version"] == 2
-    # Stating the real σ passes every check.
-    status, honest = _calibrate(client, robot_id, {"measurements": recs, "noise": {"position_mm": 0.125}})
-    assert status == 201 and all(c["passed"] for c in honest["checks"])  # type: ignore[union-attr]
+    # Stating the real σ passes every check (from the nominal version: the forced one claims an accuracy its
+    # understated σ made up, so against it an honest result looks worse, and the accuracy check says so).
+    honest_body = {"measurements": recs, "noise": {"position_mm": 0.125}, "start_version": 1}
+    status, honest = _calibrate(client, robot_id, honest_body)
+    assert status == 201 and all(c["passed"] for c in honest["checks"]), honest["checks"]  # type: ignore[union-attr]
+    status, against_forced = _calibrate(client, robot_id, {**honest_body, "start_version": 2})
+    failed = [c["name"] for c in against_forced["checks"] if not c["passed"]]  # type: ignore[union-attr]
+    assert failed == ["accuracy"] and not against_forced["applied"]
 
 
 @pytest.mark.parametrize(
