@@ -190,7 +190,13 @@ def minimum_poses(
 ) -> tuple[int, int]:
     """(rank the structure allows for these parameters, fewest poses that can determine them and the noise)."""
     rank = structural_identifiability(desc, candidates, kind, runtime=runtime).rank
-    return rank, math.ceil((rank + 1) / measurement_rows(kind))
+    return rank, poses_for(rank, kind)
+
+
+def poses_for(rank: int, kind: MeasurementKind | bool) -> int:
+    """The fewest poses that determine `rank` parameters and leave one degree of freedom for the noise: the one
+    rule the identification refuses by and pose design designs by."""
+    return math.ceil((rank + 1) / measurement_rows(kind))
 
 
 @dataclass(frozen=True)

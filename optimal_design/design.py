@@ -15,7 +15,7 @@ from models import NoiseModel, RobotDescription, forward_kinematics, sample_work
 from models._types import Array
 from models.blas import single_threaded_blas
 from models.errors import InvalidInput, TooFewMeasurements
-from models.identifiability import measurement_rows
+from models.identifiability import measurement_rows, poses_for
 from models.kinematics import as_joint_array, check_joint_ranges
 from optimal_design.constraints import KeepOut, Spread, joint_range_mask, keep_out_mask
 from optimal_design.criteria import Criterion, metrics, utility, value
@@ -90,8 +90,11 @@ class Problem:
         return np.ones(self.info.size, dtype=bool)
 
     def minimum_count(self) -> int:
+        """Poses to choose so that, with the fixed ones, the identification accepts the campaign: the fixed poses'
+        information must be completed, and the whole campaign hold `poses_for` the parameters."""
         base_rank = int(np.linalg.matrix_rank(self.base)) if self.n_fixed else 0
-        return max(0, math.ceil((self.info.n_params - base_rank) / self.rows))
+        completing = math.ceil((self.info.n_params - base_rank) / self.rows)
+        return max(0, completing, poses_for(self.info.n_params, self.position_only) - self.n_fixed)
 
 
 def prepare(

@@ -64,7 +64,8 @@ def report(
     condition = np.full(n, np.nan)
     solved = np.flatnonzero(np.isfinite(v).all(axis=1))
     if solved.size:
-        joints[solved] = joints_of(desc, theta, v[solved], runtime)
+        # Into the ranges: the solvers honour the bounds to BOUND_SLACK (~1e-9), a controller may refuse 1e-9 over.
+        joints[solved] = np.clip(joints_of(desc, theta, v[solved], runtime), desc.joint_min, desc.joint_max)
         # The check goes the other way: legs -> platform by the hexapod's forward solution, then the TCP.
         platforms, _ = solve_platforms(desc, joints[solved], theta, v[solved, desc.n_chain :], runtime=runtime)
         fk = pose_batch(desc, joints[solved], theta, platforms, runtime=runtime)
@@ -74,6 +75,7 @@ def report(
     rot_err = None
     if rot is not None:
         rot_err = np.linalg.norm(matrix_to_rotvec_np(rotations @ np.swapaxes(rot, 1, 2)), axis=1)
+        rot_err[~np.isfinite(positions).all(axis=1)] = np.nan  # no answer, no error (not 0°)
     reachable = np.isfinite(pos_err) & (pos_err <= REACHED_MM)
     if rot_err is not None:
         reachable &= rot_err <= REACHED_RAD

@@ -70,7 +70,7 @@ def targets_in(targets: Sequence[Target]) -> tuple[Array, Array | None]:
     return positions, np.array([t.orientation for t in targets], dtype=float)
 
 
-def forward_out(fk: ForwardResult) -> ForwardResponse:
+def forward_out(fk: ForwardResult, warnings: list[str] | None = None) -> ForwardResponse:
     quats = matrix_to_quaternion(fk.rotations)
     # One validation call over plain lists: 2.3 ms for 1 000 poses here (1.4 ms of it the quaternions); building
     # PosePublic one by one was ~10 % slower.
@@ -78,7 +78,8 @@ def forward_out(fk: ForwardResult) -> ForwardResponse:
         {
             "poses": [
                 {"position": p, "orientation": q} for p, q in zip(fk.positions.tolist(), quats.tolist(), strict=True)
-            ]
+            ],
+            "warnings": warnings or [],
         }
     )
 

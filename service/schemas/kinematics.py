@@ -11,6 +11,10 @@ class ForwardRequest(Strict):
 
 class ForwardResponse(Public):
     poses: list[PosePublic]
+    warnings: list[str] = Field(
+        default_factory=list,
+        description="Slips the joints betray although they lie inside the ranges (revolute joints in radians)",
+    )
 
 
 class InverseRequest(Strict):

@@ -4,6 +4,7 @@ import numpy as np
 
 from models import forward_kinematics
 from models.compensation import inverse_kinematics
+from models.identification.diagnosis import check_radians
 from service.conversions.kinematics import forward_out, inverse_out, joints_in, targets_in
 from service.model_cache import ModelCache
 from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
@@ -11,7 +12,11 @@ from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseR
 
 def forward(*, models: ModelCache, robot_id: str, body: ForwardRequest) -> ForwardResponse:
     desc, theta = models.current(robot_id)
-    return forward_out(forward_kinematics(desc, joints_in(desc, body.joints), theta))
+    joints = joints_in(desc, body.joints)
+    # The pre-fit check that applies to joints alone: radians sent where degrees are expected still lie inside a
+    # wide range and give poses, just the wrong ones.
+    radians = check_radians(desc, joints)
+    return forward_out(forward_kinematics(desc, joints, theta), [radians.message] if radians else [])
 
 
 def inverse(*, models: ModelCache, robot_id: str, body: InverseRequest) -> InverseResponse:

@@ -156,3 +156,24 @@ def test_corrected_program_reaches_what_the_nominal_model_promised(
     after = np.linalg.norm(forward_kinematics(desc, corrected.joints, sim.truth).positions - promised, axis=1)
     assert np.sqrt(np.mean(after**2)) <= 2 * _predicted_rms(desc, calibrated, corrected.joints)
     assert np.sqrt(np.mean(before**2)) > 20 * np.sqrt(np.mean(after**2))
+
+
+def test_commands_lie_inside_the_ranges_and_invalid_targets_have_no_error() -> None:
+    """Issue 13: joints were up to 1e-9 outside their ranges (a controller refuses them), and an invalid target
+    reported an orientation error of 0.0 instead of none."""
+    from models import iwr, sample_workspace
+    from models.compensation import inverse_kinematics
+    from models.kinematics import forward_kinematics
+    from models.transforms import matrix_to_quaternion
+
+    desc = iwr()
+    fk = forward_kinematics(desc, sample_workspace(desc, 200, seed=3))
+    targets, quats = fk.positions.copy(), matrix_to_quaternion(fk.rotations)
+    targets[5] += [0.0, 0.0, 5000.0]  # unreachable: the nearest pose, at its limits
+    quats[7] = quats[7] * 3.0  # not a unit quaternion: invalid
+    answer = inverse_kinematics(desc, targets, quats)
+    solved = np.isfinite(answer.joints).all(axis=1)
+    assert solved.sum() == 199 and not solved[7]
+    assert np.all(answer.joints[solved] >= desc.joint_min) and np.all(answer.joints[solved] <= desc.joint_max)
+    assert answer.orientation_error_rad is not None and np.isnan(answer.orientation_error_rad[7])
+    assert answer.reasons[7] is not None and not answer.reachable[5]

@@ -82,10 +82,10 @@ def test_bad_input(desc: RobotDescription) -> None:
     joints = sample_workspace(desc, 50, seed=67)
     with pytest.raises(InvalidInput, match="between 1 and the number of candidates"):
         design_poses(desc, 60, "D", candidates=joints)
-    with pytest.raises(TooFewMeasurements, match="at least 9") as err:
+    with pytest.raises(TooFewMeasurements, match="at least 10") as err:
         design_poses(desc, 5, "D", candidates=joints)
-    assert err.value.data["needed"] == 9
-    with pytest.raises(TooFewMeasurements, match="at least 17"):
+    assert err.value.data["needed"] == 10
+    with pytest.raises(TooFewMeasurements, match="at least 18"):
         design_poses(desc, 10, "D", "position", candidates=joints)
     with pytest.raises(InvalidInput, match="unknown criterion"):
         design_poses(desc, 10, "G", candidates=joints)

@@ -21,7 +21,8 @@ def joints(desc: RobotDescription) -> np.ndarray:
 def _scan(desc: RobotDescription, joints: np.ndarray, key: str, fixed: np.ndarray | None = None) -> dict[int, float]:
     """Every K: the I design's predicted error (the truth the target mode must agree with)."""
     out = {}
-    low = 9 if fixed is None else 1
+    # The campaign's minimum (models.identifiability.poses_for): 54 parameters, 6 rows a pose, one spare row.
+    low = 10 if fixed is None else max(1, 10 - fixed.shape[0])
     for k in range(low, joints.shape[0] + 1):
         out[k] = design_poses(desc, k, "I", candidates=joints, fixed=fixed).metrics[key]
     return out

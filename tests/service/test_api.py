@@ -210,7 +210,7 @@ def test_pose_design_json_and_csv(client: TestClient, robot_id: str) -> None:
     csv = client.get(f"/v1/pose-designs/{body['id']}", headers={"Accept": "text/csv"})
     assert csv.text.splitlines()[0] == "q1,q2,q3,q4,l1,l2,l3,l4,l5,l6" and len(csv.text.splitlines()) == 13
     bad = client.post(f"/v1/robots/{robot_id}/pose-designs", json={"count": 3, "candidates": cands})
-    assert bad.status_code == 422 and "at least 9" in bad.json()["detail"]
+    assert bad.status_code == 422 and "at least 10" in bad.json()["detail"]
 
 
 def test_error_analysis(client: TestClient) -> None:

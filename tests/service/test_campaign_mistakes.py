@@ -127,3 +127,12 @@ def test_three_blunders_are_excluded_by_default_and_named(client: TestClient, ro
     assert sorted(o["pose"] for o in excluded) == [4, 17, 44]
     assert [o["statistic"] for o in excluded] == sorted((o["statistic"] for o in excluded), reverse=True)
     assert all(2.0 < o["position_mm"] < 3.5 for o in excluded)
+
+
+def test_forward_kinematics_warns_of_radians(client: TestClient, robot_id: str) -> None:
+    joints = sample_workspace(DESC, 6, seed=12) * DESC.joint_to_boundary
+    fine = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": joints.tolist()}).json()
+    assert fine["warnings"] == []
+    joints[:, 2:4] = np.radians(joints[:, 2:4])
+    slipped = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": joints.tolist()}).json()
+    assert len(slipped["poses"]) == 6 and "radians" in slipped["warnings"][0]
