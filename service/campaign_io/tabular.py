@@ -101,6 +101,14 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
     if not lines:
         raise CampaignFileError("the file has no header and no data (only blank or comment lines)", line=1)
     header_line, header = lines[0]
+    expected_names = list(expected)
+    widest = max(header.count(d) for d in SNIFF_DELIMITERS) + 1
+    if len(lines) == 1 and expected_names and widest > 2 * len(expected_names):
+        raise CampaignFileError(
+            f"the body is a single line of {widest} fields: its line breaks were stripped (curl -d does that; "
+            "send the file with curl --data-binary @file)",
+            line=1,
+        )
     data_lines = [t for _, t in lines[1:]]
     delimiter = _sniff(header, data_lines)
     reader = csv.reader([t for _, t in lines], delimiter=delimiter)
@@ -112,7 +120,6 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
         ) from exc
     raw_names = parsed[0]
     names = [normalise(n) for n in raw_names]
-    expected_names = list(expected)
     if len(lines) == 1 and expected_names and len(names) > len(expected_names) + 1:
         raise CampaignFileError(
             f"the body is a single line of {len(names)} fields: its line breaks were stripped (curl -d does that; "

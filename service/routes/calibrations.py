@@ -1,11 +1,12 @@
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
 
+from service.campaign_io import ImportOptions, QuaternionOrder
 from service.csv_codec import CAMPAIGN_HEADER, parse_campaign
 from service.deps import DatabaseDep, JobsDep, MetricsDep, compute
 from service.errors import BadRequest, UnsupportedMediaType
@@ -41,7 +42,12 @@ _BODY = {
 
 
 async def _body(
-    request: Request, *, apply: bool | None, noise_position_mm: float | None, noise_orientation_deg: float | None
+    request: Request,
+    *,
+    apply: bool | None,
+    noise_position_mm: float | None,
+    noise_orientation_deg: float | None,
+    file_options: ImportOptions,
 ) -> CalibrationCreate:
     """The campaign as JSON or as the spec's CSV (with noise and apply from the query)."""
     content_type = request.headers.get("content-type", "application/json").split(";")[0].strip().lower()
@@ -52,7 +58,8 @@ async def _body(
                 text = raw.decode("utf-8")
             except UnicodeDecodeError as exc:
                 raise BadRequest("the CSV body must be UTF-8 text") from exc
-            payload: dict[str, Any] = {"measurements": parse_campaign(text)}
+            measurements, notes = parse_campaign(text, options=file_options)
+            payload: dict[str, Any] = {"measurements": measurements, "import_notes": notes}
             noise = {}
             if noise_position_mm is not None:
                 noise["position_mm"] = noise_position_mm
@@ -90,9 +97,19 @@ async def create_calibration(
     apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
     noise_position_mm: float | None = Query(None, gt=0, le=1000, description="σ position, CSV bodies"),
     noise_orientation_deg: float | None = Query(None, gt=0, le=180, description="σ orientation, CSV bodies"),
+    length_unit: Literal["mm", "m", "cm", "um", "in"] = Query(
+        "mm", description="CSV bodies: unit of x, y, z and sigma where the header does not state one ('X [m]')"
+    ),
+    quaternion_order: QuaternionOrder = Query(
+        QuaternionOrder.WXYZ, description="CSV bodies: of q0…q3 columns (Leica-style); qw/qx/qy/qz name themselves"
+    ),
 ) -> dict[str, Any] | Response:
     body = await _body(
-        request, apply=apply, noise_position_mm=noise_position_mm, noise_orientation_deg=noise_orientation_deg
+        request,
+        apply=apply,
+        noise_position_mm=noise_position_mm,
+        noise_orientation_deg=noise_orientation_deg,
+        file_options=ImportOptions(length_unit=length_unit, quaternion_order=quaternion_order),
     )
     if run_async:
         accepted = submit_job(db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body)

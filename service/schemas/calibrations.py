@@ -59,6 +59,11 @@ class CalibrationCreate(Strict):
     measurements: list[Record] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
     noise: Noise = Noise()
     apply: bool = True
+    import_notes: list[str] = Field(
+        default_factory=list,
+        max_length=100,
+        description="What the file reader noted (columns ignored, units converted); set by the service for CSV",
+    )
     force_apply: bool = Field(
         default=False,
         description="Apply even if a check fails (the variance-factor test, the identifiable count, accuracy "

@@ -58,6 +58,7 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
     refused = failed_checks(checks)
     report = report_out(desc, result, start_values=start_values, start_version=start_version, checks=checks)
     payload = report.model_dump(mode="json")
+    payload["notes"] = [*body.import_notes, *payload["notes"]]
     apply = result.succeeded and body.apply and (refused is None or body.force_apply)
     if result.succeeded and body.apply:
         payload["not_applied_reason"] = None if apply else refused

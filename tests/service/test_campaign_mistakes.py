@@ -136,3 +136,24 @@ def test_forward_kinematics_warns_of_radians(client: TestClient, robot_id: str) 
     joints[:, 2:4] = np.radians(joints[:, 2:4])
     slipped = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": joints.tolist()}).json()
     assert len(slipped["poses"]) == 6 and "radians" in slipped["warnings"][0]
+
+
+def test_an_excel_csv_calibrates_and_a_stripped_one_is_explained(client: TestClient, robot_id: str) -> None:
+    recs = _campaign(7)
+    names = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
+    header = ["Operator", "X [m]", "Y [m]", "Z [m]", "qw", "qx", "qy", "qz", *reversed(names)]
+    lines = ["\ufeff# cell 3, shift 2", ";".join(header)]
+    for r in recs:
+        metres = [f"{v / 1000:.9f}".replace(".", ",") for v in r["position"]]  # type: ignore[attr-defined]
+        quat = [f"{v:.12f}".replace(".", ",") for v in r["orientation"]]  # type: ignore[attr-defined]
+        joints = [f"{v:.9f}".replace(".", ",") for v in reversed(r["joints"])]  # type: ignore[call-overload]
+        lines.append(";".join(["anna", *metres, *quat, *joints]))
+    url = f"/v1/robots/{robot_id}/calibrations"
+    r = client.post(url, content="\r\n".join(lines), headers={"content-type": "text/csv"})
+    assert r.status_code == 201, r.text
+    body = r.json()
+    assert body["status"] == "succeeded" and body["residuals"]["after"]["rms_mm"] < 0.1
+    assert any("operator" in n for n in body["notes"]) and any("converted to mm" in n for n in body["notes"])
+    stripped = "".join(lines[1:3])  # what curl -d does to the file's line breaks
+    r = client.post(url, content=stripped, headers={"content-type": "text/csv"})
+    assert r.status_code == 400 and "--data-binary" in r.json()["detail"]
