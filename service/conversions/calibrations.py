@@ -149,8 +149,20 @@ def report_out(
             "seconds": result.seconds,
             "notes": list(result.notes),
             "start_version": start_version,
+            "correlation": _correlation(result),
         }
     )
+
+
+def _correlation(result: IdentificationResult) -> dict[str, Any] | None:
+    """cov_ij / (σ_i σ_j) of the estimated parameters (unit-free, so internal units are fine)."""
+    cov = np.asarray(result.covariance, dtype=float)
+    if cov.ndim != 2 or cov.shape[0] != len(result.estimated) or cov.shape[0] == 0:
+        return None
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        matrix = np.clip(cov / np.outer(sd, sd), -1.0, 1.0)
+    return {"names": list(result.identifiable_names), "matrix": matrix.tolist()}
 
 
 def calibration_public(record: CalibrationRecord) -> dict[str, Any]:
@@ -165,4 +177,6 @@ def calibration_public(record: CalibrationRecord) -> dict[str, Any]:
         "parameter_version": record.parameter_version,
         "start_version": record.start_version,
         "created_at": timestamp(record.created_at),
+        "user_notes": record.notes,
+        "instrument": record.instrument,
     }

@@ -9,12 +9,13 @@ from models.identification import identify
 from service.conversions.calibrations import calibration_public, campaign_in, noise_in, options_in, report_out
 from service.conversions.robots import description
 from service.persistence import Database, Repository
+from service.persistence.lifecycle import Actor, Lifecycle
 from service.persistence.repository import new_id
 from service.persistence.tables import ParameterVersion
 from service.schemas.calibrations import CalibrationCreate
 
 
-def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[str, Any]:
+def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Actor | None = None) -> dict[str, Any]:
     """Identify, then store the campaign, the calibration and (when it succeeded and `apply`) the new version
     together. The result as `CalibrationPublic` JSON."""
     with db.reader() as s:
@@ -39,14 +40,26 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
         stored = repo.add_campaign(robot_id, records)
         record = repo.add_calibration(calibration_id, robot_id, stored.id, result.status, payload)
         record.start_version = start_version
+        record.notes = body.notes
+        record.instrument = None if body.instrument is None else body.instrument.model_dump()
         if result.succeeded and body.apply:
             # What this fit estimated carries its new statistics; the rest keeps the start version's.
             std, ident = start_std, start_ident
             for i in result.estimated:
                 value = float(result.std_errors[i])
                 std[i], ident[i] = (value if np.isfinite(value) else None), True
+            previous = robot.current_version
             record.parameter_version = repo.add_version(robot, result.parameters.tolist(), std, ident, calibration_id)
             record.applied = True
+            who = actor or Actor()
+            repo.version(robot_id, record.parameter_version).actor = who.name
+            Lifecycle(s).changed(
+                robot,
+                "version.calibrated",
+                who,
+                version=record.parameter_version,
+                details={"from_version": previous, "calibration_id": calibration_id},
+            )
         return calibration_public(record)
 
 
