@@ -29,6 +29,7 @@ from service.routes import (
     jobs,
     kinematics,
     robots,
+    validations,
     versions,
 )
 from service.settings import Settings, get_settings
@@ -148,7 +149,18 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.metrics = Metrics()
     problems.install(app)
     ui.install(app)
-    for module in (robots, versions, kinematics, designs, calibrations, campaigns, jobs, error_analysis, audit):
+    for module in (
+        robots,
+        versions,
+        kinematics,
+        designs,
+        calibrations,
+        campaigns,
+        jobs,
+        error_analysis,
+        audit,
+        validations,
+    ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -16,21 +17,26 @@ from models.kinematics import Array
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord
-from service.schemas.calibrations import CalibrationCreate, CalibrationReportPublic
+from service.schemas.calibrations import CalibrationCreate, CalibrationReportPublic, Record
 from service.schemas.common import timestamp
 
 
 def campaign_in(desc: RobotDescription, body: CalibrationCreate) -> Campaign:
-    with_orientation = [r.orientation is not None for r in body.measurements]
+    return records_in(desc, body.measurements)
+
+
+def records_in(desc: RobotDescription, measurements: Sequence[Record]) -> Campaign:
+    """A campaign from request records (a calibration's or a validation's), checked."""
+    with_orientation = [r.orientation is not None for r in measurements]
     if any(with_orientation) and not all(with_orientation):
         first = with_orientation.index(not with_orientation[0])
         raise BadRequest(
             f"record {first}: either every record has an orientation or none has (position-only campaign)",
             record=first,
         )
-    joints = joints_in(desc, [r.joints for r in body.measurements])
-    positions = np.array([r.position for r in body.measurements], dtype=float)
-    quats = np.array([r.orientation for r in body.measurements], dtype=float) if all(with_orientation) else None
+    joints = joints_in(desc, [r.joints for r in measurements])
+    positions = np.array([r.position for r in measurements], dtype=float)
+    quats = np.array([r.orientation for r in measurements], dtype=float) if all(with_orientation) else None
     return make_campaign(desc, joints, positions, quats)
 
 
