@@ -28,6 +28,7 @@ from service.routes import (
     health,
     jobs,
     kinematics,
+    reports,
     robots,
     validations,
     versions,
@@ -160,6 +161,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         error_analysis,
         audit,
         validations,
+        reports,
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)
