@@ -74,6 +74,11 @@ def iso_poses(*, db: Database, robot_id: str, body: IsoPosesCreate) -> IsoPosesP
     with db.reader() as s:
         repo = Repository(s)
         desc = description(repo.robot(robot_id))
-        version = _checked_versions(repo, robot_id, None if body.version is None else [body.version])[0]
+        version = repo.current_version(robot_id) if body.version is None else body.version
+        latest = repo.latest_version(robot_id)
+        if version > latest:
+            raise InvalidInput(
+                f"version {version} does not exist; robot {robot_id!r} has versions 1 to {latest}", field="version"
+            )
         values = np.asarray(repo.version(robot_id, version).values, dtype=float)
     return iso_poses_out(desc, robot_id, version, iso_cube_poses(desc, values, seed=body.seed))

@@ -93,6 +93,9 @@ def test_bad_validations_are_refused_and_store_nothing(client: TestClient, robot
     assert client.post("/v1/robots/nope/validations", json={"measurements": recs}).status_code == 404
     assert client.get(f"/v1/robots/{robot_id}/validations").json() == []
     assert client.get("/v1/validations/nope").status_code == 404
+    bad_version = client.post(f"/v1/robots/{robot_id}/iso9283-poses", json={"version": 3})
+    assert bad_version.status_code == 422 and bad_version.json()["field"] == "version"
+    assert client.post(f"/v1/robots/{robot_id}/iso9283-poses", json={"seed": -1}).status_code == 422
 
 
 def test_iso_cube_on_a_simulated_robot_with_known_truth(client: TestClient, robot_id: str) -> None:
@@ -145,3 +148,17 @@ def test_iso_cube_on_a_simulated_robot_with_known_truth(client: TestClient, robo
     # Registered on the five points of one cube, the rigid fit absorbs most of the nominal geometry's error
     # (see tests/models/test_accuracy.py); what is left still stands well above the calibrated version's.
     assert nominal["registered"] and nominal["position_mm"]["rms"] > 1.5 * result["position_mm"]["rms"]
+
+
+def test_a_robot_with_validations_can_be_deleted(client: TestClient, robot_id: str) -> None:
+    joints = (sample_workspace(DESC, 3, seed=6) * DESC.joint_to_boundary).tolist()
+    recs = [{"joints": q, "position": [1.0, 2.0, 3.0]} for q in joints]
+    made = client.post(f"/v1/robots/{robot_id}/validations", json={"measurements": recs}).json()
+    assert "orientation_deg" not in made["results"][0] and "iso9283" not in made["results"][0]  # position-only
+    assert client.delete(f"/v1/robots/{robot_id}").status_code == 204
+    assert client.get(f"/v1/validations/{made['id']}").status_code == 404
+    assert client.get(f"/v1/campaigns/{made['campaign_id']}").status_code == 404
+    assert [e["action"] for e in client.get("/v1/audit", params={"robot_id": robot_id}).json()] == [
+        "robot.created",
+        "robot.deleted",
+    ]
