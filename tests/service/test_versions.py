@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,10 +19,10 @@ DESC = iwr()
 
 
 @pytest.fixture
-def client(tmp_path: Path) -> Iterator[TestClient]:
-    """The service with a stand-in for the API-key check: it names the caller from a test header, as the key
-    check does from the key (request.state.actor)."""
-    c = make_client(f"sqlite:///{tmp_path}/iwr.db")
+def client(database_url: str) -> Iterator[TestClient]:
+    """The service on SQLite and on PostgreSQL, with a stand-in for the API-key check: it names the caller from a
+    test header, as the key check does from the key (request.state.actor)."""
+    c = make_client(database_url)
 
     @c.app.middleware("http")  # type: ignore[attr-defined]
     async def name_the_caller(request: Request, call_next):  # type: ignore[no-untyped-def]
