@@ -81,7 +81,12 @@ def _residuals(summary: ResidualSummary) -> dict[str, Any]:
 
 
 def report_out(
-    desc: RobotDescription, result: IdentificationResult, *, start_values: Array, start_version: int
+    desc: RobotDescription,
+    result: IdentificationResult,
+    *,
+    start_values: Array,
+    start_version: int,
+    noise: NoiseModel | None = None,
 ) -> CalibrationReportPublic:
     """The whole report, boundary units. `nominal` is the robot's nominal geometry and `start` the start
     version's values (the fit's `result.nominal`), so a re-fit shows both."""
@@ -156,6 +161,9 @@ def report_out(
             "notes": list(result.notes),
             "start_version": start_version,
             "correlation": _correlation(result),
+            "noise": None
+            if noise is None
+            else {"position_mm": noise.position_mm, "orientation_deg": math.degrees(noise.orientation_rad)},
         }
     )
 

@@ -147,6 +147,11 @@ class PredictedAccuracyPublic(Public):
     workspace_poses: int
 
 
+class NoisePublic(Public):
+    position_mm: float
+    orientation_deg: float
+
+
 class CorrelationPublic(Public):
     """Correlation matrix of the estimated parameters, from the a-posteriori covariance."""
 
@@ -183,6 +188,9 @@ class CalibrationReportPublic(Public):
     start_version: int | None
     correlation: CorrelationPublic | None = Field(
         default=None, description="Null for calibrations stored before it was kept"
+    )
+    noise: NoisePublic | None = Field(
+        default=None, description="The measurement noise the fit assumed; null for calibrations stored before"
     )
 
 

@@ -29,8 +29,9 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Ac
     campaign = campaign_in(desc, body)
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
-    result = identify(desc, campaign, noise=noise_in(body), nominal=start_values, options=options_in(body))
-    report = report_out(desc, result, start_values=start_values, start_version=start_version)
+    noise = noise_in(body)
+    result = identify(desc, campaign, noise=noise, nominal=start_values, options=options_in(body))
+    report = report_out(desc, result, start_values=start_values, start_version=start_version, noise=noise)
     payload = report.model_dump(mode="json")
     records = [r.model_dump() for r in body.measurements]
     calibration_id = new_id()

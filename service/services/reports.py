@@ -34,11 +34,13 @@ def build_report(*, db: Database, calibration_id: str) -> CalibrationReport:
     if stored:
         matrix = np.array([[np.nan if v is None else v for v in row] for row in stored["matrix"]], dtype=float)
         correlation = (list(stored["names"]), matrix)
+    noise = document.get("noise") or {}
     return CalibrationReport(
         calibration=document,
         robot_name=robot_name,
         measured_positions=positions,
         correlation=correlation,
+        noise_position_mm=noise.get("position_mm"),
         validations=validations,
     )
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 
 import numpy as np
+import pytest
 from fastapi.testclient import TestClient
 
 from models import iwr, sample_workspace
@@ -31,6 +32,7 @@ def test_report_html_and_pdf(client: TestClient, robot_id: str) -> None:
     for (a, b), r in pairs.items():
         assert matrix[index[a], index[b]] == np.float64(r) or abs(matrix[index[a], index[b]] - r) < 1e-9
 
+    assert calibration["noise"] == {"position_mm": 0.025, "orientation_deg": pytest.approx(0.01)}  # the defaults
     validation = client.post(
         f"/v1/robots/{robot_id}/validations",
         json={"measurements": records(DESC, sim, np.repeat(sample_workspace(DESC, 2, seed=104), 3, axis=0), seed=105)},
