@@ -8,6 +8,7 @@ from typing import Any
 from urllib.parse import urlparse
 
 import httpx
+import numpy as np
 import pytest
 
 from models import iwr, sample_workspace
@@ -37,8 +38,19 @@ def data(server: str) -> dict[str, Any]:
             f"/v1/robots/{robot['id']}/pose-designs",
             json={"count": DESIGN_COUNT, "criterion": "D", "candidate_count": 80, "seed": 1},
         ).json()
+        repeated = np.repeat(sample_workspace(DESC, 2, seed=130), 3, axis=0)
+        validation = http.post(
+            f"/v1/robots/{robot['id']}/validations",
+            json={"measurements": records(DESC, sim, repeated, seed=131), "versions": [1, 4], "register": True},
+        ).json()
         versions = http.get(f"/v1/robots/{robot['id']}/parameter-versions").json()
-    return {"robot": robot, "calibrations": calibrations, "design": design, "versions": versions}
+    return {
+        "robot": robot,
+        "calibrations": calibrations,
+        "design": design,
+        "versions": versions,
+        "validation": validation,
+    }
 
 
 @pytest.fixture
@@ -74,6 +86,10 @@ def test_robot_page_history_drift_and_design(
     _open(p, server, f"#/robots/{robot_id}")
     assert p.locator("#calibrations tbody tr").count() == 2
     assert p.locator("#versions tbody tr").count() == len(data["versions"]) == 4
+    assert p.locator("#validations tbody tr").count() == 2  # one validation, two versions
+    rms = [r["position_mm"]["rms"] for r in data["validation"]["results"]]
+    cells = p.locator("#validations tbody tr td:nth-child(4)").all_inner_texts()
+    assert [float(c) for c in cells] == pytest.approx(rms, rel=1e-3)  # shown to 4 digits
     # One point per version on the drift plot, one error bar per version with a std error (the calibrated ones).
     assert p.locator("#drift-plot circle.point").count() == 4
     assert p.locator("#drift-plot line.band").count() == 3

@@ -52,9 +52,13 @@ async function robotsPage() {
 }
 
 async function robotPage(id) {
-  const [robot, calibrations, versions, designs] = await Promise.all([
+  const [robot, calibrations, versions, designs, validations] = await Promise.all([
     api(`/v1/robots/${id}`), api(`/v1/robots/${id}/calibrations`), api(`/v1/robots/${id}/parameter-versions`),
-    api(`/v1/robots/${id}/pose-designs`)]);
+    api(`/v1/robots/${id}/pose-designs`), api(`/v1/robots/${id}/validations`)]);
+  // One row per (validation, version): the same campaign judged against each version it was asked for.
+  const validationRows = validations.flatMap((v) => v.results.map((r) => [when(v.created_at), numCell(r.version, 3),
+    numCell(v.measurements, 3), numCell(r.position_mm.rms), numCell(r.position_mm.max),
+    r.iso9283 ? r.iso9283.poses.map((p) => num(p.AP_mm, 3)).join(" · ") : "—", r.registered ? "yes" : "no"]));
   const drift = h("div", { id: "drift" });
   const choose = h("select", { id: "drift-parameter" });
   const first = await api(`/v1/robots/${id}/parameters?version=1`);
@@ -76,6 +80,10 @@ async function robotPage(id) {
       v.calibration_id ? h("a", { href: `#/calibrations/${v.calibration_id}/report` }, "calibration") :
         (v.restored_from ? `version ${v.restored_from}` : "—"),
       v.actor || "—", when(v.created_at), v.current ? h("b", {}, "current") : ""]), "versions"),
+    h("h2", {}, "Validations"),
+    validationRows.length === 0 ? h("p", { class: "muted" }, "No validation yet.") :
+      table(["when", "version", "poses", "RMS (mm)", "max (mm)", "ISO 9283 AP per pose (mm)", "registered"],
+        validationRows, "validations"),
     h("h2", {}, "Parameter drift over versions"), h("div", { class: "row" }, choose), drift,
     h("h2", {}, "Pose designs"),
     designs.length === 0 ? h("p", { class: "muted" }, "No pose design yet.") :
