@@ -16,7 +16,7 @@ def _existing(repo: Repository, robot_id: str, version: int, field: str) -> Para
     latest = repo.latest_version(robot_id)
     if not 1 <= version <= latest:
         raise InvalidInput(
-            f"{field} {version} does not exist: robot {robot_id!r} has versions 1 to {latest}", field=field
+            f"{field}: version {version} does not exist; robot {robot_id!r} has versions 1 to {latest}", field=field
         )
     return repo.version(robot_id, version)
 
