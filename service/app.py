@@ -19,7 +19,20 @@ from service.jobs import JobRunner
 from service.metrics import Metrics
 from service.model_cache import ModelCache
 from service.persistence import Database
-from service.routes import calibrations, designs, error_analysis, health, jobs, kinematics, robots
+from service.routes import (
+    audit,
+    calibrations,
+    campaigns,
+    designs,
+    error_analysis,
+    health,
+    jobs,
+    kinematics,
+    reports,
+    robots,
+    validations,
+    versions,
+)
 from service.settings import Settings, get_settings
 
 log = logging.getLogger("service.http")
@@ -137,7 +150,19 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.metrics = Metrics()
     problems.install(app)
     ui.install(app)
-    for module in (robots, kinematics, designs, calibrations, jobs, error_analysis):
+    for module in (
+        robots,
+        versions,
+        kinematics,
+        designs,
+        calibrations,
+        campaigns,
+        jobs,
+        error_analysis,
+        audit,
+        validations,
+        reports,
+    ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)

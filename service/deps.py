@@ -13,11 +13,13 @@ from typing import Annotated, TypeVar
 import anyio
 from fastapi import Depends, Request
 
-from service.errors import Unauthorized
+from service import logs
+from service.errors import NotAcceptable, Unauthorized
 from service.jobs import JobRunner
 from service.metrics import Metrics
 from service.model_cache import ModelCache
 from service.persistence import Database
+from service.persistence.lifecycle import Actor
 
 T = TypeVar("T")
 
@@ -53,11 +55,19 @@ async def require_api_key(request: Request) -> None:
         raise Unauthorized("send a valid API key in the X-API-Key header")
 
 
+async def actor(request: Request) -> Actor:
+    """Who makes a change, for the audit trail: the API key's name that the key check leaves in
+    `request.state.actor` (None without keys: never the key itself), and this request's id."""
+    name = getattr(request.state, "actor", None)
+    return Actor(name=None if name is None else str(name)[:100], request_id=logs.request_id.get())
+
+
 DatabaseDep = Annotated[Database, Depends(database)]
 MetricsDep = Annotated[Metrics, Depends(metrics)]
 ModelCacheDep = Annotated[ModelCache, Depends(model_cache)]
 JobsDep = Annotated[JobRunner, Depends(jobs)]
 ApiKeyDep = Depends(require_api_key)
+ActorDep = Annotated[Actor, Depends(actor)]
 
 
 async def compute(m: Metrics, kind: str, fn: Callable[[], T]) -> T:
@@ -67,6 +77,46 @@ async def compute(m: Metrics, kind: str, fn: Callable[[], T]) -> T:
         return await anyio.to_thread.run_sync(fn)
     finally:
         m.solve.labels(kind).observe(time.perf_counter() - started)
+
+
+def negotiate(request: Request, offered: list[str]) -> str:
+    """The first of `offered` (the default) that the Accept header allows, by its q-values; 406 if none.
+
+    `?format=` is read by the routes that offer it, before this. Parameters other than q are ignored, and
+    `type/*` and `*/*` match as RFC 9110 says.
+    """
+    accept = request.headers.get("accept", "").strip()
+    if not accept:
+        return offered[0]
+    ranges: list[tuple[str, float]] = []
+    for part in accept.split(","):
+        media, *params = (p.strip() for p in part.split(";"))
+        q = 1.0
+        for param in params:
+            key, _, value = param.partition("=")
+            if key.strip().lower() == "q":
+                try:
+                    q = float(value)
+                except ValueError:
+                    q = 0.0
+        if media:
+            ranges.append((media.lower(), q))
+
+    def quality(media: str) -> float:
+        kind = media.split("/", maxsplit=1)[0]
+        # The most specific range that matches decides (text/csv;q=0 beats */*).
+        for pattern in (media, f"{kind}/*", "*/*"):
+            found = [q for m, q in ranges if m == pattern]
+            if found:
+                return max(found)
+        return 0.0
+
+    best = max(offered, key=lambda m: (quality(m), -offered.index(m)))
+    if quality(best) <= 0:
+        raise NotAcceptable(
+            f"Accept {accept!r} allows none of {', '.join(offered)}; ask for one of them", offered=offered
+        )
+    return best
 
 
 def wants_csv(request: Request) -> bool:

@@ -7,6 +7,8 @@ Tree (the domain's `models.errors.CalibrationError` is the other root `service.p
     ├── CalibrationFailed     422  the fit failed (stored, never applied): its id, the reason, the diagnoses
     ├── Unauthorized          401  missing or wrong API key
     ├── NotFound              404  an unknown id
+    ├── NotAcceptable         406  no representation the Accept header allows
+    ├── PreconditionFailed    412  If-Match names a revision that is no longer current
     ├── PayloadTooLarge       413  a body over the configured limit
     ├── UnsupportedMediaType  415  neither JSON nor CSV
     ├── Interrupted           503  a job whose worker stopped with the service
@@ -54,6 +56,18 @@ class Unauthorized(ServiceError):
 class NotFound(ServiceError):
     def __init__(self, detail: str, *, resource: str, id: str | None = None) -> None:
         super().__init__(detail, resource=resource, **({} if id is None else {"id": id}))
+
+
+class NotAcceptable(ServiceError):
+    def __init__(self, detail: str, *, offered: list[str]) -> None:
+        super().__init__(detail, offered=offered)
+
+
+class PreconditionFailed(ServiceError):
+    """`current` is the ETag the resource has now, so the client can re-read and decide."""
+
+    def __init__(self, detail: str, *, current: str) -> None:
+        super().__init__(detail, current=current)
 
 
 class PayloadTooLarge(ServiceError):

@@ -16,6 +16,7 @@ from service.problems import PROBLEM_JSON
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.jobs import JobAccepted
 from service.schemas.problems import Problem
+from service.schemas.versions import ParameterVersionImport
 
 PROBLEM_RESPONSES = {
     "400": "Malformed request (e.g. a CSV body that does not follow the header)",
@@ -26,7 +27,8 @@ PROBLEM_RESPONSES = {
     "422": "Invalid input: what is wrong and where",
     "503": "Not ready",
 }
-EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted, Problem)
+OPTIONAL_PROBLEMS = ("406", "412")
+EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted, Problem, ParameterVersionImport)
 """Referenced from `openapi_extra` (the calibration route parses its body itself) or from the error responses
 added below, so FastAPI does not see them all."""
 
@@ -51,6 +53,11 @@ def build(app: FastAPI, *, api_keys: bool) -> dict[str, Any]:
                     "description": description,
                     "content": {PROBLEM_JSON: {"schema": {"$ref": "#/components/schemas/Problem"}}},
                 }
+            # Statuses only some operations answer (406 by content negotiation, 412 by If-Match): the route
+            # declares them with a description, the problem body is added here.
+            for status in OPTIONAL_PROBLEMS:
+                if status in responses:
+                    responses[status]["content"] = {PROBLEM_JSON: {"schema": {"$ref": "#/components/schemas/Problem"}}}
     if api_keys:
         schema["components"]["securitySchemes"] = {"ApiKey": {"type": "apiKey", "in": "header", "name": "X-API-Key"}}
     return schema

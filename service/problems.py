@@ -44,6 +44,8 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     service.CalibrationFailed: (422, "calibration-failed", "The calibration failed"),
     service.Unauthorized: (401, "unauthorized", "API key missing or wrong"),
     service.NotFound: (404, "not-found", "Not found"),
+    service.NotAcceptable: (406, "not-acceptable", "Not acceptable"),
+    service.PreconditionFailed: (412, "precondition-failed", "Precondition failed"),
     service.PayloadTooLarge: (413, "payload-too-large", "Request body too large"),
     service.UnsupportedMediaType: (415, "unsupported-media-type", "Unsupported media type"),
     service.Interrupted: (503, "interrupted", "Interrupted"),

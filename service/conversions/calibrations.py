@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -17,25 +18,32 @@ from models.identification.result import IdentificationResult, Outlier, Predicte
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord
-from service.schemas.calibrations import CalibrationCreate, CalibrationReportPublic
+from service.schemas.calibrations import CalibrationCreate, CalibrationReportPublic, Record
 from service.schemas.common import timestamp
 
 
 def campaign_in(desc: RobotDescription, body: CalibrationCreate) -> Campaign:
-    with_orientation = [r.orientation is not None for r in body.measurements]
+    return records_in(desc, body.measurements, default_sigma_mm=body.noise.position_mm)
+
+
+def records_in(
+    desc: RobotDescription, measurements: Sequence[Record], *, default_sigma_mm: float | None = None
+) -> Campaign:
+    """A campaign from request records (a calibration's or a validation's), checked."""
+    with_orientation = [r.orientation is not None for r in measurements]
     if any(with_orientation) and not all(with_orientation):
         first = with_orientation.index(not with_orientation[0])
         raise BadRequest(
             f"record {first}: either every record has an orientation or none has (position-only campaign)",
             record=first,
         )
-    joints = joints_in(desc, [r.joints for r in body.measurements])
-    positions = np.array([r.position for r in body.measurements], dtype=float)
-    quats = np.array([r.orientation for r in body.measurements], dtype=float) if all(with_orientation) else None
-    given = [r.sigma_mm for r in body.measurements]
+    joints = joints_in(desc, [r.joints for r in measurements])
+    positions = np.array([r.position for r in measurements], dtype=float)
+    quats = np.array([r.orientation for r in measurements], dtype=float) if all(with_orientation) else None
+    given = [r.sigma_mm for r in measurements]
     sigma = None
-    if any(g is not None for g in given):
-        sigma = [body.noise.position_mm if g is None else g for g in given]  # the rest: the campaign's σ
+    if any(g is not None for g in given) and default_sigma_mm is not None:
+        sigma = [default_sigma_mm if g is None else g for g in given]  # the rest: the campaign's σ
     return make_campaign(desc, joints, positions, quats, sigma_mm=sigma)
 
 
@@ -86,6 +94,7 @@ def report_out(
     start_values: Array,
     start_version: int,
     checks: tuple[Check, ...] = (),
+    noise: NoiseModel | None = None,
 ) -> CalibrationReportPublic:
     """The whole report, boundary units. `nominal` is the robot's nominal geometry and `start` the start
     version's values (the fit's `result.nominal`), so a re-fit shows both."""
@@ -161,6 +170,10 @@ def report_out(
             "start_version": start_version,
             "diagnoses": diagnoses_out(result),
             "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail} for c in checks],
+            "correlation": _correlation(result),
+            "noise": None
+            if noise is None
+            else {"position_mm": noise.position_mm, "orientation_deg": math.degrees(noise.orientation_rad)},
         }
     )
 
@@ -170,6 +183,17 @@ def diagnoses_out(result: IdentificationResult) -> list[dict[str, Any]]:
         {"finding": d.finding.value, "message": d.message, "records": list(d.records), "blocking": d.blocking}
         for d in result.diagnoses
     ]
+
+
+def _correlation(result: IdentificationResult) -> dict[str, Any] | None:
+    """cov_ij / (σ_i σ_j) of the estimated parameters (unit-free, so internal units are fine)."""
+    cov = np.asarray(result.covariance, dtype=float)
+    if cov.ndim != 2 or cov.shape[0] != len(result.estimated) or cov.shape[0] == 0:
+        return None
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        matrix = np.clip(cov / np.outer(sd, sd), -1.0, 1.0)
+    return {"names": list(result.identifiable_names), "matrix": matrix.tolist()}
 
 
 def calibration_public(record: CalibrationRecord) -> dict[str, Any]:
@@ -184,4 +208,6 @@ def calibration_public(record: CalibrationRecord) -> dict[str, Any]:
         "parameter_version": record.parameter_version,
         "start_version": record.start_version,
         "created_at": timestamp(record.created_at),
+        "user_notes": record.notes,
+        "instrument": record.instrument,
     }

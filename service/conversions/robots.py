@@ -36,6 +36,8 @@ def robot_out(robot: Robot) -> RobotPublic:
         created_at=robot.created_at,
         base=pose6_out(robot.base),
         tool=pose6_out(robot.tool),
+        notes=robot.notes,
+        revision=robot.revision or 1,
     )
 
 

@@ -8,7 +8,7 @@ from pydantic import ValidationError
 
 from service.campaign_io import ImportOptions, QuaternionOrder
 from service.csv_codec import CAMPAIGN_HEADER, parse_campaign
-from service.deps import DatabaseDep, JobsDep, MetricsDep, compute
+from service.deps import ActorDep, DatabaseDep, JobsDep, MetricsDep, compute
 from service.errors import BadRequest, UnsupportedMediaType
 from service.responses import model_json
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
@@ -93,6 +93,7 @@ async def create_calibration(
     jobs: JobsDep,
     m: MetricsDep,
     *,
+    actor: ActorDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
     apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
     noise_position_mm: float | None = Query(None, gt=0, le=1000, description="σ position, CSV bodies"),
@@ -114,7 +115,9 @@ async def create_calibration(
     if run_async:
         accepted = submit_job(db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body)
         return model_json(accepted, status_code=202)
-    return await compute(m, "identification", lambda: calibrations.calibrate(db=db, robot_id=robot_id, body=body))
+    return await compute(
+        m, "identification", lambda: calibrations.calibrate(db=db, robot_id=robot_id, body=body, actor=actor)
+    )
 
 
 @router.get("/v1/robots/{robot_id}/calibrations", response_model=list[CalibrationPublic])

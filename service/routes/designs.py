@@ -3,16 +3,18 @@ from __future__ import annotations
 from typing import Any
 
 from fastapi import APIRouter, Query, Request, Response
+from pydantic import TypeAdapter
 
 from service.csv_codec import joints_csv
 from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, compute, wants_csv
-from service.responses import model_json
-from service.schemas.designs import PoseDesignCreate, PoseDesignPublic
+from service.responses import model_json, models_json
+from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
 from service.schemas.jobs import JobAccepted
 from service.services import designs
 from service.services.jobs import submit_job
 
 router = APIRouter(tags=["pose designs"])
+_SUMMARIES = TypeAdapter(list[PoseDesignSummaryPublic])
 _CSV_BODY = {"content": {"text/csv": {"schema": {"type": "string", "description": "header q1,…,l6"}}}}
 _CREATED: dict[int | str, dict[str, Any]] = {
     201: _CSV_BODY,
@@ -52,3 +54,14 @@ async def create_design(
 @router.get("/v1/pose-designs/{design_id}", response_model=PoseDesignPublic, responses=_FOUND)
 def get_design(design_id: str, request: Request, db: DatabaseDep) -> dict[str, Any] | Response:
     return _answer(request, designs.get_design(db=db, design_id=design_id), 200)
+
+
+@router.get("/v1/robots/{robot_id}/pose-designs", response_model=list[PoseDesignSummaryPublic])
+def list_designs(
+    robot_id: str,
+    db: DatabaseDep,
+    limit: int = Query(100, ge=1, le=1000),
+    offset: int = Query(0, ge=0, le=1_000_000_000),
+) -> Response:
+    """The robot's stored designs, oldest first (criterion, count, value); each one's poses by its id."""
+    return models_json(designs.list_designs(db=db, robot_id=robot_id, limit=limit, offset=offset), _SUMMARIES)

@@ -1,20 +1,39 @@
 from __future__ import annotations
 
-from fastapi import APIRouter, Query, Response
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Header, Query, Request, Response
 from pydantic import TypeAdapter
 
-from service.deps import DatabaseDep
+from service.deps import ActorDep, DatabaseDep, negotiate
+from service.parameters_csv import PARAMETER_HEADER, parameters_csv
 from service.responses import model_json, models_json
-from service.schemas.robots import ParametersPublic, RobotCreate, RobotPublic
+from service.schemas.robots import ParametersPublic, RobotCreate, RobotPatch, RobotPublic
 from service.services import robots
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
 _ROBOTS = TypeAdapter(list[RobotPublic])
+IfMatch = Annotated[str | None, Header(description="The robot's ETag as last read: 412 when it has changed since")]
+_PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}
+_PARAMETER_FORMATS = ["application/json", "text/csv"]
+_PARAMETERS_CSV: dict[int | str, dict[str, Any]] = {
+    200: {
+        "content": {"text/csv": {"schema": {"type": "string", "description": "header " + ",".join(PARAMETER_HEADER)}}}
+    },
+    406: {"description": "Accept allows neither JSON nor CSV"},
+}
+
+
+def _etag(revision: int) -> dict[str, str]:
+    return {"ETag": f'"{revision}"'}
 
 
 @router.post("", status_code=201, response_model=RobotPublic)
-def create_robot(body: RobotCreate, db: DatabaseDep) -> Response:
-    return model_json(robots.create_robot(db=db, body=body), status_code=201)
+def create_robot(body: RobotCreate, db: DatabaseDep, actor: ActorDep) -> Response:
+    robot = robots.create_robot(db=db, body=body, actor=actor)
+    response = model_json(robot, status_code=201)
+    response.headers.update(_etag(robot.revision))
+    return response
 
 
 @router.get("", response_model=list[RobotPublic])
@@ -28,19 +47,41 @@ def list_robots(
 
 @router.get("/{robot_id}", response_model=RobotPublic)
 def get_robot(robot_id: str, db: DatabaseDep) -> Response:
-    return model_json(robots.get_robot(db=db, robot_id=robot_id))
+    robot = robots.get_robot(db=db, robot_id=robot_id)
+    response = model_json(robot)
+    response.headers.update(_etag(robot.revision))
+    return response
 
 
-@router.delete("/{robot_id}", status_code=204)
-def delete_robot(robot_id: str, db: DatabaseDep) -> Response:
-    robots.delete_robot(db=db, robot_id=robot_id)
+@router.patch("/{robot_id}", response_model=RobotPublic, responses=_PRECONDITION)
+def patch_robot(
+    robot_id: str, body: RobotPatch, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None
+) -> Response:
+    robot = robots.patch_robot(db=db, robot_id=robot_id, body=body, actor=actor, if_match=if_match)
+    response = model_json(robot)
+    response.headers.update(_etag(robot.revision))
+    return response
+
+
+@router.delete("/{robot_id}", status_code=204, responses=_PRECONDITION)
+def delete_robot(robot_id: str, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None) -> Response:
+    robots.delete_robot(db=db, robot_id=robot_id, actor=actor, if_match=if_match)
     return Response(status_code=204)
 
 
-@router.get("/{robot_id}/parameters", response_model=ParametersPublic)
+@router.get("/{robot_id}/parameters", response_model=ParametersPublic, responses=_PARAMETERS_CSV)
 def get_parameters(
     robot_id: str,
+    request: Request,
     db: DatabaseDep,
-    version: int | None = Query(None, ge=1, description="A past version (default: current)"),
+    version: int | None = Query(None, ge=1, le=2**31 - 1, description="A past version (default: current)"),
 ) -> Response:
-    return model_json(robots.get_parameters(db=db, robot_id=robot_id, version=version))
+    """JSON or CSV by Accept (406 for anything else); either re-imports through POST …/parameter-versions."""
+    media = negotiate(request, _PARAMETER_FORMATS)
+    parameters, etag = robots.get_parameters(db=db, robot_id=robot_id, version=version)
+    if media == "text/csv":
+        response = Response(parameters_csv(parameters), media_type="text/csv")
+    else:
+        response = model_json(parameters)
+    response.headers["ETag"] = etag
+    return response

@@ -55,6 +55,19 @@ class CalibrationOptions(Strict):
     robust_scale: float = Field(default=_OPTIONS.robust_scale, gt=0, le=1000, description="In units of σ")
 
 
+class Instrument(Strict):
+    name: str = Field(min_length=1, max_length=200, examples=["Leica AT960"])
+    serial: str | None = Field(default=None, max_length=200)
+
+
+class InstrumentPublic(Public):
+    name: str
+    serial: str | None
+
+
+NOTES_MAX = 10_000
+
+
 class CalibrationCreate(Strict):
     measurements: list[Record] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
     noise: Noise = Noise()
@@ -77,6 +90,8 @@ class CalibrationCreate(Strict):
         description="Parameter version the fit starts from (default: the robot's current one); the parameters "
         "it does not estimate keep this version's values",
     )
+    notes: str | None = Field(default=None, max_length=NOTES_MAX, description="Free text, kept with the calibration")
+    instrument: Instrument | None = Field(default=None, description="The instrument that measured the campaign")
 
 
 # ------------------------------------------------------------------ the report
@@ -167,6 +182,18 @@ class CheckPublic(Public):
     detail: str
 
 
+class NoisePublic(Public):
+    position_mm: float
+    orientation_deg: float
+
+
+class CorrelationPublic(Public):
+    """Correlation matrix of the estimated parameters, from the a-posteriori covariance."""
+
+    names: list[str] = Field(description="The estimated parameters, in the matrix's order")
+    matrix: list[list[OptionalFloat]]
+
+
 class CalibrationReportPublic(Public):
     """What a calibration computed: stored once, as validated here, and served as stored."""
 
@@ -204,6 +231,12 @@ class CalibrationReportPublic(Public):
         default=None, description="Why `apply` was asked and the result not applied (the failed checks)"
     )
     forced: bool = Field(default=False, description="Applied although a check failed (force_apply), recorded")
+    correlation: CorrelationPublic | None = Field(
+        default=None, description="Null for calibrations stored before it was kept"
+    )
+    noise: NoisePublic | None = Field(
+        default=None, description="The measurement noise the fit assumed; null for calibrations stored before"
+    )
 
 
 class CalibrationPublic(CalibrationReportPublic):
@@ -213,3 +246,5 @@ class CalibrationPublic(CalibrationReportPublic):
     applied: bool
     parameter_version: int | None = Field(description="The version this calibration created (when applied)")
     created_at: datetime
+    user_notes: str | None = Field(default=None, description="The free-text notes sent with the request")
+    instrument: InstrumentPublic | None = None

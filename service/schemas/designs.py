@@ -188,3 +188,15 @@ class PoseDesignPublic(PoseDesignReportPublic):
     id: str
     robot_id: str
     created_at: datetime
+
+
+class PoseDesignSummaryPublic(Public):
+    """One stored design in a robot's list; GET /v1/pose-designs/{id} has the whole report."""
+
+    id: str
+    robot_id: str
+    created_at: datetime
+    criterion: Criterion
+    measurement: Literal["pose", "position"]
+    count: int
+    value: OptionalFloat

@@ -15,6 +15,16 @@ class RobotCreate(Strict):
     tool: Pose | None = Field(default=None, description="Nominal guess of platform -> TCP (default identity)")
 
 
+class RobotPatch(Strict):
+    """Only the fields given change. New base or tool guesses make a new parameter version (provenance `edit`)
+    with those six values set to the guess and the rest kept from the current version."""
+
+    name: str | None = Field(default=None, min_length=1, max_length=200)
+    base: Pose | None = Field(default=None, description="New nominal guess of world <- robot base")
+    tool: Pose | None = Field(default=None, description="New nominal guess of platform -> TCP")
+    notes: str | None = Field(default=None, max_length=10_000, description='Free text; "" clears it')
+
+
 class RobotPublic(Public):
     id: str
     name: str
@@ -23,6 +33,8 @@ class RobotPublic(Public):
     created_at: datetime
     base: PosePublic
     tool: PosePublic
+    notes: str | None = None
+    revision: int = Field(description="Bumped by every change of the robot or its current version; the ETag")
 
 
 class ParameterPublic(Public):

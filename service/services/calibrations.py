@@ -19,12 +19,13 @@ from service.conversions.calibrations import (
 from service.conversions.robots import description
 from service.errors import CalibrationFailed
 from service.persistence import Database, Repository
+from service.persistence.lifecycle import Actor, Lifecycle
 from service.persistence.repository import new_id
 from service.persistence.tables import ParameterVersion
 from service.schemas.calibrations import CalibrationCreate
 
 
-def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[str, Any]:
+def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Actor | None = None) -> dict[str, Any]:
     """Identify, then store the campaign, the calibration and (when it passed its checks and `apply`) the new
     version together. The result as `CalibrationPublic` JSON; a failed fit is stored, then raised as
     `CalibrationFailed` (a 422 naming the stored attempt)."""
@@ -41,7 +42,8 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
     options = options_in(body)
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
-    result = identify(desc, campaign, noise=noise_in(body), nominal=start_values, options=options)
+    noise = noise_in(body)
+    result = identify(desc, campaign, noise=noise, nominal=start_values, options=options)
     candidates = desc.parameters.indices(options.estimate)
     expected = structural_identifiability(desc, candidates, campaign.kind).rank
     everything = structural_identifiability(
@@ -56,7 +58,9 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
         held_accuracy_mm=start_accuracy if partial else None,
     )
     refused = failed_checks(checks)
-    report = report_out(desc, result, start_values=start_values, start_version=start_version, checks=checks)
+    report = report_out(
+        desc, result, start_values=start_values, start_version=start_version, checks=checks, noise=noise
+    )
     payload = report.model_dump(mode="json")
     payload["notes"] = [*body.import_notes, *payload["notes"]]
     apply = result.succeeded and body.apply and (refused is None or body.force_apply)
@@ -71,14 +75,30 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
         stored = repo.add_campaign(robot_id, records)
         record = repo.add_calibration(calibration_id, robot_id, stored.id, result.status, payload)
         record.start_version = start_version
+        record.notes = body.notes
+        record.instrument = None if body.instrument is None else body.instrument.model_dump()
         if apply:
             # What this fit estimated carries its new statistics; the rest keeps the start version's.
             std, ident = start_std, start_ident
             for i in result.estimated:
                 value = float(result.std_errors[i])
                 std[i], ident[i] = (value if np.isfinite(value) else None), True
+            previous = robot.current_version
             record.parameter_version = repo.add_version(robot, result.parameters.tolist(), std, ident, calibration_id)
             record.applied = True
+            who = actor or Actor()
+            repo.version(robot_id, record.parameter_version).actor = who.name
+            Lifecycle(s).changed(
+                robot,
+                "version.calibrated",
+                who,
+                version=record.parameter_version,
+                details={
+                    "from_version": previous,
+                    "calibration_id": calibration_id,
+                    "forced": payload.get("forced", False),
+                },
+            )
         answer = calibration_public(record)
     if not result.succeeded:
         raise CalibrationFailed(

@@ -7,7 +7,8 @@ from service.conversions.designs import constraints_in, design_public, report_ou
 from service.conversions.kinematics import joints_in
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
-from service.schemas.designs import PoseDesignCreate
+from service.persistence.lifecycle import Lifecycle
+from service.schemas.designs import PoseDesignCreate, PoseDesignSummaryPublic
 
 
 def create_design(*, db: Database, models: ModelCache, robot_id: str, body: PoseDesignCreate) -> dict[str, Any]:
@@ -61,3 +62,14 @@ def create_design(*, db: Database, models: ModelCache, robot_id: str, body: Pose
 def get_design(*, db: Database, design_id: str) -> dict[str, Any]:
     with db.reader() as s:
         return design_public(Repository(s).design(design_id))
+
+
+def list_designs(*, db: Database, robot_id: str, limit: int, offset: int) -> list[PoseDesignSummaryPublic]:
+    with db.reader() as s:
+        Repository(s).robot(robot_id)
+        return [
+            PoseDesignSummaryPublic.model_validate(
+                {k: v for k, v in design_public(r).items() if k in PoseDesignSummaryPublic.model_fields}
+            )
+            for r in Lifecycle(s).designs(robot_id, limit, offset)
+        ]

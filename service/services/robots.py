@@ -1,16 +1,24 @@
 from __future__ import annotations
 
+import numpy as np
+
 from models import iwr
 from service.conversions.robots import description, frame_in, parameters_out, robot_out
 from service.persistence import Database, Repository
-from service.schemas.robots import ParametersPublic, RobotCreate, RobotPublic
+from service.persistence.lifecycle import Actor, Lifecycle, check_revision, etag
+from service.schemas.robots import ParametersPublic, RobotCreate, RobotPatch, RobotPublic
+
+NO_ACTOR = Actor()
 
 
-def create_robot(*, db: Database, body: RobotCreate) -> RobotPublic:
+def create_robot(*, db: Database, body: RobotCreate, actor: Actor = NO_ACTOR) -> RobotPublic:
     base, tool = frame_in(body.base, "base"), frame_in(body.tool, "tool")
     nominal = iwr(base, tool).parameters.nominal.tolist()
     with db.session() as s:
-        return robot_out(Repository(s).add_robot(body.name, body.model, list(base), list(tool), nominal))
+        robot = Repository(s).add_robot(body.name, body.model, list(base), list(tool), nominal)
+        Repository(s).version(robot.id, 1).actor = actor.name
+        Lifecycle(s).changed(robot, "robot.created", actor, version=1, details={"name": robot.name}, bump=False)
+        return robot_out(robot)
 
 
 def list_robots(*, db: Database, limit: int, offset: int) -> list[RobotPublic]:
@@ -23,12 +31,62 @@ def get_robot(*, db: Database, robot_id: str) -> RobotPublic:
         return robot_out(Repository(s).robot(robot_id))
 
 
-def delete_robot(*, db: Database, robot_id: str) -> None:
+def patch_robot(
+    *, db: Database, robot_id: str, body: RobotPatch, actor: Actor = NO_ACTOR, if_match: str | None = None
+) -> RobotPublic:
+    """Name and notes change in place; new base or tool guesses also make a new current version (provenance
+    `edit`) where those parameters take the guess and every other parameter keeps the current version's value."""
+    given = body.model_fields_set
+    base = frame_in(body.base, "base") if "base" in given and body.base is not None else None
+    tool = frame_in(body.tool, "tool") if "tool" in given and body.tool is not None else None
     with db.session() as s:
-        Repository(s).delete_robot(robot_id)
+        repo, life = Repository(s), Lifecycle(s)
+        robot = repo.robot(robot_id, lock=True)
+        check_revision(robot, if_match)
+        changed: list[str] = []
+        if "name" in given and body.name is not None and body.name != robot.name:
+            robot.name, changed = body.name, [*changed, "name"]
+        if "notes" in given and (body.notes or None) != robot.notes:
+            robot.notes, changed = body.notes or None, [*changed, "notes"]
+        frames = {}
+        if base is not None and list(base) != robot.base:
+            frames["base"] = base
+        if tool is not None and list(tool) != robot.tool:
+            frames["tool"] = tool
+        if frames:
+            previous = repo.version(robot_id)
+            values = np.asarray(previous.values, dtype=float)
+            std = list(previous.std_errors or [None] * len(values))
+            ident = list(previous.identifiable or [None] * len(values))
+            slices = description(robot).slices
+            for what, frame in frames.items():
+                values[slices[what]] = frame
+                for i in range(*slices[what].indices(len(values))):
+                    std[i], ident[i] = None, None  # a guess, not an estimate
+                setattr(robot, what, list(frame))
+            new = life.add_version(
+                robot, values=values.tolist(), std_errors=std, identifiable=ident, provenance="edit", actor=actor
+            )
+            changed += sorted(frames)
+            details = {"from_version": previous.version, "changed": sorted(frames)}
+            life.changed(robot, "version.edited", actor, version=new, details=details, bump=False)
+        if changed:  # one revision per PATCH, whatever it changed
+            life.changed(robot, "robot.updated", actor, version=robot.current_version, details={"changed": changed})
+        return robot_out(robot)
 
 
-def get_parameters(*, db: Database, robot_id: str, version: int | None) -> ParametersPublic:
+def delete_robot(*, db: Database, robot_id: str, actor: Actor = NO_ACTOR, if_match: str | None = None) -> None:
+    with db.session() as s:
+        repo, life = Repository(s), Lifecycle(s)
+        robot = repo.robot(robot_id, lock=True)
+        check_revision(robot, if_match)
+        life.changed(robot, "robot.deleted", actor, version=robot.current_version, details={"name": robot.name})
+        life.delete_validations(robot_id)
+        repo.delete_robot(robot_id)
+
+
+def get_parameters(*, db: Database, robot_id: str, version: int | None) -> tuple[ParametersPublic, str]:
     with db.reader() as s:
         repo = Repository(s)
-        return parameters_out(description(repo.robot(robot_id)), repo.version(robot_id, version))
+        robot = repo.robot(robot_id)
+        return parameters_out(description(robot), repo.version(robot_id, version)), etag(robot)

@@ -30,7 +30,8 @@ function h(tag, attrs = {}, ...children) {
   return node;
 }
 
-const num = (v, digits = 4) => (v === null || v === undefined ? "—" : Number(v).toPrecision(digits));
+const num = (v, digits = 4) => (v === null || v === undefined ? "—"
+  : Number.isInteger(v) ? String(v) : Number(v).toPrecision(digits));  // counts and versions stay integers
 const when = (iso) => (iso ? new Date(iso).toLocaleString() : "—");
 
 function table(headers, rows, id) {
@@ -51,9 +52,13 @@ async function robotsPage() {
 }
 
 async function robotPage(id) {
-  const [robot, calibrations, versions, designs] = await Promise.all([
+  const [robot, calibrations, versions, designs, validations] = await Promise.all([
     api(`/v1/robots/${id}`), api(`/v1/robots/${id}/calibrations`), api(`/v1/robots/${id}/parameter-versions`),
-    api(`/v1/robots/${id}/pose-designs`)]);
+    api(`/v1/robots/${id}/pose-designs`), api(`/v1/robots/${id}/validations`)]);
+  // One row per (validation, version): the same campaign judged against each version it was asked for.
+  const validationRows = validations.flatMap((v) => v.results.map((r) => [when(v.created_at), numCell(r.version, 3),
+    numCell(v.measurements, 3), numCell(r.position_mm.rms), numCell(r.position_mm.max),
+    r.iso9283 ? r.iso9283.poses.map((p) => num(p.AP_mm, 3)).join(" · ") : "—", r.registered ? "yes" : "no"]));
   const drift = h("div", { id: "drift" });
   const choose = h("select", { id: "drift-parameter" });
   const first = await api(`/v1/robots/${id}/parameters?version=1`);
@@ -70,6 +75,15 @@ async function robotPage(id) {
           numCell(c.residuals.before.rms_mm), numCell(c.residuals.after.rms_mm),
           h("span", {}, h("a", { href: `#/calibrations/${c.id}/report` }, "HTML"), " · ",
             h("a", { href: "#", onclick: (e) => { e.preventDefault(); openPdf(c.id); } }, "PDF"))]), "calibrations"),
+    h("h2", {}, "Parameter versions"),
+    table(["version", "provenance", "from", "by", "when", ""], versions.map((v) => [numCell(v.version, 3), v.provenance,
+      v.calibration_id ? h("a", { href: `#/calibrations/${v.calibration_id}/report` }, "calibration") :
+        (v.restored_from ? `version ${v.restored_from}` : "—"),
+      v.actor || "—", when(v.created_at), v.current ? h("b", {}, "current") : ""]), "versions"),
+    h("h2", {}, "Validations"),
+    validationRows.length === 0 ? h("p", { class: "muted" }, "No validation yet.") :
+      table(["when", "version", "poses", "RMS (mm)", "max (mm)", "ISO 9283 AP per pose (mm)", "registered"],
+        validationRows, "validations"),
     h("h2", {}, "Parameter drift over versions"), h("div", { class: "row" }, choose), drift,
     h("h2", {}, "Pose designs"),
     designs.length === 0 ? h("p", { class: "muted" }, "No pose design yet.") :
@@ -119,7 +133,23 @@ async function openPdf(id) {
 }
 
 let jobTimer = null;
+// The job list (GET /v1/jobs) is newer than this page: ask the service's own contract whether it has it, so an
+// older service gets a note instead of a failed request.
+let hasJobList = null;
+async function jobListAvailable() {
+  if (hasJobList === null) {
+    const contract = await (await fetch("/openapi.json")).json();
+    hasJobList = Boolean(contract.paths && contract.paths["/v1/jobs"] && contract.paths["/v1/jobs"].get);
+  }
+  return hasJobList;
+}
+
 async function jobsPage() {
+  if (!(await jobListAvailable())) {
+    view.replaceChildren(h("h1", {}, "Jobs"), h("p", { class: "muted", id: "no-job-list" },
+      "This service does not list jobs (GET /v1/jobs); each job is still at the status_url its submission returned."));
+    return;
+  }
   const jobs = await api("/v1/jobs");
   view.replaceChildren(h("h1", {}, "Jobs"),
     jobs.length === 0 ? h("p", { class: "muted" }, "No job yet.") :

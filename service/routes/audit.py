@@ -1,0 +1,32 @@
+from __future__ import annotations
+
+from datetime import datetime
+
+from fastapi import APIRouter, Query, Response
+from pydantic import TypeAdapter
+
+from service.deps import DatabaseDep
+from service.responses import models_json
+from service.schemas.audit import Action, AuditEventPublic
+from service.services import audit
+
+router = APIRouter(tags=["audit"])
+_EVENTS = TypeAdapter(list[AuditEventPublic])
+
+
+@router.get("/v1/audit", response_model=list[AuditEventPublic])
+def list_audit(
+    db: DatabaseDep,
+    *,
+    robot_id: str | None = Query(None, max_length=36, description="One robot's events (also after its deletion)"),
+    action: Action | None = Query(None),
+    since: datetime | None = Query(None, description="From this time on (inclusive), RFC 3339"),
+    until: datetime | None = Query(None, description="Before this time (exclusive), RFC 3339"),
+    limit: int = Query(100, ge=1, le=1000),
+    offset: int = Query(0, ge=0, le=1_000_000_000),
+) -> Response:
+    """Oldest first: robots created, changed and deleted, and every change of a robot's current version."""
+    events = audit.list_events(
+        db=db, robot_id=robot_id, action=action, since=since, until=until, limit=limit, offset=offset
+    )
+    return models_json(events, _EVENTS)

@@ -1,0 +1,51 @@
+from __future__ import annotations
+
+import csv
+import io
+from typing import Any
+
+from fastapi import APIRouter, Query, Request, Response
+
+from service.csv_codec import CAMPAIGN_HEADER
+from service.deps import DatabaseDep, negotiate
+from service.responses import model_json
+from service.schemas.campaigns import CampaignPublic
+from service.services import campaigns
+
+router = APIRouter(tags=["campaigns"])
+_FORMATS = {"json": "application/json", "csv": "text/csv"}
+_CSV: dict[int | str, dict[str, Any]] = {
+    200: {
+        "content": {"text/csv": {"schema": {"type": "string", "description": "header " + ",".join(CAMPAIGN_HEADER)}}}
+    },
+    406: {"description": "Accept allows neither JSON nor CSV"},
+}
+
+
+def campaign_csv(campaign: CampaignPublic) -> str:
+    """The spec's campaign CSV (what POST …/calibrations accepts), numbers exactly as stored."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    with_orientation = any(r.orientation is not None for r in campaign.measurements)
+    writer.writerow(CAMPAIGN_HEADER if with_orientation else CAMPAIGN_HEADER[:13])
+    for r in campaign.measurements:
+        cells = [repr(float(v)) for v in (*r.joints, *r.position)]
+        if with_orientation:
+            cells += [repr(float(v)) for v in r.orientation] if r.orientation is not None else ["", "", "", ""]
+        writer.writerow(cells)
+    return out.getvalue()
+
+
+@router.get("/v1/campaigns/{campaign_id}", response_model=CampaignPublic, responses=_CSV)
+def get_campaign(
+    campaign_id: str,
+    request: Request,
+    db: DatabaseDep,
+    format: str | None = Query(None, pattern="^(json|csv)$", description="Overrides Accept"),
+) -> Response:
+    """The measurements behind a calibration or validation, as received: JSON, or the spec's CSV."""
+    media = _FORMATS[format] if format else negotiate(request, list(_FORMATS.values()))
+    campaign = campaigns.get_campaign(db=db, campaign_id=campaign_id)
+    if media == "text/csv":
+        return Response(campaign_csv(campaign), media_type="text/csv")
+    return model_json(campaign)

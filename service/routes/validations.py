@@ -1,0 +1,44 @@
+from __future__ import annotations
+
+from fastapi import APIRouter, Query, Response
+from pydantic import TypeAdapter
+
+from service.deps import DatabaseDep, MetricsDep, compute
+from service.responses import model_json, models_json
+from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
+from service.services import validations
+
+router = APIRouter(tags=["validations"])
+_VALIDATIONS = TypeAdapter(list[ValidationPublic])
+
+
+@router.post("/v1/robots/{robot_id}/validations", status_code=201, response_model=ValidationPublic)
+async def create_validation(robot_id: str, body: ValidationCreate, db: DatabaseDep, m: MetricsDep) -> Response:
+    """Measurements that are not fitted, against parameter versions: per-pose errors, RMS, max, percentiles, and
+    ISO 9283 AP/RP (and AD/RD) where joint commands repeat."""
+    result = await compute(m, "validation", lambda: validations.validate(db=db, robot_id=robot_id, body=body))
+    return model_json(result, status_code=201)
+
+
+@router.get("/v1/robots/{robot_id}/validations", response_model=list[ValidationPublic])
+def list_validations(
+    robot_id: str,
+    db: DatabaseDep,
+    limit: int = Query(100, ge=1, le=1000),
+    offset: int = Query(0, ge=0, le=1_000_000_000),
+) -> Response:
+    return models_json(validations.list_validations(db=db, robot_id=robot_id, limit=limit, offset=offset), _VALIDATIONS)
+
+
+@router.get("/v1/validations/{validation_id}", response_model=ValidationPublic)
+def get_validation(validation_id: str, db: DatabaseDep) -> Response:
+    return model_json(validations.get_validation(db=db, validation_id=validation_id))
+
+
+@router.post("/v1/robots/{robot_id}/iso9283-poses", response_model=IsoPosesPublic)
+async def iso9283_poses(robot_id: str, db: DatabaseDep, m: MetricsDep, body: IsoPosesCreate | None = None) -> Response:
+    """The ISO 9283 test cube inside the workspace (C1…C8, P1…P5) and the joint commands of P1…P5 from the
+    chosen version (default: current). Measure P1…P5 in cycles and POST them as a validation."""
+    chosen = body or IsoPosesCreate()
+    result = await compute(m, "iso9283", lambda: validations.iso_poses(db=db, robot_id=robot_id, body=chosen))
+    return model_json(result)

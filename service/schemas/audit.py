@@ -1,0 +1,50 @@
+"""The audit trail: who changed which robot or current parameter version, when, in which request."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Literal
+
+from pydantic import Field
+
+from service.schemas.common import Public
+
+Action = Literal[
+    "robot.created",
+    "robot.updated",
+    "robot.deleted",
+    "version.calibrated",
+    "version.restored",
+    "version.imported",
+    "version.edited",
+]
+
+
+def _absent_if_none(value: object) -> bool:
+    return value is None
+
+
+class AuditDetailsPublic(Public):
+    """What the action needs to be understood; the keys that do not apply are absent."""
+
+    changed: list[str] | None = Field(default=None, exclude_if=_absent_if_none, description="Fields a PATCH changed")
+    name: str | None = Field(default=None, exclude_if=_absent_if_none, description="The robot's name at the time")
+    from_version: int | None = Field(
+        default=None, exclude_if=_absent_if_none, description="Current version before the change"
+    )
+    calibration_id: str | None = Field(default=None, exclude_if=_absent_if_none)
+    restored_from: int | None = Field(default=None, exclude_if=_absent_if_none)
+    forced: bool | None = Field(
+        default=None, exclude_if=_absent_if_none, description="A calibration applied although a check failed"
+    )
+
+
+class AuditEventPublic(Public):
+    id: int
+    at: datetime
+    actor: str | None = Field(description="Name of the API key (never the key); null without keys")
+    request_id: str | None
+    action: Action
+    robot_id: str | None
+    version: int | None = Field(description="The robot's current version after the change")
+    details: AuditDetailsPublic

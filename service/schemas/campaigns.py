@@ -1,0 +1,22 @@
+"""A stored campaign: the measurements exactly as they were received."""
+
+from __future__ import annotations
+
+from datetime import datetime
+
+from pydantic import Field
+
+from service.schemas.common import Public
+
+
+class CampaignRecordPublic(Public):
+    joints: list[float] = Field(description="[q1 (mm), q2 (mm), q3 (deg), q4 (deg), l1 … l6 (mm)]")
+    position: list[float] = Field(description="mm")
+    orientation: list[float] | None = Field(description="unit quaternion [w, x, y, z]; null when not measured")
+
+
+class CampaignPublic(Public):
+    id: str
+    robot_id: str
+    created_at: datetime
+    measurements: list[CampaignRecordPublic]

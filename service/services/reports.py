@@ -1,0 +1,53 @@
+"""A calibration's report, built from what the API serves: the stored calibration document, its campaign's measured
+positions, the stored correlation matrix and the validations of the version it produced."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from service.conversions.calibrations import calibration_public
+from service.conversions.validations import validation_public
+from service.persistence import Database, Repository
+from service.persistence.lifecycle import Lifecycle
+from service.reports import CalibrationReport, render_html, render_pdf
+
+
+def build_report(*, db: Database, calibration_id: str) -> CalibrationReport:
+    with db.reader() as s:
+        repo, life = Repository(s), Lifecycle(s)
+        record = repo.calibration(calibration_id)
+        document = calibration_public(record)
+        robot_name = repo.robot(record.robot_id).name
+        positions = np.array([r["position"] for r in life.campaign(record.campaign_id).records], dtype=float)
+        produced = record.parameter_version
+        validations: list[dict[str, Any]] = []
+        if produced is not None:
+            for row in life.validations(record.robot_id):
+                doc = validation_public(row).model_dump(mode="json")
+                results = [r for r in doc["results"] if r["version"] == produced]
+                if results:
+                    validations.append({**doc, "results": results})
+    stored = document.get("correlation")
+    correlation = None
+    if stored:
+        matrix = np.array([[np.nan if v is None else v for v in row] for row in stored["matrix"]], dtype=float)
+        correlation = (list(stored["names"]), matrix)
+    noise = document.get("noise") or {}
+    return CalibrationReport(
+        calibration=document,
+        robot_name=robot_name,
+        measured_positions=positions,
+        correlation=correlation,
+        noise_position_mm=noise.get("position_mm"),
+        validations=validations,
+    )
+
+
+def report_html(*, db: Database, calibration_id: str) -> str:
+    return render_html(build_report(db=db, calibration_id=calibration_id))
+
+
+def report_pdf(*, db: Database, calibration_id: str) -> bytes:
+    return render_pdf(build_report(db=db, calibration_id=calibration_id))

@@ -1,0 +1,84 @@
+"""Validations: measurements that are never fitted, evaluated against parameter versions (ISO 9283 where they
+repeat); and the ISO 9283 cube poses of a version. Read, compute outside any transaction, write in one."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from models.accuracy import evaluate, iso_cube_poses
+from models.errors import InvalidInput
+from service.conversions.calibrations import records_in
+from service.conversions.robots import description
+from service.conversions.validations import iso_poses_out, validation_public, version_result_out
+from service.persistence import Database, Repository
+from service.persistence.lifecycle import Lifecycle
+from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
+
+
+def _checked_versions(repo: Repository, robot_id: str, wanted: list[int] | None) -> list[int]:
+    if wanted is None:
+        return [repo.current_version(robot_id)]
+    latest = repo.latest_version(robot_id)
+    for k, v in enumerate(wanted):
+        if not 1 <= v <= latest:
+            raise InvalidInput(
+                f"versions[{k}]: version {v} does not exist; robot {robot_id!r} has versions 1 to {latest}",
+                field=f"versions[{k}]",
+            )
+    if len(set(wanted)) != len(wanted):
+        raise InvalidInput("versions: each version at most once", field="versions")
+    return list(wanted)
+
+
+def validate(*, db: Database, robot_id: str, body: ValidationCreate) -> ValidationPublic:
+    with db.reader() as s:
+        repo = Repository(s)
+        desc = description(repo.robot(robot_id))
+        versions = _checked_versions(repo, robot_id, body.versions)
+        values = {v: np.asarray(repo.version(robot_id, v).values, dtype=float) for v in versions}
+    campaign = records_in(desc, body.measurements)
+    if body.fit_frame and campaign.size < 3:
+        raise InvalidInput("register: fitting the instrument frame needs at least 3 records", field="register")
+    results = [
+        version_result_out(desc, v, evaluate(desc, values[v], campaign, register=body.fit_frame)).model_dump(
+            mode="json"
+        )
+        for v in versions
+    ]
+    document = {
+        "measurement": "pose" if campaign.quaternions is not None else "position",
+        "measurements": campaign.size,
+        "results": results,
+    }
+    records = [r.model_dump() for r in body.measurements]
+    instrument = None if body.instrument is None else body.instrument.model_dump()
+    with db.session() as s:
+        repo, life = Repository(s), Lifecycle(s)
+        repo.robot(robot_id, lock=True)  # still there
+        stored = repo.add_campaign(robot_id, records)
+        return validation_public(life.add_validation(robot_id, stored.id, document, body.notes, instrument))
+
+
+def get_validation(*, db: Database, validation_id: str) -> ValidationPublic:
+    with db.reader() as s:
+        return validation_public(Lifecycle(s).validation(validation_id))
+
+
+def list_validations(*, db: Database, robot_id: str, limit: int, offset: int) -> list[ValidationPublic]:
+    with db.reader() as s:
+        Repository(s).robot(robot_id)
+        return [validation_public(r) for r in Lifecycle(s).validations(robot_id, limit, offset)]
+
+
+def iso_poses(*, db: Database, robot_id: str, body: IsoPosesCreate) -> IsoPosesPublic:
+    with db.reader() as s:
+        repo = Repository(s)
+        desc = description(repo.robot(robot_id))
+        version = repo.current_version(robot_id) if body.version is None else body.version
+        latest = repo.latest_version(robot_id)
+        if version > latest:
+            raise InvalidInput(
+                f"version {version} does not exist; robot {robot_id!r} has versions 1 to {latest}", field="version"
+            )
+        values = np.asarray(repo.version(robot_id, version).values, dtype=float)
+    return iso_poses_out(desc, robot_id, version, iso_cube_poses(desc, values, seed=body.seed))

@@ -1,0 +1,137 @@
+"""/ui in a real browser: every page loads with no console error and no request outside the service, the plots
+draw one mark per datum, the report shows the API's numbers, and a screenshot of each page is kept."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+from urllib.parse import urlparse
+
+import httpx
+import numpy as np
+import pytest
+
+from models import iwr, sample_workspace
+from models.simulation import perturbed_robot
+from tests.service.helpers import records
+from tests.ui.conftest import PageProblems, screenshot
+
+pytestmark = pytest.mark.slow  # a live server, two calibrations and a browser: ~13 s here
+DESC = iwr()
+DESIGN_COUNT = 12
+
+
+@pytest.fixture(scope="module")
+def data(server: str) -> dict[str, Any]:
+    """A robot with two calibrations, a restore (four versions), a pose design and a validation."""
+    with httpx.Client(base_url=server, timeout=60) as http:
+        robot = http.post("/v1/robots", json={"name": "cell-ui"}).json()
+        sim = perturbed_robot(DESC, seed=121)
+        calibrations = []
+        for seed in (122, 125):
+            recs = records(DESC, sim, sample_workspace(DESC, 40, seed=seed), seed=seed + 1)
+            answer = http.post(f"/v1/robots/{robot['id']}/calibrations", json={"measurements": recs})
+            assert answer.status_code == 201, answer.text
+            calibrations.append(answer.json())
+        assert http.post(f"/v1/robots/{robot['id']}/parameter-versions/2/restore").status_code == 201
+        design = http.post(
+            f"/v1/robots/{robot['id']}/pose-designs",
+            json={"count": DESIGN_COUNT, "criterion": "D", "candidate_count": 80, "seed": 1},
+        ).json()
+        repeated = np.repeat(sample_workspace(DESC, 2, seed=130), 3, axis=0)
+        validation = http.post(
+            f"/v1/robots/{robot['id']}/validations",
+            json={"measurements": records(DESC, sim, repeated, seed=131), "versions": [1, 4], "register": True},
+        ).json()
+        versions = http.get(f"/v1/robots/{robot['id']}/parameter-versions").json()
+    return {
+        "robot": robot,
+        "calibrations": calibrations,
+        "design": design,
+        "versions": versions,
+        "validation": validation,
+    }
+
+
+@pytest.fixture
+def page(browser: Any, server: str) -> Iterator[tuple[Any, PageProblems, set[str]]]:
+    page = browser.new_page(viewport={"width": 1200, "height": 900})
+    problems = PageProblems(page)
+    hosts: set[str] = set()
+    page.on("request", lambda r: hosts.add(urlparse(r.url).netloc))
+    yield page, problems, hosts
+    assert hosts <= {urlparse(server).netloc, ""}, f"fetched from elsewhere: {hosts}"
+    assert problems.messages == []
+    page.close()
+
+
+def _open(page: Any, server: str, fragment: str) -> None:
+    page.goto(f"{server}/ui{fragment}")
+    page.wait_for_function("ready => document.body.dataset.ready === ready", arg=fragment or "#/", timeout=20_000)
+
+
+def test_robots_page(page: tuple[Any, PageProblems, set[str]], server: str, data: dict[str, Any]) -> None:
+    p, _, _ = page
+    _open(p, server, "#/")
+    assert p.locator("#robots tbody tr").count() == 1
+    assert p.locator("#robots a").inner_text() == "cell-ui"
+    screenshot(p, "robots")
+
+
+def test_robot_page_history_drift_and_design(
+    page: tuple[Any, PageProblems, set[str]], server: str, data: dict[str, Any]
+) -> None:
+    p, _, _ = page
+    robot_id = data["robot"]["id"]
+    _open(p, server, f"#/robots/{robot_id}")
+    assert p.locator("#calibrations tbody tr").count() == 2
+    assert p.locator("#versions tbody tr").count() == len(data["versions"]) == 4
+    assert p.locator("#validations tbody tr").count() == 2  # one validation, two versions
+    rms = [r["position_mm"]["rms"] for r in data["validation"]["results"]]
+    cells = p.locator("#validations tbody tr td:nth-child(4)").all_inner_texts()
+    assert [float(c) for c in cells] == pytest.approx(rms, rel=1e-3)  # shown to 4 digits
+    # One point per version on the drift plot, one error bar per version with a std error (the calibrated ones).
+    assert p.locator("#drift-plot circle.point").count() == 4
+    assert p.locator("#drift-plot line.band").count() == 3
+    p.select_option("#drift-parameter", "base.x")
+    p.wait_for_function("document.querySelector('#drift-plot title').textContent.startsWith('base.x')")
+    assert p.locator("#drift-plot circle.point").count() == 4
+    p.locator("#designs a", has_text="draw").click()
+    p.wait_for_selector("#design-side")
+    assert p.locator("#design-top circle.point").count() == DESIGN_COUNT
+    assert p.locator("#design-side circle.point").count() == DESIGN_COUNT
+    screenshot(p, "robot")
+
+
+def test_report_page_shows_the_api_numbers(
+    page: tuple[Any, PageProblems, set[str]], server: str, data: dict[str, Any]
+) -> None:
+    p, _, _ = page
+    calibration = data["calibrations"][0]
+    _open(p, server, f"#/calibrations/{calibration['id']}/report")
+    frame = p.frame_locator("#report")
+    frame.locator("figure#fig-correlation svg").wait_for()
+    shown = {
+        key: frame.locator(f'[data-key="{key}"]').get_attribute("data-value")
+        for key in ("residuals.after.rms_mm", "residuals.before.rms_mm", "variance_factor", "rank")
+    }
+    assert float(shown["residuals.after.rms_mm"]) == calibration["residuals"]["after"]["rms_mm"]
+    assert float(shown["residuals.before.rms_mm"]) == calibration["residuals"]["before"]["rms_mm"]
+    assert float(shown["variance_factor"]) == calibration["variance_factor"]
+    assert int(shown["rank"]) == calibration["rank"]
+    assert frame.locator("figure svg").count() >= 6
+    # Real plots: the residual bars are one drawn path per pose at least.
+    assert frame.locator("figure#fig-residual-bars svg path").count() > calibration["measurements"]
+    screenshot(p, "report")
+
+
+def test_jobs_page(page: tuple[Any, PageProblems, set[str]], server: str, data: dict[str, Any]) -> None:
+    p, _, _ = page
+    listed = httpx.get(f"{server}/openapi.json").json()["paths"].get("/v1/jobs", {}).get("get")
+    _open(p, server, "#/jobs")
+    screenshot(p, "jobs")
+    if listed is None:
+        # The page says so instead of failing; the progress table comes with GET /v1/jobs (the jobs branch).
+        assert p.locator("#no-job-list").count() == 1
+        pytest.skip("this service has no GET /v1/jobs yet: the page shows its note (screenshot kept)")
+    assert p.locator("#jobs, p.muted").count() >= 1
