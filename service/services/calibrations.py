@@ -93,11 +93,9 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Ac
                 "version.calibrated",
                 who,
                 version=record.parameter_version,
-                details={
-                    "from_version": previous,
-                    "calibration_id": calibration_id,
-                    "forced": payload.get("forced", False),
-                },
+                # `forced` only when it was: an applied calibration that failed a check (force_apply).
+                details={"from_version": previous, "calibration_id": calibration_id}
+                | ({"forced": True} if payload.get("forced") else {}),
             )
         answer = calibration_public(record)
     if not result.succeeded:
