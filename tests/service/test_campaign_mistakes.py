@@ -49,6 +49,8 @@ def test_noise_stated_five_times_too_small_is_stored_not_applied(client: TestCli
     # The user may insist; it is applied and recorded as forced.
     status, forced = _calibrate(client, robot_id, {"measurements": recs, "force_apply": True})
     assert status == 201 and forced["applied"] and forced["forced"] and forced["parameter_version"] == 2
+    trail = client.get("/v1/audit", params={"robot_id": robot_id, "action": "version.calibrated"}).json()
+    assert [e["details"].get("forced") for e in trail] == [True]  # the override is on the record
     # Stating the real σ passes every check (from the nominal version: the forced one claims an accuracy its
     # understated σ made up, so against it an honest result looks worse, and the accuracy check says so).
     honest_body = {"measurements": recs, "noise": {"position_mm": 0.125}, "start_version": 1}
