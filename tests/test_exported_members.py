@@ -7,6 +7,8 @@ import types
 
 import pytest
 
+import models
+
 PACKAGES = ["models", "models.identification", "models.compensation", "models.inverse", "optimal_design"]
 
 
@@ -23,7 +25,6 @@ def test_all_is_the_public_surface(name: str) -> None:
 
 
 def test_internals_stay_internal() -> None:
-    import models
 
     for internal in ("FUNCTIONS", "functions_for", "RobotFunctions", "Tolerances"):
         assert not hasattr(models, internal), internal

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import RobotDescription, forward_kinematics, sample_workspace
+from models import RobotDescription, forward_kinematics, iwr, sample_workspace
 from models.compensation import correct_program, inverse_kinematics
 from models.identification import IdentificationResult, identify
 from models.identification.statistics import tcp_accuracy
@@ -14,7 +14,7 @@ from models.inverse.kkt import kkt_functions, newton_kkt
 from models.inverse.nlp import bounds
 from models.inverse.problem import joint_weights
 from models.simulation import SimulatedRobot, measure, perturbed_robot
-from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np
+from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, quaternion_to_matrix
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +63,6 @@ def test_round_trip_on_the_model(desc: RobotDescription, sim: SimulatedRobot, ca
     answer = inverse_kinematics(desc, positions, quats, calibrated.parameters)
     fk = forward_kinematics(desc, answer.joints, calibrated.parameters)  # hexapod FK from the legs, independently
     assert np.abs(fk.positions - positions).max() < 1e-6
-    from models.transforms import quaternion_to_matrix
 
     angle = np.linalg.norm(matrix_to_rotvec_np(fk.rotations @ np.swapaxes(quaternion_to_matrix(quats), 1, 2)), axis=1)
     assert np.degrees(angle).max() < 1e-6
@@ -161,10 +160,6 @@ def test_corrected_program_reaches_what_the_nominal_model_promised(
 def test_commands_lie_inside_the_ranges_and_invalid_targets_have_no_error() -> None:
     """Issue 13: joints were up to 1e-9 outside their ranges (a controller refuses them), and an invalid target
     reported an orientation error of 0.0 instead of none."""
-    from models import iwr, sample_workspace
-    from models.compensation import inverse_kinematics
-    from models.kinematics import forward_kinematics
-    from models.transforms import matrix_to_quaternion
 
     desc = iwr()
     fk = forward_kinematics(desc, sample_workspace(desc, 200, seed=3))

@@ -9,6 +9,7 @@ import pytest
 
 from models import iwr, sample_workspace
 from models.campaign import Campaign
+from models.identification import identify
 from models.identification.diagnosis import Finding, diagnose
 from models.simulation import measure, perturbed_robot
 
@@ -99,7 +100,6 @@ def test_the_joint_check_needs_wide_revolute_ranges() -> None:
 
 
 def test_identify_names_the_slip_instead_of_failing_blindly() -> None:
-    from models.identification import identify
 
     c = _campaign(8)
     metres = Campaign(c.joints, c.positions / 1000.0, c.quaternions)
@@ -110,7 +110,6 @@ def test_identify_names_the_slip_instead_of_failing_blindly() -> None:
 
 
 def test_far_records_are_noted_and_the_fit_goes_on() -> None:
-    from models.identification import identify
 
     c = _campaign(9, n=50)
     positions = c.positions.copy()

@@ -7,6 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
+import optimal_design.design as module
 from models import RobotDescription, sample_workspace
 from models.errors import InvalidInput, JointOutOfRange, TooFewMeasurements, UnreachablePose
 from optimal_design import Criterion, design_poses
@@ -102,9 +103,8 @@ def test_bad_input(desc: RobotDescription) -> None:
 
 
 def test_solver_failure_falls_back_to_greedy(desc: RobotDescription, monkeypatch: pytest.MonkeyPatch) -> None:
-    import optimal_design.design as module
 
-    def broken(*args: object, **kwargs: object) -> object:
+    def broken(*_args: object, **_kwargs: object) -> object:
         raise np.linalg.LinAlgError("simulated failure")
 
     monkeypatch.setattr(module, "relax", broken)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
@@ -178,7 +180,6 @@ def test_async_jobs(client: TestClient, robot_id: str) -> None:
     r = client.post(f"/v1/robots/{robot_id}/calibrations?async=true", json={"measurements": recs})
     assert r.status_code == 202
     url = r.json()["status_url"]
-    import time
 
     for _ in range(200):
         job = client.get(url).json()
@@ -222,7 +223,6 @@ def test_error_analysis(client: TestClient) -> None:
 
 def test_jobs_in_a_worker_process(tmp_path: object) -> None:
     """The production path: a spawned worker process picks the job from the database and writes the result."""
-    import time
 
     with make_client(f"sqlite:///{tmp_path}/pool.db", job_workers=1) as c:
         rid = c.post("/v1/robots", json={"name": "pool"}).json()["id"]

@@ -48,7 +48,7 @@ def test_runtime_stage_is_slim_non_root_and_checked() -> None:
 
 def test_image_installs_the_runtime_lock_and_nothing_unpinned() -> None:
     text = re.sub(r"\\\n", " ", DOCKERFILE.read_text())
-    installs = [cmd for cmd in re.findall(r"pip install [^&\n]*", text)]
+    installs = list(re.findall(r"pip install [^&\n]*", text))
     assert any("-r requirements/runtime.lock" in cmd for cmd in installs)
     assert all("-r requirements/runtime.lock" in cmd or "--no-deps" in cmd for cmd in installs), installs
     assert "dev.lock" not in text

@@ -20,6 +20,7 @@ from service.app import create_app
 from service.openapi_dump import SNAPSHOT, render
 from service.problems import PROBLEMS
 from service.settings import Settings
+from tests.service.contract_check import ContractChecker
 
 
 def test_committed_openapi_matches_the_app() -> None:
@@ -61,7 +62,6 @@ def test_api_contract(case: schemathesis.Case) -> None:
 
 
 def test_the_response_checker_refuses_unknown_keys_and_undeclared_answers() -> None:
-    from tests.service.contract_check import ContractChecker
 
     checker = ContractChecker(APP.openapi())
     robot = {

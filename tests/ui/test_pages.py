@@ -70,7 +70,8 @@ def _open(page: Any, server: str, fragment: str) -> None:
     page.wait_for_function("ready => document.body.dataset.ready === ready", arg=fragment or "#/", timeout=20_000)
 
 
-def test_robots_page(page: tuple[Any, PageProblems, set[str]], server: str, data: dict[str, Any]) -> None:
+@pytest.mark.usefixtures("data")
+def test_robots_page(page: tuple[Any, PageProblems, set[str]], server: str) -> None:
     p, _, _ = page
     _open(p, server, "#/")
     assert p.locator("#robots tbody tr").count() == 1
@@ -125,7 +126,8 @@ def test_report_page_shows_the_api_numbers(
     screenshot(p, "report")
 
 
-def test_jobs_page(page: tuple[Any, PageProblems, set[str]], server: str, data: dict[str, Any]) -> None:
+@pytest.mark.usefixtures("data")
+def test_jobs_page(page: tuple[Any, PageProblems, set[str]], server: str) -> None:
     p, _, _ = page
     listed = httpx.get(f"{server}/openapi.json").json()["paths"].get("/v1/jobs", {}).get("get")
     _open(p, server, "#/jobs")
