@@ -6,7 +6,7 @@ import csv
 import io
 from collections.abc import Sequence
 
-from service.campaign_io import ImportOptions, campaign_records, read_table
+from service.campaign_io import ImportOptions, campaign_records, joined_records, read_spatial_analyzer, read_table
 
 CAMPAIGN_HEADER = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6", "x", "y", "z", "qw", "qx", "qy", "qz"]
 JOINT_HEADER = CAMPAIGN_HEADER[:10]
@@ -20,6 +20,16 @@ def parse_campaign(text: str, *, options: ImportOptions | None = None) -> tuple[
     records, notes = campaign_records(table, JOINT_HEADER, options or ImportOptions())
     if any("temperature_c" in r for r in records):
         notes.append("the temperature column was read but not used: no thermal model term is on")
+    return [{k: v for k, v in r.items() if k != "temperature_c"} for r in records], notes
+
+
+def joined_campaign(
+    joints: str, points: str, *, spatial_analyzer: bool, options: ImportOptions | None = None
+) -> tuple[list[dict[str, object]], list[str]]:
+    """The controller's joint file and the instrument's point file (CSV or SpatialAnalyzer's ASCII export),
+    joined by pose id, as the API's records and the reader's notes."""
+    point_table = read_spatial_analyzer(points) if spatial_analyzer else read_table(points)
+    records, notes = joined_records(read_table(joints), point_table, JOINT_HEADER, options or ImportOptions())
     return [{k: v for k, v in r.items() if k != "temperature_c"} for r in records], notes
 
 

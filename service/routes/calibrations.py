@@ -7,7 +7,7 @@ from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
 
 from service.campaign_io import ImportOptions, QuaternionOrder
-from service.csv_codec import CAMPAIGN_HEADER, parse_campaign
+from service.csv_codec import CAMPAIGN_HEADER, joined_campaign, parse_campaign
 from service.deps import ActorDep, DatabaseDep, JobsDep, MetricsDep, compute
 from service.errors import BadRequest, UnsupportedMediaType
 from service.responses import model_json
@@ -30,6 +30,21 @@ _BODY = {
                 "schema": {"type": "string", "description": "header " + ",".join(CAMPAIGN_HEADER)},
                 "example": ",".join(CAMPAIGN_HEADER) + "\n400,150,90,45,420,420,420,420,420,420,1,2,3,1,0,0,0\n",
             },
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "required": ["joints", "points"],
+                    "properties": {
+                        "joints": {"type": "string", "format": "binary", "description": "pose id + joint columns"},
+                        "points": {
+                            "type": "string",
+                            "format": "binary",
+                            "description": "pose id + x, y, z (CSV, Leica-style) or a SpatialAnalyzer export",
+                        },
+                        "points_format": {"type": "string", "enum": ["csv", "spatial-analyzer"], "default": "csv"},
+                    },
+                }
+            },
         },
     },
     "responses": {
@@ -49,16 +64,16 @@ async def _body(
     noise_orientation_deg: float | None,
     file_options: ImportOptions,
 ) -> CalibrationCreate:
-    """The campaign as JSON or as the spec's CSV (with noise and apply from the query)."""
+    """The campaign as JSON, as one CSV, or as the controller's joint file and the instrument's point file
+    (multipart: `joints`, `points`, optional `points_format`), with noise and apply from the query."""
     content_type = request.headers.get("content-type", "application/json").split(";")[0].strip().lower()
     raw = await request.body()
     try:
-        if content_type == "text/csv":
-            try:
-                text = raw.decode("utf-8")
-            except UnicodeDecodeError as exc:
-                raise BadRequest("the CSV body must be UTF-8 text") from exc
-            measurements, notes = parse_campaign(text, options=file_options)
+        if content_type in ("text/csv", "multipart/form-data"):
+            if content_type == "text/csv":
+                measurements, notes = parse_campaign(_text(raw, "the CSV body"), options=file_options)
+            else:
+                measurements, notes = await _files(request, file_options)
             payload: dict[str, Any] = {"measurements": measurements, "import_notes": notes}
             noise = {}
             if noise_position_mm is not None:
@@ -78,6 +93,28 @@ async def _body(
     raise UnsupportedMediaType(
         f"send the campaign as application/json or text/csv, not {content_type!r}", content_type=content_type
     )
+
+
+def _text(raw: bytes, what: str) -> str:
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise BadRequest(f"{what} must be UTF-8 text") from exc
+
+
+async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[str, object]], list[str]]:
+    """A joint file and a point file (CSV, a Leica-style export, or SpatialAnalyzer's ASCII) joined by pose id."""
+    parts = {}
+    async with request.form() as form:  # closes the spooled upload files when done
+        for name in ("joints", "points"):
+            part = form.get(name)
+            if part is None or isinstance(part, str):
+                raise BadRequest(f"multipart campaigns need two files, 'joints' and 'points'; '{name}' is missing")
+            parts[name] = _text(await part.read(), f"the '{name}' file")
+        points_format = str(form.get("points_format") or "csv")
+    if points_format not in ("csv", "spatial-analyzer"):
+        raise BadRequest(f"points_format must be 'csv' or 'spatial-analyzer', not {points_format!r}")
+    return joined_campaign(parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options)
 
 
 @router.post(

@@ -159,3 +159,27 @@ def test_an_excel_csv_calibrates_and_a_stripped_one_is_explained(client: TestCli
     stripped = "".join(lines[1:3])  # what curl -d does to the file's line breaks
     r = client.post(url, content=stripped, headers={"content-type": "text/csv"})
     assert r.status_code == 400 and "--data-binary" in r.json()["detail"]
+
+
+def test_joint_and_point_files_from_the_controller_and_spatial_analyzer(client: TestClient, robot_id: str) -> None:
+    recs = _campaign(8, n=45)
+    names = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
+    joints = ["target," + ",".join(names)] + [
+        f"P{k:03d}," + ",".join(repr(v) for v in r["joints"])  # type: ignore[attr-defined]
+        for k, r in enumerate(recs)
+    ]
+    points = ["// SpatialAnalyzer ASCII export, positions only"] + [
+        f"A Cell3 P{k:03d} " + " ".join(f"{v:.6f}" for v in r["position"]) + " 0.025"  # type: ignore[attr-defined]
+        for k, r in reversed(list(enumerate(recs)))
+    ]
+    files = {
+        "joints": ("joints.csv", "\n".join(joints), "text/csv"),
+        "points": ("points.txt", "\n".join(points), "text/plain"),
+    }
+    r = client.post(f"/v1/robots/{robot_id}/calibrations", files=files, data={"points_format": "spatial-analyzer"})
+    assert r.status_code == 201, r.text
+    body = r.json()
+    assert body["measurement"] == "position" and body["status"] == "succeeded" and body["measurements"] == 45
+    missing = {**files, "points": ("points.txt", "\n".join(points[:-3]), "text/plain")}
+    r = client.post(f"/v1/robots/{robot_id}/calibrations", files=missing, data={"points_format": "spatial-analyzer"})
+    assert r.status_code == 400 and "no measured point: P000, P001" in r.json()["detail"]
