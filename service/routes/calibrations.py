@@ -2,13 +2,13 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from fastapi import APIRouter, Query, Request, Response
+from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
 
 from service.campaign_io import ImportOptions, QuaternionOrder
 from service.csv_codec import CAMPAIGN_HEADER, joined_campaign, parse_campaign
-from service.deps import ActorDep, DatabaseDep, JobsDep, MetricsDep, compute
+from service.deps import ActorDep, DatabaseDep, JobsDep, MetricsDep, compute, negotiate
 from service.errors import BadRequest, UnsupportedMediaType
 from service.responses import model_json
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
@@ -51,7 +51,8 @@ _BODY = {
         "202": {
             "description": "Accepted as a job (?async=true)",
             "content": {"application/json": {"schema": {"$ref": "#/components/schemas/JobAccepted"}}},
-        }
+        },
+        "406": {"description": "The Accept header allows no JSON (a calibration is a JSON document)"},
     },
 }
 
@@ -95,6 +96,11 @@ async def _body(
     )
 
 
+def _json_answer(request: Request) -> None:
+    """Refuse up front (406) a client that cannot read the JSON answer, before any computation."""
+    negotiate(request, ["application/json", "application/problem+json"])
+
+
 def _text(raw: bytes, what: str) -> str:
     try:
         return raw.decode("utf-8")
@@ -122,6 +128,7 @@ async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[st
     status_code=201,
     response_model=CalibrationPublic,
     openapi_extra=_BODY,
+    dependencies=[Depends(_json_answer)],
 )
 async def create_calibration(
     robot_id: str,
@@ -167,6 +174,13 @@ def list_calibrations(
     return calibrations.list_calibrations(db=db, robot_id=robot_id, limit=limit, offset=offset)
 
 
-@router.get("/v1/calibrations/{calibration_id}", response_model=CalibrationPublic)
-def get_calibration(calibration_id: str, db: DatabaseDep) -> dict[str, Any]:
+@router.get(
+    "/v1/calibrations/{calibration_id}",
+    response_model=CalibrationPublic,
+    responses={406: {"description": "The Accept header allows no JSON (its campaign as CSV: /v1/campaigns/{id})"}},
+)
+def get_calibration(calibration_id: str, request: Request, db: DatabaseDep) -> dict[str, Any]:
+    # A calibration is a JSON document (its campaign has a CSV form: GET /v1/campaigns/{id}); 406 for anything
+    # else rather than JSON a CSV client cannot read.
+    negotiate(request, ["application/json"])
     return calibrations.get_calibration(db=db, calibration_id=calibration_id)

@@ -183,3 +183,14 @@ def test_joint_and_point_files_from_the_controller_and_spatial_analyzer(client: 
     missing = {**files, "points": ("points.txt", "\n".join(points[:-3]), "text/plain")}
     r = client.post(f"/v1/robots/{robot_id}/calibrations", files=missing, data={"points_format": "spatial-analyzer"})
     assert r.status_code == 400 and "no measured point: P000, P001" in r.json()["detail"]
+
+
+def test_a_csv_only_client_gets_406_not_json(client: TestClient, robot_id: str) -> None:
+    recs = _campaign(11, n=40)
+    url = f"/v1/robots/{robot_id}/calibrations"
+    refused = client.post(url, json={"measurements": recs}, headers={"accept": "text/csv"})
+    assert refused.status_code == 406 and "application/json" in refused.json()["detail"]
+    assert client.get(f"/v1/robots/{robot_id}/calibrations").json() == []  # refused before any work
+    made = client.post(url, json={"measurements": recs}).json()
+    got = client.get(f"/v1/calibrations/{made['id']}", headers={"accept": "text/csv"})
+    assert got.status_code == 406
