@@ -61,8 +61,11 @@ def test_fifty_clients_for_twenty_seconds(tmp_path: Path) -> None:
         stored = httpx.get(f"{url}/v1/robots/{robot}/calibrations", params={"limit": 1000}).json()
         assert sorted(c["id"] for c in stored) == sorted(ids)  # nothing lost, nothing twice
         assert len(ids) >= CLIENTS // 2 and counts.sum() > 10 * CLIENTS
-        # Every calibration applied made exactly one new version, numbered without gaps.
+        # Every calibration applied made exactly one new version, numbered without gaps. (The same campaign
+        # again predicts no better than the version it made, so the accuracy check leaves later ones unapplied.)
+        applied = [c for c in stored if c["applied"]]
         params = httpx.get(f"{url}/v1/robots/{robot}/parameters").json()
-        assert params["version"] == len(ids) + 1
-        versions = sorted(c["parameter_version"] for c in stored)
-        assert versions == list(range(2, len(ids) + 2))
+        assert applied and params["version"] == len(applied) + 1
+        versions = sorted(c["parameter_version"] for c in applied)
+        assert versions == list(range(2, len(applied) + 2))
+        assert all(c["not_applied_reason"] for c in stored if not c["applied"])

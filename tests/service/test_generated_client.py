@@ -19,6 +19,7 @@ import json
 import re
 import subprocess
 import sys
+import types
 import typing
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -83,6 +84,10 @@ def _call(client_package: ModuleType, client: Any, method: str, path: str, body:
     kwargs = dict(params)
     if body is not None:
         body_type = typing.get_type_hints(sync_detailed)["body"]
+        if isinstance(body_type, types.UnionType):
+            # An operation that takes several media types (the calibration: JSON or multipart files) gets a union;
+            # the JSON schema's class is the one named by its component, not the generated "...Body".
+            body_type = next(t for t in body_type.__args__ if not t.__name__.endswith("Body"))
         kwargs["body"] = body_type.from_dict(body)
     response = sync_detailed(client=client, **kwargs)
     assert 200 <= response.status_code < 300, response.content
