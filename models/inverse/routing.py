@@ -19,6 +19,8 @@ BOUND_SLACK = 1e-9
 
 
 def joints_of(desc: RobotDescription, theta: Array, v: Array, runtime: Runtime | None = None) -> Array:
+    if not desc.has_hexapod:
+        return v.copy()
     (legs,) = runtime_for(desc, runtime).kinematics.batch(
         "hexapod_ik", v[:, desc.n_chain :], theta[desc.slices["hexapod"]]
     )

@@ -28,7 +28,7 @@ class StartTable:
     def __init__(self, desc: RobotDescription, theta: Array, runtime: Runtime) -> None:
         joints, platforms = sample_workspace(desc, TABLE_POSES, seed=TABLE_SEED, return_platforms=True, runtime=runtime)
         fk = pose_batch(desc, joints, theta, platforms, runtime=runtime)
-        self.start = np.hstack([joints[:, : desc.n_chain], platforms])
+        self.start = np.hstack([joints[:, : desc.n_chain], platforms[:, : desc.n_ik - desc.n_chain]])
         self.pose_tree = cKDTree(features(fk.positions, fk.rotations))
         self.position_tree = cKDTree(fk.positions)
 
