@@ -115,3 +115,13 @@ def test_ik_of_fk_round_trip(name: str) -> None:
         np.testing.assert_allclose(back.rotations, fk.rotations, atol=1e-8)
     # From the default (mid-range) seed nearly every target is reached too.
     assert inverse_kinematics(desc, fk.positions, quats).reachable.mean() >= 0.9
+
+
+@pytest.mark.parametrize("name", ["iiwa-mdh", "hexapod"])
+def test_a_pose_design_beats_random_poses(name: str) -> None:
+    from optimal_design import design_poses
+
+    desc = ROBOTS[name]()
+    design = design_poses(desc, 30, "D", "position", candidate_count=400, seed=5)
+    assert design.metrics["log_det"] > design.random_baseline["log_det"]
+    assert design.metrics["predicted_rms_tcp_mm"] < design.random_baseline["predicted_rms_tcp_mm"]
