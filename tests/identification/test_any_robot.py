@@ -125,3 +125,15 @@ def test_a_pose_design_beats_random_poses(name: str) -> None:
     design = design_poses(desc, 30, "D", "position", candidate_count=400, seed=5)
     assert design.metrics["log_det"] > design.random_baseline["log_det"]
     assert design.metrics["predicted_rms_tcp_mm"] < design.random_baseline["predicted_rms_tcp_mm"]
+
+
+def test_the_tolerance_study_applies_to_a_serial_arm() -> None:
+    from models.error_analysis import ErrorMagnitudes, error_analysis
+
+    desc = iiwa_like()
+    result = error_analysis(desc, n_poses=20, n_draws=20, tolerances=ErrorMagnitudes())
+    # No hexapod: the link errors are the whole robot's, and the first-order model follows the exact one.
+    whole, links = result.errors["whole"], result.errors["carriage"]
+    np.testing.assert_allclose(whole.exact, links.exact, atol=1e-12)
+    assert not np.any(result.errors["hexapod"].exact)
+    assert np.max(np.abs(whole.exact - whole.first_order)) < 0.1 * np.max(np.abs(whole.exact))
