@@ -1,6 +1,9 @@
 from __future__ import annotations
 
+from typing import Any, Literal
+
 from fastapi import APIRouter, Query, Response
+from fastapi.responses import JSONResponse
 from pydantic import TypeAdapter
 
 from service.deps import DatabaseDep
@@ -37,10 +40,30 @@ def delete_robot(robot_id: str, db: DatabaseDep) -> Response:
     return Response(status_code=204)
 
 
-@router.get("/{robot_id}/parameters", response_model=ParametersPublic)
+@router.get(
+    "/{robot_id}/parameters",
+    response_model=ParametersPublic,
+    responses={200: {"content": {"application/xml": {"schema": {"type": "string"}}}}},
+)
 def get_parameters(
     robot_id: str,
     db: DatabaseDep,
     version: int | None = Query(None, ge=1, description="A past version (default: current)"),
+    format: Literal["json", "urdf"] = Query(
+        "json", description="'urdf': the calibrated serial model as a URDF (its FK equals the service's)"
+    ),
 ) -> Response:
+    if format == "urdf":
+        text = robots.get_parameters_urdf(db=db, robot_id=robot_id, version=version)
+        return Response(content=text, media_type="application/xml")
     return model_json(robots.get_parameters(db=db, robot_id=robot_id, version=version))
+
+
+@router.get("/{robot_id}/structure", response_model=dict[str, Any])
+def get_structure(
+    robot_id: str,
+    db: DatabaseDep,
+    version: int | None = Query(None, ge=1, description="A parameter version (default: current)"),
+) -> Response:
+    """The description document with the values of a parameter version; `POST /v1/robots` accepts it back."""
+    return JSONResponse(robots.get_structure(db=db, robot_id=robot_id, version=version))
