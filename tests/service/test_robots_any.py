@@ -60,3 +60,29 @@ def test_the_iwr_is_described_too(client: TestClient, robot_id: str) -> None:
     assert robot["model"] == "iwr" and robot["parameter_count"] == 70
     assert robot["joint_names"] == ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
     assert [s["kind"] for s in robot["structure"]["stages"]] == ["serial", "hexapod"]
+
+
+def test_a_csv_campaign_with_the_robots_header(client: TestClient) -> None:
+    from models import sample_workspace
+    from models.simulation import measure, perturbed_robot
+
+    robot = client.post("/v1/robots", json={"name": "arm", "structure": iiwa_like_document()}).json()
+    desc = iiwa_like()
+    joints = sample_workspace(desc, 60, seed=3)
+    campaign = measure(perturbed_robot(desc, seed=4), joints, seed=5, position_only=True)
+    rows = [",".join(f"q{i}" for i in range(1, 8)) + ",x,y,z"]
+    for q, p in zip(np.degrees(joints), campaign.positions, strict=True):
+        rows.append(",".join(repr(float(v)) for v in [*q, *p]))
+    url = f"/v1/robots/{robot['id']}/calibrations"
+    made = client.post(url, content="\n".join(rows) + "\n", headers={"content-type": "text/csv"})
+    assert made.status_code == 201, made.text
+    assert len(made.json()["identifiable"]) == 31
+    iwr_header = "q1,q2,q3,q4,l1,l2,l3,l4,l5,l6,x,y,z\n" + ",".join(["1"] * 13) + "\n"
+    wrong = client.post(url, content=iwr_header, headers={"content-type": "text/csv"})
+    assert wrong.status_code == 422
+    ik = client.post(
+        f"/v1/robots/{robot['id']}/inverse-kinematics",
+        json={"targets": [{"position": [float(v) for v in campaign.positions[0]]}]},
+        headers={"accept": "text/csv"},
+    )
+    assert ik.status_code == 200 and ik.text.startswith("q1,q2,q3,q4,q5,q6,q7\n")
