@@ -35,8 +35,9 @@ class HexapodGeometry:
     platform_joints: tuple[Vec3, ...]
     """b_i in frame {5}, mm."""
     leg_offsets: tuple[float, ...]
-    stroke_min: float
-    stroke_max: float
+    stroke_min: float | tuple[float, ...]
+    stroke_max: float | tuple[float, ...]
+    """One stroke for every leg, or one per leg (mm)."""
     home: Pose6
     """Platform pose used as the Newton seed: mm and rad."""
     workspace_min: Pose6
@@ -45,12 +46,26 @@ class HexapodGeometry:
     """Poses whose (length-scaled) hexapod Jacobian is worse conditioned than this are 'near singular'."""
 
     @property
+    def stroke_mins(self) -> tuple[float, ...]:
+        return _per_leg(self.stroke_min)
+
+    @property
+    def stroke_maxs(self) -> tuple[float, ...]:
+        return _per_leg(self.stroke_max)
+
+    @property
     def characteristic_length(self) -> float:
         """Platform radius: turns rotations into lengths so the Jacobian's condition number has no unit."""
         return max(float(sum(c * c for c in b) ** 0.5) for b in self.platform_joints)
 
 
-def hexapod_parameter_specs(geometry: HexapodGeometry, joint_scale: float, offset_scale: float) -> list[ParameterSpec]:
+def _per_leg(value: float | tuple[float, ...]) -> tuple[float, ...]:
+    return tuple(float(v) for v in value) if isinstance(value, tuple) else (float(value),) * N_LEGS
+
+
+def hexapod_parameter_specs(
+    geometry: HexapodGeometry, joint_scale: float, offset_scale: float, group: str = "hexapod"
+) -> list[ParameterSpec]:
     specs = []
     for i in range(N_LEGS):
         values = (*geometry.base_joints[i], *geometry.platform_joints[i], geometry.leg_offsets[i])
@@ -58,7 +73,7 @@ def hexapod_parameter_specs(geometry: HexapodGeometry, joint_scale: float, offse
             specs.append(
                 ParameterSpec(
                     name=f"leg{i + 1}.{field}",
-                    group="hexapod",
+                    group=group,
                     kind=Kind.LENGTH,
                     nominal=float(value),
                     scale=offset_scale if field == "offset" else joint_scale,

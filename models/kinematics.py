@@ -95,7 +95,10 @@ def solve_platforms(
     fns = runtime_for(desc, runtime).kinematics
     n = joints.shape[0]
     theta = np.asarray(params, dtype=float)
-    x = np.tile(np.asarray(desc.hexapod.home, dtype=float), (n, 1)) if seeds is None else np.array(seeds, dtype=float)
+    x = np.tile(np.asarray(desc.platform_home, dtype=float), (n, 1)) if seeds is None else np.array(seeds, dtype=float)
+    if not desc.has_hexapod:
+        # No platform to solve: the graphs ignore it (see `models.symbolic`).
+        return np.zeros((n, 6)), np.zeros(n)
     todo = np.arange(n)
     closure = np.full(n, np.inf)
     for _ in range(MAX_NEWTON_CALLS):
@@ -115,6 +118,8 @@ def hexapod_condition(
 
     Unit-free; grows without bound near a singularity.
     """
+    if desc.hexapod is None:
+        return np.full(platforms.shape[0], np.nan)  # no hexapod: no hexapod condition
     fns = runtime_for(desc, runtime).kinematics
     hp = np.asarray(params, dtype=float)[desc.slices["hexapod"]]
     (blocks,) = fns.batch("hexapod_jacobian", platforms, hp)
@@ -127,6 +132,7 @@ def hexapod_condition(
 
 
 def platform_envelope(desc: RobotDescription) -> tuple[Array, Array]:
+    assert desc.hexapod is not None, "only a hexapod has a platform envelope"
     margin = np.array([ENVELOPE_MARGIN_MM] * 3 + [ENVELOPE_MARGIN_RAD] * 3)
     return np.array(desc.hexapod.workspace_min) - margin, np.array(desc.hexapod.workspace_max) + margin
 
@@ -135,6 +141,8 @@ def check_assembly(
     desc: RobotDescription, platforms: Array, closure: Array, params: ArrayLike, *, runtime: Runtime | None = None
 ) -> None:
     """UnreachablePose for the first pose whose legs do not assemble into a usable hexapod pose."""
+    if desc.hexapod is None:
+        return
     failed = np.flatnonzero(~(closure <= CLOSURE_TOLERANCE_MM))
     if failed.size:
         i = int(failed[0])
@@ -158,12 +166,13 @@ def check_assembly(
             count=int(outside.size),
         )
     cond = hexapod_condition(desc, platforms, params, runtime=runtime)
-    singular = np.flatnonzero(cond > desc.hexapod.max_condition)
+    hexapod = desc.hexapod
+    singular = np.flatnonzero(cond > hexapod.max_condition)
     if singular.size:
         i = int(singular[0])
         raise UnreachablePose(
             f"pose {i}: the hexapod is too close to a singularity (condition number {cond[i]:.3g} > "
-            f"{desc.hexapod.max_condition:.3g})",
+            f"{hexapod.max_condition:.3g})",
             pose=i,
             reason="near_singularity",
             count=int(singular.size),

@@ -37,6 +37,10 @@ class ParameterScales:
     tool_angle: float = float(np.radians(0.2))
 
 
+GROUP_ALIASES: dict[str, str] = {"carriage": "links", "links": "carriage", "hexapod": "legs", "legs": "hexapod"}
+"""The IWR names its links `carriage` and its legs `hexapod`; every robot accepts both names of each group."""
+
+
 class Kind(StrEnum):
     LENGTH = "length"
     ANGLE = "angle"
@@ -108,11 +112,17 @@ class ParameterTable:
         return tuple(s.unit for s in self.specs)
 
     def indices(self, names_or_groups: Iterable[str]) -> tuple[int, ...]:
-        """Indices for a mix of parameter names and group names, in table order."""
+        """Indices for a mix of parameter names and group names, in table order.
+
+        The groups of `shared/spec/robots.md` (`base`, `links`, `legs`, `tool`) and the IWR's names of two of
+        them (`carriage`, `hexapod`) are valid for every robot; a robot without legs has an empty `legs`.
+        """
         chosen: set[int] = set()
         for key in names_or_groups:
             if key in self.groups:
                 chosen.update(self.groups[key])
+            elif key in GROUP_ALIASES:
+                chosen.update(self.groups.get(GROUP_ALIASES[key], ()))
             elif key in self.index:
                 chosen.add(self.index[key])
             else:

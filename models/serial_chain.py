@@ -1,34 +1,62 @@
-"""A standard Denavit–Hartenberg serial chain, symbolic in joints and parameters.
+"""Serial chains in standard or modified Denavit–Hartenberg form, symbolic in joints and parameters.
 
-`A_i = Rz(theta_i) · Tz(d_i) · Tx(a_i) · Rx(alpha_i)` (thesis eq. 1). For a
-revolute joint the encoder reading adds to `theta_i`, for a prismatic one to
-`d_i`; the other of the two is a constant. Every one of the four numbers per
-link is a parameter, so joint offsets are identified like any DH constant.
+- standard (`dh`, thesis eq. 1, the IWR's carriage): `A_i = Rz(theta_i) · Tz(d_i) · Tx(a_i) · Rx(alpha_i)`;
+- modified (`mdh`, Craig): `A_i = Rx(alpha_i) · [Ry(beta_i)] · Tx(a_i) · Rz(theta_i) · Tz(d_i)`.
+
+A revolute joint's reading adds to `theta_i`, a prismatic one's to `d_i`; a fixed link has no joint. Every
+number of a link is a parameter, so joint offsets are identified like any DH constant.
+
+Hayati's `beta`: when an `mdh` link's axis is parallel to the previous one (`alpha` = 0 or ±180°), a tiny
+tilt of the axis moves the common normal, and so `d`, arbitrarily far: the DH numbers are not a smooth
+function of the geometry there. Such a link gets a fifth parameter, a rotation `beta` about the link's y axis
+after `Rx(alpha)` (nominal 0), which takes the tilt instead (`shared/spec/robots.md`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import StrEnum
 
 import casadi as ca
 
 from models.parameters import Kind, ParameterSpec
-from models.transforms import Sym, homogeneous, rot_x, rot_z
+from models.transforms import Sym, homogeneous, rot_x, rot_y, rot_z
 
 
 class JointType(StrEnum):
     PRISMATIC = "prismatic"
     REVOLUTE = "revolute"
+    FIXED = "fixed"
 
     @property
     def kind(self) -> Kind:
         return Kind.LENGTH if self is JointType.PRISMATIC else Kind.ANGLE
 
+    @property
+    def moves(self) -> bool:
+        return self is not JointType.FIXED
+
+
+class Convention(StrEnum):
+    DH = "dh"
+    MDH = "mdh"
+
+
+PARALLEL_TOLERANCE_RAD = 1e-9
+"""`alpha` this close to 0 or ±π makes an `mdh` link's axis parallel to the previous one (round-off of a
+document given in degrees: 180° · π/180 is exact to 1e-16 rad)."""
+
+
+def is_parallel(alpha: float) -> bool:
+    """True when `alpha` (rad) is 0 or ±π: consecutive joint axes are parallel."""
+    return min(abs(alpha), abs(abs(alpha) - math.pi)) < PARALLEL_TOLERANCE_RAD
+
 
 @dataclass(frozen=True)
 class DHLink:
-    """One link: nominal DH numbers (mm, rad) and the joint's range (mm or rad)."""
+    """One link: nominal DH numbers (mm, rad), the joint's range (mm or rad; 0, 0 for a fixed link) and its
+    convention. `beta` is present (a parameter, nominal `beta`) exactly for `mdh` links with parallel axes."""
 
     joint: JointType
     theta: float
@@ -37,21 +65,50 @@ class DHLink:
     alpha: float
     joint_min: float
     joint_max: float
+    convention: Convention = Convention.DH
+    beta: float = 0.0
+
+    @property
+    def has_beta(self) -> bool:
+        return self.convention is Convention.MDH and is_parallel(self.alpha)
+
+    @property
+    def fields(self) -> tuple[str, ...]:
+        return DH_FIELDS + (("beta",) if self.has_beta else ())
+
+    @property
+    def n_params(self) -> int:
+        return len(self.fields)
+
+    @property
+    def token(self) -> tuple[str, str, bool]:
+        """What this link contributes to a structure key: convention, joint type, Hayati parameter."""
+        return (self.convention.value, self.joint.value, self.has_beta)
 
 
-# Order of a link's parameters in the parameter vector (spec: theta, d, a, alpha).
+# Order of a link's parameters in the parameter vector (spec: theta, d, a, alpha, then beta if any).
 DH_FIELDS: tuple[str, ...] = ("theta", "d", "a", "alpha")
-DH_KINDS: tuple[Kind, ...] = (Kind.ANGLE, Kind.LENGTH, Kind.LENGTH, Kind.ANGLE)
+FIELD_KINDS: dict[str, Kind] = {
+    "theta": Kind.ANGLE,
+    "d": Kind.LENGTH,
+    "a": Kind.LENGTH,
+    "alpha": Kind.ANGLE,
+    "beta": Kind.ANGLE,
+}
+DH_KINDS: tuple[Kind, ...] = tuple(FIELD_KINDS[f] for f in DH_FIELDS)
 
 
-def dh_parameter_specs(links: tuple[DHLink, ...], length_scale: float, angle_scale: float) -> list[ParameterSpec]:
+def dh_parameter_specs(
+    links: tuple[DHLink, ...], length_scale: float, angle_scale: float, group: str = "carriage"
+) -> list[ParameterSpec]:
     specs = []
     for i, link in enumerate(links, start=1):
-        for field, kind in zip(DH_FIELDS, DH_KINDS, strict=True):
+        for field in link.fields:
+            kind = FIELD_KINDS[field]
             specs.append(
                 ParameterSpec(
                     name=f"link{i}.{field}",
-                    group="carriage",
+                    group=group,
                     kind=kind,
                     nominal=float(getattr(link, field)),
                     scale=length_scale if kind is Kind.LENGTH else angle_scale,
@@ -67,16 +124,34 @@ def dh_transform(theta: Sym, d: Sym, a: Sym, alpha: Sym) -> Sym:
     return rz @ tz_tx_rx
 
 
+def mdh_transform(theta: Sym, d: Sym, a: Sym, alpha: Sym, beta: Sym | None = None) -> Sym:
+    rotation = rot_x(alpha) if beta is None else rot_x(alpha) @ rot_y(beta)
+    # Rx(α)·Ry(β)·Tx(a) = (R, R·(a, 0, 0)); then Rz(θ)·Tz(d) = (Rz, (0, 0, d)).
+    first = homogeneous(rotation, rotation @ ca.vertcat(a, 0, 0))
+    second = homogeneous(rot_z(theta), ca.vertcat(0, 0, d))
+    return first @ second
+
+
 def chain_transform(links: tuple[DHLink, ...], q: Sym, params: Sym) -> Sym:
-    """Transform {0} -> {n} for joint values `q` (n) and parameters (4n: theta, d, a, alpha per link)."""
+    """Transform {0} -> {n} for the moving links' joint values `q` and the links' parameters (in order)."""
+    if not links:
+        return ca.SX.eye(4) if isinstance(q, ca.SX) else ca.MX.eye(4)
     t = None
-    for i, link in enumerate(links):
-        theta, d, a, alpha = (params[4 * i + k] for k in range(4))
+    at = 0
+    k = 0
+    for link in links:
+        theta, d, a, alpha = (params[at + j] for j in range(4))
+        beta = params[at + 4] if link.has_beta else None
+        at += link.n_params
         if link.joint is JointType.REVOLUTE:
-            theta = theta + q[i]
+            theta = theta + q[k]
+        elif link.joint is JointType.PRISMATIC:
+            d = d + q[k]
+        k += link.joint.moves
+        if link.convention is Convention.DH:
+            a_i = dh_transform(theta, d, a, alpha)
         else:
-            d = d + q[i]
-        a_i = dh_transform(theta, d, a, alpha)
+            a_i = mdh_transform(theta, d, a, alpha, beta)
         t = a_i if t is None else t @ a_i
-    assert t is not None, "a chain needs at least one link"
+    assert t is not None
     return t

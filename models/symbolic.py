@@ -1,12 +1,13 @@
 """The kinematic model as CasADi expressions: FK, residuals, implicit-function Jacobians.
 
-The graphs depend only on the structure of a description (the joint type of
-each chain link; the hexapod always has six legs): nominal values, base, tool
-and data are inputs. So every IWR, whatever its nominal geometry, shares one
+The graphs depend only on the structure of a description (per link its
+convention, joint type and Hayati parameter; where the hexapod sits, if there
+is one): nominal values, base, tool and data are inputs. So every IWR, whatever its nominal geometry, shares one
 set of Functions (held by its `models.runtime.Runtime`), and a request never
 triggers a build.
 
-Internal units: mm and rad. `q` is the joint vector `[q_chain..., l1..l6]`,
+Internal units: mm and rad. `q` is the joint vector `[q_chain..., l1..l6]`
+(no legs without a hexapod),
 `params` the full parameter vector, `platform` the hexapod pose
 `[x, y, z, α, β, γ]` of frame {5} in {4} (Z-Y-X Euler).
 
@@ -73,28 +74,19 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
 
     # ---- hexapod alone
     hp_only = ca.SX.sym("hexapod_params", n_hex)
-    fn["hexapod_ik"] = ca.Function(
-        "hexapod_ik",
-        [x, hp_only],
-        [hx.actuator_lengths(x, hp_only)],
-        ["platform", "hexapod_params"],
-        ["legs"],
-    )
-    fn["hexapod_jacobian"] = ca.Function(
-        "hexapod_jacobian",
-        [x, hp_only],
-        [hx.thesis_jacobian(x, hp_only)],
-        ["platform", "hexapod_params"],
-        ["J"],
-    )
+    if desc.has_hexapod:
+        _hexapod_functions(fn, x, hp_only)
 
-    # ---- closure and Newton, with the platform pose as unknown
-    g = hx.closure_residual(x, legs, hp)
+    # ---- closure and Newton, with the platform pose as unknown. Without a hexapod the platform variable
+    # is kept (one signature for every structure) but pinned by g = x: one Newton step solves it exactly,
+    # the TCP does not depend on it, and its implicit-function terms vanish.
+    g = hx.closure_residual(x, legs, hp) if desc.has_hexapod else x
+
     g_x = ca.jacobian(g, x)
     names_at = ["q", "params", "platform"]
     fn["closure"] = ca.Function("closure", [q, params, x], [g], names_at, ["residual"])
     x_k = x
-    for _ in range(NEWTON_STEPS_PER_CALL):
+    for _ in range(NEWTON_STEPS_PER_CALL if desc.has_hexapod else 1):
         g_k = ca.substitute(g, x, x_k)
         x_k = x_k - ca.solve(ca.substitute(g_x, x, x_k), g_k)
     fn["newton_solve"] = ca.Function(
@@ -110,8 +102,11 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     position, rotation = t[0:3, 3], t[0:3, 0:3]
     vec = ca.vertcat(position, ca.vec(rotation))
     dvec_dx = ca.jacobian(vec, x)
-    dx_dparams = -ca.solve(g_x, ca.jacobian(g, params))
-    dx_dq = -ca.solve(g_x, ca.jacobian(g, q))
+    if desc.has_hexapod:
+        dx_dparams = -ca.solve(g_x, ca.jacobian(g, params))
+        dx_dq = -ca.solve(g_x, ca.jacobian(g, q))
+    else:
+        dx_dparams, dx_dq = ca.SX(6, desc.n_params), ca.SX(6, desc.n_joints)
     d_params = ca.jacobian(vec, params) + dvec_dx @ dx_dparams
     d_q = ca.jacobian(vec, q) + dvec_dx @ dx_dq
     j_params = pose_jacobian(position, rotation, d_params)
@@ -179,17 +174,35 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
         fk_names,
         ["position", "rotation", "platform", "J"],
     )
-    legs_mx = ca.MX.sym("legs", 6)
-    hp_mx = ca.MX.sym("hexapod_params", n_hex)
-    q_dummy = ca.MX.zeros(n_chain)
-    fn["hexapod_fk"] = ca.Function(
-        "hexapod_fk",
-        [legs_mx, hp_mx, seed],
-        [newton(seed, ca.vertcat(legs_mx, hp_mx, q_dummy))],
-        ["legs", "hexapod_params", "platform_seed"],
-        ["platform"],
-    )
+    if desc.has_hexapod:
+        legs_mx = ca.MX.sym("legs", 6)
+        hp_mx = ca.MX.sym("hexapod_params", n_hex)
+        q_dummy = ca.MX.zeros(n_chain)
+        fn["hexapod_fk"] = ca.Function(
+            "hexapod_fk",
+            [legs_mx, hp_mx, seed],
+            [newton(seed, ca.vertcat(legs_mx, hp_mx, q_dummy))],
+            ["legs", "hexapod_params", "platform_seed"],
+            ["platform"],
+        )
     return fn
+
+
+def _hexapod_functions(fn: dict[str, ca.Function], x: ca.SX, hp_only: ca.SX) -> None:
+    fn["hexapod_ik"] = ca.Function(
+        "hexapod_ik",
+        [x, hp_only],
+        [hx.actuator_lengths(x, hp_only)],
+        ["platform", "hexapod_params"],
+        ["legs"],
+    )
+    fn["hexapod_jacobian"] = ca.Function(
+        "hexapod_jacobian",
+        [x, hp_only],
+        [hx.thesis_jacobian(x, hp_only)],
+        ["platform", "hexapod_params"],
+        ["J"],
+    )
 
 
 NATIVE_FUNCTIONS = (

@@ -1,6 +1,6 @@
 """Random poses inside the workspace of the spec, seeded and reproducible.
 
-Chain joints are drawn uniformly in their ranges and the platform pose
+Serial joints are drawn uniformly in their ranges and the platform pose
 uniformly in the hexapod's workspace box; the legs follow from the nominal
 closed-form inverse kinematics. Poses whose legs leave their strokes or whose
 hexapod is near a singularity are rejected and redrawn.
@@ -60,7 +60,13 @@ def sample_workspace(
     rt = runtime_for(desc, runtime)
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     theta = desc.parameters.nominal if params is None else params
-    lo_w, hi_w = np.array(desc.hexapod.workspace_min), np.array(desc.hexapod.workspace_max)
+    if desc.hexapod is None:
+        # Serial joints alone: uniform in their ranges, every draw valid.
+        lo, hi = desc.joint_min, desc.joint_max
+        q = lo + rng.random((n, desc.n_chain)) * (hi - lo)
+        return (q, np.zeros((n, 6))) if return_platforms else q
+    hexapod = desc.hexapod
+    lo_w, hi_w = np.array(hexapod.workspace_min), np.array(hexapod.workspace_max)
     lo_c, hi_c = desc.joint_min[: desc.n_chain], desc.joint_max[: desc.n_chain]
     joints: list[Array] = []
     platforms: list[Array] = []
@@ -72,8 +78,8 @@ def sample_workspace(
         chain = lo_c + rng.random((m, desc.n_chain)) * (hi_c - lo_c)
         plat = lo_w + rng.random((m, 6)) * (hi_w - lo_w)
         legs = inverse_hexapod(desc, plat, theta, runtime=rt)
-        ok = np.all((legs >= desc.hexapod.stroke_min) & (legs <= desc.hexapod.stroke_max), axis=1)
-        ok &= hexapod_condition(desc, plat, theta, runtime=rt) <= desc.hexapod.max_condition
+        ok = np.all((legs >= np.array(hexapod.stroke_mins)) & (legs <= np.array(hexapod.stroke_maxs)), axis=1)
+        ok &= hexapod_condition(desc, plat, theta, runtime=rt) <= hexapod.max_condition
         joints.append(np.hstack([chain, legs])[ok])
         platforms.append(plat[ok])
         have += int(ok.sum())

@@ -4,20 +4,39 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 from collections.abc import Sequence
 
-from service.campaign_io import ImportOptions, campaign_records, joined_records, read_spatial_analyzer, read_table
+from service.campaign_io import (
+    CampaignFileError,
+    ImportOptions,
+    campaign_records,
+    joined_records,
+    read_spatial_analyzer,
+    read_table,
+)
 
 CAMPAIGN_HEADER = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6", "x", "y", "z", "qw", "qx", "qy", "qz"]
 JOINT_HEADER = CAMPAIGN_HEADER[:10]
+POSE_COLUMNS = ["x", "y", "z", "qw", "qx", "qy", "qz"]
+LEGS = ["l1", "l2", "l3", "l4", "l5", "l6"]
+
+
+def joint_header(names: Sequence[str] | None, width: int) -> list[str]:
+    """The joint columns of a robot (robots.md: q1 … q_m, then l1 … l6); without its names, the IWR's for ten
+    columns and q1 … q_n otherwise."""
+    if names is not None:
+        return list(names)
+    return JOINT_HEADER if width == len(JOINT_HEADER) else [f"q{i + 1}" for i in range(width)]
 
 
 def parse_campaign(text: str, *, options: ImportOptions | None = None) -> tuple[list[dict[str, object]], list[str]]:
     """A `text/csv` campaign body as the API's records, read by the tolerant reader (BOM, `;` or tab, decimal
     commas, comments, columns by name in any order, units in the header), and the reader's notes (columns
-    ignored, units converted). The header names the robot's joints and x, y, z [, qw, qx, qy, qz] [, sigma_mm]."""
+    ignored, units converted). The header names the robot's joints (robots.md: q1 … q_m, l1 … l6; the robot
+    checks their count, a 422 naming its length) and x, y, z [, qw, qx, qy, qz] [, sigma_mm]."""
     table = read_table(text, expected=CAMPAIGN_HEADER)
-    records, notes = campaign_records(table, JOINT_HEADER, options or ImportOptions())
+    records, notes = campaign_records(table, joint_columns(table.columns), options or ImportOptions())
     if any("temperature_c" in r for r in records):
         notes.append("the temperature column was read but not used: no thermal model term is on")
     return [{k: v for k, v in r.items() if k != "temperature_c"} for r in records], notes
@@ -29,14 +48,34 @@ def joined_campaign(
     """The controller's joint file and the instrument's point file (CSV or SpatialAnalyzer's ASCII export),
     joined by pose id, as the API's records and the reader's notes."""
     point_table = read_spatial_analyzer(points) if spatial_analyzer else read_table(points)
-    records, notes = joined_records(read_table(joints), point_table, JOINT_HEADER, options or ImportOptions())
+    joint_table = read_table(joints)
+    records, notes = joined_records(
+        joint_table, point_table, joint_columns(joint_table.columns), options or ImportOptions()
+    )
     return [{k: v for k, v in r.items() if k != "temperature_c"} for r in records], notes
 
 
-def joints_csv(rows: Sequence[Sequence[float | None]]) -> str:
+def joint_columns(columns: Sequence[str]) -> list[str]:
+    """The joint columns a header names, in robots.md order: q1 … q_m, then l1 … l6 (a Leica q0…q3 quaternion
+    is not joints: q0 marks it)."""
+    if "q0" in columns:
+        return JOINT_HEADER  # a Leica-style q0…q3 quaternion: the reader names the clash with the joints
+    serial = sorted((c for c in columns if re.fullmatch(r"q[1-9][0-9]*", c)), key=lambda c: int(c[1:]))
+    legs = [leg for leg in LEGS if leg in columns]
+    found = serial + legs
+    if not found:
+        raise CampaignFileError(f"the header names no joint (q1 … q_m, l1 … l6; found: {', '.join(columns)})", line=1)
+    expected = [f"q{k + 1}" for k in range(len(serial))]
+    if serial != expected:
+        missing = sorted(set(expected) - set(serial), key=lambda c: int(c[1:]))
+        raise CampaignFileError(f"the joint columns skip {', '.join(missing)}: robots.md numbers them q1 … q_m", line=1)
+    return found
+
+
+def joints_csv(rows: Sequence[Sequence[float | None]], names: Sequence[str] | None = None) -> str:
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(JOINT_HEADER)
+    writer.writerow(joint_header(names, len(rows[0]) if rows else len(JOINT_HEADER)))
     for row in rows:
         writer.writerow(["" if v is None else repr(float(v)) for v in row])
     return out.getvalue()

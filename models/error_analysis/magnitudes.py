@@ -79,8 +79,8 @@ class ErrorMagnitudes:
         """Per-parameter error magnitude (n_params,), internal units; zero for base and tool."""
         out = np.zeros(desc.n_params)
         for i, spec in enumerate(desc.parameters.specs):
-            if spec.group == "carriage":
+            if spec.group in ("carriage", "links"):
                 out[i] = self.dh_angle if spec.kind is Kind.ANGLE else self.dh_length
-            elif spec.group == "hexapod":
+            elif spec.group in ("hexapod", "legs"):
                 out[i] = self.leg_offset if spec.name.endswith(".offset") else self.joint_position
         return out

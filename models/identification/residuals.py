@@ -166,6 +166,6 @@ class CampaignProblem:
         gradient = per * (j.T @ (slope * flat))
         hessian = per * ((j * slope[:, None]).T @ j)
         if self.platforms is None:
-            self.platforms = np.tile(np.asarray(self.desc.hexapod.home, dtype=float), (c.size, 1))
+            self.platforms = np.tile(np.asarray(self.desc.platform_home, dtype=float), (c.size, 1))
         self.platforms[self.active] = platforms
         return Evaluation(theta, platforms, r, j, jac[:, : self.rows, :], objective, gradient, hessian)

@@ -8,6 +8,7 @@ noise is right, and the a-posteriori covariance is `s0² · (JᵀJ)⁻¹`.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +33,13 @@ class Covariance:
     """That interval, expressed as bounds on the variance factor."""
 
 
+@functools.lru_cache(maxsize=256)
+def _chi2_interval(tail: float, dof: int) -> tuple[float, float]:
+    """The variance factor's χ² interval; scipy's ppf costs ~1 ms a call and a robot repeats its dof."""
+    bounds = np.asarray(scipy.stats.chi2.ppf([tail, 1 - tail], dof), dtype=float) / dof
+    return float(bounds[0]), float(bounds[1])
+
+
 def covariance(jacobian: Array, residuals: Array) -> Covariance:
     m, n = jacobian.shape
     dof = m - n
@@ -41,7 +49,7 @@ def covariance(jacobian: Array, residuals: Array) -> Covariance:
     _, s, vt = np.linalg.svd(jacobian, full_matrices=False)
     inv = (vt.T / s**2) @ vt
     tail = (1 - NOISE_CONSISTENCY_LEVEL) / 2
-    lo, hi = (scipy.stats.chi2.ppf([tail, 1 - tail], dof) / dof) if dof > 0 else (np.nan, np.nan)
+    lo, hi = _chi2_interval(tail, dof) if dof > 0 else (np.nan, np.nan)
     return Covariance(
         z=s02 * inv if dof > 0 else inv,
         variance_factor=s02,

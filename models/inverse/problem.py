@@ -1,9 +1,9 @@
 """The inverse-kinematics problem of a robot structure, as CasADi expressions: one source for NLP and KKT.
 
-Ten joints for a six-dimensional target: the unknowns `v` are the carriage
-joints and the hexapod's platform pose; the legs follow from the closed-form
-hexapod inverse kinematics. Among the solutions, the one closest to a seed in
-joint space: `distance = Σ wⱼ (jointⱼ(v) − seedⱼ)²`.
+Any number of joints for a six-dimensional (or position) target: the unknowns
+`v` are the serial joints and, with a hexapod, its platform pose, the legs
+following from the closed-form hexapod inverse kinematics (the IWR: 4 + 6).
+Among the solutions, the one closest to a seed in joint space: `distance = Σ wⱼ (jointⱼ(v) − seedⱼ)²`.
 
 One weights convention: `weights` are per joint and already divided by the
 squared range of each joint (`joint_weights`), so that the graphs depend on
@@ -66,12 +66,13 @@ class IkProblem:
 
 def ik_problem(desc: RobotDescription) -> IkProblem:
     q = ca.SX.sym("q_chain", desc.n_chain)
-    x = ca.SX.sym("platform", 6)
+    # Without a hexapod the platform is no unknown (0 numbers) and there are no legs.
+    x = ca.SX.sym("platform", 6 if desc.has_hexapod else 0)
     theta = ca.SX.sym("params", desc.n_params)
     target = ca.SX.sym("target", N_TARGET)
     seed = ca.SX.sym("seed", desc.n_joints)
     weights = ca.SX.sym("weights", desc.n_joints)
-    legs = hx.actuator_lengths(x, theta[desc.slices["hexapod"]])
+    legs = hx.actuator_lengths(x, theta[desc.slices["hexapod"]]) if desc.has_hexapod else ca.SX(0, 1)
     joints = ca.vertcat(q, legs)
     t = tcp_transform(desc, q, x, theta)
     return IkProblem(

@@ -105,17 +105,16 @@ def why_unreachable(
 ) -> str:
     """Why a target is unreachable: the miss, and which joints, legs or workspace limits hold the answer."""
     lbx, ubx, lbl, ubl = bounds(desc)
+    k_plat = desc.n_ik - desc.n_chain  # 6 with a hexapod, else 0
     names = [
         *desc.joint_names[: desc.n_chain],
-        "platform x",
-        "platform y",
-        "platform z",
-        "platform α",
-        "platform β",
-        "platform γ",
+        *("platform x", "platform y", "platform z", "platform α", "platform β", "platform γ")[:k_plat],
     ]
-    units = [*(k.boundary_unit for k in desc.joint_kinds[: desc.n_chain]), "mm", "mm", "mm", "deg", "deg", "deg"]
-    scale = np.r_[desc.joint_to_boundary[: desc.n_chain], 1, 1, 1, *([np.degrees(1.0)] * 3)]
+    units = [
+        *(k.boundary_unit for k in desc.joint_kinds[: desc.n_chain]),
+        *("mm", "mm", "mm", "deg", "deg", "deg")[:k_plat],
+    ]
+    scale = np.r_[desc.joint_to_boundary[: desc.n_chain], *([1.0] * 3 + [np.degrees(1.0)] * 3)[:k_plat]]
     limits = []
     for k in range(v.size):
         for bound, word in ((lbx[k], "minimum"), (ubx[k], "maximum")):

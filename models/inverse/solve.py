@@ -63,7 +63,7 @@ def inverse_kinematics(
     target = np.hstack([p, rot_all.transpose(0, 2, 1).reshape(n, 9)])
     target[~valid] = 0.0
 
-    v = np.full((n, desc.n_chain + 6), np.nan)
+    v = np.full((n, desc.n_ik), np.nan)
     methods = ["invalid"] * n
     if follow:
         previous: Array | None = None

@@ -28,9 +28,19 @@ class StartTable:
     def __init__(self, desc: RobotDescription, theta: Array, runtime: Runtime) -> None:
         joints, platforms = sample_workspace(desc, TABLE_POSES, seed=TABLE_SEED, return_platforms=True, runtime=runtime)
         fk = pose_batch(desc, joints, theta, platforms, runtime=runtime)
-        self.start = np.hstack([joints[:, : desc.n_chain], platforms])
+        self.start = np.hstack([joints[:, : desc.n_chain], platforms[:, : desc.n_ik - desc.n_chain]])
         self.pose_tree = cKDTree(features(fk.positions, fk.rotations))
         self.position_tree = cKDTree(fk.positions)
+
+    def nearest_k(self, target: Array, k: int, *, position_only: bool) -> Array:
+        """The k nearest starting points (N, k, n_v) for targets (N, 12), nearest first."""
+        n = target.shape[0]
+        if position_only:
+            _, nearest = self.position_tree.query(target[:, :3], k=k)
+        else:
+            rot = target[:, 3:].reshape(n, 3, 3).transpose(0, 2, 1)
+            _, nearest = self.pose_tree.query(features(target[:, :3], rot), k=k)
+        return np.asarray(self.start[np.asarray(nearest).reshape(n, k)])
 
     def nearest(self, target: Array, *, position_only: bool) -> Array:
         """Starting points [carriage joints, platform pose] (N, n_chain + 6) for targets (N, 12)."""

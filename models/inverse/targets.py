@@ -17,8 +17,11 @@ from models.transforms import quaternion_to_matrix
 def default_seed(desc: RobotDescription, runtime: Runtime | None = None) -> Array:
     """Mid-range carriage joints and the legs of the hexapod's home pose (nominal geometry)."""
     n = desc.n_chain
+    mid = (desc.joint_min[:n] + desc.joint_max[:n]) / 2
+    if desc.hexapod is None:
+        return mid
     legs = inverse_hexapod(desc, np.asarray(desc.hexapod.home, dtype=float)[None, :], runtime=runtime)[0]
-    return np.asarray(np.r_[(desc.joint_min[:n] + desc.joint_max[:n]) / 2, legs], dtype=float)
+    return np.asarray(np.r_[mid, legs], dtype=float)
 
 
 def validated_targets(

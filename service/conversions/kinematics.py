@@ -10,7 +10,7 @@ from models import RobotDescription
 from models._types import IDENTITY, Array, Pose6
 from models.compensation import Compensation
 from models.errors import InvalidQuaternion
-from models.kinematics import ForwardResult
+from models.kinematics import ForwardResult, as_joint_array
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, quaternion_to_matrix, rotvec_to_matrix_np
 from service.errors import BadRequest
 from service.schemas.common import PosePublic, Target
@@ -21,7 +21,8 @@ QUATERNION_TOLERANCE = 1e-3
 
 def joints_in(desc: RobotDescription, rows: Sequence[Sequence[float]]) -> Array:
     """(N, n_joints) internal units (mm, rad) from boundary rows (mm, deg)."""
-    return np.asarray(rows, dtype=float).reshape(-1, desc.n_joints) / desc.joint_to_boundary
+    # The schema bounds a vector's length (1…70); the robot's own length is checked here (a 422 naming it).
+    return as_joint_array(desc, rows) / desc.joint_to_boundary
 
 
 def joints_out(desc: RobotDescription, joints: Array) -> list[list[float]]:

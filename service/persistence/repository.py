@@ -22,8 +22,17 @@ class Repository:
         self.s = session
 
     # ---------------------------------------------------------------- robots
-    def add_robot(self, name: str, model: str, base: list[float], tool: list[float], nominal: list[float]) -> Robot:
-        robot = Robot(id=new_id(), name=name, model=model, base=base, tool=tool, current_version=1)
+    def add_robot(
+        self,
+        name: str,
+        model: str,
+        base: list[float],
+        tool: list[float],
+        nominal: list[float],
+        *,
+        structure: dict[str, Any] | None = None,
+    ) -> Robot:
+        robot = Robot(id=new_id(), name=name, model=model, base=base, tool=tool, current_version=1, structure=structure)
         self.s.add(robot)
         self.s.flush()
         self.s.add(ParameterVersion(robot_id=robot.id, version=1, values=nominal, provenance="nominal"))

@@ -53,6 +53,8 @@ class Robot(Base):
     notes: Mapped[str | None] = mapped_column(Text, nullable=True)
     revision: Mapped[int] = mapped_column(Integer, default=1)
     """Bumped by every change of the robot or of its current version: the robot's ETag."""
+    structure: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    """The description document (shared/spec/robots.md) of a custom robot; None for the built-in IWR."""
 
 
 class ParameterVersion(Base):

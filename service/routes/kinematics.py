@@ -36,5 +36,6 @@ async def inverse(
         m, "inverse_kinematics", lambda: kinematics.inverse(models=models, robot_id=robot_id, body=body)
     )
     if wants_csv(request):
-        return Response(joints_csv(out.joints), media_type="text/csv")
+        names = models.current(robot_id)[0].joint_names
+        return Response(joints_csv(out.joints, names), media_type="text/csv")
     return model_json(out)

@@ -1,8 +1,9 @@
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Header, Query, Request, Response
+from fastapi.responses import JSONResponse
 from pydantic import TypeAdapter
 
 from service.deps import ActorDep, DatabaseDep, negotiate
@@ -69,15 +70,35 @@ def delete_robot(robot_id: str, db: DatabaseDep, actor: ActorDep, if_match: IfMa
     return Response(status_code=204)
 
 
-@router.get("/{robot_id}/parameters", response_model=ParametersPublic, responses=_PARAMETERS_CSV)
+@router.get(
+    "/{robot_id}/parameters",
+    response_model=ParametersPublic,
+    responses={
+        200: {
+            "content": {
+                **_PARAMETERS_CSV[200]["content"],
+                "application/xml": {"schema": {"type": "string"}, "description": "URDF (?format=urdf)"},
+            }
+        },
+        **{k: v for k, v in _PARAMETERS_CSV.items() if k != 200},
+    },
+)
 def get_parameters(
     robot_id: str,
     request: Request,
     db: DatabaseDep,
     version: int | None = Query(None, ge=1, le=2**31 - 1, description="A past version (default: current)"),
+    format: Literal["json", "csv", "urdf"] | None = Query(
+        None,
+        description="Instead of Accept: 'csv', or 'urdf' (the calibrated serial model; its FK equals the service's)",
+    ),
 ) -> Response:
-    """JSON or CSV by Accept (406 for anything else); either re-imports through POST …/parameter-versions."""
-    media = negotiate(request, _PARAMETER_FORMATS)
+    """JSON or CSV by Accept (406 for anything else) or ?format=; either re-imports through POST
+    …/parameter-versions. URDF for serial structures."""
+    if format == "urdf":
+        text = robots.get_parameters_urdf(db=db, robot_id=robot_id, version=version)
+        return Response(content=text, media_type="application/xml")
+    media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(request, _PARAMETER_FORMATS)
     parameters, etag = robots.get_parameters(db=db, robot_id=robot_id, version=version)
     if media == "text/csv":
         response = Response(parameters_csv(parameters), media_type="text/csv")
@@ -85,3 +106,13 @@ def get_parameters(
         response = model_json(parameters)
     response.headers["ETag"] = etag
     return response
+
+
+@router.get("/{robot_id}/structure", response_model=dict[str, Any])
+def get_structure(
+    robot_id: str,
+    db: DatabaseDep,
+    version: int | None = Query(None, ge=1, le=2**31 - 1, description="A parameter version (default: current)"),
+) -> Response:
+    """The description document with the values of a parameter version; `POST /v1/robots` accepts it back."""
+    return JSONResponse(robots.get_structure(db=db, robot_id=robot_id, version=version))

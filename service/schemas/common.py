@@ -44,9 +44,12 @@ JointValue = Annotated[float, Field(ge=-1e6, le=1e6)]
 JointVector = Annotated[
     list[JointValue],
     Field(
-        min_length=10,
-        max_length=10,
-        description="[q1 (mm), q2 (mm), q3 (deg), q4 (deg), l1 … l6 (mm)]",
+        min_length=1,
+        max_length=70,
+        description=(
+            "The robot's joints in the order of robots.md, as many as the robot has "
+            "(the IWR: [q1 (mm), q2 (mm), q3 (deg), q4 (deg), l1 … l6 (mm)])"
+        ),
         examples=[[400.0, 150.0, 90.0, 45.0, 420.0, 420.0, 420.0, 420.0, 420.0, 420.0]],
     ),
 ]

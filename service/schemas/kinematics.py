@@ -20,7 +20,7 @@ class ForwardResponse(Public):
 class InverseRequest(Strict):
     targets: list[Target] = Field(min_length=1, max_length=100_000)
     seed: JointVector | None = Field(default=None, description="Joints to stay closest to (default: mid-range)")
-    weights: list[float] | None = Field(default=None, min_length=10, max_length=10, description="Per-joint weights")
+    weights: list[float] | None = Field(default=None, min_length=1, max_length=70, description="Per-joint weights")
     follow: bool = Field(default=False, description="Seed each target with the previous answer (smooth paths)")
 
 

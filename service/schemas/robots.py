@@ -1,7 +1,7 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import Field
 
@@ -10,7 +10,17 @@ from service.schemas.common import OptionalFloat, Pose, PosePublic, Public, Stri
 
 class RobotCreate(Strict):
     name: str = Field(min_length=1, max_length=200, examples=["cell-3"])
-    model: Literal["iwr"] = "iwr"
+    model: Literal["iwr", "custom"] = Field(
+        default="iwr", description="'iwr' (built in), or 'custom' with `structure` or `urdf`"
+    )
+    structure: dict[str, Any] | None = Field(
+        default=None, description="A description document of shared/spec/robots.md (then `model` reads 'custom')"
+    )
+    urdf: str | None = Field(
+        default=None, max_length=2_000_000, description="A URDF; the chain from `base_link` to `tip_link` is the robot"
+    )
+    base_link: str | None = Field(default=None, max_length=200)
+    tip_link: str | None = Field(default=None, max_length=200)
     base: Pose | None = Field(default=None, description="Nominal guess of world <- robot base (default identity)")
     tool: Pose | None = Field(default=None, description="Nominal guess of platform -> TCP (default identity)")
 
@@ -35,6 +45,10 @@ class RobotPublic(Public):
     tool: PosePublic
     notes: str | None = None
     revision: int = Field(description="Bumped by every change of the robot or its current version; the ETag")
+    structure: dict[str, Any] = Field(description="The robot's description document (shared/spec/robots.md)")
+    joint_names: list[str] = Field(description="The joint vector's order: q1 … q_m, then l1 … l6 for a hexapod")
+    joint_units: list[Literal["mm", "deg"]]
+    parameter_count: int
 
 
 class ParameterPublic(Public):

@@ -1,9 +1,12 @@
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from models import iwr
-from service.conversions.robots import description, frame_in, parameters_out, robot_out
+from models.structure import description_document
+from models.urdf import urdf_from_description
+from service.conversions.robots import description, frame_in, new_description, parameters_out, robot_out
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision, etag
 from service.schemas.robots import ParametersPublic, RobotCreate, RobotPatch, RobotPublic
@@ -12,11 +15,13 @@ NO_ACTOR = Actor()
 
 
 def create_robot(*, db: Database, body: RobotCreate, actor: Actor = NO_ACTOR) -> RobotPublic:
-    base, tool = frame_in(body.base, "base"), frame_in(body.tool, "tool")
-    nominal = iwr(base, tool).parameters.nominal.tolist()
+    desc, document = new_description(body)  # InvalidInput (a 422 naming the field) for a bad document
+    nominal = desc.parameters.nominal.tolist()
+    model = "iwr" if document is None else "custom"
     with db.session() as s:
-        robot = Repository(s).add_robot(body.name, body.model, list(base), list(tool), nominal)
-        Repository(s).version(robot.id, 1).actor = actor.name
+        repo = Repository(s)
+        robot = repo.add_robot(body.name, model, list(desc.base), list(desc.tool), nominal, structure=document)
+        repo.version(robot.id, 1).actor = actor.name
         Lifecycle(s).changed(robot, "robot.created", actor, version=1, details={"name": robot.name}, bump=False)
         return robot_out(robot)
 
@@ -90,3 +95,21 @@ def get_parameters(*, db: Database, robot_id: str, version: int | None) -> tuple
         repo = Repository(s)
         robot = repo.robot(robot_id)
         return parameters_out(description(robot), repo.version(robot_id, version)), etag(robot)
+
+
+def get_parameters_urdf(*, db: Database, robot_id: str, version: int | None) -> str:
+    """The URDF of a serial robot with the values of a parameter version (InvalidInput for a hexapod)."""
+    with db.reader() as s:
+        repo = Repository(s)
+        desc = description(repo.robot(robot_id))
+        values = np.asarray(repo.version(robot_id, version).values, dtype=float)
+    return urdf_from_description(desc, values, name="robot")
+
+
+def get_structure(*, db: Database, robot_id: str, version: int | None) -> dict[str, Any]:
+    """The robot's description document with the values of a parameter version (POST /v1/robots takes it)."""
+    with db.reader() as s:
+        repo = Repository(s)
+        desc = description(repo.robot(robot_id))
+        values = np.asarray(repo.version(robot_id, version).values, dtype=float)
+    return description_document(desc, values)

@@ -74,6 +74,10 @@ def test_the_response_checker_refuses_unknown_keys_and_undeclared_answers() -> N
         "tool": {"position": [0, 0, 0], "orientation": [1, 0, 0, 0]},
         "notes": None,
         "revision": 1,
+        "structure": {"stages": []},
+        "joint_names": ["q1"],
+        "joint_units": ["mm"],
+        "parameter_count": 16,
     }
     checker.check("GET", "/v1/robots/r", 200, "application/json", json.dumps(robot).encode())
     with pytest.raises(AssertionError, match="unexpected"):

@@ -1,0 +1,302 @@
+"""URDF in and out: a URDF chain becomes a serial stage; a calibrated serial model becomes a URDF.
+
+Import (`document_from_urdf`). The URDF is parsed by yourdfpy; the joints on the path from `base_link` to
+`tip_link` are read at their zero configuration as *lines in space* (a point and a direction per moving
+joint), and the chain is re-described in modified DH (Craig) from those lines: frame k has its z axis on
+joint k's axis and its x axis on the common normal towards joint k+1, and each link's four numbers follow
+from two consecutive frames. Where two consecutive axes are parallel the common normal is not unique: it is
+taken through the previous frame's origin (d = 0), and the link carries Hayati's beta (nominal 0).
+
+Why this parameterisation and not one link per URDF joint keeping the URDF's `origin` (six numbers per
+joint): the URDF's origins are a choice of frames, not geometry. Any chain of joint axes has this MDH form
+exactly (URDF origins need not have a DH form; their lines always do), its FK equals the URDF's (tested to
+1e-9 mm), fixed joints inside the chain disappear into the geometry of the lines, and the parameters are a
+complete and minimal set: the structural identifiability is Everett–Hsu–Roth's 4R + 2P + 6 instead of a
+rank-deficient 6 per joint whose redundant columns the fit would have to find and drop. What the URDF's
+frames added goes into the base (base_link -> frame 0) and the tool (last frame -> tip_link).
+
+Export (`urdf_from_description`). Any serial structure (DH or MDH links, fixed links): each link
+`A_k = P_k · M(q_k) · S_k` (DH: P = I, M·S = Rz(θ+q)·Tz(d)·Tx(a)·Rx(α) with the joint motion first; MDH: the
+fixed part first, the motion last) becomes one URDF joint whose origin is `S_{k-1} · P_k`, with the motion
+about (or along) its z axis; the base, the last `S` and the tool become fixed joints. Numbers are written with
+17 significant digits, metres and radians as URDF wants: its FK equals the model's to round-off (tested).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import xml.etree.ElementTree as ET
+from typing import Any
+
+import numpy as np
+
+from models._types import Array
+from models.errors import InvalidInput
+from models.robot import RobotDescription
+from models.serial_chain import Convention, JointType
+from models.structure import Document
+from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
+
+MM_PER_M = 1000.0
+PARALLEL_SIN = 1e-9
+"""|z_k × z_k+1| below this: parallel axes (the common normal is then taken through the previous origin)."""
+INTERSECT_MM = 1e-9
+CONTINUOUS_RANGE_DEG = (-180.0, 180.0)
+"""A URDF `continuous` joint has no limits; its range in the document (one turn)."""
+
+
+# ---------------------------------------------------------------------------------------------- import
+def _chain(robot: Any, base_link: str, tip_link: str) -> list[Any]:
+    links = {link.name for link in robot.links}
+    for field, name in (("base_link", base_link), ("tip_link", tip_link)):
+        if name not in links:
+            raise InvalidInput(f"the URDF has no link {name!r}", field=field, value=name)
+    by_child = {joint.child: joint for joint in robot.joints}
+    path: list[Any] = []
+    at = tip_link
+    while at != base_link:
+        joint = by_child.get(at)
+        if joint is None:
+            raise InvalidInput(f"{tip_link!r} is not below {base_link!r} in the URDF's tree", field="tip_link")
+        path.append(joint)
+        at = joint.parent
+    path.reverse()
+    for joint in path:
+        if joint.type not in ("revolute", "continuous", "prismatic", "fixed"):
+            raise InvalidInput(
+                f"joint {joint.name!r} is {joint.type}: a serial stage has revolute, prismatic and fixed joints",
+                field="urdf",
+                value=str(joint.type),
+                allowed=["revolute", "continuous", "prismatic", "fixed"],
+            )
+    if not any(joint.type != "fixed" for joint in path):
+        raise InvalidInput("the chain between base_link and tip_link has no moving joint", field="tip_link")
+    return path
+
+
+def _origin_mm(joint: Any) -> Array:
+    t = np.eye(4) if joint.origin is None else np.array(joint.origin, dtype=float)
+    t[:3, 3] *= MM_PER_M
+    return t
+
+
+def _unit(v: Array) -> Array:
+    return v / np.linalg.norm(v)
+
+
+def _frame(z: Array, x: Array, origin: Array) -> Array:
+    f = np.eye(4)
+    f[:3, 0], f[:3, 2] = x, z
+    f[:3, 1] = np.cross(z, x)
+    f[:3, 3] = origin
+    return f
+
+
+def _perpendicular(z: Array, hint: Array) -> Array:
+    """A unit vector ⟂ z, as close to `hint` as possible (another axis when hint is along z)."""
+    for h in (hint, np.array([1.0, 0, 0]), np.array([0, 1.0, 0])):
+        v = h - z * float(z @ h)
+        if np.linalg.norm(v) > 1e-6:
+            return _unit(v)
+    raise AssertionError("unreachable: two of the hints are independent")
+
+
+def _normal(p1: Array, z1: Array, p2: Array, z2: Array, *, through: Array, x_hint: Array) -> tuple[Array, Array]:
+    """(foot on line 1, unit x along the common normal from line 1 towards line 2)."""
+    n = np.cross(z1, z2)
+    if np.linalg.norm(n) < PARALLEL_SIN:
+        c = p1 + z1 * float(z1 @ (through - p1))  # through the previous origin: d = 0
+        off = p2 - c
+        off -= z1 * float(z1 @ off)
+        return c, (_unit(off) if np.linalg.norm(off) > INTERSECT_MM else _perpendicular(z1, x_hint))
+    # closest points p1 + t1 z1, p2 + t2 z2
+    b = float(z1 @ z2)
+    w = p1 - p2
+    d, e = float(z1 @ w), float(z2 @ w)
+    den = 1.0 - b * b
+    t1, t2 = (b * e - d) / den, (e - b * d) / den
+    c1, c2 = p1 + t1 * z1, p2 + t2 * z2
+    gap = c2 - c1
+    x = _unit(gap) if np.linalg.norm(gap) > INTERSECT_MM else _unit(n)
+    return c1, x
+
+
+def _mdh_numbers(f_prev: Array, f_next: Array) -> tuple[float, float, float, float]:
+    """(a, alpha, d, theta) with f_prev⁻¹ f_next = Rx(α) Tx(a) Rz(θ) Tz(d)."""
+    t = np.linalg.solve(f_prev, f_next)
+    r, p = t[:3, :3], t[:3, 3]
+    alpha = math.atan2(-r[1, 2], r[2, 2])
+    theta = math.atan2(-r[0, 1], r[0, 0])
+    d = -math.sin(alpha) * p[1] + math.cos(alpha) * p[2]
+    return float(p[0]), alpha, float(d), theta
+
+
+def _pose_doc(t: Array) -> dict[str, list[float]]:
+    q = matrix_to_quaternion(t[:3, :3])
+    return {"position": [float(v) for v in t[:3, 3]], "orientation": [float(v) for v in q]}
+
+
+def _limits(joint: Any) -> list[float]:
+    if joint.type == "continuous" or joint.limit is None or joint.limit.lower is None or joint.limit.upper is None:
+        if joint.type == "prismatic":
+            raise InvalidInput(f"prismatic joint {joint.name!r} needs <limit lower upper>", field="urdf")
+        return list(CONTINUOUS_RANGE_DEG)
+    scale = MM_PER_M if joint.type == "prismatic" else math.degrees(1.0)
+    return [float(joint.limit.lower) * scale, float(joint.limit.upper) * scale]
+
+
+def document_from_urdf(urdf: str, base_link: str, tip_link: str) -> Document:
+    """The robots.md document of the URDF chain from `base_link` to `tip_link` (see the module docstring)."""
+    import yourdfpy  # a heavy import (trimesh), needed only by URDF requests
+
+    try:
+        model = yourdfpy.URDF.load(
+            io.BytesIO(urdf.encode()),
+            build_scene_graph=False,
+            build_collision_scene_graph=False,
+            load_meshes=False,
+            load_collision_meshes=False,
+        )
+    except Exception as exc:  # yourdfpy raises lxml's and its own errors alike: all mean "not a URDF"
+        raise InvalidInput(f"not a readable URDF: {exc}", field="urdf") from exc
+    path = _chain(model.robot, base_link, tip_link)
+    # Joint frames in base_link at q = 0; the moving joints' axis lines.
+    world = np.eye(4)
+    axes: list[tuple[Array, Array, Any]] = []
+    for joint in path:
+        world = world @ _origin_mm(joint)
+        if joint.type != "fixed":
+            axis = np.array([1.0, 0, 0]) if joint.axis is None else np.asarray(joint.axis, dtype=float)
+            axes.append((world[:3, 3].copy(), _unit(world[:3, :3] @ axis), joint))
+    tip = world
+    # Frames 0..m (frame 0 on the first axis, fixed to base_link), each x on the normal to the next axis.
+    p1, z1, _ = axes[0]
+    x_hint = np.array([1.0, 0, 0])
+    frames = []
+    through = p1
+    for k, (p, z, _) in enumerate(axes):
+        if k + 1 < len(axes):
+            p2, z2, _ = axes[k + 1]
+            origin, x = _normal(p, z, p2, z2, through=through, x_hint=x_hint)
+        else:
+            origin = p + z * float(z @ (through - p))
+            x = _perpendicular(z, x_hint)
+        frames.append(_frame(z, x, origin))
+        through, x_hint = origin, x
+    frame0 = _frame(z1, _perpendicular(z1, np.array([1.0, 0, 0])), frames[0][:3, 3])
+    links = []
+    previous = frame0
+    for f, (_, _, joint) in zip(frames, axes, strict=True):
+        a, alpha, d, theta = _mdh_numbers(previous, f)
+        kind = "prismatic" if joint.type == "prismatic" else "revolute"
+        links.append(
+            {
+                "joint": kind,
+                "a": a,
+                "alpha": math.degrees(alpha),
+                "d": d,
+                "theta": math.degrees(theta),
+                "range": _limits(joint),
+            }
+        )
+        previous = f
+    return {
+        "base": _pose_doc(frame0),
+        "tool": _pose_doc(np.asarray(np.linalg.solve(frames[-1], tip), dtype=np.float64)),
+        "stages": [{"kind": "serial", "convention": "mdh", "links": links}],
+    }
+
+
+# ---------------------------------------------------------------------------------------------- export
+def _rx(a: float) -> Array:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1.0]])
+
+
+def _ry(a: float) -> Array:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1.0]])
+
+
+def _rz(a: float) -> Array:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+
+
+def _tr(x: float, y: float, z: float) -> Array:
+    t = np.eye(4)
+    t[:3, 3] = (x, y, z)
+    return t
+
+
+def _pose_matrix(p6: Array) -> Array:
+    t = np.eye(4)
+    t[:3, :3] = rotvec_to_matrix_np(p6[3:6])
+    t[:3, 3] = p6[:3]
+    return t
+
+
+def _rpy(r: Array) -> tuple[float, float, float]:
+    """URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    pitch = math.atan2(-r[2, 0], math.hypot(r[0, 0], r[1, 0]))
+    if math.cos(pitch) > 1e-12:
+        return math.atan2(r[2, 1], r[2, 2]), pitch, math.atan2(r[1, 0], r[0, 0])
+    return math.atan2(-r[1, 2], r[1, 1]), pitch, 0.0  # gimbal lock: roll takes it all
+
+
+def _num(v: float) -> str:
+    return repr(float(v))
+
+
+def _joint(root: ET.Element, name: str, kind: str, *, parent: str, child: str, origin: Array) -> ET.Element:
+    joint = ET.SubElement(root, "joint", name=name, type=kind)
+    ET.SubElement(joint, "parent", link=parent)
+    ET.SubElement(joint, "child", link=child)
+    roll, pitch, yaw = _rpy(origin[:3, :3])
+    xyz = " ".join(_num(v / MM_PER_M) for v in origin[:3, 3])
+    ET.SubElement(joint, "origin", xyz=xyz, rpy=f"{_num(roll)} {_num(pitch)} {_num(yaw)}")
+    return joint
+
+
+def urdf_from_description(desc: RobotDescription, params: Array | None = None, *, name: str = "robot") -> str:
+    """A URDF of a serial structure with the values of `params` (internal units; default nominal).
+
+    Links are `world`, `base`, `link1` … `link{n}`, `tcp`; joints `base_joint`, `joint1` … `joint{n}`
+    (moving or fixed as the links), `flange_joint` and `tool_joint`. `name` is escaped by the XML writer.
+    """
+    if desc.hexapod is not None:
+        raise InvalidInput("a URDF describes serial structures; this one has a hexapod", field="format")
+    theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
+    index = desc.parameters.index
+    root = ET.Element("robot", name=name)
+    for link_name in ("world", "base", *(f"link{k}" for k in range(1, len(desc.links) + 1)), "flange", "tcp"):
+        ET.SubElement(root, "link", name=link_name)
+    _joint(root, "base_joint", "fixed", parent="world", child="base", origin=_pose_matrix(theta[desc.slices["base"]]))
+    carry = np.eye(4)  # S_{k-1}: what the previous link leaves after its motion
+    parent = "base"
+    for k, link in enumerate(desc.links, start=1):
+        th, d, a, al = (float(theta[index[f"link{k}.{f}"]]) for f in ("theta", "d", "a", "alpha"))
+        beta = float(theta[index[f"link{k}.beta"]]) if link.has_beta else 0.0
+        if link.convention is Convention.DH:
+            before, after = np.eye(4), _rz(th) @ _tr(0, 0, d) @ _tr(a, 0, 0) @ _rx(al)
+        else:
+            before, after = _rx(al) @ _ry(beta) @ _tr(a, 0, 0) @ _rz(th) @ _tr(0, 0, d), np.eye(4)
+        kind = {JointType.REVOLUTE: "revolute", JointType.PRISMATIC: "prismatic", JointType.FIXED: "fixed"}[link.joint]
+        joint = _joint(root, f"joint{k}", kind, parent=parent, child=f"link{k}", origin=carry @ before)
+        if link.joint.moves:
+            ET.SubElement(joint, "axis", xyz="0 0 1")
+            scale = MM_PER_M if link.joint is JointType.PRISMATIC else 1.0
+            ET.SubElement(
+                joint,
+                "limit",
+                lower=_num(link.joint_min / scale),
+                upper=_num(link.joint_max / scale),
+                effort="0",
+                velocity="0",
+            )
+        carry, parent = after, f"link{k}"
+    _joint(root, "flange_joint", "fixed", parent=parent, child="flange", origin=carry)
+    _joint(root, "tool_joint", "fixed", parent="flange", child="tcp", origin=_pose_matrix(theta[desc.slices["tool"]]))
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode", xml_declaration=True)

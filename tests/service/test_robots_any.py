@@ -1,0 +1,87 @@
+"""Robots of any structure over the API: created from a document or a URDF, described back, used with joint
+vectors of their own length, exported as URDF and as a document that POST /v1/robots accepts again."""
+
+from __future__ import annotations
+
+import numpy as np
+from fastapi.testclient import TestClient
+
+from models import forward_kinematics, sample_workspace
+from models.examples import hexapod_alone_document, iiwa_like, iiwa_like_document
+from models.simulation import measure, perturbed_robot
+from tests.models.test_urdf import UR5_URDF
+
+
+def test_a_7r_arm_from_its_document(client: TestClient) -> None:
+    made = client.post("/v1/robots", json={"name": "arm", "structure": iiwa_like_document()})
+    assert made.status_code == 201, made.text
+    robot = made.json()
+    assert robot["model"] == "custom"
+    assert robot["joint_names"] == [f"q{i}" for i in range(1, 8)]
+    assert robot["joint_units"] == ["deg"] * 7
+    assert robot["parameter_count"] == 6 + 7 * 4 + 1 + 6
+    assert robot["structure"]["stages"][0]["convention"] == "mdh"
+    q_deg = [10.0, 20.0, -30.0, 40.0, 15.0, -25.0, 5.0]
+    url = f"/v1/robots/{robot['id']}/forward-kinematics"
+    pose = client.post(url, json={"joints": [q_deg]}).json()["poses"][0]
+    expected = forward_kinematics(iiwa_like(), np.radians(q_deg)).positions[0]
+    np.testing.assert_allclose(pose["position"], expected, atol=1e-9)
+    wrong = client.post(url, json={"joints": [q_deg[:6]]})
+    assert wrong.status_code == 422
+    assert "7 numbers" in wrong.json()["detail"]
+    # the URDF export and the document with the version's values
+    urdf = client.get(f"/v1/robots/{robot['id']}/parameters", params={"format": "urdf"})
+    assert urdf.status_code == 200 and urdf.text.startswith("<?xml")
+    document = client.get(f"/v1/robots/{robot['id']}/structure", params={"version": 1}).json()
+    again = client.post("/v1/robots", json={"name": "arm-2", "structure": document})
+    assert again.status_code == 201
+    pose2 = client.post(f"/v1/robots/{again.json()['id']}/forward-kinematics", json={"joints": [q_deg]}).json()
+    np.testing.assert_allclose(pose2["poses"][0]["position"], expected, atol=1e-9)
+
+
+def test_a_urdf_robot_and_bad_documents(client: TestClient) -> None:
+    made = client.post("/v1/robots", json={"name": "ur5", "urdf": UR5_URDF, "base_link": "world", "tip_link": "tool0"})
+    assert made.status_code == 201, made.text
+    assert len(made.json()["joint_names"]) == 6
+    missing = client.post("/v1/robots", json={"name": "ur5", "urdf": UR5_URDF, "base_link": "world"})
+    assert missing.status_code == 422
+    bad = hexapod_alone_document()
+    bad["stages"][0]["strokes"] = [400, 300]
+    refused = client.post("/v1/robots", json={"name": "hex", "structure": bad})
+    assert refused.status_code == 422
+    assert "stages[0].strokes" in refused.text
+    hexapod = client.post("/v1/robots", json={"name": "hex", "structure": hexapod_alone_document()}).json()
+    assert hexapod["joint_names"] == ["l1", "l2", "l3", "l4", "l5", "l6"]
+    no_urdf = client.get(f"/v1/robots/{hexapod['id']}/parameters", params={"format": "urdf"})
+    assert no_urdf.status_code == 422
+
+
+def test_the_iwr_is_described_too(client: TestClient, robot_id: str) -> None:
+    robot = client.get(f"/v1/robots/{robot_id}").json()
+    assert robot["model"] == "iwr" and robot["parameter_count"] == 70
+    assert robot["joint_names"] == ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
+    assert [s["kind"] for s in robot["structure"]["stages"]] == ["serial", "hexapod"]
+
+
+def test_a_csv_campaign_with_the_robots_header(client: TestClient) -> None:
+
+    robot = client.post("/v1/robots", json={"name": "arm", "structure": iiwa_like_document()}).json()
+    desc = iiwa_like()
+    joints = sample_workspace(desc, 60, seed=3)
+    campaign = measure(perturbed_robot(desc, seed=4), joints, seed=5, position_only=True)
+    rows = [",".join(f"q{i}" for i in range(1, 8)) + ",x,y,z"]
+    for q, p in zip(np.degrees(joints), campaign.positions, strict=True):
+        rows.append(",".join(repr(float(v)) for v in [*q, *p]))
+    url = f"/v1/robots/{robot['id']}/calibrations"
+    made = client.post(url, content="\n".join(rows) + "\n", headers={"content-type": "text/csv"})
+    assert made.status_code == 201, made.text
+    assert len(made.json()["identifiable"]) == 31
+    iwr_header = "q1,q2,q3,q4,l1,l2,l3,l4,l5,l6,x,y,z\n" + ",".join(["1"] * 13) + "\n"
+    wrong = client.post(url, content=iwr_header, headers={"content-type": "text/csv"})
+    assert wrong.status_code == 422
+    ik = client.post(
+        f"/v1/robots/{robot['id']}/inverse-kinematics",
+        json={"targets": [{"position": [float(v) for v in campaign.positions[0]]}]},
+        headers={"accept": "text/csv"},
+    )
+    assert ik.status_code == 200 and ik.text.startswith("q1,q2,q3,q4,q5,q6,q7\n")
