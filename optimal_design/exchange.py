@@ -133,6 +133,8 @@ def exchange(
         outside = allowed.copy()
         outside[design] = False
         pool = np.flatnonzero(outside)
+        if pool.size == 0:  # every candidate is in the design (count = M): nothing to swap with
+            break
         limit = POOL if spectral else LOWRANK_POOL
         if pool.size > limit:
             score = _pool_score(info, criterion, design, base, pool, weights=weights)

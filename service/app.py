@@ -15,6 +15,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from service import logs, openapi, problems, ui, warmup
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
+from service.guards import RequestGuard
 from service.jobs import JobRunner
 from service.metrics import Metrics
 from service.model_cache import ModelCache
@@ -80,8 +81,21 @@ class Observe:
                 message["headers"] = [*message.get("headers", []), (b"x-request-id", rid.encode("latin-1"))]
             await send(message)
 
+        started_response = False
+
+        async def send_tracked(message: Message) -> None:
+            nonlocal started_response
+            started_response = started_response or message["type"] == "http.response.start"
+            await send_with_id(message)
+
         try:
-            await self.app(scope, receive, send_with_id)
+            await self.app(scope, receive, send_tracked)
+        except Exception as exc:
+            # Here, not in Starlette's ServerErrorMiddleware: the request id is still set, so the log line
+            # carries it; and the client gets a problem document instead of a reset connection.
+            log.exception("unhandled error", exc_info=exc)
+            if not started_response:
+                await problems.response(problems.to_problem(exc))(scope, receive, send_with_id)
         finally:
             elapsed = time.perf_counter() - started
             template = getattr(scope.get("route"), "path", "unmatched")
@@ -141,6 +155,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
+    app.add_middleware(RequestGuard)
     app.add_middleware(Observe, metrics=app.state.metrics)
     openapi.install(app, api_keys=bool(settings.keys))
     return app

@@ -5,7 +5,7 @@ from pydantic import TypeAdapter
 
 from service.deps import DatabaseDep
 from service.responses import model_json, models_json
-from service.schemas.robots import ParametersPublic, RobotCreate, RobotPublic
+from service.schemas.robots import MAX_VERSION, ParametersPublic, RobotCreate, RobotPublic
 from service.services import robots
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
@@ -41,6 +41,6 @@ def delete_robot(robot_id: str, db: DatabaseDep) -> Response:
 def get_parameters(
     robot_id: str,
     db: DatabaseDep,
-    version: int | None = Query(None, ge=1, description="A past version (default: current)"),
+    version: int | None = Query(None, ge=1, le=MAX_VERSION, description="A past version (default: current)"),
 ) -> Response:
     return model_json(robots.get_parameters(db=db, robot_id=robot_id, version=version))
