@@ -12,7 +12,7 @@ import anyio
 from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service import logs, openapi, problems, ui, warmup
+from service import logs, openapi, problems, security, ui, warmup
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
 from service.guards import RequestGuard
@@ -148,6 +148,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         redoc_url=None,
     )
     app.state.settings = settings
+    app.state.api_keys = settings.keys  # parsed once: a wrong entry stops the start-up (service.security)
     app.state.metrics = Metrics()
     problems.install(app)
     ui.install(app)
@@ -156,6 +157,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(health.router)
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
     app.add_middleware(RequestGuard)
+    app.add_middleware(security.GuardedPaths, metrics=not settings.metrics_public, docs=not settings.docs_public)
     app.add_middleware(Observe, metrics=app.state.metrics)
-    openapi.install(app, api_keys=bool(settings.keys))
+    openapi.install(app)
     return app

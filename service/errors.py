@@ -5,6 +5,7 @@ Tree (the domain's `models.errors.CalibrationError` is the other root `service.p
     ServiceError
     ├── BadRequest            400  a body the service cannot parse (CSV that does not follow the header)
     ├── Unauthorized          401  missing or wrong API key
+    ├── Forbidden             403  a key whose scope does not cover the operation
     ├── NotFound              404  an unknown id
     ├── PayloadTooLarge       413  a body over the configured limit
     ├── UnsupportedMediaType  415  neither JSON nor CSV
@@ -41,6 +42,10 @@ class BadRequest(ServiceError):
 
 class Unauthorized(ServiceError):
     pass
+
+
+class Forbidden(ServiceError):
+    """`scope`: the key's; `required`: the operation's."""
 
 
 class NotFound(ServiceError):

@@ -16,10 +16,12 @@ from service.problems import PROBLEM_JSON
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.jobs import JobAccepted
 from service.schemas.problems import Problem
+from service.security import required_scope
 
 PROBLEM_RESPONSES = {
     "400": "Malformed request (e.g. a CSV body that does not follow the header)",
     "401": "Missing or wrong API key (when keys are configured)",
+    "403": "The key's scope does not cover this operation",
     "404": "Unknown id",
     "413": "Request body too large",
     "415": "Unsupported media type",
@@ -31,7 +33,7 @@ EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted, Pro
 added below, so FastAPI does not see them all."""
 
 
-def build(app: FastAPI, *, api_keys: bool) -> dict[str, Any]:
+def build(app: FastAPI) -> dict[str, Any]:
     schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
     components = schema.setdefault("components", {}).setdefault("schemas", {})
     for model in EXTRA_MODELS:
@@ -51,17 +53,28 @@ def build(app: FastAPI, *, api_keys: bool) -> dict[str, Any]:
                     "description": description,
                     "content": {PROBLEM_JSON: {"schema": {"$ref": "#/components/schemas/Problem"}}},
                 }
-    if api_keys:
-        schema["components"]["securitySchemes"] = {"ApiKey": {"type": "apiKey", "in": "header", "name": "X-API-Key"}}
+            method = next(m for m, op in operations.items() if op is operation)
+            if path.startswith("/v1"):
+                # Declared whether or not this instance has keys, so generated clients always send one.
+                operation["security"] = [{"ApiKey": []}]
+                operation["x-scope"] = required_scope(method, path).name
+    schema["components"]["securitySchemes"] = {
+        "ApiKey": {
+            "type": "apiKey",
+            "in": "header",
+            "name": "X-API-Key",
+            "description": "Scopes read < write < admin; each operation's `x-scope` is the least it needs.",
+        }
+    }
     return schema
 
 
-def install(app: FastAPI, *, api_keys: bool) -> None:
+def install(app: FastAPI) -> None:
     """Build the document once, on first request of /openapi.json."""
 
     def openapi() -> dict[str, Any]:
         if app.openapi_schema is None:
-            app.openapi_schema = build(app, api_keys=api_keys)
+            app.openapi_schema = build(app)
         return app.openapi_schema
 
     app.openapi = openapi  # type: ignore[method-assign]

@@ -41,6 +41,7 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     # the service's own
     service.BadRequest: (400, "bad-request", "Bad request"),
     service.Unauthorized: (401, "unauthorized", "API key missing or wrong"),
+    service.Forbidden: (403, "forbidden", "Scope too small"),
     service.NotFound: (404, "not-found", "Not found"),
     service.PayloadTooLarge: (413, "payload-too-large", "Request body too large"),
     service.UnsupportedMediaType: (415, "unsupported-media-type", "Unsupported media type"),
