@@ -16,6 +16,7 @@ from service import logs, openapi, problems, security, ui, warmup
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
 from service.guards import RequestGuard
+from service.idempotency import Idempotency
 from service.jobs import JobRunner
 from service.metrics import Metrics
 from service.model_cache import ModelCache
@@ -155,6 +156,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (robots, kinematics, designs, calibrations, jobs, error_analysis):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)
+    app.add_middleware(Idempotency)  # inside BodyLimit: it reads the body BodyLimit has counted
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
     app.add_middleware(RequestGuard)
     app.add_middleware(security.GuardedPaths, metrics=not settings.metrics_public, docs=not settings.docs_public)

@@ -7,8 +7,10 @@ Tree (the domain's `models.errors.CalibrationError` is the other root `service.p
     ├── Unauthorized          401  missing or wrong API key
     ├── Forbidden             403  a key whose scope does not cover the operation
     ├── NotFound              404  an unknown id
+    ├── Conflict              409  another request got there first (a newer parameter version, a key in use)
     ├── PayloadTooLarge       413  a body over the configured limit
     ├── UnsupportedMediaType  415  neither JSON nor CSV
+    ├── IdempotencyKeyReused  422  an Idempotency-Key sent again with another request
     ├── Interrupted           503  a job whose worker stopped with the service
     └── NotReady              503  the database does not answer
 
@@ -51,6 +53,14 @@ class Forbidden(ServiceError):
 class NotFound(ServiceError):
     def __init__(self, detail: str, *, resource: str, id: str | None = None) -> None:
         super().__init__(detail, resource=resource, **({} if id is None else {"id": id}))
+
+
+class Conflict(ServiceError):
+    pass
+
+
+class IdempotencyKeyReused(ServiceError):
+    pass
 
 
 class PayloadTooLarge(ServiceError):

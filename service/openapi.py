@@ -23,10 +23,19 @@ PROBLEM_RESPONSES = {
     "401": "Missing or wrong API key (when keys are configured)",
     "403": "The key's scope does not cover this operation",
     "404": "Unknown id",
+    "409": "Conflict: a newer parameter version won, or the Idempotency-Key's first request is still running",
     "413": "Request body too large",
     "415": "Unsupported media type",
     "422": "Invalid input: what is wrong and where",
     "503": "Not ready",
+}
+POST_ONLY = frozenset({"409"})
+IDEMPOTENCY_KEY = {
+    "name": "Idempotency-Key",
+    "in": "header",
+    "required": False,
+    "description": "Retries with the same key and request replay the first answer (service.idempotency)",
+    "schema": {"type": "string", "minLength": 1, "maxLength": 200, "pattern": "^[!-~]+$"},
 }
 EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted, Problem)
 """Referenced from `openapi_extra` (the calibration route parses its body itself) or from the error responses
@@ -44,16 +53,17 @@ def build(app: FastAPI) -> dict[str, Any]:
     components.pop("HTTPValidationError", None)
     components.pop("ValidationError", None)
     for path, operations in schema.get("paths", {}).items():
-        for operation in operations.values():
+        for method, operation in operations.items():
             responses = operation.setdefault("responses", {})
             for status, description in PROBLEM_RESPONSES.items():
-                if status == "404" and "{" not in path:
+                if (status == "404" and "{" not in path) or (status in POST_ONLY and method != "post"):
                     continue
                 responses[status] = {
                     "description": description,
                     "content": {PROBLEM_JSON: {"schema": {"$ref": "#/components/schemas/Problem"}}},
                 }
-            method = next(m for m, op in operations.items() if op is operation)
+            if path.startswith("/v1") and method == "post":
+                operation.setdefault("parameters", []).append(IDEMPOTENCY_KEY)
             if path.startswith("/v1"):
                 # Declared whether or not this instance has keys, so generated clients always send one.
                 operation["security"] = [{"ApiKey": []}]

@@ -43,6 +43,8 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     service.Unauthorized: (401, "unauthorized", "API key missing or wrong"),
     service.Forbidden: (403, "forbidden", "Scope too small"),
     service.NotFound: (404, "not-found", "Not found"),
+    service.Conflict: (409, "conflict", "Conflict"),
+    service.IdempotencyKeyReused: (422, "idempotency-key-reused", "Idempotency-Key reused"),
     service.PayloadTooLarge: (413, "payload-too-large", "Request body too large"),
     service.UnsupportedMediaType: (415, "unsupported-media-type", "Unsupported media type"),
     service.Interrupted: (503, "interrupted", "Interrupted"),
@@ -95,6 +97,8 @@ def to_problem(exc: BaseException) -> dict[str, Any]:
 def response(body: dict[str, Any]) -> JSONResponse:
     status = int(body["status"])
     headers = {"WWW-Authenticate": "ApiKey"} if status == 401 else None
+    if "retry_after" in body:
+        headers = {"Retry-After": str(body["retry_after"])}
     return JSONResponse(body, status_code=status, media_type=PROBLEM_JSON, headers=headers)
 
 
