@@ -8,6 +8,7 @@ from models.errors import InvalidInput
 from models.identification import identify
 from service.conversions.calibrations import calibration_public, campaign_in, noise_in, options_in, report_out
 from service.conversions.robots import description
+from service.errors import Conflict
 from service.persistence import Database, Repository
 from service.persistence.repository import new_id
 from service.persistence.tables import ParameterVersion
@@ -33,13 +34,18 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
     payload = report.model_dump(mode="json")
     records = [r.model_dump() for r in body.measurements]
     calibration_id = new_id()
+    won_by: int | None = None
     with db.session() as s:
         repo = Repository(s)
         robot = repo.robot(robot_id, lock=True)  # still there, and one calibration at a time per robot
         stored = repo.add_campaign(robot_id, records)
         record = repo.add_calibration(calibration_id, robot_id, stored.id, result.status, payload)
         record.start_version = start_version
-        if result.succeeded and body.apply:
+        if result.succeeded and body.apply and robot.current_version != start_version:
+            # Optimistic concurrency: another writer made a version while this fit ran (or the fit started
+            # from an older one). Applying would silently discard that version's work; keep this one stored.
+            won_by = robot.current_version
+        elif result.succeeded and body.apply:
             # What this fit estimated carries its new statistics; the rest keeps the start version's.
             std, ident = start_std, start_ident
             for i in result.estimated:
@@ -47,7 +53,17 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
                 std[i], ident[i] = (value if np.isfinite(value) else None), True
             record.parameter_version = repo.add_version(robot, result.parameters.tolist(), std, ident, calibration_id)
             record.applied = True
-        return calibration_public(record)
+        answer = calibration_public(record)
+    if won_by is not None:  # after the commit: the calibration is stored, only not applied
+        raise Conflict(
+            f"calibration {calibration_id} is stored but not applied: it started from parameter version "
+            f"{start_version}, and version {won_by} became current meanwhile; review both, then calibrate "
+            f"again from version {won_by} or restore the one you want",
+            calibration_id=calibration_id,
+            start_version=start_version,
+            current_version=won_by,
+        )
+    return answer
 
 
 def _start_version(repo: Repository, robot_id: str, version: int | None) -> ParameterVersion:
