@@ -12,7 +12,7 @@ import anyio
 from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service import logs, openapi, problems, security, ui, warmup
+from service import limits, logs, openapi, problems, security, ui, warmup
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
 from service.guards import RequestGuard
@@ -156,6 +156,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (robots, kinematics, designs, calibrations, jobs, error_analysis):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)
+    app.add_middleware(
+        limits.Admission, gate=limits.ComputeGate(limits.SYNC_COMPUTE_SLOTS, limits.SYNC_QUEUE, limits.QUEUE_WAIT_S)
+    )
     app.add_middleware(Idempotency)  # inside BodyLimit: it reads the body BodyLimit has counted
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
     app.add_middleware(RequestGuard)

@@ -9,10 +9,9 @@ import time
 from collections.abc import Callable
 from typing import Annotated, TypeVar
 
-import anyio
 from fastapi import Depends, Request
 
-from service import security
+from service import limits, security
 from service.jobs import JobRunner
 from service.metrics import Metrics
 from service.model_cache import ModelCache
@@ -56,10 +55,10 @@ ApiKeyDep = Depends(require_api_key)
 
 
 async def compute(m: Metrics, kind: str, fn: Callable[[], T]) -> T:
-    """Run CPU work off the event loop and time it."""
+    """Run CPU work off the event loop, within the compute slots (service.limits), and time it."""
     started = time.perf_counter()
     try:
-        return await anyio.to_thread.run_sync(fn)
+        return await limits.run_gated(fn)
     finally:
         m.solve.labels(kind).observe(time.perf_counter() - started)
 

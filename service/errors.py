@@ -11,6 +11,9 @@ Tree (the domain's `models.errors.CalibrationError` is the other root `service.p
     ├── PayloadTooLarge       413  a body over the configured limit
     ├── UnsupportedMediaType  415  neither JSON nor CSV
     ├── IdempotencyKeyReused  422  an Idempotency-Key sent again with another request
+    ├── WorkTooLarge          422  more work than a synchronous request (or any job) may ask for
+    ├── Overloaded            503  every compute slot busy (with Retry-After)
+    ├── ClientGone            503  the client left before its computation started (nobody reads this)
     ├── Interrupted           503  a job whose worker stopped with the service
     └── NotReady              503  the database does not answer
 
@@ -60,6 +63,18 @@ class Conflict(ServiceError):
 
 
 class IdempotencyKeyReused(ServiceError):
+    pass
+
+
+class WorkTooLarge(ServiceError):
+    pass
+
+
+class Overloaded(ServiceError):
+    pass
+
+
+class ClientGone(ServiceError):
     pass
 
 

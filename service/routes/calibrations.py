@@ -6,6 +6,7 @@ from fastapi import APIRouter, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
 
+from service import limits
 from service.csv_codec import CAMPAIGN_HEADER, parse_campaign
 from service.deps import DatabaseDep, JobsDep, MetricsDep, compute
 from service.errors import BadRequest, UnsupportedMediaType
@@ -94,6 +95,7 @@ async def create_calibration(
     body = await _body(
         request, apply=apply, noise_position_mm=noise_position_mm, noise_orientation_deg=noise_orientation_deg
     )
+    limits.admit(limits.calibration(len(body.measurements)), run_async=run_async)
     if run_async:
         accepted = submit_job(db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body)
         return model_json(accepted, status_code=202)
