@@ -15,7 +15,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from service import limits, logs, openapi, problems, security, ui, warmup
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
-from service.guards import RequestGuard
+from service.guards import BodyGuard, RequestGuard
 from service.idempotency import Idempotency
 from service.jobs import JobRunner
 from service.metrics import Metrics
@@ -160,6 +160,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         limits.Admission, gate=limits.ComputeGate(limits.SYNC_COMPUTE_SLOTS, limits.SYNC_QUEUE, limits.QUEUE_WAIT_S)
     )
     app.add_middleware(Idempotency)  # inside BodyLimit: it reads the body BodyLimit has counted
+    app.add_middleware(BodyGuard)  # inside BodyLimit, outside Idempotency: reads the body once, on a deadline
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
     app.add_middleware(RequestGuard)
     app.add_middleware(security.GuardedPaths, metrics=not settings.metrics_public, docs=not settings.docs_public)

@@ -8,6 +8,7 @@ Tree (the domain's `models.errors.CalibrationError` is the other root `service.p
     ├── Forbidden             403  a key whose scope does not cover the operation
     ├── NotFound              404  an unknown id
     ├── Conflict              409  another request got there first (a newer parameter version, a key in use)
+    ├── RequestTimeout        408  a body that did not arrive in time
     ├── PayloadTooLarge       413  a body over the configured limit
     ├── UnsupportedMediaType  415  neither JSON nor CSV
     ├── IdempotencyKeyReused  422  an Idempotency-Key sent again with another request
@@ -75,6 +76,10 @@ class Overloaded(ServiceError):
 
 
 class ClientGone(ServiceError):
+    pass
+
+
+class RequestTimeout(ServiceError):
     pass
 
 

@@ -23,6 +23,7 @@ PROBLEM_RESPONSES = {
     "401": "Missing or wrong API key (when keys are configured)",
     "403": "The key's scope does not cover this operation",
     "404": "Unknown id",
+    "408": "The request body did not arrive in time",
     "409": "Conflict: a newer parameter version won, or the Idempotency-Key's first request is still running",
     "413": "Request body too large",
     "415": "Unsupported media type",
