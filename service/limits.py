@@ -71,6 +71,10 @@ SYNC_QUEUE = CORES
 QUEUE_WAIT_S = SYNC_BUDGET_S
 """A waiting request gives up after one budget (so it answers within ~2 budgets either way)."""
 RETRY_AFTER_S = math.ceil(SYNC_BUDGET_S)
+GIL_SWITCH_INTERVAL_S = 0.001
+"""How often a thread holding the GIL hands it over (Python's default: 5 ms). The event loop competes for the
+GIL with every computation's thread; each /healthz needs several turns of the loop, so under load its latency
+is a multiple of this interval (`python -m service` sets it)."""
 
 
 @dataclass(frozen=True)

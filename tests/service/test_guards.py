@@ -66,5 +66,5 @@ def test_a_slow_body_times_out(monkeypatch: pytest.MonkeyPatch) -> None:
         sent.append(message)
 
     scope = {"type": "http", "method": "POST", "path": "/v1/robots", "headers": []}
-    anyio.run(guards.BodyGuard(app), scope, trickle, send)  # type: ignore[arg-type]
+    anyio.run(guards.BodyGuard(app, limit=1_000_000), scope, trickle, send)  # type: ignore[arg-type]
     assert not reached and sent[0]["status"] == 408
