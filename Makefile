@@ -12,7 +12,7 @@ RUNTIME_STAMP := $(VENV)/.installed-runtime
 LOCK_FLAGS := --quiet --no-emit-index-url --no-emit-find-links --no-emit-trusted-host --strip-extras \
 	--annotation-style=line
 
-.PHONY: install install-runtime lock test test-fast lint typecheck pytest bench run clean error-analysis browser
+.PHONY: install install-runtime lock test test-fast lint typecheck pytest bench run clean error-analysis browser fuzz
 
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
@@ -64,6 +64,10 @@ test-fast: $(STAMP)
 	$(BIN)/pytest -m "not slow"
 
 test: lint typecheck pytest
+
+# Schemathesis longer than `make test` does (SQLite and PostgreSQL, stateless and stateful): ~10 min here.
+fuzz: $(STAMP)
+	IWR_FUZZ_EXAMPLES=150 IWR_FUZZ_STEPS=10 $(BIN)/pytest -p no:cacheprovider tests/service/test_contract_fuzz.py
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import time
 import urllib.error
 import urllib.request
 import uuid
@@ -38,6 +39,22 @@ class Api:
             problem = json.loads(exc.read() or b"{}")
             raise SystemExit(f"{exc.code} from {path}: {problem.get('detail', exc.reason)}") from None
 
+    def get(self, path: str) -> Any:
+        request = urllib.request.Request(self.base_url + path, headers={**self.headers, "Accept": "application/json"})
+        with urllib.request.urlopen(request, timeout=30) as response:
+            return json.load(response)
+
+    def job(self, path: str, json_body: Any) -> Any:
+        """Work over the service's synchronous budget (a 2 000-candidate design) runs as a job: submit, poll."""
+        accepted = self.post(path + "?async=true", json_body=json_body)
+        while True:
+            job = self.get(accepted["status_url"])
+            if job["status"] == "succeeded":
+                return job["result"]
+            if job["status"] == "failed":
+                raise SystemExit(f"job {job['id']} failed: {job['error']['detail']}")
+            time.sleep(0.5)
+
 
 def main(base_url: str = "http://127.0.0.1:8000") -> None:
     headers = {"X-API-Key": os.environ["IWR_API_KEY"]} if os.environ.get("IWR_API_KEY") else {}
@@ -47,7 +64,7 @@ def main(base_url: str = "http://127.0.0.1:8000") -> None:
     rid = robot["id"]
     print(f"robot {rid} created, parameter version {robot['parameter_version']}")
 
-    design = api.post(f"/v1/robots/{rid}/pose-designs", json_body={"count": 30, "criterion": "I"})
+    design = api.job(f"/v1/robots/{rid}/pose-designs", {"count": 30, "criterion": "I"})
     m, r = design["metrics"], design["random_baseline"]
     print(
         f"designed 30 poses: predicted TCP error after calibration {m['predicted_rms_tcp_mm']:.4f} mm "

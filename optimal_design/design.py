@@ -139,6 +139,10 @@ def prepare(
 
     if candidates is not None:
         cand = as_joint_array(desc, candidates)
+        if cand.shape[0] == 0:
+            raise InvalidInput(
+                "candidates is empty: give at least `count` joint vectors, or omit them", field="candidates"
+            )
         check_joint_ranges(desc, cand)
         forward_kinematics(desc, cand, theta)  # UnreachablePose names the first candidate outside the workspace
         ok, excluded = admissible(cand)

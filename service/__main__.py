@@ -10,9 +10,12 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+import sys  # noqa: E402
+
 import uvicorn  # noqa: E402
 
 from service.app import create_app  # noqa: E402
+from service.limits import GIL_SWITCH_INTERVAL_S  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -20,6 +23,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8000)
     args = parser.parse_args(argv)
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     uvicorn.run(create_app(), host=args.host, port=args.port, log_level="warning", access_log=False)
 
 

@@ -12,9 +12,11 @@ import anyio
 from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service import logs, openapi, problems, ui, warmup
+from service import limits, logs, openapi, problems, security, ui, warmup
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
+from service.guards import BodyGuard, RequestGuard
+from service.idempotency import Idempotency
 from service.jobs import JobRunner
 from service.metrics import Metrics
 from service.model_cache import ModelCache
@@ -93,8 +95,21 @@ class Observe:
                 message["headers"] = [*message.get("headers", []), (b"x-request-id", rid.encode("latin-1"))]
             await send(message)
 
+        started_response = False
+
+        async def send_tracked(message: Message) -> None:
+            nonlocal started_response
+            started_response = started_response or message["type"] == "http.response.start"
+            await send_with_id(message)
+
         try:
-            await self.app(scope, receive, send_with_id)
+            await self.app(scope, receive, send_tracked)
+        except Exception as exc:
+            # Here, not in Starlette's ServerErrorMiddleware: the request id is still set, so the log line
+            # carries it; and the client gets a problem document instead of a reset connection.
+            log.exception("unhandled error", exc_info=exc)
+            if not started_response:
+                await problems.response(problems.to_problem(exc))(scope, receive, send_with_id)
         finally:
             elapsed = time.perf_counter() - started
             template = getattr(scope.get("route"), "path", "unmatched")
@@ -147,6 +162,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         redoc_url=None,
     )
     app.state.settings = settings
+    app.state.api_keys = settings.keys  # parsed once: a wrong entry stops the start-up (service.security)
     app.state.metrics = Metrics()
     problems.install(app)
     ui.install(app)
@@ -165,7 +181,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)
+    app.add_middleware(
+        limits.Admission, gate=limits.ComputeGate(limits.SYNC_COMPUTE_SLOTS, limits.SYNC_QUEUE, limits.QUEUE_WAIT_S)
+    )
+    app.add_middleware(Idempotency)  # inside BodyGuard: it reads the body BodyGuard replays
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
+    # Outside BodyLimit, which refuses a declared size over the limit before any read; BodyGuard reads every
+    # other body once, on a deadline, and drains a chunked one over the limit before its 413.
+    app.add_middleware(BodyGuard, limit=settings.max_body_bytes)
+    app.add_middleware(RequestGuard)
+    app.add_middleware(security.GuardedPaths, metrics=not settings.metrics_public, docs=not settings.docs_public)
     app.add_middleware(Observe, metrics=app.state.metrics)
-    openapi.install(app, api_keys=bool(settings.keys))
+    openapi.install(app)
     return app

@@ -5,16 +5,14 @@ The dependencies are `async def` on purpose: a plain `def` dependency costs a th
 
 from __future__ import annotations
 
-import secrets
 import time
 from collections.abc import Callable
 from typing import Annotated, TypeVar
 
-import anyio
 from fastapi import Depends, Request
 
-from service import logs
-from service.errors import NotAcceptable, Unauthorized
+from service import limits, logs, security
+from service.errors import NotAcceptable
 from service.jobs import JobRunner
 from service.metrics import Metrics
 from service.model_cache import ModelCache
@@ -45,14 +43,10 @@ async def jobs(request: Request) -> JobRunner:
 
 
 async def require_api_key(request: Request) -> None:
-    """On the /v1 router: with keys configured, every call there needs one of them in X-API-Key."""
-    keys: frozenset[str] = request.app.state.settings.keys
-    if not keys:
-        return
-    given = request.headers.get("x-api-key", "").encode("latin-1")
-    # compare_digest on every key: the time taken does not tell which prefix of which key matched.
-    if not any(secrets.compare_digest(given, key.encode()) for key in keys):
-        raise Unauthorized("send a valid API key in the X-API-Key header")
+    """On the /v1 routers: with keys configured, a key whose scope covers the route (service.security), and
+    `request.state.actor` set to the key's name."""
+    route = request.scope.get("route")
+    security.authorize(request, security.required_scope(request.method, getattr(route, "path", "")))
 
 
 async def actor(request: Request) -> Actor:
@@ -71,10 +65,10 @@ ActorDep = Annotated[Actor, Depends(actor)]
 
 
 async def compute(m: Metrics, kind: str, fn: Callable[[], T]) -> T:
-    """Run CPU work off the event loop and time it."""
+    """Run CPU work off the event loop, within the compute slots (service.limits), and time it."""
     started = time.perf_counter()
     try:
-        return await anyio.to_thread.run_sync(fn)
+        return await limits.run_gated(fn)
     finally:
         m.solve.labels(kind).observe(time.perf_counter() - started)
 

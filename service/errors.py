@@ -6,11 +6,18 @@ Tree (the domain's `models.errors.CalibrationError` is the other root `service.p
     ├── BadRequest            400  a body the service cannot parse (CSV that does not follow the header)
     ├── CalibrationFailed     422  the fit failed (stored, never applied): its id, the reason, the diagnoses
     ├── Unauthorized          401  missing or wrong API key
+    ├── Forbidden             403  a key whose scope does not cover the operation
     ├── NotFound              404  an unknown id
     ├── NotAcceptable         406  no representation the Accept header allows
     ├── PreconditionFailed    412  If-Match names a revision that is no longer current
+    ├── Conflict              409  another request got there first (a newer parameter version, a key in use)
+    ├── RequestTimeout        408  a body that did not arrive in time
     ├── PayloadTooLarge       413  a body over the configured limit
     ├── UnsupportedMediaType  415  neither JSON nor CSV
+    ├── IdempotencyKeyReused  422  an Idempotency-Key sent again with another request
+    ├── WorkTooLarge          422  more work than a synchronous request (or any job) may ask for
+    ├── Overloaded            503  every compute slot busy (with Retry-After)
+    ├── ClientGone            503  the client left before its computation started (nobody reads this)
     ├── Interrupted           503  a job whose worker stopped with the service
     └── NotReady              503  the database does not answer
 
@@ -53,6 +60,10 @@ class Unauthorized(ServiceError):
     pass
 
 
+class Forbidden(ServiceError):
+    """`scope`: the key's; `required`: the operation's."""
+
+
 class NotFound(ServiceError):
     def __init__(self, detail: str, *, resource: str, id: str | None = None) -> None:
         super().__init__(detail, resource=resource, **({} if id is None else {"id": id}))
@@ -68,6 +79,30 @@ class PreconditionFailed(ServiceError):
 
     def __init__(self, detail: str, *, current: str) -> None:
         super().__init__(detail, current=current)
+
+
+class Conflict(ServiceError):
+    pass
+
+
+class IdempotencyKeyReused(ServiceError):
+    pass
+
+
+class WorkTooLarge(ServiceError):
+    pass
+
+
+class Overloaded(ServiceError):
+    pass
+
+
+class ClientGone(ServiceError):
+    pass
+
+
+class RequestTimeout(ServiceError):
+    pass
 
 
 class PayloadTooLarge(ServiceError):

@@ -17,23 +17,35 @@ from service.schemas.calibrations import CalibrationCreate
 from service.schemas.jobs import JobAccepted
 from service.schemas.problems import Problem
 from service.schemas.versions import ParameterVersionImport
+from service.security import required_scope
 
 PROBLEM_RESPONSES = {
     "400": "Malformed request (e.g. a CSV body that does not follow the header)",
     "401": "Missing or wrong API key (when keys are configured)",
+    "403": "The key's scope does not cover this operation",
     "404": "Unknown id",
+    "408": "The request body did not arrive in time",
+    "409": "Conflict: a newer parameter version won, or the Idempotency-Key's first request is still running",
     "413": "Request body too large",
     "415": "Unsupported media type",
     "422": "Invalid input: what is wrong and where",
     "503": "Not ready",
 }
 OPTIONAL_PROBLEMS = ("406", "412")
+POST_ONLY = frozenset({"409"})
+IDEMPOTENCY_KEY = {
+    "name": "Idempotency-Key",
+    "in": "header",
+    "required": False,
+    "description": "Retries with the same key and request replay the first answer (service.idempotency)",
+    "schema": {"type": "string", "minLength": 1, "maxLength": 200, "pattern": "^[!-~]+$"},
+}
 EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted, Problem, ParameterVersionImport)
 """Referenced from `openapi_extra` (the calibration route parses its body itself) or from the error responses
 added below, so FastAPI does not see them all."""
 
 
-def build(app: FastAPI, *, api_keys: bool) -> dict[str, Any]:
+def build(app: FastAPI) -> dict[str, Any]:
     schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
     components = schema.setdefault("components", {}).setdefault("schemas", {})
     for model in EXTRA_MODELS:
@@ -44,10 +56,10 @@ def build(app: FastAPI, *, api_keys: bool) -> dict[str, Any]:
     components.pop("HTTPValidationError", None)
     components.pop("ValidationError", None)
     for path, operations in schema.get("paths", {}).items():
-        for operation in operations.values():
+        for method, operation in operations.items():
             responses = operation.setdefault("responses", {})
             for status, description in PROBLEM_RESPONSES.items():
-                if status == "404" and "{" not in path:
+                if (status == "404" and "{" not in path) or (status in POST_ONLY and method != "post"):
                     continue
                 responses[status] = {
                     "description": description,
@@ -58,17 +70,29 @@ def build(app: FastAPI, *, api_keys: bool) -> dict[str, Any]:
             for status in OPTIONAL_PROBLEMS:
                 if status in responses:
                     responses[status]["content"] = {PROBLEM_JSON: {"schema": {"$ref": "#/components/schemas/Problem"}}}
-    if api_keys:
-        schema["components"]["securitySchemes"] = {"ApiKey": {"type": "apiKey", "in": "header", "name": "X-API-Key"}}
+            if path.startswith("/v1") and method == "post":
+                operation.setdefault("parameters", []).append(IDEMPOTENCY_KEY)
+            if path.startswith("/v1"):
+                # Declared whether or not this instance has keys, so generated clients always send one.
+                operation["security"] = [{"ApiKey": []}]
+                operation["x-scope"] = required_scope(method, path).name
+    schema["components"]["securitySchemes"] = {
+        "ApiKey": {
+            "type": "apiKey",
+            "in": "header",
+            "name": "X-API-Key",
+            "description": "Scopes read < write < admin; each operation's `x-scope` is the least it needs.",
+        }
+    }
     return schema
 
 
-def install(app: FastAPI, *, api_keys: bool) -> None:
+def install(app: FastAPI) -> None:
     """Build the document once, on first request of /openapi.json."""
 
     def openapi() -> dict[str, Any]:
         if app.openapi_schema is None:
-            app.openapi_schema = build(app, api_keys=api_keys)
+            app.openapi_schema = build(app)
         return app.openapi_schema
 
     app.openapi = openapi  # type: ignore[method-assign]

@@ -43,9 +43,16 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     service.BadRequest: (400, "bad-request", "Bad request"),
     service.CalibrationFailed: (422, "calibration-failed", "The calibration failed"),
     service.Unauthorized: (401, "unauthorized", "API key missing or wrong"),
+    service.Forbidden: (403, "forbidden", "Scope too small"),
     service.NotFound: (404, "not-found", "Not found"),
     service.NotAcceptable: (406, "not-acceptable", "Not acceptable"),
     service.PreconditionFailed: (412, "precondition-failed", "Precondition failed"),
+    service.Conflict: (409, "conflict", "Conflict"),
+    service.IdempotencyKeyReused: (422, "idempotency-key-reused", "Idempotency-Key reused"),
+    service.WorkTooLarge: (422, "work-too-large", "Too much work for one request"),
+    service.Overloaded: (503, "overloaded", "Overloaded"),
+    service.ClientGone: (503, "client-gone", "Client gone"),
+    service.RequestTimeout: (408, "request-timeout", "Request timeout"),
     service.PayloadTooLarge: (413, "payload-too-large", "Request body too large"),
     service.UnsupportedMediaType: (415, "unsupported-media-type", "Unsupported media type"),
     service.Interrupted: (503, "interrupted", "Interrupted"),
@@ -62,6 +69,8 @@ HTTP_TITLES: dict[int, str] = {
 }
 """Starlette's HTTP errors keep their `http-<status>` type (what clients have seen since v1)."""
 INTERNAL = (500, "internal-error", "Internal error")
+MAX_ERRORS = 20
+"""Validation errors listed in a problem document; `error_count` says how many there were."""
 
 
 def lookup(exc: BaseException) -> tuple[int, str, str]:
@@ -79,8 +88,11 @@ def to_problem(exc: BaseException) -> dict[str, Any]:
     status, slug, title = lookup(exc)
     extra: dict[str, Any] = {}
     if isinstance(exc, RequestValidationError):
-        locs = [list(e.get("loc", ())) for e in exc.errors()]
-        msgs = [str(e.get("msg", "")) for e in exc.errors()]
+        found = exc.errors()
+        shown = found[:MAX_ERRORS]  # the first ones and how many in all: 1.3 million once made 86 MB
+        locs = [list(e.get("loc", ())) for e in shown]
+        msgs = [str(e.get("msg", "")) for e in shown]
+        extra["error_count"] = len(found)
         where = ".".join(str(p) for p in locs[0]) if locs else ""
         msg = msgs[0] if msgs else "invalid request"
         detail = f"{where}: {msg}" if where else msg
@@ -98,6 +110,8 @@ def to_problem(exc: BaseException) -> dict[str, Any]:
 def response(body: dict[str, Any]) -> JSONResponse:
     status = int(body["status"])
     headers = {"WWW-Authenticate": "ApiKey"} if status == 401 else None
+    if "retry_after" in body:
+        headers = {"Retry-After": str(body["retry_after"])}
     return JSONResponse(body, status_code=status, media_type=PROBLEM_JSON, headers=headers)
 
 

@@ -5,6 +5,7 @@ from typing import Any
 from fastapi import APIRouter, Query, Request, Response
 from pydantic import TypeAdapter
 
+from service import limits
 from service.csv_codec import joints_csv
 from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, compute, wants_csv
 from service.responses import model_json, models_json
@@ -42,6 +43,14 @@ async def create_design(
     m: MetricsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
 ) -> dict[str, Any] | Response:
+    candidates = len(body.candidates) if body.candidates is not None else body.candidate_count
+    fixed = len(body.fixed) if body.fixed is not None else 0
+    cost = (
+        limits.target_design(candidates, fixed)
+        if body.count is None
+        else limits.pose_design(candidates, body.count, fixed, body.criterion.value)
+    )
+    limits.admit(cost, run_async=run_async)
     if run_async:
         accepted = submit_job(db=db, jobs=jobs, kind="pose_design", robot_id=robot_id, body=body)
         return model_json(accepted, status_code=202)

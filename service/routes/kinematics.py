@@ -2,6 +2,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Request, Response
 
+from service import limits
 from service.csv_codec import joints_csv
 from service.deps import MetricsDep, ModelCacheDep, compute, wants_csv
 from service.responses import model_json
@@ -21,7 +22,10 @@ async def forward(robot_id: str, body: ForwardRequest, models: ModelCacheDep, m:
     def run() -> ForwardResponse:
         return kinematics.forward(models=models, robot_id=robot_id, body=body)
 
-    return model_json(run() if len(body.joints) <= INLINE_POSES else await compute(m, "forward_kinematics", run))
+    if len(body.joints) <= INLINE_POSES:
+        return model_json(run())
+    limits.admit(limits.forward_kinematics(len(body.joints)), run_async=False, can_run_async=False)
+    return model_json(await compute(m, "forward_kinematics", run))
 
 
 @router.post(
@@ -32,6 +36,7 @@ async def forward(robot_id: str, body: ForwardRequest, models: ModelCacheDep, m:
 async def inverse(
     robot_id: str, body: InverseRequest, request: Request, models: ModelCacheDep, m: MetricsDep
 ) -> Response:
+    limits.admit(limits.inverse_kinematics(len(body.targets)), run_async=False, can_run_async=False)
     out = await compute(
         m, "inverse_kinematics", lambda: kinematics.inverse(models=models, robot_id=robot_id, body=body)
     )

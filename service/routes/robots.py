@@ -9,7 +9,7 @@ from pydantic import TypeAdapter
 from service.deps import ActorDep, DatabaseDep, negotiate
 from service.parameters_csv import PARAMETER_HEADER, parameters_csv
 from service.responses import model_json, models_json
-from service.schemas.robots import ParametersPublic, RobotCreate, RobotPatch, RobotPublic
+from service.schemas.robots import MAX_VERSION, ParametersPublic, RobotCreate, RobotPatch, RobotPublic
 from service.services import robots
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
@@ -87,7 +87,7 @@ def get_parameters(
     robot_id: str,
     request: Request,
     db: DatabaseDep,
-    version: int | None = Query(None, ge=1, le=2**31 - 1, description="A past version (default: current)"),
+    version: int | None = Query(None, ge=1, le=MAX_VERSION, description="A past version (default: current)"),
     format: Literal["json", "csv", "urdf"] | None = Query(
         None,
         description="Instead of Accept: 'csv', or 'urdf' (the calibrated serial model; its FK equals the service's)",

@@ -1,15 +1,24 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import Field
 
 from service.schemas.common import OptionalFloat, Pose, PosePublic, Public, Strict
 
+MAX_VERSION = 2**31 - 1
+"""Parameter versions are 32-bit integers in PostgreSQL (INTEGER); a larger `?version=` is a 422, not a 500."""
+
+PrintableName = Annotated[
+    str,
+    Field(min_length=1, max_length=200, pattern=r"^[^\x00-\x1f\x7f]+$", examples=["cell-3"]),
+]
+"""No control characters: PostgreSQL text cannot hold NUL, and a name with a newline would forge log lines."""
+
 
 class RobotCreate(Strict):
-    name: str = Field(min_length=1, max_length=200, examples=["cell-3"])
+    name: PrintableName
     model: Literal["iwr", "custom"] = Field(
         default="iwr", description="'iwr' (built in), or 'custom' with `structure` or `urdf`"
     )

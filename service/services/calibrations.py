@@ -17,7 +17,7 @@ from service.conversions.calibrations import (
     report_out,
 )
 from service.conversions.robots import description
-from service.errors import CalibrationFailed
+from service.errors import CalibrationFailed, Conflict
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle
 from service.persistence.repository import new_id
@@ -69,6 +69,7 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Ac
         payload["forced"] = refused is not None and apply
     records = [r.model_dump() for r in body.measurements]
     calibration_id = new_id()
+    won_by: int | None = None
     with db.session() as s:
         repo = Repository(s)
         robot = repo.robot(robot_id, lock=True)  # still there, and one calibration at a time per robot
@@ -77,7 +78,12 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Ac
         record.start_version = start_version
         record.notes = body.notes
         record.instrument = None if body.instrument is None else body.instrument.model_dump()
-        if apply:
+        if apply and robot.current_version != start_version:
+            # Optimistic concurrency: another writer made a version while this fit ran (or the fit started
+            # from an older one). Applying would silently discard that version's work; keep this one stored.
+            won_by = robot.current_version
+            record.result = {**payload, "not_applied_reason": f"version {won_by} became current meanwhile"}
+        elif apply:
             # What this fit estimated carries its new statistics; the rest keeps the start version's.
             std, ident = start_std, start_ident
             for i in result.estimated:
@@ -103,6 +109,15 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Ac
             f"the calibration failed and was not applied: {result.reason} (stored as calibration {calibration_id})",
             calibration_id=calibration_id,
             diagnoses=diagnoses_out(result),
+        )
+    if won_by is not None:  # after the commit: the calibration is stored, only not applied
+        raise Conflict(
+            f"calibration {calibration_id} is stored but not applied: it started from parameter version "
+            f"{start_version}, and version {won_by} became current meanwhile; review both, then calibrate "
+            f"again from version {won_by} or restore the one you want",
+            calibration_id=calibration_id,
+            start_version=start_version,
+            current_version=won_by,
         )
     return answer
 

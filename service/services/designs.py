@@ -2,6 +2,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from models.errors import InvalidInput
 from optimal_design import design_for_target, design_poses
 from service.conversions.designs import constraints_in, design_public, report_out, target_report_out
 from service.conversions.kinematics import joints_in
@@ -14,6 +15,8 @@ from service.schemas.designs import PoseDesignCreate, PoseDesignSummaryPublic
 def create_design(*, db: Database, models: ModelCache, robot_id: str, body: PoseDesignCreate) -> dict[str, Any]:
     """The new design as `PoseDesignPublic` JSON, designed with the robot's current parameters."""
     desc, theta = models.current(robot_id)
+    if body.candidates is not None and not body.candidates:
+        raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
     candidates = joints_in(desc, body.candidates) if body.candidates is not None else None
     fixed = joints_in(desc, body.fixed) if body.fixed is not None else None
     joint_ranges, keep_out = constraints_in(desc, body)

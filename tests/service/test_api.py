@@ -238,7 +238,7 @@ def test_jobs_in_a_worker_process(tmp_path: object) -> None:
 
 def test_pose_design_for_a_target_accuracy(client: TestClient, robot_id: str) -> None:
     url = f"/v1/robots/{robot_id}/pose-designs"
-    body = {"target": {"rms_tcp_mm": 0.03}, "candidate_count": 400, "seed": 3}
+    body = {"target": {"rms_tcp_mm": 0.03}, "candidate_count": 300, "seed": 3}
     r = client.post(url, json=body)
     assert r.status_code == 201, r.text
     design = r.json()

@@ -53,12 +53,13 @@ def test_noise_stated_five_times_too_small_is_stored_not_applied(client: TestCli
     assert [e["details"].get("forced") for e in trail] == [True]  # the override is on the record
     # Stating the real σ passes every check (from the nominal version: the forced one claims an accuracy its
     # understated σ made up, so against it an honest result looks worse, and the accuracy check says so).
-    honest_body = {"measurements": recs, "noise": {"position_mm": 0.125}, "start_version": 1}
+    # (apply: false — applying a fit from a version that is no longer current is refused with a 409 anyway)
+    honest_body = {"measurements": recs, "noise": {"position_mm": 0.125}, "start_version": 1, "apply": False}
     status, honest = _calibrate(client, robot_id, honest_body)
     assert status == 201 and all(c["passed"] for c in honest["checks"]), honest["checks"]  # type: ignore[union-attr]
-    status, against_forced = _calibrate(client, robot_id, {**honest_body, "start_version": 2})
+    status, against_forced = _calibrate(client, robot_id, {**honest_body, "start_version": 2, "apply": True})
     failed = [c["name"] for c in against_forced["checks"] if not c["passed"]]  # type: ignore[union-attr]
-    assert failed == ["accuracy"] and not against_forced["applied"]
+    assert status == 201 and failed == ["accuracy"] and not against_forced["applied"]
 
 
 @pytest.mark.parametrize(

@@ -31,8 +31,10 @@ def test_fifty_clients_for_twenty_seconds(tmp_path: Path) -> None:
     with running_server(f"sqlite:///{tmp_path}/load.db", IWR_JOB_WORKERS="0") as url:
         robot = httpx.post(url + "/v1/robots", json={"name": "load"}).json()["id"]
         created: list[list[str]] = [[] for _ in range(CLIENTS)]
+        not_applied: list[list[str]] = [[] for _ in range(CLIENTS)]
         errors: list[str] = []
         counts = np.zeros(CLIENTS, dtype=int)
+        overloaded = np.zeros(CLIENTS, dtype=int)
         stop = time.monotonic() + SECONDS
 
         def client(k: int) -> None:
@@ -44,9 +46,14 @@ def test_fifty_clients_for_twenty_seconds(tmp_path: Path) -> None:
                         r = http.post(f"/v1/robots/{robot}/calibrations", json={"measurements": campaign})
                         if r.status_code == 201:
                             created[k].append(r.json()["id"])
+                        elif r.status_code == 409:  # another calibration applied meanwhile: stored, not applied
+                            not_applied[k].append(r.json()["calibration_id"])
                     else:
                         r = http.post(f"/v1/robots/{robot}/forward-kinematics", json={"joints": [joints[(k + i) % 64]]})
-                    if r.status_code >= 300:
+                    if r.status_code == 503 and r.json()["type"].endswith("overloaded"):
+                        overloaded[k] += 1  # every compute slot busy: a well-behaved client waits as told
+                        time.sleep(float(r.headers["retry-after"]))
+                    elif r.status_code >= 300 and r.status_code != 409:
                         errors.append(f"{r.status_code} {r.text[:200]}")
                     counts[k] += 1
 
@@ -58,14 +65,16 @@ def test_fifty_clients_for_twenty_seconds(tmp_path: Path) -> None:
 
         assert not errors, errors[:5]
         ids = [i for c in created for i in c]
+        kept = [i for c in not_applied for i in c]
         stored = httpx.get(f"{url}/v1/robots/{robot}/calibrations", params={"limit": 1000}).json()
-        assert sorted(c["id"] for c in stored) == sorted(ids)  # nothing lost, nothing twice
-        assert len(ids) >= CLIENTS // 2 and counts.sum() > 10 * CLIENTS
-        # Every calibration applied made exactly one new version, numbered without gaps. (The same campaign
-        # again predicts no better than the version it made, so the accuracy check leaves later ones unapplied.)
+        assert sorted(c["id"] for c in stored) == sorted(ids + kept)  # nothing lost, nothing twice
+        assert len(ids) + len(kept) >= CLIENTS // 2 and counts.sum() > 10 * CLIENTS
+        assert overloaded.sum() < counts.sum() / 2
+        # Every calibration applied made exactly one new version, numbered without gaps; the others none (a 409
+        # lost the race; a 201 not applied failed a check: the same campaign again predicts no better).
         applied = [c for c in stored if c["applied"]]
         params = httpx.get(f"{url}/v1/robots/{robot}/parameters").json()
         assert applied and params["version"] == len(applied) + 1
         versions = sorted(c["parameter_version"] for c in applied)
         assert versions == list(range(2, len(applied) + 2))
-        assert all(c["not_applied_reason"] for c in stored if not c["applied"])
+        assert all(c["parameter_version"] is None and c["not_applied_reason"] for c in stored if not c["applied"])

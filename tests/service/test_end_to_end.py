@@ -17,9 +17,7 @@ DESC = iwr()
 def test_design_measure_calibrate_compensate(client: TestClient) -> None:
     robot = client.post("/v1/robots", json={"name": "cell-7", "model": "iwr"}).json()
     rid = robot["id"]
-    design = client.post(
-        f"/v1/robots/{rid}/pose-designs", json={"count": 30, "criterion": "D", "candidate_count": 1000}
-    )
+    design = client.post(f"/v1/robots/{rid}/pose-designs", json={"count": 30, "criterion": "D", "candidate_count": 400})
     assert design.status_code == 201, design.text
     poses = np.array(design.json()["poses"]) / DESC.joint_to_boundary
 

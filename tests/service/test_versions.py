@@ -4,31 +4,45 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 import pytest
-from fastapi import Request
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, iwr, sample_workspace
 from models.simulation import perturbed_robot
+from service.security import digest
 from tests.service.conftest import make_client
 from tests.service.helpers import records
 
 DESC = iwr()
 
 
+# Named keys, as a plant configures them (name:scope:sha256): the audit trail records the name, never the key.
+KEYS = {"metrology": "write", "ops": "admin", "alice": "write", "bob": "admin", "tester": "admin"}
+
+
+def _key(name: str) -> str:
+    return f"key-of-{name}-0123456789abcdef"
+
+
 @pytest.fixture
 def client(database_url: str) -> Iterator[TestClient]:
-    """The service on SQLite and on PostgreSQL, with a stand-in for the API-key check: it names the caller from a
-    test header, as the key check does from the key (request.state.actor)."""
-    c = make_client(database_url)
+    """The service on SQLite and on PostgreSQL with named API keys; requests without `X-Test-Actor` use the
+    `tester` admin key, the others the named one (the header is turned into that name's key)."""
+    entries = ",".join(f"{n}:{scope}:{digest(_key(n))}" for n, scope in KEYS.items())
+    c = make_client(database_url, api_keys=entries)
 
-    @c.app.middleware("http")  # type: ignore[attr-defined]
-    async def name_the_caller(request: Request, call_next):  # type: ignore[no-untyped-def]
-        request.state.actor = request.headers.get("x-test-actor")
-        return await call_next(request)
+    original = c.request
 
+    def request(method: str, url: str, **kwargs: Any) -> Any:
+        headers = dict(kwargs.pop("headers", None) or {})
+        name = headers.pop("X-Test-Actor", "tester")
+        headers["X-API-Key"] = _key(name)
+        return original(method, url, headers=headers, **kwargs)
+
+    c.request = request  # type: ignore[method-assign]
     with c:
         yield c
 

@@ -1,0 +1,130 @@
+"""Request hygiene before any route runs: what no route can answer well by itself.
+
+- A path with a NUL character names nothing: every id is a UUID the service made, and PostgreSQL text cannot
+  even hold NUL (psycopg raises DataError, which was a 500). Answered 404 here, for every route, present and
+  future, before a query is built.
+- A body is read within `BODY_TIMEOUT_S` (else 408: a slow client holds no worker for long), and a JSON body
+  over `OFFLOOP_BYTES` is parsed and checked off the event loop first: no object with more keys than
+  `MAX_OBJECT_KEYS` (measured on main: 300 000 unknown keys in 3.5 MB blocked the loop 6.9 s and answered
+  19.7 MB of errors; the issue's 1.3 million keys, 20 s and 86 MB). The largest schema object has 9 keys.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import anyio
+from fastapi.exceptions import RequestValidationError
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from service import problems
+from service.errors import NotFound, PayloadTooLarge, RequestTimeout, ServiceError
+
+BODY_TIMEOUT_S = 30.0
+"""A whole request body within this: the largest accepted body (IWR_MAX_BODY_BYTES, 20 MB) at ~1 MB/s."""
+OFFLOOP_BYTES = 64_000
+"""JSON bodies above this are parsed in a worker thread first (json.loads: ~85 ns per byte here, so 64 kB is
+~5 ms on the loop at most), which also bounds what the validation on the loop meets."""
+MAX_OBJECT_KEYS = 64
+"""Keys per JSON object; the schemas' largest object has 9."""
+DRAIN_BYTES = 64_000_000
+"""A body over the limit is read to its end (and dropped) before the 413, up to this much: a server that answers
+and closes while the client still sends makes the kernel reset the connection, and the client never sees the
+413 (measured: 1 in 5 chunked 25 MB uploads). Beyond this, or after BODY_TIMEOUT_S, the connection is closed."""
+
+
+class RequestGuard:
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "http" and "\x00" in scope.get("path", ""):
+            exc = NotFound("no resource has a NUL character in its id", resource="path")
+            await problems.response(problems.to_problem(exc))(scope, receive, send)
+            return
+        await self.app(scope, receive, send)
+
+
+class _TooManyKeys(Exception):
+    pass
+
+
+def _pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    if len(pairs) > MAX_OBJECT_KEYS:
+        raise _TooManyKeys(len(pairs))
+    return dict(pairs)
+
+
+def check_json_shape(body: bytes) -> None:
+    """Raise RequestValidationError for an object with too many keys; anything else FastAPI reports itself."""
+    try:
+        json.loads(body, object_pairs_hook=_pairs)
+    except _TooManyKeys as exc:
+        raise RequestValidationError(
+            [{"loc": ("body",), "msg": f"an object with {exc.args[0]} keys; at most {MAX_OBJECT_KEYS} are accepted"}]
+        ) from None
+    except (ValueError, RecursionError):
+        return  # malformed JSON: FastAPI answers it (400/422) with its own message
+
+
+class BodyGuard:
+    """Reads the body with a deadline and the size limit (over it: drained, then 413, declared or chunked alike),
+    checks large JSON off the loop, then replays the body to the app."""
+
+    def __init__(self, app: ASGIApp, limit: int) -> None:
+        self.app, self.limit = app, limit
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or scope["method"] not in ("POST", "PUT", "PATCH"):
+            await self.app(scope, receive, send)
+            return
+        declared = dict(scope.get("headers", [])).get(b"content-length", b"")
+        if declared.isdigit() and int(declared) > self.limit:  # BodyLimit refuses it before reading anything
+            await self.app(scope, receive, send)
+            return
+        try:
+            with anyio.fail_after(BODY_TIMEOUT_S):
+                body, disconnected, too_large = await _read(receive, self.limit)
+            if disconnected:
+                return
+            if too_large:
+                raise PayloadTooLarge(f"the request body exceeds {self.limit} bytes; send less", limit=self.limit)
+            content_type = dict(scope.get("headers", [])).get(b"content-type", b"application/json")
+            if len(body) > OFFLOOP_BYTES and b"json" in content_type.lower():
+                await anyio.to_thread.run_sync(check_json_shape, body)
+        except TimeoutError:
+            exc: Exception = RequestTimeout(f"the request body did not arrive within {BODY_TIMEOUT_S:.0f} s")
+            await problems.response(problems.to_problem(exc))(scope, receive, send)
+            return
+        except (ServiceError, RequestValidationError) as exc:  # 413 from BodyLimit, counted chunk by chunk
+            await problems.response(problems.to_problem(exc))(scope, receive, send)
+            return
+        sent = False
+
+        async def replay() -> Message:
+            nonlocal sent
+            if not sent:
+                sent = True
+                return {"type": "http.request", "body": body, "more_body": False}
+            return await receive()
+
+        await self.app(scope, replay, send)
+
+
+async def _read(receive: Receive, limit: int) -> tuple[bytes, bool, bool]:
+    """(body, disconnected, too large); over the limit the rest is read and dropped, up to DRAIN_BYTES."""
+    chunks: list[bytes] = []
+    seen = 0
+    while True:
+        message = await receive()
+        if message["type"] == "http.disconnect":
+            return b"", True, False
+        chunk = message.get("body", b"")
+        seen += len(chunk)
+        if seen <= limit:
+            chunks.append(chunk)
+        elif seen > limit + DRAIN_BYTES:
+            return b"", False, True
+        if not message.get("more_body", False):
+            return (b"".join(chunks), False, False) if seen <= limit else (b"", False, True)

@@ -1,0 +1,229 @@
+"""Bounded work: what one request may cost, estimated before the work starts, from measured costs.
+
+Every limit is named once, here, with the measurement it comes from. Timings are from this 2-core machine,
+shared with other builds while measured (so they are pessimistic), one request at a time, warm process,
+`/tmp` measurement script of the hardening branch (one operation per fresh process, peak RSS by getrusage):
+
+| operation                              | measured                                   | per unit           |
+|----------------------------------------|--------------------------------------------|--------------------|
+| identification, N full poses           | 500: 0.21 s; 2 000: 0.54 s; 8 000: 2.9 s   | 0.36 ms, 36 KB     |
+|                                        | (issue: 100 000 took 47 s and 4.3 GB)      |                    |
+| inverse kinematics, N targets          | 200: 0.30 s; 1 000: 0.85 s; 3 000: 2.9 s   | 0.95 ms, 34 KB     |
+|                                        | (issue: 100 000 passed 100 s and 4.9 GB)   |                    |
+| pose design D, K = 30 of M sampled     | 500: 1.7 s; 2 000: 4.6 s; 5 000: 17 s      | superlinear in M   |
+|                                        | peak +104 / +200 / +289 MB                 |                    |
+| pose design D, K = 300 of M = 2 000    | 16 s, +827 MB                              | K^0.55, K·M bytes  |
+
+Synchronous requests run only up to `SYNC_BUDGET_S` of estimated work; larger calibrations and designs are
+refused with a 422 that says to send them with `?async=true`, and no job may exceed `JOB_MAX_S` or
+`JOB_MEMORY_BYTES`. Inverse kinematics has no job form, so its cap is the synchronous budget.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import threading
+import time
+from collections.abc import Awaitable, Callable
+from contextvars import ContextVar
+from dataclasses import dataclass
+from typing import TypeVar
+
+import anyio
+from starlette.types import ASGIApp, Receive, Scope, Send
+
+from service.errors import ClientGone, Overloaded, WorkTooLarge
+
+T = TypeVar("T")
+
+SYNC_BUDGET_S = 2.0
+"""Estimated seconds of work a synchronous request may ask for (the issue's ~2 s): above it, a job."""
+JOB_MAX_S = 600.0
+"""The hard cap of any job's estimated time: ten minutes of one core."""
+JOB_MEMORY_BYTES = 1_500_000_000
+"""The hard cap of any one computation's estimated memory: with 2 job workers and 2 synchronous computations
+(CORES) at most four run at once, ~6 GB in all, a quarter of this machine's 23 GB."""
+
+CALIBRATION_S_PER_RECORD = 0.36e-3
+CALIBRATION_BYTES_PER_RECORD = 40_000  # 36 KB measured (8 000 poses: +289 MB), rounded up
+IK_S_PER_TARGET = 0.95e-3
+IK_BYTES_PER_TARGET = 40_000  # 34 KB measured (3 000 targets: +103 MB); the 100 000 of the issue reached 4.9 GB
+IK_MAX_TARGETS = int(SYNC_BUDGET_S / IK_S_PER_TARGET)
+"""2 105: what the budget allows, since inverse kinematics cannot run as a job."""
+
+# Pose design after its speed-up (optimal_design's benchmark, K = 30, a loaded 2-core machine): D 0.52 s at
+# M = 2 000 and 3.9 s at M = 20 000, linear in M; the other criteria's multiples of D at M = 2 000 below. Taken
+# 1.5x up, so an estimate errs on the side of a job.
+DESIGN_FIXED_S = 0.05  # information blocks and baselines at small M
+DESIGN_S_PER_CANDIDATE = 2.9e-4  # (3.9 - 0.52) s / 18 000 candidates, x1.5
+DESIGN_S_PER_CANDIDATE2 = 0.0  # no longer grows faster than M: the relaxation works on a working set
+DESIGN_CRITERION_FACTOR = {"D": 1.0, "A": 2.1, "I": 2.3, "E": 6.5, "condition": 6.3}
+"""Relative to D at M = 2 000, K = 30 (0.52, 1.1, 1.2, 3.4, 3.3 s)."""
+DESIGN_K_EXPONENT = 0.55  # K = 30 -> 300 at M = 2 000: 4.6 s -> 16 s (x3.5 for x10)
+DESIGN_BASE_BYTES = 150_000_000  # peak 252 MB at M = 2 000 and 671 MB at M = 20 000 (K = 30, after the speed-up)
+DESIGN_BYTES_PER_CANDIDATE = 30_000  # (671 - 252) MB / 18 000 candidates = 23 KB, rounded up
+DESIGN_BYTES_PER_PAIR = 400  # per chosen pose and candidate: the exchange's swap tables
+FORWARD_S_PER_POSE = 34e-6  # README's service table: 1 000 joint vectors in one request, 34 ms
+
+CORES = os.cpu_count() or 1
+SYNC_COMPUTE_SLOTS = CORES
+"""Synchronous computations at once: each holds a core (the GIL is released inside CasADi, IPOPT, BLAS)."""
+SYNC_QUEUE = CORES
+"""Requests that may wait for a slot; beyond them, 503 at once."""
+QUEUE_WAIT_S = SYNC_BUDGET_S
+"""A waiting request gives up after one budget (so it answers within ~2 budgets either way)."""
+RETRY_AFTER_S = math.ceil(SYNC_BUDGET_S)
+GIL_SWITCH_INTERVAL_S = 0.001
+"""How often a thread holding the GIL hands it over (Python's default: 5 ms). The event loop competes for the
+GIL with every computation's thread; each /healthz needs several turns of the loop, so under load its latency
+is a multiple of this interval (`python -m service` sets it)."""
+
+
+@dataclass(frozen=True)
+class Estimate:
+    what: str
+    seconds: float
+    bytes: int
+
+
+def admit(estimate: Estimate, *, run_async: bool, can_run_async: bool = True) -> None:
+    """Refuse work over the synchronous budget (unless it runs as a job) or over the hard cap of any job."""
+    if estimate.seconds > JOB_MAX_S or estimate.bytes > JOB_MEMORY_BYTES:
+        raise WorkTooLarge(
+            f"{estimate.what} is estimated at {estimate.seconds:.0f} s and {estimate.bytes / 1e9:.1f} GB, over the "
+            f"cap of any job ({JOB_MAX_S:.0f} s, {JOB_MEMORY_BYTES / 1e9:.1f} GB): split it",
+            estimated_s=round(estimate.seconds, 3),
+            estimated_bytes=estimate.bytes,
+            limit_s=JOB_MAX_S,
+            limit_bytes=JOB_MEMORY_BYTES,
+        )
+    if not run_async and estimate.seconds > SYNC_BUDGET_S:
+        advice = "send it with ?async=true (a job)" if can_run_async else "send fewer at a time"
+        raise WorkTooLarge(
+            f"{estimate.what} is estimated at {estimate.seconds:.1f} s, over the {SYNC_BUDGET_S:.0f} s budget of a "
+            f"synchronous request: {advice}",
+            estimated_s=round(estimate.seconds, 3),
+            limit_s=SYNC_BUDGET_S,
+            use_async=can_run_async,
+        )
+
+
+def calibration(records: int) -> Estimate:
+    return Estimate(
+        f"a calibration of {records} measurements",
+        records * CALIBRATION_S_PER_RECORD,
+        records * CALIBRATION_BYTES_PER_RECORD,
+    )
+
+
+def inverse_kinematics(targets: int) -> Estimate:
+    seconds, memory = targets * IK_S_PER_TARGET, targets * IK_BYTES_PER_TARGET
+    return Estimate(f"inverse kinematics of {targets} targets", seconds, memory)
+
+
+def pose_design(candidates: int, count: int, fixed: int, criterion: str) -> Estimate:
+    m = candidates + fixed
+    seconds = DESIGN_FIXED_S + DESIGN_S_PER_CANDIDATE * m + DESIGN_S_PER_CANDIDATE2 * m * m
+    seconds *= DESIGN_CRITERION_FACTOR.get(criterion, max(DESIGN_CRITERION_FACTOR.values()))
+    seconds *= max(1.0, count / 30) ** DESIGN_K_EXPONENT  # exchange and greedy grow with K (base: K = 30)
+    memory = DESIGN_BASE_BYTES + DESIGN_BYTES_PER_CANDIDATE * m + DESIGN_BYTES_PER_PAIR * count * m
+    return Estimate(f"a pose design of {count} among {candidates} candidates ({criterion})", seconds, memory)
+
+
+TARGET_DESIGNS = 5.0
+"""Target mode designs several K (D and I, probed then bisected): measured 5.6-7.1 s at M = 2 000 against 1.2 s
+for one K = 30 I design (optimal_design's benchmark), about five designs' worth."""
+
+
+def target_design(candidates: int, fixed: int) -> Estimate:
+    one = pose_design(candidates, 30, fixed, "I")
+    return Estimate(
+        f"a pose design for a target accuracy among {candidates} candidates",
+        one.seconds * TARGET_DESIGNS,
+        one.bytes,
+    )
+
+
+def forward_kinematics(poses: int) -> Estimate:
+    return Estimate(f"forward kinematics of {poses} joint vectors", poses * FORWARD_S_PER_POSE, poses * 5_000)
+
+
+# ------------------------------------------------------------------ concurrency of synchronous compute
+class ComputeGate:
+    """At most `slots` synchronous computations at once, `queue` more waiting up to `wait_s`; beyond, 503.
+
+    A plain counter under a lock rather than an asyncio semaphore: the tests drive one app from several event
+    loops (TestClient, schemathesis), and a counter belongs to none of them."""
+
+    def __init__(self, slots: int, queue: int, wait_s: float) -> None:
+        self.slots, self.queue, self.wait_s = slots, queue, wait_s
+        self.running = self.waiting = 0
+        self.lock = threading.Lock()
+
+    def _try_enter(self) -> bool:
+        with self.lock:
+            if self.running < self.slots:
+                self.running += 1
+                return True
+            return False
+
+    async def run(self, fn: Callable[[], T], gone: Callable[[], Awaitable[bool]]) -> T:
+        if not self._try_enter():
+            with self.lock:
+                if self.waiting >= self.queue:
+                    raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
+                self.waiting += 1
+            try:
+                deadline = time.monotonic() + self.wait_s
+                while not self._try_enter():
+                    if time.monotonic() > deadline:
+                        raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
+                    await anyio.sleep(0.01)
+            finally:
+                with self.lock:
+                    self.waiting -= 1
+        try:
+            if await gone():  # the client hung up while it waited: nobody will read the answer
+                raise ClientGone("the client disconnected before its computation started")
+            return await anyio.to_thread.run_sync(fn)
+        finally:
+            with self.lock:
+                self.running -= 1
+
+    def _busy(self) -> str:
+        return f"all {self.slots} compute slots are busy and {self.queue} requests wait; retry in {RETRY_AFTER_S} s"
+
+
+_current: ContextVar[tuple[ComputeGate, Receive] | None] = ContextVar("compute_gate", default=None)
+
+
+class Admission:
+    """Puts the app's gate and the request's `receive` where `deps.compute` finds them (innermost middleware,
+    so `receive` is the one the route read its body from: after the body, it only reports a disconnect)."""
+
+    def __init__(self, app: ASGIApp, gate: ComputeGate) -> None:
+        self.app, self.gate = app, gate
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        token = _current.set((self.gate, receive))
+        try:
+            await self.app(scope, receive, send)
+        finally:
+            _current.reset(token)
+
+
+async def run_gated(fn: Callable[[], T]) -> T:
+    """Run CPU work off the event loop within the app's gate; outside a request (a script), just run it."""
+    current = _current.get()
+    if current is None:
+        return await anyio.to_thread.run_sync(fn)
+    gate, receive = current
+
+    async def gone() -> bool:
+        with anyio.move_on_after(0.001):
+            message = await receive()
+            return bool(message.get("type") == "http.disconnect")
+        return False
+
+    return await gate.run(fn, gone)

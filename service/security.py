@@ -1,0 +1,200 @@
+"""API keys with a name and a scope, stored as hashes; the scope each route needs, declared once per route.
+
+Scopes are ordered: `read` < `write` < `admin`. A key of a scope may do everything the scopes below it may.
+
+Configuration (`Settings`; the first two may be combined):
+
+- `IWR_API_KEYS_FILE`: a JSON file, a list of `{"name": ..., "scope": "read"|"write"|"admin", "sha256": <hex>}`;
+  the file holds hashes only (`python -m service.security KEY` prints a key's hash).
+- `IWR_API_KEYS`: comma-separated entries, each `name:scope:sha256hex`, or a bare key as before this module
+  existed: a bare key keeps working, as a `write` key named `key-<first 8 hex digits of its hash>` (everything it
+  could do before but deleting robots and restoring versions, which are `admin` now). Only its hash is kept.
+
+No key configured at all: no authentication (development), and `request.state.actor` is `anonymous`.
+
+Keys are compared by their SHA-256 with `hmac.compare_digest` against every configured hash, so the time taken
+tells neither which key nor which prefix matched. A key is high-entropy by contract (`secrets.token_urlsafe(32)`),
+so a fast hash is the right one here: a password hash would add ~100 ms to every request for nothing.
+"""
+
+from __future__ import annotations
+
+import enum
+import hashlib
+import hmac
+import json
+import re
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from fastapi import FastAPI, Request
+from fastapi.routing import iter_route_contexts
+from starlette.types import ASGIApp, Receive, Send
+from starlette.types import Scope as AsgiScope
+
+from service import problems
+from service.errors import Forbidden, ServiceError, Unauthorized
+
+
+class Scope(enum.IntEnum):
+    read = 1
+    write = 2
+    admin = 3
+
+
+@dataclass(frozen=True)
+class ApiKey:
+    name: str
+    scope: Scope
+    sha256: str  # hex digest of the key
+
+
+ANONYMOUS = "anonymous"
+_HEX64 = re.compile(r"^[0-9a-f]{64}$")
+_NAME = re.compile(r"^[A-Za-z0-9_.@-]{1,100}$")  # fits audit_events.actor (String(100)); no control characters
+
+
+def digest(key: str) -> str:
+    return hashlib.sha256(key.encode("utf-8")).hexdigest()
+
+
+def _key(name: str, scope: str, sha256: str, where: str) -> ApiKey:
+    if not _NAME.match(name):
+        raise ValueError(f"{where}: key name {name!r} must be 1-100 of A-Z a-z 0-9 _ . @ -")
+    if scope not in Scope.__members__:
+        raise ValueError(f"{where}: scope {scope!r} of key {name!r} is not one of {list(Scope.__members__)}")
+    if not _HEX64.match(sha256.lower()):
+        raise ValueError(f"{where}: key {name!r} needs a SHA-256 as 64 hex digits")
+    return ApiKey(name, Scope[scope], sha256.lower())
+
+
+def parse_keys(env: str, file: str | None) -> tuple[ApiKey, ...]:
+    """Every configured key; a wrong entry stops the start-up with a message naming it (never the key)."""
+    keys: list[ApiKey] = []
+    if file:
+        entries = json.loads(Path(file).read_text())
+        if not isinstance(entries, list):
+            raise ValueError(f"{file}: a JSON list of {{name, scope, sha256}} objects is expected")
+        for i, entry in enumerate(entries):
+            if not isinstance(entry, dict) or set(entry) != {"name", "scope", "sha256"}:
+                raise ValueError(f"{file}: entry {i} must have exactly name, scope and sha256")
+            keys.append(_key(str(entry["name"]), str(entry["scope"]), str(entry["sha256"]), f"{file} entry {i}"))
+    for i, raw in enumerate(e.strip() for e in env.split(",")):
+        if not raw:
+            continue
+        parts = raw.split(":")
+        if len(parts) == 3 and _HEX64.match(parts[2].lower()):
+            keys.append(_key(parts[0], parts[1], parts[2], f"IWR_API_KEYS entry {i}"))
+        else:  # a bare key, as before scopes existed
+            hashed = digest(raw)
+            keys.append(ApiKey(f"key-{hashed[:8]}", Scope.write, hashed))
+    names = [k.name for k in keys]
+    if len(names) != len(set(names)):
+        raise ValueError(f"API key names must be unique: {sorted(n for n in set(names) if names.count(n) > 1)}")
+    return tuple(keys)
+
+
+# ------------------------------------------------------------------ the scope of every route
+ROUTE_SCOPES: dict[tuple[str, str], Scope] = {
+    ("GET", "/v1/robots"): Scope.read,
+    ("POST", "/v1/robots"): Scope.write,
+    ("GET", "/v1/robots/{robot_id}"): Scope.read,
+    ("DELETE", "/v1/robots/{robot_id}"): Scope.admin,
+    ("GET", "/v1/robots/{robot_id}/parameters"): Scope.read,
+    ("PATCH", "/v1/robots/{robot_id}"): Scope.write,
+    ("GET", "/v1/robots/{robot_id}/structure"): Scope.read,
+    # Versions: restoring or importing makes another version current, as deleting discards: admin.
+    ("GET", "/v1/robots/{robot_id}/parameter-versions"): Scope.read,
+    ("GET", "/v1/robots/{robot_id}/parameter-versions/{a}/diff/{b}"): Scope.read,
+    ("POST", "/v1/robots/{robot_id}/parameter-versions/{version}/restore"): Scope.admin,
+    ("POST", "/v1/robots/{robot_id}/parameter-versions"): Scope.admin,
+    ("GET", "/v1/audit"): Scope.read,
+    ("GET", "/v1/campaigns/{campaign_id}"): Scope.read,
+    ("GET", "/v1/calibrations/{calibration_id}/report"): Scope.read,
+    ("GET", "/v1/robots/{robot_id}/pose-designs"): Scope.read,
+    ("POST", "/v1/robots/{robot_id}/validations"): Scope.write,
+    ("GET", "/v1/robots/{robot_id}/validations"): Scope.read,
+    ("GET", "/v1/validations/{validation_id}"): Scope.read,
+    ("POST", "/v1/robots/{robot_id}/iso9283-poses"): Scope.read,  # computes the cube's commands, stores nothing
+    ("POST", "/v1/robots/{robot_id}/forward-kinematics"): Scope.read,
+    ("POST", "/v1/robots/{robot_id}/inverse-kinematics"): Scope.read,
+    ("POST", "/v1/robots/{robot_id}/pose-designs"): Scope.write,
+    ("GET", "/v1/pose-designs/{design_id}"): Scope.read,
+    ("POST", "/v1/robots/{robot_id}/calibrations"): Scope.write,
+    ("GET", "/v1/robots/{robot_id}/calibrations"): Scope.read,
+    ("GET", "/v1/calibrations/{calibration_id}"): Scope.read,
+    ("GET", "/v1/jobs/{job_id}"): Scope.read,
+    ("POST", "/v1/error-analysis"): Scope.read,
+}
+"""(method, path template) -> the least scope that may call it. Computations that store nothing (kinematics,
+error analysis) are `read`; whatever creates a record is `write`; deleting and restoring are `admin`. A route
+missing here is refused to every key but `admin` (fail closed), and `tests/service/test_security.py` fails."""
+
+OTHER_SCOPES: dict[str, Scope] = {"/metrics": Scope.read, "/docs": Scope.read, "/openapi.json": Scope.read}
+"""Outside /v1, guarded only when the settings say so (`metrics_public`, `docs_public` false)."""
+
+
+def required_scope(method: str, template: str) -> Scope:
+    return ROUTE_SCOPES.get((method.upper(), template), Scope.admin)
+
+
+def authenticate(keys: tuple[ApiKey, ...], given: str | None) -> ApiKey:
+    if not given:
+        raise Unauthorized("send a valid API key in the X-API-Key header")
+    hashed = digest(given).encode()
+    found: ApiKey | None = None
+    for key in keys:  # every hash compared, whichever matches
+        if hmac.compare_digest(hashed, key.sha256.encode()):
+            found = key
+    if found is None:
+        raise Unauthorized("send a valid API key in the X-API-Key header")
+    return found
+
+
+def authorize(request: Request, needed: Scope) -> None:
+    """Sets `request.state.actor` to the key's name (the audit trail records it; never the key)."""
+    keys: tuple[ApiKey, ...] = request.app.state.api_keys
+    if not keys:
+        request.state.actor = ANONYMOUS
+        return
+    key = authenticate(keys, request.headers.get("x-api-key"))
+    request.state.actor = key.name
+    if key.scope < needed:
+        raise Forbidden(
+            f"key {key.name!r} has scope {key.scope.name!r}; this operation needs {needed.name!r}",
+            scope=key.scope.name,
+            required=needed.name,
+        )
+
+
+def route_table(app: FastAPI) -> list[tuple[str, str]]:
+    """(method, template) of every /v1 operation of the app, in or out of the schema: what ROUTE_SCOPES covers."""
+    return sorted(
+        (method, str(route.path))
+        for route in iter_route_contexts(app.routes)
+        if str(route.path).startswith("/v1")
+        for method in route.methods or ()
+        if method != "HEAD"
+    )
+
+
+class GuardedPaths:
+    """/metrics, /docs and /openapi.json behind a `read` key when the settings say so (and keys exist)."""
+
+    def __init__(self, app: ASGIApp, *, metrics: bool, docs: bool) -> None:
+        self.app = app
+        self.paths = {p for p, on in (("/metrics", metrics), ("/docs", docs), ("/openapi.json", docs)) if on}
+
+    async def __call__(self, scope: AsgiScope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "http" and scope.get("path") in self.paths:
+            try:
+                authorize(Request(scope), OTHER_SCOPES[scope["path"]])
+            except ServiceError as exc:
+                await problems.response(problems.to_problem(exc))(scope, receive, send)
+                return
+        await self.app(scope, receive, send)
+
+
+if __name__ == "__main__":  # python -m service.security KEY: the hash to put in the keys file
+    print(digest(sys.argv[1]))

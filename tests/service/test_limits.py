@@ -1,0 +1,122 @@
+"""Bounded work: estimated before it starts, refused over the synchronous budget or any job's cap; compute slots."""
+
+from __future__ import annotations
+
+import time
+
+import anyio
+import pytest
+from fastapi.testclient import TestClient
+
+from models import forward_kinematics, iwr, sample_workspace
+from models.transforms import matrix_to_quaternion
+from service import limits
+from service.errors import ClientGone, Overloaded, WorkTooLarge
+
+DESC = iwr()
+JOINTS = [400.0, 150.0, 90.0, 45.0, 420.0, 420.0, 420.0, 420.0, 420.0, 420.0]
+RECORD = {"joints": JOINTS, "position": [1.0, 2.0, 3.0]}
+
+
+def test_the_estimates_follow_the_measurements() -> None:
+    # The measured points of the module's table, within 1.5x (and never under: the estimates are upper sides).
+    for estimate, measured_s in (
+        (limits.calibration(8000), 2.9),
+        (limits.inverse_kinematics(3000), 2.9),
+        # pose design after its speed-up, measured here on a quiet machine (K, M: 30, 500 / 30, 2 000 / 300, 2 000)
+        (limits.pose_design(2000, 30, 0, "D"), 0.6),
+        (limits.pose_design(500, 30, 0, "D"), 0.19),
+        (limits.pose_design(2000, 300, 0, "D"), 1.7),
+        (limits.pose_design(2000, 30, 0, "I"), 1.38),
+    ):
+        assert measured_s * 0.9 <= estimate.seconds <= measured_s * 1.5, (estimate, measured_s)
+    assert limits.pose_design(20_000, 30, 0, "D").bytes >= 671e6  # optimal_design's benchmark peak
+    # The issue's measured requests: each is refused synchronously, and the largest even as a job.
+    assert limits.pose_design(100_000, 10_000, 0, "D").bytes > limits.JOB_MEMORY_BYTES
+    assert limits.calibration(100_000).bytes > limits.JOB_MEMORY_BYTES  # measured 4.3 GB
+    assert limits.inverse_kinematics(100_000).seconds > limits.SYNC_BUDGET_S
+
+
+def test_over_the_budget_a_job_over_the_cap_nothing(client: TestClient, robot_id: str) -> None:
+    url = f"/v1/robots/{robot_id}/calibrations"
+    big = {"measurements": [RECORD] * 6000}  # 2.2 s estimated
+    r = client.post(url, json=big)
+    assert r.status_code == 422 and r.json()["type"].endswith("work-too-large") and "?async=true" in r.json()["detail"]
+    assert r.json()["use_async"] is True and r.json()["limit_s"] == limits.SYNC_BUDGET_S
+    assert client.post(url + "?async=true", json=big).status_code == 202
+    design = {"count": 10_000, "candidate_count": 100_000}  # the issue's 110 s, 2.8 GB design
+    for suffix in ("", "?async=true"):
+        r = client.post(f"/v1/robots/{robot_id}/pose-designs{suffix}", json=design)
+        assert r.status_code == 422 and "cap of any job" in r.json()["detail"]
+    r = client.post(f"/v1/robots/{robot_id}/pose-designs", json={"count": 30, "candidate_count": 20_000})
+    assert r.status_code == 422 and r.json()["use_async"] is True  # ~4 s of D design: a job
+
+
+def test_inverse_kinematics_is_capped_at_the_budget(client: TestClient, robot_id: str) -> None:
+    fk = forward_kinematics(DESC, sample_workspace(DESC, 1, seed=4))
+    target = {"position": fk.positions[0].tolist(), "orientation": matrix_to_quaternion(fk.rotations)[0].tolist()}
+    url = f"/v1/robots/{robot_id}/inverse-kinematics"
+    r = client.post(url, json={"targets": [target] * (limits.IK_MAX_TARGETS + 1)})
+    assert r.status_code == 422 and "send fewer" in r.json()["detail"] and r.json()["use_async"] is False
+    assert client.post(url, json={"targets": [target] * 3}).status_code == 200
+
+
+def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
+    gate = limits.ComputeGate(slots=1, queue=1, wait_s=0.3)
+    ran: list[str] = []
+
+    async def present() -> bool:
+        return False
+
+    async def absent() -> bool:
+        return True
+
+    def work(name: str, seconds: float) -> str:
+        time.sleep(seconds)
+        ran.append(name)
+        return name
+
+    async def main() -> None:
+        outcomes: dict[str, object] = {}
+
+        async def call(name: str, seconds: float, delay: float) -> None:
+            await anyio.sleep(delay)
+            try:
+                outcomes[name] = await gate.run(lambda: work(name, seconds), present)
+            except Overloaded as exc:
+                outcomes[name] = exc
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(call, "first", 0.6, 0)  # holds the slot 0.6 s
+            tg.start_soon(call, "waits-too-long", 0, 0.05)  # waits 0.3 s, then 503
+            tg.start_soon(call, "no-room", 0, 0.1)  # the queue of one is full: 503 at once
+        assert outcomes["first"] == "first"
+        assert isinstance(outcomes["waits-too-long"], Overloaded) and isinstance(outcomes["no-room"], Overloaded)
+        assert outcomes["no-room"].data["retry_after"] == limits.RETRY_AFTER_S  # type: ignore[union-attr]
+        with pytest.raises(ClientGone):
+            await gate.run(lambda: work("for-nobody", 0), absent)
+        assert await gate.run(lambda: work("after", 0), present) == "after"
+
+    anyio.run(main)
+    assert ran == ["first", "after"]  # nothing computed for the gone client nor for the refused ones
+    assert gate.running == 0 and gate.waiting == 0
+
+
+def test_a_full_gate_answers_503_with_retry_after(client: TestClient, robot_id: str) -> None:
+    full = limits.ComputeGate(slots=0, queue=0, wait_s=0)  # swap the app's gate for a full one
+    stack = client.app.middleware_stack  # type: ignore[attr-defined]
+    while stack is not None and not isinstance(stack, limits.Admission):
+        stack = getattr(stack, "app", None)
+    assert isinstance(stack, limits.Admission)
+    stack.gate = full
+    r = client.post(f"/v1/robots/{robot_id}/inverse-kinematics", json={"targets": [{"position": [1, 2, 3]}]})
+    assert r.status_code == 503 and r.headers["retry-after"] == str(limits.RETRY_AFTER_S)
+    assert r.json()["type"].endswith("overloaded")
+    assert client.get("/healthz").status_code == 200
+
+
+def test_admit_names_the_estimate() -> None:
+    with pytest.raises(WorkTooLarge, match="over the 2 s budget"):
+        limits.admit(limits.calibration(10_000), run_async=False)
+    limits.admit(limits.calibration(10_000), run_async=True)
+    limits.admit(limits.calibration(100), run_async=False)

@@ -1,0 +1,141 @@
+"""Keys with scopes: each scope against each /v1 route, as a table generated from the app's routes."""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from fastapi import APIRouter, Request
+from fastapi.testclient import TestClient
+
+from service import security
+from service.app import create_app
+from service.deps import ApiKeyDep
+from service.security import ROUTE_SCOPES, Scope, digest, parse_keys, required_scope, route_table
+from service.settings import Settings
+from tests.service.contract_check import ContractClient
+
+KEYS = {scope: f"secret-{scope.name}-0123456789" for scope in Scope}
+"""One key per scope; the settings hold only their hashes."""
+ENTRIES = ",".join(f"{s.name}-key:{s.name}:{digest(k)}" for s, k in KEYS.items())
+_DB = Path(__import__("tempfile").mkdtemp()) / "security.db"
+APP = create_app(
+    Settings(database_url=f"sqlite:///{_DB}", api_keys=ENTRIES, job_workers=0, warm_up=False, log_level="ERROR")
+)
+TABLE = route_table(APP)
+
+
+def test_every_route_declares_its_scope() -> None:
+    """A new /v1 route fails here until service.security.ROUTE_SCOPES says which scope it needs."""
+    assert len(TABLE) >= 14
+    missing = [route for route in TABLE if route not in ROUTE_SCOPES]
+    assert not missing, f"declare the scope of these routes in service.security.ROUTE_SCOPES: {missing}"
+    assert required_scope("DELETE", "/v1/robots/{robot_id}") is Scope.admin
+    assert required_scope("POST", "/v1/robots/{robot_id}/parameter-versions/{version}/restore") is Scope.admin
+    assert required_scope("GET", "/v1/some/new/route") is Scope.admin  # fail closed
+
+
+@pytest.fixture(scope="module")
+def api() -> Iterator[ContractClient]:
+    with ContractClient(APP) as c:
+        yield c
+
+
+def _url(template: str) -> str:
+    return re.sub(r"\{[^}]+\}", "00000000-0000-0000-0000-000000000000", template).replace("/0000", "/1", 0)
+
+
+@pytest.mark.parametrize(("method", "template"), TABLE, ids=[f"{m} {t}" for m, t in TABLE])
+@pytest.mark.parametrize("scope", [None, *Scope], ids=["no key", *(s.name for s in Scope)])
+def test_scope_on_route(api: ContractClient, method: str, template: str, scope: Scope | None) -> None:
+    """Each route with no key, a wrong key and a key of each scope: 401, 403 below the route's scope, past the
+    check otherwise (the body here is empty, so past the check means 404, 422 or 415, never 401 or 403)."""
+    headers = {} if scope is None else {"X-API-Key": KEYS[scope]}
+    r = api.request(method, _url(template), headers=headers, content=b"{}")
+    needed = ROUTE_SCOPES[(method, template)]
+    if scope is None:
+        assert r.status_code == 401 and r.headers["www-authenticate"] == "ApiKey"
+    elif scope < needed:
+        assert r.status_code == 403, r.text
+        assert r.json()["required"] == needed.name and r.json()["scope"] == scope.name
+    else:
+        assert r.status_code not in (401, 403, 500), r.text
+
+
+def test_a_new_route_is_caught_and_the_actor_is_the_key_name(tmp_path: Path) -> None:
+    app = create_app(
+        Settings(database_url=f"sqlite:///{tmp_path}/n.db", api_keys=ENTRIES, job_workers=0, warm_up=False)
+    )
+    router = APIRouter(dependencies=[ApiKeyDep])
+
+    @router.get("/v1/whoami")
+    async def whoami(request: Request) -> dict[str, str]:
+        return {"actor": request.state.actor}
+
+    app.include_router(router)
+    assert ("GET", "/v1/whoami") in route_table(app)  # so test_every_route_declares_its_scope would fail on it
+    assert ("GET", "/v1/whoami") not in ROUTE_SCOPES
+    with TestClient(app) as c:
+        assert c.get("/v1/whoami", headers={"X-API-Key": "not-a-key"}).status_code == 401
+        assert c.get("/v1/whoami", headers={"X-API-Key": KEYS[Scope.write]}).status_code == 403  # fail closed
+        answer = c.get("/v1/whoami", headers={"X-API-Key": KEYS[Scope.admin]})
+        assert answer.json() == {"actor": "admin-key"}  # the key's name, never the key
+
+
+def test_admin_alone_deletes_a_robot(api: ContractClient) -> None:
+    rid = api.post("/v1/robots", json={"name": "r"}, headers={"X-API-Key": KEYS[Scope.write]}).json()["id"]
+    assert api.delete(f"/v1/robots/{rid}", headers={"X-API-Key": KEYS[Scope.write]}).status_code == 403
+    assert api.get(f"/v1/robots/{rid}", headers={"X-API-Key": KEYS[Scope.read]}).status_code == 200
+    assert api.delete(f"/v1/robots/{rid}", headers={"X-API-Key": KEYS[Scope.admin]}).status_code == 204
+
+
+def test_bare_keys_stay_write_keys_and_a_file_holds_hashes(tmp_path: Path) -> None:
+    (bare,) = parse_keys("plain-old-key", None)
+    assert bare.scope is Scope.write and bare.name == f"key-{digest('plain-old-key')[:8]}"
+    assert "plain-old-key" not in repr(bare)
+    file = tmp_path / "keys.json"
+    file.write_text(json.dumps([{"name": "ops", "scope": "admin", "sha256": digest("k-ops")}]))
+    keys = parse_keys("", str(file))
+    assert keys == (security.ApiKey("ops", Scope.admin, digest("k-ops")),)
+    for wrong in ("a:superuser:" + "0" * 64, "bad name:read:" + "0" * 64):
+        with pytest.raises(ValueError, match=r"scope|name"):
+            parse_keys(wrong, None)
+    with pytest.raises(ValueError, match="unique"):
+        parse_keys(f"a:read:{digest('x')},a:write:{digest('y')}", None)
+
+
+@pytest.mark.parametrize(("metrics_public", "docs_public"), [(False, True), (True, False)])
+def test_metrics_and_docs_behind_a_key_by_setting(tmp_path: Path, metrics_public: bool, docs_public: bool) -> None:
+    settings = Settings(
+        database_url=f"sqlite:///{tmp_path}/m.db",
+        api_keys=ENTRIES,
+        metrics_public=metrics_public,
+        docs_public=docs_public,
+        job_workers=0,
+        warm_up=False,
+    )
+    with TestClient(create_app(settings)) as c:
+        read = {"X-API-Key": KEYS[Scope.read]}
+        assert c.get("/metrics").status_code == (200 if metrics_public else 401)
+        assert c.get("/metrics", headers=read).status_code == 200
+        for path in ("/openapi.json", "/docs"):
+            assert c.get(path).status_code == (200 if docs_public else 401)
+            assert c.get(path, headers=read).status_code == 200
+        assert c.get("/healthz").status_code == 200  # probes never need a key
+
+
+def test_the_document_declares_the_scheme_and_every_scope() -> None:
+    doc = APP.openapi()
+    assert doc["components"]["securitySchemes"]["ApiKey"] == {
+        "type": "apiKey",
+        "in": "header",
+        "name": "X-API-Key",
+        "description": doc["components"]["securitySchemes"]["ApiKey"]["description"],
+    }
+    for method, template in TABLE:
+        operation = doc["paths"][template][method.lower()]
+        assert operation["security"] == [{"ApiKey": []}]
+        assert operation["x-scope"] == ROUTE_SCOPES[(method, template)].name
