@@ -26,6 +26,11 @@ PROBLEM_RESPONSES = {
     "422": "Invalid input: what is wrong and where",
     "503": "Not ready",
 }
+DECLARED_PROBLEMS = {
+    "409": "Conflict with the resource's state (e.g. a job that already ended)",
+    "429": "The job queue is full: retry after the Retry-After header's seconds",
+}
+"""Problem responses of the operations that declare them (their routes list the status)."""
 EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted, Problem)
 """Referenced from `openapi_extra` (the calibration route parses its body itself) or from the error responses
 added below, so FastAPI does not see them all."""
@@ -44,7 +49,8 @@ def build(app: FastAPI, *, api_keys: bool) -> dict[str, Any]:
     for path, operations in schema.get("paths", {}).items():
         for operation in operations.values():
             responses = operation.setdefault("responses", {})
-            for status, description in PROBLEM_RESPONSES.items():
+            declared = {k: v for k, v in DECLARED_PROBLEMS.items() if k in responses}
+            for status, description in (PROBLEM_RESPONSES | declared).items():
                 if status == "404" and "{" not in path:
                     continue
                 responses[status] = {

@@ -44,6 +44,8 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     service.NotFound: (404, "not-found", "Not found"),
     service.PayloadTooLarge: (413, "payload-too-large", "Request body too large"),
     service.UnsupportedMediaType: (415, "unsupported-media-type", "Unsupported media type"),
+    service.JobFinished: (409, "job-finished", "Job already finished"),
+    service.QueueFull: (429, "queue-full", "Job queue full"),
     service.Interrupted: (503, "interrupted", "Interrupted"),
     service.NotReady: (503, "not-ready", "Not ready"),
     service.ServiceError: (500, "service-error", "Service error"),
@@ -94,6 +96,8 @@ def to_problem(exc: BaseException) -> dict[str, Any]:
 def response(body: dict[str, Any]) -> JSONResponse:
     status = int(body["status"])
     headers = {"WWW-Authenticate": "ApiKey"} if status == 401 else None
+    if status == 429 and "retry_after" in body:
+        headers = {"Retry-After": str(body["retry_after"])}
     return JSONResponse(body, status_code=status, media_type=PROBLEM_JSON, headers=headers)
 
 

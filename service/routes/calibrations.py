@@ -35,7 +35,8 @@ _BODY = {
         "202": {
             "description": "Accepted as a job (?async=true)",
             "content": {"application/json": {"schema": {"$ref": "#/components/schemas/JobAccepted"}}},
-        }
+        },
+        "429": {"description": "Job queue full"},
     },
 }
 

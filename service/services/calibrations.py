@@ -12,11 +12,14 @@ from service.persistence import Database, Repository
 from service.persistence.repository import new_id
 from service.persistence.tables import ParameterVersion
 from service.schemas.calibrations import CalibrationCreate
+from service.services.hooks import JobHooks
 
 
-def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[str, Any]:
+def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, job: JobHooks | None = None) -> dict[str, Any]:
     """Identify, then store the campaign, the calibration and (when it succeeded and `apply`) the new version
-    together. The result as `CalibrationPublic` JSON."""
+    together, with the job's own `succeeded` when run as one. The result as `CalibrationPublic` JSON."""
+    if job is not None:
+        job.progress("reading", 0.0)
     with db.reader() as s:
         repo = Repository(s)
         desc = description(repo.robot(robot_id))
@@ -26,6 +29,8 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
         start_std = list(start_row.std_errors or [None] * len(start_values))
         start_ident = list(start_row.identifiable or [False] * len(start_values))
     campaign = campaign_in(desc, body)
+    if job is not None:
+        job.progress("identifying", 0.05)
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
     result = identify(desc, campaign, noise=noise_in(body), nominal=start_values, options=options_in(body))
@@ -33,6 +38,8 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
     payload = report.model_dump(mode="json")
     records = [r.model_dump() for r in body.measurements]
     calibration_id = new_id()
+    if job is not None:
+        job.progress("storing", 0.95)
     with db.session() as s:
         repo = Repository(s)
         robot = repo.robot(robot_id, lock=True)  # still there, and one calibration at a time per robot
@@ -47,6 +54,8 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate) -> dict[s
                 std[i], ident[i] = (value if np.isfinite(value) else None), True
             record.parameter_version = repo.add_version(robot, result.parameters.tolist(), std, ident, calibration_id)
             record.applied = True
+        if job is not None:
+            job.commit(s, calibration_id)
         return calibration_public(record)
 
 
