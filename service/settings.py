@@ -26,6 +26,7 @@ class Settings(BaseSettings):
         description="Celery broker (amqp://guest:guest@host:5672// or redis://host:6379/0); empty: the embedded "
         "in-process pool of `job_workers` processes.",
     )
+    job_queue: str = Field(default="iwr-jobs", description="The broker's queue of job ids (one per deployment).")
     job_lease_seconds: float = Field(
         default=10.0,
         gt=0,

@@ -20,7 +20,6 @@ from service.settings import Settings
 log = logging.getLogger("service.jobs")
 
 TASK = "iwr.run_job"
-QUEUE = "iwr-jobs"
 HARD_LIMIT_GRACE = 30.0
 """Seconds between a kind's soft time limit (the job fails with the reason) and the hard one (the process is
 killed: only for a computation that ignores the soft limit inside native code)."""
@@ -38,7 +37,7 @@ def celery_app(settings: Settings) -> Celery:
         task_acks_late=True,
         task_reject_on_worker_lost=True,
         worker_prefetch_multiplier=1,
-        task_default_queue=QUEUE,
+        task_default_queue=settings.job_queue,
         task_serializer="json",
         accept_content=["json"],
         task_ignore_result=True,
@@ -76,7 +75,7 @@ class CeleryRunner(Requeuing):
         self.app.send_task(
             TASK,
             args=[job_id],
-            queue=QUEUE,
+            queue=self.settings.job_queue,
             soft_time_limit=limit,
             time_limit=limit + HARD_LIMIT_GRACE,
             retry=True,
