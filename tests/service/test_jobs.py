@@ -4,6 +4,10 @@ limit, cancellation, the bounded queue, the list, and the lease renewed through 
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -26,7 +30,9 @@ from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed
 from service.persistence.tables import Job
 from service.schemas.robots import RobotCreate
 from service.services.robots import create_robot
+from tests.live import ROOT, free_port
 from tests.service.conftest import make_client
+from tests.service.fleet import call
 from tests.service.helpers import records
 
 DESC = iwr()
@@ -256,3 +262,59 @@ def test_two_racing_runs_of_one_job_store_one_result(db: Database) -> None:
         statuses = list(pool.map(deliver, range(4)))
     assert "succeeded" in statuses
     assert _count(db, robot_id) == (1, 2)
+
+
+def _children(pid: int) -> set[int]:
+    found = set()
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                if int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1]) == pid:
+                    found.add(int(entry.name))
+            except (OSError, IndexError, ValueError):
+                continue
+    return found
+
+
+@pytest.mark.slow  # a server with its pool, twice: ~20 s
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGKILL])
+def test_the_embedded_pool_dies_with_its_server(tmp_path: Path, stop: signal.Signals) -> None:
+    """Its workers never outlive the server: after SIGTERM (shutdown stops them) and after kill -9 (each
+    notices its parent is gone)."""
+    port = free_port()
+    env = {**os.environ, "DATABASE_URL": f"sqlite:///{tmp_path}/e.db", "IWR_JOB_WORKERS": "2", "IWR_WARM_UP": "0"}
+    server = subprocess.Popen(
+        [sys.executable, "-m", "service", "--host", "127.0.0.1", "--port", str(port)],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        base = f"http://127.0.0.1:{port}"
+        deadline = time.monotonic() + 90
+        while True:
+            try:
+                status, robot = call(base, "POST", "/v1/robots", {"name": "r"})
+                break
+            except OSError:
+                assert server.poll() is None and time.monotonic() < deadline, "the server did not start"
+                time.sleep(0.2)
+        assert status == 201
+        body = {"count": 12, "criterion": "D", "candidate_count": 200, "seed": 1}
+        for _ in range(2):  # the pool starts its processes with its first jobs
+            assert call(base, "POST", f"/v1/robots/{robot['id']}/pose-designs?async=true", body)[0] == 202
+        deadline = time.monotonic() + 60
+        while len(pool := _children(server.pid)) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert len(pool) >= 2, pool
+        server.send_signal(stop)
+        server.wait(timeout=30)
+        deadline = time.monotonic() + 15
+        while (alive := {p for p in pool if Path(f"/proc/{p}").exists()}) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not alive, f"pool processes {alive} outlived the server ({stop.name})"
+    finally:
+        if server.poll() is None:
+            server.kill()
+            server.wait()
