@@ -21,10 +21,20 @@ from typing import Any
 
 import pytest
 
+from models import iwr, sample_workspace
+from models.simulation import perturbed_robot
 from tests.live import ROOT, free_port
+from tests.service.helpers import records
 
 RABBITMQ = os.environ.get("IWR_TEST_RABBITMQ", "amqp://guest:guest@127.0.0.1:5672//")
 REDIS = os.environ.get("IWR_TEST_REDIS", "redis://127.0.0.1:6379/0")
+
+
+def campaign(poses: int, seed: int = 4) -> dict[str, Any]:
+    """A calibration request: `poses` simulated measurements of a perturbed IWR."""
+    desc = iwr()
+    sim = perturbed_robot(desc, seed=6)
+    return {"measurements": records(desc, sim, sample_workspace(desc, poses, seed=3), seed=seed)}
 
 
 def broker(url: str) -> str:

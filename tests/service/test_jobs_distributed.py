@@ -13,18 +13,14 @@ from typing import Any
 import pytest
 from sqlalchemy import create_engine, text
 
-from models import iwr, sample_workspace
-from models.simulation import perturbed_robot
 from service.jobs import WorkerContext
 from service.jobs.engine import CeleryRunner
 from service.model_cache import ModelCache
 from service.persistence import Database
 from service.settings import Settings
 from tests.service.conftest import postgres_url
-from tests.service.fleet import RABBITMQ, REDIS, broker, call, fleet, wait_for
-from tests.service.helpers import records
+from tests.service.fleet import RABBITMQ, REDIS, broker, call, campaign, fleet, wait_for
 
-DESC = iwr()
 LEASE = "2"
 """Seconds: a killed worker's job is taken over ~2 s later (the default, 10 s, would only make this slower)."""
 
@@ -32,11 +28,6 @@ LEASE = "2"
 @pytest.fixture
 def pg() -> Iterator[str]:
     yield from postgres_url()
-
-
-def _campaign(poses: int, seed: int = 4) -> dict[str, Any]:
-    sim = perturbed_robot(DESC, seed=6)
-    return {"measurements": records(DESC, sim, sample_workspace(DESC, poses, seed=3), seed=seed)}
 
 
 def _rows(url: str, robot_id: str) -> tuple[int, int]:
@@ -76,7 +67,7 @@ def test_kill_9_of_the_worker_mid_job_redelivers_it_and_it_succeeds_once(pg: str
         _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
         if kind == "calibration":
             # 3 000 poses: ~1 s of identification, time enough to kill it in the middle
-            status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", _campaign(3000))
+            status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(3000))
         else:
             body = {"count": 30, "criterion": "D", "candidate_count": 2000, "seed": 1}
             status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/pose-designs?async=true", body)
@@ -104,7 +95,7 @@ def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_ki
         for name in ("w1", "w2"):
             f.start_worker(name)
         robots = [call(a, "POST", "/v1/robots", {"name": f"cell-{i}"})[1]["id"] for i in range(4)]
-        campaign = _campaign(60)
+        small = campaign(60)
         design = {"count": 12, "criterion": "D", "candidate_count": 200, "seed": 1}
         submitted: list[str] = []
         for i in range(200):
@@ -113,7 +104,7 @@ def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_ki
             if i % 4 == 3:
                 status, accepted = call(base, "POST", f"/v1/robots/{robot}/pose-designs?async=true", design)
             else:
-                status, accepted = call(base, "POST", f"/v1/robots/{robot}/calibrations?async=true", campaign)
+                status, accepted = call(base, "POST", f"/v1/robots/{robot}/calibrations?async=true", small)
             assert status == 202, accepted
             submitted.append(accepted["job_id"])
             if i == 60:
@@ -147,7 +138,7 @@ def test_redis_broker_and_a_duplicated_message_changes_nothing(pg: str, tmp_path
         base = f.start_api("api")
         f.start_worker("w")
         _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
-        status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", _campaign(60))
+        status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(60))
         assert status == 202
         job = wait_for(base, [accepted["job_id"]], timeout=120)[accepted["job_id"]]
         assert job["status"] == "succeeded" and job["attempts"] == 1
@@ -179,7 +170,7 @@ def test_sigterm_drains_a_worker(pg: str, tmp_path: Path) -> None:
         _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
         body = {"count": 30, "criterion": "D", "candidate_count": 2000, "seed": 1}
         _, first = call(base, "POST", f"/v1/robots/{robot['id']}/pose-designs?async=true", body)
-        _, second = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", _campaign(60))
+        _, second = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(60))
         _until_running(base, first["job_id"])
         os.kill(worker.pid, signal.SIGTERM)
         assert worker.wait(timeout=120) == 0
