@@ -27,7 +27,7 @@ from service.jobs.runner import Lease, WorkerContext, execute_job
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed, utcnow
-from service.persistence.tables import Job
+from service.persistence.tables import Job, PoseDesignRecord
 from service.schemas.robots import RobotCreate
 from service.services.robots import create_robot
 from tests.live import ROOT, free_port
@@ -318,3 +318,25 @@ def test_the_embedded_pool_dies_with_its_server(tmp_path: Path, stop: signal.Sig
         if server.poll() is None:
             server.kill()
             server.wait()
+
+
+@pytest.mark.slow  # a 2 000-candidate design, cancelled mid-way: ~5 s
+def test_delete_stops_a_running_design_at_its_next_progress_point_and_nothing_is_written(
+    client: TestClient, robot_id: str
+) -> None:
+    body = {"count": 30, "criterion": "D", "candidate_count": 2000, "seed": 1}
+    job_id = client.post(f"/v1/robots/{robot_id}/pose-designs?async=true", json=body).json()["job_id"]
+    deadline = time.monotonic() + 60
+    while (job := client.get(f"/v1/jobs/{job_id}").json())["status"] == "queued" and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert job["status"] == "running", job
+    answer = client.delete(f"/v1/jobs/{job_id}")
+    assert answer.status_code == 200 and answer.json()["cancel_requested"] is True
+    while (job := client.get(f"/v1/jobs/{job_id}").json())["status"] == "running" and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert job["status"] == "cancelled" and job["result"] is None and job["error"] is None, job
+    assert job["progress"]["stage"] != "done"
+    db: Database = client.app.state.db  # type: ignore[attr-defined]
+    with db.reader() as s:
+        assert s.query(PoseDesignRecord).count() == 0
+    assert client.delete(f"/v1/jobs/{job_id}").status_code == 409
