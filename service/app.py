@@ -109,7 +109,12 @@ def make_runner(settings: Settings, db: Database, models: ModelCache) -> Requeui
         context = WorkerContext(db, models, lease=settings.job_lease_seconds, max_attempts=settings.job_max_attempts)
         return CeleryRunner(context, settings)
     runner = JobRunner(
-        db, models, settings.job_workers, lease=settings.job_lease_seconds, max_attempts=settings.job_max_attempts
+        db,
+        models,
+        settings.job_workers,
+        lease=settings.job_lease_seconds,
+        max_attempts=settings.job_max_attempts,
+        warm=settings.warm_up,  # each pool process builds its runtime once, like the API (0.5 s here)
     )
     runner.queue_limit, runner.retry_after = settings.job_queue_limit, settings.job_retry_after
     return runner

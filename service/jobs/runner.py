@@ -252,7 +252,14 @@ class JobRunner(Requeuing):
     this process, plus the requeue of expired leases. The default when no broker is configured."""
 
     def __init__(
-        self, db: Database, models: ModelCache, workers: int, *, lease: float = 10.0, max_attempts: int = 3
+        self,
+        db: Database,
+        models: ModelCache,
+        workers: int,
+        *,
+        lease: float = 10.0,
+        max_attempts: int = 3,
+        warm: bool = False,
     ) -> None:
         super().__init__(WorkerContext(db, models, lease=lease, max_attempts=max_attempts))
         self.executor: Executor = (
@@ -260,7 +267,7 @@ class JobRunner(Requeuing):
                 max_workers=workers,
                 mp_context=multiprocessing.get_context("spawn"),
                 initializer=start_worker,
-                initargs=(db.url, lease, max_attempts, os.getpid(), False),
+                initargs=(db.url, lease, max_attempts, os.getpid(), warm),
             )
             if workers > 0
             else ThreadPoolExecutor(max_workers=1)

@@ -228,3 +228,11 @@ def test_jobs_in_a_worker_process(tmp_path: object) -> None:
             time.sleep(0.2)
         assert job["status"] == "succeeded", job
         assert c.get(f"/v1/robots/{rid}/parameters").json()["version"] == 2
+
+
+def test_error_analysis_with_tolerances_the_robot_cannot_be_assembled_with_is_422(client: TestClient) -> None:
+    """Found by schemathesis: a 89 mm leg offset made numpy's eigenvalues fail (500) instead of a 422."""
+    body = {"distribution": "sign", "draws": 1, "poses": 1, "leg_offset_mm": 89.0}
+    body |= {"dh_angle_deg": 0.0, "dh_length_mm": 0.0, "joint_position_mm": 0.0}
+    answer = client.post("/v1/error-analysis", json=body)
+    assert answer.status_code == 422 and answer.json()["field"] == "tolerances", answer.text
