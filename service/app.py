@@ -17,7 +17,7 @@ from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
 from service.guards import BodyGuard, RequestGuard
 from service.idempotency import Idempotency
-from service.jobs import JobRunner
+from service.jobs import JobRunner, Requeuing, WorkerContext
 from service.metrics import Metrics
 from service.model_cache import ModelCache
 from service.persistence import Database
@@ -129,6 +129,25 @@ class Observe:
             logs.request_id.reset(token)
 
 
+def make_runner(settings: Settings, db: Database, models: ModelCache) -> Requeuing:
+    """Celery when a broker is configured, else the embedded pool (nothing else to install or run)."""
+    if settings.broker_url:
+        from service.jobs.engine import CeleryRunner  # Celery loads only when configured
+
+        context = WorkerContext(db, models, lease=settings.job_lease_seconds, max_attempts=settings.job_max_attempts)
+        return CeleryRunner(context, settings)
+    runner = JobRunner(
+        db,
+        models,
+        settings.job_workers,
+        lease=settings.job_lease_seconds,
+        max_attempts=settings.job_max_attempts,
+        warm=settings.warm_up,  # each pool process builds its runtime once, like the API (0.5 s here)
+    )
+    runner.queue_limit, runner.retry_after = settings.job_queue_limit, settings.job_retry_after
+    return runner
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or get_settings()
     logs.configure(settings.log_level)
@@ -139,13 +158,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         await anyio.to_thread.run_sync(db.migrate)
         if settings.warm_up:
             await anyio.to_thread.run_sync(warmup.warm_up)
+            app.state.metrics.native.set(1.0 if warmup.native_functions() else 0.0)
         models = ModelCache(db)
-        runner = JobRunner(db, models, settings.job_workers)
+        runner = make_runner(settings, db, models)
         app.state.db, app.state.models, app.state.jobs = db, models, runner
-        interrupted, resubmitted = runner.recover()
+        # No sweep of running jobs: those of a stopped process come back when their leases expire.
+        resubmitted = runner.recover()
         log.info("ready", extra={"path": settings.database_url.split("@")[-1]})
-        if interrupted or resubmitted:
-            log.warning("jobs after restart: %d interrupted, %d resubmitted", interrupted, resubmitted)
+        if resubmitted:
+            log.warning("jobs after restart: %d queued jobs resubmitted", resubmitted)
         try:
             yield
         finally:

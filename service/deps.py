@@ -13,7 +13,7 @@ from fastapi import Depends, Request
 
 from service import limits, logs, security
 from service.errors import NotAcceptable
-from service.jobs import JobRunner
+from service.jobs import Requeuing
 from service.metrics import Metrics
 from service.model_cache import ModelCache
 from service.persistence import Database
@@ -37,8 +37,8 @@ async def model_cache(request: Request) -> ModelCache:
     return cache
 
 
-async def jobs(request: Request) -> JobRunner:
-    runner: JobRunner = request.app.state.jobs
+async def jobs(request: Request) -> Requeuing:
+    runner: Requeuing = request.app.state.jobs
     return runner
 
 
@@ -59,7 +59,7 @@ async def actor(request: Request) -> Actor:
 DatabaseDep = Annotated[Database, Depends(database)]
 MetricsDep = Annotated[Metrics, Depends(metrics)]
 ModelCacheDep = Annotated[ModelCache, Depends(model_cache)]
-JobsDep = Annotated[JobRunner, Depends(jobs)]
+JobsDep = Annotated[Requeuing, Depends(jobs)]
 ApiKeyDep = Depends(require_api_key)
 ActorDep = Annotated[Actor, Depends(actor)]
 

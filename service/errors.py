@@ -18,6 +18,8 @@ Tree (the domain's `models.errors.CalibrationError` is the other root `service.p
     ├── WorkTooLarge          422  more work than a synchronous request (or any job) may ask for
     ├── Overloaded            503  every compute slot busy (with Retry-After)
     ├── ClientGone            503  the client left before its computation started (nobody reads this)
+    ├── JobFinished           409  DELETE of a job that already ended
+    ├── QueueFull             429  the job queue is at its bound (with Retry-After)
     ├── Interrupted           503  a job whose worker stopped with the service
     └── NotReady              503  the database does not answer
 
@@ -113,6 +115,18 @@ class PayloadTooLarge(ServiceError):
 class UnsupportedMediaType(ServiceError):
     def __init__(self, detail: str, *, content_type: str) -> None:
         super().__init__(detail, content_type=content_type)
+
+
+class JobFinished(ServiceError):
+    def __init__(self, detail: str, *, status: str) -> None:
+        super().__init__(detail, job_status=status)
+
+
+class QueueFull(ServiceError):
+    """`retry_after` (seconds) becomes the response's Retry-After header too."""
+
+    def __init__(self, detail: str, *, limit: int, retry_after: int) -> None:
+        super().__init__(detail, limit=limit, retry_after=retry_after)
 
 
 class Interrupted(ServiceError):

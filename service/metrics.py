@@ -30,3 +30,19 @@ class Metrics:
             registry=self.registry,
         )
         self.queue = Gauge("iwr_jobs", "Jobs by status", ["status"], registry=self.registry)
+        # From the job rows at each scrape, so every API replica reports the whole system's jobs, whichever
+        # process or machine ran them.
+        self.queue_depth = Gauge("iwr_jobs_queue_depth", "Jobs waiting for a worker", registry=self.registry)
+        self.running = Gauge("iwr_jobs_running", "Jobs a worker holds now", registry=self.registry)
+        self.job_seconds = Gauge(
+            "iwr_job_duration_seconds_total",
+            "Run time of succeeded jobs, summed, by kind",
+            ["kind"],
+            registry=self.registry,
+        )
+        self.job_count = Gauge("iwr_jobs_succeeded", "Succeeded jobs by kind", ["kind"], registry=self.registry)
+        self.native = Gauge(
+            "iwr_native_functions",
+            "1 when this process evaluates the batch Functions from a compiled library, 0 in CasADi's VM",
+            registry=self.registry,
+        )

@@ -41,6 +41,11 @@ IDEMPOTENCY_KEY = {
     "schema": {"type": "string", "minLength": 1, "maxLength": 200, "pattern": "^[!-~]+$"},
 }
 EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted, Problem, ParameterVersionImport)
+DECLARED_PROBLEMS = {
+    "409": "Conflict with the resource's state (e.g. a job that already ended)",
+    "429": "The job queue is full: retry after the Retry-After header's seconds",
+}
+"""Problem responses of the operations that declare them (their routes list the status)."""
 """Referenced from `openapi_extra` (the calibration route parses its body itself) or from the error responses
 added below, so FastAPI does not see them all."""
 
@@ -58,8 +63,10 @@ def build(app: FastAPI) -> dict[str, Any]:
     for path, operations in schema.get("paths", {}).items():
         for method, operation in operations.items():
             responses = operation.setdefault("responses", {})
-            for status, description in PROBLEM_RESPONSES.items():
-                if (status == "404" and "{" not in path) or (status in POST_ONLY and method != "post"):
+            declared = {k: v for k, v in DECLARED_PROBLEMS.items() if k in responses}
+            for status, description in (PROBLEM_RESPONSES | declared).items():
+                post_only = status in POST_ONLY and method != "post" and status not in declared
+                if (status == "404" and "{" not in path) or post_only:
                     continue
                 responses[status] = {
                     "description": description,

@@ -55,6 +55,8 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     service.RequestTimeout: (408, "request-timeout", "Request timeout"),
     service.PayloadTooLarge: (413, "payload-too-large", "Request body too large"),
     service.UnsupportedMediaType: (415, "unsupported-media-type", "Unsupported media type"),
+    service.JobFinished: (409, "job-finished", "Job already finished"),
+    service.QueueFull: (429, "queue-full", "Job queue full"),
     service.Interrupted: (503, "interrupted", "Interrupted"),
     service.NotReady: (503, "not-ready", "Not ready"),
     service.ServiceError: (500, "service-error", "Service error"),

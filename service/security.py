@@ -125,6 +125,8 @@ ROUTE_SCOPES: dict[tuple[str, str], Scope] = {
     ("GET", "/v1/robots/{robot_id}/calibrations"): Scope.read,
     ("GET", "/v1/calibrations/{calibration_id}"): Scope.read,
     ("GET", "/v1/jobs/{job_id}"): Scope.read,
+    ("GET", "/v1/jobs"): Scope.read,
+    ("DELETE", "/v1/jobs/{job_id}"): Scope.write,  # cancels what a write key submitted; deletes no record
     ("POST", "/v1/error-analysis"): Scope.read,
 }
 """(method, path template) -> the least scope that may call it. Computations that store nothing (kinematics,

@@ -29,6 +29,29 @@ class Settings(BaseSettings):
     log_level: str = "INFO"
     warm_up: bool = Field(default=True, description="Build the CasADi Functions and solvers at start-up.")
 
+    # ---- jobs (service/jobs): the engine, leases, retries, the queue's bound, time limits
+    broker_url: str = Field(
+        default="",
+        description="Celery broker (amqp://guest:guest@host:5672// or redis://host:6379/0); empty: the embedded "
+        "in-process pool of `job_workers` processes.",
+    )
+    job_queue: str = Field(default="iwr-jobs", description="The broker's queue of job ids (one per deployment).")
+    job_lease_seconds: float = Field(
+        default=10.0,
+        gt=0,
+        description="A running job's lease; its worker renews it every third of it. A worker silent this long is "
+        "taken as stopped and its job requeued.",
+    )
+    job_max_attempts: int = Field(default=3, ge=1, description="Leases that may expire before a job is failed.")
+    job_queue_limit: int = Field(default=1000, ge=1, description="Queued jobs beyond which submissions get 429.")
+    job_retry_after: int = Field(default=5, ge=1, description="Retry-After (seconds) of that 429.")
+    job_time_limit_calibration: float = Field(default=600.0, gt=0, description="Seconds a calibration job may run.")
+    job_time_limit_pose_design: float = Field(default=1800.0, gt=0, description="Seconds a pose design may run.")
+    worker_concurrency: int = Field(default=1, ge=1, description="Processes per `python -m service.worker`.")
+
+    def time_limit(self, kind: str) -> float:
+        return self.job_time_limit_pose_design if kind == "pose_design" else self.job_time_limit_calibration
+
     @property
     def keys(self) -> tuple[ApiKey, ...]:
         return parse_keys(self.api_keys, self.api_keys_file)

@@ -8,3 +8,10 @@ from models.warm import warm_everything
 
 def warm_up() -> None:
     warm_everything(default_registry(), iwr())
+
+
+def native_functions() -> bool:
+    """Whether this process evaluates the IWR's batch Functions from a compiled library (`External`), not in
+    CasADi's virtual machine (a runtime image without its prebuilt library falls back silently, ~2x slower)."""
+    native = default_registry().runtime(iwr()).kinematics.native
+    return bool(native) and all(f.class_name() == "External" for f in native.values())

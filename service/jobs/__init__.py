@@ -1,5 +1,5 @@
-"""Background jobs: the database row is the truth; a process pool does the work."""
+"""Background jobs: the database row is the truth; the embedded pool or Celery workers do the work."""
 
-from service.jobs.runner import JobRunner, execute_job
+from service.jobs.runner import JobRunner, Outcome, Requeuing, WorkerContext, execute_job
 
-__all__ = ["JobRunner", "execute_job"]
+__all__ = ["JobRunner", "Outcome", "Requeuing", "WorkerContext", "execute_job"]

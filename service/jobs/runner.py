@@ -1,120 +1,328 @@
-"""A job is a database row (queued → running → succeeded | failed) and a task in a worker process pool.
+"""Running one job exactly once in effect, whoever delivers it and however often, and the embedded pool.
 
-Restart policy: at start-up, jobs left `running` by a stopped process are marked failed with reason
-"interrupted" (their work may have been half done in a worker that died; the client resubmits), and jobs
-still `queued` are submitted again, so no accepted job is lost.
+`execute_job` is the whole protocol, shared by the embedded pool and the Celery workers: claim the row by
+compare-and-set (`JobStore.claim`: one winner), hold it with a lease that a heartbeat thread renews, run the
+use case with hooks that stop it at a progress point when it was cancelled or its lease was lost, and write
+`succeeded` inside the use case's own write transaction (result, parameter version and job state commit
+together, or nothing does). A second delivery of the same job finds it running under a live lease (and is
+told how long to wait) or finished, and changes nothing.
+
+Recovery without a global sweep: a process requeues only jobs whose lease expired (`JobStore.requeue_expired`,
+one CAS per job, periodically in each API process); no process ever fails another's live job.
 """
 
 from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
+import socket
+import threading
+import time
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
-from service.errors import Interrupted
+from sqlalchemy.orm import Session
+
+from service import warmup
 from service.model_cache import ModelCache
-from service.persistence import Database, Repository
+from service.persistence import Database
+from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed
 from service.problems import lookup, to_problem
 from service.services.jobs import run_job
 
 log = logging.getLogger("service.jobs")
 
+PROGRESS_WRITE_SECONDS = 0.25
+"""A progress point writes to the database at most this often (the heartbeat stores the latest anyway): a
+60-pose calibration takes ~30 ms, and three extra transactions would cost it ~10 % of its latency."""
+
+
+class Cancelled(Exception):
+    """Raised at a progress point of a job whose cancellation was requested."""
+
 
 @dataclass(frozen=True)
 class WorkerContext:
-    """What one process needs to run jobs: its engine and its model cache, created once."""
+    """What one process needs to run jobs, created once: its engine, its model cache, the lease policy."""
 
     db: Database
     models: ModelCache
+    lease: float = 10.0
+    max_attempts: int = 3
+
+    @property
+    def name(self) -> str:
+        """host:pid, stored in the row of the job this process holds."""
+        return f"{socket.gethostname()}:{os.getpid()}"
 
 
-_worker: WorkerContext | None = None
-"""Set once per worker process by `start_worker` (the pool's initializer); never in the app's process."""
+@dataclass(frozen=True)
+class Outcome:
+    """What one delivery did: the job's status afterwards, and for a job another worker holds, the seconds
+    until its lease expires (the delivery should come back then)."""
+
+    status: str
+    held_for: float = 0.0
+    ran: bool = False
 
 
-def start_worker(database_url: str) -> None:
-    """The pool's initializer: one engine and one model cache per worker process, kept for its lifetime.
+class Lease:
+    """The hooks of one claimed job and the heartbeat thread that keeps its lease.
 
-    (No warm-up here: a worker builds what its first job uses, as before; building every Function and solver
-    per worker belongs to the per-structure runtime the models package is getting.)"""
-    global _worker  # noqa: PLW0603  (a pool initializer can leave its state only in the worker's module)
-    db = Database(database_url)
-    _worker = WorkerContext(db, ModelCache(db))
+    A thread is enough: CasADi releases the GIL while IPOPT and the compiled Functions run, and numpy and
+    Clarabel do inside their kernels (measured: a 50 ms ticker thread kept ticking through a 0.33 s IPOPT
+    solve; tests/service/test_jobs.py checks a lease renewed through a long solve)."""
+
+    def __init__(self, ctx: WorkerContext, job_id: str, worker: str) -> None:
+        self.ctx, self.job_id, self.worker = ctx, job_id, worker
+        self.lost = False
+        self.cancel = False
+        self._latest: dict[str, Any] | None = None
+        self._last_write = time.monotonic()
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._beat, name=f"lease-{job_id[:8]}", daemon=True)
+
+    def __enter__(self) -> Lease:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+
+    def _renew(self) -> None:
+        with self._lock:
+            progress, self._last_write = self._latest, time.monotonic()
+        try:
+            with self.ctx.db.session() as s:
+                answer = JobStore(s).renew(self.job_id, self.worker, lease=self.ctx.lease, progress=progress)
+        except Exception:  # a database hiccup: the next beat tries again, well before the lease ends
+            log.warning("job %s: lease renewal failed", self.job_id, exc_info=True)
+            return
+        if answer is None:
+            self.lost = True
+        elif answer:
+            self.cancel = True
+
+    def _beat(self) -> None:
+        while not self._stop.wait(self.ctx.lease / 3) and not self.lost:
+            self._renew()
+
+    def progress(self, stage: str, fraction: float) -> None:
+        with self._lock:
+            self._latest = {"stage": stage, "fraction": round(float(fraction), 4)}
+            due = time.monotonic() - self._last_write >= PROGRESS_WRITE_SECONDS
+        if due:
+            self._renew()
+        if self.lost:
+            raise LeaseLost(f"job {self.job_id}: lease lost")
+        if self.cancel:
+            raise Cancelled(f"job {self.job_id} cancelled")
+
+    def commit(self, session: Session, result_id: str) -> None:
+        JobStore(session).succeed(self.job_id, self.worker, result_id)
 
 
-def execute_job(job_id: str, context: WorkerContext | None = None) -> str:
-    """Run one job to completion in this process; returns its final status.
-
-    Worker processes use the context their initializer made; in-process runs pass the app's own.
-    """
+def execute_job(job_id: str, context: WorkerContext | None = None) -> Outcome:
+    """Deliver one job to this process: run it if it can be claimed, else report why not."""
     ctx = context or _worker
     if ctx is None:
         raise RuntimeError("execute_job outside a worker started by start_worker, and no context given")
+    db, worker = ctx.db, ctx.name
+    with db.session() as s:
+        claim = JobStore(s).claim(job_id, worker, lease=ctx.lease, max_attempts=ctx.max_attempts)
+    if isinstance(claim, NotClaimed):
+        return Outcome(claim.status, held_for=claim.held_for)
+    return _run(ctx, claim, worker)
+
+
+def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
     db = ctx.db
-    with db.session() as s:
-        repo = Repository(s)
-        job = repo.job(job_id)
-        if job.status != "queued":
-            return job.status
-        repo.start_job(job)
-        kind, robot_id, request = job.kind, job.robot_id, job.request
-    result_id: str | None = None
-    error: dict[str, Any] | None = None
-    try:
-        result_id = run_job(db=db, models=ctx.models, kind=kind, robot_id=robot_id, request=request)
-    except Exception as exc:  # a job records every failure, as the synchronous request would have answered it
-        if lookup(exc)[0] >= 500:
-            log.exception("job %s failed", job_id)
-        error = to_problem(exc)
-    with db.session() as s:
-        repo = Repository(s)
-        job = repo.job(job_id)
-        repo.finish_job(job, result_id=result_id, error=error)
-        return job.status
+    started = time.perf_counter()
+    with Lease(ctx, claim.job_id, worker) as lease:
+        try:
+            run_job(
+                db=db, models=ctx.models, kind=claim.kind, robot_id=claim.robot_id, request=claim.request, job=lease
+            )
+            status = "succeeded"
+        except LeaseLost:
+            log.warning("job %s: lease lost to another worker; nothing written", claim.job_id)
+            return Outcome("lost", ran=True)
+        except Cancelled:
+            with db.session() as s:
+                JobStore(s).cancelled(claim.job_id, worker)
+            status = "cancelled"
+        except Exception as exc:  # a job records every failure, as the synchronous request would have answered it
+            if lookup(exc)[0] >= 500:
+                log.exception("job %s failed", claim.job_id)
+            with db.session() as s:
+                JobStore(s).fail(claim.job_id, worker, to_problem(exc))
+            status = "failed"
+    log.info(
+        "job %s (%s) %s in %.3f s, attempt %d",
+        claim.job_id,
+        claim.kind,
+        status,
+        time.perf_counter() - started,
+        claim.attempt,
+    )
+    return Outcome(status, ran=True)
 
 
-class JobRunner:
-    def __init__(self, db: Database, models: ModelCache, workers: int) -> None:
-        self.context = WorkerContext(db, models)
+_worker: WorkerContext | None = None
+"""Set once per worker process by `start_worker`; never in the API's process."""
+
+
+def start_worker(
+    database_url: str, lease: float, max_attempts: int, parent: int | None = None, warm: bool = True
+) -> WorkerContext:
+    """A worker process's initializer: one engine, one model cache and (with `warm`) every robot runtime built
+    once, kept for its lifetime. With `parent`, the process exits as soon as that process is gone, so a pool
+    never outlives its server (a server killed with -9 cannot stop its pool itself)."""
+    global _worker  # noqa: PLW0603  (an initializer can leave its state only in the worker's module)
+    if parent is not None:
+        threading.Thread(target=_exit_with, args=(parent,), name="parent-watch", daemon=True).start()
+    if warm:
+        started = time.perf_counter()
+        warmup.warm_up()
+        log.info(
+            "worker %s: runtime built in %.2f s, %s",
+            os.getpid(),
+            time.perf_counter() - started,
+            "compiled Functions" if warmup.native_functions() else "CasADi VM (no compiled library)",
+        )
+    db = Database(database_url)
+    _worker = WorkerContext(db, ModelCache(db), lease=lease, max_attempts=max_attempts)
+    return _worker
+
+
+def _exit_with(parent: int) -> None:
+    # getppid() changes when the parent dies (the orphan is re-parented); 0.2 s polling costs nothing.
+    while os.getppid() == parent:
+        time.sleep(0.2)
+    os._exit(0)
+
+
+class Requeuing:
+    """What every engine's API side does: hand jobs to workers (`submit`), and requeue expired leases."""
+
+    queue_limit: int = 1000
+    retry_after: int = 5
+
+    def __init__(self, context: WorkerContext) -> None:
+        self.context = context
+        self._stop = threading.Event()
+        self._reaper = threading.Thread(target=self._reap_forever, name="job-reaper", daemon=True)
+
+    def submit(self, job_id: str, kind: str = "") -> None:
+        raise NotImplementedError
+
+    def start(self) -> None:
+        self._reaper.start()
+
+    def reap(self) -> tuple[int, int]:
+        """Requeue (and resubmit) jobs whose lease expired; fail those out of attempts."""
+        with self.context.db.session() as s:
+            requeued, failed = JobStore(s).requeue_expired(self.context.max_attempts)
+        for job_id, kind in requeued:
+            self.submit(job_id, kind)
+        if requeued or failed:
+            log.warning("expired leases: %d jobs requeued, %d failed out of attempts", len(requeued), len(failed))
+        return len(requeued), len(failed)
+
+    def _reap_forever(self) -> None:
+        while not self._stop.wait(self.context.lease / 2):
+            try:
+                self.reap()
+            except Exception:  # the database may be briefly away; the next round tries again
+                log.warning("requeue of expired leases failed", exc_info=True)
+
+    def recover(self) -> int:
+        return 0
+
+    def shutdown(self) -> None:
+        self._stop.set()
+
+
+class JobRunner(Requeuing):
+    """The embedded engine: a pool of `workers` spawned processes (0: one thread of this process), fed from
+    this process, plus the requeue of expired leases. The default when no broker is configured."""
+
+    def __init__(
+        self,
+        db: Database,
+        models: ModelCache,
+        workers: int,
+        *,
+        lease: float = 10.0,
+        max_attempts: int = 3,
+        warm: bool = False,
+    ) -> None:
+        super().__init__(WorkerContext(db, models, lease=lease, max_attempts=max_attempts))
         self.executor: Executor = (
             ProcessPoolExecutor(
                 max_workers=workers,
                 mp_context=multiprocessing.get_context("spawn"),
                 initializer=start_worker,
-                initargs=(db.url,),
+                initargs=(db.url, lease, max_attempts, os.getpid(), warm),
             )
             if workers > 0
             else ThreadPoolExecutor(max_workers=1)
         )
-        self.futures: set[Future[str]] = set()
+        self.futures: set[Future[Outcome]] = set()
+        self.start()
 
-    def submit(self, job_id: str) -> None:
+    def submit(self, job_id: str, kind: str = "") -> None:
+        if self._stop.is_set():
+            return
         if isinstance(self.executor, ThreadPoolExecutor):
             future = self.executor.submit(execute_job, job_id, self.context)
         else:
             future = self.executor.submit(execute_job, job_id)
         self.futures.add(future)
-        future.add_done_callback(self._done)
+        future.add_done_callback(lambda f: self._done(f, job_id))
 
-    def _done(self, future: Future[str]) -> None:
+    def _done(self, future: Future[Outcome], job_id: str) -> None:
         self.futures.discard(future)
+        if future.cancelled():
+            return
         if future.exception() is not None:
             log.error("job worker crashed: %s", future.exception())
+            return
+        outcome = future.result()
+        if outcome.status == "running" and outcome.held_for > 0 and not self._stop.is_set():
+            # Held by a worker that may have died: come back when its lease has expired.
+            timer = threading.Timer(outcome.held_for + 0.1, self.submit, args=(job_id,))
+            timer.daemon = True
+            timer.start()
 
-    def recover(self) -> tuple[int, int]:
-        """(interrupted jobs marked failed, queued jobs resubmitted) after a restart."""
-        with self.context.db.session() as s:
-            repo = Repository(s)
-            interrupted = repo.jobs_with_status("running")
-            for job in interrupted:
-                stopped = Interrupted("interrupted: the service stopped while this job ran; submit it again")
-                repo.finish_job(job, error=to_problem(stopped))
-            queued = [job.id for job in repo.jobs_with_status("queued")]
+    def recover(self) -> int:
+        """After a (re)start: queued jobs are handed to the pool again (a copy another process also runs is
+        harmless: the claim lets one through). Running jobs are left to their leases."""
+        with self.context.db.reader() as s:
+            queued = JobStore(s).queued_ids()
         for job_id in queued:
             self.submit(job_id)
-        return len(interrupted), len(queued)
+        return len(queued)
 
     def shutdown(self) -> None:
+        """Stop taking jobs; stop the pool's processes now and give their jobs back to the queue (a job cut
+        short loses only its computation: nothing of it was written)."""
+        self._stop.set()
         self.executor.shutdown(wait=False, cancel_futures=True)
+        if isinstance(self.executor, ProcessPoolExecutor):
+            # The pool's processes are private to the executor; no public API terminates a busy one.
+            processes = list((getattr(self.executor, "_processes", None) or {}).values())
+            for process in processes:
+                process.terminate()
+            for process in processes:
+                process.join(timeout=5)
+            host = socket.gethostname()
+            with self.context.db.session() as s:
+                store = JobStore(s)
+                for process in processes:
+                    for job_id in store.held_by(f"{host}:{process.pid}"):
+                        store.release(job_id, f"{host}:{process.pid}")

@@ -55,6 +55,7 @@ _BODY = {
             "content": {"application/json": {"schema": {"$ref": "#/components/schemas/JobAccepted"}}},
         },
         "406": {"description": "The Accept header allows no JSON (a calibration is a JSON document)"},
+        "429": {"description": "Job queue full"},
     },
 }
 

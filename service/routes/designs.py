@@ -20,6 +20,7 @@ _CSV_BODY = {"content": {"text/csv": {"schema": {"type": "string", "description"
 _CREATED: dict[int | str, dict[str, Any]] = {
     201: _CSV_BODY,
     202: {"model": JobAccepted, "description": "Accepted as a job (?async=true)"},
+    429: {"description": "Job queue full"},
 }
 _FOUND: dict[int | str, dict[str, Any]] = {200: _CSV_BODY}
 

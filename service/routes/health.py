@@ -8,7 +8,7 @@ from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from service.deps import DatabaseDep, MetricsDep
 from service.errors import NotReady
 from service.schemas.common import Public
-from service.services.jobs import queue_depth
+from service.services.jobs import job_durations, queue_depth
 
 router = APIRouter(tags=["health"])
 
@@ -32,8 +32,14 @@ def readyz(db: DatabaseDep) -> Response:
 @router.get("/metrics", include_in_schema=False)
 def prometheus(db: DatabaseDep, m: MetricsDep) -> Response:
     try:
-        for status, count in queue_depth(db=db).items():
+        depth = queue_depth(db=db)
+        for status, count in depth.items():
             m.queue.labels(status).set(count)
+        m.queue_depth.set(depth["queued"])
+        m.running.set(depth["running"])
+        for kind, count, seconds in job_durations(db=db):
+            m.job_count.labels(kind).set(count)
+            m.job_seconds.labels(kind).set(seconds)
     except Exception:  # metrics still answer when the database does not
         pass
     return Response(generate_latest(m.registry), media_type=CONTENT_TYPE_LATEST)

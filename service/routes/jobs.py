@@ -1,15 +1,43 @@
 from __future__ import annotations
 
-from fastapi import APIRouter, Response
+from fastapi import APIRouter, Query, Response
+from pydantic import TypeAdapter
 
 from service.deps import DatabaseDep
-from service.responses import model_json
-from service.schemas.jobs import JobPublic
+from service.responses import model_json, models_json
+from service.schemas.jobs import JobKind, JobPublic, JobStatus
 from service.services import jobs
 
 router = APIRouter(tags=["jobs"])
+_JOBS = TypeAdapter(list[JobPublic])
+
+
+@router.get("/v1/jobs", response_model=list[JobPublic])
+def list_jobs(
+    db: DatabaseDep,
+    *,
+    status: JobStatus | None = Query(None),
+    kind: JobKind | None = Query(None),
+    robot_id: str | None = Query(None, max_length=36),
+    limit: int = Query(100, ge=1, le=1000),
+    offset: int = Query(0, ge=0, le=1_000_000_000),
+) -> Response:
+    """Newest first; results are left out (`result: null`): GET the job for its result."""
+    found = jobs.list_jobs(db=db, status=status, kind=kind, robot_id=robot_id, limit=limit, offset=offset)
+    return models_json(found, _JOBS)
 
 
 @router.get("/v1/jobs/{job_id}", response_model=JobPublic)
 def get_job(job_id: str, db: DatabaseDep) -> Response:
     return model_json(jobs.get_job(db=db, job_id=job_id))
+
+
+@router.delete(
+    "/v1/jobs/{job_id}",
+    response_model=JobPublic,
+    responses={409: {"description": "The job has already ended"}},
+)
+def cancel_job(job_id: str, db: DatabaseDep) -> Response:
+    """A queued job is cancelled at once; a running one stops at its next progress point (the answer then
+    says `cancel_requested`), and nothing of it is written."""
+    return model_json(jobs.cancel_job(db=db, job_id=job_id))

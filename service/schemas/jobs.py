@@ -19,10 +19,20 @@ class JobAccepted(Public):
     status_url: str
 
 
+class JobProgress(Public):
+    stage: str = Field(description="reading, identifying, designing, storing, done, …")
+    fraction: float = Field(ge=0, le=1)
+
+
 class JobPublic(Public):
     id: str
     kind: JobKind
     status: JobStatus
+    robot_id: str
+    progress: JobProgress | None = Field(description="The latest progress point its worker reported")
+    worker: str | None = Field(description="host:pid of the worker that holds (or last held) it")
+    attempts: int = Field(description="Times a worker took it (more than 1 after a worker stopped mid-way)")
+    cancel_requested: bool
     result: CalibrationPublic | PoseDesignPublic | None = Field(description="When succeeded: what it created")
     error: Problem | None = Field(description="When failed: what the synchronous request would have answered")
     created_at: datetime

@@ -23,12 +23,22 @@ from service.persistence.lifecycle import Actor, Lifecycle
 from service.persistence.repository import new_id
 from service.persistence.tables import ParameterVersion
 from service.schemas.calibrations import CalibrationCreate
+from service.services.hooks import JobHooks
 
 
-def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Actor | None = None) -> dict[str, Any]:
+def calibrate(
+    *,
+    db: Database,
+    robot_id: str,
+    body: CalibrationCreate,
+    actor: Actor | None = None,
+    job: JobHooks | None = None,
+) -> dict[str, Any]:
     """Identify, then store the campaign, the calibration and (when it passed its checks and `apply`) the new
-    version together. The result as `CalibrationPublic` JSON; a failed fit is stored, then raised as
-    `CalibrationFailed` (a 422 naming the stored attempt)."""
+    version together, with the job's own `succeeded` when run as one. The result as `CalibrationPublic` JSON; a
+    failed fit is stored, then raised as `CalibrationFailed` (a 422 naming the stored attempt; its job fails)."""
+    if job is not None:
+        job.progress("reading", 0.0)
     with db.reader() as s:
         repo = Repository(s)
         desc = description(repo.robot(robot_id))
@@ -40,6 +50,8 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Ac
         start_accuracy = _predicted_accuracy(repo, start_row)
     campaign = campaign_in(desc, body)
     options = options_in(body)
+    if job is not None:
+        job.progress("identifying", 0.05)
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
     noise = noise_in(body)
@@ -69,6 +81,8 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Ac
         payload["forced"] = refused is not None and apply
     records = [r.model_dump() for r in body.measurements]
     calibration_id = new_id()
+    if job is not None:
+        job.progress("storing", 0.95)
     won_by: int | None = None
     with db.session() as s:
         repo = Repository(s)
@@ -103,6 +117,10 @@ def calibrate(*, db: Database, robot_id: str, body: CalibrationCreate, actor: Ac
                 details={"from_version": previous, "calibration_id": calibration_id}
                 | ({"forced": True} if payload.get("forced") else {}),
             )
+        if job is not None and result.succeeded and won_by is None:
+            # The job's `succeeded` joins this transaction; a failure below ends the job `failed` instead, with
+            # the same problem the synchronous request answers.
+            job.commit(s, calibration_id)
         answer = calibration_public(record)
     if not result.succeeded:
         raise CalibrationFailed(

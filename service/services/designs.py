@@ -10,16 +10,24 @@ from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
 from service.schemas.designs import PoseDesignCreate, PoseDesignSummaryPublic
+from service.services.hooks import JobHooks
 
 
-def create_design(*, db: Database, models: ModelCache, robot_id: str, body: PoseDesignCreate) -> dict[str, Any]:
-    """The new design as `PoseDesignPublic` JSON, designed with the robot's current parameters."""
+def create_design(
+    *, db: Database, models: ModelCache, robot_id: str, body: PoseDesignCreate, job: JobHooks | None = None
+) -> dict[str, Any]:
+    """The new design as `PoseDesignPublic` JSON, designed with the robot's current parameters (and stored with
+    the job's own `succeeded` when run as one)."""
+    if job is not None:
+        job.progress("reading", 0.0)
     desc, theta = models.current(robot_id)
     if body.candidates is not None and not body.candidates:
         raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
     candidates = joints_in(desc, body.candidates) if body.candidates is not None else None
     fixed = joints_in(desc, body.fixed) if body.fixed is not None else None
     joint_ranges, keep_out = constraints_in(desc, body)
+    if job is not None:
+        job.progress("designing", 0.05)
     if body.target is not None:
         found = design_for_target(
             desc,
@@ -56,10 +64,15 @@ def create_design(*, db: Database, models: ModelCache, robot_id: str, body: Pose
         )
         report_model = report_out(desc, design, candidates_given=candidates is not None)
     report = report_model.model_dump(mode="json")
+    if job is not None:
+        job.progress("storing", 0.95)
     with db.session() as s:
         repo = Repository(s)
         repo.robot(robot_id)  # still there
-        return design_public(repo.add_design(robot_id, body.model_dump(mode="json"), report))
+        record = repo.add_design(robot_id, body.model_dump(mode="json"), report)
+        if job is not None:
+            job.commit(s, record.id)
+        return design_public(record)
 
 
 def get_design(*, db: Database, design_id: str) -> dict[str, Any]:

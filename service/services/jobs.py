@@ -10,68 +10,137 @@ from pydantic import BaseModel
 from service.conversions.calibrations import calibration_public
 from service.conversions.designs import design_public
 from service.conversions.jobs import accepted_out, job_out
+from service.errors import JobFinished, NotFound, NotReady, QueueFull
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
+from service.persistence.job_store import JobStore
+from service.persistence.repository import new_id
+from service.persistence.tables import Job
+from service.problems import to_problem
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.designs import PoseDesignCreate
-from service.schemas.jobs import JobAccepted, JobKind, JobPublic
+from service.schemas.jobs import JobAccepted, JobKind, JobPublic, JobStatus
 from service.services import calibrations, designs
+from service.services.hooks import JobHooks
 
 
 class Submitter(Protocol):
-    """What runs a queued job: the app's `JobRunner`."""
+    """What hands a queued job to a worker: the embedded `JobRunner` or the Celery publisher."""
 
-    def submit(self, job_id: str) -> None: ...
+    queue_limit: int
+    retry_after: int
+
+    def submit(self, job_id: str, kind: str = "") -> None: ...
 
 
-def submit_job(*, db: Database, jobs: Submitter, kind: JobKind, robot_id: str, body: BaseModel) -> JobAccepted:
-    """Store the validated request as a queued job of an existing robot and hand it to the runner."""
+def submit_job(
+    *,
+    db: Database,
+    jobs: Submitter,
+    kind: JobKind,
+    robot_id: str,
+    body: BaseModel,
+) -> JobAccepted:
+    """Store the validated request as a queued job of an existing robot and hand it to the engine; 429 when
+    the engine's `queue_limit` jobs are already waiting."""
+    job_id, queue_limit = new_id(), jobs.queue_limit
     with db.session() as s:
-        repo = Repository(s)
-        repo.robot(robot_id)
-        job = repo.add_job(kind, robot_id, body.model_dump(mode="json"))
-    jobs.submit(job.id)
+        Repository(s).robot(robot_id)
+        store = JobStore(s)
+        waiting = store.count("queued")
+        if waiting >= queue_limit:
+            raise QueueFull(
+                f"{waiting} jobs are waiting, the queue's bound is {queue_limit}; retry later",
+                limit=queue_limit,
+                retry_after=jobs.retry_after,
+            )
+        job = store.add(job_id, kind, robot_id, body.model_dump(mode="json"))
+    try:
+        jobs.submit(job_id, kind)
+    except Exception as exc:  # the broker does not answer: the job must not wait for a message never sent
+        unreachable = NotReady(f"the job queue does not answer ({type(exc).__name__}); submit again later")
+        with db.session() as s:
+            JobStore(s).fail_unsent(job_id, to_problem(unreachable))
+        raise unreachable from exc
     return accepted_out(job)
 
 
-def _calibration(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any]) -> str:
+def _calibration(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any], job: JobHooks | None) -> str:
     body = CalibrationCreate.model_validate(request)
-    return str(calibrations.calibrate(db=db, robot_id=robot_id, body=body)["id"])
+    return str(calibrations.calibrate(db=db, robot_id=robot_id, body=body, job=job)["id"])
 
 
-def _design(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any]) -> str:
+def _design(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any], job: JobHooks | None) -> str:
     body = PoseDesignCreate.model_validate(request)
-    return str(designs.create_design(db=db, models=models, robot_id=robot_id, body=body)["id"])
+    return str(designs.create_design(db=db, models=models, robot_id=robot_id, body=body, job=job)["id"])
 
 
-RUNS: dict[str, Callable[[Database, ModelCache, str, dict[str, Any]], str]] = {
+RUNS: dict[str, Callable[[Database, ModelCache, str, dict[str, Any], JobHooks | None], str]] = {
     "calibration": _calibration,
     "pose_design": _design,
 }
 """Per job kind: the use case that runs it, returning the id of what it created."""
 
 
-def run_job(*, db: Database, models: ModelCache, kind: str, robot_id: str, request: dict[str, Any]) -> str:
+def run_job(
+    *, db: Database, models: ModelCache, kind: str, robot_id: str, request: dict[str, Any], job: JobHooks | None = None
+) -> str:
     if kind not in RUNS:
         raise ValueError(f"no such job kind {kind!r}")
-    return RUNS[kind](db, models, robot_id, request)
+    return RUNS[kind](db, models, robot_id, request, job)
+
+
+def _public(repo: Repository, job: Job, *, with_result: bool = True) -> JobPublic:
+    result = None
+    if with_result and job.status == "succeeded" and job.result_id:
+        if job.kind == "calibration":
+            result = calibration_public(repo.calibration(job.result_id))
+        else:
+            result = design_public(repo.design(job.result_id))
+    return job_out(job, result)
 
 
 def get_job(*, db: Database, job_id: str) -> JobPublic:
     with db.reader() as s:
+        return _public(Repository(s), Repository(s).job(job_id))
+
+
+def list_jobs(
+    *,
+    db: Database,
+    status: JobStatus | None,
+    kind: JobKind | None,
+    robot_id: str | None,
+    limit: int,
+    offset: int,
+) -> list[JobPublic]:
+    """Newest first, without results (a page of 100 designs would be megabytes): GET one job for its result."""
+    with db.reader() as s:
         repo = Repository(s)
-        job = repo.job(job_id)
-        result = None
-        if job.status == "succeeded" and job.result_id:
-            if job.kind == "calibration":
-                result = calibration_public(repo.calibration(job.result_id))
-            else:
-                result = design_public(repo.design(job.result_id))
-        return job_out(job, result)
+        rows = JobStore(s).page(status=status, kind=kind, robot_id=robot_id, limit=limit, offset=offset)
+        return [_public(repo, job, with_result=False) for job in rows]
+
+
+def cancel_job(*, db: Database, job_id: str) -> JobPublic:
+    """A queued job is cancelled now; a running one stops at its next progress point, writing nothing."""
+    with db.session() as s:
+        store = JobStore(s)
+        if store.get(job_id) is None:
+            raise NotFound(f"no job with id {job_id!r}", resource="job", id=job_id)
+        if not store.request_cancel(job_id):
+            found = store.get(job_id)
+            status = found.status if found is not None else "unknown"
+            raise JobFinished(f"job {job_id} has already ended ({status}); nothing to cancel", status=status)
+    return get_job(db=db, job_id=job_id)
 
 
 def queue_depth(*, db: Database) -> dict[str, int]:
     """Jobs waiting and running, for the metrics."""
     with db.reader() as s:
-        repo = Repository(s)
-        return {status: repo.count_jobs(status) for status in ("queued", "running")}
+        store = JobStore(s)
+        return {status: store.count(status) for status in ("queued", "running")}
+
+
+def job_durations(*, db: Database) -> list[tuple[str, int, float]]:
+    with db.reader() as s:
+        return JobStore(s).durations()

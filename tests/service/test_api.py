@@ -267,3 +267,11 @@ def test_pose_design_constraints(client: TestClient, robot_id: str) -> None:
     assert design["constraints"]["excluded"] and design["constraints"]["min_spread"] == 0.05
     wrong = client.post(url, json={"count": 20, "joint_ranges": {"q9": [0, 1]}})
     assert wrong.status_code == 422 and "q9" in wrong.json()["detail"]
+
+
+def test_error_analysis_with_tolerances_the_robot_cannot_be_assembled_with_is_422(client: TestClient) -> None:
+    """Found by schemathesis: a 89 mm leg offset made numpy's eigenvalues fail (500) instead of a 422."""
+    body = {"distribution": "sign", "draws": 1, "poses": 1, "leg_offset_mm": 89.0}
+    body |= {"dh_angle_deg": 0.0, "dh_length_mm": 0.0, "joint_position_mm": 0.0}
+    answer = client.post("/v1/error-analysis", json=body)
+    assert answer.status_code == 422 and answer.json()["field"] == "tolerances", answer.text

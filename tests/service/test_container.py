@@ -56,17 +56,25 @@ def test_image_installs_the_runtime_lock_and_nothing_unpinned() -> None:
 
 def test_compose_file_is_well_formed() -> None:
     doc = yaml.safe_load(COMPOSE.read_text())
-    assert set(doc["services"]) == {"api", "db"}
-    api, db = doc["services"]["api"], doc["services"]["db"]
-    assert (COMPOSE.parent / api["build"]["context"] / api["build"]["dockerfile"]).resolve() == DOCKERFILE
-    assert api["depends_on"]["db"]["condition"] == "service_healthy"
-    assert "@db:5432/" in api["environment"]["DATABASE_URL"]
-    assert api["environment"]["DATABASE_URL"].startswith("postgresql+psycopg://")
-    for service in (api, db):
+    assert set(doc["services"]) == {"api", "worker", "db", "broker"}
+    services = doc["services"]
+    api, worker, db, broker = (services[name] for name in ("api", "worker", "db", "broker"))
+    for app in (api, worker):  # one image, one configuration, both on PostgreSQL and RabbitMQ
+        assert (COMPOSE.parent / app["build"]["context"] / app["build"]["dockerfile"]).resolve() == DOCKERFILE
+        assert app["depends_on"]["db"]["condition"] == "service_healthy"
+        assert app["depends_on"]["broker"]["condition"] == "service_healthy"
+        env = app["environment"]
+        assert env["DATABASE_URL"].startswith("postgresql+psycopg://") and "@db:5432/" in env["DATABASE_URL"]
+        assert env["IWR_BROKER_URL"].startswith("amqp://") and "@broker:5672/" in env["IWR_BROKER_URL"]
+    assert api["deploy"]["replicas"] == 2
+    assert worker["command"] == ["python", "-m", "service.worker"]
+    assert "deploy" not in worker or "replicas" not in worker["deploy"], "N workers come from --scale worker=N"
+    assert "ports" not in worker
+    for service in (api, worker, db, broker):
         check = service["healthcheck"]
         assert check["test"][0] in ("CMD", "CMD-SHELL") and check["interval"] and check["retries"] >= 1
-    volume = db["volumes"][0].split(":")[0]
-    assert volume in doc["volumes"]
+    for service, volume in ((db, "pgdata"), (broker, "rabbitmq")):
+        assert service["volumes"][0].split(":")[0] == volume and volume in doc["volumes"]
     if (
         shutil.which("docker")
         and subprocess.run(["docker", "compose", "version"], capture_output=True, check=False).returncode == 0

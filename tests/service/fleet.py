@@ -1,0 +1,183 @@
+"""Real API processes and Celery workers on one database and broker, for the distributed job tests and the
+benchmark: started, polled, killed (-9) and restarted like a deployment's."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from models import iwr, sample_workspace
+from models.simulation import perturbed_robot
+from tests.live import ROOT, free_port
+from tests.service.helpers import records
+
+RABBITMQ = os.environ.get("IWR_TEST_RABBITMQ", "amqp://guest:guest@127.0.0.1:5672//")
+REDIS = os.environ.get("IWR_TEST_REDIS", "redis://127.0.0.1:6379/0")
+
+
+def campaign(poses: int, seed: int = 4) -> dict[str, Any]:
+    """A calibration request: `poses` simulated measurements of a perturbed IWR."""
+    desc = iwr()
+    sim = perturbed_robot(desc, seed=6)
+    return {"measurements": records(desc, sim, sample_workspace(desc, poses, seed=3), seed=seed)}
+
+
+def broker(url: str) -> str:
+    """The broker's URL when it answers; otherwise skip (fail under CI, where it must run)."""
+    host_port = url.rsplit("@", maxsplit=1)[-1].rsplit("://", maxsplit=1)[-1].split("/", maxsplit=1)[0]
+    host, port = host_port.rsplit(":", 1)
+    try:
+        socket.create_connection((host, int(port)), timeout=2).close()
+    except OSError as exc:
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"the broker {url} must be running for CI on this machine: {exc}")
+        pytest.skip(f"no broker at {host}:{port} ({exc})")
+    return url
+
+
+def call(base: str, method: str, path: str, body: Any = None, timeout: float = 30) -> tuple[int, Any]:
+    data = None if body is None else json.dumps(body).encode()
+    request = urllib.request.Request(
+        base + path, data=data, method=method, headers={"content-type": "application/json"}
+    )
+    try:
+        with urllib.request.urlopen(request, timeout=timeout) as r:
+            return r.status, json.loads(r.read() or b"null")
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read() or b"null")
+
+
+@dataclass
+class Fleet:
+    """Processes sharing `env` (database, broker, a queue of their own so parallel runs never mix)."""
+
+    database_url: str
+    broker_url: str
+    logs: Path
+    extra: dict[str, str] = field(default_factory=dict)
+    apis: dict[str, tuple[subprocess.Popen[bytes], str]] = field(default_factory=dict)
+    workers: dict[str, subprocess.Popen[bytes]] = field(default_factory=dict)
+    queue: str = field(default_factory=lambda: f"iwr-test-{uuid.uuid4().hex[:10]}")
+
+    def env(self) -> dict[str, str]:
+        return {
+            **os.environ,
+            "DATABASE_URL": self.database_url,
+            "IWR_BROKER_URL": self.broker_url,
+            "IWR_JOB_QUEUE": self.queue,
+            "IWR_LOG_LEVEL": "INFO",
+            "PYTHONPATH": str(ROOT),
+            **self.extra,
+        }
+
+    def _popen(self, name: str, args: list[str]) -> subprocess.Popen[bytes]:
+        with (self.logs / f"{name}.log").open("ab") as log:  # the child keeps its own descriptor
+            return subprocess.Popen(
+                [sys.executable, *args],
+                cwd=ROOT,
+                env=self.env(),
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+            )
+
+    def start_api(self, name: str) -> str:
+        port = free_port()
+        process = self._popen(name, ["-m", "service", "--host", "127.0.0.1", "--port", str(port)])
+        base = f"http://127.0.0.1:{port}"
+        deadline = time.monotonic() + 120
+        while True:
+            try:
+                with urllib.request.urlopen(base + "/readyz", timeout=1) as r:
+                    if r.status == 200:
+                        break
+            except OSError:
+                pass
+            if process.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"API {name} did not start: {(self.logs / f'{name}.log').read_text()[-3000:]}")
+            time.sleep(0.2)
+        self.apis[name] = (process, base)
+        return base
+
+    def start_worker(self, name: str) -> subprocess.Popen[bytes]:
+        process = self._popen(name, ["-m", "service.worker"])
+        self.workers[name] = process
+        return process
+
+    def wait_ready(self, name: str, timeout: float = 120) -> None:
+        """Until the worker's process has built its runtime (its log says so)."""
+        deadline = time.monotonic() + timeout
+        while "runtime built" not in (self.logs / f"{name}.log").read_text():
+            if self.workers[name].poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"worker {name} did not start: {(self.logs / f'{name}.log').read_text()[-3000:]}")
+            time.sleep(0.1)
+
+    def base(self, name: str) -> str:
+        return self.apis[name][1]
+
+    def kill_api(self, name: str) -> None:
+        process, _ = self.apis.pop(name)
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait(timeout=30)
+
+    def kill_worker(self, name: str) -> None:
+        """kill -9 of the whole worker: its main process and the pool process running the job."""
+        process = self.workers.pop(name)
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait(timeout=30)
+
+    def stop(self) -> None:
+        for process in [p for p, _ in self.apis.values()] + list(self.workers.values()):
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGTERM)
+        for process in [p for p, _ in self.apis.values()] + list(self.workers.values()):
+            try:
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
+        self.apis.clear()
+        self.workers.clear()
+
+
+@contextmanager
+def fleet(database_url: str, broker_url: str, logs: Path, **extra: str) -> Iterator[Fleet]:
+    running = Fleet(database_url, broker_url, logs, extra=extra)
+    try:
+        yield running
+    finally:
+        running.stop()
+
+
+def wait_for(base: str, job_ids: list[str], timeout: float = 300, poll: float = 0.05) -> dict[str, dict[str, Any]]:
+    """Poll until every job has ended; their final views."""
+    deadline = time.monotonic() + timeout
+    done: dict[str, dict[str, Any]] = {}
+    while len(done) < len(job_ids):
+        for job_id in job_ids:
+            if job_id in done:
+                continue
+            status, job = call(base, "GET", f"/v1/jobs/{job_id}")
+            if status == 200 and job["status"] in ("succeeded", "failed", "cancelled"):
+                done[job_id] = job
+        if time.monotonic() > deadline:
+            missing = [j for j in job_ids if j not in done]
+            raise AssertionError(f"{len(missing)} jobs did not end, e.g. {call(base, 'GET', f'/v1/jobs/{missing[0]}')}")
+        if len(done) < len(job_ids):
+            time.sleep(poll)
+    return done

@@ -1,0 +1,342 @@
+"""The job protocol on its own (`service.persistence.job_store`, `service.jobs.runner`), on SQLite and
+PostgreSQL: one claim wins, a duplicate delivery changes nothing, leases expire into requeues up to the retry
+limit, cancellation, the bounded queue, the list, and the lease renewed through a long IPOPT solve."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from datetime import timedelta
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+import pytest
+from fastapi.testclient import TestClient
+from sqlalchemy import update
+
+from models import iwr, sample_workspace
+from models.simulation import perturbed_robot
+from service.jobs.runner import Lease, WorkerContext, execute_job
+from service.model_cache import ModelCache
+from service.persistence import Database, Repository
+from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed, utcnow
+from service.persistence.tables import Job, PoseDesignRecord
+from service.schemas.robots import RobotCreate
+from service.services.robots import create_robot
+from tests.live import ROOT, free_port
+from tests.service.conftest import make_client
+from tests.service.fleet import call
+from tests.service.helpers import records
+
+DESC = iwr()
+
+
+@pytest.fixture
+def db(database_url: str) -> Iterator[Database]:
+    database = Database(database_url)
+    database.migrate()
+    yield database
+    database.dispose()
+
+
+def _request(seed: int = 4, poses: int = 25) -> dict[str, Any]:
+    sim = perturbed_robot(DESC, seed=6)
+    return {"measurements": records(DESC, sim, sample_workspace(DESC, poses, seed=3), seed=seed)}
+
+
+def _queued(db: Database, robot_id: str, kind: str = "calibration", request: dict[str, Any] | None = None) -> str:
+    with db.session() as s:
+        return JobStore(s).add(f"job-{time.perf_counter_ns()}", kind, robot_id, request or _request()).id
+
+
+def _robot(db: Database) -> str:
+    return create_robot(db=db, body=RobotCreate(name="r")).id
+
+
+def _expire(db: Database, job_id: str) -> None:
+    with db.session() as s:
+        s.execute(update(Job).where(Job.id == job_id).values(lease_expires_at=utcnow() - timedelta(seconds=1)))
+
+
+def _count(db: Database, robot_id: str) -> tuple[int, int]:
+    """(calibration rows, parameter versions) of the robot."""
+    with db.reader() as s:
+        repo = Repository(s)
+        return len(repo.calibrations(robot_id, 1000, 0)), repo.latest_version(robot_id)
+
+
+def test_one_claim_wins_among_concurrent_workers(db: Database) -> None:
+    robot_id = _robot(db)
+    job_id = _queued(db, robot_id)
+
+    def claim(worker: int) -> Claim | NotClaimed:
+        with db.session() as s:
+            return JobStore(s).claim(job_id, f"w{worker}", lease=30, max_attempts=3)
+
+    with ThreadPoolExecutor(8) as pool:
+        answers = list(pool.map(claim, range(8)))
+    won = [a for a in answers if isinstance(a, Claim)]
+    assert len(won) == 1 and won[0].attempt == 1
+    held = [a for a in answers if isinstance(a, NotClaimed)]
+    # (a loser may have read its clock before the winner: up to the wait for the write lock over 30 s)
+    assert all(a.status == "running" and 0 < a.held_for <= 35 for a in held), held
+
+
+def test_a_duplicate_delivery_changes_nothing(db: Database) -> None:
+    robot_id = _robot(db)
+    job_id = _queued(db, robot_id)
+    ctx = WorkerContext(db, ModelCache(db), lease=30, max_attempts=3)
+    first = execute_job(job_id, ctx)
+    assert first.status == "succeeded"
+    with db.reader() as s:
+        before = JobStore(s).get(job_id)
+        assert before is not None
+        snapshot = (before.status, before.result_id, before.finished_at, before.attempts)
+    assert execute_job(job_id, ctx).status == "succeeded"  # the same message again
+    assert not execute_job(job_id, ctx).ran
+    with db.reader() as s:
+        after = JobStore(s).get(job_id)
+        assert after is not None
+        assert (after.status, after.result_id, after.finished_at, after.attempts) == snapshot
+    assert _count(db, robot_id) == (1, 2)
+
+
+def test_a_worker_that_lost_its_lease_writes_nothing(db: Database) -> None:
+    robot_id = _robot(db)
+    job_id = _queued(db, robot_id)
+    with db.session() as s:
+        assert isinstance(JobStore(s).claim(job_id, "old", lease=30, max_attempts=3), Claim)
+    _expire(db, job_id)
+    with db.session() as s:  # another worker takes the expired lease over
+        taken = JobStore(s).claim(job_id, "new", lease=30, max_attempts=3)
+        assert isinstance(taken, Claim) and taken.attempt == 2
+    with pytest.raises(LeaseLost), db.session() as s:
+        Repository(s).add_campaign(robot_id, [])
+        JobStore(s).succeed(job_id, "old", "nothing")
+    with db.reader() as s:
+        job = JobStore(s).get(job_id)
+        assert job is not None and job.status == "running" and job.worker == "new"
+    assert _count(db, robot_id) == (0, 1)
+
+
+def test_expired_leases_are_requeued_up_to_the_retry_limit(db: Database) -> None:
+    robot_id = _robot(db)
+    job_id = _queued(db, robot_id)
+    live_id = _queued(db, robot_id)
+    with db.session() as s:
+        assert isinstance(JobStore(s).claim(live_id, "alive", lease=60, max_attempts=2), Claim)
+    for attempt in (1, 2):
+        with db.session() as s:
+            claim = JobStore(s).claim(job_id, f"dies-{attempt}", lease=30, max_attempts=2)
+            assert isinstance(claim, Claim) and claim.attempt == attempt
+        _expire(db, job_id)
+        with db.session() as s:
+            requeued, failed = JobStore(s).requeue_expired(max_attempts=2)
+        if attempt == 1:
+            assert (requeued, failed) == ([(job_id, "calibration")], [])
+        else:
+            assert (requeued, failed) == ([], [job_id])
+    with db.reader() as s:
+        store = JobStore(s)
+        job, live = store.get(job_id), store.get(live_id)
+        assert job is not None and job.status == "failed" and job.error is not None
+        assert job.error["attempts"] == 2 and "stopped 2 times" in job.error["detail"]
+        assert live is not None and live.status == "running" and live.worker == "alive"  # never touched
+
+
+def test_cancel_a_queued_job_at_once_and_a_running_one_at_its_next_progress_point(db: Database) -> None:
+    robot_id = _robot(db)
+    queued = _queued(db, robot_id)
+    with db.session() as s:
+        assert JobStore(s).request_cancel(queued)
+    ctx = WorkerContext(db, ModelCache(db), lease=30, max_attempts=3)
+    assert execute_job(queued, ctx).status == "cancelled"  # its message still arrives: nothing runs
+
+    running = _queued(db, robot_id)
+    with db.session() as s:
+        claim = JobStore(s).claim(running, ctx.name, lease=30, max_attempts=3)
+        assert isinstance(claim, Claim)
+    with Lease(ctx, running, ctx.name) as lease:
+        lease.progress("identifying", 0.5)
+        with db.session() as s:
+            assert JobStore(s).request_cancel(running)
+        time.sleep(0.3)  # past the progress write interval: the next point reads the flag
+        with pytest.raises(Exception, match="cancelled"):
+            lease.progress("storing", 0.9)
+    with db.session() as s:
+        assert JobStore(s).cancelled(running, ctx.name)
+        assert not JobStore(s).request_cancel(running)  # finished: nothing left to cancel
+    assert _count(db, robot_id) == (0, 1)
+
+
+def test_the_lease_is_renewed_through_a_long_ipopt_solve(db: Database) -> None:
+    """The heartbeat is a thread: it must keep renewing while IPOPT runs (CasADi releases the GIL)."""
+    robot_id = _robot(db)
+    job_id = _queued(db, robot_id)
+    ctx = WorkerContext(db, ModelCache(db), lease=0.3, max_attempts=3)
+    with db.session() as s:
+        assert isinstance(JobStore(s).claim(job_id, ctx.name, lease=0.3, max_attempts=3), Claim)
+    x = ca.MX.sym("x", 20000)
+    solver = ca.nlpsol(
+        "s",
+        "ipopt",
+        {"x": x, "f": ca.sumsqr(ca.sin(x) - 0.3) + ca.sumsqr(x[1:] - x[:-1] ** 2)},
+        {"print_time": 0, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-14},
+    )
+    seen: list[float] = []
+    with Lease(ctx, job_id, ctx.name):
+        started = time.monotonic()
+        while time.monotonic() - started < 1.0:  # at least 1 s of solving, > 3 leases
+            solver(x0=[1.0] * 20000)
+            with db.reader() as s:
+                job = JobStore(s).get(job_id)
+                assert job is not None and job.lease_expires_at is not None
+                seen.append((job.lease_expires_at - utcnow()).total_seconds())
+    assert min(seen) > 0, f"the lease expired during a solve: {seen}"
+    with db.session() as s:
+        requeued, _ = JobStore(s).requeue_expired(3)
+        assert job_id not in [j for j, _ in requeued]
+
+
+def test_queue_full_answers_429_with_retry_after(tmp_path: Path) -> None:
+    with make_client(f"sqlite:///{tmp_path}/q.db", job_queue_limit=2, job_retry_after=7) as c:
+        rid = c.post("/v1/robots", json={"name": "r"}).json()["id"]
+        # The in-process runner's thread would take them: stop it so that they stay queued.
+        c.app.state.jobs.shutdown()  # type: ignore[attr-defined]
+        body = {"count": 12, "criterion": "D", "candidate_count": 200, "seed": 1}
+        for _ in range(2):
+            assert c.post(f"/v1/robots/{rid}/pose-designs?async=true", json=body).status_code == 202
+        full = c.post(f"/v1/robots/{rid}/pose-designs?async=true", json=body)
+        assert full.status_code == 429, full.text
+        assert full.headers["retry-after"] == "7"
+        assert full.json()["type"].endswith("/queue-full") and full.json()["limit"] == 2
+        listed = c.get("/v1/jobs?status=queued").json()
+        assert len(listed) == 2 and all(j["status"] == "queued" and j["result"] is None for j in listed)
+        # Cancelling one frees a place.
+        cancelled = c.delete(f"/v1/jobs/{listed[0]['id']}")
+        assert cancelled.status_code == 200 and cancelled.json()["status"] == "cancelled"
+        assert c.delete(f"/v1/jobs/{listed[0]['id']}").status_code == 409
+        assert c.post(f"/v1/robots/{rid}/pose-designs?async=true", json=body).status_code == 202
+
+
+def test_list_newest_first_with_filters_and_progress(client: TestClient, robot_id: str) -> None:
+    body = {"count": 12, "criterion": "D", "candidate_count": 200, "seed": 1}
+    ids = [client.post(f"/v1/robots/{robot_id}/pose-designs?async=true", json=body).json()["job_id"] for _ in range(3)]
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        jobs = client.get(f"/v1/jobs?robot_id={robot_id}").json()
+        if all(j["status"] == "succeeded" for j in jobs):
+            break
+        time.sleep(0.1)
+    assert [j["id"] for j in jobs] == ids[::-1]
+    assert all(j["progress"] == {"stage": "done", "fraction": 1.0} and j["worker"] for j in jobs)
+    assert client.get("/v1/jobs?kind=calibration").json() == []
+    assert [j["id"] for j in client.get("/v1/jobs?limit=1&offset=1").json()] == [ids[1]]
+    one = client.get(f"/v1/jobs/{ids[0]}").json()
+    assert one["attempts"] == 1 and one["result"]["poses"]
+    metrics = client.get("/metrics").text
+    assert 'iwr_jobs_succeeded{kind="pose_design"} 3.0' in metrics
+    assert "iwr_jobs_queue_depth 0.0" in metrics and "iwr_jobs_running 0.0" in metrics
+
+
+def test_two_racing_runs_of_one_job_store_one_result(db: Database) -> None:
+    """Many deliveries of one calibration at once (a redelivery racing the original): one calibration, one
+    new parameter version."""
+    robot_id = _robot(db)
+    job_id = _queued(db, robot_id)
+    ctx = WorkerContext(db, ModelCache(db), lease=30, max_attempts=3)
+    barrier = threading.Barrier(4)
+
+    def deliver(_: int) -> str:
+        barrier.wait()
+        return execute_job(job_id, ctx).status
+
+    with ThreadPoolExecutor(4) as pool:
+        statuses = list(pool.map(deliver, range(4)))
+    assert "succeeded" in statuses
+    assert _count(db, robot_id) == (1, 2)
+
+
+def _children(pid: int) -> set[int]:
+    found = set()
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                if int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1]) == pid:
+                    found.add(int(entry.name))
+            except (OSError, IndexError, ValueError):
+                continue
+    return found
+
+
+@pytest.mark.slow  # a server with its pool, twice: ~20 s
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGKILL])
+def test_the_embedded_pool_dies_with_its_server(tmp_path: Path, stop: signal.Signals) -> None:
+    """Its workers never outlive the server: after SIGTERM (shutdown stops them) and after kill -9 (each
+    notices its parent is gone)."""
+    port = free_port()
+    env = {**os.environ, "DATABASE_URL": f"sqlite:///{tmp_path}/e.db", "IWR_JOB_WORKERS": "2", "IWR_WARM_UP": "0"}
+    server = subprocess.Popen(
+        [sys.executable, "-m", "service", "--host", "127.0.0.1", "--port", str(port)],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        base = f"http://127.0.0.1:{port}"
+        deadline = time.monotonic() + 90
+        while True:
+            try:
+                status, robot = call(base, "POST", "/v1/robots", {"name": "r"})
+                break
+            except OSError:
+                assert server.poll() is None and time.monotonic() < deadline, "the server did not start"
+                time.sleep(0.2)
+        assert status == 201
+        body = {"count": 12, "criterion": "D", "candidate_count": 200, "seed": 1}
+        for _ in range(2):  # the pool starts its processes with its first jobs
+            assert call(base, "POST", f"/v1/robots/{robot['id']}/pose-designs?async=true", body)[0] == 202
+        deadline = time.monotonic() + 60
+        while len(pool := _children(server.pid)) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert len(pool) >= 2, pool
+        server.send_signal(stop)
+        server.wait(timeout=30)
+        deadline = time.monotonic() + 15
+        while (alive := {p for p in pool if Path(f"/proc/{p}").exists()}) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not alive, f"pool processes {alive} outlived the server ({stop.name})"
+    finally:
+        if server.poll() is None:
+            server.kill()
+            server.wait()
+
+
+@pytest.mark.slow  # a 2 000-candidate design, cancelled mid-way: ~5 s
+def test_delete_stops_a_running_design_at_its_next_progress_point_and_nothing_is_written(
+    client: TestClient, robot_id: str
+) -> None:
+    body = {"count": 30, "criterion": "D", "candidate_count": 2000, "seed": 1}
+    job_id = client.post(f"/v1/robots/{robot_id}/pose-designs?async=true", json=body).json()["job_id"]
+    deadline = time.monotonic() + 60
+    while (job := client.get(f"/v1/jobs/{job_id}").json())["status"] == "queued" and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert job["status"] == "running", job
+    answer = client.delete(f"/v1/jobs/{job_id}")
+    assert answer.status_code == 200 and answer.json()["cancel_requested"] is True
+    while (job := client.get(f"/v1/jobs/{job_id}").json())["status"] == "running" and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert job["status"] == "cancelled" and job["result"] is None and job["error"] is None, job
+    assert job["progress"]["stage"] != "done"
+    db: Database = client.app.state.db  # type: ignore[attr-defined]
+    with db.reader() as s:
+        assert s.query(PoseDesignRecord).count() == 0
+    assert client.delete(f"/v1/jobs/{job_id}").status_code == 409

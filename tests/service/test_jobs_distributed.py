@@ -1,0 +1,183 @@
+"""The Celery engine for real: API processes and `python -m service.worker` processes on this machine's
+PostgreSQL and RabbitMQ (and Redis), killed with -9 and restarted mid-run. Every job ends `succeeded`, once."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from sqlalchemy import create_engine, text
+
+from service.jobs import WorkerContext
+from service.jobs.engine import CeleryRunner
+from service.model_cache import ModelCache
+from service.persistence import Database
+from service.settings import Settings
+from tests.service.conftest import postgres_url
+from tests.service.fleet import RABBITMQ, REDIS, broker, call, campaign, fleet, wait_for
+
+LEASE = "2"
+"""Seconds: a killed worker's job is taken over ~2 s later (the default, 10 s, would only make this slower)."""
+
+
+@pytest.fixture
+def pg() -> Iterator[str]:
+    yield from postgres_url()
+
+
+def _rows(url: str, robot_id: str) -> tuple[int, int]:
+    """(calibration rows, parameter versions) of the robot, read straight from the database."""
+    engine = create_engine(url)
+    with engine.connect() as c:
+        calibrations = c.execute(
+            text("SELECT count(*) FROM calibrations WHERE robot_id = :r"), {"r": robot_id}
+        ).scalar()
+        versions = c.execute(
+            text("SELECT count(*) FROM parameter_versions WHERE robot_id = :r"), {"r": robot_id}
+        ).scalar()
+    engine.dispose()
+    return int(calibrations or 0), int(versions or 0)
+
+
+def _until_running(base: str, job_id: str, timeout: float = 120) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        _, job = call(base, "GET", f"/v1/jobs/{job_id}")
+        if job["status"] == "running":
+            return dict(job)
+        assert job["status"] == "queued", job
+        time.sleep(0.005)
+    raise AssertionError(f"job {job_id} never ran")
+
+
+@pytest.mark.slow  # two workers started, one killed: ~25 s each
+@pytest.mark.parametrize("kind", ["calibration", "pose_design"])
+def test_kill_9_of_the_worker_mid_job_redelivers_it_and_it_succeeds_once(pg: str, tmp_path: Path, kind: str) -> None:
+    with fleet(pg, broker(RABBITMQ), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
+        base = f.start_api("api")
+        for name in ("w1", "w2"):
+            f.start_worker(name)
+        for name in ("w1", "w2"):
+            f.wait_ready(name)
+        _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
+        if kind == "calibration":
+            # 3 000 poses: ~1 s of identification, time enough to kill it in the middle
+            status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(3000))
+        else:
+            body = {"count": 30, "criterion": "D", "candidate_count": 2000, "seed": 1}
+            status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/pose-designs?async=true", body)
+        assert status == 202, accepted
+        running = _until_running(base, accepted["job_id"])
+        pid = int(running["worker"].rsplit(":", 1)[1])
+        victim = next(n for n, p in f.workers.items() if str(p.pid) == Path(f"/proc/{pid}/stat").read_text().split()[3])
+        f.kill_worker(victim)  # kill -9 of its main process and of the process running the job
+        job = wait_for(base, [accepted["job_id"]], timeout=180)[accepted["job_id"]]
+        assert job["status"] == "succeeded", job
+        assert job["attempts"] == 2, "killed mid-run, then taken over once"
+        assert job["worker"] != running["worker"]
+        if kind == "calibration":
+            assert _rows(pg, robot["id"]) == (1, 2), "one calibration row, one new parameter version"
+            assert job["result"]["parameter_version"] == 2
+        else:
+            _, designs = call(base, "GET", f"/v1/jobs?robot_id={robot['id']}")
+            assert len(designs) == 1 and job["result"]["poses"]
+
+
+@pytest.mark.slow  # 2 APIs, 2 workers, 200 jobs, a restart and a kill: ~90 s here
+def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_kill(pg: str, tmp_path: Path) -> None:
+    with fleet(pg, broker(RABBITMQ), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
+        a, b = f.start_api("a"), f.start_api("b")
+        for name in ("w1", "w2"):
+            f.start_worker(name)
+        robots = [call(a, "POST", "/v1/robots", {"name": f"cell-{i}"})[1]["id"] for i in range(4)]
+        small = campaign(60)
+        design = {"count": 12, "criterion": "D", "candidate_count": 200, "seed": 1}
+        submitted: list[str] = []
+        for i in range(200):
+            base = (a, b)[i % 2] if "b" in f.apis else a
+            robot = robots[i % 4]
+            if i % 4 == 3:
+                status, accepted = call(base, "POST", f"/v1/robots/{robot}/pose-designs?async=true", design)
+            else:
+                status, accepted = call(base, "POST", f"/v1/robots/{robot}/calibrations?async=true", small)
+            assert status == 202, accepted
+            submitted.append(accepted["job_id"])
+            if i == 60:
+                f.kill_api("b")  # restart of one API process mid-run ...
+            if i == 80:
+                b = f.start_api("b")  # ... its start-up touches no job of the others
+            if i == 100:
+                f.wait_ready("w1")
+                f.kill_worker("w1")  # and one worker killed mid-run (-9)
+        jobs = wait_for(a, submitted, timeout=400)
+        assert {j["status"] for j in jobs.values()} == {"succeeded"}, [
+            j for j in jobs.values() if j["status"] != "succeeded"
+        ]
+        # none twice: one stored result per job, one parameter version per calibration
+        engine = create_engine(pg)
+        with engine.connect() as c:
+            calibrations = c.execute(text("SELECT count(*) FROM calibrations")).scalar()
+            versions = c.execute(text("SELECT count(*) FROM parameter_versions")).scalar()
+            designs = c.execute(text("SELECT count(*) FROM pose_designs")).scalar()
+            results = c.execute(text("SELECT count(DISTINCT result_id) FROM jobs")).scalar()
+        engine.dispose()
+        assert (calibrations, designs, results) == (150, 50, 200)
+        assert versions == 4 + 150
+        # Only the killed worker's job (prefetch 1, concurrency 1: at most one) ran more than once.
+        assert sum(1 for j in jobs.values() if j["attempts"] > 1) <= 1
+
+
+@pytest.mark.slow  # one worker on Redis: ~15 s
+def test_redis_broker_and_a_duplicated_message_changes_nothing(pg: str, tmp_path: Path) -> None:
+    with fleet(pg, broker(REDIS), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
+        base = f.start_api("api")
+        f.start_worker("w")
+        _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
+        status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(60))
+        assert status == 202
+        job = wait_for(base, [accepted["job_id"]], timeout=120)[accepted["job_id"]]
+        assert job["status"] == "succeeded" and job["attempts"] == 1
+        # The same message published twice more (a redelivery): the worker finds the job done.
+        settings = Settings(database_url=pg, broker_url=f.broker_url, job_queue=f.queue)
+        db = Database(pg)
+        publisher = CeleryRunner(WorkerContext(db, ModelCache(db)), settings)
+        try:
+            publisher.submit(accepted["job_id"], "calibration")
+            publisher.submit(accepted["job_id"], "calibration")
+        finally:
+            publisher.shutdown()
+            db.dispose()
+        deadline = time.monotonic() + 60
+        while (f.logs / "w.log").read_text().count("iwr.run_job[") < 6 and time.monotonic() < deadline:
+            time.sleep(0.1)  # received + succeeded, three times
+        _, again = call(base, "GET", f"/v1/jobs/{accepted['job_id']}")
+        assert again == job
+        assert _rows(pg, robot["id"]) == (1, 2)
+
+
+@pytest.mark.slow  # a worker started and stopped: ~10 s
+def test_sigterm_drains_a_worker(pg: str, tmp_path: Path) -> None:
+    """SIGTERM while a job runs: the job finishes, then the worker exits; nothing else is taken."""
+    with fleet(pg, broker(RABBITMQ), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
+        base = f.start_api("api")
+        worker = f.start_worker("w")
+        f.wait_ready("w")
+        _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
+        body = {"count": 30, "criterion": "D", "candidate_count": 2000, "seed": 1}
+        _, first = call(base, "POST", f"/v1/robots/{robot['id']}/pose-designs?async=true", body)
+        _, second = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(60))
+        _until_running(base, first["job_id"])
+        os.kill(worker.pid, signal.SIGTERM)
+        assert worker.wait(timeout=120) == 0
+        _, done = call(base, "GET", f"/v1/jobs/{first['job_id']}")
+        _, waiting = call(base, "GET", f"/v1/jobs/{second['job_id']}")
+        assert done["status"] == "succeeded" and done["attempts"] == 1
+        assert waiting["status"] == "queued"  # still in the broker, for the next worker
+        f.workers.pop("w")
+        f.start_worker("w2")
+        assert wait_for(base, [second["job_id"]], timeout=120)[second["job_id"]]["status"] == "succeeded"
