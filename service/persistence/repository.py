@@ -48,6 +48,9 @@ class Repository:
             raise NotFound(f"no robot with id {robot_id!r}", resource="robot", id=robot_id)
         return found
 
+    def robot_named(self, name: str) -> Robot | None:
+        return self.s.scalars(select(Robot).where(Robot.name == name).limit(1)).first()
+
     def current_version(self, robot_id: str) -> int:
         found = self.s.scalar(select(Robot.current_version).where(Robot.id == robot_id))
         if found is None:

@@ -164,7 +164,7 @@ async def create_calibration(
     )
     limits.admit(limits.calibration(len(body.measurements)), run_async=run_async)
     if run_async:
-        accepted = submit_job(db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body)
+        accepted = submit_job(db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body, actor=actor)
         return model_json(accepted, status_code=202)
     return await compute(
         m, "identification", lambda: calibrations.calibrate(db=db, robot_id=robot_id, body=body, actor=actor)

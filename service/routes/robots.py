@@ -54,7 +54,11 @@ def get_robot(robot_id: str, db: DatabaseDep) -> Response:
     return response
 
 
-@router.patch("/{robot_id}", response_model=RobotPublic, responses=_PRECONDITION)
+@router.patch(
+    "/{robot_id}",
+    response_model=RobotPublic,
+    responses={**_PRECONDITION, 409: {"description": "Another robot has that name"}},
+)
 def patch_robot(
     robot_id: str, body: RobotPatch, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None
 ) -> Response:

@@ -14,6 +14,7 @@ from service.errors import JobFinished, NotFound, NotReady, QueueFull
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.job_store import JobStore
+from service.persistence.lifecycle import Actor
 from service.persistence.repository import new_id
 from service.persistence.tables import Job
 from service.problems import to_problem
@@ -40,9 +41,11 @@ def submit_job(
     kind: JobKind,
     robot_id: str,
     body: BaseModel,
+    actor: Actor | None = None,
 ) -> JobAccepted:
     """Store the validated request as a queued job of an existing robot and hand it to the engine; 429 when
-    the engine's `queue_limit` jobs are already waiting."""
+    the engine's `queue_limit` jobs are already waiting. `actor` (who submitted it) goes with the job, so what the
+    job changes is audited under the submitter's key name and request id."""
     job_id, queue_limit = new_id(), jobs.queue_limit
     with db.session() as s:
         Repository(s).robot(robot_id)
@@ -54,7 +57,10 @@ def submit_job(
                 limit=queue_limit,
                 retry_after=jobs.retry_after,
             )
-        job = store.add(job_id, kind, robot_id, body.model_dump(mode="json"))
+        request = body.model_dump(mode="json")
+        if actor is not None:
+            request[SUBMITTED_BY] = {"name": actor.name, "request_id": actor.request_id}
+        job = store.add(job_id, kind, robot_id, request)
     try:
         jobs.submit(job_id, kind)
     except Exception as exc:  # the broker does not answer: the job must not wait for a message never sent
@@ -65,13 +71,24 @@ def submit_job(
     return accepted_out(job)
 
 
+SUBMITTED_BY = "_submitted_by"
+"""The key of the stored request that names who submitted the job (not part of the request's schema)."""
+
+
+def _submitter(request: dict[str, Any]) -> tuple[dict[str, Any], Actor | None]:
+    body = dict(request)
+    who = body.pop(SUBMITTED_BY, None)
+    return body, None if who is None else Actor(name=who.get("name"), request_id=who.get("request_id"))
+
+
 def _calibration(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any], job: JobHooks | None) -> str:
-    body = CalibrationCreate.model_validate(request)
-    return str(calibrations.calibrate(db=db, robot_id=robot_id, body=body, job=job)["id"])
+    fields, actor = _submitter(request)
+    body = CalibrationCreate.model_validate(fields)
+    return str(calibrations.calibrate(db=db, robot_id=robot_id, body=body, actor=actor, job=job)["id"])
 
 
 def _design(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any], job: JobHooks | None) -> str:
-    body = PoseDesignCreate.model_validate(request)
+    body = PoseDesignCreate.model_validate(_submitter(request)[0])
     return str(designs.create_design(db=db, models=models, robot_id=robot_id, body=body, job=job)["id"])
 
 

@@ -7,6 +7,7 @@ import numpy as np
 from models.structure import description_document
 from models.urdf import urdf_from_description
 from service.conversions.robots import description, frame_in, new_description, parameters_out, robot_out
+from service.errors import Conflict
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision, etag
 from service.schemas.robots import ParametersPublic, RobotCreate, RobotPatch, RobotPublic
@@ -20,10 +21,19 @@ def create_robot(*, db: Database, body: RobotCreate, actor: Actor = NO_ACTOR) ->
     model = "iwr" if document is None else "custom"
     with db.session() as s:
         repo = Repository(s)
+        _name_is_free(repo, body.name)
         robot = repo.add_robot(body.name, model, list(desc.base), list(desc.tool), nominal, structure=document)
         repo.version(robot.id, 1).actor = actor.name
         Lifecycle(s).changed(robot, "robot.created", actor, version=1, details={"name": robot.name}, bump=False)
         return robot_out(robot)
+
+
+def _name_is_free(repo: Repository, name: str) -> None:
+    """Robot names are unique in a service: a plant finds its cells by name, and two "cell-3" would be calibrated
+    into each other's parameters."""
+    taken = repo.robot_named(name)
+    if taken is not None:
+        raise Conflict(f"a robot named {name!r} exists already (id {taken.id}): choose another name", id=taken.id)
 
 
 def list_robots(*, db: Database, limit: int, offset: int) -> list[RobotPublic]:
@@ -50,6 +60,7 @@ def patch_robot(
         check_revision(robot, if_match)
         changed: list[str] = []
         if "name" in given and body.name is not None and body.name != robot.name:
+            _name_is_free(repo, body.name)
             robot.name, changed = body.name, [*changed, "name"]
         if "notes" in given and (body.notes or None) != robot.notes:
             robot.notes, changed = body.notes or None, [*changed, "notes"]

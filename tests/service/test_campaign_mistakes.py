@@ -195,3 +195,13 @@ def test_a_csv_only_client_gets_406_not_json(client: TestClient, robot_id: str) 
     made = client.post(url, json={"measurements": recs}).json()
     got = client.get(f"/v1/calibrations/{made['id']}", headers={"accept": "text/csv"})
     assert got.status_code == 406
+
+
+def test_robot_names_are_unique(client: TestClient, robot_id: str) -> None:
+    name = client.get(f"/v1/robots/{robot_id}").json()["name"]
+    again = client.post("/v1/robots", json={"name": name})
+    assert again.status_code == 409 and again.json()["id"] == robot_id and name in again.json()["detail"]
+    other = client.post("/v1/robots", json={"name": name + "-b"}).json()
+    etag = client.get(f"/v1/robots/{other['id']}").headers["etag"]
+    renamed = client.patch(f"/v1/robots/{other['id']}", json={"name": name}, headers={"If-Match": etag})
+    assert renamed.status_code == 409

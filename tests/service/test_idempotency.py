@@ -41,7 +41,9 @@ def test_same_key_same_body_replays_without_computing(api: ContractClient, monke
     assert len(api.get("/v1/robots").json()) == 1
     other = api.post("/v1/robots", json={"name": "b"}, headers=key)
     assert other.status_code == 422 and other.json()["type"].endswith("idempotency-key-reused")
-    assert api.post("/v1/robots", json={"name": "a"}).status_code == 201  # no key: a new robot each time
+    # No key: the request runs again (and the same name is a 409: names are unique), a new name a new robot.
+    assert api.post("/v1/robots", json={"name": "a"}).status_code == 409
+    assert api.post("/v1/robots", json={"name": "a2"}).status_code == 201
     assert len(api.get("/v1/robots").json()) == 2
 
     rid = first.json()["id"]
@@ -72,7 +74,8 @@ def test_a_refusal_is_replayed_and_a_key_expires(api: ContractClient) -> None:
     with db.session() as s:
         s.execute(update(IdempotencyRecord).values(expires_at=datetime.now(UTC) - timedelta(seconds=1)))
     fresh = api.post("/v1/robots", json={"name": "x"}, headers=key)
-    assert fresh.status_code == 201 and fresh.json()["id"] != first["id"] and "idempotent-replayed" not in fresh.headers
+    # Expired: the request runs again rather than replaying (and meets the robot it made: names are unique).
+    assert fresh.status_code == 409 and fresh.json()["id"] == first["id"] and "idempotent-replayed" not in fresh.headers
 
 
 @pytest.mark.parametrize("bad", ["", "x" * 201, "tab\there", "é"])
@@ -85,7 +88,8 @@ def test_keys_are_per_api_key(tmp_path: object) -> None:
     with make_client(f"sqlite:///{tmp_path}/k.db", api_keys="alpha-key-1,beta-key-2") as c:
         one = c.post("/v1/robots", json={"name": "r"}, headers={"X-API-Key": "alpha-key-1", "Idempotency-Key": "k"})
         two = c.post("/v1/robots", json={"name": "r"}, headers={"X-API-Key": "beta-key-2", "Idempotency-Key": "k"})
-        assert one.status_code == two.status_code == 201 and one.json()["id"] != two.json()["id"]
+        # The second key's request runs (no replay of the first key's answer): it meets the name the first took.
+        assert one.status_code == 201 and two.status_code == 409 and "idempotent-replayed" not in two.headers
         wrong = c.post("/v1/robots", json={"name": "r"}, headers={"X-API-Key": "nope", "Idempotency-Key": "k"})
         assert wrong.status_code == 401
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -216,3 +217,19 @@ def test_the_campaign_behind_a_calibration(client: TestClient, robot_id: str) ->
     assert again["parameters"] == calibration["parameters"]
     assert client.get(url, headers={"Accept": "image/png"}).status_code == 406
     assert client.get("/v1/campaigns/nope").status_code == 404
+
+
+def test_an_async_calibration_is_audited_under_its_submitter(client: TestClient, robot_id: str) -> None:
+    sim = perturbed_robot(DESC, seed=77)
+    body = {"measurements": records(DESC, sim, sample_workspace(DESC, 40, seed=78), seed=79)}
+    job = client.post(
+        f"/v1/robots/{robot_id}/calibrations?async=true", json=body, headers={"X-Test-Actor": "metrology"}
+    ).json()
+    for _ in range(400):
+        state = client.get(f"/v1/jobs/{job['job_id']}").json()
+        if state["status"] in ("succeeded", "failed"):
+            break
+        time.sleep(0.05)
+    assert state["status"] == "succeeded", state
+    trail = client.get("/v1/audit", params={"robot_id": robot_id, "action": "version.calibrated"}).json()
+    assert [e["actor"] for e in trail] == ["metrology"] and trail[0]["request_id"]
