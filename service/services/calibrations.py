@@ -117,9 +117,10 @@ def calibrate(
                 details={"from_version": previous, "calibration_id": calibration_id}
                 | ({"forced": True} if payload.get("forced") else {}),
             )
-        if job is not None and result.succeeded and won_by is None:
-            # The job's `succeeded` joins this transaction; a failure below ends the job `failed` instead, with
-            # the same problem the synchronous request answers.
+        if job is not None and result.succeeded:
+            # The job's `succeeded` joins this transaction (a calibration that lost the race is stored, not
+            # applied: its job did its work, the reason is in the result); a failed fit ends the job `failed`
+            # below, with the same problem the synchronous request answers.
             job.commit(s, calibration_id)
         answer = calibration_public(record)
     if not result.succeeded:
@@ -128,7 +129,7 @@ def calibrate(
             calibration_id=calibration_id,
             diagnoses=diagnoses_out(result),
         )
-    if won_by is not None:  # after the commit: the calibration is stored, only not applied
+    if won_by is not None and job is None:  # after the commit: the calibration is stored, only not applied
         raise Conflict(
             f"calibration {calibration_id} is stored but not applied: it started from parameter version "
             f"{start_version}, and version {won_by} became current meanwhile; review both, then calibrate "

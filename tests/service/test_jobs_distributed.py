@@ -125,9 +125,12 @@ def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_ki
             versions = c.execute(text("SELECT count(*) FROM parameter_versions")).scalar()
             designs = c.execute(text("SELECT count(*) FROM pose_designs")).scalar()
             results = c.execute(text("SELECT count(DISTINCT result_id) FROM jobs")).scalar()
+            applied = c.execute(text("SELECT count(*) FROM calibrations WHERE applied")).scalar()
         engine.dispose()
         assert (calibrations, designs, results) == (150, 50, 200)
-        assert versions == 4 + 150
+        # One new version per applied calibration, none twice. (The same campaign again predicts no better than
+        # the version it made, so the acceptance checks leave most of them stored and not applied.)
+        assert applied >= 4 and versions == 4 + applied
         # Only the killed worker's job (prefetch 1, concurrency 1: at most one) ran more than once.
         assert sum(1 for j in jobs.values() if j["attempts"] > 1) <= 1
 
