@@ -128,7 +128,9 @@ def test_generated_client_runs_the_example_session(generated: ModuleType, tmp_pa
         )
 
         # The same session made directly, the calibration with the example's own CSV body.
-        other = direct.post("/v1/robots", json={"name": "cell-3-direct", "model": "iwr"}).raise_for_status().json()["id"]
+        other = (
+            direct.post("/v1/robots", json={"name": "cell-3-direct", "model": "iwr"}).raise_for_status().json()["id"]
+        )
         direct_report = (
             direct.post(
                 f"/v1/robots/{other}/calibrations",
