@@ -12,11 +12,11 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from service.errors import NotFound, PreconditionFailed
-from service.persistence.repository import new_id
+from service.persistence.repository import Repository, new_id
 from service.persistence.tables import (
     AuditEvent,
     CampaignRecord,
@@ -134,25 +134,17 @@ class Lifecycle:
         restored_from: int | None = None,
         calibration_id: str | None = None,
     ) -> int:
-        """A new version (never an update of an old one) that becomes current."""
-        latest = self.s.scalar(select(func.max(ParameterVersion.version)).where(ParameterVersion.robot_id == robot.id))
-        version = int(latest or 0) + 1
-        self.s.add(
-            ParameterVersion(
-                robot_id=robot.id,
-                version=version,
-                values=list(values),
-                std_errors=None if std_errors is None else list(std_errors),
-                identifiable=None if identifiable is None else list(identifiable),
-                provenance=provenance,
-                calibration_id=calibration_id,
-                actor=actor.name,
-                restored_from=restored_from,
-            )
+        """A new version (never an update of an old one) that becomes current, made by `actor`."""
+        return Repository(self.s).add_version(
+            robot,
+            values,
+            std_errors,
+            identifiable,
+            calibration_id,
+            provenance=provenance,
+            actor=actor.name,
+            restored_from=restored_from,
         )
-        robot.current_version = version
-        self.s.flush()
-        return version
 
     # ---------------------------------------------------------------- campaigns, validations, designs
     def campaign(self, campaign_id: str) -> CampaignRecord:

@@ -85,19 +85,30 @@ class Repository:
         return int(latest)
 
     def add_version(
-        self, robot: Robot, values: list[float], std_errors: list[Any], identifiable: list[bool], calibration_id: str
+        self,
+        robot: Robot,
+        values: list[float],
+        std_errors: list[Any] | None,
+        identifiable: list[Any] | None,
+        calibration_id: str | None,
+        *,
+        provenance: str = "calibration",
+        actor: str | None = None,
+        restored_from: int | None = None,
     ) -> int:
-        latest = self.s.scalar(select(func.max(ParameterVersion.version)).where(ParameterVersion.robot_id == robot.id))
-        version = int(latest or 0) + 1
+        """A new version (never an update of an old one) that becomes the robot's current one."""
+        version = self.latest_version(robot.id) + 1
         self.s.add(
             ParameterVersion(
                 robot_id=robot.id,
                 version=version,
-                values=values,
-                std_errors=std_errors,
-                identifiable=identifiable,
-                provenance="calibration",
+                values=list(values),
+                std_errors=None if std_errors is None else list(std_errors),
+                identifiable=None if identifiable is None else list(identifiable),
+                provenance=provenance,
                 calibration_id=calibration_id,
+                actor=actor,
+                restored_from=restored_from,
             )
         )
         robot.current_version = version

@@ -104,10 +104,11 @@ def calibrate(
                 value = float(result.std_errors[i])
                 std[i], ident[i] = (value if np.isfinite(value) else None), True
             previous = robot.current_version
-            record.parameter_version = repo.add_version(robot, result.parameters.tolist(), std, ident, calibration_id)
-            record.applied = True
             who = actor or Actor()
-            repo.version(robot_id, record.parameter_version).actor = who.name
+            record.parameter_version = repo.add_version(
+                robot, result.parameters.tolist(), std, ident, calibration_id, actor=who.name
+            )
+            record.applied = True
             Lifecycle(s).changed(
                 robot,
                 "version.calibrated",
