@@ -142,9 +142,12 @@ def _link(link: object, convention: Convention, where: str) -> DHLink:
     alpha = values["alpha"] * _DEG
     beta = 0.0
     if "beta" in raw:
-        if not (convention is Convention.MDH and is_parallel(alpha)):
+        # robots.md gives mdh links with parallel axes their beta; dh links with parallel axes may carry one too
+        # (an addition, README "Any robot"), which puts them in Hayati's form.
+        if not is_parallel(alpha):
             raise InvalidInput(
-                "beta belongs only to mdh links whose axis is parallel to the previous one (alpha 0 or ±180°)",
+                "beta belongs only to links whose axis is parallel to the next (dh) or previous (mdh) one "
+                "(alpha 0 or ±180°)",
                 field=f"{where}.beta",
             )
         beta = _number(raw["beta"], f"{where}.beta") * _DEG
@@ -168,6 +171,7 @@ def _link(link: object, convention: Convention, where: str) -> DHLink:
         joint_max=hi,
         convention=convention,
         beta=beta,
+        dh_beta=convention is Convention.DH and "beta" in raw,
     )
 
 
