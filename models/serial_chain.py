@@ -56,9 +56,24 @@ PARALLEL_TOLERANCE_RAD = 1e-9
 document given in degrees: 180° · π/180 is exact to 1e-16 rad)."""
 
 
+NEARLY_PARALLEL_RAD = math.radians(5.0)
+"""How far from 0 or ±180° a link's `alpha` may be and still carry a given `beta`: the document of a calibrated
+version (`GET /v1/robots/{id}/structure?version=n`) has the identified twist, a fraction of a degree off, and
+must read back as the same structure; a twist of 90° is no parallel pair."""
+
+
+def _from_parallel(alpha: float) -> float:
+    return min(abs(alpha), abs(abs(alpha) - math.pi))
+
+
 def is_parallel(alpha: float) -> bool:
     """True when `alpha` (rad) is 0 or ±π: consecutive joint axes are parallel."""
-    return min(abs(alpha), abs(abs(alpha) - math.pi)) < PARALLEL_TOLERANCE_RAD
+    return _from_parallel(alpha) < PARALLEL_TOLERANCE_RAD
+
+
+def is_nearly_parallel(alpha: float) -> bool:
+    """True when `alpha` (rad) is within `NEARLY_PARALLEL_RAD` of 0 or ±π."""
+    return _from_parallel(alpha) < NEARLY_PARALLEL_RAD
 
 
 @dataclass(frozen=True)
@@ -75,14 +90,16 @@ class DHLink:
     joint_max: float
     convention: Convention = Convention.DH
     beta: float = 0.0
-    dh_beta: bool = False
-    """A `dh` link that carries Hayati's `beta` (its document gave one; only where `alpha` is 0 or ±180°)."""
+    beta_given: bool = False
+    """The link's document gave `beta` (any convention; accepted where `alpha` is near 0 or ±180°)."""
 
     @property
     def has_beta(self) -> bool:
-        if not is_parallel(self.alpha):
-            return False
-        return self.convention is Convention.MDH or self.dh_beta
+        """`mdh` links with exactly parallel axes always; any link whose document gave `beta`, where its axes
+        are nearly parallel (a calibrated document's `alpha` is a fraction of a degree off its nominal 0)."""
+        if self.beta_given:
+            return is_nearly_parallel(self.alpha)
+        return self.convention is Convention.MDH and is_parallel(self.alpha)
 
     @property
     def fields(self) -> tuple[str, ...]:

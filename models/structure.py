@@ -22,7 +22,7 @@ from models._types import IDENTITY, Array, Pose6, Vec3
 from models.errors import InvalidInput
 from models.hexapod import LEG_FIELDS, N_LEGS, HexapodGeometry
 from models.robot import HEXAPOD_STAGE, RobotDescription
-from models.serial_chain import Convention, DHLink, JointType, is_parallel
+from models.serial_chain import Convention, DHLink, JointType, is_nearly_parallel
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, quaternion_to_matrix, rotvec_to_matrix_np
 
 Document = dict[str, Any]
@@ -144,10 +144,10 @@ def _link(link: object, convention: Convention, where: str) -> DHLink:
     if "beta" in raw:
         # robots.md gives mdh links with parallel axes their beta; dh links with parallel axes may carry one too
         # (an addition, README "Any robot"), which puts them in Hayati's form.
-        if not is_parallel(alpha):
+        if not is_nearly_parallel(alpha):
             raise InvalidInput(
                 "beta belongs only to links whose axis is parallel to the next (dh) or previous (mdh) one "
-                "(alpha 0 or ±180°)",
+                "(alpha 0 or ±180°, within 5° for a calibrated twist)",
                 field=f"{where}.beta",
             )
         beta = _number(raw["beta"], f"{where}.beta") * _DEG
@@ -171,7 +171,7 @@ def _link(link: object, convention: Convention, where: str) -> DHLink:
         joint_max=hi,
         convention=convention,
         beta=beta,
-        dh_beta=convention is Convention.DH and "beta" in raw,
+        beta_given="beta" in raw,
     )
 
 
