@@ -2,6 +2,8 @@
 
 Geometries from public datasheets, rounded: they are test and benchmark subjects, not vendor models.
 - `ur5_like`: a 6R arm in standard DH (Universal Robots' published UR5 DH table, mm);
+  `ur5_like("dh-beta")` the same table with Hayati's `beta` on its two parallel-axis links (README "Any
+  robot": a `dh` link with alpha 0 or ±180° may carry one);
 - `iiwa_like`: a 7R arm in modified DH (KUKA LBR iiwa 14's published link lengths 360/420/400/126 mm);
 - `track_arm`: the UR5-like arm (in MDH) on a 2 m linear track (a prismatic first link): seven axes;
 - `hexapod_alone`: a Stewart–Gough platform on its own (not the IWR's geometry).
@@ -60,9 +62,18 @@ PROBE: dict[str, list[float]] = {"position": [60.0, -40.0, 120.0], "orientation"
 position-only calibration would lose that joint's parameters (measured: 29 instead of 31 on the 7R arm)."""
 
 
+UR5_PARALLEL_LINKS = (1, 2)
+"""The UR5 DH table's links with alpha 0 between joint axes (2 ∥ 3, 3 ∥ 4); the sixth's alpha 0 is the flange."""
+
+
 def ur5_like_document(convention: str = "dh") -> Document:
-    links = UR5_DH if convention == "dh" else UR5_MDH
-    return {"tool": PROBE, "stages": [{"kind": "serial", "convention": convention, "links": [dict(r) for r in links]}]}
+    """`dh`, `mdh`, or `dh-beta` (standard DH with Hayati's beta on the parallel-axis links)."""
+    links = [dict(r) for r in (UR5_MDH if convention == "mdh" else UR5_DH)]
+    if convention == "dh-beta":
+        for k in UR5_PARALLEL_LINKS:
+            links[k]["beta"] = 0.0
+    stage = {"kind": "serial", "convention": "mdh" if convention == "mdh" else "dh", "links": links}
+    return {"tool": PROBE, "stages": [stage]}
 
 
 def iiwa_like_document() -> Document:

@@ -10,8 +10,13 @@ in milliseconds and a changed model can never load a stale library.
 A library already in the cache is loaded whether or not a compiler is on
 PATH: a runtime image built in two stages ships the library the build stage
 compiled, and no compiler. Nothing to load and no compiler (or
-`IWR_NATIVE=0`): the original Functions are returned and everything still
-works, more slowly.
+`IWR_NATIVE=0`, or a failed compilation): the original Functions are returned
+and everything still works on CasADi's virtual machine, 5-10x slower. That is
+what a structure first seen in the runtime container gets (decided: the image
+stays without a toolchain; its build stage compiles the structures it warms):
+a warning in the log, once per library, and the library's name and reason in
+`vm_only_libraries()`, which the service exports as the Prometheus counter
+`iwr_vm_only_structures_total{reason}`.
 """
 
 from __future__ import annotations
@@ -22,6 +27,8 @@ import os
 import shutil
 import subprocess
 import tempfile
+import threading
+from enum import StrEnum
 from pathlib import Path
 
 import casadi as ca
@@ -29,6 +36,37 @@ import casadi as ca
 log = logging.getLogger(__name__)
 
 COMPILE_FLAGS = ("-O1", "-fPIC", "-shared")
+
+
+class VmReason(StrEnum):
+    """Why a library's Functions run on CasADi's virtual machine."""
+
+    NO_COMPILER = "no_compiler"
+    COMPILE_FAILED = "compile_failed"
+    DISABLED = "disabled"
+
+
+_vm_only: dict[str, VmReason] = {}
+_vm_lock = threading.Lock()
+
+
+def vm_only_libraries() -> dict[str, VmReason]:
+    """The libraries (by name: `robot_<structure tag>`, `ik_<tag>`, …) this process evaluates on CasADi's VM,
+    and why; a process-wide record (a structure is built once per process), read by the service's metrics."""
+    with _vm_lock:
+        return dict(_vm_only)
+
+
+def vm_only_structures() -> dict[str, VmReason]:
+    """The structures (by tag) with at least one library on CasADi's VM, and why (a library is named
+    `<kind>_<structure tag>`)."""
+    return {name.split("_", 1)[-1]: reason for name, reason in vm_only_libraries().items()}
+
+
+def _on_vm(name: str, reason: VmReason, functions: list[ca.Function]) -> dict[str, ca.Function]:
+    with _vm_lock:
+        _vm_only[name] = reason
+    return {f.name(): f for f in functions}
 
 
 def cache_dir() -> Path:
@@ -68,17 +106,24 @@ def compile_functions(name: str, functions: list[ca.Function]) -> dict[str, ca.F
     even where none is installed.
     """
     if not native_enabled():
-        return {f.name(): f for f in functions}
+        return _on_vm(name, VmReason.DISABLED, functions)
     library, source = library_path(name, functions)
     if not library.exists():
         if not compiler_available():
-            log.warning("no C compiler (%s) and no built library %s; using the CasADi VM", _compiler(), library.name)
-            return {f.name(): f for f in functions}
+            log.warning(
+                "no C compiler (%s) and no built library %s in %s: %s runs on CasADi's virtual machine (5-10x "
+                "slower); a structure new to this container does (see the README, 'The container')",
+                _compiler(),
+                library.name,
+                library.parent,
+                name,
+            )
+            return _on_vm(name, VmReason.NO_COMPILER, functions)
         try:
             _build(source, library)
-        except (OSError, subprocess.CalledProcessError) as exc:
+        except (OSError, subprocess.CalledProcessError, subprocess.TimeoutExpired) as exc:
             log.warning("native compilation of %s failed (%s); using the CasADi VM", name, exc)
-            return {f.name(): f for f in functions}
+            return _on_vm(name, VmReason.COMPILE_FAILED, functions)
     return {f.name(): ca.external(f.name(), str(library)) for f in functions}
 
 

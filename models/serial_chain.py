@@ -10,6 +10,14 @@ Hayati's `beta`: when an `mdh` link's axis is parallel to the previous one (`alp
 tilt of the axis moves the common normal, and so `d`, arbitrarily far: the DH numbers are not a smooth
 function of the geometry there. Such a link gets a fifth parameter, a rotation `beta` about the link's y axis
 after `Rx(alpha)` (nominal 0), which takes the tilt instead (`shared/spec/robots.md`).
+
+Standard DH has the same defect: a `dh` link whose `alpha` is 0 or ±180° (its axis parallel to the next one)
+cannot represent a tilt of one towards the other, so a DH arm with parallel consecutive axes loses one
+identifiable parameter per pair (the UR5's shoulder, elbow and wrist: two). An addition to robots.md (the
+spec gives `beta` to `mdh` links only): a `dh` link with parallel axes *may* carry `beta` — when its document
+gives the key — and then `A_i = Rz(theta_i) · Tz(d_i) · Tx(a_i) · Rx(alpha_i) · Ry(beta_i)`, Hayati's
+parameterisation of the standard convention. Opt-in, so that every DH document stored before keeps its
+parameter vector, its names and its structure; with it the DH arm's count is Everett–Hsu–Roth's.
 """
 
 from __future__ import annotations
@@ -48,9 +56,24 @@ PARALLEL_TOLERANCE_RAD = 1e-9
 document given in degrees: 180° · π/180 is exact to 1e-16 rad)."""
 
 
+NEARLY_PARALLEL_RAD = math.radians(5.0)
+"""How far from 0 or ±180° a link's `alpha` may be and still carry a given `beta`: the document of a calibrated
+version (`GET /v1/robots/{id}/structure?version=n`) has the identified twist, a fraction of a degree off, and
+must read back as the same structure; a twist of 90° is no parallel pair."""
+
+
+def _from_parallel(alpha: float) -> float:
+    return min(abs(alpha), abs(abs(alpha) - math.pi))
+
+
 def is_parallel(alpha: float) -> bool:
     """True when `alpha` (rad) is 0 or ±π: consecutive joint axes are parallel."""
-    return min(abs(alpha), abs(abs(alpha) - math.pi)) < PARALLEL_TOLERANCE_RAD
+    return _from_parallel(alpha) < PARALLEL_TOLERANCE_RAD
+
+
+def is_nearly_parallel(alpha: float) -> bool:
+    """True when `alpha` (rad) is within `NEARLY_PARALLEL_RAD` of 0 or ±π."""
+    return _from_parallel(alpha) < NEARLY_PARALLEL_RAD
 
 
 @dataclass(frozen=True)
@@ -67,9 +90,15 @@ class DHLink:
     joint_max: float
     convention: Convention = Convention.DH
     beta: float = 0.0
+    beta_given: bool = False
+    """The link's document gave `beta` (any convention; accepted where `alpha` is near 0 or ±180°)."""
 
     @property
     def has_beta(self) -> bool:
+        """`mdh` links with exactly parallel axes always; any link whose document gave `beta`, where its axes
+        are nearly parallel (a calibrated document's `alpha` is a fraction of a degree off its nominal 0)."""
+        if self.beta_given:
+            return is_nearly_parallel(self.alpha)
         return self.convention is Convention.MDH and is_parallel(self.alpha)
 
     @property
@@ -117,10 +146,11 @@ def dh_parameter_specs(
     return specs
 
 
-def dh_transform(theta: Sym, d: Sym, a: Sym, alpha: Sym) -> Sym:
+def dh_transform(theta: Sym, d: Sym, a: Sym, alpha: Sym, beta: Sym | None = None) -> Sym:
     rz = homogeneous(rot_z(theta), ca.vertcat(0, 0, 0))
-    tz_tx_rx = homogeneous(rot_x(alpha), ca.vertcat(a, 0, d))
-    # Tz(d)·Tx(a)·Rx(alpha) is a pure translation (a, 0, d) followed by Rx.
+    rotation = rot_x(alpha) if beta is None else rot_x(alpha) @ rot_y(beta)
+    tz_tx_rx = homogeneous(rotation, ca.vertcat(a, 0, d))
+    # Tz(d)·Tx(a)·Rx(alpha)[·Ry(beta)] is a pure translation (a, 0, d) followed by the rotation.
     return rz @ tz_tx_rx
 
 
@@ -149,7 +179,7 @@ def chain_transform(links: tuple[DHLink, ...], q: Sym, params: Sym) -> Sym:
             d = d + q[k]
         k += link.joint.moves
         if link.convention is Convention.DH:
-            a_i = dh_transform(theta, d, a, alpha)
+            a_i = dh_transform(theta, d, a, alpha, beta)
         else:
             a_i = mdh_transform(theta, d, a, alpha, beta)
         t = a_i if t is None else t @ a_i

@@ -22,7 +22,7 @@ from models._types import IDENTITY, Array, Pose6, Vec3
 from models.errors import InvalidInput
 from models.hexapod import LEG_FIELDS, N_LEGS, HexapodGeometry
 from models.robot import HEXAPOD_STAGE, RobotDescription
-from models.serial_chain import Convention, DHLink, JointType, is_parallel
+from models.serial_chain import Convention, DHLink, JointType, is_nearly_parallel
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, quaternion_to_matrix, rotvec_to_matrix_np
 
 Document = dict[str, Any]
@@ -142,9 +142,12 @@ def _link(link: object, convention: Convention, where: str) -> DHLink:
     alpha = values["alpha"] * _DEG
     beta = 0.0
     if "beta" in raw:
-        if not (convention is Convention.MDH and is_parallel(alpha)):
+        # robots.md gives mdh links with parallel axes their beta; dh links with parallel axes may carry one too
+        # (an addition, README "Any robot"), which puts them in Hayati's form.
+        if not is_nearly_parallel(alpha):
             raise InvalidInput(
-                "beta belongs only to mdh links whose axis is parallel to the previous one (alpha 0 or ±180°)",
+                "beta belongs only to links whose axis is parallel to the next (dh) or previous (mdh) one "
+                "(alpha 0 or ±180°, within 5° for a calibrated twist)",
                 field=f"{where}.beta",
             )
         beta = _number(raw["beta"], f"{where}.beta") * _DEG
@@ -168,6 +171,7 @@ def _link(link: object, convention: Convention, where: str) -> DHLink:
         joint_max=hi,
         convention=convention,
         beta=beta,
+        beta_given="beta" in raw,
     )
 
 

@@ -279,7 +279,7 @@ def urdf_from_description(desc: RobotDescription, params: Array | None = None, *
         th, d, a, al = (float(theta[index[f"link{k}.{f}"]]) for f in ("theta", "d", "a", "alpha"))
         beta = float(theta[index[f"link{k}.beta"]]) if link.has_beta else 0.0
         if link.convention is Convention.DH:
-            before, after = np.eye(4), _rz(th) @ _tr(0, 0, d) @ _tr(a, 0, 0) @ _rx(al)
+            before, after = np.eye(4), _rz(th) @ _tr(0, 0, d) @ _tr(a, 0, 0) @ _rx(al) @ _ry(beta)
         else:
             before, after = _rx(al) @ _ry(beta) @ _tr(a, 0, 0) @ _rz(th) @ _tr(0, 0, d), np.eye(4)
         kind = {JointType.REVOLUTE: "revolute", JointType.PRISMATIC: "prismatic", JointType.FIXED: "fixed"}[link.joint]

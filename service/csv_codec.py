@@ -22,14 +22,6 @@ POSE_COLUMNS = ["x", "y", "z", "qw", "qx", "qy", "qz"]
 LEGS = ["l1", "l2", "l3", "l4", "l5", "l6"]
 
 
-def joint_header(names: Sequence[str] | None, width: int) -> list[str]:
-    """The joint columns of a robot (robots.md: q1 … q_m, then l1 … l6); without its names, the IWR's for ten
-    columns and q1 … q_n otherwise."""
-    if names is not None:
-        return list(names)
-    return JOINT_HEADER if width == len(JOINT_HEADER) else [f"q{i + 1}" for i in range(width)]
-
-
 def parse_campaign(text: str, *, options: ImportOptions | None = None) -> tuple[list[dict[str, object]], list[str]]:
     """A `text/csv` campaign body as the API's records, read by the tolerant reader (BOM, `;` or tab, decimal
     commas, comments, columns by name in any order, units in the header), and the reader's notes (columns
@@ -72,10 +64,11 @@ def joint_columns(columns: Sequence[str]) -> list[str]:
     return found
 
 
-def joints_csv(rows: Sequence[Sequence[float | None]], names: Sequence[str] | None = None) -> str:
+def joints_csv(rows: Sequence[Sequence[float | None]], names: Sequence[str]) -> str:
+    """Joint vectors under the robot's own joint header (robots.md), never a guessed one."""
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(joint_header(names, len(rows[0]) if rows else len(JOINT_HEADER)))
+    writer.writerow(list(names))
     for row in rows:
         writer.writerow(["" if v is None else repr(float(v)) for v in row])
     return out.getvalue()

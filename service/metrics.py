@@ -2,9 +2,32 @@
 
 from __future__ import annotations
 
+from collections import Counter as Tally
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
+from prometheus_client.core import CounterMetricFamily
+from prometheus_client.registry import Collector
+
+from models.native import VmReason, vm_only_structures
+
+
+class VmOnlyStructures(Collector):
+    """`iwr_vm_only_structures_total{reason}`: structures this process evaluates on CasADi's VM (no compiled
+    library and no compiler in the container, compilation off, or a failed compilation), read from
+    `models.native` at each scrape. It only grows: a structure is built once per process."""
+
+    def collect(self) -> Iterator[CounterMetricFamily]:
+        family = CounterMetricFamily(
+            "iwr_vm_only_structures",
+            "Structures whose Functions run on CasADi's virtual machine (5-10x slower), by reason",
+            labels=["reason"],
+        )
+        tally = Tally(vm_only_structures().values())
+        for reason in VmReason:
+            family.add_metric([reason.value], float(tally[reason]))
+        yield family
 
 
 @dataclass
@@ -46,3 +69,4 @@ class Metrics:
             "1 when this process evaluates the batch Functions from a compiled library, 0 in CasADi's VM",
             registry=self.registry,
         )
+        self.registry.register(VmOnlyStructures())

@@ -66,7 +66,8 @@ def build(app: FastAPI) -> dict[str, Any]:
             declared = {k: v for k, v in DECLARED_PROBLEMS.items() if k in responses}
             for status, description in (PROBLEM_RESPONSES | declared).items():
                 post_only = status in POST_ONLY and method != "post" and status not in declared
-                if (status == "404" and "{" not in path) or post_only:
+                # 404 belongs to paths with an id, and to those whose route declares it (an id in the body).
+                if (status == "404" and "{" not in path and status not in responses) or post_only:
                     continue
                 responses[status] = {
                     "description": description,

@@ -12,6 +12,7 @@ def warm_up() -> None:
 
 def native_functions() -> bool:
     """Whether this process evaluates the IWR's batch Functions from a compiled library (`External`), not in
-    CasADi's virtual machine (a runtime image without its prebuilt library falls back silently, ~2x slower)."""
+    CasADi's virtual machine (a runtime image without its prebuilt library falls back, ~2x slower, with a
+    warning and `iwr_vm_only_structures_total`; see models.native)."""
     native = default_registry().runtime(iwr()).kinematics.native
     return bool(native) and all(f.class_name() == "External" for f in native.values())

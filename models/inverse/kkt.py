@@ -67,6 +67,19 @@ def _solve(jf: np.ndarray, f: np.ndarray) -> np.ndarray:
         return out
 
 
+FULL_TURN = 2.0 * np.pi
+
+
+def wrapped(angles: np.ndarray, seed: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """`angles` turned by whole turns to the value nearest `seed` within [lower, upper] (ranges of a full turn
+    or more; an angle already in range moves only when a whole turn brings it nearer the seed)."""
+    turns = np.round((seed - angles) / FULL_TURN)
+    out = angles + FULL_TURN * turns
+    out = np.where(out > upper + 1e-12, out - FULL_TURN, out)
+    out = np.where(out < lower - 1e-12, out + FULL_TURN, out)
+    return np.where(np.isfinite(angles), out, angles)
+
+
 def _newton(
     fns: BatchFunctions,
     name: str,
@@ -118,6 +131,7 @@ def newton_kkt(
     lower: np.ndarray,
     upper: np.ndarray,
     position_only: bool,
+    periodic: np.ndarray | None = None,
     iterations: int = 15,
     rounds: int = 6,
     tolerance_mm: float = 1e-10,
@@ -127,6 +141,8 @@ def newton_kkt(
     A variable that leaves its box is fixed at the bound; a fixed one whose bound multiplier has the wrong sign
     (the objective would improve moving inwards) is released; repeat until the set settles. Converged: the TCP
     equations hold to `tolerance_mm`, the last step moved nothing by more than that, and the set is settled.
+    `periodic`: the variables (revolute joints whose range spans a full turn) that are first turned by whole
+    turns back into their range, nearest the seed: there they are the same pose, not a bound to hold.
     """
     name = "ik_kkt_position" if position_only else "ik_kkt_pose"
     m = 3 if position_only else 6
@@ -151,6 +167,8 @@ def newton_kkt(
             iterations=iterations,
             tolerance=tolerance_mm,
         )
+        if periodic is not None and periodic.any():
+            vt[:, periodic] = wrapped(vt[:, periodic], seed[todo][:, periodic], lower[periodic], upper[periodic])
         out[todo], ok[todo] = vt, conv
         low = (vt < lower - 1e-12) & ~fixed[todo]
         high = (vt > upper + 1e-12) & ~fixed[todo]

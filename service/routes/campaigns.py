@@ -2,12 +2,13 @@ from __future__ import annotations
 
 import csv
 import io
+from collections.abc import Sequence
 from typing import Any
 
 from fastapi import APIRouter, Query, Request, Response
 
-from service.csv_codec import CAMPAIGN_HEADER
-from service.deps import DatabaseDep, negotiate
+from service.csv_codec import CAMPAIGN_HEADER, POSE_COLUMNS
+from service.deps import DatabaseDep, ModelCacheDep, negotiate
 from service.responses import model_json
 from service.schemas.campaigns import CampaignPublic
 from service.services import campaigns
@@ -16,18 +17,27 @@ router = APIRouter(tags=["campaigns"])
 _FORMATS = {"json": "application/json", "csv": "text/csv"}
 _CSV: dict[int | str, dict[str, Any]] = {
     200: {
-        "content": {"text/csv": {"schema": {"type": "string", "description": "header " + ",".join(CAMPAIGN_HEADER)}}}
+        "content": {
+            "text/csv": {
+                "schema": {
+                    "type": "string",
+                    "description": "header: the robot's joint names, then x,y,z[,qw,qx,qy,qz]; the IWR's: "
+                    + ",".join(CAMPAIGN_HEADER),
+                }
+            }
+        }
     },
     406: {"description": "Accept allows neither JSON nor CSV"},
 }
 
 
-def campaign_csv(campaign: CampaignPublic) -> str:
-    """The spec's campaign CSV (what POST …/calibrations accepts), numbers exactly as stored."""
+def campaign_csv(campaign: CampaignPublic, joint_names: Sequence[str]) -> str:
+    """The spec's campaign CSV (what POST …/calibrations accepts) under the robot's joint header (robots.md),
+    numbers exactly as stored."""
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     with_orientation = any(r.orientation is not None for r in campaign.measurements)
-    writer.writerow(CAMPAIGN_HEADER if with_orientation else CAMPAIGN_HEADER[:13])
+    writer.writerow([*joint_names, *(POSE_COLUMNS if with_orientation else POSE_COLUMNS[:3])])
     for r in campaign.measurements:
         cells = [repr(float(v)) for v in (*r.joints, *r.position)]
         if with_orientation:
@@ -41,11 +51,13 @@ def get_campaign(
     campaign_id: str,
     request: Request,
     db: DatabaseDep,
+    models: ModelCacheDep,
     format: str | None = Query(None, pattern="^(json|csv)$", description="Overrides Accept"),
 ) -> Response:
     """The measurements behind a calibration or validation, as received: JSON, or the spec's CSV."""
     media = _FORMATS[format] if format else negotiate(request, list(_FORMATS.values()))
     campaign = campaigns.get_campaign(db=db, campaign_id=campaign_id)
     if media == "text/csv":
-        return Response(campaign_csv(campaign), media_type="text/csv")
+        names = models.current(campaign.robot_id)[0].joint_names
+        return Response(campaign_csv(campaign, names), media_type="text/csv")
     return model_json(campaign)

@@ -8,6 +8,7 @@ from pydantic import TypeAdapter
 from service import limits
 from service.csv_codec import joints_csv
 from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, compute, wants_csv
+from service.model_cache import ModelCache
 from service.responses import model_json, models_json
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
 from service.schemas.jobs import JobAccepted
@@ -16,7 +17,11 @@ from service.services.jobs import submit_job
 
 router = APIRouter(tags=["pose designs"])
 _SUMMARIES = TypeAdapter(list[PoseDesignSummaryPublic])
-_CSV_BODY = {"content": {"text/csv": {"schema": {"type": "string", "description": "header q1,…,l6"}}}}
+_CSV_BODY = {
+    "content": {
+        "text/csv": {"schema": {"type": "string", "description": "header: the robot's joint names (q1 … q_m, l1 … l6)"}}
+    }
+}
 _CREATED: dict[int | str, dict[str, Any]] = {
     201: _CSV_BODY,
     202: {"model": JobAccepted, "description": "Accepted as a job (?async=true)"},
@@ -25,10 +30,14 @@ _CREATED: dict[int | str, dict[str, Any]] = {
 _FOUND: dict[int | str, dict[str, Any]] = {200: _CSV_BODY}
 
 
-def _answer(request: Request, design: dict[str, Any], status_code: int) -> dict[str, Any] | Response:
-    """The stored report through the declared response model (see routes/calibrations.py), or its poses as CSV."""
+def _answer(
+    request: Request, design: dict[str, Any], status_code: int, models: ModelCache
+) -> dict[str, Any] | Response:
+    """The stored report through the declared response model (see routes/calibrations.py), or its poses as CSV
+    under the robot's joint header (robots.md: q1 … q_m, then l1 … l6)."""
     if wants_csv(request):
-        return Response(joints_csv(design["poses"]), media_type="text/csv", status_code=status_code)
+        names = models.current(design["robot_id"])[0].joint_names
+        return Response(joints_csv(design["poses"], names), media_type="text/csv", status_code=status_code)
     return design
 
 
@@ -58,12 +67,12 @@ async def create_design(
     design = await compute(
         m, "pose_design", lambda: designs.create_design(db=db, models=models, robot_id=robot_id, body=body)
     )
-    return _answer(request, design, 201)
+    return _answer(request, design, 201, models)
 
 
 @router.get("/v1/pose-designs/{design_id}", response_model=PoseDesignPublic, responses=_FOUND)
-def get_design(design_id: str, request: Request, db: DatabaseDep) -> dict[str, Any] | Response:
-    return _answer(request, designs.get_design(db=db, design_id=design_id), 200)
+def get_design(design_id: str, request: Request, db: DatabaseDep, models: ModelCacheDep) -> dict[str, Any] | Response:
+    return _answer(request, designs.get_design(db=db, design_id=design_id), 200, models)
 
 
 @router.get("/v1/robots/{robot_id}/pose-designs", response_model=list[PoseDesignSummaryPublic])

@@ -2,7 +2,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Response
 
-from service.deps import MetricsDep, compute
+from service.deps import MetricsDep, ModelCacheDep, compute
 from service.responses import model_json
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
 from service.services import error_analysis
@@ -10,6 +10,11 @@ from service.services import error_analysis
 router = APIRouter(tags=["error analysis"])
 
 
-@router.post("/v1/error-analysis", response_model=ErrorAnalysisPublic)
-async def run_error_analysis(body: ErrorAnalysisRequest, m: MetricsDep) -> Response:
-    return model_json(await compute(m, "error_analysis", lambda: error_analysis.analyse(body=body)))
+@router.post(
+    "/v1/error-analysis",
+    response_model=ErrorAnalysisPublic,
+    responses={404: {"description": "No robot has the body's robot_id"}},
+)
+async def run_error_analysis(body: ErrorAnalysisRequest, m: MetricsDep, models: ModelCacheDep) -> Response:
+    """The tolerance study on the IWR, or on the robot `robot_id` names (any structure)."""
+    return model_json(await compute(m, "error_analysis", lambda: error_analysis.analyse(body=body, models=models)))

@@ -18,14 +18,34 @@ Distribution = Literal["sign", "uniform"]
 
 
 class ErrorAnalysisRequest(Strict):
+    robot_id: str | None = Field(
+        default=None,
+        max_length=64,
+        description="The robot whose description is studied (its nominal geometry, any structure); "
+        "absent: the nominal IWR, the thesis's study",
+    )
     poses: int = Field(default=40, ge=1, le=2000, description="Random workspace poses (thesis: 40)")
     draws: int = Field(default=200, ge=1, le=5000, description="Error draws per pose")
     distribution: Distribution = "sign"
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
-    leg_offset_mm: float = Field(default=_DEFAULT.leg_offset, ge=0, le=100)
-    joint_position_mm: float = Field(default=_DEFAULT.joint_position, ge=0, le=100)
-    dh_angle_deg: float = Field(default=degrees_default(_DEFAULT.dh_angle), ge=0, le=10)
-    dh_length_mm: float = Field(default=_DEFAULT.dh_length, ge=0, le=100)
+    # Magnitudes per parameter kind, whatever the structure: every link's angles (theta, alpha, and beta where a
+    # link has one) and lengths (a, d), every leg's offset and joint coordinates; base and tool are not perturbed.
+    leg_offset_mm: float = Field(default=_DEFAULT.leg_offset, ge=0, le=100, description="Each leg's length offset")
+    joint_position_mm: float = Field(
+        default=_DEFAULT.joint_position, ge=0, le=100, description="Each coordinate of every hexapod joint (a_i, b_i)"
+    )
+    dh_angle_deg: float = Field(
+        default=degrees_default(_DEFAULT.dh_angle),
+        ge=0,
+        le=10,
+        description="Every link angle: theta (joint offset), alpha and Hayati's beta",
+    )
+    dh_length_mm: float = Field(
+        default=_DEFAULT.dh_length,
+        ge=0,
+        le=100,
+        description="Every link length: a and d (for a prismatic joint, its offset)",
+    )
 
     @model_validator(mode="after")
     def _bounded(self) -> ErrorAnalysisRequest:

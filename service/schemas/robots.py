@@ -23,7 +23,10 @@ class RobotCreate(Strict):
         default="iwr", description="'iwr' (built in), or 'custom' with `structure` or `urdf`"
     )
     structure: dict[str, Any] | None = Field(
-        default=None, description="A description document of shared/spec/robots.md (then `model` reads 'custom')"
+        default=None,
+        description="A description document of shared/spec/robots.md (then `model` reads 'custom'). An addition "
+        "to robots.md: a `dh` link whose alpha is 0 or ±180° may carry Hayati's `beta` (deg) as `mdh` links do, "
+        "then A_i = Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β)",
     )
     urdf: str | None = Field(
         default=None, max_length=2_000_000, description="A URDF; the chain from `base_link` to `tip_link` is the robot"

@@ -6,14 +6,18 @@ from models import iwr
 from models.error_analysis import error_analysis
 from models.errors import InvalidInput
 from service.conversions.error_analysis import report_out, tolerances_in
+from service.model_cache import ModelCache
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
 
 
-def analyse(*, body: ErrorAnalysisRequest) -> ErrorAnalysisPublic:
-    """The thesis's tolerance study on the nominal IWR; nothing is stored."""
+def analyse(*, body: ErrorAnalysisRequest, models: ModelCache) -> ErrorAnalysisPublic:
+    """The thesis's tolerance study on a robot's nominal description (any structure; the IWR when the body names
+    no robot); nothing is stored."""
+    # The description's nominal geometry, not a calibrated version: tolerances are about how the robot is built.
+    desc = iwr() if body.robot_id is None else models.current(body.robot_id)[0]
     try:
         result = error_analysis(
-            iwr(),
+            desc,
             n_poses=body.poses,
             n_draws=body.draws,
             tolerances=tolerances_in(body),

@@ -12,10 +12,12 @@ from collections.abc import Callable
 import pytest
 
 from models import RobotDescription, iwr
-from models.examples import hexapod_alone, iiwa_like, track_arm, ur5_like
+from models.errors import InvalidInput
+from models.examples import hexapod_alone, iiwa_like, track_arm, ur5_like, ur5_like_document
 from models.identifiability import structural_identifiability
 from models.measurement import MeasurementKind
 from models.serial_chain import JointType
+from models.structure import description_from_document
 
 
 def _erh(desc: RobotDescription, kind: MeasurementKind) -> int:
@@ -41,10 +43,42 @@ def test_the_7r_arm_and_the_iwr_counts() -> None:
 
 
 def test_standard_dh_loses_one_per_parallel_pair() -> None:
-    # robots.md gives beta to mdh links only: a standard-DH arm with parallel consecutive axes (the UR5's
-    # shoulder-elbow-wrist, two pairs) cannot represent a tilt of one towards the other, so two fewer.
+    # Without beta (robots.md gives it to mdh links by default) a standard-DH arm with parallel consecutive
+    # axes (the UR5's shoulder-elbow-wrist, two pairs) cannot represent a tilt of one towards the other.
     desc = ur5_like("dh")
     assert _count(desc, MeasurementKind.POSE) == _erh(desc, MeasurementKind.POSE) - 2
+    assert _count(desc, MeasurementKind.POSITION) == _erh(desc, MeasurementKind.POSITION) - 2
+
+
+def _dh_with_beta(links: tuple[int, ...]) -> RobotDescription:
+    document = ur5_like_document("dh")
+    for k in links:
+        document["stages"][0]["links"][k]["beta"] = 0.0
+    return description_from_document(document, name="ur5-hayati")
+
+
+def test_the_dh_beta_example_is_the_arm_with_both_betas() -> None:
+    assert ur5_like("dh-beta").structure == _dh_with_beta((1, 2)).structure
+
+
+@pytest.mark.parametrize("kind", [MeasurementKind.POSE, MeasurementKind.POSITION])
+def test_standard_dh_with_hayatis_beta_on_its_parallel_links_has_the_closed_form_count(kind: MeasurementKind) -> None:
+    # The addition to robots.md: beta on the dh links whose alpha is 0 (link 2: axes 2 ∥ 3, link 3: axes 3 ∥ 4)
+    # gives back the two lost parameters: 4·6 + 6 = 30 with full poses, 4·6 + 3 = 27 with positions.
+    desc = _dh_with_beta((1, 2))
+    assert [spec.name for spec in desc.parameters.specs if spec.name.endswith(".beta")] == ["link2.beta", "link3.beta"]
+    assert desc.n_params == 6 + 6 * 4 + 2 + 6
+    assert _count(desc, kind) == _erh(desc, kind) == (30 if kind is MeasurementKind.POSE else 27)
+    # One pair with beta, one without: one parameter short.
+    assert _count(_dh_with_beta((1,)), kind) == _erh(desc, kind) - 1
+
+
+def test_beta_on_a_dh_link_whose_axes_are_not_parallel_is_refused() -> None:
+    document = ur5_like_document("dh")
+    document["stages"][0]["links"][0]["beta"] = 0.0  # alpha 90°
+    with pytest.raises(InvalidInput) as refused:
+        description_from_document(document)
+    assert refused.value.field == "stages[0].links[0].beta"
 
 
 def test_a_hexapod_alone() -> None:

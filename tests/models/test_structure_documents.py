@@ -7,10 +7,12 @@ import copy
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 import pytest
 
+from models import forward_kinematics, sample_workspace
 from models.errors import InvalidInput
-from models.examples import hexapod_alone_document, iiwa_like_document
+from models.examples import hexapod_alone_document, iiwa_like_document, ur5_like, ur5_like_document
 from models.structure import description_document, description_from_document
 
 Doc = dict[str, Any]
@@ -108,3 +110,36 @@ def test_documents_read_back(make: Callable[[], Doc]) -> None:
     assert again.structure == desc.structure
     assert again.parameters.names == desc.parameters.names
     assert max(abs(a - b) for a, b in zip(again.parameters.nominal, desc.parameters.nominal, strict=True)) < 1e-9
+
+
+@pytest.mark.parametrize("convention", ["mdh", "dh-beta"])
+def test_a_calibrated_document_reads_back_as_the_same_structure(convention: str) -> None:
+    # GET /v1/robots/{id}/structure?version=n writes the identified values: the twist of a parallel pair is then
+    # a fraction of a degree off 0, and the document (with its beta) must still be accepted, as the same
+    # structure, with the same forward kinematics.
+    desc = ur5_like(convention)
+    theta = desc.parameters.nominal + np.random.default_rng(5).normal(size=desc.n_params) * desc.parameters.scales
+    document = description_document(desc, theta)
+    alphas = [link["alpha"] for link in document["stages"][0]["links"] if "beta" in link]
+    assert alphas and all(0 < abs(a) < 1.0 for a in alphas)  # off parallel, as calibrated
+    back = description_from_document(document)
+    assert back.structure == desc.structure and back.n_params == desc.n_params
+    q = sample_workspace(desc, 10, seed=6)
+    np.testing.assert_allclose(
+        forward_kinematics(back, q).positions, forward_kinematics(desc, q, theta).positions, atol=1e-9
+    )
+
+
+def test_beta_is_accepted_only_near_parallel_axes() -> None:
+    near = ur5_like_document("dh")
+    near["stages"][0]["links"][1] |= {"alpha": 3.0, "beta": 0.1}
+    assert "link2.beta" in description_from_document(near).parameters.index
+    far = ur5_like_document("dh")
+    far["stages"][0]["links"][1] |= {"alpha": 10.0, "beta": 0.1}
+    with pytest.raises(InvalidInput) as refused:
+        description_from_document(far)
+    assert refused.value.field == "stages[0].links[1].beta"
+    # Without the key, only exactly parallel mdh links get beta: a 3° mdh twist is a plain link.
+    mdh = ur5_like_document("mdh")
+    mdh["stages"][0]["links"][2]["alpha"] = 3.0
+    assert "link3.beta" not in description_from_document(mdh).parameters.index

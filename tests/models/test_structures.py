@@ -18,6 +18,7 @@ from models.workspace import sample_workspace
 
 ROBOTS: dict[str, Callable[[], RobotDescription]] = {
     "ur5": ur5_like,
+    "ur5-dh-beta": lambda: ur5_like("dh-beta"),
     "iiwa": iiwa_like,
     "track": track_arm,
     "hexapod": hexapod_alone,
@@ -66,10 +67,10 @@ def reference_serial_fk(desc: RobotDescription, q: np.ndarray, theta: np.ndarray
         elif link.joint.value == "prismatic":
             d += q[k]
         k += link.joint.moves
-        if link.convention.value == "dh":
-            t = t @ _rz(th) @ _t(0, 0, d) @ _t(a, 0, 0) @ _rx(al)
+        beta = theta[index[f"link{i}.beta"]] if f"link{i}.beta" in index else 0.0
+        if link.convention.value == "dh":  # Hayati's form when the link carries beta
+            t = t @ _rz(th) @ _t(0, 0, d) @ _t(a, 0, 0) @ _rx(al) @ _ry(beta)
         else:
-            beta = theta[index[f"link{i}.beta"]] if f"link{i}.beta" in index else 0.0
             t = t @ _rx(al) @ _ry(beta) @ _t(a, 0, 0) @ _rz(th) @ _t(0, 0, d)
     return t @ _pose(theta[desc.slices["tool"]])
 
@@ -79,7 +80,7 @@ def _perturbed(desc: RobotDescription, seed: int) -> np.ndarray:
     return desc.parameters.nominal + rng.normal(size=desc.n_params) * desc.parameters.scales
 
 
-@pytest.mark.parametrize("name", ["ur5", "iiwa", "track"])
+@pytest.mark.parametrize("name", ["ur5", "ur5-dh-beta", "iiwa", "track"])
 def test_serial_fk_matches_numpy_reference(name: str) -> None:
     desc = ROBOTS[name]()
     theta = _perturbed(desc, 1)  # every parameter off its nominal value, betas included

@@ -94,6 +94,7 @@ GANTRY_WITH_FIXED = {
 }
 SERIAL: dict[str, Callable[[], RobotDescription]] = {
     "ur5-dh": ur5_like,
+    "ur5-dh-beta": lambda: ur5_like("dh-beta"),
     "iiwa-mdh": iiwa_like,
     "track": track_arm,
     "gantry-fixed": lambda: description_from_document(GANTRY_WITH_FIXED),

@@ -7,7 +7,7 @@ import numpy as np
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, sample_workspace
-from models.examples import hexapod_alone_document, iiwa_like, iiwa_like_document
+from models.examples import hexapod_alone, hexapod_alone_document, iiwa_like, iiwa_like_document
 from models.simulation import measure, perturbed_robot
 from tests.models.test_urdf import UR5_URDF
 
@@ -85,3 +85,52 @@ def test_a_csv_campaign_with_the_robots_header(client: TestClient) -> None:
         headers={"accept": "text/csv"},
     )
     assert ik.status_code == 200 and ik.text.startswith("q1,q2,q3,q4,q5,q6,q7\n")
+
+
+def test_csv_outputs_use_the_robots_joint_header(client: TestClient) -> None:
+    # A hexapod alone: its joints are the legs, so every CSV the service writes heads them l1 … l6 (robots.md),
+    # never q1 … or the IWR's ten columns.
+    robot = client.post("/v1/robots", json={"name": "hex-csv", "structure": hexapod_alone_document()}).json()
+    legs = "l1,l2,l3,l4,l5,l6"
+    csv = {"accept": "text/csv"}
+    made = client.post(
+        f"/v1/robots/{robot['id']}/pose-designs",
+        json={"count": 20, "measurement": "position", "candidate_count": 200},
+        headers=csv,
+    )
+    assert made.status_code == 201, made.text
+    lines = made.text.splitlines()
+    assert lines[0] == legs and len(lines) == 21
+    assert all(len(line.split(",")) == 6 for line in lines[1:])
+    design = client.post(
+        f"/v1/robots/{robot['id']}/pose-designs", json={"count": 20, "measurement": "position", "candidate_count": 200}
+    ).json()
+    again = client.get(f"/v1/pose-designs/{design['id']}", headers=csv)
+    assert again.status_code == 200 and again.text.splitlines()[0] == legs
+    # its poses are the JSON's, under that header
+    first = [float(v) for v in again.text.splitlines()[1].split(",")]
+    np.testing.assert_allclose(first, design["poses"][0], atol=1e-9)
+    # the stored campaign of a calibration, as CSV
+    desc = hexapod_alone()
+    joints = sample_workspace(desc, 40, seed=7)
+    campaign = measure(perturbed_robot(desc, seed=8), joints, seed=9, position_only=True)
+    body = {
+        "measurements": [
+            {"joints": [float(v) for v in q], "position": [float(v) for v in p]}
+            for q, p in zip(joints, campaign.positions, strict=True)
+        ]
+    }
+    calibration = client.post(f"/v1/robots/{robot['id']}/calibrations", json=body)
+    assert calibration.status_code == 201, calibration.text
+    stored = client.get(f"/v1/campaigns/{calibration.json()['campaign_id']}", params={"format": "csv"})
+    assert stored.status_code == 200
+    rows = stored.text.splitlines()
+    assert rows[0] == legs + ",x,y,z" and len(rows) == 41
+    np.testing.assert_allclose([float(v) for v in rows[1].split(",")], [*joints[0], *campaign.positions[0]])
+    # and the IK answer
+    ik = client.post(
+        f"/v1/robots/{robot['id']}/inverse-kinematics",
+        json={"targets": [{"position": [float(v) for v in campaign.positions[0]]}]},
+        headers=csv,
+    )
+    assert ik.status_code == 200 and ik.text.startswith(legs + "\n")
