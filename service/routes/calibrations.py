@@ -6,6 +6,7 @@ import anyio
 from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
+from python_multipart.exceptions import MultipartParseError
 
 from service import limits
 from service.campaign_io import ImportOptions, QuaternionOrder
@@ -117,13 +118,17 @@ def _text(raw: bytes, what: str) -> str:
 async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[str, object]], list[str]]:
     """A joint file and a point file (CSV, a Leica-style export, or SpatialAnalyzer's ASCII) joined by pose id."""
     parts = {}
-    async with request.form() as form:  # closes the spooled upload files when done
-        for name in ("joints", "points"):
-            part = form.get(name)
-            if part is None or isinstance(part, str):
-                raise BadRequest(f"multipart campaigns need two files, 'joints' and 'points'; '{name}' is missing")
-            parts[name] = _text(await part.read(), f"the '{name}' file")
-        points_format = str(form.get("points_format") or "csv")
+    try:
+        async with request.form() as form:  # closes the spooled upload files when done
+            for name in ("joints", "points"):
+                part = form.get(name)
+                if part is None or isinstance(part, str):
+                    raise BadRequest(f"multipart campaigns need two files, 'joints' and 'points'; '{name}' is missing")
+                parts[name] = _text(await part.read(), f"the '{name}' file")
+            points_format = str(form.get("points_format") or "csv")
+    except MultipartParseError as exc:
+        # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500).
+        raise BadRequest(f"the multipart body is malformed: {exc}") from exc
     if points_format not in ("csv", "spatial-analyzer"):
         raise BadRequest(f"points_format must be 'csv' or 'spatial-analyzer', not {points_format!r}")
     return joined_campaign(parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options)

@@ -205,3 +205,22 @@ def test_robot_names_are_unique(client: TestClient, robot_id: str) -> None:
     etag = client.get(f"/v1/robots/{other['id']}").headers["etag"]
     renamed = client.patch(f"/v1/robots/{other['id']}", json={"name": name}, headers={"If-Match": etag})
     assert renamed.status_code == 409
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        b'--xyz\r\nContent-Disposition: form-data; name="joints"\r\n\r\nq1\r\n',  # never closed
+        b"garbage without any boundary line",
+        b"--xyz\r\n\x00\x01 not a header\r\n\r\n--xyz--\r\n",
+    ],
+)
+def test_a_malformed_multipart_body_is_a_400_not_a_500(client: TestClient, robot_id: str, body: bytes) -> None:
+    r = client.post(
+        f"/v1/robots/{robot_id}/calibrations",
+        content=body,
+        headers={"content-type": "multipart/form-data; boundary=xyz"},
+    )
+    assert r.status_code == 400, r.text
+    assert r.headers["content-type"].startswith("application/problem+json")
+    assert client.get(f"/v1/robots/{robot_id}/calibrations").json() == []  # nothing stored
