@@ -11,6 +11,7 @@ from typing import Annotated, TypeVar
 
 from fastapi import Depends, Request
 
+from models import Registry
 from service import limits, logs, security
 from service.errors import NotAcceptable
 from service.jobs import Requeuing
@@ -37,6 +38,12 @@ async def model_cache(request: Request) -> ModelCache:
     return cache
 
 
+async def registry(request: Request) -> Registry:
+    """The application's robot runtimes (created by its lifespan: `service.registry.build_registry`)."""
+    runtimes: Registry = request.app.state.registry
+    return runtimes
+
+
 async def jobs(request: Request) -> Requeuing:
     runner: Requeuing = request.app.state.jobs
     return runner
@@ -59,6 +66,7 @@ async def actor(request: Request) -> Actor:
 DatabaseDep = Annotated[Database, Depends(database)]
 MetricsDep = Annotated[Metrics, Depends(metrics)]
 ModelCacheDep = Annotated[ModelCache, Depends(model_cache)]
+RegistryDep = Annotated[Registry, Depends(registry)]
 JobsDep = Annotated[Requeuing, Depends(jobs)]
 ApiKeyDep = Depends(require_api_key)
 ActorDep = Annotated[Actor, Depends(actor)]

@@ -8,7 +8,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from models import RobotDescription, iwr
+from models import Registry, RobotDescription, iwr
 
 SCRUBBED = ("DATABASE_URL", "CC")
 """Besides every IWR_* variable: the service's database and the compiler of the native Functions."""
@@ -40,6 +40,13 @@ def _clean_environment(monkeypatch: pytest.MonkeyPatch) -> None:
 @pytest.fixture(scope="session")
 def desc() -> RobotDescription:
     return iwr()
+
+
+@pytest.fixture(scope="session")
+def registry() -> Registry:
+    """The session's robot runtimes, shared by the apps, job contexts and calls of the tests (a structure's
+    Functions are built once per session, not once per app); a test that counts builds makes its own."""
+    return Registry()
 
 
 @pytest.fixture

@@ -10,7 +10,7 @@ from pydantic import ValidationError
 from service import limits
 from service.campaign_io import ImportOptions, QuaternionOrder
 from service.csv_codec import CAMPAIGN_HEADER, joined_campaign, parse_campaign
-from service.deps import ActorDep, DatabaseDep, JobsDep, MetricsDep, compute, negotiate
+from service.deps import ActorDep, DatabaseDep, JobsDep, MetricsDep, RegistryDep, compute, negotiate
 from service.errors import BadRequest, UnsupportedMediaType
 from service.responses import model_json
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
@@ -143,6 +143,7 @@ async def create_calibration(
     jobs: JobsDep,
     m: MetricsDep,
     *,
+    registry: RegistryDep,
     actor: ActorDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
     apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
@@ -167,7 +168,9 @@ async def create_calibration(
         accepted = submit_job(db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body, actor=actor)
         return model_json(accepted, status_code=202)
     return await compute(
-        m, "identification", lambda: calibrations.calibrate(db=db, robot_id=robot_id, body=body, actor=actor)
+        m,
+        "identification",
+        lambda: calibrations.calibrate(db=db, registry=registry, robot_id=robot_id, body=body, actor=actor),
     )
 
 

@@ -7,7 +7,7 @@ from pydantic import TypeAdapter
 
 from service import limits
 from service.csv_codec import joints_csv
-from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, compute, wants_csv
+from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, RegistryDep, compute, wants_csv
 from service.responses import model_json, models_json
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
 from service.schemas.jobs import JobAccepted
@@ -40,6 +40,7 @@ async def create_design(
     request: Request,
     db: DatabaseDep,
     models: ModelCacheDep,
+    registry: RegistryDep,
     jobs: JobsDep,
     m: MetricsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
@@ -56,7 +57,9 @@ async def create_design(
         accepted = submit_job(db=db, jobs=jobs, kind="pose_design", robot_id=robot_id, body=body)
         return model_json(accepted, status_code=202)
     design = await compute(
-        m, "pose_design", lambda: designs.create_design(db=db, models=models, robot_id=robot_id, body=body)
+        m,
+        "pose_design",
+        lambda: designs.create_design(db=db, models=models, registry=registry, robot_id=robot_id, body=body),
     )
     return _answer(request, design, 201)
 

@@ -2,7 +2,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Response
 
-from service.deps import MetricsDep, compute
+from service.deps import MetricsDep, RegistryDep, compute
 from service.responses import model_json
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
 from service.services import error_analysis
@@ -11,5 +11,5 @@ router = APIRouter(tags=["error analysis"])
 
 
 @router.post("/v1/error-analysis", response_model=ErrorAnalysisPublic)
-async def run_error_analysis(body: ErrorAnalysisRequest, m: MetricsDep) -> Response:
-    return model_json(await compute(m, "error_analysis", lambda: error_analysis.analyse(body=body)))
+async def run_error_analysis(body: ErrorAnalysisRequest, registry: RegistryDep, m: MetricsDep) -> Response:
+    return model_json(await compute(m, "error_analysis", lambda: error_analysis.analyse(registry=registry, body=body)))

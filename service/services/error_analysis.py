@@ -2,23 +2,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from models import iwr
+from models import Registry, iwr
 from models.error_analysis import error_analysis
 from models.errors import InvalidInput
 from service.conversions.error_analysis import report_out, tolerances_in
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
 
 
-def analyse(*, body: ErrorAnalysisRequest) -> ErrorAnalysisPublic:
+def analyse(*, registry: Registry, body: ErrorAnalysisRequest) -> ErrorAnalysisPublic:
     """The thesis's tolerance study on the nominal IWR; nothing is stored."""
     try:
+        desc = iwr()
         result = error_analysis(
-            iwr(),
+            desc,
             n_poses=body.poses,
             n_draws=body.draws,
             tolerances=tolerances_in(body),
             distribution=body.distribution,
             seed=body.seed,
+            runtime=registry.runtime(desc),
         )
     except np.linalg.LinAlgError as exc:
         # Found by schemathesis (leg_offset_mm=89, "sign"): tolerances that large leave the perturbed hexapod's

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any, Protocol
 
 from pydantic import BaseModel
 
+from models import Registry
 from service.conversions.calibrations import calibration_public
 from service.conversions.designs import design_public
 from service.conversions.jobs import accepted_out, job_out
@@ -81,18 +81,51 @@ def _submitter(request: dict[str, Any]) -> tuple[dict[str, Any], Actor | None]:
     return body, None if who is None else Actor(name=who.get("name"), request_id=who.get("request_id"))
 
 
-def _calibration(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any], job: JobHooks | None) -> str:
+class _Run(Protocol):
+    """A job kind's use case: runs the request, returns the id of what it created."""
+
+    def __call__(
+        self,
+        *,
+        db: Database,
+        models: ModelCache,
+        registry: Registry,
+        robot_id: str,
+        request: dict[str, Any],
+        job: JobHooks | None,
+    ) -> str: ...
+
+
+def _calibration(
+    *,
+    db: Database,
+    models: ModelCache,
+    registry: Registry,
+    robot_id: str,
+    request: dict[str, Any],
+    job: JobHooks | None,
+) -> str:
     fields, actor = _submitter(request)
     body = CalibrationCreate.model_validate(fields)
-    return str(calibrations.calibrate(db=db, robot_id=robot_id, body=body, actor=actor, job=job)["id"])
+    found = calibrations.calibrate(db=db, registry=registry, robot_id=robot_id, body=body, actor=actor, job=job)
+    return str(found["id"])
 
 
-def _design(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any], job: JobHooks | None) -> str:
+def _design(
+    *,
+    db: Database,
+    models: ModelCache,
+    registry: Registry,
+    robot_id: str,
+    request: dict[str, Any],
+    job: JobHooks | None,
+) -> str:
     body = PoseDesignCreate.model_validate(_submitter(request)[0])
-    return str(designs.create_design(db=db, models=models, robot_id=robot_id, body=body, job=job)["id"])
+    found = designs.create_design(db=db, models=models, registry=registry, robot_id=robot_id, body=body, job=job)
+    return str(found["id"])
 
 
-RUNS: dict[str, Callable[[Database, ModelCache, str, dict[str, Any], JobHooks | None], str]] = {
+RUNS: dict[str, _Run] = {
     "calibration": _calibration,
     "pose_design": _design,
 }
@@ -100,11 +133,18 @@ RUNS: dict[str, Callable[[Database, ModelCache, str, dict[str, Any], JobHooks | 
 
 
 def run_job(
-    *, db: Database, models: ModelCache, kind: str, robot_id: str, request: dict[str, Any], job: JobHooks | None = None
+    *,
+    db: Database,
+    models: ModelCache,
+    registry: Registry,
+    kind: str,
+    robot_id: str,
+    request: dict[str, Any],
+    job: JobHooks | None = None,
 ) -> str:
     if kind not in RUNS:
         raise ValueError(f"no such job kind {kind!r}")
-    return RUNS[kind](db, models, robot_id, request, job)
+    return RUNS[kind](db=db, models=models, registry=registry, robot_id=robot_id, request=request, job=job)
 
 
 def _public(repo: Repository, job: Job, *, with_result: bool = True) -> JobPublic:

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
+from models import Registry
 from service.app import create_app
 from service.settings import Settings
 from tests.service.contract_check import ContractClient
@@ -53,16 +54,17 @@ def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str
         yield from postgres_url()
 
 
-def make_client(url: str, **settings: object) -> ContractClient:
-    """Every response it receives is checked against the app's OpenAPI document (`contract_check`)."""
+def make_client(url: str, registry: Registry | None = None, **settings: object) -> ContractClient:
+    """Every response it receives is checked against the app's OpenAPI document (`contract_check`). With
+    `registry` (the session's), the app uses it; without, it builds its own, empty (warm_up is off)."""
     options: dict[str, object] = {"database_url": url, "job_workers": 0, "warm_up": False, "log_level": "WARNING"}
     options.update(settings)
-    return ContractClient(create_app(Settings(**options)))  # type: ignore[arg-type]
+    return ContractClient(create_app(Settings(**options), registry=registry))  # type: ignore[arg-type]
 
 
 @pytest.fixture
-def client(tmp_path: Path) -> Iterator[TestClient]:
-    with make_client(f"sqlite:///{tmp_path}/iwr.db") as c:
+def client(tmp_path: Path, registry: Registry) -> Iterator[TestClient]:
+    with make_client(f"sqlite:///{tmp_path}/iwr.db", registry) as c:
         yield c
     assert c.contract.checked > 0, "the test's responses went unchecked"
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from models import forward_kinematics, iwr, sample_workspace
+from models import Registry, forward_kinematics, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.security import digest
 from tests.service.conftest import make_client
@@ -29,11 +29,11 @@ def _key(name: str) -> str:
 
 
 @pytest.fixture
-def client(database_url: str) -> Iterator[TestClient]:
+def client(database_url: str, registry: Registry) -> Iterator[TestClient]:
     """The service on SQLite and on PostgreSQL with named API keys; requests without `X-Test-Actor` use the
     `tester` admin key, the others the named one (the header is turned into that name's key)."""
     entries = ",".join(f"{n}:{scope}:{digest(_key(n))}" for n, scope in KEYS.items())
-    c = make_client(database_url, api_keys=entries)
+    c = make_client(database_url, registry, api_keys=entries)
 
     original = c.request
 
