@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from models import RobotDescription, iwr
-from models._types import Pose6
+from models._types import Array, Pose6
 from models.errors import InvalidInput
 from models.structure import description_document, description_from_document
 from models.urdf import document_from_urdf
@@ -18,6 +18,7 @@ from service.conversions.kinematics import pose6_in, pose6_out
 from service.persistence.tables import ParameterVersion, Robot
 from service.schemas.common import Pose
 from service.schemas.robots import ParametersPublic, RobotCreate, RobotPublic
+from service.schemas.structure import StructureDocument
 
 
 def _pose6(values: Sequence[float]) -> Pose6:
@@ -52,7 +53,7 @@ def new_description(body: RobotCreate) -> tuple[RobotDescription, dict[str, Any]
         assert body.base_link is not None and body.tip_link is not None
         document: dict[str, Any] | None = document_from_urdf(body.urdf, body.base_link, body.tip_link)
     elif body.structure is not None:
-        document = body.structure
+        document = body.structure.model_dump()  # the JSON shape models.structure reads (absent keys left out)
     elif body.model == "custom":
         raise InvalidInput("a custom robot needs a structure or a urdf", field="structure")
     else:
@@ -68,6 +69,11 @@ def frame_in(pose: Pose | None, what: str) -> Pose6:
     return pose6_in(pose.position, pose.orientation, what) if pose is not None else pose6_in(None, None, what)
 
 
+def structure_out(desc: RobotDescription, params: Array | None = None) -> StructureDocument:
+    """The robots.md document of `desc` with the values of `params` (default nominal), typed."""
+    return StructureDocument.model_validate(description_document(desc, params))
+
+
 def robot_out(robot: Robot) -> RobotPublic:
     desc = description(robot)
     return RobotPublic(
@@ -80,7 +86,7 @@ def robot_out(robot: Robot) -> RobotPublic:
         tool=pose6_out(robot.tool),
         notes=robot.notes,
         revision=robot.revision or 1,
-        structure=description_document(desc),
+        structure=structure_out(desc),
         joint_names=list(desc.joint_names),
         joint_units=["mm" if k.boundary_unit == "mm" else "deg" for k in desc.joint_kinds],
         parameter_count=desc.n_params,
