@@ -221,6 +221,7 @@ def test_error_analysis(client: TestClient) -> None:
     assert client.post("/v1/error-analysis", json={"poses": 0}).status_code == 422
 
 
+@pytest.mark.slow  # a spawned pool process builds its own runtimes: ~10 s here
 def test_jobs_in_a_worker_process(tmp_path: object) -> None:
     """The production path: a spawned worker process picks the job from the database and writes the result."""
 

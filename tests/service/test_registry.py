@@ -80,6 +80,7 @@ def test_every_operation_uses_the_apps_registry(tmp_path: Path, registry: Regist
         assert _wait(api, job.json()["status_url"])["status"] == "succeeded"
 
 
+@pytest.mark.slow  # a fresh registry builds every layer of the IWR: ~3 s here
 def test_build_registry_warms_the_iwr_only_when_asked(tmp_path: Path) -> None:
     cold = build_registry(Settings(database_url=f"sqlite:///{tmp_path}/c.db", warm_up=False))
     assert len(cold) == 0
