@@ -10,7 +10,7 @@ from pydantic import ValidationError
 from service import limits
 from service.campaign_io import ImportOptions, QuaternionOrder
 from service.csv_codec import CAMPAIGN_HEADER, joined_campaign, parse_campaign
-from service.deps import ActorDep, DatabaseDep, JobsDep, MetricsDep, RegistryDep, compute, negotiate
+from service.deps import ActorDep, DatabaseDep, JobsDep, Limit, MetricsDep, Offset, RegistryDep, compute, negotiate
 from service.errors import BadRequest, UnsupportedMediaType
 from service.responses import model_json
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
@@ -178,8 +178,8 @@ async def create_calibration(
 def list_calibrations(
     robot_id: str,
     db: DatabaseDep,
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> list[dict[str, Any]]:
     return calibrations.list_calibrations(db=db, robot_id=robot_id, limit=limit, offset=offset)
 

@@ -7,7 +7,7 @@ from pydantic import TypeAdapter
 
 from service import limits
 from service.csv_codec import joints_csv
-from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, RegistryDep, compute, wants_csv
+from service.deps import DatabaseDep, JobsDep, Limit, MetricsDep, ModelCacheDep, Offset, RegistryDep, compute, wants_csv
 from service.responses import model_json, models_json
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
 from service.schemas.jobs import JobAccepted
@@ -73,8 +73,8 @@ def get_design(design_id: str, request: Request, db: DatabaseDep) -> dict[str, A
 def list_designs(
     robot_id: str,
     db: DatabaseDep,
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> Response:
     """The robot's stored designs, oldest first (criterion, count, value); each one's poses by its id."""
     return models_json(designs.list_designs(db=db, robot_id=robot_id, limit=limit, offset=offset), _SUMMARIES)

@@ -5,7 +5,7 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Header, Query, Request, Response
 from pydantic import TypeAdapter
 
-from service.deps import ActorDep, DatabaseDep, negotiate
+from service.deps import ActorDep, DatabaseDep, Limit, Offset, negotiate
 from service.parameters_csv import PARAMETER_HEADER, parameters_csv
 from service.responses import model_json, models_json
 from service.schemas.robots import MAX_VERSION, ParametersPublic, RobotCreate, RobotPatch, RobotPublic
@@ -40,8 +40,8 @@ def create_robot(body: RobotCreate, db: DatabaseDep, actor: ActorDep) -> Respons
 @router.get("", response_model=list[RobotPublic])
 def list_robots(
     db: DatabaseDep,
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> Response:
     return models_json(robots.list_robots(db=db, limit=limit, offset=offset), _ROBOTS)
 

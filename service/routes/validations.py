@@ -1,9 +1,9 @@
 from __future__ import annotations
 
-from fastapi import APIRouter, Query, Response
+from fastapi import APIRouter, Response
 from pydantic import TypeAdapter
 
-from service.deps import DatabaseDep, MetricsDep, RegistryDep, compute
+from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, compute
 from service.responses import model_json, models_json
 from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
 from service.services import validations
@@ -28,8 +28,8 @@ async def create_validation(
 def list_validations(
     robot_id: str,
     db: DatabaseDep,
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> Response:
     return models_json(validations.list_validations(db=db, robot_id=robot_id, limit=limit, offset=offset), _VALIDATIONS)
 

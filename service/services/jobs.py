@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 from pydantic import BaseModel
@@ -81,51 +83,36 @@ def _submitter(request: dict[str, Any]) -> tuple[dict[str, Any], Actor | None]:
     return body, None if who is None else Actor(name=who.get("name"), request_id=who.get("request_id"))
 
 
-class _Run(Protocol):
-    """A job kind's use case: runs the request, returns the id of what it created."""
+@dataclass(frozen=True)
+class _Run:
+    """One delivery of a job to its use case: what the worker owns, and the stored request."""
 
-    def __call__(
-        self,
-        *,
-        db: Database,
-        models: ModelCache,
-        registry: Registry,
-        robot_id: str,
-        request: dict[str, Any],
-        job: JobHooks | None,
-    ) -> str: ...
+    db: Database
+    models: ModelCache
+    registry: Registry
+    robot_id: str
+    request: dict[str, Any]
+    job: JobHooks | None
 
 
-def _calibration(
-    *,
-    db: Database,
-    models: ModelCache,
-    registry: Registry,
-    robot_id: str,
-    request: dict[str, Any],
-    job: JobHooks | None,
-) -> str:
-    fields, actor = _submitter(request)
+def _calibration(run: _Run) -> str:
+    fields, actor = _submitter(run.request)
     body = CalibrationCreate.model_validate(fields)
-    found = calibrations.calibrate(db=db, registry=registry, robot_id=robot_id, body=body, actor=actor, job=job)
+    found = calibrations.calibrate(
+        db=run.db, registry=run.registry, robot_id=run.robot_id, body=body, actor=actor, job=run.job
+    )
     return str(found["id"])
 
 
-def _design(
-    *,
-    db: Database,
-    models: ModelCache,
-    registry: Registry,
-    robot_id: str,
-    request: dict[str, Any],
-    job: JobHooks | None,
-) -> str:
-    body = PoseDesignCreate.model_validate(_submitter(request)[0])
-    found = designs.create_design(db=db, models=models, registry=registry, robot_id=robot_id, body=body, job=job)
+def _design(run: _Run) -> str:
+    body = PoseDesignCreate.model_validate(_submitter(run.request)[0])
+    found = designs.create_design(
+        db=run.db, models=run.models, registry=run.registry, robot_id=run.robot_id, body=body, job=run.job
+    )
     return str(found["id"])
 
 
-RUNS: dict[str, _Run] = {
+RUNS: dict[str, Callable[[_Run], str]] = {
     "calibration": _calibration,
     "pose_design": _design,
 }
@@ -144,7 +131,7 @@ def run_job(
 ) -> str:
     if kind not in RUNS:
         raise ValueError(f"no such job kind {kind!r}")
-    return RUNS[kind](db=db, models=models, registry=registry, robot_id=robot_id, request=request, job=job)
+    return RUNS[kind](_Run(db, models, registry, robot_id, request, job))
 
 
 def _public(repo: Repository, job: Job, *, with_result: bool = True) -> JobPublic:

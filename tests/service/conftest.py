@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 
 from models import Registry
 from service.app import create_app
+from service.persistence import Database
 from service.settings import Settings
 from tests.service.contract_check import ContractClient, committed_contract
 
@@ -66,6 +67,15 @@ def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str
         yield f"sqlite:///{tmp_path}/iwr.db"
     else:
         yield from postgres_url()
+
+
+@pytest.fixture
+def db(database_url: str) -> Iterator[Database]:
+    """A migrated database on SQLite (and on PostgreSQL in `make test`), for tests below the HTTP layer."""
+    database = Database(database_url)
+    database.migrate()
+    yield database
+    database.dispose()
 
 
 def make_client(url: str, registry: Registry | None = None, **settings: object) -> ContractClient:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 
 import pytest
 
@@ -21,15 +20,6 @@ from service.settings import Settings
 from tests.service.helpers import records
 
 DESC = iwr()
-
-
-@pytest.fixture
-def db(database_url: str) -> Iterator[Database]:
-    database = Database(database_url)
-    database.migrate()
-    database.migrate()  # idempotent: a restart migrates again
-    yield database
-    database.dispose()
 
 
 def test_calibration_and_version_are_written_together(db: Database, registry: Registry) -> None:
@@ -52,6 +42,11 @@ def test_calibration_and_version_are_written_together(db: Database, registry: Re
     assert not again["applied"] and again["parameter_version"] is None
     with db.session() as s:
         assert Repository(s).robot(robot.id).current_version == 2
+    db.migrate()  # idempotent: a restart migrates again, and what was written stays
+    with db.reader() as s:
+        assert (
+            Repository(s).robot(robot.id).current_version == 2 and len(Repository(s).calibrations(robot.id, 10, 0)) == 2
+        )
 
 
 def test_a_failed_transaction_leaves_nothing(db: Database) -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import pytest
@@ -16,7 +15,7 @@ from models.simulation import perturbed_robot
 from service import errors
 from service.problems import TYPE_BASE, to_problem
 from tests.service.conftest import make_client
-from tests.service.helpers import records
+from tests.service.helpers import finished_job, records
 
 DESC = iwr()
 
@@ -61,15 +60,6 @@ def test_validation_errors_list_where() -> None:
     ]
 
 
-def _wait(client: TestClient, url: str) -> dict[str, object]:
-    for _ in range(400):
-        job: dict[str, object] = client.get(url).json()
-        if job["status"] in ("succeeded", "failed"):
-            return job
-        time.sleep(0.05)
-    raise AssertionError(f"job {url} did not finish")
-
-
 def test_a_failed_job_stores_what_the_synchronous_request_answers(client: TestClient, robot_id: str) -> None:
     recs = records(DESC, perturbed_robot(DESC, seed=7), sample_workspace(DESC, 30, seed=8), seed=9)
     out_of_range = [400, 150, 190, 45, 420, 420, 420, 420, 420, 420]  # q3 beyond its range
@@ -77,14 +67,14 @@ def test_a_failed_job_stores_what_the_synchronous_request_answers(client: TestCl
     url = f"/v1/robots/{robot_id}/calibrations"
     sync = client.post(url, json={"measurements": bad})
     assert sync.status_code == 422 and sync.json()["type"].endswith("joint-out-of-range")
-    job = _wait(client, client.post(url + "?async=true", json={"measurements": bad}).json()["status_url"])
+    job = finished_job(client, client.post(url + "?async=true", json={"measurements": bad}).json()["status_url"])
     assert job["status"] == "failed" and job["error"] == sync.json()
 
     design = {"count": 3, "candidates": (sample_workspace(DESC, 20, seed=1) * DESC.joint_to_boundary).tolist()}
     url = f"/v1/robots/{robot_id}/pose-designs"
     sync = client.post(url, json=design)
     assert sync.status_code == 422
-    job = _wait(client, client.post(url + "?async=true", json=design).json()["status_url"])
+    job = finished_job(client, client.post(url + "?async=true", json=design).json()["status_url"])
     assert job["status"] == "failed" and job["error"] == sync.json()
 
 

@@ -7,7 +7,6 @@ copy of the Functions, solvers and tables outside the app's registry.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -20,8 +19,7 @@ from models.transforms import matrix_to_quaternion
 from service.registry import build_registry
 from service.settings import Settings
 from tests.service.conftest import make_client
-from tests.service.contract_check import ContractClient
-from tests.service.helpers import records
+from tests.service.helpers import finished_job, records
 
 DESC = iwr()
 
@@ -31,15 +29,6 @@ class Refusing(Registry):
 
     def runtime(self, desc: RobotDescription) -> models.runtime.Runtime:
         raise AssertionError(f"a models call fell back to the default registry (structure {desc.structure!r})")
-
-
-def _wait(api: ContractClient, url: str) -> dict[str, object]:
-    for _ in range(600):
-        job: dict[str, object] = api.get(url).json()
-        if job["status"] in ("succeeded", "failed"):
-            return job
-        time.sleep(0.05)
-    raise AssertionError(f"job {url} did not finish")
 
 
 def test_every_operation_uses_the_apps_registry(tmp_path: Path, registry: Registry) -> None:
@@ -77,7 +66,7 @@ def test_every_operation_uses_the_apps_registry(tmp_path: Path, registry: Regist
         assert api.post("/v1/error-analysis", json={"poses": 4, "draws": 5}).status_code == 200
         job = api.post(f"/v1/robots/{rid}/calibrations?async=true", json={"measurements": recs, "apply": False})
         assert job.status_code == 202
-        assert _wait(api, job.json()["status_url"])["status"] == "succeeded"
+        assert finished_job(api, job.json()["status_url"])["status"] == "succeeded"
 
 
 @pytest.mark.slow  # a fresh registry builds every layer of the IWR: ~3 s here

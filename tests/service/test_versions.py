@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -15,7 +14,7 @@ from models import Registry, forward_kinematics, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.security import digest
 from tests.service.conftest import make_client
-from tests.service.helpers import records
+from tests.service.helpers import finished_job, records
 
 DESC = iwr()
 
@@ -225,11 +224,7 @@ def test_an_async_calibration_is_audited_under_its_submitter(client: TestClient,
     job = client.post(
         f"/v1/robots/{robot_id}/calibrations?async=true", json=body, headers={"X-Test-Actor": "metrology"}
     ).json()
-    for _ in range(400):
-        state = client.get(f"/v1/jobs/{job['job_id']}").json()
-        if state["status"] in ("succeeded", "failed"):
-            break
-        time.sleep(0.05)
+    state = finished_job(client, f"/v1/jobs/{job['job_id']}")
     assert state["status"] == "succeeded", state
     trail = client.get("/v1/audit", params={"robot_id": robot_id, "action": "version.calibrated"}).json()
     assert [e["actor"] for e in trail] == ["metrology"] and trail[0]["request_id"]
