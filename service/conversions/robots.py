@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import functools
-import json
 from collections.abc import Sequence
 from typing import Any
 
@@ -29,14 +27,11 @@ def _pose6(values: Sequence[float]) -> Pose6:
 def description(robot: Robot) -> RobotDescription:
     if robot.structure is None:
         return iwr(_pose6(robot.base), _pose6(robot.tool))
-    return _custom(json.dumps(robot.structure, sort_keys=True), _pose6(robot.base), _pose6(robot.tool))
-
-
-# Immutable values keyed by the stored document: validating and deriving a description costs ~1 ms, a
-# single-pose request's budget. Bounded like `models.iwr`.
-@functools.lru_cache(maxsize=256)
-def _custom(document: str, base: Pose6, tool: Pose6) -> RobotDescription:
-    return description_from_document(json.loads(document), name="custom").with_base_tool(base, tool)
+    # Validating and deriving a description costs ~1 ms: the hot paths (kinematics, designs) read it from the
+    # app's `ModelCache`, which keeps it per (robot, version); the others (a calibration, a robot's page) pay it.
+    return description_from_document(robot.structure, name="custom").with_base_tool(
+        _pose6(robot.base), _pose6(robot.tool)
+    )
 
 
 def new_description(body: RobotCreate) -> tuple[RobotDescription, dict[str, Any] | None]:
