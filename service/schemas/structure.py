@@ -32,13 +32,19 @@ class Document(BaseModel):
         return {k: v for k, v in dumped.items() if v is not None}
 
 
-Interval = Annotated[list[float], Field(min_length=2, max_length=2, description="[lo, hi], lo < hi")]
-Point = Annotated[list[float], Field(min_length=3, max_length=3, description="[x, y, z] in mm")]
+Number = Annotated[float, Field(ge=-1e7, le=1e7)]
+"""Every number of a document: mm within ±10 km (as every position of the API) or degrees; beyond, squares and
+products of the validation overflow instead of naming the field."""
+Interval = Annotated[list[Number], Field(min_length=2, max_length=2, description="[lo, hi], lo < hi")]
+Point = Annotated[list[Number], Field(min_length=3, max_length=3, description="[x, y, z] in mm")]
 
 
 class StructurePose(Document):
     position: Point
-    orientation: Annotated[list[float], Field(min_length=4, max_length=4, description="unit quaternion [w, x, y, z]")]
+    orientation: Annotated[
+        list[Annotated[float, Field(ge=-2.0, le=2.0)]],
+        Field(min_length=4, max_length=4, description="unit quaternion [w, x, y, z]"),
+    ]
 
 
 class StructureLink(Document):
@@ -46,11 +52,11 @@ class StructureLink(Document):
     reading to `theta`, a prismatic one to `d`."""
 
     joint: Literal["revolute", "prismatic", "fixed"]
-    a: float = Field(default=0.0, description="mm")
-    alpha: float = Field(default=0.0, description="deg")
-    d: float = Field(default=0.0, description="mm")
-    theta: float = Field(default=0.0, description="deg")
-    beta: float | None = Field(
+    a: Number = Field(default=0.0, description="mm")
+    alpha: Number = Field(default=0.0, description="deg")
+    d: Number = Field(default=0.0, description="mm")
+    theta: Number = Field(default=0.0, description="deg")
+    beta: Number | None = Field(
         default=None, description="deg, Hayati's parameter: only on mdh links parallel to the previous one"
     )
     range: Interval | None = Field(
