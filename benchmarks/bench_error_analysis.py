@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from benchmarks.timing import best_of, target
-from models import default_registry, forward_kinematics, iwr
+from models import Registry, forward_kinematics, iwr
 from models.error_analysis import ErrorMagnitudes, draw_errors, error_analysis, summary
 from models.kinematics import solve_platforms
 from models.workspace import sample_workspace
@@ -26,30 +26,33 @@ SERVING_BUDGET_S = 2.0
 
 def run() -> dict[str, object]:
     desc = iwr()
-    _ = default_registry().runtime(desc).kinematics
-    error_analysis(desc, n_poses=4, n_draws=2)  # warm the mapped Functions
-    default_s = best_of(lambda: error_analysis(desc), repeat=3)
-    big_s = best_of(lambda: error_analysis(desc, n_poses=100, n_draws=1000), repeat=1)
+    rt = Registry().runtime(desc)  # the benchmark's own, like an application's
+    _ = rt.kinematics
+    error_analysis(desc, n_poses=4, n_draws=2, runtime=rt)  # warm the mapped Functions
+    default_s = best_of(lambda: error_analysis(desc, runtime=rt), repeat=3)
+    big_s = best_of(lambda: error_analysis(desc, n_poses=100, n_draws=1000, runtime=rt), repeat=1)
 
-    joints = sample_workspace(desc, 40, 0)
+    joints = sample_workspace(desc, 40, 0, runtime=rt)
     assert isinstance(joints, np.ndarray)
     theta0 = desc.parameters.nominal
     deltas = draw_errors(desc, 200, ErrorMagnitudes(), "sign", np.random.default_rng(0))
-    seeds = forward_kinematics(desc, joints).platforms
+    seeds = forward_kinematics(desc, joints, runtime=rt).platforms
 
     def per_draw() -> np.ndarray:
-        return np.stack([forward_kinematics(desc, joints, theta0 + d, seeds=seeds).positions for d in deltas])
+        return np.stack(
+            [forward_kinematics(desc, joints, theta0 + d, seeds=seeds, runtime=rt).positions for d in deltas]
+        )
 
     def stacked() -> np.ndarray:
         q = np.tile(joints, (len(deltas), 1))
         params = np.repeat(theta0 + deltas, len(joints), axis=0)
-        platforms, _ = solve_platforms(desc, q, params, np.tile(seeds, (len(deltas), 1)))
-        pos, _ = default_registry().runtime(desc).kinematics.batch("pose_at", q, params, platforms)
+        platforms, _ = solve_platforms(desc, q, params, np.tile(seeds, (len(deltas), 1)), runtime=rt)
+        pos, _ = rt.kinematics.batch("pose_at", q, params, platforms)
         return pos.reshape(len(deltas), len(joints), 3)
 
     per_draw_s, stacked_s = best_of(per_draw, 3), best_of(stacked, 3)
     agree_mm = float(np.abs(per_draw() - stacked()).max())
-    print(summary(error_analysis(desc)))
+    print(summary(error_analysis(desc, runtime=rt)))
     return {
         "default_study_seconds": default_s,
         "study_100_poses_1000_draws_seconds": big_s,

@@ -30,6 +30,7 @@ from models.iso9283 import (
 )
 from models.kinematics import forward_kinematics
 from models.robot import RobotDescription
+from models.runtime import Runtime, runtime_for
 from models.transforms import matrix_to_quaternion, quaternion_to_matrix
 from models.workspace import sample_workspace
 
@@ -85,9 +86,11 @@ class AccuracyReport:
         return None if self.orientation_rad is None else float(self.orientation_rad.max())
 
 
-def evaluate(desc: RobotDescription, params: Array, campaign: Campaign, *, register: bool = False) -> AccuracyReport:
+def evaluate(
+    desc: RobotDescription, params: Array, campaign: Campaign, *, register: bool = False, runtime: Runtime | None = None
+) -> AccuracyReport:
     """The version `params` against `campaign`; with `register`, first the best rigid fit of the instrument frame."""
-    fk = forward_kinematics(desc, campaign.joints, params)
+    fk = forward_kinematics(desc, campaign.joints, params, runtime=runtime_for(desc, runtime))
     predicted, rotations = fk.positions, fk.rotations
     if register:
         fit = rigid_fit(predicted, campaign.positions)
@@ -140,11 +143,14 @@ class CubePoses:
     """(5, n_joints) commands of P1…P5 from the model `params`, internal units."""
 
 
-def iso_cube_poses(desc: RobotDescription, params: Array, *, seed: int = CUBE_SEED) -> CubePoses:
+def iso_cube_poses(
+    desc: RobotDescription, params: Array, *, seed: int = CUBE_SEED, runtime: Runtime | None = None
+) -> CubePoses:
     """The ISO 9283 cube: centred on the reachable workspace's centre, as large as the robot reaches all eight
     corners (and P1…P5) at the orientation it has there; P1…P5 as joint commands of the model `params`."""
-    joints = sample_workspace(desc, CUBE_SAMPLES, seed=seed)
-    fk = forward_kinematics(desc, joints, params)
+    rt = runtime_for(desc, runtime)
+    joints = sample_workspace(desc, CUBE_SAMPLES, seed=seed, runtime=rt)
+    fk = forward_kinematics(desc, joints, params, runtime=rt)
     centre = np.median(fk.positions, axis=0)
     nearest = int(np.argmin(np.linalg.norm(fk.positions - centre, axis=1)))
     quaternion = matrix_to_quaternion(fk.rotations[nearest])
@@ -154,7 +160,12 @@ def iso_cube_poses(desc: RobotDescription, params: Array, *, seed: int = CUBE_SE
         cube = iso_cube(centre, edge)
         targets = np.vstack([cube.points, cube.corners])
         answer = inverse_kinematics(
-            desc, targets, np.repeat(quaternion[None, :], len(targets), axis=0), params, seed=joints[nearest]
+            desc,
+            targets,
+            np.repeat(quaternion[None, :], len(targets), axis=0),
+            params,
+            seed=joints[nearest],
+            runtime=rt,
         )
         return bool(answer.reachable.all()), answer.joints[: len(cube.points)]
 

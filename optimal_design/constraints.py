@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from models import RobotDescription, forward_kinematics
 from models._types import Array
 from models.errors import InvalidInput
+from models.runtime import Runtime
 from models.transforms import rotvec_to_matrix_np
 
 
@@ -90,13 +91,15 @@ def joint_range_mask(
     return ok
 
 
-def platform_centres(desc: RobotDescription, joints: Array, params: Array | None = None) -> tuple[Array, Array]:
+def platform_centres(
+    desc: RobotDescription, joints: Array, params: Array | None = None, *, runtime: Runtime | None = None
+) -> tuple[Array, Array]:
     """(TCP positions, platform centre positions) in the world frame, mm.
 
     world←platform = world←TCP · (platform←TCP)⁻¹ and platform←TCP is the tool transform (a translation and a
     rotation vector among the parameters), so the platform centre is p_tcp − R_tcp R_toolᵀ t_tool."""
     theta = desc.parameters.nominal if params is None else params
-    fk = forward_kinematics(desc, joints, theta)
+    fk = forward_kinematics(desc, joints, theta, runtime=runtime)
     tool = np.asarray(theta[desc.slices["tool"]], dtype=float)
     r_tool = rotvec_to_matrix_np(tool[3:6])
     offset = r_tool.T @ tool[:3]
@@ -105,10 +108,10 @@ def platform_centres(desc: RobotDescription, joints: Array, params: Array | None
 
 
 def keep_out_mask(
-    desc: RobotDescription, joints: Array, box: KeepOut, params: Array | None = None
+    desc: RobotDescription, joints: Array, box: KeepOut, params: Array | None = None, *, runtime: Runtime | None = None
 ) -> NDArray[np.bool_]:
     """Candidates whose TCP and platform centre are both outside the box."""
-    tcp, centre = platform_centres(desc, joints, params)
+    tcp, centre = platform_centres(desc, joints, params, runtime=runtime)
     return np.asarray(~(box.inside(tcp) | box.inside(centre)))
 
 

@@ -17,6 +17,7 @@ from models.blas import single_threaded_blas
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows, poses_for
 from models.kinematics import as_joint_array, check_joint_ranges
+from models.runtime import Runtime
 from optimal_design.constraints import KeepOut, Spread, joint_range_mask, keep_out_mask
 from optimal_design.criteria import Criterion, metrics, utility, value
 from optimal_design.exchange import exchange, greedy, round_weights
@@ -110,6 +111,7 @@ def prepare(
     joint_ranges: Mapping[int, tuple[float, float]] | None = None,
     keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
     min_spread: float | None = None,
+    runtime: Runtime | None = None,
 ) -> Problem:
     """Validate, sample or check the candidates, apply the filters, and compute every candidate's information."""
     if measurement not in ("pose", "position"):
@@ -132,7 +134,7 @@ def prepare(
             counts["joint_ranges"] = int((~inside).sum())
             ok &= inside
         if box is not None:
-            clear = keep_out_mask(desc, q, box, theta)
+            clear = keep_out_mask(desc, q, box, theta, runtime=runtime)
             counts["keep_out"] = int((ok & ~clear).sum())
             ok &= clear
         return ok, counts
@@ -144,7 +146,9 @@ def prepare(
                 "candidates is empty: give at least `count` joint vectors, or omit them", field="candidates"
             )
         check_joint_ranges(desc, cand)
-        forward_kinematics(desc, cand, theta)  # UnreachablePose names the first candidate outside the workspace
+        forward_kinematics(
+            desc, cand, theta, runtime=runtime
+        )  # UnreachablePose names the first candidate outside the workspace
         ok, excluded = admissible(cand)
         origin = np.flatnonzero(ok)
         offered = cand.shape[0]
@@ -152,7 +156,7 @@ def prepare(
     else:
         if not 1 <= candidate_count <= MAX_CANDIDATES:
             raise InvalidInput(f"candidate_count must be between 1 and {MAX_CANDIDATES}, got {candidate_count}")
-        cand = sample_workspace(desc, candidate_count, seed=seed, params=theta)
+        cand = sample_workspace(desc, candidate_count, seed=seed, params=theta, runtime=runtime)
         ok, excluded = admissible(cand)
         offered = cand.shape[0]
         if not ok.all():
@@ -163,7 +167,7 @@ def prepare(
             for _ in range(SAMPLING_ROUNDS):
                 if total >= candidate_count:
                     break
-                more = sample_workspace(desc, candidate_count, seed=rng, params=theta)
+                more = sample_workspace(desc, candidate_count, seed=rng, params=theta, runtime=runtime)
                 more_ok, more_excluded = admissible(more)
                 kept.append(more[more_ok])
                 total += int(more_ok.sum())
@@ -188,7 +192,9 @@ def prepare(
         joints = np.vstack([done, cand])
     else:
         joints = cand
-    info_all = candidate_information(desc, joints, position_only=position_only, noise=noise, params=theta)
+    info_all = candidate_information(
+        desc, joints, position_only=position_only, noise=noise, params=theta, runtime=runtime
+    )
     base = info_all.subset_information(np.arange(n_fixed)) if n_fixed else np.zeros((info_all.n_params,) * 2)
     info = replace(info_all, joints=info_all.joints[n_fixed:], blocks=info_all.blocks[n_fixed:])
     spread = Spread.of(desc, info.joints, done, float(min_spread)) if min_spread else None
@@ -222,6 +228,7 @@ def design_poses(
     keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
     min_spread: float | None = None,
     d_efficiency_floor: float | None = None,
+    runtime: Runtime | None = None,
 ) -> PoseDesign:
     """Choose `count` poses among candidates (given, or `candidate_count` sampled in the workspace).
 
@@ -245,6 +252,7 @@ def design_poses(
         joint_ranges=joint_ranges,
         keep_out=keep_out,
         min_spread=min_spread,
+        runtime=runtime,
     )
     return solve(desc, problem, crit, count, seed=seed, started=started, d_efficiency_floor=d_efficiency_floor)
 

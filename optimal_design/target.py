@@ -32,6 +32,7 @@ from models import NoiseModel, RobotDescription
 from models._types import Array
 from models.blas import single_threaded_blas
 from models.errors import InvalidInput, TargetUnreachable, TooFewMeasurements
+from models.runtime import Runtime
 from optimal_design.constraints import KeepOut
 from optimal_design.criteria import Criterion, metrics
 from optimal_design.design import PoseDesign, Problem, prepare, solve
@@ -84,6 +85,7 @@ def design_for_target(
     joint_ranges: Mapping[int, tuple[float, float]] | None = None,
     keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
     min_spread: float | None = None,
+    runtime: Runtime | None = None,
 ) -> TargetDesign:
     """The smallest K (beyond `fixed`) whose `criterion` design (D or I) reaches the target, and the curve."""
     started = time.perf_counter()
@@ -116,6 +118,7 @@ def design_for_target(
         joint_ranges=joint_ranges,
         keep_out=keep_out,
         min_spread=min_spread,
+        runtime=runtime,
     )
     info = problem.info
     notes: list[str] = []

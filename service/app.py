@@ -12,7 +12,8 @@ import anyio
 from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service import limits, logs, openapi, problems, security, ui, warmup
+from models import Registry
+from service import limits, logs, openapi, problems, security, ui
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
 from service.guards import BodyGuard, RequestGuard
@@ -21,6 +22,7 @@ from service.jobs import JobRunner, Requeuing, WorkerContext
 from service.metrics import Metrics
 from service.model_cache import ModelCache
 from service.persistence import Database
+from service.registry import build_registry, native_functions
 from service.routes import (
     audit,
     calibrations,
@@ -129,26 +131,22 @@ class Observe:
             logs.request_id.reset(token)
 
 
-def make_runner(settings: Settings, db: Database, models: ModelCache) -> Requeuing:
+def make_runner(settings: Settings, db: Database, models: ModelCache, registry: Registry) -> Requeuing:
     """Celery when a broker is configured, else the embedded pool (nothing else to install or run)."""
+    context = WorkerContext(
+        db, models, registry, lease=settings.job_lease_seconds, max_attempts=settings.job_max_attempts
+    )
     if settings.broker_url:
         from service.jobs.engine import CeleryRunner  # Celery loads only when configured
 
-        context = WorkerContext(db, models, lease=settings.job_lease_seconds, max_attempts=settings.job_max_attempts)
         return CeleryRunner(context, settings)
-    runner = JobRunner(
-        db,
-        models,
-        settings.job_workers,
-        lease=settings.job_lease_seconds,
-        max_attempts=settings.job_max_attempts,
-        warm=settings.warm_up,  # each pool process builds its runtime once, like the API (0.5 s here)
-    )
-    runner.queue_limit, runner.retry_after = settings.job_queue_limit, settings.job_retry_after
-    return runner
+    # Each pool process builds its own registry from the settings (service.registry), like the API.
+    return JobRunner(context, settings)
 
 
-def create_app(settings: Settings | None = None) -> FastAPI:
+def create_app(settings: Settings | None = None, *, registry: Registry | None = None) -> FastAPI:
+    """The application; it builds its own robot runtimes at start-up (`service.registry.build_registry`)
+    unless given `registry` (tests share one across apps; whoever passes it has warmed it as they need)."""
     settings = settings or get_settings()
     logs.configure(settings.log_level)
 
@@ -156,12 +154,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         db = Database(settings.database_url)
         await anyio.to_thread.run_sync(db.migrate)
+        runtimes = registry if registry is not None else await anyio.to_thread.run_sync(build_registry, settings)
         if settings.warm_up:
-            await anyio.to_thread.run_sync(warmup.warm_up)
-            app.state.metrics.native.set(1.0 if warmup.native_functions() else 0.0)
+            app.state.metrics.native.set(1.0 if native_functions(runtimes) else 0.0)
         models = ModelCache(db)
-        runner = make_runner(settings, db, models)
-        app.state.db, app.state.models, app.state.jobs = db, models, runner
+        runner = make_runner(settings, db, models, runtimes)
+        app.state.db, app.state.models, app.state.registry, app.state.jobs = db, models, runtimes, runner
         # No sweep of running jobs: those of a stopped process come back when their leases expire.
         resubmitted = runner.recover()
         log.info("ready", extra={"path": settings.database_url.split("@")[-1]})

@@ -6,11 +6,12 @@ The dependencies are `async def` on purpose: a plain `def` dependency costs a th
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from typing import Annotated, TypeVar
 
-from fastapi import Depends, Request
+from fastapi import Depends, Query, Request
 
+from models import Registry
 from service import limits, logs, security
 from service.errors import NotAcceptable
 from service.jobs import Requeuing
@@ -22,24 +23,17 @@ from service.persistence.lifecycle import Actor
 T = TypeVar("T")
 
 
-async def database(request: Request) -> Database:
-    db: Database = request.app.state.db
-    return db
+def _state(attribute: str, kind: type[T]) -> Callable[[Request], Awaitable[T]]:
+    """The dependency that reads what the application's lifespan left on `app.state` as `attribute`."""
 
+    async def dependency(request: Request) -> T:
+        value = getattr(request.app.state, attribute)
+        if not isinstance(value, kind):  # a lifespan that left something else is a bug, not a bad request
+            raise TypeError(f"app.state.{attribute} is a {type(value).__name__}, not a {kind.__name__}")
+        return value
 
-async def metrics(request: Request) -> Metrics:
-    m: Metrics = request.app.state.metrics
-    return m
-
-
-async def model_cache(request: Request) -> ModelCache:
-    cache: ModelCache = request.app.state.models
-    return cache
-
-
-async def jobs(request: Request) -> Requeuing:
-    runner: Requeuing = request.app.state.jobs
-    return runner
+    dependency.__name__ = attribute
+    return dependency
 
 
 async def require_api_key(request: Request) -> None:
@@ -56,11 +50,17 @@ async def actor(request: Request) -> Actor:
     return Actor(name=None if name is None else str(name)[:100], request_id=logs.request_id.get())
 
 
-DatabaseDep = Annotated[Database, Depends(database)]
-MetricsDep = Annotated[Metrics, Depends(metrics)]
-ModelCacheDep = Annotated[ModelCache, Depends(model_cache)]
-JobsDep = Annotated[Requeuing, Depends(jobs)]
+DatabaseDep = Annotated[Database, Depends(_state("db", Database))]
+MetricsDep = Annotated[Metrics, Depends(_state("metrics", Metrics))]
+ModelCacheDep = Annotated[ModelCache, Depends(_state("models", ModelCache))]
+RegistryDep = Annotated[Registry, Depends(_state("registry", Registry))]
+"""The application's robot runtimes (made by its lifespan: `service.registry.build_registry`)."""
+JobsDep = Annotated[Requeuing, Depends(_state("jobs", Requeuing))]
 ApiKeyDep = Depends(require_api_key)
+Limit = Annotated[int, Query(ge=1, le=1000)]
+"""A page's size (`?limit=`, default 100 where the route says so)."""
+Offset = Annotated[int, Query(ge=0, le=1_000_000_000)]
+"""How many items a page skips (`?offset=`): bounded, so the database never sees an integer it cannot hold."""
 ActorDep = Annotated[Actor, Depends(actor)]
 
 

@@ -18,6 +18,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from models import errors as domain
 from service import errors as service
+from service.schemas.structure import STAGE_KINDS
 
 PROBLEM_JSON = "application/problem+json"
 TYPE_BASE = "https://iwr-calibration.example/problems/"
@@ -85,6 +86,30 @@ def lookup(exc: BaseException) -> tuple[int, str, str]:
     return INTERNAL
 
 
+UNION_TAG_ERRORS = ("union_tag_invalid", "union_tag_not_found")
+"""Pydantic places a wrong or missing discriminator at the union's location; the field at fault is the tag."""
+
+
+def field_name(loc: list[Any], error_type: str = "") -> str:
+    """A validation error's location as the specs name fields: `measurements[4].temperature_c` in a body, and in
+    a robot's description document the document's own path (`stages[0].links[0].joint`, as robots.md and the
+    rules of `models.structure` name it), without pydantic's `body` prefix or the stage's union tag."""
+    parts = list(loc[1:] if loc[:1] == ["body"] else loc)
+    if parts[:1] == ["structure"] and len(parts) > 1:
+        parts = parts[1:]
+    out = ""
+    for k, part in enumerate(parts):
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif k > 0 and isinstance(parts[k - 1], int) and part in STAGE_KINDS and parts[:1] == ["stages"]:
+            continue
+        else:
+            out += f".{part}" if out else str(part)
+    if error_type in UNION_TAG_ERRORS and parts[:1] == ["stages"]:
+        out += ".kind"
+    return out
+
+
 def to_problem(exc: BaseException) -> dict[str, Any]:
     """The RFC 9457 body for any exception: type, title, status, detail, then the error's own data."""
     status, slug, title = lookup(exc)
@@ -94,11 +119,14 @@ def to_problem(exc: BaseException) -> dict[str, Any]:
         shown = found[:MAX_ERRORS]  # the first ones and how many in all: 1.3 million once made 86 MB
         locs = [list(e.get("loc", ())) for e in shown]
         msgs = [str(e.get("msg", "")) for e in shown]
+        kinds = [str(e.get("type", "")) for e in shown]
         extra["error_count"] = len(found)
+        if locs:
+            extra["field"] = field_name(locs[0], kinds[0])
         where = ".".join(str(p) for p in locs[0]) if locs else ""
         msg = msgs[0] if msgs else "invalid request"
         detail = f"{where}: {msg}" if where else msg
-        extra["errors"] = [{"loc": loc, "msg": m} for loc, m in zip(locs, msgs, strict=True)]
+        extra["errors"] = [{"loc": loc, "field": field_name(loc), "msg": m} for loc, m in zip(locs, msgs, strict=True)]
     elif isinstance(exc, StarletteHTTPException):
         detail = str(exc.detail)
     elif isinstance(exc, domain.CalibrationError | service.ServiceError):

@@ -3,9 +3,10 @@ reaches the database and the broker (`DATABASE_URL`, `IWR_BROKER_URL`; the other
 
 It wraps `celery worker`: prefork pool of `IWR_WORKER_CONCURRENCY` processes (default 1: run more workers
 rather than more processes per worker, `docker compose up --scale worker=N`), one message prefetched per
-process. Each process builds its engine, model cache and robot runtimes once (`start_worker`) and exits when
-the worker's main process is gone. SIGTERM drains (Celery's warm shutdown): no new job is taken, the running
-one finishes; a second SIGTERM, or SIGKILL, stops at once, and the job's lease then expires into a requeue.
+process. Each process builds its engine, model cache and registry of robot runtimes once (`start_worker`,
+`service.registry.build_registry`) and exits when the worker's main process is gone. SIGTERM drains (Celery's
+warm shutdown): no new job is taken, the running one finishes; a second SIGTERM, or SIGKILL, stops at once, and
+the job's lease then expires into a requeue.
 """
 
 from __future__ import annotations
@@ -41,13 +42,7 @@ def main(argv: list[str] | None = None) -> None:
     main_pid = os.getpid()
 
     def init_process(**_: Any) -> None:
-        start_worker(
-            settings.database_url,
-            settings.job_lease_seconds,
-            settings.job_max_attempts,
-            parent=main_pid,
-            warm=settings.warm_up,
-        )
+        start_worker(settings, parent=main_pid)
 
     worker_process_init.connect(init_process, weak=False)
     app.worker_main(

@@ -4,11 +4,51 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from models import RobotDescription, iwr
+from models import Registry, RobotDescription, default_registry, iwr
+
+SLOW_MODULES = frozenset(
+    {
+        "tests/optimal_design/test_acceptance.py",
+        "tests/service/test_concurrency.py",
+        "tests/service/test_contract_fuzz.py",
+        "tests/service/test_example.py",
+        "tests/service/test_generated_client.py",
+        "tests/service/test_load_hardening.py",
+        "tests/ui/test_docs.py",
+        "tests/ui/test_pages.py",
+    }
+)
+"""Modules whose every test is `slow` (their `pytestmark`): under `-m "not slow"` they are not even imported,
+which saves `make test-fast` their collection (the fuzz module alone generates its schemathesis cases and
+creates a PostgreSQL database at import: ~8 s here)."""
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
+    if config.getoption("markexpr") == "not slow" and _relative(collection_path) in SLOW_MODULES:
+        return True
+    return None
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """A module listed in SLOW_MODULES with a test that is not slow would silently drop out of test-fast."""
+    fast = {_relative(item.path) for item in items if item.get_closest_marker("slow") is None}
+    listed = sorted(fast & SLOW_MODULES)
+    assert not listed, f"these modules have tests not marked slow; mark them or unlist the modules: {listed}"
+
+
+def _relative(path: Path) -> str:
+    try:
+        return path.resolve().relative_to(ROOT).as_posix()
+    except ValueError:
+        return str(path)
+
 
 SCRUBBED = ("DATABASE_URL", "CC")
 """Besides every IWR_* variable: the service's database and the compiler of the native Functions."""
@@ -40,6 +80,16 @@ def _clean_environment(monkeypatch: pytest.MonkeyPatch) -> None:
 @pytest.fixture(scope="session")
 def desc() -> RobotDescription:
     return iwr()
+
+
+@pytest.fixture(scope="session")
+def registry() -> Registry:
+    """The session's robot runtimes, given to every app, job context and service call of the tests (a
+    structure's artefacts are built once per session, not once per app). It is the library's default registry,
+    so what the models tests built (they call without `runtime=`) serves the service tests too; a test that
+    counts builds makes its own, and tests/service/test_registry.py checks that the service never falls back
+    to the default by itself."""
+    return default_registry()
 
 
 @pytest.fixture

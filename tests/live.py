@@ -21,6 +21,21 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def wait_ready(base: str, process: subprocess.Popen[bytes], timeout_s: float) -> bool:
+    """Poll `base`/readyz until it answers 200 (True), or the process exits or `timeout_s` passes (False)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            with urllib.request.urlopen(base + "/readyz", timeout=1) as r:
+                if r.status == 200:
+                    return True
+        except OSError:
+            pass
+        if process.poll() is not None or time.monotonic() > deadline:
+            return False
+        time.sleep(0.2)
+
+
 @contextmanager
 def running_server(database_url: str, *, timeout_s: float = 90.0, **env: str) -> Iterator[str]:
     """Yields the base URL once /readyz answers; stops the server afterwards."""
@@ -35,17 +50,8 @@ def running_server(database_url: str, *, timeout_s: float = 90.0, **env: str) ->
     )
     url = f"http://127.0.0.1:{port}"
     try:
-        deadline = time.monotonic() + timeout_s
-        while True:
-            try:
-                with urllib.request.urlopen(url + "/readyz", timeout=1) as r:
-                    if r.status == 200:
-                        break
-            except OSError:
-                pass
-            if process.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError(f"the service did not start (exit code {process.poll()})")
-            time.sleep(0.2)
+        if not wait_ready(url, process, timeout_s):
+            raise RuntimeError(f"the service did not start (exit code {process.poll()})")
         yield url
     finally:
         process.terminate()

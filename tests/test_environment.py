@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -15,6 +17,7 @@ def test_no_shell_variables_reach_a_test() -> None:
     assert not leaked
 
 
+@pytest.mark.slow  # a second pytest in a subprocess: ~5 s here
 def test_variables_set_in_the_shell_are_scrubbed() -> None:
     """The check above, in a pytest started from a shell that sets them all."""
     shell = {"IWR_NATIVE": "0", "IWR_API_KEY": "secret", "DATABASE_URL": "sqlite:////nowhere/x.db", "CC": "false"}

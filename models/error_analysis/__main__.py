@@ -18,6 +18,7 @@ from models.error_analysis.report import summary
 from models.error_analysis.study import DISTRIBUTIONS, error_analysis
 from models.errors import CalibrationError
 from models.iwr import iwr
+from models.runtime import Registry
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -50,8 +51,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             dh_angle_deg=args.dh_angle_deg,
             dh_length_mm=args.dh_length_mm,
         )
+        desc = iwr()
         result = error_analysis(
-            iwr(),
+            desc,
+            runtime=Registry().runtime(desc),  # the command's own: it builds what it uses, nothing shared
             n_poses=args.poses,
             n_draws=args.draws,
             tolerances=tolerances,

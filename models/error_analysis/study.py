@@ -37,7 +37,7 @@ from models.error_analysis.statistics import Array
 from models.errors import InvalidInput, NonFiniteValue, UnreachablePose, WrongShape
 from models.kinematics import ForwardResult, as_joint_array, forward_kinematics
 from models.robot import RobotDescription
-from models.runtime import runtime_for
+from models.runtime import Runtime, runtime_for
 from models.transforms import matrix_to_rotvec_np
 from models.workspace import sample_workspace
 
@@ -62,13 +62,16 @@ class _Nominal:
     jacobians: Array
     carriage_frames: Array
     """(N, 4, 4) world <- carriage end frame {n}: the hexapod's base plate."""
+    runtime: Runtime
+    """The structure's runtime, which every perturbed evaluation of the study uses."""
 
 
-def _nominal(desc: RobotDescription, joints: Array) -> _Nominal:
+def _nominal(desc: RobotDescription, joints: Array, runtime: Runtime | None = None) -> _Nominal:
     theta0 = desc.parameters.nominal
-    fk = forward_kinematics(desc, joints, theta0, jacobian=True)
-    (frames,) = runtime_for(desc).kinematics.batch("carriage_fk", joints[:, : desc.n_chain], theta0)
-    return _Nominal(joints, fk.positions, fk.rotations, fk.platforms, fk.jacobians, frames)
+    rt = runtime_for(desc, runtime)
+    fk = forward_kinematics(desc, joints, theta0, jacobian=True, runtime=rt)
+    (frames,) = rt.kinematics.batch("carriage_fk", joints[:, : desc.n_chain], theta0)
+    return _Nominal(joints, fk.positions, fk.rotations, fk.platforms, fk.jacobians, frames, rt)
 
 
 def _pose_difference(positions: Array, rotations: Array, ref_positions: Array, ref_rotations: Array) -> Array:
@@ -85,7 +88,9 @@ def _perturbed_fk(
     rows = slice(None) if pose is None else slice(pose, pose + 1)
     try:
         # Seeded at the nominal platform poses: a few Newton steps, and the same assembly branch for sure.
-        return forward_kinematics(desc, nominal.joints[rows], params, seeds=nominal.platforms[rows])
+        return forward_kinematics(
+            desc, nominal.joints[rows], params, seeds=nominal.platforms[rows], runtime=nominal.runtime
+        )
     except UnreachablePose as exc:
         where = exc.data.get("pose", 0) if pose is None else pose
         raise UnreachablePose(
@@ -116,7 +121,7 @@ def _carriage_frame_errors(desc: RobotDescription, nominal: _Nominal, deltas: Ar
     and the TCP move as one rigid body, so they share the rotation error dω and
     dp_frame = dp_tcp − dω × (p_tcp − p_frame).
     """
-    fns = runtime_for(desc).kinematics
+    fns = nominal.runtime.kinematics
     theta0 = desc.parameters.nominal
     q_chain = nominal.joints[:, : desc.n_chain]
     ref = nominal.carriage_frames
@@ -242,6 +247,7 @@ def error_analysis(
     tolerances: ErrorMagnitudes = ErrorMagnitudes(),
     distribution: str = "sign",
     seed: int = 0,
+    runtime: Runtime | None = None,
 ) -> ErrorAnalysisResult:
     """The tolerance study: n_poses random workspace poses × n_draws error draws, three cases, two models.
 
@@ -264,9 +270,10 @@ def error_analysis(
         raise InvalidInput(f"seed = {seed!r} must be a whole number >= 0", field="seed", value=str(seed))
 
     started = time.perf_counter()
-    joints = sample_workspace(desc, n_poses, int(seed))
+    rt = runtime_for(desc, runtime)
+    joints = sample_workspace(desc, n_poses, int(seed), runtime=rt)
     assert isinstance(joints, np.ndarray)
-    nominal = _nominal(desc, joints)
+    nominal = _nominal(desc, joints, rt)
     deltas = draw_errors(desc, n_draws, tolerances, distribution, np.random.default_rng((int(seed), _DRAW_STREAM)))
     masks = {sub: subsystem_mask(desc, sub) for sub in SUBSYSTEMS}
     tol = tolerances.vector(desc)

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import functools
-import json
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from models import RobotDescription, iwr
-from models._types import Pose6
+from models._types import Array, Pose6
 from models.errors import InvalidInput
 from models.structure import description_document, description_from_document
 from models.urdf import document_from_urdf
@@ -18,6 +16,7 @@ from service.conversions.kinematics import pose6_in, pose6_out
 from service.persistence.tables import ParameterVersion, Robot
 from service.schemas.common import Pose
 from service.schemas.robots import ParametersPublic, RobotCreate, RobotPublic
+from service.schemas.structure import StructureDocument
 
 
 def _pose6(values: Sequence[float]) -> Pose6:
@@ -28,14 +27,11 @@ def _pose6(values: Sequence[float]) -> Pose6:
 def description(robot: Robot) -> RobotDescription:
     if robot.structure is None:
         return iwr(_pose6(robot.base), _pose6(robot.tool))
-    return _custom(json.dumps(robot.structure, sort_keys=True), _pose6(robot.base), _pose6(robot.tool))
-
-
-# Immutable values keyed by the stored document: validating and deriving a description costs ~1 ms, a
-# single-pose request's budget. Bounded like `models.iwr`.
-@functools.lru_cache(maxsize=256)
-def _custom(document: str, base: Pose6, tool: Pose6) -> RobotDescription:
-    return description_from_document(json.loads(document), name="custom").with_base_tool(base, tool)
+    # Validating and deriving a description costs ~1 ms: the hot paths (kinematics, designs) read it from the
+    # app's `ModelCache`, which keeps it per (robot, version); the others (a calibration, a robot's page) pay it.
+    return description_from_document(robot.structure, name="custom").with_base_tool(
+        _pose6(robot.base), _pose6(robot.tool)
+    )
 
 
 def new_description(body: RobotCreate) -> tuple[RobotDescription, dict[str, Any] | None]:
@@ -52,7 +48,7 @@ def new_description(body: RobotCreate) -> tuple[RobotDescription, dict[str, Any]
         assert body.base_link is not None and body.tip_link is not None
         document: dict[str, Any] | None = document_from_urdf(body.urdf, body.base_link, body.tip_link)
     elif body.structure is not None:
-        document = body.structure
+        document = body.structure.model_dump()  # the JSON shape models.structure reads (absent keys left out)
     elif body.model == "custom":
         raise InvalidInput("a custom robot needs a structure or a urdf", field="structure")
     else:
@@ -68,6 +64,11 @@ def frame_in(pose: Pose | None, what: str) -> Pose6:
     return pose6_in(pose.position, pose.orientation, what) if pose is not None else pose6_in(None, None, what)
 
 
+def structure_out(desc: RobotDescription, params: Array | None = None) -> StructureDocument:
+    """The robots.md document of `desc` with the values of `params` (default nominal), typed."""
+    return StructureDocument.model_validate(description_document(desc, params))
+
+
 def robot_out(robot: Robot) -> RobotPublic:
     desc = description(robot)
     return RobotPublic(
@@ -80,7 +81,7 @@ def robot_out(robot: Robot) -> RobotPublic:
         tool=pose6_out(robot.tool),
         notes=robot.notes,
         revision=robot.revision or 1,
-        structure=description_document(desc),
+        structure=structure_out(desc),
         joint_names=list(desc.joint_names),
         joint_units=["mm" if k.boundary_unit == "mm" else "deg" for k in desc.joint_kinds],
         parameter_count=desc.n_params,

@@ -25,12 +25,14 @@ from typing import Any
 
 from sqlalchemy.orm import Session
 
-from service import warmup
+from models import Registry
 from service.model_cache import ModelCache
 from service.persistence import Database
 from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed
 from service.problems import lookup, to_problem
+from service.registry import build_registry, native_functions
 from service.services.jobs import run_job
+from service.settings import Settings
 
 log = logging.getLogger("service.jobs")
 
@@ -45,10 +47,12 @@ class Cancelled(Exception):
 
 @dataclass(frozen=True)
 class WorkerContext:
-    """What one process needs to run jobs, created once: its engine, its model cache, the lease policy."""
+    """What one process needs to run jobs, created once: its engine, its model cache, its robot runtimes, the
+    lease policy."""
 
     db: Database
     models: ModelCache
+    registry: Registry
     lease: float = 10.0
     max_attempts: int = 3
 
@@ -145,7 +149,13 @@ def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
     with Lease(ctx, claim.job_id, worker) as lease:
         try:
             run_job(
-                db=db, models=ctx.models, kind=claim.kind, robot_id=claim.robot_id, request=claim.request, job=lease
+                db=db,
+                models=ctx.models,
+                registry=ctx.registry,
+                kind=claim.kind,
+                robot_id=claim.robot_id,
+                request=claim.request,
+                job=lease,
             )
             status = "succeeded"
         except LeaseLost:
@@ -176,26 +186,27 @@ _worker: WorkerContext | None = None
 """Set once per worker process by `start_worker`; never in the API's process."""
 
 
-def start_worker(
-    database_url: str, lease: float, max_attempts: int, parent: int | None = None, warm: bool = True
-) -> WorkerContext:
-    """A worker process's initializer: one engine, one model cache and (with `warm`) every robot runtime built
-    once, kept for its lifetime. With `parent`, the process exits as soon as that process is gone, so a pool
-    never outlives its server (a server killed with -9 cannot stop its pool itself)."""
+def start_worker(settings: Settings, parent: int | None = None) -> WorkerContext:
+    """A worker process's initializer: one engine, one model cache and one registry of robot runtimes
+    (`build_registry`: with `settings.warm_up`, every runtime built now), kept for its lifetime. With `parent`,
+    the process exits as soon as that process is gone, so a pool never outlives its server (a server killed
+    with -9 cannot stop its pool itself)."""
     global _worker  # noqa: PLW0603  (an initializer can leave its state only in the worker's module)
     if parent is not None:
         threading.Thread(target=_exit_with, args=(parent,), name="parent-watch", daemon=True).start()
-    if warm:
-        started = time.perf_counter()
-        warmup.warm_up()
+    started = time.perf_counter()
+    registry = build_registry(settings)
+    if settings.warm_up:
         log.info(
             "worker %s: runtime built in %.2f s, %s",
             os.getpid(),
             time.perf_counter() - started,
-            "compiled Functions" if warmup.native_functions() else "CasADi VM (no compiled library)",
+            "compiled Functions" if native_functions(registry) else "CasADi VM (no compiled library)",
         )
-    db = Database(database_url)
-    _worker = WorkerContext(db, ModelCache(db), lease=lease, max_attempts=max_attempts)
+    db = Database(settings.database_url)
+    _worker = WorkerContext(
+        db, ModelCache(db), registry, lease=settings.job_lease_seconds, max_attempts=settings.job_max_attempts
+    )
     return _worker
 
 
@@ -251,27 +262,21 @@ class JobRunner(Requeuing):
     """The embedded engine: a pool of `workers` spawned processes (0: one thread of this process), fed from
     this process, plus the requeue of expired leases. The default when no broker is configured."""
 
-    def __init__(
-        self,
-        db: Database,
-        models: ModelCache,
-        workers: int,
-        *,
-        lease: float = 10.0,
-        max_attempts: int = 3,
-        warm: bool = False,
-    ) -> None:
-        super().__init__(WorkerContext(db, models, lease=lease, max_attempts=max_attempts))
+    def __init__(self, context: WorkerContext, settings: Settings) -> None:
+        super().__init__(context)
+        workers = settings.job_workers
         self.executor: Executor = (
             ProcessPoolExecutor(
                 max_workers=workers,
                 mp_context=multiprocessing.get_context("spawn"),
                 initializer=start_worker,
-                initargs=(db.url, lease, max_attempts, os.getpid(), warm),
+                # Each pool process builds its own registry (with warm_up: 0.5 s here); the API's is not shared.
+                initargs=(settings.model_copy(update={"database_url": context.db.url}), os.getpid()),
             )
             if workers > 0
             else ThreadPoolExecutor(max_workers=1)
         )
+        self.queue_limit, self.retry_after = settings.job_queue_limit, settings.job_retry_after
         self.futures: set[Future[Outcome]] = set()
         self.start()
 

@@ -5,7 +5,7 @@ from datetime import datetime
 from fastapi import APIRouter, Query, Response
 from pydantic import TypeAdapter
 
-from service.deps import DatabaseDep
+from service.deps import DatabaseDep, Limit, Offset
 from service.responses import models_json
 from service.schemas.audit import Action, AuditEventPublic
 from service.services import audit
@@ -22,8 +22,8 @@ def list_audit(
     action: Action | None = Query(None),
     since: datetime | None = Query(None, description="From this time on (inclusive), RFC 3339"),
     until: datetime | None = Query(None, description="Before this time (exclusive), RFC 3339"),
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> Response:
     """Oldest first: robots created, changed and deleted, and every change of a robot's current version."""
     events = audit.list_events(

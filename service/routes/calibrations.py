@@ -11,7 +11,7 @@ from python_multipart.exceptions import MultipartParseError
 from service import limits
 from service.campaign_io import ImportOptions, QuaternionOrder
 from service.csv_codec import CAMPAIGN_HEADER, joined_campaign, parse_campaign
-from service.deps import ActorDep, DatabaseDep, JobsDep, MetricsDep, compute, negotiate
+from service.deps import ActorDep, DatabaseDep, JobsDep, Limit, MetricsDep, Offset, RegistryDep, compute, negotiate
 from service.errors import BadRequest, UnsupportedMediaType
 from service.responses import model_json
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
@@ -148,6 +148,7 @@ async def create_calibration(
     jobs: JobsDep,
     m: MetricsDep,
     *,
+    registry: RegistryDep,
     actor: ActorDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
     apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
@@ -172,7 +173,9 @@ async def create_calibration(
         accepted = submit_job(db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body, actor=actor)
         return model_json(accepted, status_code=202)
     return await compute(
-        m, "identification", lambda: calibrations.calibrate(db=db, robot_id=robot_id, body=body, actor=actor)
+        m,
+        "identification",
+        lambda: calibrations.calibrate(db=db, registry=registry, robot_id=robot_id, body=body, actor=actor),
     )
 
 
@@ -180,8 +183,8 @@ async def create_calibration(
 def list_calibrations(
     robot_id: str,
     db: DatabaseDep,
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> list[dict[str, Any]]:
     return calibrations.list_calibrations(db=db, robot_id=robot_id, limit=limit, offset=offset)
 

@@ -7,7 +7,7 @@ from pydantic import TypeAdapter
 
 from service import limits
 from service.csv_codec import joints_csv
-from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, compute, wants_csv
+from service.deps import DatabaseDep, JobsDep, Limit, MetricsDep, ModelCacheDep, Offset, RegistryDep, compute, wants_csv
 from service.model_cache import ModelCache
 from service.responses import model_json, models_json
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
@@ -49,6 +49,7 @@ async def create_design(
     request: Request,
     db: DatabaseDep,
     models: ModelCacheDep,
+    registry: RegistryDep,
     jobs: JobsDep,
     m: MetricsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
@@ -65,7 +66,9 @@ async def create_design(
         accepted = submit_job(db=db, jobs=jobs, kind="pose_design", robot_id=robot_id, body=body)
         return model_json(accepted, status_code=202)
     design = await compute(
-        m, "pose_design", lambda: designs.create_design(db=db, models=models, robot_id=robot_id, body=body)
+        m,
+        "pose_design",
+        lambda: designs.create_design(db=db, models=models, registry=registry, robot_id=robot_id, body=body),
     )
     return _answer(request, design, 201, models)
 
@@ -79,8 +82,8 @@ def get_design(design_id: str, request: Request, db: DatabaseDep, models: ModelC
 def list_designs(
     robot_id: str,
     db: DatabaseDep,
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> Response:
     """The robot's stored designs, oldest first (criterion, count, value); each one's poses by its id."""
     return models_json(designs.list_designs(db=db, robot_id=robot_id, limit=limit, offset=offset), _SUMMARIES)

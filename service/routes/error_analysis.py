@@ -2,7 +2,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Response
 
-from service.deps import MetricsDep, ModelCacheDep, compute
+from service.deps import MetricsDep, ModelCacheDep, RegistryDep, compute
 from service.responses import model_json
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
 from service.services import error_analysis
@@ -15,6 +15,10 @@ router = APIRouter(tags=["error analysis"])
     response_model=ErrorAnalysisPublic,
     responses={404: {"description": "No robot has the body's robot_id"}},
 )
-async def run_error_analysis(body: ErrorAnalysisRequest, m: MetricsDep, models: ModelCacheDep) -> Response:
+async def run_error_analysis(
+    body: ErrorAnalysisRequest, registry: RegistryDep, m: MetricsDep, models: ModelCacheDep
+) -> Response:
     """The tolerance study on the IWR, or on the robot `robot_id` names (any structure)."""
-    return model_json(await compute(m, "error_analysis", lambda: error_analysis.analyse(body=body, models=models)))
+    return model_json(
+        await compute(m, "error_analysis", lambda: error_analysis.analyse(registry=registry, body=body, models=models))
+    )

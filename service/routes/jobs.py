@@ -3,7 +3,7 @@ from __future__ import annotations
 from fastapi import APIRouter, Query, Response
 from pydantic import TypeAdapter
 
-from service.deps import DatabaseDep
+from service.deps import DatabaseDep, Limit, Offset
 from service.responses import model_json, models_json
 from service.schemas.jobs import JobKind, JobPublic, JobStatus
 from service.services import jobs
@@ -19,8 +19,8 @@ def list_jobs(
     status: JobStatus | None = Query(None),
     kind: JobKind | None = Query(None),
     robot_id: str | None = Query(None, max_length=36),
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> Response:
     """Newest first; results are left out (`result: null`): GET the job for its result."""
     found = jobs.list_jobs(db=db, status=status, kind=kind, robot_id=robot_id, limit=limit, offset=offset)

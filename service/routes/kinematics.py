@@ -4,7 +4,7 @@ from fastapi import APIRouter, Request, Response
 
 from service import limits
 from service.csv_codec import joints_csv
-from service.deps import MetricsDep, ModelCacheDep, compute, wants_csv
+from service.deps import MetricsDep, ModelCacheDep, RegistryDep, compute, wants_csv
 from service.responses import model_json
 from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
 from service.services import kinematics
@@ -18,9 +18,11 @@ and the GIL hand-over it implies, would cost more than the work."""
 
 
 @router.post("/forward-kinematics", response_model=ForwardResponse)
-async def forward(robot_id: str, body: ForwardRequest, models: ModelCacheDep, m: MetricsDep) -> Response:
+async def forward(
+    robot_id: str, body: ForwardRequest, models: ModelCacheDep, registry: RegistryDep, m: MetricsDep
+) -> Response:
     def run() -> ForwardResponse:
-        return kinematics.forward(models=models, robot_id=robot_id, body=body)
+        return kinematics.forward(models=models, registry=registry, robot_id=robot_id, body=body)
 
     if len(body.joints) <= INLINE_POSES:
         return model_json(run())
@@ -34,11 +36,19 @@ async def forward(robot_id: str, body: ForwardRequest, models: ModelCacheDep, m:
     responses={200: {"content": {"text/csv": {"schema": {"type": "string"}}}}},
 )
 async def inverse(
-    robot_id: str, body: InverseRequest, request: Request, models: ModelCacheDep, m: MetricsDep
+    robot_id: str,
+    *,
+    body: InverseRequest,
+    request: Request,
+    models: ModelCacheDep,
+    registry: RegistryDep,
+    m: MetricsDep,
 ) -> Response:
     limits.admit(limits.inverse_kinematics(len(body.targets)), run_async=False, can_run_async=False)
     out = await compute(
-        m, "inverse_kinematics", lambda: kinematics.inverse(models=models, robot_id=robot_id, body=body)
+        m,
+        "inverse_kinematics",
+        lambda: kinematics.inverse(models=models, registry=registry, robot_id=robot_id, body=body),
     )
     if wants_csv(request):
         names = models.current(robot_id)[0].joint_names

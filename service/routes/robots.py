@@ -3,13 +3,13 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Header, Query, Request, Response
-from fastapi.responses import JSONResponse
 from pydantic import TypeAdapter
 
-from service.deps import ActorDep, DatabaseDep, negotiate
+from service.deps import ActorDep, DatabaseDep, Limit, Offset, negotiate
 from service.parameters_csv import PARAMETER_HEADER, parameters_csv
 from service.responses import model_json, models_json
 from service.schemas.robots import MAX_VERSION, ParametersPublic, RobotCreate, RobotPatch, RobotPublic
+from service.schemas.structure import StructureDocument
 from service.services import robots
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
@@ -40,8 +40,8 @@ def create_robot(body: RobotCreate, db: DatabaseDep, actor: ActorDep) -> Respons
 @router.get("", response_model=list[RobotPublic])
 def list_robots(
     db: DatabaseDep,
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> Response:
     return models_json(robots.list_robots(db=db, limit=limit, offset=offset), _ROBOTS)
 
@@ -112,11 +112,11 @@ def get_parameters(
     return response
 
 
-@router.get("/{robot_id}/structure", response_model=dict[str, Any])
+@router.get("/{robot_id}/structure", response_model=StructureDocument)
 def get_structure(
     robot_id: str,
     db: DatabaseDep,
     version: int | None = Query(None, ge=1, le=2**31 - 1, description="A parameter version (default: current)"),
 ) -> Response:
     """The description document with the values of a parameter version; `POST /v1/robots` accepts it back."""
-    return JSONResponse(robots.get_structure(db=db, robot_id=robot_id, version=version))
+    return model_json(robots.get_structure(db=db, robot_id=robot_id, version=version))

@@ -1,9 +1,9 @@
 from __future__ import annotations
 
-from fastapi import APIRouter, Query, Response
+from fastapi import APIRouter, Response
 from pydantic import TypeAdapter
 
-from service.deps import DatabaseDep, MetricsDep, compute
+from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, compute
 from service.responses import model_json, models_json
 from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
 from service.services import validations
@@ -13,10 +13,14 @@ _VALIDATIONS = TypeAdapter(list[ValidationPublic])
 
 
 @router.post("/v1/robots/{robot_id}/validations", status_code=201, response_model=ValidationPublic)
-async def create_validation(robot_id: str, body: ValidationCreate, db: DatabaseDep, m: MetricsDep) -> Response:
+async def create_validation(
+    robot_id: str, body: ValidationCreate, db: DatabaseDep, registry: RegistryDep, m: MetricsDep
+) -> Response:
     """Measurements that are not fitted, against parameter versions: per-pose errors, RMS, max, percentiles, and
     ISO 9283 AP/RP (and AD/RD) where joint commands repeat."""
-    result = await compute(m, "validation", lambda: validations.validate(db=db, robot_id=robot_id, body=body))
+    result = await compute(
+        m, "validation", lambda: validations.validate(db=db, registry=registry, robot_id=robot_id, body=body)
+    )
     return model_json(result, status_code=201)
 
 
@@ -24,8 +28,8 @@ async def create_validation(robot_id: str, body: ValidationCreate, db: DatabaseD
 def list_validations(
     robot_id: str,
     db: DatabaseDep,
-    limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0, le=1_000_000_000),
+    limit: Limit = 100,
+    offset: Offset = 0,
 ) -> Response:
     return models_json(validations.list_validations(db=db, robot_id=robot_id, limit=limit, offset=offset), _VALIDATIONS)
 
@@ -36,9 +40,13 @@ def get_validation(validation_id: str, db: DatabaseDep) -> Response:
 
 
 @router.post("/v1/robots/{robot_id}/iso9283-poses", response_model=IsoPosesPublic)
-async def iso9283_poses(robot_id: str, db: DatabaseDep, m: MetricsDep, body: IsoPosesCreate | None = None) -> Response:
+async def iso9283_poses(
+    robot_id: str, db: DatabaseDep, registry: RegistryDep, m: MetricsDep, body: IsoPosesCreate | None = None
+) -> Response:
     """The ISO 9283 test cube inside the workspace (C1…C8, P1…P5) and the joint commands of P1…P5 from the
     chosen version (default: current). Measure P1…P5 in cycles and POST them as a validation."""
     chosen = body or IsoPosesCreate()
-    result = await compute(m, "iso9283", lambda: validations.iso_poses(db=db, robot_id=robot_id, body=chosen))
+    result = await compute(
+        m, "iso9283", lambda: validations.iso_poses(db=db, registry=registry, robot_id=robot_id, body=chosen)
+    )
     return model_json(result)

@@ -9,6 +9,10 @@ from service.schemas.common import Public
 
 class ValidationIssuePublic(Public):
     loc: list[str | int] = Field(description="Where: e.g. ['body', 'joints', 0]")
+    field: str = Field(
+        description="The same place as the specs name fields: `joints[0]`; in a robot's description document its "
+        "own path, `stages[0].links[0].joint`"
+    )
     msg: str
 
 

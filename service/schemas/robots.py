@@ -1,11 +1,12 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
 from pydantic import Field
 
 from service.schemas.common import OptionalFloat, Pose, PosePublic, Public, Strict
+from service.schemas.structure import StructureDocument
 
 MAX_VERSION = 2**31 - 1
 """Parameter versions are 32-bit integers in PostgreSQL (INTEGER); a larger `?version=` is a 422, not a 500."""
@@ -22,7 +23,7 @@ class RobotCreate(Strict):
     model: Literal["iwr", "custom"] = Field(
         default="iwr", description="'iwr' (built in), or 'custom' with `structure` or `urdf`"
     )
-    structure: dict[str, Any] | None = Field(
+    structure: StructureDocument | None = Field(
         default=None,
         description="A description document of shared/spec/robots.md (then `model` reads 'custom'). An addition "
         "to robots.md: a `dh` link whose alpha is 0 or ±180° may carry Hayati's `beta` (deg) as `mdh` links do, "
@@ -57,7 +58,7 @@ class RobotPublic(Public):
     tool: PosePublic
     notes: str | None = None
     revision: int = Field(description="Bumped by every change of the robot or its current version; the ETag")
-    structure: dict[str, Any] = Field(description="The robot's description document (shared/spec/robots.md)")
+    structure: StructureDocument = Field(description="The robot's description document (shared/spec/robots.md)")
     joint_names: list[str] = Field(description="The joint vector's order: q1 … q_m, then l1 … l6 for a hexapod")
     joint_units: list[Literal["mm", "deg"]]
     parameter_count: int

@@ -4,6 +4,7 @@ from typing import Any
 
 import numpy as np
 
+from models import Registry
 from models.errors import InvalidInput
 from models.identifiability import structural_identifiability
 from models.identification import IdentificationOptions, identify
@@ -29,6 +30,7 @@ from service.services.hooks import JobHooks
 def calibrate(
     *,
     db: Database,
+    registry: Registry,
     robot_id: str,
     body: CalibrationCreate,
     actor: Actor | None = None,
@@ -55,11 +57,12 @@ def calibrate(
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
     noise = noise_in(body)
-    result = identify(desc, campaign, noise=noise, nominal=start_values, options=options)
+    runtime = registry.runtime(desc)
+    result = identify(desc, campaign, noise=noise, nominal=start_values, options=options, runtime=runtime)
     candidates = desc.parameters.indices(options.estimate)
-    expected = structural_identifiability(desc, candidates, campaign.kind).rank
+    expected = structural_identifiability(desc, candidates, campaign.kind, runtime=runtime).rank
     everything = structural_identifiability(
-        desc, desc.parameters.indices(IdentificationOptions().estimate), campaign.kind
+        desc, desc.parameters.indices(IdentificationOptions().estimate), campaign.kind, runtime=runtime
     )
     partial = expected < everything.rank  # parameters held at the start version's (calibrated) values
     checks = acceptance_checks(

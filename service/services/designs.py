@@ -2,6 +2,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from models import Registry
 from models.errors import InvalidInput
 from optimal_design import design_for_target, design_poses
 from service.conversions.designs import constraints_in, design_public, report_out, target_report_out
@@ -14,13 +15,20 @@ from service.services.hooks import JobHooks
 
 
 def create_design(
-    *, db: Database, models: ModelCache, robot_id: str, body: PoseDesignCreate, job: JobHooks | None = None
+    *,
+    db: Database,
+    models: ModelCache,
+    registry: Registry,
+    robot_id: str,
+    body: PoseDesignCreate,
+    job: JobHooks | None = None,
 ) -> dict[str, Any]:
     """The new design as `PoseDesignPublic` JSON, designed with the robot's current parameters (and stored with
     the job's own `succeeded` when run as one)."""
     if job is not None:
         job.progress("reading", 0.0)
     desc, theta = models.current(robot_id)
+    runtime = registry.runtime(desc)
     if body.candidates is not None and not body.candidates:
         raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
     candidates = joints_in(desc, body.candidates) if body.candidates is not None else None
@@ -43,6 +51,7 @@ def create_design(
             joint_ranges=joint_ranges,
             keep_out=keep_out,
             min_spread=body.min_spread,
+            runtime=runtime,
         )
         report_model = target_report_out(desc, found, candidates_given=candidates is not None, criterion=body.criterion)
     else:
@@ -61,6 +70,7 @@ def create_design(
             keep_out=keep_out,
             min_spread=body.min_spread,
             d_efficiency_floor=body.d_efficiency_floor,
+            runtime=runtime,
         )
         report_model = report_out(desc, design, candidates_given=candidates is not None)
     report = report_model.model_dump(mode="json")

@@ -2,7 +2,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models import iwr
+from models import Registry, iwr
 from models.error_analysis import error_analysis
 from models.errors import InvalidInput
 from service.conversions.error_analysis import report_out, tolerances_in
@@ -10,7 +10,7 @@ from service.model_cache import ModelCache
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
 
 
-def analyse(*, body: ErrorAnalysisRequest, models: ModelCache) -> ErrorAnalysisPublic:
+def analyse(*, registry: Registry, body: ErrorAnalysisRequest, models: ModelCache) -> ErrorAnalysisPublic:
     """The thesis's tolerance study on a robot's nominal description (any structure; the IWR when the body names
     no robot); nothing is stored."""
     # The description's nominal geometry, not a calibrated version: tolerances are about how the robot is built.
@@ -23,6 +23,7 @@ def analyse(*, body: ErrorAnalysisRequest, models: ModelCache) -> ErrorAnalysisP
             tolerances=tolerances_in(body),
             distribution=body.distribution,
             seed=body.seed,
+            runtime=registry.runtime(desc),
         )
     except np.linalg.LinAlgError as exc:
         # Found by schemathesis (leg_offset_mm=89, "sign"): tolerances that large leave the perturbed hexapod's

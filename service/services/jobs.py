@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 from pydantic import BaseModel
 
+from models import Registry
 from service.conversions.calibrations import calibration_public
 from service.conversions.designs import design_public
 from service.conversions.jobs import accepted_out, job_out
@@ -81,18 +83,36 @@ def _submitter(request: dict[str, Any]) -> tuple[dict[str, Any], Actor | None]:
     return body, None if who is None else Actor(name=who.get("name"), request_id=who.get("request_id"))
 
 
-def _calibration(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any], job: JobHooks | None) -> str:
-    fields, actor = _submitter(request)
+@dataclass(frozen=True)
+class _Run:
+    """One delivery of a job to its use case: what the worker owns, and the stored request."""
+
+    db: Database
+    models: ModelCache
+    registry: Registry
+    robot_id: str
+    request: dict[str, Any]
+    job: JobHooks | None
+
+
+def _calibration(run: _Run) -> str:
+    fields, actor = _submitter(run.request)
     body = CalibrationCreate.model_validate(fields)
-    return str(calibrations.calibrate(db=db, robot_id=robot_id, body=body, actor=actor, job=job)["id"])
+    found = calibrations.calibrate(
+        db=run.db, registry=run.registry, robot_id=run.robot_id, body=body, actor=actor, job=run.job
+    )
+    return str(found["id"])
 
 
-def _design(db: Database, models: ModelCache, robot_id: str, request: dict[str, Any], job: JobHooks | None) -> str:
-    body = PoseDesignCreate.model_validate(_submitter(request)[0])
-    return str(designs.create_design(db=db, models=models, robot_id=robot_id, body=body, job=job)["id"])
+def _design(run: _Run) -> str:
+    body = PoseDesignCreate.model_validate(_submitter(run.request)[0])
+    found = designs.create_design(
+        db=run.db, models=run.models, registry=run.registry, robot_id=run.robot_id, body=body, job=run.job
+    )
+    return str(found["id"])
 
 
-RUNS: dict[str, Callable[[Database, ModelCache, str, dict[str, Any], JobHooks | None], str]] = {
+RUNS: dict[str, Callable[[_Run], str]] = {
     "calibration": _calibration,
     "pose_design": _design,
 }
@@ -100,11 +120,18 @@ RUNS: dict[str, Callable[[Database, ModelCache, str, dict[str, Any], JobHooks | 
 
 
 def run_job(
-    *, db: Database, models: ModelCache, kind: str, robot_id: str, request: dict[str, Any], job: JobHooks | None = None
+    *,
+    db: Database,
+    models: ModelCache,
+    registry: Registry,
+    kind: str,
+    robot_id: str,
+    request: dict[str, Any],
+    job: JobHooks | None = None,
 ) -> str:
     if kind not in RUNS:
         raise ValueError(f"no such job kind {kind!r}")
-    return RUNS[kind](db, models, robot_id, request, job)
+    return RUNS[kind](_Run(db, models, registry, robot_id, request, job))
 
 
 def _public(repo: Repository, job: Job, *, with_result: bool = True) -> JobPublic:

@@ -2,7 +2,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models import forward_kinematics
+from models import Registry, forward_kinematics
 from models.compensation import inverse_kinematics
 from models.identification.diagnosis import check_radians
 from service.conversions.kinematics import forward_out, inverse_out, joints_in, targets_in
@@ -10,19 +10,23 @@ from service.model_cache import ModelCache
 from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
 
 
-def forward(*, models: ModelCache, robot_id: str, body: ForwardRequest) -> ForwardResponse:
+def forward(*, models: ModelCache, registry: Registry, robot_id: str, body: ForwardRequest) -> ForwardResponse:
     desc, theta = models.current(robot_id)
     joints = joints_in(desc, body.joints)
     # The pre-fit check that applies to joints alone: radians sent where degrees are expected still lie inside a
     # wide range and give poses, just the wrong ones.
     radians = check_radians(desc, joints)
-    return forward_out(forward_kinematics(desc, joints, theta), [radians.message] if radians else [])
+    return forward_out(
+        forward_kinematics(desc, joints, theta, runtime=registry.runtime(desc)), [radians.message] if radians else []
+    )
 
 
-def inverse(*, models: ModelCache, robot_id: str, body: InverseRequest) -> InverseResponse:
+def inverse(*, models: ModelCache, registry: Registry, robot_id: str, body: InverseRequest) -> InverseResponse:
     positions, quats = targets_in(body.targets)
     weights = np.asarray(body.weights, dtype=float) if body.weights is not None else None
     desc, theta = models.current(robot_id)
     seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
-    answer = inverse_kinematics(desc, positions, quats, theta, seed=seed, weights=weights, follow=body.follow)
+    answer = inverse_kinematics(
+        desc, positions, quats, theta, seed=seed, weights=weights, follow=body.follow, runtime=registry.runtime(desc)
+    )
     return inverse_out(desc, answer)

@@ -1,16 +1,14 @@
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from models.structure import description_document
 from models.urdf import urdf_from_description
-from service.conversions.robots import description, frame_in, new_description, parameters_out, robot_out
+from service.conversions.robots import description, frame_in, new_description, parameters_out, robot_out, structure_out
 from service.errors import Conflict
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision, etag
 from service.schemas.robots import ParametersPublic, RobotCreate, RobotPatch, RobotPublic
+from service.schemas.structure import StructureDocument
 
 NO_ACTOR = Actor()
 
@@ -117,10 +115,10 @@ def get_parameters_urdf(*, db: Database, robot_id: str, version: int | None) -> 
     return urdf_from_description(desc, values, name="robot")
 
 
-def get_structure(*, db: Database, robot_id: str, version: int | None) -> dict[str, Any]:
+def get_structure(*, db: Database, robot_id: str, version: int | None) -> StructureDocument:
     """The robot's description document with the values of a parameter version (POST /v1/robots takes it)."""
     with db.reader() as s:
         repo = Repository(s)
         desc = description(repo.robot(robot_id))
         values = np.asarray(repo.version(robot_id, version).values, dtype=float)
-    return description_document(desc, values)
+    return structure_out(desc, values)

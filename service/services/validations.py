@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from models import Registry
 from models.accuracy import evaluate, iso_cube_poses
 from models.errors import InvalidInput
 from service.conversions.calibrations import records_in
@@ -30,7 +31,7 @@ def _checked_versions(repo: Repository, robot_id: str, wanted: list[int] | None)
     return list(wanted)
 
 
-def validate(*, db: Database, robot_id: str, body: ValidationCreate) -> ValidationPublic:
+def validate(*, db: Database, registry: Registry, robot_id: str, body: ValidationCreate) -> ValidationPublic:
     with db.reader() as s:
         repo = Repository(s)
         desc = description(repo.robot(robot_id))
@@ -39,10 +40,11 @@ def validate(*, db: Database, robot_id: str, body: ValidationCreate) -> Validati
     campaign = records_in(desc, body.measurements)
     if body.fit_frame and campaign.size < 3:
         raise InvalidInput("register: fitting the instrument frame needs at least 3 records", field="register")
+    runtime = registry.runtime(desc)
     results = [
-        version_result_out(desc, v, evaluate(desc, values[v], campaign, register=body.fit_frame)).model_dump(
-            mode="json"
-        )
+        version_result_out(
+            desc, v, evaluate(desc, values[v], campaign, register=body.fit_frame, runtime=runtime)
+        ).model_dump(mode="json")
         for v in versions
     ]
     document = {
@@ -70,7 +72,7 @@ def list_validations(*, db: Database, robot_id: str, limit: int, offset: int) ->
         return [validation_public(r) for r in Lifecycle(s).validations(robot_id, limit, offset)]
 
 
-def iso_poses(*, db: Database, robot_id: str, body: IsoPosesCreate) -> IsoPosesPublic:
+def iso_poses(*, db: Database, registry: Registry, robot_id: str, body: IsoPosesCreate) -> IsoPosesPublic:
     with db.reader() as s:
         repo = Repository(s)
         desc = description(repo.robot(robot_id))
@@ -81,4 +83,6 @@ def iso_poses(*, db: Database, robot_id: str, body: IsoPosesCreate) -> IsoPosesP
                 f"version {version} does not exist; robot {robot_id!r} has versions 1 to {latest}", field="version"
             )
         values = np.asarray(repo.version(robot_id, version).values, dtype=float)
-    return iso_poses_out(desc, robot_id, version, iso_cube_poses(desc, values, seed=body.seed))
+    return iso_poses_out(
+        desc, robot_id, version, iso_cube_poses(desc, values, seed=body.seed, runtime=registry.runtime(desc))
+    )

@@ -67,6 +67,7 @@ def test_keep_out_box_excludes_tcp_and_platform_centre(desc: RobotDescription) -
         design_poses(desc, 15, "D", candidates=joints, keep_out=(mid + half, mid - half))
 
 
+@pytest.mark.slow  # designs at several spreads: ~8 s here
 def test_min_spread_between_chosen_and_fixed_poses(desc: RobotDescription) -> None:
     joints = sample_workspace(desc, 200, seed=83)
     measured = sample_workspace(desc, 5, seed=84)
@@ -117,6 +118,7 @@ def test_bound_holds_under_constraints_by_brute_force(desc: RobotDescription, cr
     assert mine <= best + 1e-9 * max(1.0, abs(best))
 
 
+@pytest.mark.slow  # three condition designs with and without the floor: ~17 s here
 def test_d_efficiency_floor_for_the_condition_design(desc: RobotDescription) -> None:
     joints = sample_workspace(desc, 300, seed=86)
     plain = design_poses(desc, 20, "condition", candidates=joints)

@@ -32,6 +32,7 @@ def _first(scan: dict[int, float], goal: float) -> int:
     return min(k for k, v in scan.items() if v <= goal)
 
 
+@pytest.mark.slow  # a design per K of the scan: ~6 s here
 def test_smallest_count_matches_an_exhaustive_scan(desc: RobotDescription, joints: np.ndarray) -> None:
     scan = _scan(desc, joints, "predicted_rms_tcp_mm")
     values = sorted(scan.values())
@@ -50,6 +51,7 @@ def test_smallest_count_matches_an_exhaustive_scan(desc: RobotDescription, joint
             assert p["D_rms_tcp_mm"] > 0 and p["random_rms_tcp_mm"] > 0
 
 
+@pytest.mark.slow  # a design per K of the scan: ~9 s here
 def test_worst_pose_target_matches_a_scan(desc: RobotDescription, joints: np.ndarray) -> None:
     scan = _scan(desc, joints, "predicted_max_tcp_mm")
     goal = float(np.median(list(scan.values())))

@@ -10,12 +10,26 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
+from models import Registry
 from service.app import create_app
+from service.persistence import Database
 from service.settings import Settings
-from tests.service.contract_check import ContractClient
+from tests.service.contract_check import ContractClient, committed_contract
 
-SLOW_CONTRACT_CASES = ("test_api_contract[POST /v1/error-analysis]",)
-"""Contract cases that take long (see test_contract.py): `make test-fast` skips them."""
+SLOW_CONTRACT_CASES = tuple(
+    f"test_api_contract[{operation}]"
+    for operation in (
+        "POST /v1/error-analysis",  # up to 40 000 poses x draws an example: ~34 s
+        # 2-6 s each here: a calibration, a design or a robot of a generated structure per example
+        "POST /v1/robots",
+        "PATCH /v1/robots/{robot_id}",
+        "POST /v1/robots/{robot_id}/calibrations",
+        "POST /v1/robots/{robot_id}/pose-designs",
+        "POST /v1/robots/{robot_id}/validations",
+    )
+)
+"""Contract cases that take long (see test_contract.py): `make test-fast` skips them, `make test` runs them; the
+API tests of test-fast call each of these operations (against the same contract, `ContractClient`)."""
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -45,7 +59,9 @@ def postgres_url() -> Iterator[str]:
         admin.close()
 
 
-@pytest.fixture(params=["sqlite", "postgresql"])
+# The PostgreSQL variants are `slow`: each makes and migrates a database (1-2 s of set-up) for a test SQLite
+# already runs; `make test` runs both, `make test-fast` SQLite only.
+@pytest.fixture(params=["sqlite", pytest.param("postgresql", marks=pytest.mark.slow)])
 def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
     if request.param == "sqlite":
         yield f"sqlite:///{tmp_path}/iwr.db"
@@ -53,16 +69,27 @@ def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str
         yield from postgres_url()
 
 
-def make_client(url: str, **settings: object) -> ContractClient:
-    """Every response it receives is checked against the app's OpenAPI document (`contract_check`)."""
+@pytest.fixture
+def db(database_url: str) -> Iterator[Database]:
+    """A migrated database on SQLite (and on PostgreSQL in `make test`), for tests below the HTTP layer."""
+    database = Database(database_url)
+    database.migrate()
+    yield database
+    database.dispose()
+
+
+def make_client(url: str, registry: Registry | None = None, **settings: object) -> ContractClient:
+    """Every response it receives is checked against the committed OpenAPI document (`contract_check`). With
+    `registry` (the session's), the app uses it; without, it builds its own, empty (warm_up is off)."""
     options: dict[str, object] = {"database_url": url, "job_workers": 0, "warm_up": False, "log_level": "WARNING"}
     options.update(settings)
-    return ContractClient(create_app(Settings(**options)))  # type: ignore[arg-type]
+    app = create_app(Settings(**options), registry=registry)  # type: ignore[arg-type]
+    return ContractClient(app, committed_contract())
 
 
 @pytest.fixture
-def client(tmp_path: Path) -> Iterator[TestClient]:
-    with make_client(f"sqlite:///{tmp_path}/iwr.db") as c:
+def client(tmp_path: Path, registry: Registry) -> Iterator[TestClient]:
+    with make_client(f"sqlite:///{tmp_path}/iwr.db", registry) as c:
         yield c
     assert c.contract.checked > 0, "the test's responses went unchecked"
 

@@ -23,7 +23,7 @@ import pytest
 
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
-from tests.live import ROOT, free_port
+from tests.live import ROOT, free_port, wait_ready
 from tests.service.helpers import records
 
 RABBITMQ = os.environ.get("IWR_TEST_RABBITMQ", "amqp://guest:guest@127.0.0.1:5672//")
@@ -100,17 +100,8 @@ class Fleet:
         port = free_port()
         process = self._popen(name, ["-m", "service", "--host", "127.0.0.1", "--port", str(port)])
         base = f"http://127.0.0.1:{port}"
-        deadline = time.monotonic() + 120
-        while True:
-            try:
-                with urllib.request.urlopen(base + "/readyz", timeout=1) as r:
-                    if r.status == 200:
-                        break
-            except OSError:
-                pass
-            if process.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError(f"API {name} did not start: {(self.logs / f'{name}.log').read_text()[-3000:]}")
-            time.sleep(0.2)
+        if not wait_ready(base, process, 120):
+            raise RuntimeError(f"API {name} did not start: {(self.logs / f'{name}.log').read_text()[-3000:]}")
         self.apis[name] = (process, base)
         return base
 

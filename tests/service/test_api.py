@@ -12,7 +12,7 @@ from models import forward_kinematics, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from models.transforms import matrix_to_quaternion
 from tests.service.conftest import make_client
-from tests.service.helpers import records
+from tests.service.helpers import finished_job, records
 
 DESC = iwr()
 
@@ -179,22 +179,12 @@ def test_async_jobs(client: TestClient, robot_id: str) -> None:
     recs = records(DESC, sim, sample_workspace(DESC, 30, seed=9), seed=10)
     r = client.post(f"/v1/robots/{robot_id}/calibrations?async=true", json={"measurements": recs})
     assert r.status_code == 202
-    url = r.json()["status_url"]
-
-    for _ in range(200):
-        job = client.get(url).json()
-        if job["status"] in ("succeeded", "failed"):
-            break
-        time.sleep(0.05)
+    job = finished_job(client, r.json()["status_url"])
     assert job["status"] == "succeeded", job
     assert job["result"]["parameter_version"] == 2
     d = client.post(f"/v1/robots/{robot_id}/pose-designs?async=true", json={"count": 12, "candidate_count": 100})
     assert d.status_code == 202
-    for _ in range(400):
-        job = client.get(d.json()["status_url"]).json()
-        if job["status"] in ("succeeded", "failed"):
-            break
-        time.sleep(0.05)
+    job = finished_job(client, d.json()["status_url"])
     assert job["status"] == "succeeded" and len(job["result"]["poses"]) == 12
 
 
@@ -221,6 +211,7 @@ def test_error_analysis(client: TestClient) -> None:
     assert client.post("/v1/error-analysis", json={"poses": 0}).status_code == 422
 
 
+@pytest.mark.slow  # a spawned pool process builds its own runtimes: ~10 s here
 def test_jobs_in_a_worker_process(tmp_path: object) -> None:
     """The production path: a spawned worker process picks the job from the database and writes the result."""
 

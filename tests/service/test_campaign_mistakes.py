@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -12,6 +11,7 @@ from fastapi.testclient import TestClient
 from models import iwr, sample_workspace
 from models.identifiability import NoiseModel
 from models.simulation import measure, perturbed_robot
+from tests.service.helpers import finished_job
 
 DESC = iwr()
 
@@ -99,11 +99,7 @@ def test_a_failed_fit_ends_its_job_failed(client: TestClient, robot_id: str) -> 
     for r in recs:
         r["position"] = [v / 1000 for v in r["position"]]  # type: ignore[attr-defined]
     job = client.post(f"/v1/robots/{robot_id}/calibrations?async=true", json={"measurements": recs}).json()
-    for _ in range(300):
-        state = client.get(f"/v1/jobs/{job['job_id']}").json()
-        if state["status"] in ("succeeded", "failed"):
-            break
-        time.sleep(0.05)
+    state = finished_job(client, f"/v1/jobs/{job['job_id']}")
     assert state["status"] == "failed"
     assert state["error"]["type"].endswith("calibration-failed") and "metres" in state["error"]["detail"]
 

@@ -74,7 +74,9 @@ def test_the_response_checker_refuses_unknown_keys_and_undeclared_answers() -> N
         "tool": {"position": [0, 0, 0], "orientation": [1, 0, 0, 0]},
         "notes": None,
         "revision": 1,
-        "structure": {"stages": []},
+        "structure": {
+            "stages": [{"kind": "serial", "convention": "dh", "links": [{"joint": "prismatic", "range": [0, 1]}]}]
+        },
         "joint_names": ["q1"],
         "joint_units": ["mm"],
         "parameter_count": 16,

@@ -26,6 +26,9 @@ from service.persistence.tables import Base
 from service.settings import Settings
 from tests.service.conftest import POSTGRES_ADMIN
 
+# The whole module is `make test`'s (~50 s here): test_contract.py runs every operation on SQLite in test-fast.
+pytestmark = pytest.mark.slow
+
 EXAMPLES = int(os.environ.get("IWR_FUZZ_EXAMPLES", "8"))
 STEPS = int(os.environ.get("IWR_FUZZ_STEPS", "6"))
 CHECKS = [not_a_server_error, response_schema_conformance, content_type_conformance]

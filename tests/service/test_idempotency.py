@@ -10,7 +10,7 @@ import httpx
 import pytest
 from sqlalchemy import update
 
-from models import iwr, sample_workspace
+from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.persistence.tables import IdempotencyRecord
 from service.services import designs
@@ -23,8 +23,8 @@ DESC = iwr()
 
 
 @pytest.fixture
-def api(database_url: str) -> Iterator[ContractClient]:
-    with make_client(database_url) as c:
+def api(database_url: str, registry: Registry) -> Iterator[ContractClient]:
+    with make_client(database_url, registry) as c:
         yield c
 
 

@@ -10,7 +10,6 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from datetime import timedelta
 from pathlib import Path
@@ -21,7 +20,7 @@ import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import update
 
-from models import iwr, sample_workspace
+from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.jobs.runner import Lease, WorkerContext, execute_job
 from service.model_cache import ModelCache
@@ -36,14 +35,6 @@ from tests.service.fleet import call
 from tests.service.helpers import records
 
 DESC = iwr()
-
-
-@pytest.fixture
-def db(database_url: str) -> Iterator[Database]:
-    database = Database(database_url)
-    database.migrate()
-    yield database
-    database.dispose()
 
 
 def _request(seed: int = 4, poses: int = 25) -> dict[str, Any]:
@@ -89,10 +80,10 @@ def test_one_claim_wins_among_concurrent_workers(db: Database) -> None:
     assert all(a.status == "running" and 0 < a.held_for <= 35 for a in held), held
 
 
-def test_a_duplicate_delivery_changes_nothing(db: Database) -> None:
+def test_a_duplicate_delivery_changes_nothing(db: Database, registry: Registry) -> None:
     robot_id = _robot(db)
     job_id = _queued(db, robot_id)
-    ctx = WorkerContext(db, ModelCache(db), lease=30, max_attempts=3)
+    ctx = WorkerContext(db, ModelCache(db), registry, lease=30, max_attempts=3)
     first = execute_job(job_id, ctx)
     assert first.status == "succeeded"
     with db.reader() as s:
@@ -151,12 +142,14 @@ def test_expired_leases_are_requeued_up_to_the_retry_limit(db: Database) -> None
         assert live is not None and live.status == "running" and live.worker == "alive"  # never touched
 
 
-def test_cancel_a_queued_job_at_once_and_a_running_one_at_its_next_progress_point(db: Database) -> None:
+def test_cancel_a_queued_job_at_once_and_a_running_one_at_its_next_progress_point(
+    db: Database, registry: Registry
+) -> None:
     robot_id = _robot(db)
     queued = _queued(db, robot_id)
     with db.session() as s:
         assert JobStore(s).request_cancel(queued)
-    ctx = WorkerContext(db, ModelCache(db), lease=30, max_attempts=3)
+    ctx = WorkerContext(db, ModelCache(db), registry, lease=30, max_attempts=3)
     assert execute_job(queued, ctx).status == "cancelled"  # its message still arrives: nothing runs
 
     running = _queued(db, robot_id)
@@ -176,11 +169,11 @@ def test_cancel_a_queued_job_at_once_and_a_running_one_at_its_next_progress_poin
     assert _count(db, robot_id) == (0, 1)
 
 
-def test_the_lease_is_renewed_through_a_long_ipopt_solve(db: Database) -> None:
+def test_the_lease_is_renewed_through_a_long_ipopt_solve(db: Database, registry: Registry) -> None:
     """The heartbeat is a thread: it must keep renewing while IPOPT runs (CasADi releases the GIL)."""
     robot_id = _robot(db)
     job_id = _queued(db, robot_id)
-    ctx = WorkerContext(db, ModelCache(db), lease=0.3, max_attempts=3)
+    ctx = WorkerContext(db, ModelCache(db), registry, lease=0.3, max_attempts=3)
     with db.session() as s:
         assert isinstance(JobStore(s).claim(job_id, ctx.name, lease=0.3, max_attempts=3), Claim)
     x = ca.MX.sym("x", 20000)
@@ -246,12 +239,12 @@ def test_list_newest_first_with_filters_and_progress(client: TestClient, robot_i
     assert "iwr_jobs_queue_depth 0.0" in metrics and "iwr_jobs_running 0.0" in metrics
 
 
-def test_two_racing_runs_of_one_job_store_one_result(db: Database) -> None:
+def test_two_racing_runs_of_one_job_store_one_result(db: Database, registry: Registry) -> None:
     """Many deliveries of one calibration at once (a redelivery racing the original): one calibration, one
     new parameter version."""
     robot_id = _robot(db)
     job_id = _queued(db, robot_id)
-    ctx = WorkerContext(db, ModelCache(db), lease=30, max_attempts=3)
+    ctx = WorkerContext(db, ModelCache(db), registry, lease=30, max_attempts=3)
     barrier = threading.Barrier(4)
 
     def deliver(_: int) -> str:

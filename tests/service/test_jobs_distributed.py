@@ -13,6 +13,7 @@ from typing import Any
 import pytest
 from sqlalchemy import create_engine, text
 
+from models import Registry
 from service.jobs import WorkerContext
 from service.jobs.engine import CeleryRunner
 from service.model_cache import ModelCache
@@ -136,7 +137,7 @@ def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_ki
 
 
 @pytest.mark.slow  # one worker on Redis: ~15 s
-def test_redis_broker_and_a_duplicated_message_changes_nothing(pg: str, tmp_path: Path) -> None:
+def test_redis_broker_and_a_duplicated_message_changes_nothing(pg: str, tmp_path: Path, registry: Registry) -> None:
     with fleet(pg, broker(REDIS), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
         base = f.start_api("api")
         f.start_worker("w")
@@ -148,7 +149,7 @@ def test_redis_broker_and_a_duplicated_message_changes_nothing(pg: str, tmp_path
         # The same message published twice more (a redelivery): the worker finds the job done.
         settings = Settings(database_url=pg, broker_url=f.broker_url, job_queue=f.queue)
         db = Database(pg)
-        publisher = CeleryRunner(WorkerContext(db, ModelCache(db)), settings)
+        publisher = CeleryRunner(WorkerContext(db, ModelCache(db), registry), settings)  # publishes, runs nothing
         try:
             publisher.submit(accepted["job_id"], "calibration")
             publisher.submit(accepted["job_id"], "calibration")

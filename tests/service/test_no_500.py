@@ -9,7 +9,7 @@ from collections.abc import Iterator
 import pytest
 from fastapi.testclient import TestClient
 
-from models import iwr, sample_workspace
+from models import Registry, iwr, sample_workspace
 from service.app import create_app
 from service.services import robots as robot_service
 from service.settings import Settings
@@ -20,8 +20,8 @@ DESC = iwr()
 
 
 @pytest.fixture
-def api(database_url: str) -> Iterator[ContractClient]:
-    with make_client(database_url) as c:
+def api(database_url: str, registry: Registry) -> Iterator[ContractClient]:
+    with make_client(database_url, registry) as c:
         yield c
 
 

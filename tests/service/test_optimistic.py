@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from models import iwr, sample_workspace
+from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.services import calibrations
 from tests.service.conftest import make_client
@@ -20,8 +20,8 @@ RECS = records(DESC, perturbed_robot(DESC, seed=3), sample_workspace(DESC, 40, s
 
 
 @pytest.fixture
-def api(database_url: str) -> Iterator[ContractClient]:
-    with make_client(database_url) as c:
+def api(database_url: str, registry: Registry) -> Iterator[ContractClient]:
+    with make_client(database_url, registry) as c:
         yield c
 
 

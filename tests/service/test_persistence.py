@@ -3,41 +3,32 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 
 import pytest
 
-from models import iwr, sample_workspace
+from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.errors import NotFound
-from service.jobs import JobRunner, execute_job
+from service.jobs import JobRunner, WorkerContext, execute_job
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.robots import RobotCreate
 from service.services.calibrations import calibrate
 from service.services.robots import create_robot
+from service.settings import Settings
 from tests.service.helpers import records
 
 DESC = iwr()
 
 
-@pytest.fixture
-def db(database_url: str) -> Iterator[Database]:
-    database = Database(database_url)
-    database.migrate()
-    database.migrate()  # idempotent: a restart migrates again
-    yield database
-    database.dispose()
-
-
-def test_calibration_and_version_are_written_together(db: Database) -> None:
+def test_calibration_and_version_are_written_together(db: Database, registry: Registry) -> None:
     robot = create_robot(db=db, body=RobotCreate(name="r"))
     sim = perturbed_robot(DESC, seed=5)
     body = CalibrationCreate.model_validate(
         {"measurements": records(DESC, sim, sample_workspace(DESC, 30, seed=1), seed=2)}
     )
-    record = calibrate(db=db, robot_id=robot.id, body=body)
+    record = calibrate(db=db, registry=registry, robot_id=robot.id, body=body)
     assert record["status"] == "succeeded" and record["parameter_version"] == 2
     with db.session() as s:
         repo = Repository(s)
@@ -47,10 +38,15 @@ def test_calibration_and_version_are_written_together(db: Database) -> None:
         assert repo.version(robot.id, 1).provenance == "nominal"
         assert len(repo.calibrations(robot.id, 10, 0)) == 1
     # apply = false: stored, not applied
-    again = calibrate(db=db, robot_id=robot.id, body=body.model_copy(update={"apply": False}))
+    again = calibrate(db=db, registry=registry, robot_id=robot.id, body=body.model_copy(update={"apply": False}))
     assert not again["applied"] and again["parameter_version"] is None
     with db.session() as s:
         assert Repository(s).robot(robot.id).current_version == 2
+    db.migrate()  # idempotent: a restart migrates again, and what was written stays
+    with db.reader() as s:
+        assert (
+            Repository(s).robot(robot.id).current_version == 2 and len(Repository(s).calibrations(robot.id, 10, 0)) == 2
+        )
 
 
 def test_a_failed_transaction_leaves_nothing(db: Database) -> None:
@@ -64,7 +60,7 @@ def test_a_failed_transaction_leaves_nothing(db: Database) -> None:
         Repository(s).calibration("c1")
 
 
-def test_delete_cascades_and_jobs_survive_a_restart(db: Database) -> None:
+def test_delete_cascades_and_jobs_survive_a_restart(db: Database, registry: Registry) -> None:
     robot = create_robot(db=db, body=RobotCreate(name="r"))
     sim = perturbed_robot(DESC, seed=6)
     request = {"measurements": records(DESC, sim, sample_workspace(DESC, 25, seed=3), seed=4)}
@@ -75,7 +71,10 @@ def test_delete_cascades_and_jobs_survive_a_restart(db: Database) -> None:
         repo.start_job(running)
     # A new process starts: the queued job is resubmitted; the running one (no lease: started before leases
     # existed, by a process now gone) is not failed by the start-up but requeued by the lease check.
-    runner = JobRunner(db, ModelCache(db), workers=0)
+    runner = JobRunner(
+        WorkerContext(db, ModelCache(db), registry),
+        Settings(database_url=db.url, job_workers=0, warm_up=False),
+    )
     assert runner.recover() == 1
     assert runner.reap() == (1, 0)
     for _ in range(400):  # both run in the runner's thread

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import pytest
@@ -16,7 +15,7 @@ from models.simulation import perturbed_robot
 from service import errors
 from service.problems import TYPE_BASE, to_problem
 from tests.service.conftest import make_client
-from tests.service.helpers import records
+from tests.service.helpers import finished_job, records
 
 DESC = iwr()
 
@@ -57,17 +56,17 @@ def test_validation_errors_list_where() -> None:
     exc = RequestValidationError([{"loc": ("body", "joints", 0), "msg": "too short", "type": "x"}])
     body = to_problem(exc)
     assert body["detail"] == "body.joints.0: too short" and body["errors"] == [
-        {"loc": ["body", "joints", 0], "msg": "too short"}
+        {"loc": ["body", "joints", 0], "field": "joints[0]", "msg": "too short"}
     ]
+    assert body["field"] == "joints[0]"
 
 
-def _wait(client: TestClient, url: str) -> dict[str, object]:
-    for _ in range(400):
-        job: dict[str, object] = client.get(url).json()
-        if job["status"] in ("succeeded", "failed"):
-            return job
-        time.sleep(0.05)
-    raise AssertionError(f"job {url} did not finish")
+def test_a_description_documents_fields_are_named_as_robots_md_names_them() -> None:
+    loc = ("body", "structure", "stages", 1, "hexapod", "strokes", 0)
+    body = to_problem(RequestValidationError([{"loc": loc, "msg": "bad", "type": "x"}]))
+    assert body["field"] == "stages[1].strokes[0]"  # no `body`, no `structure`, no union tag
+    other = to_problem(RequestValidationError([{"loc": ("body", "measurements", 4, "serial"), "msg": "m"}]))
+    assert other["field"] == "measurements[4].serial"  # a tag is only dropped inside a document's stages
 
 
 def test_a_failed_job_stores_what_the_synchronous_request_answers(client: TestClient, robot_id: str) -> None:
@@ -77,14 +76,14 @@ def test_a_failed_job_stores_what_the_synchronous_request_answers(client: TestCl
     url = f"/v1/robots/{robot_id}/calibrations"
     sync = client.post(url, json={"measurements": bad})
     assert sync.status_code == 422 and sync.json()["type"].endswith("joint-out-of-range")
-    job = _wait(client, client.post(url + "?async=true", json={"measurements": bad}).json()["status_url"])
+    job = finished_job(client, client.post(url + "?async=true", json={"measurements": bad}).json()["status_url"])
     assert job["status"] == "failed" and job["error"] == sync.json()
 
     design = {"count": 3, "candidates": (sample_workspace(DESC, 20, seed=1) * DESC.joint_to_boundary).tolist()}
     url = f"/v1/robots/{robot_id}/pose-designs"
     sync = client.post(url, json=design)
     assert sync.status_code == 422
-    job = _wait(client, client.post(url + "?async=true", json=design).json()["status_url"])
+    job = finished_job(client, client.post(url + "?async=true", json=design).json()["status_url"])
     assert job["status"] == "failed" and job["error"] == sync.json()
 
 

@@ -17,6 +17,7 @@ from tests.service.test_reports import _Values
 DESC = iwr()
 
 
+@pytest.mark.slow  # HTML and PDF through the API: ~5 s here
 def test_report_html_and_pdf(client: TestClient, robot_id: str) -> None:
     sim = perturbed_robot(DESC, seed=101)
     recs = records(DESC, sim, sample_workspace(DESC, 40, seed=102), seed=103)

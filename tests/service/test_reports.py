@@ -6,6 +6,7 @@ import re
 from html.parser import HTMLParser
 
 import numpy as np
+import pytest
 from fastapi.testclient import TestClient
 
 from models import iwr, sample_workspace
@@ -69,6 +70,7 @@ def test_html_report_shows_the_api_numbers_and_real_figures(client: TestClient, 
     assert '<td class="num">7</td>' in page
 
 
+@pytest.mark.slow  # a PDF of every figure: ~7 s here
 def test_pdf_report_has_every_figure_and_the_parameter_table(client: TestClient, robot_id: str) -> None:
     body, positions = _calibration(client, robot_id)
     report = CalibrationReport(body, "cell-3", positions)

@@ -134,3 +134,74 @@ def test_csv_outputs_use_the_robots_joint_header(client: TestClient) -> None:
         headers=csv,
     )
     assert ik.status_code == 200 and ik.text.startswith(legs + "\n")
+
+
+def _hexapod(**changes: object) -> dict[str, object]:
+    document = hexapod_alone_document()
+    document["stages"][0].update(changes)
+    return document
+
+
+def _arm(*links: dict[str, object], convention: str = "dh") -> dict[str, object]:
+    return {"stages": [{"kind": "serial", "convention": convention, "links": list(links)}]}
+
+
+REVOLUTE = {"joint": "revolute", "range": [-90.0, 90.0]}
+RULES = {
+    # robots.md's rules between values: models.structure names the field as the spec does
+    "range lo >= hi": (_arm({**REVOLUTE, "range": [90.0, -90.0]}), "stages[0].links[0].range"),
+    "strokes lo >= hi": (_hexapod(strokes=[400.0, 300.0]), "stages[0].strokes"),
+    "collinear joints": (_hexapod(base_joints=[[float(k), 0.0, 0.0] for k in range(6)]), "stages[0].base_joints"),
+    "no moving joint": (_arm({"joint": "fixed", "a": 10.0}), "stages"),
+    "home outside the workspace": (
+        _hexapod(home={"position": [0.0, 0.0, 400.0], "orientation": [1.0, 0.0, 0.0, 0.0]}),
+        "stages[0].home",
+    ),
+    "home beyond the strokes": (_hexapod(strokes=[100.0, 200.0]), "stages[0].home"),
+    "two hexapods": (
+        {"stages": [*hexapod_alone_document()["stages"], *hexapod_alone_document()["stages"]]},
+        "stages[1].kind",
+    ),
+    "beta on a twisted dh link": (_arm({**REVOLUTE, "alpha": 90.0, "beta": 1.0}), "stages[0].links[0].beta"),
+    "a fixed link with a range": (_arm(REVOLUTE, {"joint": "fixed", "range": [0.0, 1.0]}), "stages[0].links[1].range"),
+    "a quaternion that is not unit": (
+        _hexapod(home={"position": [0.0, 0.0, 300.0], "orientation": [2.0, 0.0, 0.0, 0.0]}),
+        "stages[0].home.orientation",
+    ),
+    # the document's shape: the typed schema's errors are named as robots.md names fields
+    "unknown stage kind": ({"stages": [{"kind": "gantry"}]}, "stages[0].kind"),
+    "unknown key": (_arm({**REVOLUTE, "length": 3.0}), "stages[0].links[0].length"),
+    "five platform joints": (
+        _hexapod(platform_joints=hexapod_alone_document()["stages"][0]["platform_joints"][:5]),
+        "stages[0].platform_joints",
+    ),
+    "a range of three numbers": (
+        _arm({**REVOLUTE, "range": [0.0, 1.0, 2.0]}),
+        "stages[0].links[0].range",
+    ),
+    "no stages": ({"stages": []}, "stages"),
+}
+
+
+def test_every_robots_md_rule_is_a_422_naming_the_field(client: TestClient) -> None:
+    for rule, (document, field) in RULES.items():
+        answer = client.post("/v1/robots", json={"name": rule, "structure": document})
+        assert answer.status_code == 422, (rule, answer.text)
+        problem = answer.json()
+        assert problem["field"] == field, (rule, problem)
+    assert client.get("/v1/robots").json() == []  # nothing was stored
+
+
+def test_the_structure_is_typed_in_the_contract(client: TestClient) -> None:
+    schemas = client.get("/openapi.json").json()["components"]["schemas"]
+    robot = schemas["RobotPublic"]["properties"]["structure"]
+    assert robot == {"$ref": "#/components/schemas/StructureDocument", "description": robot["description"]}
+    stage = schemas["StructureDocument"]["properties"]["stages"]["items"]
+    assert stage["discriminator"]["propertyName"] == "kind"
+    for name in ("StructureDocument", "SerialStage", "HexapodStage", "StructureLink", "StructurePose"):
+        assert schemas[name]["additionalProperties"] is False, name
+    # a hexapod's document comes back with the keys robots.md writes (no nulls for what it leaves out)
+    made = client.post("/v1/robots", json={"name": "arm", "structure": _arm(REVOLUTE, {"joint": "fixed", "a": 5.0})})
+    links = made.json()["structure"]["stages"][0]["links"]
+    assert links[1] == {"joint": "fixed", "a": 5.0, "alpha": 0.0, "d": 0.0, "theta": 0.0}
+    assert links[0]["range"] == [-90.0, 90.0] and "beta" not in links[0]

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -11,11 +10,11 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from models import forward_kinematics, iwr, sample_workspace
+from models import Registry, forward_kinematics, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.security import digest
 from tests.service.conftest import make_client
-from tests.service.helpers import records
+from tests.service.helpers import finished_job, records
 
 DESC = iwr()
 
@@ -29,11 +28,11 @@ def _key(name: str) -> str:
 
 
 @pytest.fixture
-def client(database_url: str) -> Iterator[TestClient]:
+def client(database_url: str, registry: Registry) -> Iterator[TestClient]:
     """The service on SQLite and on PostgreSQL with named API keys; requests without `X-Test-Actor` use the
     `tester` admin key, the others the named one (the header is turned into that name's key)."""
     entries = ",".join(f"{n}:{scope}:{digest(_key(n))}" for n, scope in KEYS.items())
-    c = make_client(database_url, api_keys=entries)
+    c = make_client(database_url, registry, api_keys=entries)
 
     original = c.request
 
@@ -225,11 +224,7 @@ def test_an_async_calibration_is_audited_under_its_submitter(client: TestClient,
     job = client.post(
         f"/v1/robots/{robot_id}/calibrations?async=true", json=body, headers={"X-Test-Actor": "metrology"}
     ).json()
-    for _ in range(400):
-        state = client.get(f"/v1/jobs/{job['job_id']}").json()
-        if state["status"] in ("succeeded", "failed"):
-            break
-        time.sleep(0.05)
+    state = finished_job(client, f"/v1/jobs/{job['job_id']}")
     assert state["status"] == "succeeded", state
     trail = client.get("/v1/audit", params={"robot_id": robot_id, "action": "version.calibrated"}).json()
     assert [e["actor"] for e in trail] == ["metrology"] and trail[0]["request_id"]
