@@ -17,6 +17,7 @@ from models.blas import single_threaded_blas
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows, poses_for
 from models.kinematics import as_joint_array, check_joint_ranges
+from optimal_design.branching import BRANCHED, tighten
 from optimal_design.constraints import KeepOut, Spread, joint_range_mask, keep_out_mask
 from optimal_design.criteria import Criterion, metrics, utility, value
 from optimal_design.exchange import exchange, greedy, round_weights
@@ -226,6 +227,7 @@ def design_poses(
     keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
     min_spread: float | None = None,
     d_efficiency_floor: float | None = None,
+    bound_seconds: float = 0.0,
 ) -> PoseDesign:
     """Choose `count` poses among candidates (given, or `candidate_count` sampled in the workspace).
 
@@ -235,7 +237,9 @@ def design_poses(
     `d_efficiency_floor` (E and condition only, 0-1): optimise the criterion over designs whose D-efficiency
     against the certified D bound stays at least this (README: why the plain condition design calibrates the TCP
     little better than random poses, and what this buys). None: CONDITION_D_FLOOR for the condition criterion
-    (lowered to what the D design reaches if that is less), no floor for the others; 0: no floor."""
+    (lowered to what the D design reaches if that is less), no floor for the others; 0: no floor.
+    `bound_seconds` (D, A, I): spend up to this long tightening the certificate by branch and bound
+    (optimal_design.branching); the design does not change, its bound can only get lower."""
     started = time.perf_counter()
     crit = criterion if isinstance(criterion, Criterion) else Criterion.parse(criterion)
     problem = prepare(
@@ -251,7 +255,16 @@ def design_poses(
         keep_out=keep_out,
         min_spread=min_spread,
     )
-    return solve(desc, problem, crit, count, seed=seed, started=started, d_efficiency_floor=d_efficiency_floor)
+    return solve(
+        desc,
+        problem,
+        crit,
+        count,
+        seed=seed,
+        started=started,
+        d_efficiency_floor=d_efficiency_floor,
+        bound_seconds=bound_seconds,
+    )
 
 
 def solve(
@@ -264,6 +277,7 @@ def solve(
     started: float | None = None,
     start: Array | None = None,
     d_efficiency_floor: float | None = None,
+    bound_seconds: float = 0.0,
 ) -> PoseDesign:
     """The design of `count` poses on a prepared problem; `start` warm-starts the relaxation (weights)."""
     started = time.perf_counter() if started is None else started
@@ -373,9 +387,32 @@ def solve(
         chosen, chosen_utility = g_design, g_utility
         notes.append("the greedy start ended better than the rounded relaxation after exchange: it is the answer")
 
-    m = base + info.subset_information(chosen)
     bound_info: dict[str, Any] | None = None
     eff: float | None = None
+    branched: dict[str, Any] | None = None
+    if not math.isfinite(bound_seconds) or bound_seconds < 0:
+        raise InvalidInput(
+            f"bound_seconds must be >= 0, got {bound_seconds}", field="bound_seconds", value=bound_seconds, min=0
+        )
+    if bound_seconds > 0 and relaxed is not None and relaxed.bound is not None:
+        if crit in BRANCHED:
+            t0 = time.perf_counter()
+            tight = tighten(info, crit, count, base, relaxed, incumbent=chosen_utility, seconds=bound_seconds)
+            timings["branch_and_bound_s"] = time.perf_counter() - t0
+            branched = {
+                "root_utility": tight.root,
+                "root_efficiency": _finite(efficiency(crit, chosen_utility, tight.root, info.n_params)),
+                "nodes": tight.nodes,
+                "open_leaves": tight.open_leaves,
+                "optimal": tight.closed,
+                "improved_design": tight.better is not None,
+            }
+            if tight.better is not None and spread is None:  # the search ignores the spread
+                chosen, chosen_utility = np.sort(tight.better), tight.incumbent
+                notes.append("branch and bound found a better design than exchange: it is the answer")
+            relaxed = replace(relaxed, bound=tight.bound, method=relaxed.method + "; tightened by branch and bound")
+        else:
+            notes.append(f"bound_seconds applies to D, A and I; the {crit.value} bound is the relaxation's")
     if relaxed is not None and relaxed.bound is not None:
         eff = efficiency(crit, chosen_utility, relaxed.bound, info.n_params)
         bound_info = {
@@ -386,8 +423,11 @@ def solve(
             "method": relaxed.method,
             "solver_status": relaxed.status,
         }
+        if branched is not None:
+            bound_info["branch_and_bound"] = branched
         if spread is not None:
             bound_info["note"] = "the bound ignores min_spread (a relaxation of it), so it stays valid but looser"
+    m = base + info.subset_information(chosen)
     t0 = time.perf_counter()
     baseline = random_baseline(problem, count, seed)
     timings["random_baseline_s"] = time.perf_counter() - t0
