@@ -1,5 +1,6 @@
 """Pose design: K = 30 of M = 2 000 and M = 20 000 for every criterion, and the target mode.
 
+"condition" is the default condition design (D-efficiency floor 0.9), "condition(no floor)" the plain criterion.
 Each design runs in a fresh process (its peak memory is its own) after a warm-up design that loads the compiled
 Functions. Efficiency is against the design's own certified bound; the TCP error ratio is the design's predicted
 RMS TCP error after calibration over the median of 20 random selections of the same size from the same candidates,
@@ -15,6 +16,7 @@ import sys
 from benchmarks.timing import target
 
 CRITERIA = ("D", "A", "E", "I", "condition")
+BOUND_SECONDS = 20.0
 
 _RUN = """
 import json, resource, time
@@ -43,6 +45,7 @@ print(json.dumps({{
     "random_condition_number": d.random_baseline["condition_number"],
     "log_det": d.metrics["log_det"],
     "notes": list(d.notes),
+    "branch_and_bound": d.bound and d.bound.get("branch_and_bound"),
 }}))
 """
 
@@ -114,18 +117,31 @@ def run() -> dict[str, object]:
             targets.append(target(f"{criterion}: M={m} peak memory (MB)", mem, 1024.0))
             certified = float(bool(res["certified"]))
             targets.append(target(f"{criterion}: M={m} bound certified (1 = yes)", certified, 1.0, ">="))
-    # The condition criterion kept near D-optimality: what the README steers condition users to.
-    floored = _measure("condition", 2000, ", d_efficiency_floor=0.9")
-    designs["condition(D-eff>=0.9)_M2000_K30"] = floored
+    # "condition" is the default, kept at D-efficiency >= 0.9; the plain criterion (floor 0) is the one whose
+    # efficiency against its own bound the issue asks about.
+    for m in (2000, 20_000):
+        designs[f"condition(no floor)_M{m}_K30"] = _measure("condition", m, ", d_efficiency_floor=0")
+    # The D certificate tightened by branch and bound (opt-in): how much of the gap is the relaxation's.
+    tightened = _measure("D", 2000, f", bound_seconds={BOUND_SECONDS}")
+    designs[f"D(+{BOUND_SECONDS:g} s branch and bound)_M2000_K30"] = tightened
     out.update(designs)
     d = designs["D_M2000_K30"]
     targets.append(target("D: efficiency against the certified bound", float(d["efficiency"]), 0.985, ">="))  # type: ignore[arg-type]
-    for criterion in ("E", "condition"):
-        eff = float(designs[f"{criterion}_M2000_K30"]["efficiency"])  # type: ignore[arg-type]
-        targets.append(target(f"{criterion}: efficiency against the certified bound", eff, 0.9, ">="))
-    for criterion in (*CRITERIA, "condition(D-eff>=0.9)"):
+    targets.append(
+        target(
+            f"D: efficiency against the bound after {BOUND_SECONDS:g} s of branch and bound",
+            float(tightened["efficiency"]),  # type: ignore[arg-type]
+            0.985,
+            ">=",
+        )
+    )
+    for m in (2000, 20_000):
+        for criterion in ("E", "condition(no floor)"):
+            eff = float(designs[f"{criterion}_M{m}_K30"]["efficiency"])  # type: ignore[arg-type]
+            targets.append(target(f"{criterion}: M={m} efficiency against the certified bound", eff, 0.9, ">="))
+    for criterion in (*CRITERIA, "condition(no floor)"):
         ratio = float(designs[f"{criterion}_M2000_K30"]["rms_ratio_to_random"])  # type: ignore[arg-type]
-        limit = 0.7 if criterion in ("condition", "condition(D-eff>=0.9)", "D", "I") else 1.0
+        limit = 0.7 if criterion in ("condition", "D", "I") else 1.0
         targets.append(target(f"{criterion}: predicted TCP error / random, M=2000", ratio, limit))
     for goal, fixed in ((0.03, 0), (0.02, 0), (0.02, 20)):
         res = _run(_TARGET.format(goal=goal, fixed=fixed))

@@ -64,9 +64,11 @@ class PoseDesignCreate(Strict):
     )
     d_efficiency_floor: float | None = Field(
         default=None,
-        gt=0,
+        ge=0,
         le=1,
-        description="E and condition only: optimise over designs whose D-efficiency stays at least this",
+        description="E and condition only: optimise over designs whose D-efficiency stays at least this. "
+        "Omitted: 0.9 for condition (lowered to what the D design reaches if that is less; the plain condition "
+        "design calibrates the TCP little better than random poses), none for E; 0: no floor",
     )
 
     @model_validator(mode="after")

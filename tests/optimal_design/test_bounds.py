@@ -11,9 +11,11 @@ import optimal_design.design as module
 from models import RobotDescription, sample_workspace
 from models.errors import InvalidInput, JointOutOfRange, TooFewMeasurements, UnreachablePose
 from optimal_design import Criterion, design_poses
+from optimal_design.branching import BRANCHED, tighten
 from optimal_design.criteria import utility
 from optimal_design.exchange import _swap_values_lowrank
 from optimal_design.information import candidate_information
+from optimal_design.relaxation import relax
 
 
 @pytest.mark.parametrize("criterion", list(Criterion))
@@ -112,3 +114,38 @@ def test_solver_failure_falls_back_to_greedy(desc: RobotDescription, monkeypatch
     assert design.bound is None and design.efficiency is None
     assert any("greedy" in n for n in design.notes)
     assert design.metrics["log_det"] > -np.inf
+
+
+@pytest.mark.parametrize("criterion", BRANCHED)
+def test_branch_and_bound_tightens_to_the_exact_optimum(desc: RobotDescription, criterion: Criterion) -> None:
+    """13 candidates, K = 10: the relaxation's bound is well above the best of the 286 subsets (its integrality
+    gap); branch and bound run to the end proves the design optimal, and every bound on the way stays valid."""
+    joints = sample_workspace(desc, 13, seed=61)
+    info = candidate_information(desc, joints, position_only=False)
+    best = max(
+        utility(criterion, info.subset_information(np.array(s)), info.task)
+        for s in itertools.combinations(range(13), 10)
+    )
+    tol = 1e-9 * max(1.0, abs(best))
+    plain = design_poses(desc, 10, criterion, candidates=joints)
+    assert plain.bound is not None and plain.bound["utility"] > best + 1e-3 * abs(best)  # the gap to close
+    tightened = design_poses(desc, 10, criterion, candidates=joints, bound_seconds=120.0)
+    assert tightened.bound is not None
+    proof = tightened.bound["branch_and_bound"]
+    # the design changes only if the search found a better one, and then it is the best subset
+    assert proof["improved_design"] or tightened.indices == plain.indices
+    found = utility(criterion, info.subset_information(np.array(tightened.indices)), info.task)
+    assert best - tol <= found <= best + tol
+    assert proof["optimal"] and proof["open_leaves"] == 0 and proof["nodes"] > 2
+    assert proof["root_utility"] == pytest.approx(plain.bound["utility"], rel=1e-9)
+    assert best - tol <= tightened.bound["utility"] <= best + tol
+    assert tightened.efficiency == pytest.approx(1.0, abs=1e-8)
+    # Stopped early, the bound is still valid and no looser than the root's.
+    relaxed = relax(info, criterion, 10, np.zeros((info.n_params,) * 2))
+    mine = utility(criterion, info.subset_information(np.array(plain.indices)), info.task)
+    for nodes in (2, 6, 20):
+        partial = tighten(
+            info, criterion, 10, np.zeros((info.n_params,) * 2), relaxed, incumbent=mine, seconds=60.0, max_nodes=nodes
+        )
+        assert best - tol <= partial.bound <= relaxed.bound + tol  # type: ignore[operator]
+        assert partial.nodes <= nodes + 1

@@ -10,7 +10,7 @@ import pytest
 from models import RobotDescription, forward_kinematics, sample_workspace
 from models.errors import InvalidInput
 from models.runtime import runtime_for
-from optimal_design import Criterion, design_poses, spread_distance
+from optimal_design import Criterion, PoseDesign, design_poses, spread_distance
 from optimal_design.constraints import platform_centres
 from optimal_design.criteria import utility
 from optimal_design.information import candidate_information
@@ -121,7 +121,7 @@ def test_bound_holds_under_constraints_by_brute_force(desc: RobotDescription, cr
 @pytest.mark.slow  # three condition designs with and without the floor: ~17 s here
 def test_d_efficiency_floor_for_the_condition_design(desc: RobotDescription) -> None:
     joints = sample_workspace(desc, 300, seed=86)
-    plain = design_poses(desc, 20, "condition", candidates=joints)
+    plain = design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0)
     floored = design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0.9)
     d = design_poses(desc, 20, "D", candidates=joints)
     assert d.bound is not None and floored.bound is not None
@@ -135,3 +135,36 @@ def test_d_efficiency_floor_for_the_condition_design(desc: RobotDescription) -> 
         design_poses(desc, 20, "I", candidates=joints, d_efficiency_floor=0.9)
     with pytest.raises(InvalidInput, match="above what the D design reaches"):
         design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0.9999)
+
+
+def test_condition_design_keeps_d_efficiency_by_default(desc: RobotDescription) -> None:
+    """Omitted, the condition design's floor is 0.9 (soft: lowered to what the D design reaches); 0 turns it off."""
+    joints = sample_workspace(desc, 300, seed=86)
+    info = candidate_information(desc, joints, position_only=False)
+    d = design_poses(desc, 20, "D", candidates=joints)
+    assert d.bound is not None
+
+    def d_efficiency(design: PoseDesign) -> float:
+        log_det = float(np.linalg.slogdet(info.subset_information(np.array(design.indices)))[1])
+        return float(np.exp((log_det - d.bound["utility"]) / info.n_params))  # type: ignore[index]
+
+    default = design_poses(desc, 20, "condition", candidates=joints)
+    explicit = design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0.9)
+    off = design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0)
+    assert default.indices == explicit.indices and default.constraints["d_efficiency_floor"] == 0.9
+    assert d_efficiency(default) >= 0.9 - 1e-12
+    assert off.constraints["d_efficiency_floor"] == 0 and d_efficiency(off) < 0.9  # what the floor is for
+    assert off.metrics["condition_number"] <= default.metrics["condition_number"] + 1e-9
+    # 14 candidates, K = 10: the D design reaches 0.81 of its bound; the default floor follows it down
+    few = sample_workspace(desc, 14, seed=87)
+    small_d = design_poses(desc, 10, "D", candidates=few)
+    assert small_d.efficiency is not None and small_d.efficiency < 0.9
+    small = design_poses(desc, 10, "condition", candidates=few)
+    applied = small.constraints["d_efficiency_floor"]
+    assert 0 < applied <= small_d.efficiency + 1e-12 and any("default D-efficiency floor" in n for n in small.notes)
+    small_info = candidate_information(desc, few, position_only=False)
+    assert small_d.bound is not None
+    log_det = float(np.linalg.slogdet(small_info.subset_information(np.array(small.indices)))[1])
+    assert np.exp((log_det - small_d.bound["utility"]) / small_info.n_params) >= applied - 1e-12
+    with pytest.raises(InvalidInput, match="above what the D design reaches"):
+        design_poses(desc, 10, "condition", candidates=few, d_efficiency_floor=0.9)

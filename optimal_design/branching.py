@@ -1,0 +1,168 @@
+"""A tighter certificate for D, A and I: branch and bound on the continuous relaxation, within a time budget.
+
+The capped relaxation's bound is valid for every K-subset, but it also admits fractional designs: at K = 30 of
+2 000 it spreads the 30 poses over ~57 weights, and the best integer designs found by every search tried (exchange
+from rounded and randomised starts, perturbation and re-exchange) stay 2 % (D-efficiency) below it; on 14
+candidates with K = 10, where every subset can be enumerated, the exact optimum is 0.81 of it. That is the
+relaxation's integrality gap, and only a stronger relaxation closes it.
+
+Branching on a fractional candidate j splits every K-subset into those with j (j's block joins the fixed
+information, K − 1 to choose) and those without (j leaves the candidates); each side's own relaxation bound holds
+for its subsets, so the largest bound over the leaves of any branching tree holds for all of them, and it can only
+be lower than the root's. Best-first: the leaf with the largest bound is split next, so the global bound falls as
+fast as this scheme allows. A leaf whose bound is at most the incumbent (the design being certified) needs no
+further splitting: nothing in it beats the design. Each leaf's bound is the Frank–Wolfe certificate of its
+relaxation (relaxation.first_order), warm-started from its parent's weights, so its validity does not depend on how
+far the iterations went.
+
+Cost: each leaf is a full relaxation solve (~0.3 s at M = 2 000 on the loaded 2-core machine; the
+multiplicative iterations gain little from the parent's weights), and each split lowers the largest leaf bound by
+~0.02-0.05 in log det at K = 30 of 2 000, so it is an opt-in (`bound_seconds`), not part of the 1 s D design.
+"""
+
+from __future__ import annotations
+
+import heapq
+import time
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from models._types import Array
+from optimal_design.criteria import Criterion, utility
+from optimal_design.information import CandidateInformation
+from optimal_design.relaxation import Relaxation, first_order
+
+BRANCHED = (Criterion.D, Criterion.A, Criterion.I)
+
+
+@dataclass(frozen=True)
+class Tightened:
+    bound: float
+    """Upper bound on the utility of every K-subset (at most the root's)."""
+    root: float
+    nodes: int
+    """Relaxations solved (the root not counted)."""
+    open_leaves: int
+    seconds: float
+    closed: bool
+    """True when no leaf's bound exceeds the incumbent: the incumbent is proven optimal."""
+    incumbent: float
+    better: NDArray[Any] | None = None
+    """A K-subset the search found better than the incumbent given (the last incumbent), else None."""
+
+
+@dataclass(order=True)
+class _Leaf:
+    priority: float  # −bound: heapq pops the largest bound first
+    order: int
+    fixed_in: tuple[int, ...]
+    fixed_out: tuple[int, ...]
+    weights: Array  # over all candidates; 1 on fixed_in, 0 on fixed_out
+
+
+def tighten(
+    info: CandidateInformation,
+    criterion: Criterion,
+    count: int,
+    base: Array,
+    root: Relaxation,
+    *,
+    incumbent: float,
+    seconds: float,
+    max_nodes: int = 100_000,
+) -> Tightened:
+    """Best-first branch and bound from `root` (the relaxation over all candidates) for `seconds`.
+
+    `incumbent` is the utility of a feasible K-subset; leaves that cannot beat it are closed. A leaf that is a
+    single subset better than the incumbent becomes the incumbent (`better`). The returned bound is the largest
+    bound over the open leaves or the incumbent, so it holds for every K-subset whatever the budget."""
+    if criterion not in BRANCHED:
+        raise ValueError(f"branch and bound tightens the first-order criteria {BRANCHED}, not {criterion.value}")
+    if root.bound is None:
+        raise ValueError("the root relaxation has no bound to tighten")
+    started = time.perf_counter()
+    n = info.size
+    heap: list[_Leaf] = [_Leaf(-root.bound, 0, (), (), root.weights)]
+    nodes = 0
+    better: NDArray[Any] | None = None
+    while heap and nodes < max_nodes and time.perf_counter() - started < seconds:
+        leaf = heap[0]
+        if -leaf.priority <= incumbent:
+            break  # every open leaf is at most the incumbent: the design is optimal
+        heapq.heappop(heap)
+        free = _free(n, leaf)
+        j = int(free[np.argmin(np.abs(leaf.weights[free] - 0.5))])
+        for fixed_in, fixed_out in (((*leaf.fixed_in, j), leaf.fixed_out), (leaf.fixed_in, (*leaf.fixed_out, j))):
+            nodes += 1
+            try:
+                bound, weights, exact = _solve(info, criterion, count, base, (fixed_in, fixed_out), parent=leaf.weights)
+            except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+                bound, weights, exact = -leaf.priority, leaf.weights, False  # the parent's bound holds for it
+            if exact and bound > incumbent:
+                incumbent, better = bound, np.flatnonzero(weights > 0.5)  # one subset, and a better one
+            elif bound > incumbent:  # otherwise the leaf is closed: nothing in it beats the incumbent
+                heapq.heappush(heap, _Leaf(-bound, nodes, fixed_in, fixed_out, weights))
+    open_max = max((-leaf.priority for leaf in heap), default=-np.inf)
+    # Closed leaves hold nothing above the incumbent, a feasible subset's utility, which the best subset reaches
+    # at least: max(open leaves, incumbent) is the bound (and is not lowered below the incumbent by round-off in
+    # a closed leaf's bound, 1e-9 relative on the ill-conditioned M of 10 poses).
+    bound = min(root.bound, max(open_max, incumbent))
+    return Tightened(
+        bound=float(bound),
+        root=float(root.bound),
+        nodes=nodes,
+        open_leaves=sum(-leaf.priority > incumbent for leaf in heap),
+        seconds=time.perf_counter() - started,
+        closed=open_max <= incumbent,
+        incumbent=float(incumbent),
+        better=better,
+    )
+
+
+def _free(n: int, leaf: _Leaf) -> NDArray[Any]:
+    mask = np.ones(n, dtype=bool)
+    mask[list(leaf.fixed_in)] = False
+    mask[list(leaf.fixed_out)] = False
+    return np.flatnonzero(mask)
+
+
+def _solve(
+    info: CandidateInformation,
+    criterion: Criterion,
+    count: int,
+    base: Array,
+    fixed: tuple[tuple[int, ...], tuple[int, ...]],
+    *,
+    parent: Array,
+) -> tuple[float, Array, bool]:
+    """(bound over the leaf's K-subsets, the leaf's relaxed weights over all candidates, whether the leaf is one
+    subset and the bound its utility); `fixed` = (the candidates every subset of the leaf holds, those none
+    holds)."""
+    fixed_in, fixed_out = fixed
+    n = info.size
+    mask = np.ones(n, dtype=bool)
+    mask[list(fixed_in)] = False
+    mask[list(fixed_out)] = False
+    keep = np.flatnonzero(mask)
+    inside = np.array(fixed_in, dtype=int)
+    known = base + info.subset_information(inside) if inside.size else base
+    left = count - inside.size
+    weights = np.zeros(n)
+    weights[inside] = 1.0
+    if left in (0, keep.size):
+        # nothing (or no choice) left: the leaf is one subset, its bound its exact value
+        if left:
+            weights[keep] = 1.0
+            known = known + info.subset_information(keep)
+        return utility(criterion, known, info.task), weights, True
+    if keep.size < left:
+        return -np.inf, weights, False  # infeasible: no K-subset in this leaf
+    sub = replace(info, blocks=info.blocks[keep], joints=info.joints[keep])
+    start = parent[keep]
+    relaxed = first_order(sub, criterion, left, known, start=start)
+    weights[keep] = relaxed.weights
+    assert relaxed.bound is not None
+    return float(relaxed.bound), weights, False
