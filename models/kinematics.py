@@ -18,6 +18,7 @@ from models._types import Array
 from models.errors import JointOutOfRange, NonFiniteValue, UnreachablePose, WrongShape
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
+from models.terms import Conditions, condition_inputs
 
 JOINT_RANGE_SLACK = 1e-9
 """Joints may exceed their range by this much (mm or rad) before they are rejected: float round-off."""
@@ -86,11 +87,13 @@ def solve_platforms(
     seeds: Array | None = None,
     *,
     runtime: Runtime | None = None,
+    conditions: Array | None = None,
 ) -> tuple[Array, Array]:
     """Hexapod forward kinematics for a batch: platform poses (N, 6) and closure error (N,) in mm.
 
     Newton from the home pose (or the given seeds), all poses at once; poses not
-    yet converged get more steps. Nothing is checked here: see `forward_kinematics`.
+    yet converged get more steps. Nothing is checked here: see `forward_kinematics`. `conditions` (N, 7):
+    the inputs of a structure with model terms (`models.terms.condition_inputs`); None: reference conditions.
     """
     fns = runtime_for(desc, runtime).kinematics
     n = joints.shape[0]
@@ -102,7 +105,8 @@ def solve_platforms(
     todo = np.arange(n)
     closure = np.full(n, np.inf)
     for _ in range(MAX_NEWTON_CALLS):
-        x_new, res = fns.batch("newton_solve", joints[todo], theta, x[todo])
+        cond = None if conditions is None else conditions[todo]
+        x_new, res = fns.batch("newton_solve", joints[todo], theta, x[todo], conditions=cond)
         x[todo] = x_new
         closure[todo] = res[:, 0]
         todo = todo[~(closure[todo] <= CLOSURE_TOLERANCE_MM)]
@@ -207,6 +211,7 @@ def forward_kinematics(
     check_ranges: bool = True,
     seeds: Array | None = None,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
 ) -> ForwardResult: ...
 
 
@@ -220,6 +225,7 @@ def forward_kinematics(
     check_ranges: bool = True,
     seeds: Array | None = None,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
 ) -> ForwardJacobianResult: ...
 
 
@@ -232,33 +238,53 @@ def forward_kinematics(
     check_ranges: bool = True,
     seeds: Array | None = None,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
 ) -> ForwardResult:
-    """TCP poses (and optionally identification Jacobians) for a batch of joint vectors."""
+    """TCP poses (and optionally identification Jacobians) for a batch of joint vectors.
+
+    With model terms on (`desc.terms`), `conditions` says what each joint vector runs under (a temperature for
+    the thermal term, a payload for the compliance term; InvalidInput names what a term needs and they lack);
+    None: the reference conditions (T_ref, no payload).
+    """
     rt = runtime_for(desc, runtime)
     theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
     q = as_joint_array(desc, joints)
     if check_ranges:
         check_joint_ranges(desc, q)
-    platforms, closure = solve_platforms(desc, q, theta, seeds, runtime=rt)
+    cond = condition_inputs(desc.terms, conditions, q.shape[0]) if desc.terms.any and conditions else None
+    platforms, closure = solve_platforms(desc, q, theta, seeds, runtime=rt, conditions=cond)
     check_assembly(desc, platforms, closure, theta, runtime=rt)
     if jacobian:
-        return pose_jacobian_batch(desc, q, theta, platforms, runtime=rt)
-    return pose_batch(desc, q, theta, platforms, runtime=rt)
+        return pose_jacobian_batch(desc, q, theta, platforms, runtime=rt, conditions=cond)
+    return pose_batch(desc, q, theta, platforms, runtime=rt, conditions=cond)
 
 
 def pose_batch(
-    desc: RobotDescription, q: Array, theta: Array, platforms: Array, *, runtime: Runtime | None = None
+    desc: RobotDescription,
+    q: Array,
+    theta: Array,
+    platforms: Array,
+    *,
+    runtime: Runtime | None = None,
+    conditions: Array | None = None,
 ) -> ForwardResult:
     """TCP poses for already solved platform poses; no checks."""
-    pos, rot = runtime_for(desc, runtime).kinematics.batch("pose_at", q, theta, platforms)
+    pos, rot = runtime_for(desc, runtime).kinematics.batch("pose_at", q, theta, platforms, conditions=conditions)
     return ForwardResult(pos, rot, platforms)
 
 
 def pose_jacobian_batch(
-    desc: RobotDescription, q: Array, theta: Array, platforms: Array, *, runtime: Runtime | None = None
+    desc: RobotDescription,
+    q: Array,
+    theta: Array,
+    platforms: Array,
+    *,
+    runtime: Runtime | None = None,
+    conditions: Array | None = None,
 ) -> ForwardJacobianResult:
     """TCP poses and identification Jacobians for already solved platform poses; no checks."""
-    pos, rot, jac = runtime_for(desc, runtime).kinematics.batch("pose_jacobian_at", q, theta, platforms)
+    fns = runtime_for(desc, runtime).kinematics
+    pos, rot, jac = fns.batch("pose_jacobian_at", q, theta, platforms, conditions=conditions)
     return ForwardJacobianResult(pos, rot, platforms, jac)
 
 
