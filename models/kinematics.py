@@ -296,3 +296,32 @@ def inverse_hexapod(
     x = np.atleast_2d(np.asarray(platforms, dtype=float))
     (legs,) = runtime_for(desc, runtime).kinematics.batch("hexapod_ik", x, theta[desc.slices["hexapod"]])
     return legs
+
+
+def leg_tensions(
+    desc: RobotDescription,
+    q: Array,
+    theta: Array,
+    platforms: Array,
+    *,
+    force_world: Array,
+    cog_mm: Array,
+    runtime: Runtime | None = None,
+    conditions: Array | None = None,
+) -> Array:
+    """(N, 6) leg tensions (N) that carry a payload: its gravity force `force_world` (N, 3; world frame) at its
+    centre of gravity `cog_mm` (N, 3; tool frame), by the hexapod's statics t = J⁻ᵀ w (thesis eq. 48; `w` the
+    force and its moment about the platform origin, in {4}). Numeric twin of `models.symbolic.terms_closure`'s
+    statics, for a description with or without terms (`conditions`: its terms' inputs)."""
+    assert desc.hexapod is not None, "only a hexapod has legs to carry a load"
+    fns = runtime_for(desc, runtime).kinematics
+    (carriage,) = fns.batch("carriage_fk", q[:, : desc.n_chain], theta, conditions=conditions)
+    pos, rot = fns.batch("pose_at", q, theta, platforms, conditions=conditions)
+    (jhex,) = fns.batch("hexapod_jacobian", platforms, theta[desc.slices["hexapod"]])
+    r4, o4 = carriage[:, :3, :3], carriage[:, :3, 3]
+    cog_world = np.einsum("nij,nj->ni", rot, cog_mm) + pos
+    origin_world = np.einsum("nij,nj->ni", r4, platforms[:, :3]) + o4
+    force = np.einsum("nji,nj->ni", r4, force_world)
+    arm = np.einsum("nji,nj->ni", r4, cog_world - origin_world)
+    wrench = np.concatenate([force, np.cross(arm, force)], axis=1)
+    return np.asarray(np.linalg.solve(np.transpose(jhex, (0, 2, 1)), wrench[:, :, None])[:, :, 0])

@@ -90,6 +90,11 @@ class RobotDescription:
             return tuple(link.joint for link in self.links)
         return (tuple(link.token for link in self.links), self.hexapod_at)
 
+    @cached_property
+    def geometric(self) -> RobotDescription:
+        """This robot without model terms (itself when it has none)."""
+        return replace(self, terms=ModelTerms()) if self.terms.any else self
+
     @property
     def has_prismatic(self) -> bool:
         return any(link.joint is JointType.PRISMATIC for link in self.links)

@@ -17,6 +17,7 @@ import scipy.stats
 from models._types import Array
 from models.identification.diagnosis import Diagnosis, Finding
 from models.identification.residuals import CampaignProblem, Evaluation
+from models.kinematics import leg_tensions
 from models.serial_chain import JointType
 from models.terms import GRAVITY_M_S2, MIN_PAYLOAD_SPREAD_KG
 
@@ -121,19 +122,10 @@ def _compliance_columns(problem: CampaignProblem, ev: Evaluation) -> list[Array]
     mass = campaign.conditions.payload_kg
     cog = campaign.conditions.payload_cog_mm
     assert mass is not None and cog is not None
-    fns = problem.runtime.kinematics
-    q = campaign.joints[active]
-    platforms = ev.platforms
-    (carriage,) = fns.batch("carriage_fk", q[:, : desc.n_chain], ev.theta)
-    pos, rot = fns.batch("pose_at", q, ev.theta, platforms)
-    (jhex,) = fns.batch("hexapod_jacobian", platforms, ev.theta[desc.slices["hexapod"]])
-    r4, o4 = carriage[:, :3, :3], carriage[:, :3, 3]
     force_w = (mass[active] * GRAVITY_M_S2)[:, None] * desc.terms.gravity_unit()[None, :]
-    cog_w = np.einsum("nij,nj->ni", rot, cog[active]) + pos
-    origin_w = np.einsum("nij,nj->ni", r4, platforms[:, :3]) + o4
-    force = np.einsum("nji,nj->ni", r4, force_w)
-    arm = np.einsum("nji,nj->ni", r4, cog_w - origin_w)
-    wrench = np.concatenate([force, np.cross(arm, force)], axis=1)
-    tension = np.linalg.solve(np.transpose(jhex, (0, 2, 1)), wrench[:, :, None])[:, :, 0]
+    q = campaign.joints[active]
+    tension = leg_tensions(
+        desc, q, ev.theta, ev.platforms, force_world=force_w, cog_mm=cog[active], runtime=problem.runtime
+    )
     jac = ev.raw_jacobian
     return [tension[:, k][:, None] * jac[:, :, _offset_index(problem, k)] for k in range(6)]

@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 from models import NoiseModel, RobotDescription, forward_kinematics, iwr, sample_workspace
-from models.identifiability import condition_support
+from models.identifiability import condition_support, structural_identifiability
 from models.identification import identify
 from models.identification.diagnosis import Finding
+from models.measurement import MeasurementKind
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from models.terms import Conditions, ModelTerms, make_conditions
 
@@ -139,3 +140,24 @@ def test_one_temperature_or_one_payload_leaves_the_terms_unidentifiable(thermal:
     # the same rule on the conditions alone: spread temperatures make κ identifiable, one payload still not
     spread = make_conditions(N_FIT, np.linspace(16.0, 28.0, N_FIT), 40.0, [0.0, 0.0, 150.0])
     assert set(condition_support(both, spread)) == {both.parameters.index[n] for n in terms if n.startswith("comp")}
+
+
+def test_identifiability_counts_with_and_without_a_temperature_spread(thermal: RobotDescription) -> None:
+    """Rich data identify 54 geometric parameters of the IWR (pose measurements) and both κ; one temperature
+    only the 54."""
+    everything = tuple(range(thermal.n_params))
+    structural = structural_identifiability(thermal, everything, MeasurementKind.POSE)
+    assert structural.rank == 56
+    assert {"thermal.legs", "thermal.axes"} <= set(structural.identifiable_names)
+    sim = _truth(thermal, 3, {"thermal.legs": 20e-6})
+    joints = sample_workspace(iwr(), N_FIT, seed=61)
+    spread = identify(
+        thermal,
+        measure(sim, joints, NOISE, seed=62, conditions=make_conditions(N_FIT, np.linspace(16, 28, N_FIT))),
+        noise=NOISE,
+    )
+    single = identify(
+        thermal, measure(sim, joints, NOISE, seed=62, conditions=make_conditions(N_FIT, 24.0)), noise=NOISE
+    )
+    assert spread.rank == 56 and single.rank == 54
+    assert len(spread.estimated) == 56 and len(single.estimated) == 54
