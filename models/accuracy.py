@@ -87,7 +87,8 @@ class AccuracyReport:
 
 def evaluate(desc: RobotDescription, params: Array, campaign: Campaign, *, register: bool = False) -> AccuracyReport:
     """The version `params` against `campaign`; with `register`, first the best rigid fit of the instrument frame."""
-    fk = forward_kinematics(desc, campaign.joints, params)
+    campaign.condition_inputs(desc)  # a version with model terms needs the records' temperatures (payloads)
+    fk = forward_kinematics(desc, campaign.joints, params, conditions=campaign.conditions)
     predicted, rotations = fk.positions, fk.rotations
     if register:
         fit = rigid_fit(predicted, campaign.positions)

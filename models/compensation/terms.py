@@ -56,12 +56,15 @@ def terms_inverse_kinematics(
     *,
     conditions: Conditions | None,
     seed: ArrayLike | None = None,
+    weights: ArrayLike | None = None,
+    follow: bool = False,
     runtime: Runtime | None = None,
     geometric_runtime: Runtime | None = None,
 ) -> IkSolution:
     """Joint commands reaching each target on the robot with model terms, under each target's `conditions`.
 
     `runtime` serves `desc`'s structure (its checking FK), `geometric_runtime` the geometric one (`desc.geometric`).
+    `seed`, `weights` and `follow` act on the effective joints (they differ from the commands by micrometres).
     """
     geo = desc.geometric
     rt = runtime_for(desc, runtime)
@@ -76,7 +79,7 @@ def terms_inverse_kinematics(
         s = np.atleast_2d(np.asarray(seed, dtype=float))
         s = np.broadcast_to(s, (n, desc.n_joints)) if s.shape[0] == 1 else s
         seeds = effective_joints(desc, theta, np.asarray(s, dtype=float), cond)
-    sol = inverse_kinematics(geo, p, quaternions, theta_geo, seed=seeds, runtime=geo_rt)
+    sol = inverse_kinematics(geo, p, quaternions, theta_geo, seed=seeds, weights=weights, follow=follow, runtime=geo_rt)
     ok = np.flatnonzero(np.isfinite(sol.joints).all(axis=1))
     joints = sol.joints.copy()
     if ok.size == 0:
