@@ -47,6 +47,8 @@ def test_a_thermal_calibration_then_fk_and_ik_at_a_temperature(client: TestClien
     body = r.json()
     assert body["status"] == "succeeded" and body["applied"], body.get("not_applied_reason")
     assert {"thermal.legs", "thermal.axes"} <= set(body["identifiable"])
+    report = client.get(f"/v1/calibrations/{body['id']}/report", headers={"accept": "text/html"})
+    assert report.status_code == 200 and "thermal.legs" in report.text and "ppm/K" in report.text
     params = {p["name"]: p for p in client.get(f"/v1/robots/{robot_id}/parameters").json()["parameters"]}
     assert len(params) == THERMAL.n_params
     kappa = params["thermal.legs"]
@@ -90,6 +92,21 @@ def test_a_thermal_calibration_then_fk_and_ik_at_a_temperature(client: TestClien
         json={"joints": (joints * GEOMETRY.joint_to_boundary).tolist(), "temperature_c": [20.0, 21.0]},
     )
     assert r.status_code == 422 and r.json()["field"] == "temperature_c"
+
+    # the nominal (geometric) version against the thermal one: κ differs from its nominal 11.7 ppm/K
+    diff = client.get(f"/v1/robots/{robot_id}/parameter-versions/1/diff/2")
+    assert diff.status_code == 200, diff.text
+    rows = {p["name"]: p for p in diff.json()["parameters"]}
+    assert rows["thermal.legs"]["a"] == 11.7 and rows["thermal.legs"]["b"] == kappa["value"]
+    # the export (CSV) re-imports as a version with the terms' values
+    export = client.get(f"/v1/robots/{robot_id}/parameters", params={"format": "csv"})
+    assert export.status_code == 200 and "ppm/K" in export.text
+    again = client.post(
+        f"/v1/robots/{robot_id}/parameter-versions", content=export.text, headers={"content-type": "text/csv"}
+    )
+    assert again.status_code == 201, again.text
+    params3 = {p["name"]: p for p in client.get(f"/v1/robots/{robot_id}/parameters").json()["parameters"]}
+    assert params3["thermal.legs"]["value"] == kappa["value"]
 
 
 def test_a_geometric_calibration_of_thermal_data_names_the_missing_term(client: TestClient, robot_id: str) -> None:
