@@ -17,6 +17,7 @@ from models.blas import single_threaded_blas
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows, poses_for
 from models.kinematics import as_joint_array, check_joint_ranges
+from models.terms import Conditions
 from optimal_design.constraints import KeepOut, Spread, joint_range_mask, keep_out_mask
 from optimal_design.criteria import Criterion, metrics, utility, value
 from optimal_design.exchange import exchange, greedy, round_weights
@@ -54,6 +55,8 @@ class PoseDesign:
     """The relaxation's weights over the admissible candidates (a warm start for a neighbouring K)."""
     constraints: dict[str, Any] = field(default_factory=dict)
     """Candidates offered, excluded by each filter, and the minimum spread."""
+    conditions: Conditions | None = None
+    """The chosen poses' conditions (temperature, payload) where the model has terms."""
 
 
 def _finite(x: float | None) -> float | None:
@@ -110,8 +113,16 @@ def prepare(
     joint_ranges: Mapping[int, tuple[float, float]] | None = None,
     keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
     min_spread: float | None = None,
+    conditions: Conditions | None = None,
+    levels: Conditions | None = None,
+    fixed_conditions: Conditions | None = None,
 ) -> Problem:
-    """Validate, sample or check the candidates, apply the filters, and compute every candidate's information."""
+    """Validate, sample or check the candidates, apply the filters, and compute every candidate's information.
+
+    With model terms on: `conditions` are the given candidates' own (one per candidate), or `levels` the
+    conditions the user can set (e.g. temperatures 16, 22, 28 °C, or payloads 0 and 40 kg): every candidate pose
+    is then offered at each level, so the design chooses where to spread them. `fixed_conditions`: the fixed
+    poses'."""
     if measurement not in ("pose", "position"):
         raise InvalidInput(
             f"measurement must be 'pose' or 'position', got {measurement!r}",
@@ -120,6 +131,8 @@ def prepare(
             allowed=["pose", "position"],
         )
     position_only = measurement == "position"
+    if conditions is not None and candidates is None:
+        raise InvalidInput("conditions belong to given candidates; for sampled ones give levels", field="conditions")
     theta = None if params is None else desc.parameters.vector(params)
     box = KeepOut.of(keep_out) if keep_out is not None else None
     ranges = dict(joint_ranges or {})
@@ -144,6 +157,10 @@ def prepare(
                 "candidates is empty: give at least `count` joint vectors, or omit them", field="candidates"
             )
         check_joint_ranges(desc, cand)
+        if conditions is not None and _size(conditions) != cand.shape[0]:
+            raise InvalidInput(
+                f"conditions: give one per candidate ({cand.shape[0]}), not {_size(conditions)}", field="conditions"
+            )
         forward_kinematics(desc, cand, theta)  # UnreachablePose names the first candidate outside the workspace
         ok, excluded = admissible(cand)
         origin = np.flatnonzero(ok)
@@ -179,6 +196,7 @@ def prepare(
             field="candidates",
             reason="all_filtered",
         )
+    cand, cand_conditions, origin = _with_conditions(desc, cand, origin, conditions, levels)
     n_fixed = 0
     done = None
     if fixed is not None:
@@ -188,9 +206,17 @@ def prepare(
         joints = np.vstack([done, cand])
     else:
         joints = cand
-    info_all = candidate_information(desc, joints, position_only=position_only, noise=noise, params=theta)
+    all_conditions = _stacked(desc, n_fixed, fixed_conditions, cand.shape[0], cand_conditions)
+    info_all = candidate_information(
+        desc, joints, position_only=position_only, noise=noise, params=theta, conditions=all_conditions
+    )
     base = info_all.subset_information(np.arange(n_fixed)) if n_fixed else np.zeros((info_all.n_params,) * 2)
-    info = replace(info_all, joints=info_all.joints[n_fixed:], blocks=info_all.blocks[n_fixed:])
+    info = replace(
+        info_all,
+        joints=info_all.joints[n_fixed:],
+        blocks=info_all.blocks[n_fixed:],
+        conditions=cand_conditions,
+    )
     spread = Spread.of(desc, info.joints, done, float(min_spread)) if min_spread else None
     return Problem(
         info=info,
@@ -203,6 +229,48 @@ def prepare(
         spread=spread,
         offered=offered,
     )
+
+
+def _with_conditions(
+    desc: RobotDescription, cand: Array, origin: NDArray[Any], conditions: Conditions | None, levels: Conditions | None
+) -> tuple[Array, Conditions | None, NDArray[Any]]:
+    """The admissible candidates with their conditions: their own, or each pose at every level."""
+    if not desc.terms.any or (conditions is None and levels is None):
+        return cand, None, origin
+    if conditions is not None:
+        return cand, conditions.subset(origin), origin
+    assert levels is not None
+    n_levels = _size(levels)
+    m = cand.shape[0]
+    pick = np.tile(np.arange(n_levels), m)
+    return np.repeat(cand, n_levels, axis=0), levels.subset(pick), np.repeat(origin, n_levels)
+
+
+def _size(c: Conditions) -> int:
+    for part in (c.temperature_c, c.payload_kg):
+        if part is not None:
+            return int(part.shape[0])
+    raise InvalidInput("levels: give temperatures or payloads to spread", field="levels")
+
+
+def _stacked(
+    desc: RobotDescription, n_fixed: int, fixed: Conditions | None, n_cand: int, cand: Conditions | None
+) -> Conditions | None:
+    """The conditions of the fixed poses then the candidates (reference conditions where none are given)."""
+    if not desc.terms.any or (fixed is None and cand is None):
+        return None
+
+    def part(c: Conditions | None, n: int, name: str) -> Array:
+        value = None if c is None else getattr(c, name)
+        if value is not None:
+            return np.asarray(value, dtype=float)
+        if name == "temperature_c":
+            return np.full(n, desc.terms.reference_temperature_c)
+        return np.zeros((n, 3)) if name == "payload_cog_mm" else np.zeros(n)
+
+    names = ("temperature_c", "payload_kg", "payload_cog_mm")
+    stacked = [np.concatenate([part(fixed, n_fixed, k), part(cand, n_cand, k)]) for k in names]
+    return Conditions(*stacked)
 
 
 @single_threaded_blas
@@ -222,6 +290,9 @@ def design_poses(
     keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
     min_spread: float | None = None,
     d_efficiency_floor: float | None = None,
+    conditions: Conditions | None = None,
+    levels: Conditions | None = None,
+    fixed_conditions: Conditions | None = None,
 ) -> PoseDesign:
     """Choose `count` poses among candidates (given, or `candidate_count` sampled in the workspace).
 
@@ -230,7 +301,9 @@ def design_poses(
     metric of optimal_design.constraints) keeps the chosen poses apart from each other and from `fixed`.
     `d_efficiency_floor` (E and condition only, 0-1): optimise the criterion over designs whose D-efficiency
     against the certified D bound stays at least this (README: why the plain condition design calibrates the TCP
-    little better than random poses, and what this buys)."""
+    little better than random poses, and what this buys). With model terms on, `conditions`, `levels` and
+    `fixed_conditions` give the candidates' and fixed poses' conditions (see `prepare`): the chosen ones come back
+    in `PoseDesign.conditions`."""
     started = time.perf_counter()
     crit = criterion if isinstance(criterion, Criterion) else Criterion.parse(criterion)
     problem = prepare(
@@ -245,6 +318,9 @@ def design_poses(
         joint_ranges=joint_ranges,
         keep_out=keep_out,
         min_spread=min_spread,
+        conditions=conditions,
+        levels=levels,
+        fixed_conditions=fixed_conditions,
     )
     return solve(desc, problem, crit, count, seed=seed, started=started, d_efficiency_floor=d_efficiency_floor)
 
@@ -391,6 +467,7 @@ def solve(
         criterion=crit,
         position_only=position_only,
         joints=info.joints[chosen],
+        conditions=None if info.conditions is None else info.conditions.subset(chosen),
         indices=tuple(int(problem.origin[i]) for i in chosen),
         value=value(crit, m, info.task),
         metrics=metric,
