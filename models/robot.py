@@ -95,6 +95,11 @@ class RobotDescription:
         """This robot without model terms (itself when it has none)."""
         return replace(self, terms=ModelTerms()) if self.terms.any else self
 
+    @cached_property
+    def revolute_joints(self) -> tuple[int, ...]:
+        """Indices (among the serial joints) of the revolute ones."""
+        return tuple(k for k, link in enumerate(self.moving_links) if link.joint is JointType.REVOLUTE)
+
     @property
     def has_prismatic(self) -> bool:
         return any(link.joint is JointType.PRISMATIC for link in self.links)
@@ -107,9 +112,11 @@ class RobotDescription:
                 field="terms",
                 value="thermal",
             )
-        if terms.compliance and self.hexapod is None:
+        if terms.compliance and self.hexapod is None and not self.revolute_joints:
             raise InvalidInput(
-                "the compliance term acts on hexapod legs; this robot has none", field="terms", value="compliance"
+                "the compliance term acts on hexapod legs or revolute joints; this robot has neither",
+                field="terms",
+                value="compliance",
             )
         terms.gravity_unit()  # validated now, not at the first evaluation
         return replace(self, terms=terms)
@@ -213,6 +220,17 @@ class RobotDescription:
                 )
                 for i in range(N_LEGS)
             ]
+        if terms.compliance and self.hexapod is None:  # a serial robot: its revolute joints
+            out += [
+                ParameterSpec(
+                    f"compliance.joint{k + 1}",
+                    "compliance",
+                    Kind.JOINT_COMPLIANCE,
+                    terms.joint_compliance,
+                    tol.joint_compliance,
+                )
+                for k in self.revolute_joints
+            ]
         return out
 
     @cached_property
@@ -273,7 +291,7 @@ def pose_transform(pose6: Sym) -> Sym:
     return homogeneous(rotvec_to_matrix(pose6[3:6]), pose6[0:3])
 
 
-def _links_transform(desc: RobotDescription, first: int, stop: int, q_chain: Sym, params: Sym) -> Sym:
+def links_transform(desc: RobotDescription, first: int, stop: int, q_chain: Sym, params: Sym) -> Sym:
     """{first} -> {stop}: links first..stop-1 (0-based) with their joints and parameters."""
     links = desc.links[first:stop]
     q0 = sum(link.joint.moves for link in desc.links[:first])
@@ -289,7 +307,7 @@ def carriage_transform(desc: RobotDescription, q_chain: Sym, params: Sym) -> Sym
     at = len(desc.links) if desc.hexapod_at is None else desc.hexapod_at
     if at == len(desc.links):
         return pose_transform(params[s["base"]]) @ chain_transform(desc.links, q_chain, params[s["carriage"]])
-    return pose_transform(params[s["base"]]) @ _links_transform(desc, 0, at, q_chain, params)
+    return pose_transform(params[s["base"]]) @ links_transform(desc, 0, at, q_chain, params)
 
 
 def tcp_transform(desc: RobotDescription, q_chain: Sym, platform: Sym, params: Sym) -> Sym:
@@ -301,5 +319,5 @@ def tcp_transform(desc: RobotDescription, q_chain: Sym, platform: Sym, params: S
     at = desc.hexapod_at if desc.hexapod_at is not None else len(desc.links)
     t = carriage_transform(desc, q_chain, params) @ hexapod
     if at < len(desc.links):
-        t = t @ _links_transform(desc, at, len(desc.links), q_chain, params)
+        t = t @ links_transform(desc, at, len(desc.links), q_chain, params)
     return t @ pose_transform(params[s["tool"]])

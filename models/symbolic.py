@@ -26,8 +26,8 @@ from __future__ import annotations
 import casadi as ca
 
 from models import hexapod as hx
-from models.robot import RobotDescription, carriage_transform, tcp_transform
-from models.serial_chain import JointType
+from models.robot import RobotDescription, carriage_transform, links_transform, pose_transform, tcp_transform
+from models.serial_chain import Convention, JointType
 from models.terms import N_CONDITIONS
 from models.transforms import matrix_to_rotvec
 
@@ -90,6 +90,12 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     # is kept (one signature for every structure) but pinned by g = x: one Newton step solves it exactly,
     # the TCP does not depend on it, and its implicit-function terms vanish.
     q_eff = thermal_axes(desc, q_chain, params, cond) if with_terms else q_chain
+    deflection = joint_deflection(desc, q_eff, x, params, cond)
+    if deflection is not None:
+        fn["joint_deflection"] = ca.Function(
+            "joint_deflection", [q, params, cond], [deflection], ["q", "params", "conditions"], ["deflection"]
+        )
+        q_eff = q_eff + deflection
     if not desc.has_hexapod:
         g = x
     elif with_terms:
@@ -244,6 +250,32 @@ def _rootfinder_functions(
             ["legs", "hexapod_params", "platform_seed"],
             ["platform"],
         )
+
+
+def joint_deflection(desc: RobotDescription, q_chain: ca.SX, x: ca.SX, params: ca.SX, cond: ca.SX) -> ca.SX | None:
+    """A serial robot's compliance: k_j τ_j per serial joint (0 for prismatic ones), τ_j (N·m) the payload's
+    gravity torque about joint j's axis at the joints `q_chain`; None without the term."""
+    if not (desc.terms.compliance and desc.hexapod is None):
+        return None
+    base = pose_transform(params[desc.slices["base"]])
+    tcp = tcp_transform(desc, q_chain, x, params)
+    cog_world = tcp[0:3, 0:3] @ cond[4:7] + tcp[0:3, 3]
+    out: list[ca.SX] = []
+    k = 0
+    for i, link in enumerate(desc.links):
+        if not link.joint.moves:
+            continue
+        if link.joint is JointType.REVOLUTE:
+            # The joint's axis: z of frame {i} for standard DH (Rz first), of frame {i+1} for modified DH.
+            stop = i if link.convention is Convention.DH else i + 1
+            frame = base @ links_transform(desc, 0, stop, q_chain, params)
+            axis, origin = frame[0:3, 2], frame[0:3, 3]
+            torque = ca.dot(axis, ca.cross(cog_world - origin, cond[1:4])) / 1000.0  # N·mm -> N·m
+            out.append(params[desc.term_index[f"compliance.joint{k + 1}"]] * torque)
+        else:
+            out.append(ca.SX(0))
+        k += 1
+    return ca.vertcat(*out)
 
 
 def thermal_axes(desc: RobotDescription, q_chain: ca.SX, params: ca.SX, cond: ca.SX) -> ca.SX:

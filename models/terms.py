@@ -3,10 +3,14 @@
 - Thermal: a leg at temperature T is `(l_i + δl_i)(1 + κ_legs (T − T_ref))` long (commanded length plus its
   offset, expanded); a prismatic axis's travel scales by `(1 + κ_axes (T − T_ref))`. κ in 1/K inside,
   ppm/K at the boundary (`Kind.THERMAL`).
-- Compliance: the payload's gravity wrench on the platform, mapped to leg tensions by the hexapod's statics
-  `t = J⁻ᵀ w` (J the thesis Jacobian, eq. 48; `w` the force and its moment about the platform origin, in the
-  hexapod's base frame {4}), lengthens leg i by `c_i · t_i` (c in mm/N inside, µm/N at the boundary,
+- Compliance (a robot with a hexapod: its legs): the payload's gravity wrench on the platform, mapped to leg
+  tensions by the hexapod's statics `t = J⁻ᵀ w` (J the thesis Jacobian, eq. 48; `w` the force and its moment
+  about the platform origin, in the hexapod's base frame {4}), lengthens leg i by `c_i · t_i` (c in mm/N inside,
+  µm/N at the boundary,
   `Kind.COMPLIANCE`). A hanging load compresses legs that stand under the platform: they get shorter.
+  A serial robot (no hexapod): each revolute joint turns by `k_j τ_j`, τ_j the payload's gravity torque about
+  its axis at the commanded pose (first order: the deflection is evaluated where the joints are commanded),
+  k in rad/(N·m) inside, µrad/(N·m) at the boundary (`Kind.JOINT_COMPLIANCE`).
 
 The conditions of a record (temperature minus T_ref; the payload's gravity force in the world frame and its
 centre of gravity in the tool frame) are an *input* of the Functions of a structure with terms, the
@@ -39,6 +43,8 @@ NOMINAL_KAPPA = 11.7e-6
 """Steel, 1/K."""
 NOMINAL_LEG_COMPLIANCE = 1e-4
 """mm/N (0.1 µm/N: a leg of 10 N/µm stiffness)."""
+NOMINAL_JOINT_COMPLIANCE = 2e-5
+"""rad/(N·m) (20 µrad/(N·m): a joint of 5·10⁴ N·m/rad, an arm's gearbox)."""
 
 
 @dataclass(frozen=True)
@@ -54,6 +60,7 @@ class ModelTerms:
     kappa_legs: float = NOMINAL_KAPPA
     kappa_axes: float = NOMINAL_KAPPA
     leg_compliance: float = NOMINAL_LEG_COMPLIANCE
+    joint_compliance: float = NOMINAL_JOINT_COMPLIANCE
 
     @property
     def any(self) -> bool:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -46,6 +47,24 @@ def effective_joints(desc: RobotDescription, theta: Array, joints: Array, cond: 
         off = theta[desc.slices["hexapod"]][6::7]
         out[:, desc.n_chain :] = (joints[:, desc.n_chain :] + off) * legs[:, None] - off
     return out
+
+
+DEFLECTION_ITERATIONS = 8
+"""Fixed-point steps q ← q_eff − k τ(q) of a serial robot's compliance: each multiplies the error by k ∂τ/∂q,
+about 1e-3 for an arm's gearboxes, so a few reach round-off."""
+
+
+def _undeflected(deflection: ca.Function, q_eff: Array, theta: Array, cond: Array, factor: Array) -> Array:
+    """The serial joint commands q whose travel (`factor`, thermal) and compliance deflection put the joints at
+    `q_eff`: q (1 + κ ΔT) + k τ(q) = q_eff, by fixed-point steps."""
+    n, m = q_eff.shape[0], factor.shape[1]
+    mapped = deflection.map(n)
+    q = q_eff.copy()
+    q[:, :m] = q_eff[:, :m] / factor
+    for _ in range(DEFLECTION_ITERATIONS):
+        d = np.asarray(mapped(q.T, np.tile(theta[:, None], (1, n)), cond.T)).T
+        q[:, :m] = (q_eff[:, :m] - d) / factor
+    return q[:, :m]
 
 
 def terms_inverse_kinematics(
@@ -86,7 +105,11 @@ def terms_inverse_kinematics(
         return sol
     q_eff = sol.joints[ok]
     chain, legs = _factors(desc, theta, cond[ok, 0])
-    joints[ok, : desc.n_chain] = q_eff[:, : desc.n_chain] / chain
+    if "joint_deflection" in rt.kinematics.functions:
+        commands = _undeflected(rt.kinematics["joint_deflection"], q_eff, theta, cond[ok], chain)
+        joints[ok, : desc.n_chain] = commands
+    else:
+        joints[ok, : desc.n_chain] = q_eff[:, : desc.n_chain] / chain
     if desc.hexapod is not None:
         off = theta_geo[desc.slices["hexapod"]][6::7]
         change = np.zeros((ok.size, 6))

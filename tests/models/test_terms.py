@@ -6,13 +6,14 @@ import numpy as np
 import pytest
 
 from models import Registry, forward_kinematics, iwr, sample_workspace
+from models.compensation import compensate
 from models.errors import InvalidInput
 from models.examples import ur5_like
 from models.hexapod import N_LEGS
 from models.kinematics import inverse_hexapod
 from models.parameters import Kind
 from models.terms import GRAVITY_M_S2, ModelTerms, condition_inputs, make_conditions
-from models.transforms import rotvec_to_matrix_np
+from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
 
 BOTH = ModelTerms(thermal=True, compliance=True)
 N = 6
@@ -62,9 +63,7 @@ def test_a_term_needs_the_parts_it_acts_on_and_its_conditions() -> None:
     with pytest.raises(InvalidInput) as err:
         ur5_like().with_terms(ModelTerms(thermal=True))
     assert err.value.field == "terms"
-    with pytest.raises(InvalidInput) as err:
-        ur5_like().with_terms(ModelTerms(compliance=True))
-    assert err.value.field == "terms"
+    assert ur5_like().with_terms(ModelTerms(compliance=True)).parameters.names[-1] == "compliance.joint6"
     with pytest.raises(InvalidInput) as err:
         condition_inputs(BOTH, make_conditions(3, None, 10.0), 3)
     assert err.value.field == "temperature_c"
@@ -162,3 +161,44 @@ def test_both_routes_agree(desc, joints, conditions) -> None:  # type: ignore[no
     for k in range(N):
         pos, _, _ = fn["fk"](joints[k], theta, desc.platform_home, inputs[k])
         assert np.abs(np.array(pos).ravel() - batch.positions[k]).max() < 1e-9
+
+
+def test_a_serial_robots_joints_turn_by_compliance_times_the_gravity_torque() -> None:
+    """Closed form by virtual work, on the geometric model alone: τ_j = F · ∂p_cog/∂q_j (central differences),
+    and the terms' FK at q equals the geometric FK at q + k τ."""
+    plain = ur5_like()
+    arm = plain.with_terms(ModelTerms(compliance=True))
+    names = [f"compliance.joint{j + 1}" for j in range(6)]
+    k = np.array([10.0, 30.0, 20.0, 15.0, 25.0, 5.0]) * 1e-6  # rad/(N·m)
+    theta = arm.parameters.with_values(arm.parameters.nominal, dict(zip(names, k, strict=True)))
+    q = sample_workspace(plain, 4, seed=11)
+    cog = np.array([10.0, 20.0, 120.0])
+    loads = make_conditions(4, None, 15.0, cog)
+    force = np.array([0.0, 0.0, -15.0 * GRAVITY_M_S2])
+    got = forward_kinematics(arm, q, theta, conditions=loads).positions
+
+    def cog_world(joints: np.ndarray) -> np.ndarray:
+        fk = forward_kinematics(plain, joints, check_ranges=False)
+        return np.einsum("nij,j->ni", fk.rotations, cog) + fk.positions
+
+    h = 1e-6
+    torque = np.zeros((4, 6))
+    for j in range(6):
+        up, down = q.copy(), q.copy()
+        up[:, j] += h
+        down[:, j] -= h
+        torque[:, j] = (cog_world(up) - cog_world(down)) @ force / (2 * h) / 1000.0
+    expected = forward_kinematics(plain, q + torque * k, check_ranges=False).positions
+    assert np.abs(got - expected).max() < 1e-6
+    assert np.abs(got - forward_kinematics(plain, q).positions).max() > 0.05  # the load is visible
+
+
+def test_compensation_of_a_compliant_arm_reaches_its_targets() -> None:
+    arm = ur5_like().with_terms(ModelTerms(compliance=True))
+    theta = arm.parameters.with_values(arm.parameters.nominal, {"compliance.joint2": 40e-6, "compliance.joint3": 25e-6})
+    q = sample_workspace(ur5_like(), 5, seed=12)
+    loads = make_conditions(5, None, [0.0, 5.0, 10.0, 15.0, 20.0], [0.0, 0.0, 100.0])
+    target = forward_kinematics(arm, q, theta, conditions=loads)
+    sol = compensate(arm, theta, target.positions, matrix_to_quaternion(target.rotations), conditions=loads, seed=q)
+    reached = forward_kinematics(arm, sol.joints, theta, conditions=loads, check_ranges=False)
+    assert np.linalg.norm(reached.positions - target.positions, axis=1).max() < 1e-8
