@@ -99,6 +99,23 @@ def record_conditions(desc: RobotDescription, records: Sequence[Record], payload
     return make_conditions(n, temperature, mass, cog)
 
 
+def design_levels(
+    desc: RobotDescription, temperatures: Sequence[float] | None, payloads: Sequence[Payload] | None
+) -> Conditions | None:
+    """The conditions a design may choose from: every temperature level with every payload level (the reference
+    temperature, or no payload, where one kind is not given); 422 naming the field without the terms."""
+    if temperatures is None and payloads is None:
+        return None
+    if not desc.terms.any:
+        field = "temperature_levels_c" if temperatures is not None else "payload_levels"
+        raise InvalidInput(f"{field}: levels need the model terms they act on (give terms)", field=field)
+    temps = list(temperatures) if temperatures is not None else [desc.terms.reference_temperature_c]
+    loads: list[Payload | None] = list(payloads) if payloads is not None else [None]
+    pairs = [(t, p) for t in temps for p in loads]
+    mass, cog = _payload_arrays([p for _, p in pairs])
+    return make_conditions(len(pairs), [t for t, _ in pairs], mass, cog)
+
+
 def request_conditions(
     n: int, temperature_c: float | Sequence[float] | None, payload: Payload | None
 ) -> Conditions | None:

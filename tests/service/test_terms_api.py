@@ -155,3 +155,16 @@ def test_bad_term_requests_are_422_naming_the_field(client: TestClient, robot_id
     assert "prismatic" in r.json()["detail"]
     r = client.post(url, json={"measurements": recs, "options": {"terms": ["humidity"]}})
     assert r.status_code == 422
+
+
+def test_a_pose_design_for_the_thermal_term_spreads_the_temperatures(client: TestClient, robot_id: str) -> None:
+    url = f"/v1/robots/{robot_id}/pose-designs"
+    body = {"count": 30, "candidate_count": 200, "terms": ["thermal"], "temperature_levels_c": [16, 22, 28]}
+    r = client.post(url, json=body)
+    assert r.status_code == 201, r.text
+    design = r.json()
+    assert {"thermal.legs", "thermal.axes"} <= set(design["identifiable"])
+    temps = design["temperature_c"]
+    assert len(temps) == 30 and set(temps) <= {16.0, 22.0, 28.0} and min(temps) == 16.0 and max(temps) == 28.0
+    r = client.post(url, json={"count": 30, "temperature_levels_c": [16, 28]})
+    assert r.status_code == 422 and r.json()["field"] == "temperature_levels_c"
