@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
-from models import default_registry, iwr
+from models import ModelTerms, default_registry, iwr
 from models.warm import warm_everything
+
+IWR_TERMS = (ModelTerms(thermal=True), ModelTerms(compliance=True), ModelTerms(thermal=True, compliance=True))
+"""The IWR's structures with model terms (`options.terms`): their kinematics built at start-up too (their
+inverse kinematics is the geometric structure's, `models.compensation.terms`)."""
 
 
 def warm_up() -> None:
-    warm_everything(default_registry(), iwr())
+    registry = default_registry()
+    warm_everything(registry, iwr())
+    for terms in IWR_TERMS:
+        registry.warm(iwr().with_terms(terms))
 
 
 def native_functions() -> bool:
