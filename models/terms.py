@@ -56,7 +56,9 @@ class ModelTerms:
     reference_temperature_c: float = 20.0
     """T_ref: the temperature at which the geometric parameters hold."""
     gravity: tuple[float, float, float] = (0.0, 0.0, -1.0)
-    """Direction of gravity in the robot's world frame (the base transform's parent): world z up by default."""
+    """Direction of gravity in the robot's world frame (the base transform's parent): world z up by default.
+    After a calibration the world frame is the instrument's (the base is registered to it): a levelled tracker's
+    z is up; an instrument that is not levelled needs its own direction here."""
     kappa_legs: float = NOMINAL_KAPPA
     kappa_axes: float = NOMINAL_KAPPA
     leg_compliance: float = NOMINAL_LEG_COMPLIANCE
