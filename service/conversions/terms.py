@@ -42,9 +42,24 @@ def requested_model(desc: RobotDescription, names: Sequence[str]) -> RobotDescri
     if not names:
         return geometric
     try:
-        return geometric.with_terms(ModelTerms(thermal="thermal" in names, compliance="compliance" in names))
+        chosen = geometric.with_terms(ModelTerms(thermal="thermal" in names, compliance="compliance" in names))
     except InvalidInput as exc:
         raise InvalidInput(str(exc), field="options.terms", value=exc.value) from exc
+    # A stored version tells its terms by its count of values (`stored_model`): refuse the rare robot whose
+    # terms would be told apart by nothing else (one prismatic axis and one revolute joint, no hexapod).
+    for terms in _COMBINATIONS:
+        if terms.names != chosen.terms.names:
+            try:
+                other = geometric.with_terms(terms)
+            except InvalidInput:
+                continue
+            if other.n_params == chosen.n_params:
+                raise InvalidInput(
+                    f"on this robot the terms {list(chosen.terms.names)} and {list(terms.names)} have the same "
+                    "number of parameters, which its stored versions cannot tell apart: calibrate with both terms",
+                    field="options.terms",
+                )
+    return chosen
 
 
 def start_values(desc: RobotDescription, stored: Array) -> Array:
