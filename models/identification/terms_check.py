@@ -6,7 +6,7 @@ the column of its offset (the closure holds `|v_k| = (l_k + δl_k)(1 + κ ΔT)`,
 length does); a prismatic axis's is `ΔT q_j` times the column of its `d`; a leg's compliance column is its
 tension `t_k` (hexapod statics, `models.terms`) times its offset's column. Projected off the fitted columns,
 the squared residual along them is χ²(k) if the term is absent; far above, the residuals follow the
-temperature (load).
+temperature (load). A serial robot's joint compliance column is its gravity torque times its θ's column.
 """
 
 from __future__ import annotations
@@ -48,13 +48,9 @@ def missing_term_diagnoses(problem: CampaignProblem, ev: Evaluation) -> tuple[Di
                 )
             )
     mass = conditions.payload_kg
-    if (
-        not desc.terms.compliance
-        and desc.hexapod is not None
-        and mass is not None
-        and np.ptp(mass[active]) >= MIN_PAYLOAD_SPREAD_KG
-    ):
-        columns = _compliance_columns(problem, ev)
+    loadable = desc.hexapod is not None or bool(desc.revolute_joints)
+    if not desc.terms.compliance and loadable and mass is not None and np.ptp(mass[active]) >= MIN_PAYLOAD_SPREAD_KG:
+        columns = _compliance_columns(problem, ev) if desc.hexapod is not None else _joint_columns(problem, ev)
         stat, k, limit = _score(problem, ev, columns)
         if stat > limit:
             found.append(
@@ -111,6 +107,33 @@ def _thermal_columns(problem: CampaignProblem, ev: Evaluation, dt: Array) -> lis
         k += link.joint.moves
     if np.any(axes):
         out.append(axes)
+    return out
+
+
+def _joint_columns(problem: CampaignProblem, ev: Evaluation) -> list[Array]:
+    """A serial robot's: per revolute joint, its gravity torque τ_j = F · ∂p_cog/∂q_j (virtual work, from the
+    TCP's joint Jacobian) times the column of its θ (a revolute joint's reading adds to θ)."""
+    desc, campaign = problem.desc, problem.campaign
+    assert campaign.conditions is not None
+    active = problem.active_poses
+    mass, cog = campaign.conditions.payload_kg, campaign.conditions.payload_cog_mm
+    assert mass is not None and cog is not None
+    q = campaign.joints[active]
+    _, rot, jq = problem.runtime.kinematics.batch("joint_jacobian_at", q, ev.theta, ev.platforms)
+    force = (mass[active] * GRAVITY_M_S2)[:, None] * desc.terms.gravity_unit()[None, :]
+    arm = np.einsum("nij,nj->ni", rot, cog[active])  # the cog relative to the TCP, world frame
+    start = desc.slices["carriage"].start
+    out: list[Array] = []
+    k = 0
+    for i, link in enumerate(desc.links):
+        if not link.joint.moves:
+            continue
+        if link.joint is JointType.REVOLUTE:
+            velocity = jq[:, :3, k] + np.cross(jq[:, 3:, k], arm)  # of the cog per unit q_k
+            torque = np.einsum("ni,ni->n", force, velocity) / 1000.0
+            theta_index = start + desc.link_param_offsets[i]
+            out.append(torque[:, None] * ev.raw_jacobian[:, :, theta_index])
+        k += 1
     return out
 
 

@@ -177,6 +177,7 @@ def test_joint_compliances_of_a_serial_arm_from_two_payloads() -> None:
     campaign = measure(sim, joints, NOISE, seed=22, conditions=loads)
     geometric = identify(plain, campaign, noise=NOISE)
     assert not geometric.noise_consistent and geometric.variance_factor > 10
+    assert [d.finding for d in geometric.diagnoses] == [Finding.LOAD_TERM]
     result = identify(arm, campaign, noise=NOISE)
     assert result.succeeded and result.noise_consistent
     for name, value in values.items():
