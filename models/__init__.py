@@ -44,6 +44,7 @@ from models.parameters import Kind, ParameterScales, ParameterSpec, ParameterTab
 from models.robot import RobotDescription, Structure
 from models.runtime import Registry, Runtime, default_registry
 from models.simulation import SimulatedRobot, measure, perturbed_robot
+from models.terms import Conditions, ModelTerms, make_conditions
 from models.workspace import sample_workspace
 
 __all__ = [
@@ -51,6 +52,7 @@ __all__ = [
     "Array",
     "CalibrationError",
     "Campaign",
+    "Conditions",
     "ForwardJacobianResult",
     "ForwardResult",
     "Identifiability",
@@ -60,6 +62,7 @@ __all__ = [
     "JointOutOfRange",
     "Kind",
     "MeasurementKind",
+    "ModelTerms",
     "NoiseModel",
     "NonFiniteValue",
     "NotIdentifiable",
@@ -84,6 +87,7 @@ __all__ = [
     "inverse_hexapod",
     "iwr",
     "make_campaign",
+    "make_conditions",
     "measure",
     "perturbed_robot",
     "sample_workspace",

@@ -90,7 +90,10 @@ def evaluate(
     desc: RobotDescription, params: Array, campaign: Campaign, *, register: bool = False, runtime: Runtime | None = None
 ) -> AccuracyReport:
     """The version `params` against `campaign`; with `register`, first the best rigid fit of the instrument frame."""
-    fk = forward_kinematics(desc, campaign.joints, params, runtime=runtime_for(desc, runtime))
+    campaign.condition_inputs(desc)  # a version with model terms needs the records' temperatures (payloads)
+    fk = forward_kinematics(
+        desc, campaign.joints, params, conditions=campaign.conditions, runtime=runtime_for(desc, runtime)
+    )
     predicted, rotations = fk.positions, fk.rotations
     if register:
         fit = rigid_fit(predicted, campaign.positions)

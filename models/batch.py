@@ -35,14 +35,21 @@ class BatchFunctions:
     def __getitem__(self, name: str) -> ca.Function:
         return self.functions[name]
 
-    def batch(self, name: str, *args: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+    def batch(
+        self, name: str, *args: NDArray[np.float64], conditions: NDArray[np.float64] | None = None
+    ) -> tuple[NDArray[np.float64], ...]:
         """Evaluate native `name` over N poses, reading and writing numpy memory directly.
 
         Outputs are (N, k) for vectors, (N, r, c) for matrices. Going through CasADi's buffer interface skips
-        DM conversion, which otherwise costs ten times the evaluation itself.
+        DM conversion, which otherwise costs ten times the evaluation itself. `conditions` (N, 7) feeds the
+        last input of a structure with model terms (`models.terms`); not given, the reference conditions
+        (no temperature difference, no payload): what a caller that knows no terms means. Functions without
+        the input ignore it.
         """
-        n = max((a.shape[0] for a in args if a.ndim >= 2), default=1)
         base = self.native[name]
+        if base.n_in() == len(args) + 1 and base.name_in(len(args)) == "conditions":
+            args = (*args, np.zeros(base.size1_in(len(args))) if conditions is None else conditions)
+        n = max((a.shape[0] for a in args if a.ndim >= 2), default=1)
         mapped = self.mapped(name, n)
         buffer, trigger = mapped.buffer()
         keep: list[NDArray[np.float64]] = []

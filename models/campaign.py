@@ -17,6 +17,7 @@ from models.errors import InvalidInput, InvalidQuaternion, NonFiniteValue, Wrong
 from models.kinematics import as_joint_array, check_joint_ranges
 from models.measurement import MeasurementKind
 from models.robot import RobotDescription
+from models.terms import Conditions, condition_inputs
 from models.transforms import quaternion_to_matrix
 
 QUATERNION_NORM_TOLERANCE = 1e-3
@@ -33,6 +34,8 @@ class Campaign:
     """(N, 4) measured TCP orientations `[w, x, y, z]`, unit norm; None for position-only data."""
     sigma_mm: Array | None = None
     """(N,) each record's own position σ (a tracker's U95 / 2, a per-point RMS), mm; None: the noise model's."""
+    conditions: Conditions | None = None
+    """What each record was measured under (temperature, payload): the inputs of the model terms."""
 
     @property
     def size(self) -> int:
@@ -56,7 +59,15 @@ class Campaign:
         idx = np.asarray(index)
         quats = None if self.quaternions is None else self.quaternions[idx]
         sigma = None if self.sigma_mm is None else self.sigma_mm[idx]
-        return Campaign(self.joints[idx], self.positions[idx], quats, sigma)
+        cond = None if self.conditions is None else self.conditions.subset(idx)
+        return Campaign(self.joints[idx], self.positions[idx], quats, sigma, cond)
+
+    def condition_inputs(self, desc: RobotDescription) -> Array | None:
+        """The (N, 7) conditions input of `desc`'s terms (None without terms); InvalidInput names what the
+        terms need and the records lack (`temperature_c`, `payload`)."""
+        if not desc.terms.any:
+            return None
+        return condition_inputs(desc.terms, self.conditions, self.size)
 
 
 def make_campaign(
@@ -67,6 +78,7 @@ def make_campaign(
     *,
     check_ranges: bool = True,
     sigma_mm: ArrayLike | None = None,
+    conditions: Conditions | None = None,
 ) -> Campaign:
     """Validate raw arrays (internal units) into a Campaign; domain errors name the offending record."""
     q = as_joint_array(desc, joints)
@@ -84,8 +96,10 @@ def make_campaign(
         )
     _check_finite(p, "position")
     sigma = None if sigma_mm is None else _sigmas(sigma_mm, q.shape[0])
+    if conditions is not None:
+        _check_conditions(conditions, q.shape[0])
     if quaternions is None:
-        return Campaign(q, p, None, sigma)
+        return Campaign(q, p, None, sigma, conditions)
     quat = np.array(quaternions, dtype=float)
     if quat.ndim == 1:
         quat = quat[None, :]
@@ -108,7 +122,22 @@ def make_campaign(
             norm=float(norms[i]),
             count=int(bad.size),
         )
-    return Campaign(q, p, quat / norms[:, None], sigma)
+    return Campaign(q, p, quat / norms[:, None], sigma, conditions)
+
+
+def _check_conditions(conditions: Conditions, n: int) -> None:
+    for name, value in (
+        ("temperature_c", conditions.temperature_c),
+        ("payload.mass_kg", conditions.payload_kg),
+        ("payload.cog_mm", conditions.payload_cog_mm),
+    ):
+        if value is not None and value.shape[0] != n:
+            raise WrongShape(
+                f"expected {n} values of {name} (one per record), got {value.shape[0]}",
+                field=name,
+                expected=[n],
+                got=[int(value.shape[0])],
+            )
 
 
 def _sigmas(sigma_mm: ArrayLike, n: int) -> Array:

@@ -37,6 +37,7 @@ from models.measurement import MeasurementKind
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
+from models.terms import MIN_PAYLOAD_SPREAD_KG, MIN_TEMPERATURE_SPAN_K, Conditions, make_conditions
 from models.workspace import workspace_samples
 
 RANK_RTOL = 1e-9
@@ -103,6 +104,9 @@ class Identifiability:
     """Of the scaled Jacobian restricted to the candidate parameters, descending."""
     threshold: float
     confounding: tuple[Confounding, ...]
+    missing: tuple[tuple[str, str], ...] = ()
+    """(parameter, what to measure) for the model terms' parameters these conditions cannot determine
+    (`condition_support`): reported unidentifiable whatever the rank says."""
 
     @property
     def identifiable_names(self) -> tuple[str, ...]:
@@ -174,11 +178,69 @@ def structural_identifiability(
 
     def analyse() -> Identifiability:
         joints = workspace_samples(desc, STRUCTURAL_POSES, STRUCTURAL_SEED, runtime=rt)
-        fk = forward_kinematics(desc, joints, jacobian=True, runtime=rt)
+        fk = forward_kinematics(desc, joints, jacobian=True, runtime=rt, conditions=structural_conditions(desc))
         scaled = scaled_jacobian(fk.jacobians, desc.parameters, NoiseModel(), kind=kind)
         return analyse_identifiability(scaled, desc.parameters, candidates)
 
     return rt.artefact("structural_subset", (desc, tuple(candidates), kind), analyse, capacity=64)
+
+
+def structural_conditions(desc: RobotDescription, n: int = STRUCTURAL_POSES) -> Conditions | None:
+    """Conditions that make every term visible (temperatures over T_ref ± 8 K, payloads of 0 and 40 kg with an
+    offset centre of gravity): rich data for the terms, as the random poses are for the geometry."""
+    if not desc.terms.any:
+        return None
+    rng = np.random.default_rng(STRUCTURAL_SEED)
+    t_ref = desc.terms.reference_temperature_c
+    return make_conditions(
+        n,
+        temperature_c=t_ref + rng.permutation(np.linspace(-8.0, 8.0, n)),
+        payload_kg=np.where(np.arange(n) % 2 == 0, 0.0, 40.0),
+        payload_cog_mm=[30.0, -20.0, 100.0],
+    )
+
+
+def condition_support(desc: RobotDescription, conditions: Conditions | None) -> dict[int, str]:
+    """The terms' parameters these conditions cannot determine, each with what to measure.
+
+    At a single temperature κ only scales every leg (axis) reading, which encoders' own scale errors also do
+    and no geometric parameter separates; the compliances need two payloads for the same reason (one load is
+    a fixed shortening of each leg: its offset). So the rule is on the spread of the conditions, whatever rank
+    a single temperature away from T_ref would give.
+    """
+    out: dict[int, str] = {}
+    c = conditions or Conditions()
+    span, spread = c.temperature_span_k, c.payload_spread_kg
+    for name, i in desc.term_index.items():
+        if name.startswith("thermal.") and span < MIN_TEMPERATURE_SPAN_K:
+            out[i] = (
+                f"{name} is not identifiable: the campaign's temperatures span {span:.1f} K; measure over at least "
+                f"{MIN_TEMPERATURE_SPAN_K:.0f} K"
+            )
+        elif name.startswith("compliance.") and spread < MIN_PAYLOAD_SPREAD_KG:
+            out[i] = (
+                f"{name} is not identifiable: the campaign has one payload; measure with at least two payloads "
+                f"(at least {MIN_PAYLOAD_SPREAD_KG:.0f} kg apart)"
+            )
+    return out
+
+
+def without_unsupported(ident: Identifiability, unsupported: dict[int, str]) -> Identifiability:
+    """`ident` with the parameters the conditions cannot determine moved to the unidentifiable ones."""
+    if not unsupported:
+        return ident
+    keep = tuple(i for i in ident.identifiable if i not in unsupported)
+    moved = sorted(set(ident.unidentifiable) | set(unsupported))
+    return Identifiability(
+        names=ident.names,
+        identifiable=keep,
+        unidentifiable=tuple(moved),
+        rank=len(keep) if ident.rank == len(ident.identifiable) else min(ident.rank, len(keep)),
+        singular_values=ident.singular_values,
+        threshold=ident.threshold,
+        confounding=tuple(c for c in ident.confounding if ident.names.index(c.name) not in unsupported),
+        missing=tuple((ident.names[i], msg) for i, msg in sorted(unsupported.items())),
+    )
 
 
 def minimum_poses(

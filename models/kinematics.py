@@ -18,6 +18,7 @@ from models._types import Array
 from models.errors import JointOutOfRange, NonFiniteValue, UnreachablePose, WrongShape
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
+from models.terms import Conditions, condition_inputs
 
 JOINT_RANGE_SLACK = 1e-9
 """Joints may exceed their range by this much (mm or rad) before they are rejected: float round-off."""
@@ -86,11 +87,13 @@ def solve_platforms(
     seeds: Array | None = None,
     *,
     runtime: Runtime | None = None,
+    conditions: Array | None = None,
 ) -> tuple[Array, Array]:
     """Hexapod forward kinematics for a batch: platform poses (N, 6) and closure error (N,) in mm.
 
     Newton from the home pose (or the given seeds), all poses at once; poses not
-    yet converged get more steps. Nothing is checked here: see `forward_kinematics`.
+    yet converged get more steps. Nothing is checked here: see `forward_kinematics`. `conditions` (N, 7):
+    the inputs of a structure with model terms (`models.terms.condition_inputs`); None: reference conditions.
     """
     fns = runtime_for(desc, runtime).kinematics
     n = joints.shape[0]
@@ -102,7 +105,8 @@ def solve_platforms(
     todo = np.arange(n)
     closure = np.full(n, np.inf)
     for _ in range(MAX_NEWTON_CALLS):
-        x_new, res = fns.batch("newton_solve", joints[todo], theta, x[todo])
+        cond = None if conditions is None else conditions[todo]
+        x_new, res = fns.batch("newton_solve", joints[todo], theta, x[todo], conditions=cond)
         x[todo] = x_new
         closure[todo] = res[:, 0]
         todo = todo[~(closure[todo] <= CLOSURE_TOLERANCE_MM)]
@@ -207,6 +211,7 @@ def forward_kinematics(
     check_ranges: bool = True,
     seeds: Array | None = None,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
 ) -> ForwardResult: ...
 
 
@@ -220,6 +225,7 @@ def forward_kinematics(
     check_ranges: bool = True,
     seeds: Array | None = None,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
 ) -> ForwardJacobianResult: ...
 
 
@@ -232,33 +238,53 @@ def forward_kinematics(
     check_ranges: bool = True,
     seeds: Array | None = None,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
 ) -> ForwardResult:
-    """TCP poses (and optionally identification Jacobians) for a batch of joint vectors."""
+    """TCP poses (and optionally identification Jacobians) for a batch of joint vectors.
+
+    With model terms on (`desc.terms`), `conditions` says what each joint vector runs under (a temperature for
+    the thermal term, a payload for the compliance term; InvalidInput names what a term needs and they lack);
+    None: the reference conditions (T_ref, no payload).
+    """
     rt = runtime_for(desc, runtime)
     theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
     q = as_joint_array(desc, joints)
     if check_ranges:
         check_joint_ranges(desc, q)
-    platforms, closure = solve_platforms(desc, q, theta, seeds, runtime=rt)
+    cond = condition_inputs(desc.terms, conditions, q.shape[0]) if desc.terms.any and conditions else None
+    platforms, closure = solve_platforms(desc, q, theta, seeds, runtime=rt, conditions=cond)
     check_assembly(desc, platforms, closure, theta, runtime=rt)
     if jacobian:
-        return pose_jacobian_batch(desc, q, theta, platforms, runtime=rt)
-    return pose_batch(desc, q, theta, platforms, runtime=rt)
+        return pose_jacobian_batch(desc, q, theta, platforms, runtime=rt, conditions=cond)
+    return pose_batch(desc, q, theta, platforms, runtime=rt, conditions=cond)
 
 
 def pose_batch(
-    desc: RobotDescription, q: Array, theta: Array, platforms: Array, *, runtime: Runtime | None = None
+    desc: RobotDescription,
+    q: Array,
+    theta: Array,
+    platforms: Array,
+    *,
+    runtime: Runtime | None = None,
+    conditions: Array | None = None,
 ) -> ForwardResult:
     """TCP poses for already solved platform poses; no checks."""
-    pos, rot = runtime_for(desc, runtime).kinematics.batch("pose_at", q, theta, platforms)
+    pos, rot = runtime_for(desc, runtime).kinematics.batch("pose_at", q, theta, platforms, conditions=conditions)
     return ForwardResult(pos, rot, platforms)
 
 
 def pose_jacobian_batch(
-    desc: RobotDescription, q: Array, theta: Array, platforms: Array, *, runtime: Runtime | None = None
+    desc: RobotDescription,
+    q: Array,
+    theta: Array,
+    platforms: Array,
+    *,
+    runtime: Runtime | None = None,
+    conditions: Array | None = None,
 ) -> ForwardJacobianResult:
     """TCP poses and identification Jacobians for already solved platform poses; no checks."""
-    pos, rot, jac = runtime_for(desc, runtime).kinematics.batch("pose_jacobian_at", q, theta, platforms)
+    fns = runtime_for(desc, runtime).kinematics
+    pos, rot, jac = fns.batch("pose_jacobian_at", q, theta, platforms, conditions=conditions)
     return ForwardJacobianResult(pos, rot, platforms, jac)
 
 
@@ -270,3 +296,32 @@ def inverse_hexapod(
     x = np.atleast_2d(np.asarray(platforms, dtype=float))
     (legs,) = runtime_for(desc, runtime).kinematics.batch("hexapod_ik", x, theta[desc.slices["hexapod"]])
     return legs
+
+
+def leg_tensions(
+    desc: RobotDescription,
+    q: Array,
+    theta: Array,
+    platforms: Array,
+    *,
+    force_world: Array,
+    cog_mm: Array,
+    runtime: Runtime | None = None,
+    conditions: Array | None = None,
+) -> Array:
+    """(N, 6) leg tensions (N) that carry a payload: its gravity force `force_world` (N, 3; world frame) at its
+    centre of gravity `cog_mm` (N, 3; tool frame), by the hexapod's statics t = J⁻ᵀ w (thesis eq. 48; `w` the
+    force and its moment about the platform origin, in {4}). Numeric twin of `models.symbolic.terms_closure`'s
+    statics, for a description with or without terms (`conditions`: its terms' inputs)."""
+    assert desc.hexapod is not None, "only a hexapod has legs to carry a load"
+    fns = runtime_for(desc, runtime).kinematics
+    (carriage,) = fns.batch("carriage_fk", q[:, : desc.n_chain], theta, conditions=conditions)
+    pos, rot = fns.batch("pose_at", q, theta, platforms, conditions=conditions)
+    (jhex,) = fns.batch("hexapod_jacobian", platforms, theta[desc.slices["hexapod"]])
+    r4, o4 = carriage[:, :3, :3], carriage[:, :3, 3]
+    cog_world = np.einsum("nij,nj->ni", rot, cog_mm) + pos
+    origin_world = np.einsum("nij,nj->ni", r4, platforms[:, :3]) + o4
+    force = np.einsum("nji,nj->ni", r4, force_world)
+    arm = np.einsum("nji,nj->ni", r4, cog_world - origin_world)
+    wrench = np.concatenate([force, np.cross(arm, force)], axis=1)
+    return np.asarray(np.linalg.solve(np.transpose(jhex, (0, 2, 1)), wrench[:, :, None])[:, :, 0])

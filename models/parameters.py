@@ -35,6 +35,12 @@ class ParameterScales:
     leg_offset: float = 0.5
     tool_length: float = 0.5
     tool_angle: float = float(np.radians(0.2))
+    thermal: float = 5e-6
+    """κ (1/K): the spread of expansion coefficients between steels and a leg's mix of steel and aluminium."""
+    compliance: float = 1e-4
+    """A leg's compliance, mm/N (0.1 µm/N)."""
+    joint_compliance: float = 1e-5
+    """A revolute joint's angular compliance, rad/(N·m) (10 µrad/(N·m))."""
 
 
 GROUP_ALIASES: dict[str, str] = {"carriage": "links", "links": "carriage", "hexapod": "legs", "legs": "hexapod"}
@@ -44,15 +50,37 @@ GROUP_ALIASES: dict[str, str] = {"carriage": "links", "links": "carriage", "hexa
 class Kind(StrEnum):
     LENGTH = "length"
     ANGLE = "angle"
+    THERMAL = "thermal"
+    """An expansion coefficient: 1/K inside, ppm/K at the boundary."""
+    COMPLIANCE = "compliance"
+    """A leg's compliance: mm/N inside, µm/N at the boundary."""
+    JOINT_COMPLIANCE = "joint_compliance"
+    """A revolute joint's angular compliance: rad/(N·m) inside, µrad/(N·m) at the boundary."""
 
     @property
     def boundary_unit(self) -> str:
-        return "mm" if self is Kind.LENGTH else "deg"
+        return _BOUNDARY_UNITS[self]
 
     @property
     def to_boundary(self) -> float:
-        """Factor from internal units (mm, rad) to boundary units (mm, deg)."""
-        return 1.0 if self is Kind.LENGTH else float(np.degrees(1.0))
+        """Factor from internal units (mm, rad, 1/K, mm/N) to boundary units (mm, deg, ppm/K, µm/N)."""
+        return _TO_BOUNDARY[self]
+
+
+_BOUNDARY_UNITS = {
+    Kind.LENGTH: "mm",
+    Kind.ANGLE: "deg",
+    Kind.THERMAL: "ppm/K",
+    Kind.COMPLIANCE: "µm/N",
+    Kind.JOINT_COMPLIANCE: "µrad/(N·m)",
+}
+_TO_BOUNDARY = {
+    Kind.LENGTH: 1.0,
+    Kind.ANGLE: float(np.degrees(1.0)),
+    Kind.THERMAL: 1e6,
+    Kind.COMPLIANCE: 1e3,
+    Kind.JOINT_COMPLIANCE: 1e6,
+}
 
 
 @dataclass(frozen=True)

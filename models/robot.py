@@ -19,9 +19,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import IDENTITY, Pose6
+from models.errors import InvalidInput
 from models.hexapod import N_LEGS, PARAMS_PER_LEG, HexapodGeometry, hexapod_parameter_specs, platform_rotation
 from models.parameters import Kind, ParameterScales, ParameterSpec, ParameterTable
-from models.serial_chain import Convention, DHLink, chain_transform, dh_parameter_specs
+from models.serial_chain import Convention, DHLink, JointType, chain_transform, dh_parameter_specs
+from models.terms import ModelTerms
 from models.transforms import Sym, homogeneous, rotvec_to_matrix
 
 Structure = tuple[Hashable, ...]
@@ -49,6 +51,8 @@ class RobotDescription:
     scales: ParameterScales = field(default_factory=ParameterScales)
     """Expected error per parameter kind: the column scaling of identification and design."""
     stages: tuple[int, ...] | None = None
+    terms: ModelTerms = field(default_factory=ModelTerms)
+    """Model terms beyond geometry (`models.terms`): off by default."""
 
     @cached_property
     def stage_layout(self) -> tuple[int, ...]:
@@ -72,11 +76,50 @@ class RobotDescription:
     @cached_property
     def structure(self) -> Structure:
         """The key of everything built from this description (`models.runtime`): geometry, base and tool are
-        inputs of the graphs, so every description with this structure shares one runtime."""
+        inputs of the graphs, so every description with this structure shares one runtime. The model terms
+        switched on change the graphs, so they are part of the key; without terms the key is the geometric one."""
+        geometric = self.geometric_structure
+        if not self.terms.any:
+            return geometric
+        return ("terms", self.terms.thermal, self.terms.compliance, geometric)
+
+    @cached_property
+    def geometric_structure(self) -> Structure:
         if self.hexapod is not None and self.hexapod_at == len(self.links) and self.is_classic:
             # The IWR's shape keeps its key of joint types alone.
             return tuple(link.joint for link in self.links)
         return (tuple(link.token for link in self.links), self.hexapod_at)
+
+    @cached_property
+    def geometric(self) -> RobotDescription:
+        """This robot without model terms (itself when it has none)."""
+        return replace(self, terms=ModelTerms()) if self.terms.any else self
+
+    @cached_property
+    def revolute_joints(self) -> tuple[int, ...]:
+        """Indices (among the serial joints) of the revolute ones."""
+        return tuple(k for k, link in enumerate(self.moving_links) if link.joint is JointType.REVOLUTE)
+
+    @property
+    def has_prismatic(self) -> bool:
+        return any(link.joint is JointType.PRISMATIC for link in self.links)
+
+    def with_terms(self, terms: ModelTerms) -> RobotDescription:
+        """This robot with `terms`; InvalidInput (field `terms`) when a term has nothing to act on."""
+        if terms.thermal and self.hexapod is None and not self.has_prismatic:
+            raise InvalidInput(
+                "the thermal term acts on hexapod legs and prismatic axes; this robot has neither",
+                field="terms",
+                value="thermal",
+            )
+        if terms.compliance and self.hexapod is None and not self.revolute_joints:
+            raise InvalidInput(
+                "the compliance term acts on hexapod legs or revolute joints; this robot has neither",
+                field="terms",
+                value="compliance",
+            )
+        terms.gravity_unit()  # validated now, not at the first evaluation
+        return replace(self, terms=terms)
 
     @property
     def is_classic(self) -> bool:
@@ -160,7 +203,41 @@ class RobotDescription:
         if self.hexapod is not None:
             specs += hexapod_parameter_specs(self.hexapod, tol.hexapod_joint, tol.leg_offset, self.leg_group)
         specs += _pose_specs("tool", self.tool, tol.tool_length, tol.tool_angle)
+        specs += self._term_specs()
         return ParameterTable(tuple(specs))
+
+    def _term_specs(self) -> list[ParameterSpec]:
+        """The terms' parameters, after the tool (so every geometric slice stays where it was)."""
+        terms, tol, out = self.terms, self.scales, []
+        if terms.thermal and self.hexapod is not None:
+            out.append(ParameterSpec("thermal.legs", "thermal", Kind.THERMAL, terms.kappa_legs, tol.thermal))
+        if terms.thermal and self.has_prismatic:
+            out.append(ParameterSpec("thermal.axes", "thermal", Kind.THERMAL, terms.kappa_axes, tol.thermal))
+        if terms.compliance and self.hexapod is not None:
+            out += [
+                ParameterSpec(
+                    f"compliance.leg{i + 1}", "compliance", Kind.COMPLIANCE, terms.leg_compliance, tol.compliance
+                )
+                for i in range(N_LEGS)
+            ]
+        if terms.compliance and self.hexapod is None:  # a serial robot: its revolute joints
+            out += [
+                ParameterSpec(
+                    f"compliance.joint{k + 1}",
+                    "compliance",
+                    Kind.JOINT_COMPLIANCE,
+                    terms.joint_compliance,
+                    tol.joint_compliance,
+                )
+                for k in self.revolute_joints
+            ]
+        return out
+
+    @cached_property
+    def term_index(self) -> dict[str, int]:
+        """Index of each term parameter present (`thermal.legs`, `thermal.axes`, `compliance.leg1`...)."""
+        n_geo = self.slices["tool"].stop
+        return {spec.name: n_geo + k for k, spec in enumerate(self._term_specs())}
 
     @property
     def n_params(self) -> int:
@@ -180,6 +257,7 @@ class RobotDescription:
             "hexapod": legs,
             "legs": legs,
             "tool": slice(6 + n_dh + n_hex, 12 + n_dh + n_hex),
+            "terms": slice(12 + n_dh + n_hex, 12 + n_dh + n_hex + len(self._term_specs())),
         }
 
     @cached_property
@@ -213,7 +291,7 @@ def pose_transform(pose6: Sym) -> Sym:
     return homogeneous(rotvec_to_matrix(pose6[3:6]), pose6[0:3])
 
 
-def _links_transform(desc: RobotDescription, first: int, stop: int, q_chain: Sym, params: Sym) -> Sym:
+def links_transform(desc: RobotDescription, first: int, stop: int, q_chain: Sym, params: Sym) -> Sym:
     """{first} -> {stop}: links first..stop-1 (0-based) with their joints and parameters."""
     links = desc.links[first:stop]
     q0 = sum(link.joint.moves for link in desc.links[:first])
@@ -229,7 +307,7 @@ def carriage_transform(desc: RobotDescription, q_chain: Sym, params: Sym) -> Sym
     at = len(desc.links) if desc.hexapod_at is None else desc.hexapod_at
     if at == len(desc.links):
         return pose_transform(params[s["base"]]) @ chain_transform(desc.links, q_chain, params[s["carriage"]])
-    return pose_transform(params[s["base"]]) @ _links_transform(desc, 0, at, q_chain, params)
+    return pose_transform(params[s["base"]]) @ links_transform(desc, 0, at, q_chain, params)
 
 
 def tcp_transform(desc: RobotDescription, q_chain: Sym, platform: Sym, params: Sym) -> Sym:
@@ -241,5 +319,5 @@ def tcp_transform(desc: RobotDescription, q_chain: Sym, platform: Sym, params: S
     at = desc.hexapod_at if desc.hexapod_at is not None else len(desc.links)
     t = carriage_transform(desc, q_chain, params) @ hexapod
     if at < len(desc.links):
-        t = t @ _links_transform(desc, at, len(desc.links), q_chain, params)
+        t = t @ links_transform(desc, at, len(desc.links), q_chain, params)
     return t @ pose_transform(params[s["tool"]])

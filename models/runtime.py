@@ -59,8 +59,13 @@ def structure_tag(structure: Structure) -> str:
     The IWR's shape (standard-DH joints, then the hexapod) keeps its tag of joint letters ("pprr"); any
     other structure reads per link `d`/`m` (convention), `p`/`r`/`f` (joint), `b` (Hayati's beta), and `h`
     where the hexapod stage sits, e.g. a 7R MDH arm "mrbmrmrmrmrmrmr". Built from enumerations only: no
-    user string reaches a file name or generated code.
+    user string reaches a file name or generated code. A structure with model terms adds `_t` (thermal) and
+    `_c` (compliance) to its geometric tag.
     """
+    if structure and structure[0] == "terms":
+        _, thermal, compliance, geometric = structure
+        assert isinstance(geometric, tuple)
+        return structure_tag(geometric) + ("_t" if thermal else "") + ("_c" if compliance else "")
     if all(isinstance(j, JointType) for j in structure):
         return "".join("p" if j is JointType.PRISMATIC else "r" for j in structure)
     tokens, hexapod_at = structure

@@ -17,6 +17,7 @@ from models.error_analysis.magnitudes import ErrorMagnitudes
 from models.identifiability import NoiseModel
 from models.kinematics import forward_kinematics
 from models.robot import RobotDescription
+from models.terms import Conditions
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np
 
 
@@ -80,15 +81,19 @@ def measure(
     seed: int = 0,
     *,
     position_only: bool = False,
+    conditions: Conditions | None = None,
 ) -> Campaign:
-    """What the instrument reports for the true robot at these joints, with Gaussian noise."""
+    """What the instrument reports for the true robot at these joints, with Gaussian noise.
+
+    `conditions` (temperatures, payloads) are what the records were measured under: the truth's model terms
+    act on them, and the campaign carries them, as a real one does."""
     noise = noise or NoiseModel()
     rng = np.random.default_rng(seed)
-    fk = forward_kinematics(robot.desc, joints, robot.truth)
+    fk = forward_kinematics(robot.desc, joints, robot.truth, conditions=conditions)
     n = joints.shape[0]
     positions = fk.positions + rng.normal(scale=noise.position_mm, size=(n, 3))
     if position_only:
-        return Campaign(np.array(joints, dtype=float), positions, None)
+        return Campaign(np.array(joints, dtype=float), positions, None, conditions=conditions)
     tilt = rotvec_to_matrix_np(rng.normal(scale=noise.orientation_rad, size=(n, 3)))
     quats = matrix_to_quaternion(tilt @ fk.rotations)
-    return Campaign(np.array(joints, dtype=float), positions, quats)
+    return Campaign(np.array(joints, dtype=float), positions, quats, conditions=conditions)

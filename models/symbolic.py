@@ -26,7 +26,9 @@ from __future__ import annotations
 import casadi as ca
 
 from models import hexapod as hx
-from models.robot import RobotDescription, carriage_transform, tcp_transform
+from models.robot import RobotDescription, carriage_transform, links_transform, pose_transform, tcp_transform
+from models.serial_chain import Convention, JointType
+from models.terms import N_CONDITIONS
 from models.transforms import matrix_to_rotvec
 
 NEWTON_OPTIONS = {
@@ -61,15 +63,22 @@ def pose_jacobian(position: ca.SX | ca.MX, rotation: ca.SX | ca.MX, dvec_dp: ca.
 
 
 def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
-    """Every kinematic Function of `desc`'s structure (see the module docstring for the two routes)."""
+    """Every kinematic Function of `desc`'s structure (see the module docstring for the two routes).
+
+    A structure with model terms (`models.terms`) gives every Function that depends on them one more input,
+    last: `conditions` (7 per pose). Without terms the graphs are exactly the geometric ones.
+    """
     n_chain = desc.n_chain
     s_hex = desc.slices["hexapod"]
     n_hex = s_hex.stop - s_hex.start
+    with_terms = desc.terms.any
 
     q = ca.SX.sym("q", desc.n_joints)
     params = ca.SX.sym("params", desc.n_params)
     x = ca.SX.sym("platform", 6)
+    cond = ca.SX.sym("conditions", N_CONDITIONS)
     q_chain, legs, hp = q[:n_chain], q[n_chain:], params[s_hex]
+    extra, extra_names = ([cond], ["conditions"]) if with_terms else ([], [])
     fn: dict[str, ca.Function] = {}
 
     # ---- hexapod alone
@@ -80,25 +89,42 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     # ---- closure and Newton, with the platform pose as unknown. Without a hexapod the platform variable
     # is kept (one signature for every structure) but pinned by g = x: one Newton step solves it exactly,
     # the TCP does not depend on it, and its implicit-function terms vanish.
-    g = hx.closure_residual(x, legs, hp) if desc.has_hexapod else x
+    q_eff = thermal_axes(desc, q_chain, params, cond) if with_terms else q_chain
+    deflection = joint_deflection(desc, q_eff, x, params, cond)
+    if deflection is not None:
+        fn["joint_deflection"] = ca.Function(
+            "joint_deflection", [q, params, cond], [deflection], ["q", "params", "conditions"], ["deflection"]
+        )
+        q_eff = q_eff + deflection
+    if not desc.has_hexapod:
+        g = x
+    elif with_terms:
+        g = terms_closure(desc, q_eff, legs, x, params=params, cond=cond)
+    else:
+        g = hx.closure_residual(x, legs, hp)
 
     g_x = ca.jacobian(g, x)
-    names_at = ["q", "params", "platform"]
-    fn["closure"] = ca.Function("closure", [q, params, x], [g], names_at, ["residual"])
+    names_at = ["q", "params", "platform", *extra_names]
+    ins_at = [q, params, x, *extra]
+    fn["closure"] = ca.Function("closure", ins_at, [g], names_at, ["residual"])
+    # Newton steps: with compliance the geometric closure's Jacobian is used (the load's leg changes are
+    # micrometres, so the iteration still contracts by ~1e-4 per step) and keeps the unrolled graph small;
+    # the implicit-function derivatives below use the exact one.
+    g_x_step = ca.jacobian(hx.closure_residual(x, legs, hp), x) if with_terms and desc.has_hexapod else g_x
     x_k = x
     for _ in range(NEWTON_STEPS_PER_CALL if desc.has_hexapod else 1):
         g_k = ca.substitute(g, x, x_k)
-        x_k = x_k - ca.solve(ca.substitute(g_x, x, x_k), g_k)
+        x_k = x_k - ca.solve(ca.substitute(g_x_step, x, x_k), g_k)
     fn["newton_solve"] = ca.Function(
         "newton_solve",
-        [q, params, x],
+        ins_at,
         [x_k, ca.norm_inf(ca.substitute(g, x, x_k))],
-        ["q", "params", "platform_seed"],
+        ["q", "params", "platform_seed", *extra_names],
         ["platform", "closure_inf"],
     )
 
     # ---- TCP pose given the solved platform; implicit-function-theorem derivatives
-    t = tcp_transform(desc, q_chain, x, params)
+    t = tcp_transform(desc, q_eff, x, params)
     position, rotation = t[0:3, 3], t[0:3, 0:3]
     vec = ca.vertcat(position, ca.vec(rotation))
     dvec_dx = ca.jacobian(vec, x)
@@ -110,17 +136,17 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     d_params = ca.jacobian(vec, params) + dvec_dx @ dx_dparams
     d_q = ca.jacobian(vec, q) + dvec_dx @ dx_dq
     j_params = pose_jacobian(position, rotation, d_params)
-    fn["pose_at"] = ca.Function("pose_at", [q, params, x], [position, rotation], names_at, ["position", "rotation"])
+    fn["pose_at"] = ca.Function("pose_at", ins_at, [position, rotation], names_at, ["position", "rotation"])
     fn["pose_jacobian_at"] = ca.Function(
         "pose_jacobian_at",
-        [q, params, x],
+        ins_at,
         [position, rotation, j_params],
         names_at,
         ["position", "rotation", "J"],
     )
     fn["joint_jacobian_at"] = ca.Function(
         "joint_jacobian_at",
-        [q, params, x],
+        ins_at,
         [position, rotation, pose_jacobian(position, rotation, d_q)],
         names_at,
         ["position", "rotation", "J_q"],
@@ -130,11 +156,12 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     r_meas = ca.SX.sym("rotation_meas", 3, 3)
     residual = ca.vertcat(position - p_meas, matrix_to_rotvec(rotation @ r_meas.T))
     d_res = ca.jacobian(residual, params) + ca.jacobian(residual, x) @ dx_dparams
-    res_names = [*names_at, "position_meas", "rotation_meas"]
-    fn["residual_at"] = ca.Function("residual_at", [q, params, x, p_meas, r_meas], [residual], res_names, ["residual"])
+    res_names = ["q", "params", "platform", "position_meas", "rotation_meas", *extra_names]
+    res_ins = [q, params, x, p_meas, r_meas, *extra]
+    fn["residual_at"] = ca.Function("residual_at", res_ins, [residual], res_names, ["residual"])
     fn["residual_jacobian_at"] = ca.Function(
         "residual_jacobian_at",
-        [q, params, x, p_meas, r_meas],
+        res_ins,
         [residual, d_res],
         res_names,
         ["residual", "J"],
@@ -143,33 +170,60 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     # ---- carriage alone (world <- {n}) and the TCP as a function of the platform pose
     fn["carriage_fk"] = ca.Function(
         "carriage_fk",
-        [q_chain, params],
-        [carriage_transform(desc, q_chain, params)],
-        ["q_chain", "params"],
+        [q_chain, params, *extra],
+        [carriage_transform(desc, q_eff, params)],
+        ["q_chain", "params", *extra_names],
         ["T"],
     )
     fn["tcp_from_platform"] = ca.Function(
-        "tcp_from_platform", [q_chain, x, params], [t], ["q_chain", "platform", "params"], ["T"]
+        "tcp_from_platform", [q_chain, x, params, *extra], [t], ["q_chain", "platform", "params", *extra_names], ["T"]
     )
 
-    # ---- the rootfinder route (MX): Newton inside CasADi, derivatives by its IFT
-    newton = ca.rootfinder(
-        "hexapod_newton", "newton", ca.Function("g", [x, ca.vertcat(legs, hp, q_chain)], [g]), NEWTON_OPTIONS
-    )
+    _rootfinder_functions(fn, desc, g, x=x, q=q, params=params, cond=cond)
+    return fn
+
+
+def _rootfinder_functions(
+    fn: dict[str, ca.Function], desc: RobotDescription, g: ca.SX, *, x: ca.SX, q: ca.SX, params: ca.SX, cond: ca.SX
+) -> None:
+    """The rootfinder route (MX): Newton inside CasADi, derivatives by its IFT."""
+    n_chain = desc.n_chain
+    s_hex = desc.slices["hexapod"]
+    n_hex = s_hex.stop - s_hex.start
+    with_terms = desc.terms.any
+    extra_names = ["conditions"] if with_terms else []
+    q_chain, legs, hp = q[:n_chain], q[n_chain:], params[s_hex]
+    if with_terms:
+        newton = ca.rootfinder(
+            "hexapod_newton", "newton", ca.Function("g", [x, ca.vertcat(q, params, cond)], [g]), NEWTON_OPTIONS
+        )
+    else:
+        newton = ca.rootfinder(
+            "hexapod_newton", "newton", ca.Function("g", [x, ca.vertcat(legs, hp, q_chain)], [g]), NEWTON_OPTIONS
+        )
     # (q_chain is carried as an unused rootfinder parameter so the closure keeps one signature)
     q_mx = ca.MX.sym("q", desc.n_joints)
     p_mx = ca.MX.sym("params", desc.n_params)
+    c_mx = ca.MX.sym("conditions", N_CONDITIONS)
+    extra_mx = [c_mx] if with_terms else []
     seed = ca.MX.sym("platform_seed", 6)
-    platform = newton(seed, ca.vertcat(q_mx[n_chain:], p_mx[s_hex], q_mx[:n_chain]))
-    pos_mx, rot_mx = fn["pose_at"](q_mx, p_mx, platform)
-    fk_names = ["q", "params", "platform_seed"]
+    if with_terms:
+        platform = newton(seed, ca.vertcat(q_mx, p_mx, c_mx))
+    else:
+        platform = newton(seed, ca.vertcat(q_mx[n_chain:], p_mx[s_hex], q_mx[:n_chain]))
+    pos_mx, rot_mx = fn["pose_at"](q_mx, p_mx, platform, *extra_mx)
+    fk_names = ["q", "params", "platform_seed", *extra_names]
     fn["fk"] = ca.Function(
-        "fk", [q_mx, p_mx, seed], [pos_mx, rot_mx, platform], fk_names, ["position", "rotation", "platform"]
+        "fk",
+        [q_mx, p_mx, seed, *extra_mx],
+        [pos_mx, rot_mx, platform],
+        fk_names,
+        ["position", "rotation", "platform"],
     )
     vec_mx = ca.vertcat(pos_mx, ca.vec(rot_mx))
     fn["fk_jacobian"] = ca.Function(
         "fk_jacobian",
-        [q_mx, p_mx, seed],
+        [q_mx, p_mx, seed, *extra_mx],
         [pos_mx, rot_mx, platform, pose_jacobian(pos_mx, rot_mx, ca.jacobian(vec_mx, p_mx))],
         fk_names,
         ["position", "rotation", "platform", "J"],
@@ -178,14 +232,90 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
         legs_mx = ca.MX.sym("legs", 6)
         hp_mx = ca.MX.sym("hexapod_params", n_hex)
         q_dummy = ca.MX.zeros(n_chain)
+        if with_terms:  # the hexapod alone, at the reference conditions: its geometric closure
+            g_geo = hx.closure_residual(x, legs, hp)
+            geo = ca.rootfinder(
+                "hexapod_newton_geometric",
+                "newton",
+                ca.Function("g", [x, ca.vertcat(legs, hp, q_chain)], [g_geo]),
+                NEWTON_OPTIONS,
+            )
+            solved = geo(seed, ca.vertcat(legs_mx, hp_mx, q_dummy))
+        else:
+            solved = newton(seed, ca.vertcat(legs_mx, hp_mx, q_dummy))
         fn["hexapod_fk"] = ca.Function(
             "hexapod_fk",
             [legs_mx, hp_mx, seed],
-            [newton(seed, ca.vertcat(legs_mx, hp_mx, q_dummy))],
+            [solved],
             ["legs", "hexapod_params", "platform_seed"],
             ["platform"],
         )
-    return fn
+
+
+def joint_deflection(desc: RobotDescription, q_chain: ca.SX, x: ca.SX, params: ca.SX, cond: ca.SX) -> ca.SX | None:
+    """A serial robot's compliance: k_j τ_j per serial joint (0 for prismatic ones), τ_j (N·m) the payload's
+    gravity torque about joint j's axis at the joints `q_chain`; None without the term."""
+    if not (desc.terms.compliance and desc.hexapod is None):
+        return None
+    base = pose_transform(params[desc.slices["base"]])
+    tcp = tcp_transform(desc, q_chain, x, params)
+    cog_world = tcp[0:3, 0:3] @ cond[4:7] + tcp[0:3, 3]
+    out: list[ca.SX] = []
+    k = 0
+    for i, link in enumerate(desc.links):
+        if not link.joint.moves:
+            continue
+        if link.joint is JointType.REVOLUTE:
+            # The joint's axis: z of frame {i} for standard DH (Rz first), of frame {i+1} for modified DH.
+            stop = i if link.convention is Convention.DH else i + 1
+            frame = base @ links_transform(desc, 0, stop, q_chain, params)
+            axis, origin = frame[0:3, 2], frame[0:3, 3]
+            torque = ca.dot(axis, ca.cross(cog_world - origin, cond[1:4])) / 1000.0  # N·mm -> N·m
+            out.append(params[desc.term_index[f"compliance.joint{k + 1}"]] * torque)
+        else:
+            out.append(ca.SX(0))
+        k += 1
+    return ca.vertcat(*out)
+
+
+def thermal_axes(desc: RobotDescription, q_chain: ca.SX, params: ca.SX, cond: ca.SX) -> ca.SX:
+    """The serial joints with each prismatic travel scaled by (1 + κ_axes ΔT); revolute joints unchanged."""
+    if "thermal.axes" not in desc.term_index:
+        return q_chain
+    scale = 1 + params[desc.term_index["thermal.axes"]] * cond[0]
+    prismatic = [link.joint is JointType.PRISMATIC for link in desc.moving_links]
+    return ca.vertcat(*[q_chain[k] * scale if p else q_chain[k] for k, p in enumerate(prismatic)])
+
+
+def terms_closure(
+    desc: RobotDescription, q_chain_eff: ca.SX, legs: ca.SX, x: ca.SX, *, params: ca.SX, cond: ca.SX
+) -> ca.SX:
+    """The leg equations with the terms: |p + R b_i − a_i| = (l_i + δl_i)(1 + κ_legs ΔT) + c_i t_i.
+
+    t_i are the leg tensions that carry the payload, t = J⁻ᵀ w (statics of the thesis Jacobian, eq. 48,
+    whose twist is the platform origin's velocity and the angular velocity in {4}); w is the payload's
+    gravity force and its moment about the platform origin, both in {4}.
+    """
+    hp = params[desc.slices["hexapod"]]
+    v = hx.leg_vectors(x, hp)
+    _, _, offsets = hx.split_hexapod_params(hp)
+    length = ca.sqrt(ca.sum1(v * v)).T
+    target = legs + offsets
+    if "thermal.legs" in desc.term_index:
+        target = target * (1 + params[desc.term_index["thermal.legs"]] * cond[0])
+    if desc.terms.compliance:
+        carriage = carriage_transform(desc, q_chain_eff, params)
+        r4 = carriage[0:3, 0:3]
+        tcp = tcp_transform(desc, q_chain_eff, x, params)
+        cog_world = tcp[0:3, 0:3] @ cond[4:7] + tcp[0:3, 3]
+        origin_world = r4 @ x[0:3] + carriage[0:3, 3]
+        force = r4.T @ cond[1:4]
+        arm = r4.T @ (cog_world - origin_world)
+        wrench = ca.vertcat(force, ca.cross(arm, force))
+        tension = ca.solve(hx.thesis_jacobian(x, hp).T, wrench)
+        compliance = ca.vertcat(*[params[desc.term_index[f"compliance.leg{i + 1}"]] for i in range(hx.N_LEGS)])
+        target = target + compliance * tension
+    return length - target
 
 
 def _hexapod_functions(fn: dict[str, ca.Function], x: ca.SX, hp_only: ca.SX) -> None:

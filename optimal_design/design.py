@@ -18,6 +18,7 @@ from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows, poses_for
 from models.kinematics import as_joint_array, check_joint_ranges
 from models.runtime import Runtime
+from models.terms import Conditions
 from optimal_design.branching import BRANCHED, tighten
 from optimal_design.constraints import KeepOut, Spread, joint_range_mask, keep_out_mask
 from optimal_design.criteria import Criterion, metrics, utility, value
@@ -60,6 +61,8 @@ class PoseDesign:
     """The relaxation's weights over the admissible candidates (a warm start for a neighbouring K)."""
     constraints: dict[str, Any] = field(default_factory=dict)
     """Candidates offered, excluded by each filter, and the minimum spread."""
+    conditions: Conditions | None = None
+    """The chosen poses' conditions (temperature, payload) where the model has terms."""
 
 
 def _finite(x: float | None) -> float | None:
@@ -117,8 +120,16 @@ def prepare(
     keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
     min_spread: float | None = None,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
+    levels: Conditions | None = None,
+    fixed_conditions: Conditions | None = None,
 ) -> Problem:
-    """Validate, sample or check the candidates, apply the filters, and compute every candidate's information."""
+    """Validate, sample or check the candidates, apply the filters, and compute every candidate's information.
+
+    With model terms on: `conditions` are the given candidates' own (one per candidate), or `levels` the
+    conditions the user can set (e.g. temperatures 16, 22, 28 °C, or payloads 0 and 40 kg): every candidate pose
+    is then offered at each level, so the design chooses where to spread them. `fixed_conditions`: the fixed
+    poses'."""
     if measurement not in ("pose", "position"):
         raise InvalidInput(
             f"measurement must be 'pose' or 'position', got {measurement!r}",
@@ -127,6 +138,8 @@ def prepare(
             allowed=["pose", "position"],
         )
     position_only = measurement == "position"
+    if conditions is not None and candidates is None:
+        raise InvalidInput("conditions belong to given candidates; for sampled ones give levels", field="conditions")
     theta = None if params is None else desc.parameters.vector(params)
     box = KeepOut.of(keep_out) if keep_out is not None else None
     ranges = dict(joint_ranges or {})
@@ -151,9 +164,12 @@ def prepare(
                 "candidates is empty: give at least `count` joint vectors, or omit them", field="candidates"
             )
         check_joint_ranges(desc, cand)
-        forward_kinematics(
-            desc, cand, theta, runtime=runtime
-        )  # UnreachablePose names the first candidate outside the workspace
+        if conditions is not None and _size(conditions) != cand.shape[0]:
+            raise InvalidInput(
+                f"conditions: give one per candidate ({cand.shape[0]}), not {_size(conditions)}", field="conditions"
+            )
+        # UnreachablePose names the first candidate outside the workspace
+        forward_kinematics(desc, cand, theta, runtime=runtime)
         ok, excluded = admissible(cand)
         origin = np.flatnonzero(ok)
         offered = cand.shape[0]
@@ -188,6 +204,7 @@ def prepare(
             field="candidates",
             reason="all_filtered",
         )
+    cand, cand_conditions, origin = _with_conditions(desc, cand, origin, conditions, levels)
     n_fixed = 0
     done = None
     if fixed is not None:
@@ -197,11 +214,23 @@ def prepare(
         joints = np.vstack([done, cand])
     else:
         joints = cand
+    all_conditions = _stacked(desc, n_fixed, fixed_conditions, cand.shape[0], cand_conditions)
     info_all = candidate_information(
-        desc, joints, position_only=position_only, noise=noise, params=theta, runtime=runtime
+        desc,
+        joints,
+        position_only=position_only,
+        noise=noise,
+        params=theta,
+        conditions=all_conditions,
+        runtime=runtime,
     )
     base = info_all.subset_information(np.arange(n_fixed)) if n_fixed else np.zeros((info_all.n_params,) * 2)
-    info = replace(info_all, joints=info_all.joints[n_fixed:], blocks=info_all.blocks[n_fixed:])
+    info = replace(
+        info_all,
+        joints=info_all.joints[n_fixed:],
+        blocks=info_all.blocks[n_fixed:],
+        conditions=cand_conditions,
+    )
     spread = Spread.of(desc, info.joints, done, float(min_spread)) if min_spread else None
     return Problem(
         info=info,
@@ -214,6 +243,48 @@ def prepare(
         spread=spread,
         offered=offered,
     )
+
+
+def _with_conditions(
+    desc: RobotDescription, cand: Array, origin: NDArray[Any], conditions: Conditions | None, levels: Conditions | None
+) -> tuple[Array, Conditions | None, NDArray[Any]]:
+    """The admissible candidates with their conditions: their own, or each pose at every level."""
+    if not desc.terms.any or (conditions is None and levels is None):
+        return cand, None, origin
+    if conditions is not None:
+        return cand, conditions.subset(origin), origin
+    assert levels is not None
+    n_levels = _size(levels)
+    m = cand.shape[0]
+    pick = np.tile(np.arange(n_levels), m)
+    return np.repeat(cand, n_levels, axis=0), levels.subset(pick), np.repeat(origin, n_levels)
+
+
+def _size(c: Conditions) -> int:
+    for part in (c.temperature_c, c.payload_kg):
+        if part is not None:
+            return int(part.shape[0])
+    raise InvalidInput("levels: give temperatures or payloads to spread", field="levels")
+
+
+def _stacked(
+    desc: RobotDescription, n_fixed: int, fixed: Conditions | None, n_cand: int, cand: Conditions | None
+) -> Conditions | None:
+    """The conditions of the fixed poses then the candidates (reference conditions where none are given)."""
+    if not desc.terms.any or (fixed is None and cand is None):
+        return None
+
+    def part(c: Conditions | None, n: int, name: str) -> Array:
+        value = None if c is None else getattr(c, name)
+        if value is not None:
+            return np.asarray(value, dtype=float)
+        if name == "temperature_c":
+            return np.full(n, desc.terms.reference_temperature_c)
+        return np.zeros((n, 3)) if name == "payload_cog_mm" else np.zeros(n)
+
+    names = ("temperature_c", "payload_kg", "payload_cog_mm")
+    stacked = [np.concatenate([part(fixed, n_fixed, k), part(cand, n_cand, k)]) for k in names]
+    return Conditions(*stacked)
 
 
 @single_threaded_blas
@@ -235,6 +306,9 @@ def design_poses(
     d_efficiency_floor: float | None = None,
     runtime: Runtime | None = None,
     bound_seconds: float = 0.0,
+    conditions: Conditions | None = None,
+    levels: Conditions | None = None,
+    fixed_conditions: Conditions | None = None,
 ) -> PoseDesign:
     """Choose `count` poses among candidates (given, or `candidate_count` sampled in the workspace).
 
@@ -246,7 +320,9 @@ def design_poses(
     little better than random poses, and what this buys). None: CONDITION_D_FLOOR for the condition criterion
     (lowered to what the D design reaches if that is less), no floor for the others; 0: no floor.
     `bound_seconds` (D, A, I): spend up to this long tightening the certificate by branch and bound
-    (optimal_design.branching); the design does not change, its bound can only get lower."""
+    (optimal_design.branching); the design does not change, its bound can only get lower. With model terms on,
+    `conditions`, `levels` and `fixed_conditions` give the candidates' and fixed poses' conditions (see
+    `prepare`): the chosen ones come back in `PoseDesign.conditions`."""
     started = time.perf_counter()
     crit = criterion if isinstance(criterion, Criterion) else Criterion.parse(criterion)
     problem = prepare(
@@ -262,6 +338,9 @@ def design_poses(
         keep_out=keep_out,
         min_spread=min_spread,
         runtime=runtime,
+        conditions=conditions,
+        levels=levels,
+        fixed_conditions=fixed_conditions,
     )
     return solve(
         desc,
@@ -446,6 +525,7 @@ def solve(
         criterion=crit,
         position_only=position_only,
         joints=info.joints[chosen],
+        conditions=None if info.conditions is None else info.conditions.subset(chosen),
         indices=tuple(int(problem.origin[i]) for i in chosen),
         value=value(crit, m, info.task),
         metrics=metric,

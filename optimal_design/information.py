@@ -26,6 +26,7 @@ from models._types import Array
 from models.identifiability import analyse_identifiability, measurement_rows, structural_support
 from models.measurement import MeasurementKind
 from models.runtime import Runtime, runtime_for
+from models.terms import Conditions
 from models.workspace import workspace_samples
 
 WORKSPACE_POSES = 400
@@ -46,6 +47,8 @@ class CandidateInformation:
     position_only: bool
     task_rows: Array | None = None
     """(N, 3, P) the scaled TCP position rows at each workspace pose behind `task` (task = mean of their Gram)."""
+    conditions: Conditions | None = None
+    """Each candidate's conditions (temperature, payload) where the model has terms: their columns need them."""
 
     @property
     def size(self) -> int:
@@ -93,12 +96,15 @@ def candidate_information(
     noise: NoiseModel | None = None,
     params: Array | None = None,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
 ) -> CandidateInformation:
+    """With model terms on, `conditions` (one per candidate) give the terms' columns: a κ column is zero at the
+    reference temperature, so only candidates at spread temperatures (loads) inform it."""
     rt = runtime_for(desc, runtime)
     noise = noise or NoiseModel()
     table = desc.parameters
     kind = MeasurementKind.of(position_only)
-    fk = forward_kinematics(desc, joints, params, jacobian=True, runtime=rt)
+    fk = forward_kinematics(desc, joints, params, jacobian=True, runtime=rt, conditions=conditions)
     scaled = scaled_jacobian(fk.jacobians, table, noise, kind=kind)
     everything = tuple(range(len(table)))
     support = structural_support(desc, scaled, everything, kind, runtime=rt)
@@ -112,6 +118,7 @@ def candidate_information(
         task=task_matrix(desc, tuple(free), runtime=rt),
         position_only=position_only,
         task_rows=task_rows(desc, tuple(free), runtime=rt),
+        conditions=conditions if desc.terms.any else None,
     )
 
 

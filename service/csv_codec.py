@@ -26,12 +26,10 @@ def parse_campaign(text: str, *, options: ImportOptions | None = None) -> tuple[
     """A `text/csv` campaign body as the API's records, read by the tolerant reader (BOM, `;` or tab, decimal
     commas, comments, columns by name in any order, units in the header), and the reader's notes (columns
     ignored, units converted). The header names the robot's joints (robots.md: q1 … q_m, l1 … l6; the robot
-    checks their count, a 422 naming its length) and x, y, z [, qw, qx, qy, qz] [, sigma_mm]."""
+    checks their count, a 422 naming its length) and x, y, z [, qw, qx, qy, qz] [, sigma_mm] [, temperature_c]
+    (kept on each record: the thermal model term uses it, the score test after a geometric fit reads it)."""
     table = read_table(text, expected=CAMPAIGN_HEADER)
-    records, notes = campaign_records(table, joint_columns(table.columns), options or ImportOptions())
-    if any("temperature_c" in r for r in records):
-        notes.append("the temperature column was read but not used: no thermal model term is on")
-    return [{k: v for k, v in r.items() if k != "temperature_c"} for r in records], notes
+    return campaign_records(table, joint_columns(table.columns), options or ImportOptions())
 
 
 def joined_campaign(
@@ -41,10 +39,7 @@ def joined_campaign(
     joined by pose id, as the API's records and the reader's notes."""
     point_table = read_spatial_analyzer(points) if spatial_analyzer else read_table(points)
     joint_table = read_table(joints)
-    records, notes = joined_records(
-        joint_table, point_table, joint_columns(joint_table.columns), options or ImportOptions()
-    )
-    return [{k: v for k, v in r.items() if k != "temperature_c"} for r in records], notes
+    return joined_records(joint_table, point_table, joint_columns(joint_table.columns), options or ImportOptions())
 
 
 def joint_columns(columns: Sequence[str]) -> list[str]:

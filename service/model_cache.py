@@ -14,6 +14,7 @@ import numpy as np
 from models import RobotDescription
 from models._types import Array
 from service.conversions.robots import description
+from service.conversions.terms import stored_model
 from service.persistence import Database, Repository
 
 Model = tuple[RobotDescription, Array]
@@ -38,7 +39,9 @@ class ModelCache:
         with self.db.reader() as s:
             repo = Repository(s)
             version = repo.current_version(robot_id)  # NotFound for an unknown robot
-            model = (description(repo.robot(robot_id)), np.asarray(repo.version(robot_id, version).values, dtype=float))
+            values = np.asarray(repo.version(robot_id, version).values, dtype=float)
+            # A version calibrated with model terms carries their values: its model is the robot with them.
+            model = (stored_model(description(repo.robot(robot_id)), values.size), values)
         with self._lock:
             self._entries[(robot_id, version)] = model
             while len(self._entries) > self.size:

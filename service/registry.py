@@ -7,9 +7,13 @@ to a process-wide registry (tests/service/test_registry.py forbids it).
 
 from __future__ import annotations
 
-from models import Registry, iwr
+from models import ModelTerms, Registry, iwr
 from models.warm import warm_everything
 from service.settings import Settings
+
+IWR_TERMS = (ModelTerms(thermal=True), ModelTerms(compliance=True), ModelTerms(thermal=True, compliance=True))
+"""The IWR's structures with model terms (`options.terms`): their kinematics built at start-up too (their
+inverse kinematics is the geometric structure's, `models.compensation.terms`)."""
 
 
 def build_registry(settings: Settings) -> Registry:
@@ -18,6 +22,8 @@ def build_registry(settings: Settings) -> Registry:
     registry = Registry()
     if settings.warm_up:
         warm_everything(registry, iwr())
+        for terms in IWR_TERMS:
+            registry.warm(iwr().with_terms(terms))
     return registry
 
 

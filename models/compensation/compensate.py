@@ -8,10 +8,12 @@ from __future__ import annotations
 
 from numpy.typing import ArrayLike
 
+from models.compensation.terms import terms_inverse_kinematics
 from models.inverse import IkSolution, inverse_kinematics
 from models.kinematics import as_joint_array, check_joint_ranges, forward_kinematics
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
+from models.terms import Conditions
 from models.transforms import matrix_to_quaternion
 
 Compensation = IkSolution
@@ -26,8 +28,24 @@ def compensate(
     *,
     seed: ArrayLike | None = None,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
+    geometric_runtime: Runtime | None = None,
 ) -> Compensation:
-    """Joint commands reaching the targets on the robot with the calibrated parameters `params`."""
+    """Joint commands reaching the targets on the robot with the calibrated parameters `params`.
+
+    With model terms on, `conditions` are what each target runs under (its temperature, its payload), so a
+    compensated program is right at the temperature it runs at (`models.compensation.terms`)."""
+    if desc.terms.any:
+        return terms_inverse_kinematics(
+            desc,
+            positions,
+            quaternions,
+            params,
+            conditions=conditions,
+            seed=seed,
+            runtime=runtime,
+            geometric_runtime=geometric_runtime,
+        )
     return inverse_kinematics(desc, positions, quaternions, params, seed=seed, runtime=runtime)
 
 
@@ -38,12 +56,15 @@ def correct_program(
     nominal: ArrayLike | None = None,
     *,
     runtime: Runtime | None = None,
+    conditions: Conditions | None = None,
+    geometric_runtime: Runtime | None = None,
 ) -> Compensation:
     """Corrected joints for a program written against the nominal model.
 
     Each nominal joint vector promises a TCP pose (the nominal geometry, placed where the calibrated model puts
     the robot's base); the answer reaches those poses on the calibrated robot, seeded with the program's own
-    joints so that it changes them as little as possible.
+    joints so that it changes them as little as possible. With model terms on, the promise is the nominal
+    geometry's (at the reference conditions) and the answer holds under `conditions`.
     """
     rt = runtime_for(desc, runtime)
     theta = desc.parameters.vector(params)
@@ -54,5 +75,12 @@ def correct_program(
     promised_params[desc.slices["base"]] = theta[desc.slices["base"]]
     promised = forward_kinematics(desc, joints, promised_params, runtime=rt)
     return compensate(
-        desc, theta, promised.positions, matrix_to_quaternion(promised.rotations), seed=joints, runtime=rt
+        desc,
+        theta,
+        promised.positions,
+        matrix_to_quaternion(promised.rotations),
+        seed=joints,
+        runtime=rt,
+        conditions=conditions,
+        geometric_runtime=geometric_runtime,
     )

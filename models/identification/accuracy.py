@@ -21,9 +21,12 @@ def pose_errors(
     desc: RobotDescription, campaign: Campaign, theta: Array, seeds: Array | None, *, runtime: Runtime
 ) -> PoseErrors:
     """Position and orientation error of the model `theta` at each measured pose."""
-    platforms, _ = solve_platforms(desc, campaign.joints, theta, seeds, runtime=runtime)
+    cond = campaign.condition_inputs(desc)
+    platforms, _ = solve_platforms(desc, campaign.joints, theta, seeds, runtime=runtime, conditions=cond)
     rot = np.broadcast_to(np.eye(3), (campaign.size, 3, 3)).copy() if campaign.position_only else campaign.rotations
-    (res,) = runtime.kinematics.batch("residual_at", campaign.joints, theta, platforms, campaign.positions, rot)
+    (res,) = runtime.kinematics.batch(
+        "residual_at", campaign.joints, theta, platforms, campaign.positions, rot, conditions=cond
+    )
     return PoseErrors.from_raw(res[:, :3] if campaign.position_only else res)
 
 

@@ -12,6 +12,8 @@ starting) model in closed form: no iteration, milliseconds for hundreds of poses
 - `QUATERNION_ORDER`: the orientations fit far better read as `[x, y, z, w]` than as `[w, x, y, z]`.
 - `ORIENTATION_FLIP`: orientation residuals near 180° after registration (a sign or frame convention).
 - `FAR_RECORDS`: single records far off the rest after a robust registration (this record, not the campaign).
+- `TEMPERATURE_TERM`, `LOAD_TERM` (after a fit, `models.identification.terms_check`): the geometric fit
+  fails its variance-factor test and its residuals follow the records' temperatures (payloads).
 - `MISMATCH`: no placement of the robot, rigid or scaled or mirrored, comes near the measured positions: the
   joint rows and the measurements do not belong together (shuffled files, another robot's campaign).
 Internal units throughout (mm, rad); the messages state boundary units.
@@ -62,6 +64,10 @@ class Finding(StrEnum):
     ORIENTATION_FLIP = "orientation_flip"
     FAR_RECORDS = "far_records"
     MISMATCH = "mismatch"
+    TEMPERATURE_TERM = "temperature_term"
+    """After a fit that fails its variance-factor test: the residuals follow the records' temperatures."""
+    LOAD_TERM = "load_term"
+    """After a fit that fails its variance-factor test: the residuals follow the records' payloads."""
 
 
 @dataclass(frozen=True)

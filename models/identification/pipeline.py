@@ -34,9 +34,11 @@ from models.identifiability import (
     Identifiability,
     NoiseModel,
     analyse_identifiability,
+    condition_support,
     minimum_poses,
     scaled_jacobian,
     structural_support,
+    without_unsupported,
 )
 from models.identification.accuracy import pose_errors, predicted_accuracy
 from models.identification.bounds import solver_bounds
@@ -56,6 +58,7 @@ from models.identification.result import (
 )
 from models.identification.solver import solver_pool
 from models.identification.statistics import Covariance, PoseErrors, correlated_pairs, covariance, outlier_threshold
+from models.identification.terms_check import missing_term_diagnoses
 from models.kinematics import forward_kinematics
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
@@ -94,7 +97,9 @@ def identify(
     theta_nom = table.nominal if nominal is None else table.vector(nominal)
     if not np.all(np.isfinite(theta_nom)):
         raise NonFiniteValue("the nominal parameters contain non-finite numbers")
-    candidates = table.indices(options.estimate)
+    # A term switched on is estimated (that is what switching it on asks for), whatever groups are listed.
+    candidates = tuple(sorted(set(table.indices(options.estimate)) | set(desc.term_index.values())))
+    campaign.condition_inputs(desc)  # InvalidInput now when the terms need what the records lack
     check_enough(desc, campaign, candidates, runtime=rt)
     notes: list[str] = []
 
@@ -115,7 +120,9 @@ def identify(
         desc, campaign, theta_nom=theta_nom, candidates=candidates, notes=notes, rt=rt, active=active
     )
     # 2. what these data can identify, at the start
-    start = forward_kinematics(desc, campaign.joints, theta_start, jacobian=True, seeds=seeds, runtime=rt)
+    start = forward_kinematics(
+        desc, campaign.joints, theta_start, jacobian=True, seeds=seeds, runtime=rt, conditions=campaign.conditions
+    )
     scaled = scaled_jacobian(start.jacobians, table, noise, kind=campaign.kind)
     ident = _identifiable(desc, scaled, candidates=candidates, campaign=campaign, notes=notes, rt=rt)
     # 3. the weighted least squares: robust first if asked, then without the outliers; polished
@@ -134,6 +141,11 @@ def identify(
         if final is None
         else _estimate(problem, final, ident=ident, candidates=candidates, options=options, notes=notes)
     )
+    if estimate is not None and final is not None and not estimate.cov.noise_consistent:
+        # A geometric model that misfits data measured at several temperatures (loads): say which term may
+        # be missing, from the residuals themselves.
+        found = found + missing_term_diagnoses(problem, final)
+        notes += [d.message for d in found if d.finding in (Finding.TEMPERATURE_TERM, Finding.LOAD_TERM)]
     reason: str | None
     if estimate is None:
         before = pose_errors(desc, campaign, theta_start, None, runtime=rt)
@@ -214,7 +226,7 @@ def _registered_start(
 ) -> tuple[Array, Array]:
     """The nominal parameters with the instrument frame as base (when estimated, fitted on the `active` poses),
     and the platform poses."""
-    fk = forward_kinematics(desc, campaign.joints, theta_nom, runtime=rt)
+    fk = forward_kinematics(desc, campaign.joints, theta_nom, runtime=rt, conditions=campaign.conditions)
     if set(desc.parameters.groups["base"]) <= set(candidates):
         used = slice(None) if active is None else active
         fit = rigid_fit(fk.positions[used], campaign.positions[used])
@@ -248,6 +260,9 @@ def _identifiable(
             f"these poses determine only {support.data_rank} of the {support.structural.rank} parameters rich "
             "data would: the weakest directions stay at their nominal values (measure more varied poses)"
         )
+    unsupported = {i: m for i, m in condition_support(desc, campaign.conditions).items() if i in candidates}
+    full = without_unsupported(full, unsupported)
+    notes += list(unsupported.values())
     if not full.identifiable:
         raise NotIdentifiable("the measurements determine none of the requested parameters")
     return full
@@ -329,11 +344,7 @@ def _far_outliers(
 ) -> tuple[Outlier, ...]:
     """The records left out before the fit, with their residual at the solution `theta`, worst first."""
     campaign = problem.campaign
-    subset = Campaign(
-        campaign.joints[far],
-        campaign.positions[far],
-        None if campaign.quaternions is None else campaign.quaternions[far],
-    )
+    subset = replace(campaign.subset(far), sigma_mm=None)
     try:
         errors = pose_errors(problem.desc, subset, theta, None, runtime=problem.runtime)
     except CalibrationError:  # a record so wrong the model cannot even evaluate it
@@ -377,12 +388,21 @@ def _estimate(
     after = pose_errors(desc, campaign, ev.theta, problem.platforms, runtime=rt)
     try:
         final = forward_kinematics(
-            desc, campaign.joints, ev.theta, jacobian=True, seeds=problem.platforms, check_ranges=False, runtime=rt
+            desc,
+            campaign.joints,
+            ev.theta,
+            jacobian=True,
+            seeds=problem.platforms,
+            check_ranges=False,
+            runtime=rt,
+            conditions=campaign.conditions,
         )
     except UnreachablePose:
         return None
     scaled = scaled_jacobian(final.jacobians, table, problem.noise, kind=campaign.kind)
-    recheck = analyse_identifiability(scaled, table, candidates)
+    # The terms' parameters these conditions cannot determine stay out of the recheck, as out of the fit.
+    missing = {name for name, _ in ident.missing}
+    recheck = analyse_identifiability(scaled, table, tuple(i for i in candidates if table.names[i] not in missing))
     if recheck.rank != ident.rank:
         notes.append(
             f"at the solution {recheck.rank} parameters are identifiable (at the start: {ident.rank}); "
@@ -463,6 +483,7 @@ def make_result(
         seconds=time.perf_counter() - started,
         notes=tuple(notes),
         diagnoses=diagnoses,
+        missing=() if e is None else e.ident.missing,
     )
 
 

@@ -98,6 +98,11 @@ class CampaignProblem:
         )
         if self.active is None:
             self.active = np.arange(n, dtype=np.intp)
+        self.conditions = self.campaign.condition_inputs(self.desc)
+        """(N, 7) inputs of the model terms, None without terms."""
+
+    def _conditions(self) -> Array | None:
+        return None if self.conditions is None else self.conditions[self.active_poses]
 
     @property
     def active_poses(self) -> NDArray[np.intp]:
@@ -131,9 +136,16 @@ class CampaignProblem:
         theta = self.theta(np.asarray(z, dtype=float))
         q = self.campaign.joints[self.active]
         seeds = None if self.platforms is None else self.platforms[self.active]
-        platforms, closure = solve_platforms(self.desc, q, theta, seeds, runtime=self.runtime)
+        cond = self._conditions()
+        platforms, closure = solve_platforms(self.desc, q, theta, seeds, runtime=self.runtime, conditions=cond)
         (res,) = self.functions.batch(
-            "residual_at", q, theta, platforms, self.campaign.positions[self.active], self.rotations[self.active]
+            "residual_at",
+            q,
+            theta,
+            platforms,
+            self.campaign.positions[self.active],
+            self.rotations[self.active],
+            conditions=cond,
         )
         r = res[:, : self.rows] * self.weights[self.active]
         r[~(closure <= CLOSURE_TOLERANCE_MM)] = np.nan
@@ -146,11 +158,18 @@ class CampaignProblem:
         c = self.campaign
         q = c.joints[self.active]
         seeds = None if self.platforms is None else self.platforms[self.active]
-        platforms, closure = solve_platforms(self.desc, q, theta, seeds, runtime=self.runtime)
+        cond = self._conditions()
+        platforms, closure = solve_platforms(self.desc, q, theta, seeds, runtime=self.runtime, conditions=cond)
         if not np.all(closure <= CLOSURE_TOLERANCE_MM):
             return None
         res, jac = self.functions.batch(
-            "residual_jacobian_at", q, theta, platforms, c.positions[self.active], self.rotations[self.active]
+            "residual_jacobian_at",
+            q,
+            theta,
+            platforms,
+            c.positions[self.active],
+            self.rotations[self.active],
+            conditions=cond,
         )
         w = self.weights[self.active]
         r = res[:, : self.rows] * w

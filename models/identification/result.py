@@ -131,7 +131,10 @@ class IdentificationResult:
     seconds: float
     notes: tuple[str, ...] = ()
     diagnoses: tuple[Diagnosis, ...] = ()
-    """What the pre-fit checks found (models.identification.diagnosis); a blocking one means no fit was run."""
+    """What the pre-fit checks found (models.identification.diagnosis); a blocking one means no fit was run.
+    After a fit that fails its variance-factor test, also a missing temperature or load term (`terms_check`)."""
+    missing: tuple[tuple[str, str], ...] = ()
+    """(parameter, what to measure): the model terms' parameters the campaign's conditions cannot determine."""
 
     @property
     def succeeded(self) -> bool:

@@ -16,18 +16,23 @@ from models.identification import IdentificationOptions
 from models.identification.acceptance import Check
 from models.identification.result import IdentificationResult, Outlier, PredictedAccuracy, ResidualSummary
 from service.conversions.kinematics import joints_in
+from service.conversions.terms import record_conditions
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord
 from service.schemas.calibrations import CalibrationCreate, CalibrationReportPublic, Record
-from service.schemas.common import timestamp
+from service.schemas.common import Payload, timestamp
 
 
 def campaign_in(desc: RobotDescription, body: CalibrationCreate) -> Campaign:
-    return records_in(desc, body.measurements, default_sigma_mm=body.noise.position_mm)
+    return records_in(desc, body.measurements, default_sigma_mm=body.noise.position_mm, payload=body.payload)
 
 
 def records_in(
-    desc: RobotDescription, measurements: Sequence[Record], *, default_sigma_mm: float | None = None
+    desc: RobotDescription,
+    measurements: Sequence[Record],
+    *,
+    default_sigma_mm: float | None = None,
+    payload: Payload | None = None,
 ) -> Campaign:
     """A campaign from request records (a calibration's or a validation's), checked."""
     with_orientation = [r.orientation is not None for r in measurements]
@@ -44,7 +49,8 @@ def records_in(
     sigma = None
     if any(g is not None for g in given) and default_sigma_mm is not None:
         sigma = [default_sigma_mm if g is None else g for g in given]  # the rest: the campaign's σ
-    return make_campaign(desc, joints, positions, quats, sigma_mm=sigma)
+    conditions = record_conditions(desc, measurements, payload)
+    return make_campaign(desc, joints, positions, quats, sigma_mm=sigma, conditions=conditions)
 
 
 def noise_in(body: CalibrationCreate) -> NoiseModel:

@@ -36,8 +36,20 @@ def report_out(desc: RobotDescription, design: PoseDesign, *, candidates_given: 
             "seconds": design.seconds,
             "notes": list(design.notes),
             "constraints": design.constraints,
+            **_conditions_out(design),
         }
     )
+
+
+def _conditions_out(design: PoseDesign) -> dict[str, Any]:
+    """The chosen poses' temperatures and payloads, where the design had levels to choose from."""
+    c = design.conditions
+    if c is None:
+        return {}
+    return {
+        "temperature_c": None if c.temperature_c is None else c.temperature_c.tolist(),
+        "payload_kg": None if c.payload_kg is None else c.payload_kg.tolist(),
+    }
 
 
 def target_report_out(

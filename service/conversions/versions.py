@@ -28,14 +28,23 @@ def version_out(row: ParameterVersion, current: int) -> ParameterVersionPublic:
 
 
 def _std(row: ParameterVersion, n: int) -> list[float | None]:
-    raw = row.std_errors or [None] * n
+    raw = [*(row.std_errors or [])[:n], *([None] * max(0, n - len(row.std_errors or [])))]
     return [None if v is None or not math.isfinite(float(v)) else float(v) for v in raw]
+
+
+def _values(row: ParameterVersion, nominal: np.ndarray) -> np.ndarray:
+    out = nominal.copy()
+    stored = np.asarray(row.values, dtype=float)[: nominal.size]
+    out[: stored.size] = stored
+    return out
 
 
 def diff_out(desc: RobotDescription, robot_id: str, a: ParameterVersion, b: ParameterVersion) -> VersionDiffPublic:
     table = desc.parameters
     scale = table.to_boundary
-    va, vb = np.asarray(a.values, float) * scale, np.asarray(b.values, float) * scale
+    # A version without the model terms `desc` has (calibrated without them) holds their nominal values.
+    raw_a, raw_b = _values(a, table.nominal), _values(b, table.nominal)
+    va, vb = raw_a * scale, raw_b * scale
     sa, sb = _std(a, len(table)), _std(b, len(table))
     rows: list[dict[str, Any]] = []
     sigmas: list[float] = []
@@ -62,7 +71,7 @@ def diff_out(desc: RobotDescription, robot_id: str, a: ParameterVersion, b: Para
                 "difference_sigma": sigma,
             }
         )
-    changed = [name for i, name in enumerate(table.names) if a.values[i] != b.values[i]]
+    changed = [name for i, name in enumerate(table.names) if raw_a[i] != raw_b[i]]
     return VersionDiffPublic.model_validate(
         {
             "robot_id": robot_id,

@@ -68,6 +68,9 @@ async def _body(
     noise_position_mm: float | None,
     noise_orientation_deg: float | None,
     file_options: ImportOptions,
+    terms: list[str] | None = None,
+    payload_kg: float | None = None,
+    payload_cog_mm: list[float] | None = None,
 ) -> CalibrationCreate:
     """The campaign as JSON, as one CSV, or as the controller's joint file and the instrument's point file
     (multipart: `joints`, `points`, optional `points_format`), with noise and apply from the query."""
@@ -91,6 +94,10 @@ async def _body(
                 payload["noise"] = noise
             if apply is not None:
                 payload["apply"] = apply
+            if terms:
+                payload["options"] = {"terms": terms}
+            if payload_kg is not None:
+                payload["payload"] = {"mass_kg": payload_kg, "cog_mm": payload_cog_mm or [0.0, 0.0, 0.0]}
             return await anyio.to_thread.run_sync(CalibrationCreate.model_validate, payload)
         if content_type in ("application/json", ""):
             # Off the event loop: 100 000 records validate in 2.2 s here.
@@ -160,6 +167,13 @@ async def create_calibration(
     quaternion_order: QuaternionOrder = Query(
         QuaternionOrder.WXYZ, description="CSV bodies: of q0…q3 columns (Leica-style); qw/qx/qy/qz name themselves"
     ),
+    terms: list[Literal["thermal", "compliance"]] | None = Query(
+        None, description="CSV bodies: options.terms (the temperature_c column feeds the thermal term)"
+    ),
+    payload_kg: float | None = Query(None, ge=0, le=10_000, description="CSV bodies: the campaign's payload mass"),
+    payload_cog_mm: list[float] | None = Query(
+        None, min_length=3, max_length=3, description="CSV bodies: its centre of gravity x, y, z (tool frame, mm)"
+    ),
 ) -> dict[str, Any] | Response:
     body = await _body(
         request,
@@ -167,6 +181,9 @@ async def create_calibration(
         noise_position_mm=noise_position_mm,
         noise_orientation_deg=noise_orientation_deg,
         file_options=ImportOptions(length_unit=length_unit, quaternion_order=quaternion_order),
+        terms=list(terms) if terms else None,
+        payload_kg=payload_kg,
+        payload_cog_mm=payload_cog_mm,
     )
     limits.admit(limits.calibration(len(body.measurements)), run_async=run_async)
     if run_async:

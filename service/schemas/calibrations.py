@@ -14,10 +14,12 @@ from service.conversions.units import degrees_default
 from service.schemas.common import (
     JointVector,
     OptionalFloat,
+    Payload,
     Position,
     Public,
     Quaternion,
     Strict,
+    TemperatureC,
 )
 from service.schemas.robots import ParameterPublic
 
@@ -36,6 +38,10 @@ class Record(Strict):
         le=100,
         description="This record's position uncertainty (1 σ, mm; a tracker's U95 / 2); default: noise.position_mm",
     )
+    temperature_c: TemperatureC | None = Field(
+        default=None, description="The robot's temperature at this record (°C); required by the thermal term"
+    )
+    payload: Payload | None = Field(default=None, description="This record's payload (default: the campaign's)")
 
 
 class Noise(Strict):
@@ -53,6 +59,12 @@ class CalibrationOptions(Strict):
         "test finds any; none: plain least squares (outliers only flagged); huber / soft_l1: robust from the start",
     )
     robust_scale: float = Field(default=_OPTIONS.robust_scale, gt=0, le=1000, description="In units of σ")
+    terms: list[Literal["thermal", "compliance"]] = Field(
+        default_factory=list,
+        max_length=2,
+        description="Model terms beyond geometry: thermal (κ of the legs and prismatic axes, ppm/K; records need "
+        "temperature_c) and compliance (per leg, µm/N; needs a payload); their parameters are estimated",
+    )
 
 
 class Instrument(Strict):
@@ -83,6 +95,9 @@ class CalibrationCreate(Strict):
         "against the start version); recorded with the calibration. A failed fit is never applied.",
     )
     options: CalibrationOptions = CalibrationOptions()
+    payload: Payload | None = Field(
+        default=None, description="The campaign's payload (records may carry their own); used by the compliance term"
+    )
     start_version: int | None = Field(
         default=None,
         ge=1,
@@ -169,8 +184,16 @@ class PredictedAccuracyPublic(Public):
 
 class DiagnosisPublic(Public):
     finding: Literal[
-        "radians", "length_scale", "reflection", "quaternion_order", "orientation_flip", "far_records", "mismatch"
-    ]
+        "radians",
+        "length_scale",
+        "reflection",
+        "quaternion_order",
+        "orientation_flip",
+        "far_records",
+        "mismatch",
+        "temperature_term",
+        "load_term",
+    ] = Field(description="temperature_term / load_term: after a fit, the residuals follow the records' conditions")
     message: str
     records: list[int] = Field(description="The records concerned (0-based); empty: the whole campaign")
     blocking: bool = Field(description="No fit can succeed until it is fixed")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from datetime import datetime
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter
 
@@ -77,3 +77,22 @@ class Target(Strict):
 class PosePublic(Public):
     position: list[float] = Field(description="mm")
     orientation: list[float] = Field(description="unit quaternion [w, x, y, z]")
+
+
+PARAMETER_UNITS = Literal["mm", "deg", "ppm/K", "µm/N"]
+"""Boundary units of parameters: lengths, angles, and the model terms' expansion coefficients and compliances."""
+
+
+class Payload(Strict):
+    """A load carried by the platform (or tool): its mass and centre of gravity in the tool (TCP) frame."""
+
+    mass_kg: float = Field(ge=0, le=10_000, description="kg")
+    cog_mm: list[float] = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0],
+        min_length=3,
+        max_length=3,
+        description="Centre of gravity [x, y, z] in the tool (TCP) frame, mm",
+    )
+
+
+TemperatureC = Annotated[float, Field(ge=-60, le=200, description="°C")]

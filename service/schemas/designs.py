@@ -9,7 +9,7 @@ from pydantic import Field, model_validator
 
 from optimal_design.criteria import Criterion
 from optimal_design.design import MAX_CANDIDATES
-from service.schemas.common import JointVector, OptionalFloat, Position, Public, Strict
+from service.schemas.common import JointVector, OptionalFloat, Payload, Position, Public, Strict, TemperatureC
 
 MAX_FIXED = 10_000
 
@@ -69,6 +69,21 @@ class PoseDesignCreate(Strict):
         description="E and condition only: optimise over designs whose D-efficiency stays at least this. "
         "Omitted: 0.9 for condition (lowered to what the D design reaches if that is less; the plain condition "
         "design calibrates the TCP little better than random poses), none for E; 0: no floor",
+    )
+    terms: list[Literal["thermal", "compliance"]] = Field(
+        default_factory=list,
+        max_length=2,
+        description="Design for a calibration with these model terms (their parameters' columns in the information)",
+    )
+    temperature_levels_c: list[TemperatureC] | None = Field(
+        default=None,
+        min_length=1,
+        max_length=20,
+        description="With terms: the temperatures the cell can be measured at; each candidate is offered at each "
+        "(times each payload level), so the design spreads them",
+    )
+    payload_levels: list[Payload] | None = Field(
+        default=None, min_length=1, max_length=20, description="With terms: the payloads the user can mount"
     )
 
     @model_validator(mode="after")
@@ -183,6 +198,12 @@ class PoseDesignReportPublic(Public):
     target: DesignTarget | None = Field(default=None, description="Target mode: what was asked")
     curve: list[CurvePointPublic] | None = Field(default=None, description="Target mode: error against K")
     reachable_mm: OptionalFloat = Field(default=None, description="Target mode: with every candidate measured")
+    temperature_c: list[float] | None = Field(
+        default=None, description="With terms and levels: each chosen pose's temperature (°C)"
+    )
+    payload_kg: list[float] | None = Field(
+        default=None, description="With terms and levels: each chosen pose's payload"
+    )
     fixed_mm: OptionalFloat = Field(default=None, description="Target mode: with the fixed poses alone")
 
 

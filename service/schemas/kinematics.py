@@ -2,11 +2,19 @@ from __future__ import annotations
 
 from pydantic import Field
 
-from service.schemas.common import JointVector, OptionalFloat, PosePublic, Public, Strict, Target
+from service.schemas.common import JointVector, OptionalFloat, Payload, PosePublic, Public, Strict, Target, TemperatureC
+
+TEMPERATURE = (
+    "°C: one number, or one per joint vector (target); used where the robot's current version has the thermal "
+    "term (default: its reference temperature)"
+)
+PAYLOAD = "Used where the robot's current version has the compliance term (default: none)"
 
 
 class ForwardRequest(Strict):
     joints: list[JointVector] = Field(min_length=1, max_length=100_000)
+    temperature_c: TemperatureC | list[TemperatureC] | None = Field(default=None, description=TEMPERATURE)
+    payload: Payload | None = Field(default=None, description=PAYLOAD)
 
 
 class ForwardResponse(Public):
@@ -22,6 +30,8 @@ class InverseRequest(Strict):
     seed: JointVector | None = Field(default=None, description="Joints to stay closest to (default: mid-range)")
     weights: list[float] | None = Field(default=None, min_length=1, max_length=70, description="Per-joint weights")
     follow: bool = Field(default=False, description="Seed each target with the previous answer (smooth paths)")
+    temperature_c: TemperatureC | list[TemperatureC] | None = Field(default=None, description=TEMPERATURE)
+    payload: Payload | None = Field(default=None, description=PAYLOAD)
 
 
 class ReachedPosePublic(Public):

@@ -5,7 +5,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from service.schemas.common import OptionalFloat, Pose, PosePublic, Public, Strict
+from service.schemas.common import PARAMETER_UNITS, OptionalFloat, Pose, PosePublic, Public, Strict
 from service.schemas.structure import StructureDocument
 
 MAX_VERSION = 2**31 - 1
@@ -67,7 +67,7 @@ class RobotPublic(Public):
 class ParameterPublic(Public):
     name: str
     value: float = Field(description="mm or deg (see unit)")
-    unit: Literal["mm", "deg"]
+    unit: PARAMETER_UNITS
     nominal: float
     std_error: OptionalFloat = Field(description="Same unit; null until a calibration has estimated it")
     identifiable: bool | None

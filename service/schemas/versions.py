@@ -7,7 +7,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from service.schemas.common import OptionalFloat, Public, Strict
+from service.schemas.common import PARAMETER_UNITS, OptionalFloat, Public, Strict
 
 Provenance = Literal["nominal", "calibration", "restore", "import", "edit"]
 
@@ -27,7 +27,7 @@ class ParameterVersionPublic(Public):
 
 class ParameterDiffPublic(Public):
     name: str
-    unit: Literal["mm", "deg"]
+    unit: PARAMETER_UNITS
     a: float = Field(description="Value in version a")
     b: float = Field(description="Value in version b")
     difference: float = Field(description="b − a")
@@ -52,7 +52,7 @@ class VersionDiffPublic(Public):
 class ParameterValueIn(Strict):
     name: str = Field(min_length=1, max_length=100)
     value: float = Field(description="mm or deg, as the parameters export states it")
-    unit: Literal["mm", "deg"] | None = Field(default=None, description="When given, checked against the robot's")
+    unit: PARAMETER_UNITS | None = Field(default=None, description="When given, checked against the robot's")
     std_error: float | None = Field(default=None, ge=0)
     identifiable: bool | None = None
     nominal: float | None = Field(default=None, description="Ignored: the robot's own nominal is kept")

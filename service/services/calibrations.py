@@ -18,6 +18,8 @@ from service.conversions.calibrations import (
     report_out,
 )
 from service.conversions.robots import description
+from service.conversions.terms import padded, requested_model
+from service.conversions.terms import start_values as start_values_for
 from service.errors import CalibrationFailed, Conflict
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle
@@ -43,12 +45,16 @@ def calibrate(
         job.progress("reading", 0.0)
     with db.reader() as s:
         repo = Repository(s)
-        desc = description(repo.robot(robot_id))
+        # The terms of `options.terms` (a 422 naming it for a robot without the parts they act on); the start
+        # version's values for what it has, the terms' nominal values for what it has not.
+        desc = requested_model(description(repo.robot(robot_id)), body.options.terms)
         start_row = _start_version(repo, robot_id, body.start_version)
         start_version = start_row.version
-        start_values = np.asarray(start_row.values, dtype=float)
-        start_std = list(start_row.std_errors or [None] * len(start_values))
-        start_ident = list(start_row.identifiable or [False] * len(start_values))
+        stored_values = np.asarray(start_row.values, dtype=float)
+        start_values = start_values_for(desc, stored_values)
+        same = stored_values.size == desc.n_params
+        start_std = padded(list(start_row.std_errors or []) if same else [], desc.n_params, None)
+        start_ident = padded(list(start_row.identifiable or []) if same else [], desc.n_params, False)
         start_accuracy = _predicted_accuracy(repo, start_row)
     campaign = campaign_in(desc, body)
     options = options_in(body)

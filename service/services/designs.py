@@ -7,6 +7,7 @@ from models.errors import InvalidInput
 from optimal_design import design_for_target, design_poses
 from service.conversions.designs import constraints_in, design_public, report_out, target_report_out
 from service.conversions.kinematics import joints_in
+from service.conversions.terms import design_levels, requested_model, start_values
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
@@ -28,6 +29,13 @@ def create_design(
     if job is not None:
         job.progress("reading", 0.0)
     desc, theta = models.current(robot_id)
+    if body.terms:
+        # A design for a calibration with model terms: their columns, at the levels the user can set.
+        if body.target is not None:
+            raise InvalidInput("terms: a design with model terms takes a count, not a target", field="terms")
+        desc = requested_model(desc, body.terms)
+        theta = start_values(desc, theta)
+    levels = design_levels(desc, body.temperature_levels_c, body.payload_levels)
     runtime = registry.runtime(desc)
     if body.candidates is not None and not body.candidates:
         raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
@@ -71,6 +79,7 @@ def create_design(
             min_spread=body.min_spread,
             d_efficiency_floor=body.d_efficiency_floor,
             runtime=runtime,
+            levels=levels,
         )
         report_model = report_out(desc, design, candidates_given=candidates is not None)
     report = report_model.model_dump(mode="json")

@@ -4,8 +4,11 @@ import numpy as np
 
 from models import Registry, forward_kinematics
 from models.compensation import inverse_kinematics
+from models.compensation.terms import terms_inverse_kinematics
 from models.identification.diagnosis import check_radians
+from models.terms import Conditions
 from service.conversions.kinematics import forward_out, inverse_out, joints_in, targets_in
+from service.conversions.terms import request_conditions
 from service.model_cache import ModelCache
 from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
 
@@ -16,9 +19,12 @@ def forward(*, models: ModelCache, registry: Registry, robot_id: str, body: Forw
     # The pre-fit check that applies to joints alone: radians sent where degrees are expected still lie inside a
     # wide range and give poses, just the wrong ones.
     radians = check_radians(desc, joints)
-    return forward_out(
-        forward_kinematics(desc, joints, theta, runtime=registry.runtime(desc)), [radians.message] if radians else []
+    # The conditions count where the current version has model terms (a geometric version ignores them).
+    conditions = request_conditions(joints.shape[0], body.temperature_c, body.payload)
+    fk = forward_kinematics(
+        desc, joints, theta, conditions=conditions if desc.terms.any else None, runtime=registry.runtime(desc)
     )
+    return forward_out(fk, [radians.message] if radians else [])
 
 
 def inverse(*, models: ModelCache, registry: Registry, robot_id: str, body: InverseRequest) -> InverseResponse:
@@ -26,7 +32,29 @@ def inverse(*, models: ModelCache, registry: Registry, robot_id: str, body: Inve
     weights = np.asarray(body.weights, dtype=float) if body.weights is not None else None
     desc, theta = models.current(robot_id)
     seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
-    answer = inverse_kinematics(
-        desc, positions, quats, theta, seed=seed, weights=weights, follow=body.follow, runtime=registry.runtime(desc)
-    )
+    conditions = request_conditions(positions.shape[0], body.temperature_c, body.payload)
+    if desc.terms.any:
+        answer = terms_inverse_kinematics(
+            desc,
+            positions,
+            quats,
+            theta,
+            conditions=conditions or Conditions(),
+            seed=seed,
+            weights=weights,
+            follow=body.follow,
+            runtime=registry.runtime(desc),
+            geometric_runtime=registry.runtime(desc.geometric),
+        )
+    else:
+        answer = inverse_kinematics(
+            desc,
+            positions,
+            quats,
+            theta,
+            seed=seed,
+            weights=weights,
+            follow=body.follow,
+            runtime=registry.runtime(desc),
+        )
     return inverse_out(desc, answer)

@@ -4,6 +4,7 @@ import numpy as np
 
 from models.urdf import urdf_from_description
 from service.conversions.robots import description, frame_in, new_description, parameters_out, robot_out, structure_out
+from service.conversions.terms import stored_model
 from service.errors import Conflict
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision, etag
@@ -103,7 +104,8 @@ def get_parameters(*, db: Database, robot_id: str, version: int | None) -> tuple
     with db.reader() as s:
         repo = Repository(s)
         robot = repo.robot(robot_id)
-        return parameters_out(description(robot), repo.version(robot_id, version)), etag(robot)
+        row = repo.version(robot_id, version)
+        return parameters_out(stored_model(description(robot), len(row.values)), row), etag(robot)
 
 
 def get_parameters_urdf(*, db: Database, robot_id: str, version: int | None) -> str:
@@ -112,7 +114,8 @@ def get_parameters_urdf(*, db: Database, robot_id: str, version: int | None) -> 
         repo = Repository(s)
         desc = description(repo.robot(robot_id))
         values = np.asarray(repo.version(robot_id, version).values, dtype=float)
-    return urdf_from_description(desc, values, name="robot")
+    # The geometry: URDF has no place for the model terms' values.
+    return urdf_from_description(desc, values[: desc.n_params], name="robot")
 
 
 def get_structure(*, db: Database, robot_id: str, version: int | None) -> StructureDocument:
@@ -121,4 +124,4 @@ def get_structure(*, db: Database, robot_id: str, version: int | None) -> Struct
         repo = Repository(s)
         desc = description(repo.robot(robot_id))
         values = np.asarray(repo.version(robot_id, version).values, dtype=float)
-    return structure_out(desc, values)
+    return structure_out(desc, values[: desc.n_params])  # the geometry (the terms' values: /parameters)

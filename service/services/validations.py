@@ -10,6 +10,7 @@ from models.accuracy import evaluate, iso_cube_poses
 from models.errors import InvalidInput
 from service.conversions.calibrations import records_in
 from service.conversions.robots import description
+from service.conversions.terms import stored_model
 from service.conversions.validations import iso_poses_out, validation_public, version_result_out
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
@@ -40,10 +41,13 @@ def validate(*, db: Database, registry: Registry, robot_id: str, body: Validatio
     campaign = records_in(desc, body.measurements)
     if body.fit_frame and campaign.size < 3:
         raise InvalidInput("register: fitting the instrument frame needs at least 3 records", field="register")
-    runtime = registry.runtime(desc)
+    # Each version on its own model: one calibrated with model terms evaluates them at the records' conditions.
+    models = {v: stored_model(desc, values[v].size) for v in versions}
     results = [
         version_result_out(
-            desc, v, evaluate(desc, values[v], campaign, register=body.fit_frame, runtime=runtime)
+            models[v],
+            v,
+            evaluate(models[v], values[v], campaign, register=body.fit_frame, runtime=registry.runtime(models[v])),
         ).model_dump(mode="json")
         for v in versions
     ]
@@ -83,6 +87,8 @@ def iso_poses(*, db: Database, registry: Registry, robot_id: str, body: IsoPoses
                 f"version {version} does not exist; robot {robot_id!r} has versions 1 to {latest}", field="version"
             )
         values = np.asarray(repo.version(robot_id, version).values, dtype=float)
+    # The cube's commands from the geometry (at the reference conditions of a version with model terms).
+    geometry = values[: desc.n_params]
     return iso_poses_out(
-        desc, robot_id, version, iso_cube_poses(desc, values, seed=body.seed, runtime=registry.runtime(desc))
+        desc, robot_id, version, iso_cube_poses(desc, geometry, seed=body.seed, runtime=registry.runtime(desc))
     )

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from models.errors import InvalidInput
 from service.conversions.robots import description
+from service.conversions.terms import requested_model, stored_model
 from service.conversions.versions import diff_out, import_in, version_out
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision, etag
@@ -32,8 +33,10 @@ def list_versions(*, db: Database, robot_id: str) -> tuple[list[ParameterVersion
 def diff(*, db: Database, robot_id: str, a: int, b: int) -> VersionDiffPublic:
     with db.reader() as s:
         repo = Repository(s)
-        desc = description(repo.robot(robot_id))
-        return diff_out(desc, robot_id, _existing(repo, robot_id, a, "a"), _existing(repo, robot_id, b, "b"))
+        row_a, row_b = _existing(repo, robot_id, a, "a"), _existing(repo, robot_id, b, "b")
+        # The model of the version with more values: the terms one of them was calibrated with, if any.
+        desc = stored_model(description(repo.robot(robot_id)), max(len(row_a.values), len(row_b.values)))
+        return diff_out(desc, robot_id, row_a, row_b)
 
 
 def restore(
@@ -71,6 +74,10 @@ def import_version(
     """The parameters export (JSON or CSV) of this or another robot of the same model as a new current version."""
     with db.reader() as s:
         desc = description(Repository(s).robot(robot_id))
+    # An export of a version calibrated with model terms names their parameters: the version carries them too.
+    names = {p.name for p in body.parameters}
+    terms = [t for t in ("thermal", "compliance") if any(n.startswith(t + ".") for n in names)]
+    desc = requested_model(desc, terms) if terms else desc
     values, std, ident = import_in(desc, body)
     with db.session() as s:
         repo, life = Repository(s), Lifecycle(s)

@@ -16,7 +16,7 @@ import models.runtime
 from models import Registry, RobotDescription, forward_kinematics, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from models.transforms import matrix_to_quaternion
-from service.registry import build_registry
+from service.registry import IWR_TERMS, build_registry
 from service.settings import Settings
 from tests.service.conftest import make_client
 from tests.service.helpers import finished_job, records
@@ -74,7 +74,9 @@ def test_build_registry_warms_the_iwr_only_when_asked(tmp_path: Path) -> None:
     cold = build_registry(Settings(database_url=f"sqlite:///{tmp_path}/c.db", warm_up=False))
     assert len(cold) == 0
     warm = build_registry(Settings(database_url=f"sqlite:///{tmp_path}/w.db", warm_up=True))
-    (runtime,) = list(warm)
-    assert runtime.structure == DESC.structure
+    # The IWR's structure and its three structures with model terms (IWR_TERMS), and nothing else.
+    structures = {rt.structure: rt for rt in warm}
+    assert set(structures) == {DESC.structure, *(DESC.with_terms(t).structure for t in IWR_TERMS)}
+    runtime = structures[DESC.structure]
     # Every layer's artefacts were built once, ahead of any request.
     assert runtime.builds["kinematics"] == 1 and len(runtime.builds) > 1
