@@ -13,6 +13,7 @@ from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service import limits, logs, openapi, problems, security, ui, warmup
+from service.compute import ComputePool
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
 from service.guards import BodyGuard, RequestGuard
@@ -162,6 +163,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         models = ModelCache(db)
         runner = make_runner(settings, db, models)
         app.state.db, app.state.models, app.state.jobs = db, models, runner
+        compute = ComputePool(
+            db, models, settings.compute_processes, warm=settings.warm_up, slots=limits.SYNC_COMPUTE_SLOTS
+        )
+        await compute.start()
+        app.state.compute = compute
         # No sweep of running jobs: those of a stopped process come back when their leases expire.
         resubmitted = runner.recover()
         log.info("ready", extra={"path": settings.database_url.split("@")[-1]})
@@ -170,6 +176,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         try:
             yield
         finally:
+            compute.shutdown()
             runner.shutdown()
             db.dispose()
 

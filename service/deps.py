@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Annotated, TypeVar
+from typing import Annotated, Any, TypeVar
 
 from fastapi import Depends, Request
 
 from service import limits, logs, security
+from service.compute import Task
 from service.errors import NotAcceptable
 from service.jobs import Requeuing
 from service.metrics import Metrics
@@ -64,11 +65,17 @@ ApiKeyDep = Depends(require_api_key)
 ActorDep = Annotated[Actor, Depends(actor)]
 
 
-async def compute(m: Metrics, kind: str, fn: Callable[[], T]) -> T:
-    """Run CPU work off the event loop, within the compute slots (service.limits), and time it."""
+async def compute(m: Metrics, kind: str, fn: Callable[..., T], /, **kwargs: Any) -> T:
+    """`fn(**kwargs)` in the compute pool, within the compute slots (service.limits, service.compute), timed.
+
+    `fn` is a module-level function; a Database or ModelCache argument is replaced by the compute process's
+    own (they cannot travel to another process)."""
+    inject = tuple(name for name, value in kwargs.items() if isinstance(value, Database | ModelCache))
+    task = Task(fn, {k: v for k, v in kwargs.items() if k not in inject}, inject)
     started = time.perf_counter()
     try:
-        return await limits.run_gated(fn)
+        result: T = await limits.run_gated(task)
+        return result
     finally:
         m.solve.labels(kind).observe(time.perf_counter() - started)
 

@@ -4,9 +4,10 @@
   even hold NUL (psycopg raises DataError, which was a 500). Answered 404 here, for every route, present and
   future, before a query is built.
 - A body is read within `BODY_TIMEOUT_S` (else 408: a slow client holds no worker for long), and a JSON body
-  over `OFFLOOP_BYTES` is parsed and checked off the event loop first: no object with more keys than
-  `MAX_OBJECT_KEYS` (measured on main: 300 000 unknown keys in 3.5 MB blocked the loop 6.9 s and answered
-  19.7 MB of errors; the issue's 1.3 million keys, 20 s and 86 MB). The largest schema object has 9 keys.
+  over `OFFLOOP_BYTES` is parsed and checked off the event loop first (in a compute process, service.compute):
+  no object with more keys than `MAX_OBJECT_KEYS` (measured on main: 300 000 unknown keys in 3.5 MB blocked
+  the loop 6.9 s and answered 19.7 MB of errors; the issue's 1.3 million keys, 20 s and 86 MB). The largest
+  schema object has 9 keys.
 """
 
 from __future__ import annotations
@@ -56,16 +57,29 @@ def _pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return dict(pairs)
 
 
-def check_json_shape(body: bytes) -> None:
-    """Raise RequestValidationError for an object with too many keys; anything else FastAPI reports itself."""
+def too_many_keys(body: bytes) -> int | None:
+    """The key count of the first object with more than MAX_OBJECT_KEYS keys (None: none has). Malformed JSON
+    is left to FastAPI, which answers it (400/422) with its own message. Plain arguments and answer: it runs in
+    a compute process (service.compute), where parsing megabytes holds no GIL the event loop needs."""
     try:
         json.loads(body, object_pairs_hook=_pairs)
     except _TooManyKeys as exc:
-        raise RequestValidationError(
-            [{"loc": ("body",), "msg": f"an object with {exc.args[0]} keys; at most {MAX_OBJECT_KEYS} are accepted"}]
-        ) from None
+        return int(exc.args[0])
     except (ValueError, RecursionError):
-        return  # malformed JSON: FastAPI answers it (400/422) with its own message
+        return None
+    return None
+
+
+def check_json_shape(body: bytes) -> None:
+    """Raise RequestValidationError for an object with too many keys; anything else FastAPI reports itself."""
+    _raise_too_many(too_many_keys(body))
+
+
+def _raise_too_many(keys: int | None) -> None:
+    if keys is not None:
+        raise RequestValidationError(
+            [{"loc": ("body",), "msg": f"an object with {keys} keys; at most {MAX_OBJECT_KEYS} are accepted"}]
+        )
 
 
 class BodyGuard:
@@ -92,7 +106,9 @@ class BodyGuard:
                 raise PayloadTooLarge(f"the request body exceeds {self.limit} bytes; send less", limit=self.limit)
             content_type = dict(scope.get("headers", [])).get(b"content-type", b"application/json")
             if len(body) > OFFLOOP_BYTES and b"json" in content_type.lower():
-                await anyio.to_thread.run_sync(check_json_shape, body)
+                pool = getattr(scope["app"].state, "compute", None) if "app" in scope else None
+                keys = await (pool.call(too_many_keys, body) if pool else anyio.to_thread.run_sync(too_many_keys, body))
+                _raise_too_many(keys)
         except TimeoutError:
             exc: Exception = RequestTimeout(f"the request body did not arrive within {BODY_TIMEOUT_S:.0f} s")
             await problems.response(problems.to_problem(exc))(scope, receive, send)

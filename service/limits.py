@@ -28,11 +28,13 @@ import time
 from collections.abc import Awaitable, Callable
 from contextvars import ContextVar
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import anyio
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from models.cancellation import CancellationToken, Cancelled
+from service.compute import ComputePool, Task
 from service.errors import ClientGone, Overloaded, WorkTooLarge
 
 T = TypeVar("T")
@@ -68,7 +70,7 @@ FORWARD_S_PER_POSE = 34e-6  # README's service table: 1 000 joint vectors in one
 
 CORES = os.cpu_count() or 1
 SYNC_COMPUTE_SLOTS = CORES
-"""Synchronous computations at once: each holds a core (the GIL is released inside CasADi, IPOPT, BLAS)."""
+"""Synchronous computations at once: each holds a core, in its own compute process (service.compute)."""
 SYNC_QUEUE = CORES
 """Requests that may wait for a slot; beyond them, 503 at once."""
 QUEUE_WAIT_S = SYNC_BUDGET_S
@@ -168,7 +170,9 @@ class ComputeGate:
                 return True
             return False
 
-    async def run(self, fn: Callable[[], T], gone: Callable[[], Awaitable[bool]]) -> T:
+    async def run(self, work: Callable[[CancellationToken], Awaitable[T]], receive: Receive | None = None) -> T:
+        """`work(token)` within a slot; `token` is set when the client disconnects (read from `receive`, which
+        after the body reports only that), and a computation it stopped answers `ClientGone`."""
         if not self._try_enter():
             with self.lock:
                 if self.waiting >= self.queue:
@@ -184,9 +188,25 @@ class ComputeGate:
                 with self.lock:
                     self.waiting -= 1
         try:
-            if await gone():  # the client hung up while it waited: nobody will read the answer
+            if receive is not None and await _gone(receive):  # it hung up while it waited: nobody reads it
                 raise ClientGone("the client disconnected before its computation started")
-            return await anyio.to_thread.run_sync(fn)
+            token = CancellationToken()
+            result: list[T] = []
+            failed: list[Exception] = []
+            async with anyio.create_task_group() as tg:
+                if receive is not None:
+                    tg.start_soon(_watch, receive, token)
+                try:
+                    result.append(await work(token))
+                except Exception as exc:  # raised below, outside the group (which would wrap it in a group)
+                    failed.append(exc)
+                finally:
+                    tg.cancel_scope.cancel()
+            if failed and isinstance(failed[0], Cancelled):
+                raise ClientGone("the client disconnected; its computation was stopped") from None
+            if failed:
+                raise failed[0]
+            return result[0]
         finally:
             with self.lock:
                 self.running -= 1
@@ -195,7 +215,23 @@ class ComputeGate:
         return f"all {self.slots} compute slots are busy and {self.queue} requests wait; retry in {RETRY_AFTER_S} s"
 
 
-_current: ContextVar[tuple[ComputeGate, Receive] | None] = ContextVar("compute_gate", default=None)
+async def _gone(receive: Receive) -> bool:
+    with anyio.move_on_after(0.001):
+        message = await receive()
+        return bool(message.get("type") == "http.disconnect")
+    return False
+
+
+async def _watch(receive: Receive, token: CancellationToken) -> None:
+    """Sets `token` when the client disconnects (cancelled with the computation's end)."""
+    while True:
+        message = await receive()
+        if message.get("type") == "http.disconnect":
+            token.cancel()
+            return
+
+
+_current: ContextVar[tuple[ComputeGate, Receive, Scope] | None] = ContextVar("compute_gate", default=None)
 
 
 class Admission:
@@ -206,24 +242,19 @@ class Admission:
         self.app, self.gate = app, gate
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        token = _current.set((self.gate, receive))
+        token = _current.set((self.gate, receive, scope))
         try:
             await self.app(scope, receive, send)
         finally:
             _current.reset(token)
 
 
-async def run_gated(fn: Callable[[], T]) -> T:
-    """Run CPU work off the event loop within the app's gate; outside a request (a script), just run it."""
+async def run_gated(task: Task) -> Any:
+    """Run a computation within the app's gate, in its compute pool (service.compute); outside a request (a
+    script), just in a thread (the task's `inject` then finds nothing)."""
     current = _current.get()
     if current is None:
-        return await anyio.to_thread.run_sync(fn)
-    gate, receive = current
-
-    async def gone() -> bool:
-        with anyio.move_on_after(0.001):
-            message = await receive()
-            return bool(message.get("type") == "http.disconnect")
-        return False
-
-    return await gate.run(fn, gone)
+        return await anyio.to_thread.run_sync(lambda: task.fn(**task.kwargs))
+    gate, receive, scope = current
+    pool: ComputePool = scope["app"].state.compute
+    return await gate.run(lambda token: pool.run(task, token), receive)

@@ -26,6 +26,12 @@ class Settings(BaseSettings):
     docs_public: bool = Field(default=True, description="/docs and /openapi.json without a key.")
     max_body_bytes: int = Field(default=20_000_000, description="Larger request bodies get 413.")
     job_workers: int = Field(default=2, ge=0, description="Worker processes for ?async=true jobs (0: in-process).")
+    compute_processes: int = Field(
+        default=0,
+        ge=0,
+        description="Worker processes for synchronous computations (0: threads of the API process). "
+        "`python -m service` defaults it to one per core (service.compute).",
+    )
     log_level: str = "INFO"
     warm_up: bool = Field(default=True, description="Build the CasADi Functions and solvers at start-up.")
 

@@ -12,4 +12,4 @@ router = APIRouter(tags=["error analysis"])
 
 @router.post("/v1/error-analysis", response_model=ErrorAnalysisPublic)
 async def run_error_analysis(body: ErrorAnalysisRequest, m: MetricsDep) -> Response:
-    return model_json(await compute(m, "error_analysis", lambda: error_analysis.analyse(body=body)))
+    return model_json(await compute(m, "error_analysis", error_analysis.analyse, body=body))

@@ -19,13 +19,11 @@ and the GIL hand-over it implies, would cost more than the work."""
 
 @router.post("/forward-kinematics", response_model=ForwardResponse)
 async def forward(robot_id: str, body: ForwardRequest, models: ModelCacheDep, m: MetricsDep) -> Response:
-    def run() -> ForwardResponse:
-        return kinematics.forward(models=models, robot_id=robot_id, body=body)
-
     if len(body.joints) <= INLINE_POSES:
-        return model_json(run())
+        return model_json(kinematics.forward(models=models, robot_id=robot_id, body=body))
     limits.admit(limits.forward_kinematics(len(body.joints)), run_async=False, can_run_async=False)
-    return model_json(await compute(m, "forward_kinematics", run))
+    out = await compute(m, "forward_kinematics", kinematics.forward, models=models, robot_id=robot_id, body=body)
+    return model_json(out)
 
 
 @router.post(
@@ -37,9 +35,7 @@ async def inverse(
     robot_id: str, body: InverseRequest, request: Request, models: ModelCacheDep, m: MetricsDep
 ) -> Response:
     limits.admit(limits.inverse_kinematics(len(body.targets)), run_async=False, can_run_async=False)
-    out = await compute(
-        m, "inverse_kinematics", lambda: kinematics.inverse(models=models, robot_id=robot_id, body=body)
-    )
+    out = await compute(m, "inverse_kinematics", kinematics.inverse, models=models, robot_id=robot_id, body=body)
     if wants_csv(request):
         names = models.current(robot_id)[0].joint_names
         return Response(joints_csv(out.joints, names), media_type="text/csv")

@@ -16,7 +16,7 @@ _VALIDATIONS = TypeAdapter(list[ValidationPublic])
 async def create_validation(robot_id: str, body: ValidationCreate, db: DatabaseDep, m: MetricsDep) -> Response:
     """Measurements that are not fitted, against parameter versions: per-pose errors, RMS, max, percentiles, and
     ISO 9283 AP/RP (and AD/RD) where joint commands repeat."""
-    result = await compute(m, "validation", lambda: validations.validate(db=db, robot_id=robot_id, body=body))
+    result = await compute(m, "validation", validations.validate, db=db, robot_id=robot_id, body=body)
     return model_json(result, status_code=201)
 
 
@@ -40,5 +40,5 @@ async def iso9283_poses(robot_id: str, db: DatabaseDep, m: MetricsDep, body: Iso
     """The ISO 9283 test cube inside the workspace (C1…C8, P1…P5) and the joint commands of P1…P5 from the
     chosen version (default: current). Measure P1…P5 in cycles and POST them as a validation."""
     chosen = body or IsoPosesCreate()
-    result = await compute(m, "iso9283", lambda: validations.iso_poses(db=db, robot_id=robot_id, body=chosen))
+    result = await compute(m, "iso9283", validations.iso_poses, db=db, robot_id=robot_id, body=chosen)
     return model_json(result)

@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Awaitable, Callable
 
 import anyio
 import pytest
 from fastapi.testclient import TestClient
+from starlette.types import Message
 
-from models import forward_kinematics, iwr, sample_workspace
+from models import cancellation, forward_kinematics, iwr, sample_workspace
+from models.cancellation import CancellationToken
 from models.transforms import matrix_to_quaternion
 from service import limits
 from service.errors import ClientGone, Overloaded, WorkTooLarge
@@ -65,16 +68,20 @@ def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
     gate = limits.ComputeGate(slots=1, queue=1, wait_s=0.3)
     ran: list[str] = []
 
-    async def present() -> bool:
-        return False
+    async def present() -> Message:  # an ASGI receive after the body: nothing until the client leaves
+        await anyio.sleep_forever()
+        raise AssertionError
 
-    async def absent() -> bool:
-        return True
+    async def absent() -> Message:
+        return {"type": "http.disconnect"}
 
-    def work(name: str, seconds: float) -> str:
+    def compute(name: str, seconds: float) -> str:
         time.sleep(seconds)
         ran.append(name)
         return name
+
+    def work(name: str, seconds: float) -> Callable[[CancellationToken], Awaitable[str]]:
+        return lambda _token: anyio.to_thread.run_sync(compute, name, seconds)
 
     async def main() -> None:
         outcomes: dict[str, object] = {}
@@ -82,7 +89,7 @@ def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
         async def call(name: str, seconds: float, delay: float) -> None:
             await anyio.sleep(delay)
             try:
-                outcomes[name] = await gate.run(lambda: work(name, seconds), present)
+                outcomes[name] = await gate.run(work(name, seconds), present)
             except Overloaded as exc:
                 outcomes[name] = exc
 
@@ -94,12 +101,45 @@ def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
         assert isinstance(outcomes["waits-too-long"], Overloaded) and isinstance(outcomes["no-room"], Overloaded)
         assert outcomes["no-room"].data["retry_after"] == limits.RETRY_AFTER_S  # type: ignore[union-attr]
         with pytest.raises(ClientGone):
-            await gate.run(lambda: work("for-nobody", 0), absent)
-        assert await gate.run(lambda: work("after", 0), present) == "after"
+            await gate.run(work("for-nobody", 0), absent)
+        assert await gate.run(work("after", 0), present) == "after"
 
     anyio.run(main)
     assert ran == ["first", "after"]  # nothing computed for the gone client nor for the refused ones
     assert gate.running == 0 and gate.waiting == 0
+
+
+def test_a_client_that_leaves_mid_computation_stops_it() -> None:
+    gate = limits.ComputeGate(slots=1, queue=0, wait_s=0)
+    steps: list[float] = []
+
+    async def leaves_after_200ms() -> Message:
+        await anyio.sleep(0.2)
+        return {"type": "http.disconnect"}
+
+    def long_loop() -> str:  # ten seconds of steps, each checking the current token as the solvers do
+        started = time.perf_counter()
+        while time.perf_counter() - started < 10:
+            cancellation.check()
+            steps.append(time.perf_counter() - started)
+            time.sleep(0.01)
+        return "finished"
+
+    def work(token: CancellationToken) -> Awaitable[str]:
+        def run() -> str:
+            with cancellation.cancellable(token):
+                return long_loop()
+
+        return anyio.to_thread.run_sync(run)
+
+    async def main() -> None:
+        with pytest.raises(ClientGone, match="stopped"):
+            await gate.run(work, leaves_after_200ms)
+
+    started = time.perf_counter()
+    anyio.run(main)
+    assert 0.15 <= steps[-1] < 0.5 and time.perf_counter() - started < 1.0  # stopped at the next step
+    assert gate.running == 0
 
 
 def test_a_full_gate_answers_503_with_retry_after(client: TestClient, robot_id: str) -> None:
