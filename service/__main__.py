@@ -17,8 +17,10 @@ import sys  # noqa: E402
 
 import uvicorn  # noqa: E402
 
+from service import slow_clients  # noqa: E402
 from service.app import create_app  # noqa: E402
 from service.limits import GIL_SWITCH_INTERVAL_S  # noqa: E402
+from service.settings import get_settings  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -27,7 +29,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--port", type=int, default=8000)
     args = parser.parse_args(argv)
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
-    uvicorn.run(create_app(), host=args.host, port=args.port, log_level="warning", access_log=False)
+    settings = get_settings()
+    uvicorn.run(
+        create_app(settings),
+        host=args.host,
+        port=args.port,
+        log_level="warning",
+        access_log=False,
+        http=slow_clients.protocol(settings.header_timeout_seconds),  # slowloris: uvicorn has no header deadline
+    )
 
 
 if __name__ == "__main__":

@@ -216,7 +216,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
     # Outside BodyLimit, which refuses a declared size over the limit before any read; BodyGuard reads every
     # other body once, on a deadline, and drains a chunked one over the limit before its 413.
-    app.add_middleware(BodyGuard, limit=settings.max_body_bytes)
+    app.add_middleware(BodyGuard, limit=settings.max_body_bytes, timeout_s=settings.body_timeout_seconds)
     app.add_middleware(RequestGuard)
     app.add_middleware(security.GuardedPaths, metrics=not settings.metrics_public, docs=not settings.docs_public)
     app.add_middleware(Observe, metrics=app.state.metrics)

@@ -23,7 +23,8 @@ from service import problems
 from service.errors import NotFound, PayloadTooLarge, RequestTimeout, ServiceError
 
 BODY_TIMEOUT_S = 30.0
-"""A whole request body within this: the largest accepted body (IWR_MAX_BODY_BYTES, 20 MB) at ~1 MB/s."""
+"""A whole request body within this (unless the app gives `IWR_BODY_TIMEOUT_SECONDS`): the largest accepted
+body (IWR_MAX_BODY_BYTES, 20 MB) at ~1 MB/s."""
 OFFLOOP_BYTES = 64_000
 """JSON bodies above this are parsed in a worker thread first (json.loads: ~85 ns per byte here, so 64 kB is
 ~5 ms on the loop at most), which also bounds what the validation on the loop meets."""
@@ -86,8 +87,8 @@ class BodyGuard:
     """Reads the body with a deadline and the size limit (over it: drained, then 413, declared or chunked alike),
     checks large JSON off the loop, then replays the body to the app."""
 
-    def __init__(self, app: ASGIApp, limit: int) -> None:
-        self.app, self.limit = app, limit
+    def __init__(self, app: ASGIApp, limit: int, timeout_s: float | None = None) -> None:
+        self.app, self.limit, self.timeout_s = app, limit, timeout_s
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http" or scope["method"] not in ("POST", "PUT", "PATCH"):
@@ -97,8 +98,9 @@ class BodyGuard:
         if declared.isdigit() and int(declared) > self.limit:  # BodyLimit refuses it before reading anything
             await self.app(scope, receive, send)
             return
+        timeout_s = BODY_TIMEOUT_S if self.timeout_s is None else self.timeout_s
         try:
-            with anyio.fail_after(BODY_TIMEOUT_S):
+            with anyio.fail_after(timeout_s):
                 body, disconnected, too_large = await _read(receive, self.limit)
             if disconnected:
                 return
@@ -110,8 +112,11 @@ class BodyGuard:
                 keys = await (pool.call(too_many_keys, body) if pool else anyio.to_thread.run_sync(too_many_keys, body))
                 _raise_too_many(keys)
         except TimeoutError:
-            exc: Exception = RequestTimeout(f"the request body did not arrive within {BODY_TIMEOUT_S:.0f} s")
-            await problems.response(problems.to_problem(exc))(scope, receive, send)
+            exc: Exception = RequestTimeout(f"the request body did not arrive within {timeout_s:g} s")
+            answer = problems.response(problems.to_problem(exc))
+            # And closed: the rest of the body, should it come, is not the next request's headers.
+            answer.headers["connection"] = "close"
+            await answer(scope, receive, send)
             return
         except (ServiceError, RequestValidationError) as exc:  # 413 from BodyLimit, counted chunk by chunk
             await problems.response(problems.to_problem(exc))(scope, receive, send)

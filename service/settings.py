@@ -25,6 +25,10 @@ class Settings(BaseSettings):
     metrics_public: bool = Field(default=False, description="/metrics without a key (else a read key, with keys).")
     docs_public: bool = Field(default=True, description="/docs and /openapi.json without a key.")
     max_body_bytes: int = Field(default=20_000_000, description="Larger request bodies get 413.")
+    header_timeout_seconds: float = Field(
+        default=10.0, gt=0, description="A request's line and headers within this, else 408 and closed."
+    )
+    body_timeout_seconds: float = Field(default=30.0, gt=0, description="A whole request body within this, else 408.")
     job_workers: int = Field(default=2, ge=0, description="Worker processes for ?async=true jobs (0: in-process).")
     compute_processes: int = Field(
         default=0,
