@@ -43,7 +43,7 @@ def protocol(seconds: float = HEADER_TIMEOUT_S) -> type[asyncio.Protocol]:
 
     answer = _answer(seconds)
 
-    class HeaderDeadline(Base):  # type: ignore[misc,valid-type]
+    class HeaderDeadline(Base):
         header_timeout_s = seconds
         _header_timer: asyncio.TimerHandle | None = None
 
