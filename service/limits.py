@@ -16,7 +16,8 @@ shared with other builds while measured (so they are pessimistic), one request a
 
 Synchronous requests run only up to `SYNC_BUDGET_S` of estimated work; larger calibrations and designs are
 refused with a 422 that says to send them with `?async=true`, and no job may exceed `JOB_MAX_S` or
-`JOB_MEMORY_BYTES`. Inverse kinematics has no job form, so its cap is the synchronous budget.
+`JOB_MEMORY_BYTES`. Inverse kinematics and error analysis have no job form, so their cap is the synchronous
+budget.
 """
 
 from __future__ import annotations
@@ -66,6 +67,12 @@ DESIGN_K_EXPONENT = 0.55  # K = 30 -> 300 at M = 2 000: 4.6 s -> 16 s (x3.5 for 
 DESIGN_BASE_BYTES = 150_000_000  # peak 252 MB at M = 2 000 and 671 MB at M = 20 000 (K = 30, after the speed-up)
 DESIGN_BYTES_PER_CANDIDATE = 30_000  # (671 - 252) MB / 18 000 candidates = 23 KB, rounded up
 DESIGN_BYTES_PER_PAIR = 400  # per chosen pose and candidate: the exchange's swap tables
+ERROR_ANALYSIS_FIXED_S = 0.2  # sampling the poses and the nominal FK
+ERROR_ANALYSIS_S_PER_EVALUATION = 100e-6
+"""poses × draws, each three perturbed FK solves: measured 8 000 in 0.97 s, 20 000 in 1.73 s, 40 000 in 4.0 s
+(one process, the models warm, this machine under the others' load); so 18 000 evaluations fill the budget
+(the schema's former cap, 40 000, was twice the budget)."""
+ERROR_ANALYSIS_BYTES_PER_EVALUATION = 1_000  # 48 stored numbers (~400 B) and working arrays: +11 MB at 40 000
 FORWARD_S_PER_POSE = 34e-6  # README's service table: 1 000 joint vectors in one request, 34 ms
 
 CORES = os.cpu_count() or 1
@@ -144,6 +151,15 @@ def target_design(candidates: int, fixed: int) -> Estimate:
         f"a pose design for a target accuracy among {candidates} candidates",
         one.seconds * TARGET_DESIGNS,
         one.bytes,
+    )
+
+
+def error_analysis(poses: int, draws: int) -> Estimate:
+    evaluations = poses * draws
+    return Estimate(
+        f"an error analysis of {poses} poses × {draws} draws",
+        ERROR_ANALYSIS_FIXED_S + evaluations * ERROR_ANALYSIS_S_PER_EVALUATION,
+        evaluations * ERROR_ANALYSIS_BYTES_PER_EVALUATION,
     )
 
 

@@ -31,6 +31,10 @@ def test_the_estimates_follow_the_measurements() -> None:
         (limits.pose_design(500, 30, 0, "D"), 0.19),
         (limits.pose_design(2000, 300, 0, "D"), 1.7),
         (limits.pose_design(2000, 30, 0, "I"), 1.38),
+        # error analysis, poses × draws = 8 000, 20 000, 40 000 (a compute process, the models warm)
+        (limits.error_analysis(40, 200), 0.97),
+        (limits.error_analysis(100, 200), 1.73),
+        (limits.error_analysis(200, 200), 4.04),
     ):
         assert measured_s * 0.9 <= estimate.seconds <= measured_s * 1.5, (estimate, measured_s)
     assert limits.pose_design(20_000, 30, 0, "D").bytes >= 671e6  # optimal_design's benchmark peak
@@ -62,6 +66,17 @@ def test_inverse_kinematics_is_capped_at_the_budget(client: TestClient, robot_id
     r = client.post(url, json={"targets": [target] * (limits.IK_MAX_TARGETS + 1)})
     assert r.status_code == 422 and "send fewer" in r.json()["detail"] and r.json()["use_async"] is False
     assert client.post(url, json={"targets": [target] * 3}).status_code == 200
+
+
+def test_error_analysis_has_the_same_budget(client: TestClient) -> None:
+    at_budget = int((limits.SYNC_BUDGET_S - limits.ERROR_ANALYSIS_FIXED_S) / limits.ERROR_ANALYSIS_S_PER_EVALUATION)
+    assert limits.error_analysis(at_budget, 1).seconds <= limits.SYNC_BUDGET_S
+    assert limits.error_analysis(at_budget + 1, 1).seconds > limits.SYNC_BUDGET_S
+    started = time.perf_counter()
+    r = client.post("/v1/error-analysis", json={"poses": 200, "draws": 200})  # 40 000: the schema allowed it
+    assert r.status_code == 422 and r.json()["type"].endswith("work-too-large") and "send fewer" in r.json()["detail"]
+    assert r.json()["use_async"] is False and time.perf_counter() - started < 1.0  # refused, not computed
+    assert client.post("/v1/error-analysis", json={"poses": 5, "draws": 10}).status_code == 200
 
 
 def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
