@@ -11,7 +11,7 @@ and numpy's small calls hand it back rarely. Measured with threads (benchmarks/b
 - A `Task` is a module-level function and its keyword arguments (pickled to the process); `inject` names what
   the process supplies itself (`db`, `models`): a Database or a cache cannot travel.
 - Large bodies are parsed and checked in one more process (`call`), also without the GIL the loop needs.
-- The processes run at a lower priority (`NICE`) than the API process, whose loop must answer at once.
+- The compute processes run at a lower priority (`NICE`) than the API process, whose loop must answer at once.
 - Cancellation: each of the N slots has one byte of shared memory. The API process sets it when the client
   disconnects; the process's `CancellationToken` reads it (models.cancellation), so IPOPT stops at its next
   iteration and a pose design at its next step.
@@ -44,11 +44,16 @@ from service.persistence import Database
 
 log = logging.getLogger("service.compute")
 
+PARSE_QUEUE = 3
+"""Bodies that may be in the parse process at once (one parsing, the rest waiting); beyond, 503 with Retry-After
+at once, like the compute slots: under more large bodies than it parses, the server sheds them rather than
+queueing them for many seconds (measured: refusals of 3.5 MB bodies waited 6-11 s behind each other)."""
+PARSE_RETRY_AFTER_S = 1
 PARSE_PROCESSES = 1
 """Processes that parse and check large bodies (JSON, CSV) for the event loop: one, since a body within the
 limit parses in well under a second, and a refusal should not wait for a compute slot."""
-NICE = 5
-"""The compute and parse processes' niceness above the API process's (see `_lower_priority`)."""
+NICE = 10
+"""The compute processes' niceness above the API process's (see `_lower_priority`)."""
 CANCEL_POLL_S = 0.02
 """How often a waiting request looks whether its client left (to set its slot's flag): 50 wake-ups a second per
 running computation, nothing next to the computation."""
@@ -113,8 +118,8 @@ def start_process(database_url: str, flags: Any, parent: int, warm: bool) -> Non
 
 
 def start_parser(parent: int) -> None:
+    # At the API's own priority: its work is bounded by the body limit, and a refusal is due within a second.
     threading.Thread(target=_exit_with, args=(parent,), name="parent-watch", daemon=True).start()
-    _lower_priority()
 
 
 def _lower_priority() -> None:
@@ -167,6 +172,7 @@ class ComputePool:
         self._lock = threading.Lock()
         self._executor: ProcessPoolExecutor | None = None
         self._parser: ProcessPoolExecutor | None = None
+        self._parsing = 0
 
     def _pool(self) -> ProcessPoolExecutor:
         with self._lock:
@@ -207,6 +213,20 @@ class ComputePool:
         thread. Not in the compute processes: a refusal must not wait behind the computations."""
         if self.processes <= 0:
             return await anyio.to_thread.run_sync(fn, *args)
+        with self._lock:
+            if self._parsing >= PARSE_QUEUE:
+                raise Overloaded(
+                    f"{PARSE_QUEUE} large bodies are being parsed; retry in {PARSE_RETRY_AFTER_S} s",
+                    retry_after=PARSE_RETRY_AFTER_S,
+                )
+            self._parsing += 1
+        try:
+            return await self._parse(fn, *args)
+        finally:
+            with self._lock:
+                self._parsing -= 1
+
+    async def _parse(self, fn: Callable[..., Any], *args: Any) -> Any:
         try:
             future = self._parse_pool().submit(fn, *args)
         except BrokenProcessPool:
