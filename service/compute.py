@@ -52,7 +52,7 @@ PARSE_RETRY_AFTER_S = 1
 PARSE_PROCESSES = 1
 """Processes that parse and check large bodies (JSON, CSV) for the event loop: one, since a body within the
 limit parses in well under a second, and a refusal should not wait for a compute slot."""
-NICE = 10
+NICE = 5
 """The compute processes' niceness above the API process's (see `_lower_priority`)."""
 CANCEL_POLL_S = 0.02
 """How often a waiting request looks whether its client left (to set its slot's flag): 50 wake-ups a second per
