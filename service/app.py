@@ -209,9 +209,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)
-    app.add_middleware(
-        limits.Admission, gate=limits.ComputeGate(limits.SYNC_COMPUTE_SLOTS, limits.SYNC_QUEUE, limits.QUEUE_WAIT_S)
+    gate = limits.ComputeGate(
+        limits.SYNC_COMPUTE_SLOTS, limits.SYNC_QUEUE, limits.QUEUE_WAIT_S, deadline_s=settings.compute_deadline_seconds
     )
+    app.add_middleware(limits.Admission, gate=gate)
     app.add_middleware(Idempotency)  # inside BodyGuard: it reads the body BodyGuard replays
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
     # Outside BodyLimit, which refuses a declared size over the limit before any read; BodyGuard reads every

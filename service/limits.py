@@ -80,6 +80,11 @@ SYNC_COMPUTE_SLOTS = CORES
 """Synchronous computations at once: each holds a core, in its own compute process (service.compute)."""
 SYNC_QUEUE = CORES
 """Requests that may wait for a slot; beyond them, 503 at once."""
+COMPUTE_DEADLINE_S = 2.5 * SYNC_BUDGET_S
+"""A synchronous computation still running after this (2.5x the budget its estimate fits in: the server is
+overloaded) is stopped where the solver allows it (models.cancellation) and answered 503 with Retry-After, so a
+synchronous request answers within QUEUE_WAIT_S + COMPUTE_DEADLINE_S (measured before: a 1 s inverse kinematics
+took 26 s on the shared 2-core machine)."""
 QUEUE_WAIT_S = SYNC_BUDGET_S
 """A waiting request gives up after one budget (so it answers within ~2 budgets either way)."""
 RETRY_AFTER_S = math.ceil(SYNC_BUDGET_S)
@@ -174,8 +179,8 @@ class ComputeGate:
     A plain counter under a lock rather than an asyncio semaphore: the tests drive one app from several event
     loops (TestClient, schemathesis), and a counter belongs to none of them."""
 
-    def __init__(self, slots: int, queue: int, wait_s: float) -> None:
-        self.slots, self.queue, self.wait_s = slots, queue, wait_s
+    def __init__(self, slots: int, queue: int, wait_s: float, deadline_s: float = COMPUTE_DEADLINE_S) -> None:
+        self.slots, self.queue, self.wait_s, self.deadline_s = slots, queue, wait_s, deadline_s
         self.running = self.waiting = 0
         self.lock = threading.Lock()
 
@@ -188,44 +193,59 @@ class ComputeGate:
 
     async def run(self, work: Callable[[CancellationToken], Awaitable[T]], receive: Receive | None = None) -> T:
         """`work(token)` within a slot; `token` is set when the client disconnects (read from `receive`, which
-        after the body reports only that), and a computation it stopped answers `ClientGone`."""
-        if not self._try_enter():
-            with self.lock:
-                if self.waiting >= self.queue:
-                    raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
-                self.waiting += 1
-            try:
-                deadline = time.monotonic() + self.wait_s
-                while not self._try_enter():
-                    if time.monotonic() > deadline:
-                        raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
-                    await anyio.sleep(0.01)
-            finally:
-                with self.lock:
-                    self.waiting -= 1
+        after the body reports only that: `ClientGone`) or after `deadline_s` (503 `Overloaded`)."""
+        await self._enter()
         try:
             if receive is not None and await _gone(receive):  # it hung up while it waited: nobody reads it
                 raise ClientGone("the client disconnected before its computation started")
-            token = CancellationToken()
-            result: list[T] = []
-            failed: list[Exception] = []
-            async with anyio.create_task_group() as tg:
-                if receive is not None:
-                    tg.start_soon(_watch, receive, token)
-                try:
-                    result.append(await work(token))
-                except Exception as exc:  # raised below, outside the group (which would wrap it in a group)
-                    failed.append(exc)
-                finally:
-                    tg.cancel_scope.cancel()
-            if failed and isinstance(failed[0], Cancelled):
-                raise ClientGone("the client disconnected; its computation was stopped") from None
-            if failed:
-                raise failed[0]
-            return result[0]
+            return await self._within_slot(work, receive)
         finally:
             with self.lock:
                 self.running -= 1
+
+    async def _enter(self) -> None:
+        if self._try_enter():
+            return
+        with self.lock:
+            if self.waiting >= self.queue:
+                raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
+            self.waiting += 1
+        try:
+            deadline = time.monotonic() + self.wait_s
+            while not self._try_enter():
+                if time.monotonic() > deadline:
+                    raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
+                await anyio.sleep(0.01)
+        finally:
+            with self.lock:
+                self.waiting -= 1
+
+    async def _within_slot(self, work: Callable[[CancellationToken], Awaitable[T]], receive: Receive | None) -> T:
+        token = CancellationToken()
+        result: list[T] = []
+        failed: list[Exception] = []
+        late = anyio.Event()
+        async with anyio.create_task_group() as tg:
+            if receive is not None:
+                tg.start_soon(_watch, receive, token)
+            tg.start_soon(_deadline, token, self.deadline_s, late)
+            try:
+                result.append(await work(token))
+            except Exception as exc:  # raised below, outside the group (which would wrap it in a group)
+                failed.append(exc)
+            finally:
+                tg.cancel_scope.cancel()
+        if not failed:
+            return result[0]
+        if isinstance(failed[0], Cancelled) and late.is_set():
+            raise Overloaded(
+                f"the computation did not finish within {self.deadline_s:g} s (the server is overloaded) and was "
+                f"stopped; retry in {RETRY_AFTER_S} s",
+                retry_after=RETRY_AFTER_S,
+            ) from None
+        if isinstance(failed[0], Cancelled):
+            raise ClientGone("the client disconnected; its computation was stopped") from None
+        raise failed[0]
 
     def _busy(self) -> str:
         return f"all {self.slots} compute slots are busy and {self.queue} requests wait; retry in {RETRY_AFTER_S} s"
@@ -245,6 +265,12 @@ async def _watch(receive: Receive, token: CancellationToken) -> None:
         if message.get("type") == "http.disconnect":
             token.cancel()
             return
+
+
+async def _deadline(token: CancellationToken, seconds: float, late: anyio.Event) -> None:
+    await anyio.sleep(seconds)
+    late.set()
+    token.cancel()
 
 
 _current: ContextVar[tuple[ComputeGate, Receive, Scope] | None] = ContextVar("compute_gate", default=None)

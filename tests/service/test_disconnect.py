@@ -28,7 +28,12 @@ HANG_UP_AFTER_S = 0.5
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     database: Path = tmp_path_factory.mktemp("gone") / "gone.db"
-    with running_server(f"sqlite:///{database}", IWR_JOB_WORKERS="0", IWR_COMPUTE_PROCESSES="1") as url:
+    with running_server(
+        f"sqlite:///{database}",
+        IWR_JOB_WORKERS="0",
+        IWR_COMPUTE_PROCESSES="1",
+        IWR_COMPUTE_DEADLINE_SECONDS="120",  # the connected run must finish, however loaded this machine is
+    ) as url:
         yield url
 
 

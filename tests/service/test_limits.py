@@ -15,6 +15,7 @@ from models.cancellation import CancellationToken
 from models.transforms import matrix_to_quaternion
 from service import limits
 from service.errors import ClientGone, Overloaded, WorkTooLarge
+from service.settings import Settings
 
 DESC = iwr()
 JOINTS = [400.0, 150.0, 90.0, 45.0, 420.0, 420.0, 420.0, 420.0, 420.0, 420.0]
@@ -155,6 +156,37 @@ def test_a_client_that_leaves_mid_computation_stops_it() -> None:
     anyio.run(main)
     assert 0.15 <= steps[-1] < 0.5 and time.perf_counter() - started < 1.0  # stopped at the next step
     assert gate.running == 0
+
+
+def test_a_computation_past_its_deadline_is_stopped_and_answered_503() -> None:
+    gate = limits.ComputeGate(slots=1, queue=0, wait_s=0, deadline_s=0.3)
+    steps: list[float] = []
+
+    async def stays() -> Message:
+        await anyio.sleep_forever()
+        raise AssertionError
+
+    def work(token: CancellationToken) -> Awaitable[str]:
+        def run() -> str:
+            started = time.perf_counter()
+            with cancellation.cancellable(token):
+                while time.perf_counter() - started < 10:
+                    cancellation.check()
+                    steps.append(time.perf_counter() - started)
+                    time.sleep(0.01)
+            return "finished"
+
+        return anyio.to_thread.run_sync(run)
+
+    async def main() -> None:
+        with pytest.raises(Overloaded, match=r"did not finish within 0\.3 s") as raised:
+            await gate.run(work, stays)
+        assert raised.value.data["retry_after"] == limits.RETRY_AFTER_S
+
+    anyio.run(main)
+    assert 0.25 <= steps[-1] < 0.6 and gate.running == 0
+    assert limits.QUEUE_WAIT_S + limits.COMPUTE_DEADLINE_S <= 3.5 * limits.SYNC_BUDGET_S  # what a request may take
+    assert Settings().compute_deadline_seconds == limits.COMPUTE_DEADLINE_S  # the setting's default is this one
 
 
 def test_a_full_gate_answers_503_with_retry_after(client: TestClient, robot_id: str) -> None:
