@@ -1,12 +1,12 @@
 """Mixed load with oversized requests against a live server on loopback (`python -m benchmarks hardening`).
 
-For `DURATION_S`, at once: a /healthz probe every 50 ms; small forward kinematics; 60-pose calibrations;
-inverse kinematics of half the synchronous budget (1 050 targets, ~1 s each; with the calibrations, more
-than the compute slots, so some wait and some get 503); refused work (a 6 000-pose synchronous calibration,
-the issue's 10 000-of-100 000 design); bodies over the limit (declared 25 MB, and chunked); a 3.5 MB body of
-300 000 unknown keys; pose designs as jobs. Measured: /healthz p99, each kind's slowest answer against its
-budget, the server's peak RSS (VmHWM) against `MEMORY_CEILING_BYTES`, and every status seen (no 500, no
-reset; 503 only as `overloaded`).
+For `DURATION_S`, at once: a /healthz probe every 50 ms (from a process of its own, and from the load
+generator); small forward kinematics; 60-pose calibrations; inverse kinematics of half the synchronous budget
+(1 050 targets, ~1 s each; with the calibrations, more than the compute slots, so some wait and some get 503);
+refused work (a 6 000-pose synchronous calibration, the issue's 10 000-of-100 000 design); bodies over the
+limit (declared 25 MB, and chunked); a 3.5 MB body of 300 000 unknown keys; pose designs as jobs. Measured:
+/healthz p99, each kind's slowest answer against its budget, the peak RSS (VmHWM) of the server's processes
+against `MEMORY_CEILING_BYTES`, and every status seen (no 500, no reset; 503 only as `overloaded`).
 
 Raw asyncio streams, one request per connection: an HTTP client library's CPU per request would show up as
 server latency on this 2-core machine (see benchmarks/load.py).
@@ -39,13 +39,16 @@ DURATION_S = 20.0
 IK_CLIENTS = 3
 HEALTHZ_P99_S = 0.050
 MEMORY_CEILING_BYTES = 1_500_000_000
-"""The server's peak RSS: warm-up and caches (~400 MB) plus two computations at the budget (~100 MB each)
-plus a job; the issue's single requests reached 4.9 GB."""
+"""The peak RSS of all the server's processes together (API, one compute process per core, the parse process,
+the job worker): each warm process holds ~300 MB of models and caches, plus the computations at the budget
+(~100 MB each); the issue's single requests reached 4.9 GB."""
 REFUSAL_BUDGET_S = 1.0
 """A request refused before any work (413, 422 too large or malformed) answers within this."""
-COMPUTE_BUDGET_S = limits.QUEUE_WAIT_S + 2.5 * limits.SYNC_BUDGET_S
-"""A synchronous computation: its wait for a slot plus its estimated work, with 2.5x for the cores being
-shared with the load generator (and, here, with other builds)."""
+STOP_MARGIN_S = 1.0
+"""After the deadline, a computation stops at its next solver step and its answer travels back."""
+COMPUTE_BUDGET_S = limits.QUEUE_WAIT_S + limits.COMPUTE_DEADLINE_S + STOP_MARGIN_S
+"""A synchronous computation: its wait for a slot, then at most the deadline after which it is stopped and
+answered 503 (service.limits), then the stop."""
 
 
 def _request(host: str, method: str, path: str, body: bytes = b"", headers: dict[str, str] | None = None) -> bytes:

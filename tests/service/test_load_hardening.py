@@ -8,10 +8,13 @@ from benchmarks import bench_hardening
 
 pytestmark = pytest.mark.slow
 
-HEALTHZ_P99_LOADED_S = 2.0
-"""What this test holds /healthz to, NOT the issue's 50 ms: measured here (2 cores, load average ~6 from other
-builds, the load generator on the same cores) the p99 was 0.8-1.3 s, p50 40-140 ms, against 9 ms idle; the
-computations' threads and the body parsing compete with the event loop for the GIL. See the README."""
+HEALTHZ_P99_LOADED_S = 0.5
+"""What this test holds /healthz to (its own probe process), NOT the issue's 50 ms: with the computations in
+processes, the probe measured p99 35 ms on this 2-core machine at load average ~5 from other builds, and up to
+0.19 s at ~7, where the API process gets a fraction of a core. Before, in threads: 0.8-1.3 s. See the README."""
+REFUSAL_LOADED_S = 5.0
+"""A refusal: the issue's budget is 1 s (`bench_hardening.REFUSAL_BUDGET_S`); under the others' load a 3.5 MB
+body's key check took up to 3.9 s."""
 
 
 def test_mixed_load_with_oversized_requests() -> None:
@@ -21,5 +24,5 @@ def test_mixed_load_with_oversized_requests() -> None:
     for kind in ("calibration", "ik_at_budget", "fk"):
         assert result[f"{kind}_max_s"] <= bench_hardening.COMPUTE_BUDGET_S, (kind, result)
     for kind in ("declared_25MB", "chunked_25MB", "unknown_keys", "design_too_large", "calibration_too_large"):
-        assert result[f"{kind}_count"] >= 2 and result[f"{kind}_max_s"] <= 5.0, (kind, result)
-    assert result["healthz_count"] >= 20 and result["healthz_p99_s"] <= HEALTHZ_P99_LOADED_S, result
+        assert result[f"{kind}_count"] >= 2 and result[f"{kind}_max_s"] <= REFUSAL_LOADED_S, (kind, result)
+    assert result["healthz_probe_count"] >= 100 and result["healthz_p99_s"] <= HEALTHZ_P99_LOADED_S, result
