@@ -13,8 +13,9 @@ and numpy's small calls hand it back rarely. Measured with threads (benchmarks/b
 - Large bodies are parsed and checked in one more process (`call`), also without the GIL the loop needs.
 - The compute processes run at a lower priority (`NICE`) than the API process, whose loop must answer at once.
 - Cancellation: each of the N slots has one byte of shared memory. The API process sets it when the client
-  disconnects; the process's `CancellationToken` reads it (models.cancellation), so IPOPT stops at its next
-  iteration and a pose design at its next step.
+  disconnects or the computation passes its deadline (service.limits); the process's `CancellationToken` reads
+  it (models.cancellation), so IPOPT stops at its next iteration, a pose design or an inverse-kinematics batch
+  at its next step.
 - Exceptions travel as (class, args, attributes), re-raised here unchanged: the service's errors have
   keyword-only constructors that plain pickling cannot rebuild (and an unpicklable result would break the pool).
 """
@@ -53,7 +54,9 @@ PARSE_PROCESSES = 1
 """Processes that parse and check large bodies (JSON, CSV) for the event loop: one, since a body within the
 limit parses in well under a second, and a refusal should not wait for a compute slot."""
 NICE = 5
-"""The compute processes' niceness above the API process's (see `_lower_priority`)."""
+"""The compute processes' niceness above the API process's (see `_lower_priority`): weight 335 against 1024, so
+the loop wins the core when both want it. Not 10: on this machine shared with other builds, nice 10 left a 1 s
+inverse kinematics 18 s behind the others' processes."""
 CANCEL_POLL_S = 0.02
 """How often a waiting request looks whether its client left (to set its slot's flag): 50 wake-ups a second per
 running computation, nothing next to the computation."""
