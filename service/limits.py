@@ -299,4 +299,8 @@ async def run_gated(task: Task) -> Any:
         return await anyio.to_thread.run_sync(lambda: task.fn(**task.kwargs))
     gate, receive, scope = current
     pool: ComputePool = scope["app"].state.compute
+    if any(name == b"idempotency-key" for name, _ in scope.get("headers", [])):
+        # A client that sends an Idempotency-Key retries after a timeout: the computation runs to its end so that
+        # the retry replays its answer (service.idempotency) instead of computing again. The deadline still holds.
+        return await gate.run(lambda token: pool.run(task, token), None)
     return await gate.run(lambda token: pool.run(task, token), receive)
