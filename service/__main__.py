@@ -19,7 +19,7 @@ import uvicorn  # noqa: E402
 
 from service import slow_clients  # noqa: E402
 from service.app import create_app  # noqa: E402
-from service.limits import GIL_SWITCH_INTERVAL_S  # noqa: E402
+from service.limits import COMPUTE_DEADLINE_S, GIL_SWITCH_INTERVAL_S  # noqa: E402
 from service.settings import get_settings  # noqa: E402
 
 
@@ -29,6 +29,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--port", type=int, default=8000)
     args = parser.parse_args(argv)
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
+    # The served API stops what runs past its deadline (503); an app made by create_app alone (tests, scripts,
+    # whose machine may be busy with anything) has none unless configured.
+    os.environ.setdefault("IWR_COMPUTE_DEADLINE_SECONDS", str(COMPUTE_DEADLINE_S))
     settings = get_settings()
     uvicorn.run(
         create_app(settings),

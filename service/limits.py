@@ -179,7 +179,7 @@ class ComputeGate:
     A plain counter under a lock rather than an asyncio semaphore: the tests drive one app from several event
     loops (TestClient, schemathesis), and a counter belongs to none of them."""
 
-    def __init__(self, slots: int, queue: int, wait_s: float, deadline_s: float = COMPUTE_DEADLINE_S) -> None:
+    def __init__(self, slots: int, queue: int, wait_s: float, deadline_s: float | None = COMPUTE_DEADLINE_S) -> None:
         self.slots, self.queue, self.wait_s, self.deadline_s = slots, queue, wait_s, deadline_s
         self.running = self.waiting = 0
         self.lock = threading.Lock()
@@ -228,7 +228,8 @@ class ComputeGate:
         async with anyio.create_task_group() as tg:
             if receive is not None:
                 tg.start_soon(_watch, receive, token)
-            tg.start_soon(_deadline, token, self.deadline_s, late)
+            if self.deadline_s is not None:
+                tg.start_soon(_deadline, token, self.deadline_s, late)
             try:
                 result.append(await work(token))
             except Exception as exc:  # raised below, outside the group (which would wrap it in a group)

@@ -25,11 +25,11 @@ class Settings(BaseSettings):
     metrics_public: bool = Field(default=False, description="/metrics without a key (else a read key, with keys).")
     docs_public: bool = Field(default=True, description="/docs and /openapi.json without a key.")
     max_body_bytes: int = Field(default=20_000_000, description="Larger request bodies get 413.")
-    compute_deadline_seconds: float = Field(
-        default=5.0,
+    compute_deadline_seconds: float | None = Field(
+        default=None,
         gt=0,
         description="A synchronous computation still running after this is stopped where it can be and answered "
-        "503 (service.limits.COMPUTE_DEADLINE_S: 2.5x the 2 s budget).",
+        "503 (none: no deadline). `python -m service` defaults it to service.limits.COMPUTE_DEADLINE_S (5 s).",
     )
     header_timeout_seconds: float = Field(
         default=10.0, gt=0, description="A request's line and headers within this, else 408 and closed."
