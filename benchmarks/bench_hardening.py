@@ -1,12 +1,12 @@
 """Mixed load with oversized requests against a live server on loopback (`python -m benchmarks hardening`).
 
-For `DURATION_S`, at once: a /healthz probe every 50 ms; small forward kinematics; 60-pose calibrations;
-inverse kinematics of half the synchronous budget (1 050 targets, ~1 s each; with the calibrations, more
-than the compute slots, so some wait and some get 503); refused work (a 6 000-pose synchronous calibration,
-the issue's 10 000-of-100 000 design); bodies over the limit (declared 25 MB, and chunked); a 3.5 MB body of
-300 000 unknown keys; pose designs as jobs. Measured: /healthz p99, each kind's slowest answer against its
-budget, the server's peak RSS (VmHWM) against `MEMORY_CEILING_BYTES`, and every status seen (no 500, no
-reset; 503 only as `overloaded`).
+For `DURATION_S`, at once: a /healthz probe every 50 ms (from a process of its own, and from the load
+generator); small forward kinematics; 60-pose calibrations; inverse kinematics of half the synchronous budget
+(1 050 targets, ~1 s each; with the calibrations, more than the compute slots, so some wait and some get 503);
+refused work (a 6 000-pose synchronous calibration, the issue's 10 000-of-100 000 design); bodies over the
+limit (declared 25 MB, and chunked); a 3.5 MB body of 300 000 unknown keys; pose designs as jobs. Measured:
+/healthz p99, each kind's slowest answer against its budget, the peak RSS (VmHWM) of the server's processes
+against `MEMORY_CEILING_BYTES`, and every status seen (no 500, no reset; 503 only as `overloaded`).
 
 Raw asyncio streams, one request per connection: an HTTP client library's CPU per request would show up as
 server latency on this 2-core machine (see benchmarks/load.py).
@@ -16,9 +16,13 @@ from __future__ import annotations
 
 import asyncio
 import json
+import multiprocessing
+import os
+import socket
 import tempfile
 import time
 from collections import defaultdict
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
@@ -35,13 +39,16 @@ DURATION_S = 20.0
 IK_CLIENTS = 3
 HEALTHZ_P99_S = 0.050
 MEMORY_CEILING_BYTES = 1_500_000_000
-"""The server's peak RSS: warm-up and caches (~400 MB) plus two computations at the budget (~100 MB each)
-plus a job; the issue's single requests reached 4.9 GB."""
+"""The peak RSS of all the server's processes together (API, one compute process per core, the parse process,
+the job worker): each warm process holds ~300 MB of models and caches, plus the computations at the budget
+(~100 MB each); the issue's single requests reached 4.9 GB."""
 REFUSAL_BUDGET_S = 1.0
 """A request refused before any work (413, 422 too large or malformed) answers within this."""
-COMPUTE_BUDGET_S = limits.QUEUE_WAIT_S + 2.5 * limits.SYNC_BUDGET_S
-"""A synchronous computation: its wait for a slot plus its estimated work, with 2.5x for the cores being
-shared with the load generator (and, here, with other builds)."""
+STOP_MARGIN_S = 1.0
+"""After the deadline, a computation stops at its next solver step and its answer travels back."""
+COMPUTE_BUDGET_S = limits.QUEUE_WAIT_S + limits.COMPUTE_DEADLINE_S + STOP_MARGIN_S
+"""A synchronous computation: its wait for a slot, then at most the deadline after which it is stopped and
+answered 503 (service.limits), then the stop."""
 
 
 def _request(host: str, method: str, path: str, body: bytes = b"", headers: dict[str, str] | None = None) -> bytes:
@@ -88,6 +95,25 @@ async def _send(port: int, raw: bytes, chunks: list[bytes] | None = None) -> tup
     return status, elapsed, data.split(b"\r\n\r\n", 1)[-1]
 
 
+def _probe(port: int, duration_s: float, period_s: float) -> list[float]:
+    """/healthz every `period_s` from a process of its own, with blocking sockets: the load generator's event
+    loop, busy writing 25 MB bodies, would otherwise count its own stalls as the server's latency."""
+    times: list[float] = []
+    raw = _request(f"127.0.0.1:{port}", "GET", "/healthz")
+    stop = time.monotonic() + duration_s
+    while time.monotonic() < stop:
+        started = time.perf_counter()
+        with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
+            sock.sendall(raw)
+            data = b""
+            while chunk := sock.recv(65536):
+                data += chunk
+        elapsed = time.perf_counter() - started
+        times.append(elapsed if data.startswith(b"HTTP/1.1 200") else float("inf"))
+        time.sleep(max(0.0, period_s - elapsed))
+    return times
+
+
 def _server_pid(port: int) -> int | None:
     for proc in Path("/proc").iterdir():
         if proc.name.isdigit():
@@ -100,13 +126,36 @@ def _server_pid(port: int) -> int | None:
     return None
 
 
+def _tree(pid: int) -> list[int]:
+    """The server and its descendants (compute, parse and job processes)."""
+    children: dict[int, list[int]] = defaultdict(list)
+    for proc in Path("/proc").iterdir():
+        if proc.name.isdigit():
+            try:
+                ppid = int((proc / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children[ppid].append(int(proc.name))
+    found, todo = [], [pid]
+    while todo:
+        current = todo.pop()
+        found.append(current)
+        todo += children.get(current, [])
+    return found
+
+
 def _peak_rss(pid: int | None) -> int:
+    """The sum of the peak RSS (VmHWM) of the server's processes: an upper bound of what they held at once."""
     if pid is None:
         return -1
-    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if line.startswith("VmHWM:"):
-            return int(line.split()[1]) * 1024
-    return -1
+    total = 0
+    for member in _tree(pid):
+        try:
+            lines = Path(f"/proc/{member}/status").read_text().splitlines()
+        except OSError:
+            continue
+        total += sum(int(line.split()[1]) * 1024 for line in lines if line.startswith("VmHWM:"))
+    return total
 
 
 def _bodies() -> dict[str, bytes]:
@@ -179,10 +228,10 @@ EXPECTED: dict[str, set[int]] = {
     "fk": {200},
     "calibration": {201, 503},
     "ik_at_budget": {200, 503},
-    "calibration_too_large": {422},
+    "calibration_too_large": {422, 503},
     "design_too_large": {422},
     "design_job": {202},
-    "unknown_keys": {422},
+    "unknown_keys": {422, 503},  # 503: the parse process's backlog is full (service.compute.PARSE_QUEUE)
     "declared_25MB": {413},
     "chunked_25MB": {413},
 }
@@ -195,10 +244,21 @@ def run(duration_s: float = DURATION_S) -> dict[str, object]:
         pid = _server_pid(port)
         created = asyncio.run(_send(port, _request(urlsplit(url).netloc, "POST", "/v1/robots", b'{"name": "load"}')))
         robot = json.loads(created[2])["id"]
+        load_before = os.getloadavg()[0]
         rss_before = _peak_rss(pid)
-        seen = asyncio.run(_load(url, robot, duration_s))
+        with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as prober:
+            probe = prober.submit(_probe, port, duration_s, 0.05)
+            seen = asyncio.run(_load(url, robot, duration_s))
+            probed = probe.result()
         rss_peak = _peak_rss(pid)
-    out: dict[str, Any] = {"duration_s": duration_s, "rss_after_warmup_mb": round(rss_before / 1e6)}
+    out: dict[str, Any] = {
+        "duration_s": duration_s,
+        "rss_after_warmup_mb": round(rss_before / 1e6),
+        # The machine's 1-minute load average before and after: the cores are shared with other builds, whose
+        # load the latencies below include.
+        "load_average_before": round(load_before, 2),
+        "load_average_after": round(os.getloadavg()[0], 2),
+    }
     targets = []
     unexpected: dict[str, list[int]] = {}
     for kind, answers in sorted(seen.items()):
@@ -212,14 +272,20 @@ def run(duration_s: float = DURATION_S) -> dict[str, object]:
         if bad or not overloaded_ok:
             unexpected[kind] = bad or [503]
         if kind == "healthz":
-            p99 = float(np.percentile(times, 99))
-            out["healthz_p50_s"] = round(float(np.percentile(times, 50)), 4)
-            out["healthz_p99_s"] = round(p99, 4)
-            targets.append(_target("/healthz p99 under load (s)", p99, HEALTHZ_P99_S))
+            # As the load generator's loop saw it (its own stalls included): reported, not the target.
+            out["healthz_in_generator_p50_s"] = round(float(np.percentile(times, 50)), 4)
+            out["healthz_in_generator_p99_s"] = round(float(np.percentile(times, 99)), 4)
         else:
             budget = REFUSAL_BUDGET_S if kind in REFUSALS else COMPUTE_BUDGET_S
             targets.append(_target(f"{kind}: slowest answer (s)", float(times.max()), budget))
-    targets.append(_target("server peak RSS (bytes)", float(rss_peak), MEMORY_CEILING_BYTES))
+    probe_times = np.array(probed)
+    p99 = float(np.percentile(probe_times, 99))
+    out["healthz_probe_count"] = len(probed)
+    out["healthz_p50_s"] = round(float(np.percentile(probe_times, 50)), 4)
+    out["healthz_p99_s"] = round(p99, 4)
+    out["healthz_max_s"] = round(float(probe_times.max()), 4)
+    targets.append(_target("/healthz p99 under load, own probe process (s)", p99, HEALTHZ_P99_S))
+    targets.append(_target("server peak RSS, all its processes (bytes)", float(rss_peak), MEMORY_CEILING_BYTES))
     targets.append(_target("answers outside the expected statuses (no 500)", float(len(unexpected)), 0))
     out["unexpected"] = unexpected
     out["rss_peak_mb"] = round(rss_peak / 1e6)

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from models import cancellation
 from models._types import Array
 from optimal_design.constraints import Spread
 from optimal_design.criteria import Criterion, utility
@@ -78,6 +79,7 @@ def greedy(info: CandidateInformation, count: int, base: Array, allowed: Index, 
     stale = np.full(info.size, np.inf)
     eye = np.eye(info.rows)[None]
     for _ in range(count):
+        cancellation.check()  # one pose per step: a design whose client left stops here
         if not free.any():
             assert spread is not None
             raise spread.too_tight(count, len(chosen))
@@ -219,6 +221,7 @@ def exchange(
         universe = np.zeros_like(allowed)
         universe[first[np.argsort(-score)[:UNIVERSE]]] = True
     while swaps < MAX_SWAPS:
+        cancellation.check()
         outside = universe.copy()
         outside[design] = False
         candidates = np.flatnonzero(outside)

@@ -38,6 +38,7 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import NDArray
 
+from models import cancellation
 from models._types import Array
 from optimal_design.criteria import Criterion
 from optimal_design.information import CandidateInformation
@@ -189,6 +190,7 @@ def first_order(
         active = np.arange(n)
     bound, f, it, since = np.inf, -np.inf, 0, CHECK_EVERY
     while it < MAX_ITERATIONS:
+        cancellation.check()  # a design whose client left stops at its next iteration
         it += 1
         m = base + info.information(w[active], active)
         previous = f
@@ -278,6 +280,7 @@ def sdp(
     best: tuple[Array, float] | None = None
     iterations, status = 0, "not run"
     for _ in range(SDP_ROUNDS_LARGE if info.size > LARGE else SDP_ROUNDS):
+        cancellation.check()
         weights, bound, chosen, status, its = _compressed(
             info, criterion, count, base, index=index, weak=weak, strong=strong
         )

@@ -14,6 +14,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from models import Registry
 from service import limits, logs, openapi, problems, security, ui
+from service.compute import ComputePool
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
 from service.guards import BodyGuard, RequestGuard
@@ -160,6 +161,10 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         models = ModelCache(db)
         runner = make_runner(settings, db, models, runtimes)
         app.state.db, app.state.models, app.state.registry, app.state.jobs = db, models, runtimes, runner
+        # Processes build their own registries from the settings; without processes the app's serves the threads.
+        compute = ComputePool(db, models, runtimes, settings, slots=limits.SYNC_COMPUTE_SLOTS)
+        await compute.start()
+        app.state.compute = compute
         # No sweep of running jobs: those of a stopped process come back when their leases expire.
         resubmitted = runner.recover()
         log.info("ready", extra={"path": settings.database_url.split("@")[-1]})
@@ -168,6 +173,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         try:
             yield
         finally:
+            compute.shutdown()
             runner.shutdown()
             db.dispose()
 
@@ -200,14 +206,15 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)
-    app.add_middleware(
-        limits.Admission, gate=limits.ComputeGate(limits.SYNC_COMPUTE_SLOTS, limits.SYNC_QUEUE, limits.QUEUE_WAIT_S)
+    gate = limits.ComputeGate(
+        limits.SYNC_COMPUTE_SLOTS, limits.SYNC_QUEUE, limits.QUEUE_WAIT_S, deadline_s=settings.compute_deadline_seconds
     )
+    app.add_middleware(limits.Admission, gate=gate)
     app.add_middleware(Idempotency)  # inside BodyGuard: it reads the body BodyGuard replays
     app.add_middleware(BodyLimit, limit=settings.max_body_bytes)
     # Outside BodyLimit, which refuses a declared size over the limit before any read; BodyGuard reads every
     # other body once, on a deadline, and drains a chunked one over the limit before its 413.
-    app.add_middleware(BodyGuard, limit=settings.max_body_bytes)
+    app.add_middleware(BodyGuard, limit=settings.max_body_bytes, timeout_s=settings.body_timeout_seconds)
     app.add_middleware(RequestGuard)
     app.add_middleware(security.GuardedPaths, metrics=not settings.metrics_public, docs=not settings.docs_public)
     app.add_middleware(Observe, metrics=app.state.metrics)

@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Awaitable, Callable
-from typing import Annotated, TypeVar
+from typing import Annotated, Any, TypeVar
 
 from fastapi import Depends, Query, Request
 
 from models import Registry
 from service import limits, logs, security
+from service.compute import Task
 from service.errors import NotAcceptable
 from service.jobs import Requeuing
 from service.metrics import Metrics
@@ -21,6 +22,8 @@ from service.persistence import Database
 from service.persistence.lifecycle import Actor
 
 T = TypeVar("T")
+INJECTED = {"db", "models", "registry"}
+"""The arguments of a computation that each compute process supplies itself (service.compute)."""
 
 
 def _state(attribute: str, kind: type[T]) -> Callable[[Request], Awaitable[T]]:
@@ -64,11 +67,19 @@ Offset = Annotated[int, Query(ge=0, le=1_000_000_000)]
 ActorDep = Annotated[Actor, Depends(actor)]
 
 
-async def compute(m: Metrics, kind: str, fn: Callable[[], T]) -> T:
-    """Run CPU work off the event loop, within the compute slots (service.limits), and time it."""
+async def compute(m: Metrics, kind: str, fn: Callable[..., T], /, **kwargs: Any) -> T:
+    """`fn(**kwargs)` in the compute pool, within the compute slots (service.limits, service.compute), timed.
+
+    `fn` is a module-level function; its `db`, `models` and `registry` arguments are replaced by the compute
+    process's own (a Database, a ModelCache or a Registry cannot travel to another process)."""
+    inject = tuple(name for name, value in kwargs.items() if isinstance(value, Database | ModelCache | Registry))
+    if not set(inject) <= INJECTED:  # the process supplies its own by these names only: a bug, not the client's
+        raise TypeError(f"compute: pass the process's objects as {sorted(INJECTED)}, not {sorted(inject)}")
+    task = Task(fn, {k: v for k, v in kwargs.items() if k not in inject}, inject)
     started = time.perf_counter()
     try:
-        return await limits.run_gated(fn)
+        result: T = await limits.run_gated(task)
+        return result
     finally:
         m.solve.labels(kind).observe(time.perf_counter() - started)
 

@@ -4,25 +4,29 @@
   even hold NUL (psycopg raises DataError, which was a 500). Answered 404 here, for every route, present and
   future, before a query is built.
 - A body is read within `BODY_TIMEOUT_S` (else 408: a slow client holds no worker for long), and a JSON body
-  over `OFFLOOP_BYTES` is parsed and checked off the event loop first: no object with more keys than
-  `MAX_OBJECT_KEYS` (measured on main: 300 000 unknown keys in 3.5 MB blocked the loop 6.9 s and answered
-  19.7 MB of errors; the issue's 1.3 million keys, 20 s and 86 MB). The largest schema object has 9 keys.
+  over `OFFLOOP_BYTES` is parsed and checked off the event loop first (in a compute process, service.compute):
+  no object with more keys than `MAX_OBJECT_KEYS` (measured on main: 300 000 unknown keys in 3.5 MB blocked
+  the loop 6.9 s and answered 19.7 MB of errors; the issue's 1.3 million keys, 20 s and 86 MB). The largest
+  schema object has 9 keys.
 """
 
 from __future__ import annotations
 
 import json
+import re
+from collections.abc import Callable
 from typing import Any
 
 import anyio
 from fastapi.exceptions import RequestValidationError
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service import problems
+from service import limits, problems
 from service.errors import NotFound, PayloadTooLarge, RequestTimeout, ServiceError
 
 BODY_TIMEOUT_S = 30.0
-"""A whole request body within this: the largest accepted body (IWR_MAX_BODY_BYTES, 20 MB) at ~1 MB/s."""
+"""A whole request body within this (unless the app gives `IWR_BODY_TIMEOUT_SECONDS`): the largest accepted
+body (IWR_MAX_BODY_BYTES, 20 MB) at ~1 MB/s."""
 OFFLOOP_BYTES = 64_000
 """JSON bodies above this are parsed in a worker thread first (json.loads: ~85 ns per byte here, so 64 kB is
 ~5 ms on the loop at most), which also bounds what the validation on the loop meets."""
@@ -56,24 +60,64 @@ def _pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return dict(pairs)
 
 
-def check_json_shape(body: bytes) -> None:
-    """Raise RequestValidationError for an object with too many keys; anything else FastAPI reports itself."""
+def too_many_keys(body: bytes) -> int | None:
+    """The key count of the first object with more than MAX_OBJECT_KEYS keys (None: none has). Malformed JSON
+    is left to FastAPI, which answers it (400/422) with its own message. Plain arguments and answer: it runs in
+    a compute process (service.compute), where parsing megabytes holds no GIL the event loop needs."""
     try:
         json.loads(body, object_pairs_hook=_pairs)
     except _TooManyKeys as exc:
-        raise RequestValidationError(
-            [{"loc": ("body",), "msg": f"an object with {exc.args[0]} keys; at most {MAX_OBJECT_KEYS} are accepted"}]
-        ) from None
+        return int(exc.args[0])
     except (ValueError, RecursionError):
-        return  # malformed JSON: FastAPI answers it (400/422) with its own message
+        return None
+    return None
+
+
+def check_json_shape(body: bytes) -> None:
+    """Raise RequestValidationError for an object with too many keys; anything else FastAPI reports itself."""
+    _raise_too_many(too_many_keys(body))
+
+
+def _raise_too_many(keys: int | None) -> None:
+    if keys is not None:
+        raise RequestValidationError(
+            [{"loc": ("body",), "msg": f"an object with {keys} keys; at most {MAX_OBJECT_KEYS} are accepted"}]
+        )
+
+
+def _joint_vectors(body: bytes) -> int:
+    # `{"joints": [[...], [...], ...]}`: one bracket per vector and one for the list (numbers hold none)
+    return body.count(b"[") - 1
+
+
+def _targets(body: bytes) -> int:
+    # Every target has a position; in valid JSON `"position"` before a colon is a key, never text.
+    return len(_POSITION_KEY.findall(body))
+
+
+_POSITION_KEY = re.compile(rb'"position"\s*:')
+PRECOUNTED: dict[str, tuple[Callable[[bytes], int], Callable[[int], limits.Estimate]]] = {
+    "/forward-kinematics": (_joint_vectors, limits.forward_kinematics),
+    "/inverse-kinematics": (_targets, limits.inverse_kinematics),
+}
+"""Routes whose body FastAPI parses and validates on the event loop, with a count of their work in the raw bytes
+(C speed: ~1 ms per MB): over the synchronous budget they are refused before anything is parsed (measured: the
+schema's 100 000 joint vectors, 7 MB, took 0.8 s of loop to parse and validate, only to be refused)."""
+
+
+def precheck(path: str, body: bytes) -> None:
+    """422 `work-too-large` for a body whose counted work is over the budget (these routes have no job form)."""
+    for suffix, (count, estimate) in PRECOUNTED.items():
+        if path.endswith(suffix):
+            limits.admit(estimate(count(body)), run_async=False, can_run_async=False)
 
 
 class BodyGuard:
     """Reads the body with a deadline and the size limit (over it: drained, then 413, declared or chunked alike),
     checks large JSON off the loop, then replays the body to the app."""
 
-    def __init__(self, app: ASGIApp, limit: int) -> None:
-        self.app, self.limit = app, limit
+    def __init__(self, app: ASGIApp, limit: int, timeout_s: float | None = None) -> None:
+        self.app, self.limit, self.timeout_s = app, limit, timeout_s
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http" or scope["method"] not in ("POST", "PUT", "PATCH"):
@@ -83,8 +127,9 @@ class BodyGuard:
         if declared.isdigit() and int(declared) > self.limit:  # BodyLimit refuses it before reading anything
             await self.app(scope, receive, send)
             return
+        timeout_s = BODY_TIMEOUT_S if self.timeout_s is None else self.timeout_s
         try:
-            with anyio.fail_after(BODY_TIMEOUT_S):
+            with anyio.fail_after(timeout_s):
                 body, disconnected, too_large = await _read(receive, self.limit)
             if disconnected:
                 return
@@ -92,12 +137,18 @@ class BodyGuard:
                 raise PayloadTooLarge(f"the request body exceeds {self.limit} bytes; send less", limit=self.limit)
             content_type = dict(scope.get("headers", [])).get(b"content-type", b"application/json")
             if len(body) > OFFLOOP_BYTES and b"json" in content_type.lower():
-                await anyio.to_thread.run_sync(check_json_shape, body)
+                precheck(scope.get("path", ""), body)
+                pool = getattr(scope["app"].state, "compute", None) if "app" in scope else None
+                keys = await (pool.call(too_many_keys, body) if pool else anyio.to_thread.run_sync(too_many_keys, body))
+                _raise_too_many(keys)
         except TimeoutError:
-            exc: Exception = RequestTimeout(f"the request body did not arrive within {BODY_TIMEOUT_S:.0f} s")
-            await problems.response(problems.to_problem(exc))(scope, receive, send)
+            exc: Exception = RequestTimeout(f"the request body did not arrive within {timeout_s:g} s")
+            answer = problems.response(problems.to_problem(exc))
+            # And closed: the rest of the body, should it come, is not the next request's headers.
+            answer.headers["connection"] = "close"
+            await answer(scope, receive, send)
             return
-        except (ServiceError, RequestValidationError) as exc:  # 413 from BodyLimit, counted chunk by chunk
+        except (ServiceError, RequestValidationError) as exc:  # 413 counted chunk by chunk, 422 too much work
             await problems.response(problems.to_problem(exc))(scope, receive, send)
             return
         sent = False

@@ -16,7 +16,8 @@ shared with other builds while measured (so they are pessimistic), one request a
 
 Synchronous requests run only up to `SYNC_BUDGET_S` of estimated work; larger calibrations and designs are
 refused with a 422 that says to send them with `?async=true`, and no job may exceed `JOB_MAX_S` or
-`JOB_MEMORY_BYTES`. Inverse kinematics has no job form, so its cap is the synchronous budget.
+`JOB_MEMORY_BYTES`. Inverse kinematics and error analysis have no job form, so their cap is the synchronous
+budget.
 """
 
 from __future__ import annotations
@@ -28,11 +29,13 @@ import time
 from collections.abc import Awaitable, Callable
 from contextvars import ContextVar
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import anyio
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from models.cancellation import CancellationToken, Cancelled
+from service.compute import ComputePool, Task
 from service.errors import ClientGone, Overloaded, WorkTooLarge
 
 T = TypeVar("T")
@@ -64,13 +67,24 @@ DESIGN_K_EXPONENT = 0.55  # K = 30 -> 300 at M = 2 000: 4.6 s -> 16 s (x3.5 for 
 DESIGN_BASE_BYTES = 150_000_000  # peak 252 MB at M = 2 000 and 671 MB at M = 20 000 (K = 30, after the speed-up)
 DESIGN_BYTES_PER_CANDIDATE = 30_000  # (671 - 252) MB / 18 000 candidates = 23 KB, rounded up
 DESIGN_BYTES_PER_PAIR = 400  # per chosen pose and candidate: the exchange's swap tables
+ERROR_ANALYSIS_FIXED_S = 0.2  # sampling the poses and the nominal FK
+ERROR_ANALYSIS_S_PER_EVALUATION = 100e-6
+"""poses × draws, each three perturbed FK solves: measured 8 000 in 0.97 s, 20 000 in 1.73 s, 40 000 in 4.0 s
+(one process, the models warm, this machine under the others' load); so 18 000 evaluations fill the budget
+(the schema's former cap, 40 000, was twice the budget)."""
+ERROR_ANALYSIS_BYTES_PER_EVALUATION = 1_000  # 48 stored numbers (~400 B) and working arrays: +11 MB at 40 000
 FORWARD_S_PER_POSE = 34e-6  # README's service table: 1 000 joint vectors in one request, 34 ms
 
 CORES = os.cpu_count() or 1
 SYNC_COMPUTE_SLOTS = CORES
-"""Synchronous computations at once: each holds a core (the GIL is released inside CasADi, IPOPT, BLAS)."""
+"""Synchronous computations at once: each holds a core, in its own compute process (service.compute)."""
 SYNC_QUEUE = CORES
 """Requests that may wait for a slot; beyond them, 503 at once."""
+COMPUTE_DEADLINE_S = 2.5 * SYNC_BUDGET_S
+"""A synchronous computation still running after this (2.5x the budget its estimate fits in: the server is
+overloaded) is stopped where the solver allows it (models.cancellation) and answered 503 with Retry-After, so a
+synchronous request answers within QUEUE_WAIT_S + COMPUTE_DEADLINE_S (measured before: a 1 s inverse kinematics
+took 26 s on the shared 2-core machine)."""
 QUEUE_WAIT_S = SYNC_BUDGET_S
 """A waiting request gives up after one budget (so it answers within ~2 budgets either way)."""
 RETRY_AFTER_S = math.ceil(SYNC_BUDGET_S)
@@ -145,6 +159,15 @@ def target_design(candidates: int, fixed: int) -> Estimate:
     )
 
 
+def error_analysis(poses: int, draws: int) -> Estimate:
+    evaluations = poses * draws
+    return Estimate(
+        f"an error analysis of {poses} poses × {draws} draws",
+        ERROR_ANALYSIS_FIXED_S + evaluations * ERROR_ANALYSIS_S_PER_EVALUATION,
+        evaluations * ERROR_ANALYSIS_BYTES_PER_EVALUATION,
+    )
+
+
 def forward_kinematics(poses: int) -> Estimate:
     return Estimate(f"forward kinematics of {poses} joint vectors", poses * FORWARD_S_PER_POSE, poses * 5_000)
 
@@ -156,8 +179,8 @@ class ComputeGate:
     A plain counter under a lock rather than an asyncio semaphore: the tests drive one app from several event
     loops (TestClient, schemathesis), and a counter belongs to none of them."""
 
-    def __init__(self, slots: int, queue: int, wait_s: float) -> None:
-        self.slots, self.queue, self.wait_s = slots, queue, wait_s
+    def __init__(self, slots: int, queue: int, wait_s: float, deadline_s: float | None = COMPUTE_DEADLINE_S) -> None:
+        self.slots, self.queue, self.wait_s, self.deadline_s = slots, queue, wait_s, deadline_s
         self.running = self.waiting = 0
         self.lock = threading.Lock()
 
@@ -168,34 +191,90 @@ class ComputeGate:
                 return True
             return False
 
-    async def run(self, fn: Callable[[], T], gone: Callable[[], Awaitable[bool]]) -> T:
-        if not self._try_enter():
-            with self.lock:
-                if self.waiting >= self.queue:
-                    raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
-                self.waiting += 1
-            try:
-                deadline = time.monotonic() + self.wait_s
-                while not self._try_enter():
-                    if time.monotonic() > deadline:
-                        raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
-                    await anyio.sleep(0.01)
-            finally:
-                with self.lock:
-                    self.waiting -= 1
+    async def run(self, work: Callable[[CancellationToken], Awaitable[T]], receive: Receive | None = None) -> T:
+        """`work(token)` within a slot; `token` is set when the client disconnects (read from `receive`, which
+        after the body reports only that: `ClientGone`) or after `deadline_s` (503 `Overloaded`)."""
+        await self._enter()
         try:
-            if await gone():  # the client hung up while it waited: nobody will read the answer
+            if receive is not None and await _gone(receive):  # it hung up while it waited: nobody reads it
                 raise ClientGone("the client disconnected before its computation started")
-            return await anyio.to_thread.run_sync(fn)
+            return await self._within_slot(work, receive)
         finally:
             with self.lock:
                 self.running -= 1
+
+    async def _enter(self) -> None:
+        if self._try_enter():
+            return
+        with self.lock:
+            if self.waiting >= self.queue:
+                raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
+            self.waiting += 1
+        try:
+            deadline = time.monotonic() + self.wait_s
+            while not self._try_enter():
+                if time.monotonic() > deadline:
+                    raise Overloaded(self._busy(), retry_after=RETRY_AFTER_S)
+                await anyio.sleep(0.01)
+        finally:
+            with self.lock:
+                self.waiting -= 1
+
+    async def _within_slot(self, work: Callable[[CancellationToken], Awaitable[T]], receive: Receive | None) -> T:
+        token = CancellationToken()
+        result: list[T] = []
+        failed: list[Exception] = []
+        late = anyio.Event()
+        async with anyio.create_task_group() as tg:
+            if receive is not None:
+                tg.start_soon(_watch, receive, token)
+            if self.deadline_s is not None:
+                tg.start_soon(_deadline, token, self.deadline_s, late)
+            try:
+                result.append(await work(token))
+            except Exception as exc:  # raised below, outside the group (which would wrap it in a group)
+                failed.append(exc)
+            finally:
+                tg.cancel_scope.cancel()
+        if not failed:
+            return result[0]
+        if isinstance(failed[0], Cancelled) and late.is_set():
+            raise Overloaded(
+                f"the computation did not finish within {self.deadline_s:g} s (the server is overloaded) and was "
+                f"stopped; retry in {RETRY_AFTER_S} s",
+                retry_after=RETRY_AFTER_S,
+            ) from None
+        if isinstance(failed[0], Cancelled):
+            raise ClientGone("the client disconnected; its computation was stopped") from None
+        raise failed[0]
 
     def _busy(self) -> str:
         return f"all {self.slots} compute slots are busy and {self.queue} requests wait; retry in {RETRY_AFTER_S} s"
 
 
-_current: ContextVar[tuple[ComputeGate, Receive] | None] = ContextVar("compute_gate", default=None)
+async def _gone(receive: Receive) -> bool:
+    with anyio.move_on_after(0.001):
+        message = await receive()
+        return bool(message.get("type") == "http.disconnect")
+    return False
+
+
+async def _watch(receive: Receive, token: CancellationToken) -> None:
+    """Sets `token` when the client disconnects (cancelled with the computation's end)."""
+    while True:
+        message = await receive()
+        if message.get("type") == "http.disconnect":
+            token.cancel()
+            return
+
+
+async def _deadline(token: CancellationToken, seconds: float, late: anyio.Event) -> None:
+    await anyio.sleep(seconds)
+    late.set()
+    token.cancel()
+
+
+_current: ContextVar[tuple[ComputeGate, Receive, Scope] | None] = ContextVar("compute_gate", default=None)
 
 
 class Admission:
@@ -206,24 +285,23 @@ class Admission:
         self.app, self.gate = app, gate
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        token = _current.set((self.gate, receive))
+        token = _current.set((self.gate, receive, scope))
         try:
             await self.app(scope, receive, send)
         finally:
             _current.reset(token)
 
 
-async def run_gated(fn: Callable[[], T]) -> T:
-    """Run CPU work off the event loop within the app's gate; outside a request (a script), just run it."""
+async def run_gated(task: Task) -> Any:
+    """Run a computation within the app's gate, in its compute pool (service.compute); outside a request (a
+    script), just in a thread (the task's `inject` then finds nothing)."""
     current = _current.get()
     if current is None:
-        return await anyio.to_thread.run_sync(fn)
-    gate, receive = current
-
-    async def gone() -> bool:
-        with anyio.move_on_after(0.001):
-            message = await receive()
-            return bool(message.get("type") == "http.disconnect")
-        return False
-
-    return await gate.run(fn, gone)
+        return await anyio.to_thread.run_sync(lambda: task.fn(**task.kwargs))
+    gate, receive, scope = current
+    pool: ComputePool = scope["app"].state.compute
+    if any(name == b"idempotency-key" for name, _ in scope.get("headers", [])):
+        # A client that sends an Idempotency-Key retries after a timeout: the computation runs to its end so that
+        # the retry replays its answer (service.idempotency) instead of computing again. The deadline still holds.
+        return await gate.run(lambda token: pool.run(task, token), None)
+    return await gate.run(lambda token: pool.run(task, token), receive)

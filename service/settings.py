@@ -25,7 +25,23 @@ class Settings(BaseSettings):
     metrics_public: bool = Field(default=False, description="/metrics without a key (else a read key, with keys).")
     docs_public: bool = Field(default=True, description="/docs and /openapi.json without a key.")
     max_body_bytes: int = Field(default=20_000_000, description="Larger request bodies get 413.")
+    compute_deadline_seconds: float | None = Field(
+        default=None,
+        gt=0,
+        description="A synchronous computation still running after this is stopped where it can be and answered "
+        "503 (none: no deadline). `python -m service` defaults it to service.limits.COMPUTE_DEADLINE_S (5 s).",
+    )
+    header_timeout_seconds: float = Field(
+        default=10.0, gt=0, description="A request's line and headers within this, else 408 and closed."
+    )
+    body_timeout_seconds: float = Field(default=30.0, gt=0, description="A whole request body within this, else 408.")
     job_workers: int = Field(default=2, ge=0, description="Worker processes for ?async=true jobs (0: in-process).")
+    compute_processes: int = Field(
+        default=0,
+        ge=0,
+        description="Worker processes for synchronous computations (0: threads of the API process). "
+        "`python -m service` defaults it to one per core (service.compute).",
+    )
     log_level: str = "INFO"
     warm_up: bool = Field(default=True, description="Build the CasADi Functions and solvers at start-up.")
 

@@ -29,6 +29,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from models import cancellation
 from models._types import Array
 from models.identification.residuals import CampaignProblem
 from models.runtime import Runtime
@@ -109,6 +110,37 @@ class _Callback(ca.Callback):  # type: ignore[misc]  # CasADi is untyped (pyproj
         return [ca.triu(ca.DM(sigma * ev.hessian))]
 
 
+class _StopWhenCancelled(ca.Callback):  # type: ignore[misc]
+    """IPOPT's iteration callback (nlpsol option `iteration_callback`): called once per iteration with the
+    solver's outputs; a nonzero answer stops IPOPT with `User_Requested_Stop` (checked against CasADi 3.8).
+    It answers whether the current computation's cancellation token is set (models.cancellation)."""
+
+    def __init__(self, n: int) -> None:
+        ca.Callback.__init__(self)
+        self.n = n
+        self.construct(f"stop_{n}", {})
+
+    def get_n_in(self) -> int:
+        return int(ca.nlpsol_n_out())
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_name_in(self, i: int) -> str:
+        return str(ca.nlpsol_out(i))
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        name = ca.nlpsol_out(i)
+        if name in ("x", "lam_x"):
+            return ca.Sparsity.dense(self.n, 1)
+        if name == "f":
+            return ca.Sparsity.dense(1, 1)
+        return ca.Sparsity(0, 0) if name == "lam_p" else ca.Sparsity.dense(0, 1)
+
+    def eval(self, args: list[ca.DM]) -> list[Any]:
+        return [1 if cancellation.cancelled() else 0]
+
+
 class _Solver:
     def __init__(self, n: int, max_iter: int) -> None:
         self.n = n
@@ -119,13 +151,14 @@ class _Solver:
         ]
         jac = _Callback("lsq_jac", self, "jac", n)
         f = _Callback("lsq_f", self, "f", n, jacobian=jac)
-        self._callbacks += [jac, f]
+        self._callbacks += [jac, f, _StopWhenCancelled(n)]
         z = ca.MX.sym("z", n)
         options = {
             **IPOPT_OPTIONS,
             "ipopt.max_iter": max_iter,
             "grad_f": self._callbacks[0],
             "hess_lag": self._callbacks[1],
+            "iteration_callback": self._callbacks[-1],
         }
         self.nlp = ca.nlpsol(f"calibration_{n}", "ipopt", {"x": z, "f": f(z, ca.MX(0, 1))}, options)
 
@@ -141,6 +174,7 @@ class _Solver:
             out = self.nlp(x0=z0, lbx=lower, ubx=upper)
         finally:
             self._problem = None
+        cancellation.check()  # stopped by the iteration callback (or cancelled just after): no result
         stats = self.nlp.stats()
         return IpoptRun(
             z=np.asarray(out["x"], dtype=float).reshape(-1),

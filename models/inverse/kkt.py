@@ -16,6 +16,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from models import cancellation
 from models.batch import BatchFunctions
 from models.inverse.problem import ik_problem
 from models.native import compile_functions
@@ -102,6 +103,7 @@ def _newton(
     todo = np.arange(n)
     converged = np.zeros(n, dtype=bool)
     for _ in range(iterations):
+        cancellation.check()  # a batch whose client left stops at its next Newton step
         f, jf, _ = fns.batch(name, v[todo], lam[todo], *(d[todo] for d in data), theta)
         grad[todo] = f[:, :k]
         # A fixed variable's stationarity row becomes "stay at the bound"; its bound multiplier absorbs the rest.

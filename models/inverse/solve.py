@@ -21,6 +21,7 @@ import time
 import numpy as np
 from numpy.typing import ArrayLike
 
+from models import cancellation
 from models._types import Array
 from models.errors import NonFiniteValue
 from models.inverse.problem import joint_weights
@@ -68,6 +69,7 @@ def inverse_kinematics(
     if follow:
         previous: Array | None = None
         for i in np.flatnonzero(valid):
+            cancellation.check()
             s = seeds[i : i + 1] if previous is None else previous
             vi, mi = route(desc, theta, target[i : i + 1], s, w, position_only=position_only, runtime=rt)
             v[i], methods[i] = vi[0], mi[0]

@@ -66,9 +66,7 @@ async def create_design(
         accepted = submit_job(db=db, jobs=jobs, kind="pose_design", robot_id=robot_id, body=body)
         return model_json(accepted, status_code=202)
     design = await compute(
-        m,
-        "pose_design",
-        lambda: designs.create_design(db=db, models=models, registry=registry, robot_id=robot_id, body=body),
+        m, "pose_design", designs.create_design, db=db, models=models, registry=registry, robot_id=robot_id, body=body
     )
     return _answer(request, design, 201, models)
 

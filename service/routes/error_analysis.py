@@ -2,6 +2,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Response
 
+from service import limits
 from service.deps import MetricsDep, ModelCacheDep, RegistryDep, compute
 from service.responses import model_json
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
@@ -19,6 +20,7 @@ async def run_error_analysis(
     body: ErrorAnalysisRequest, registry: RegistryDep, m: MetricsDep, models: ModelCacheDep
 ) -> Response:
     """The tolerance study on the IWR, or on the robot `robot_id` names (any structure)."""
+    limits.admit(limits.error_analysis(body.poses, body.draws), run_async=False, can_run_async=False)
     return model_json(
-        await compute(m, "error_analysis", lambda: error_analysis.analyse(registry=registry, body=body, models=models))
+        await compute(m, "error_analysis", error_analysis.analyse, registry=registry, body=body, models=models)
     )

@@ -34,8 +34,8 @@ async def calibration_report(
     and the parameter table. Every number is the API's."""
     media = _FORMATS[format] if format else negotiate(request, list(_FORMATS.values()))
     if media == "application/pdf":
-        pdf = await compute(m, "report", lambda: reports.report_pdf(db=db, calibration_id=calibration_id))
+        pdf = await compute(m, "report", reports.report_pdf, db=db, calibration_id=calibration_id)
         disposition = f'inline; filename="calibration-{calibration_id}.pdf"'
         return Response(pdf, media_type="application/pdf", headers={"Content-Disposition": disposition})
-    page = await compute(m, "report", lambda: reports.report_html(db=db, calibration_id=calibration_id))
+    page = await compute(m, "report", reports.report_html, db=db, calibration_id=calibration_id)
     return Response(page, media_type="text/html; charset=utf-8")

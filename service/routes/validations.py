@@ -19,7 +19,7 @@ async def create_validation(
     """Measurements that are not fitted, against parameter versions: per-pose errors, RMS, max, percentiles, and
     ISO 9283 AP/RP (and AD/RD) where joint commands repeat."""
     result = await compute(
-        m, "validation", lambda: validations.validate(db=db, registry=registry, robot_id=robot_id, body=body)
+        m, "validation", validations.validate, db=db, registry=registry, robot_id=robot_id, body=body
     )
     return model_json(result, status_code=201)
 
@@ -47,6 +47,6 @@ async def iso9283_poses(
     chosen version (default: current). Measure P1…P5 in cycles and POST them as a validation."""
     chosen = body or IsoPosesCreate()
     result = await compute(
-        m, "iso9283", lambda: validations.iso_poses(db=db, registry=registry, robot_id=robot_id, body=chosen)
+        m, "iso9283", validations.iso_poses, db=db, registry=registry, robot_id=robot_id, body=chosen
     )
     return model_json(result)

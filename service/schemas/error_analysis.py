@@ -4,15 +4,12 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field
 
-from models.error_analysis import MAX_EVALUATIONS, ErrorMagnitudes
+from models.error_analysis import ErrorMagnitudes
 from service.conversions.units import degrees_default
 from service.schemas.common import OptionalFloat, Public, Strict
 
-SYNC_MAX_EVALUATIONS = MAX_EVALUATIONS * 2 // 5
-"""poses × draws of one synchronous request: two fifths of the library's cap (100 000 evaluations ≈ 7 s on
-two cores, its own measurement), so a request holds a worker thread for about 3 s at most."""
 _DEFAULT = ErrorMagnitudes()
 Distribution = Literal["sign", "uniform"]
 
@@ -46,12 +43,6 @@ class ErrorAnalysisRequest(Strict):
         le=100,
         description="Every link length: a and d (for a prismatic joint, its offset)",
     )
-
-    @model_validator(mode="after")
-    def _bounded(self) -> ErrorAnalysisRequest:
-        if self.poses * self.draws > SYNC_MAX_EVALUATIONS:
-            raise ValueError(f"poses × draws must stay within {SYNC_MAX_EVALUATIONS} (a synchronous request)")
-        return self
 
 
 class AxesPublic(Public):

@@ -53,7 +53,7 @@ def running_app() -> Iterator[TestClient]:
 
 
 # POST /v1/error-analysis is the one slow operation here: schemathesis sends requests of up to the
-# route's 40 000 poses x draws, ~34 s for its 12 examples; tests/service/conftest.py marks that case slow.
+# budget's 18 000 poses x draws (service.limits), seconds each; tests/service/conftest.py marks that case slow.
 @schema.parametrize()
 @settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
 def test_api_contract(case: schemathesis.Case) -> None:

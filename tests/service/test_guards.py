@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -68,3 +69,22 @@ def test_a_slow_body_times_out(monkeypatch: pytest.MonkeyPatch) -> None:
     scope = {"type": "http", "method": "POST", "path": "/v1/robots", "headers": []}
     anyio.run(guards.BodyGuard(app, limit=1_000_000), scope, trickle, send)  # type: ignore[arg-type]
     assert not reached and sent[0]["status"] == 408
+
+
+def test_kinematics_over_the_budget_are_refused_before_parsing(client: TestClient, robot_id: str) -> None:
+    vectors = [JOINTS] * 100_000  # the schema's maximum: 58 000 fit the budget (service.limits)
+    fk = json.dumps({"joints": vectors}).encode()
+    targets = [{"position": [1.0, 2.0, 3.0], "orientation": [1.0, 0.0, 0.0, 0.0]}] * 3_000
+    ik = json.dumps({"targets": targets, "seed": JOINTS}).encode()
+    assert guards._joint_vectors(fk) == len(vectors) and guards._targets(ik) == len(targets)  # the counts are exact
+    for path, body in (("forward-kinematics", fk), ("inverse-kinematics", ik)):
+        started = time.perf_counter()
+        r = client.post(f"/v1/robots/{robot_id}/{path}", content=body, headers={"content-type": "application/json"})
+        elapsed = time.perf_counter() - started
+        assert r.status_code == 422 and r.json()["type"].endswith("work-too-large"), r.text[:300]
+        assert "send fewer" in r.json()["detail"] and elapsed < 0.5  # parsing and validating 7 MB: 0.8 s here
+    within = json.dumps({"joints": [JOINTS] * 2_000}).encode()  # over 64 kB, within the budget: computed
+    r = client.post(
+        f"/v1/robots/{robot_id}/forward-kinematics", content=within, headers={"content-type": "application/json"}
+    )
+    assert r.status_code == 200 and len(r.json()["poses"]) == 2_000

@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Awaitable, Callable
 
 import anyio
 import pytest
 from fastapi.testclient import TestClient
+from starlette.types import Message
 
-from models import forward_kinematics, iwr, sample_workspace
+from models import cancellation, forward_kinematics, iwr, sample_workspace
+from models.cancellation import CancellationToken
 from models.transforms import matrix_to_quaternion
 from service import limits
 from service.errors import ClientGone, Overloaded, WorkTooLarge
@@ -28,6 +31,10 @@ def test_the_estimates_follow_the_measurements() -> None:
         (limits.pose_design(500, 30, 0, "D"), 0.19),
         (limits.pose_design(2000, 300, 0, "D"), 1.7),
         (limits.pose_design(2000, 30, 0, "I"), 1.38),
+        # error analysis, poses × draws = 8 000, 20 000, 40 000 (a compute process, the models warm)
+        (limits.error_analysis(40, 200), 0.97),
+        (limits.error_analysis(100, 200), 1.73),
+        (limits.error_analysis(200, 200), 4.04),
     ):
         assert measured_s * 0.9 <= estimate.seconds <= measured_s * 1.5, (estimate, measured_s)
     assert limits.pose_design(20_000, 30, 0, "D").bytes >= 671e6  # optimal_design's benchmark peak
@@ -61,20 +68,35 @@ def test_inverse_kinematics_is_capped_at_the_budget(client: TestClient, robot_id
     assert client.post(url, json={"targets": [target] * 3}).status_code == 200
 
 
+def test_error_analysis_has_the_same_budget(client: TestClient) -> None:
+    at_budget = int((limits.SYNC_BUDGET_S - limits.ERROR_ANALYSIS_FIXED_S) / limits.ERROR_ANALYSIS_S_PER_EVALUATION)
+    assert limits.error_analysis(at_budget, 1).seconds <= limits.SYNC_BUDGET_S
+    assert limits.error_analysis(at_budget + 1, 1).seconds > limits.SYNC_BUDGET_S
+    started = time.perf_counter()
+    r = client.post("/v1/error-analysis", json={"poses": 200, "draws": 200})  # 40 000: the schema allowed it
+    assert r.status_code == 422 and r.json()["type"].endswith("work-too-large") and "send fewer" in r.json()["detail"]
+    assert r.json()["use_async"] is False and time.perf_counter() - started < 1.0  # refused, not computed
+    assert client.post("/v1/error-analysis", json={"poses": 5, "draws": 10}).status_code == 200
+
+
 def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
     gate = limits.ComputeGate(slots=1, queue=1, wait_s=0.3)
     ran: list[str] = []
 
-    async def present() -> bool:
-        return False
+    async def present() -> Message:  # an ASGI receive after the body: nothing until the client leaves
+        await anyio.sleep_forever()
+        raise AssertionError
 
-    async def absent() -> bool:
-        return True
+    async def absent() -> Message:
+        return {"type": "http.disconnect"}
 
-    def work(name: str, seconds: float) -> str:
+    def compute(name: str, seconds: float) -> str:
         time.sleep(seconds)
         ran.append(name)
         return name
+
+    def work(name: str, seconds: float) -> Callable[[CancellationToken], Awaitable[str]]:
+        return lambda _token: anyio.to_thread.run_sync(compute, name, seconds)
 
     async def main() -> None:
         outcomes: dict[str, object] = {}
@@ -82,7 +104,7 @@ def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
         async def call(name: str, seconds: float, delay: float) -> None:
             await anyio.sleep(delay)
             try:
-                outcomes[name] = await gate.run(lambda: work(name, seconds), present)
+                outcomes[name] = await gate.run(work(name, seconds), present)
             except Overloaded as exc:
                 outcomes[name] = exc
 
@@ -94,12 +116,75 @@ def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
         assert isinstance(outcomes["waits-too-long"], Overloaded) and isinstance(outcomes["no-room"], Overloaded)
         assert outcomes["no-room"].data["retry_after"] == limits.RETRY_AFTER_S  # type: ignore[union-attr]
         with pytest.raises(ClientGone):
-            await gate.run(lambda: work("for-nobody", 0), absent)
-        assert await gate.run(lambda: work("after", 0), present) == "after"
+            await gate.run(work("for-nobody", 0), absent)
+        assert await gate.run(work("after", 0), present) == "after"
 
     anyio.run(main)
     assert ran == ["first", "after"]  # nothing computed for the gone client nor for the refused ones
     assert gate.running == 0 and gate.waiting == 0
+
+
+def test_a_client_that_leaves_mid_computation_stops_it() -> None:
+    gate = limits.ComputeGate(slots=1, queue=0, wait_s=0)
+    steps: list[float] = []
+
+    async def leaves_after_200ms() -> Message:
+        await anyio.sleep(0.2)
+        return {"type": "http.disconnect"}
+
+    def long_loop() -> str:  # ten seconds of steps, each checking the current token as the solvers do
+        started = time.perf_counter()
+        while time.perf_counter() - started < 10:
+            cancellation.check()
+            steps.append(time.perf_counter() - started)
+            time.sleep(0.01)
+        return "finished"
+
+    def work(token: CancellationToken) -> Awaitable[str]:
+        def run() -> str:
+            with cancellation.cancellable(token):
+                return long_loop()
+
+        return anyio.to_thread.run_sync(run)
+
+    async def main() -> None:
+        with pytest.raises(ClientGone, match="stopped"):
+            await gate.run(work, leaves_after_200ms)
+
+    started = time.perf_counter()
+    anyio.run(main)
+    assert 0.15 <= steps[-1] < 0.5 and time.perf_counter() - started < 1.0  # stopped at the next step
+    assert gate.running == 0
+
+
+def test_a_computation_past_its_deadline_is_stopped_and_answered_503() -> None:
+    gate = limits.ComputeGate(slots=1, queue=0, wait_s=0, deadline_s=0.3)
+    steps: list[float] = []
+
+    async def stays() -> Message:
+        await anyio.sleep_forever()
+        raise AssertionError
+
+    def work(token: CancellationToken) -> Awaitable[str]:
+        def run() -> str:
+            started = time.perf_counter()
+            with cancellation.cancellable(token):
+                while time.perf_counter() - started < 10:
+                    cancellation.check()
+                    steps.append(time.perf_counter() - started)
+                    time.sleep(0.01)
+            return "finished"
+
+        return anyio.to_thread.run_sync(run)
+
+    async def main() -> None:
+        with pytest.raises(Overloaded, match=r"did not finish within 0\.3 s") as raised:
+            await gate.run(work, stays)
+        assert raised.value.data["retry_after"] == limits.RETRY_AFTER_S
+
+    anyio.run(main)
+    assert 0.25 <= steps[-1] < 0.6 and gate.running == 0
+    assert limits.QUEUE_WAIT_S + limits.COMPUTE_DEADLINE_S <= 3.5 * limits.SYNC_BUDGET_S  # what a request may take
 
 
 def test_a_full_gate_answers_503_with_retry_after(client: TestClient, robot_id: str) -> None:

@@ -1,0 +1,154 @@
+"""The compute pool in processes (service/compute.py), driven directly: results, the process's own database,
+errors that travel back intact, cancellation through shared memory, the parse lane and its bound, a dead process."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import anyio
+import pytest
+
+from models import Registry, cancellation, iwr
+from models.cancellation import CancellationToken, Cancelled
+from service import compute
+from service.compute import ComputePool, Task
+from service.errors import NotFound, Overloaded
+from service.guards import too_many_keys
+from service.model_cache import ModelCache
+from service.persistence import Database, Repository
+from service.settings import Settings
+
+
+def robot_names(*, db: Database) -> list[str]:
+    with db.reader() as s:
+        return sorted(r.name for r in Repository(s).robots(100, 0))
+
+
+def missing(*, robot_id: str) -> None:
+    raise NotFound(f"no robot {robot_id!r}", resource="robot", id=robot_id)
+
+
+def steps_until_cancelled(*, seconds: float) -> int:
+    started, steps = time.perf_counter(), 0
+    while time.perf_counter() - started < seconds:
+        cancellation.check()
+        steps += 1
+        time.sleep(0.01)
+    return steps
+
+
+def pid() -> int:
+    return os.getpid()
+
+
+def registry_of(*, registry: Registry) -> tuple[int, int]:
+    """Which registry served the task (its id in its process) and the process; it builds the IWR's runtime."""
+    registry.runtime(iwr())
+    return id(registry), os.getpid()
+
+
+def settings(db: Database, processes: int) -> Settings:
+    return Settings(database_url=db.url, compute_processes=processes, warm_up=False)
+
+
+def die() -> None:
+    os._exit(3)
+
+
+@pytest.fixture(scope="module")
+def pool(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ComputePool]:
+    db = Database(f"sqlite:///{tmp_path_factory.mktemp('compute') / 'c.db'}")
+    db.migrate()
+    with db.session() as s:
+        for name in ("b-cell", "a-cell"):
+            Repository(s).add_robot(name, "iwr", [0.0] * 6, [0.0] * 6, [0.0])  # rows enough to be listed
+    pool = ComputePool(db, ModelCache(db), Registry(), settings(db, 1), slots=1)
+    anyio.run(pool.start)
+    yield pool
+    pool.shutdown()
+
+
+def test_a_task_runs_in_another_process_on_its_own_database(pool: ComputePool) -> None:
+    async def main() -> tuple[list[str], int]:
+        names = await pool.run(Task(robot_names, {}, ("db",)), CancellationToken())
+        return names, await pool.run(Task(pid), CancellationToken())
+
+    names, child = anyio.run(main)
+    assert names == ["a-cell", "b-cell"] and child != os.getpid()
+
+
+def test_errors_travel_back_with_their_data(pool: ComputePool) -> None:
+    async def main() -> None:
+        await pool.run(Task(missing, {"robot_id": "r-1"}), CancellationToken())
+
+    with pytest.raises(NotFound, match="no robot 'r-1'") as raised:
+        anyio.run(main)
+    assert raised.value.data == {"resource": "robot", "id": "r-1"}
+
+
+def test_a_token_set_here_stops_the_computation_there(pool: ComputePool) -> None:
+    token = CancellationToken()
+
+    async def main() -> str:
+        async with anyio.create_task_group() as tg:
+
+            async def cancel_soon() -> None:
+                await anyio.sleep(0.3)
+                token.cancel()
+
+            tg.start_soon(cancel_soon)
+            try:
+                await pool.run(Task(steps_until_cancelled, {"seconds": 30.0}), token)
+            except Cancelled:
+                return "cancelled"
+        return "finished"
+
+    started = time.perf_counter()
+    assert anyio.run(main) == "cancelled"
+    assert 0.3 <= time.perf_counter() - started < 2.0  # stopped at its next step, not after 30 s
+    assert pool._free == [0]  # the slot is free again
+
+
+def test_the_parse_lane_and_its_bound(pool: ComputePool, monkeypatch: pytest.MonkeyPatch) -> None:
+    body = ("{" + ",".join(f'"k{i}":0' for i in range(100)) + "}").encode()
+    assert anyio.run(pool.call, too_many_keys, body) == 100
+    monkeypatch.setattr(compute, "PARSE_QUEUE", 0)
+    with pytest.raises(Overloaded) as raised:
+        anyio.run(pool.call, too_many_keys, body)
+    assert raised.value.data["retry_after"] == compute.PARSE_RETRY_AFTER_S
+
+
+def test_a_process_that_dies_costs_one_503_and_the_pool_comes_back(pool: ComputePool) -> None:
+    async def main() -> int:
+        with pytest.raises(Overloaded, match="stopped"):
+            await pool.run(Task(die), CancellationToken())
+        return int(await pool.run(Task(pid), CancellationToken()))
+
+    assert anyio.run(main) != os.getpid()
+
+
+def test_threads_when_no_processes(tmp_path: Path) -> None:
+    db = Database(f"sqlite:///{tmp_path}/t.db")
+    db.migrate()
+    app_registry = Registry()
+    pool = ComputePool(db, ModelCache(db), app_registry, settings(db, 0), slots=1)
+
+    async def main() -> tuple[list[str], int, tuple[int, int]]:
+        names = await pool.run(Task(robot_names, {}, ("db",)), CancellationToken())
+        served = await pool.run(Task(registry_of, {}, ("registry",)), CancellationToken())
+        return names, await pool.call(pid), served
+
+    assert anyio.run(main) == ([], os.getpid(), (id(app_registry), os.getpid()))  # the app's own registry
+    assert len(app_registry) == 1
+
+
+def test_a_process_serves_from_its_own_registry(pool: ComputePool) -> None:
+    async def main() -> tuple[int, int]:
+        return await pool.run(Task(registry_of, {}, ("registry",)), CancellationToken())  # type: ignore[no-any-return]
+
+    _, child = anyio.run(main)
+    assert child != os.getpid()
+    assert len(pool.local.registry) == 0  # nothing was built in this process's registry
