@@ -38,10 +38,11 @@ from tests.live import running_server
 DURATION_S = 20.0
 IK_CLIENTS = 3
 HEALTHZ_P99_S = 0.050
-MEMORY_CEILING_BYTES = 1_500_000_000
+MEMORY_CEILING_BYTES = 1_700_000_000
 """The peak RSS of all the server's processes together (API, one compute process per core, the parse process,
-the job worker): each warm process holds ~300 MB of models and caches, plus the computations at the budget
-(~100 MB each); the issue's single requests reached 4.9 GB."""
+the job worker): each warm process holds ~300 MB of models and caches, ~40 MB more for the IWR's three
+structures with model terms (service.registry.IWR_TERMS: 1.51 GB measured with them, against 1.41 GB before),
+plus the computations at the budget (~100 MB each); the issue's single requests reached 4.9 GB."""
 REFUSAL_BUDGET_S = 1.0
 """A request refused before any work (413, 422 too large or malformed) answers within this."""
 STOP_MARGIN_S = 1.0
