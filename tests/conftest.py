@@ -14,11 +14,14 @@ from models import Registry, RobotDescription, default_registry, iwr
 SLOW_MODULES = frozenset(
     {
         "tests/optimal_design/test_acceptance.py",
+        "tests/service/test_compute.py",
         "tests/service/test_concurrency.py",
         "tests/service/test_contract_fuzz.py",
+        "tests/service/test_disconnect.py",
         "tests/service/test_example.py",
         "tests/service/test_generated_client.py",
         "tests/service/test_load_hardening.py",
+        "tests/service/test_slow_clients.py",
         "tests/ui/test_docs.py",
         "tests/ui/test_pages.py",
     }

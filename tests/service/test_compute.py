@@ -21,6 +21,8 @@ from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.settings import Settings
 
+pytestmark = pytest.mark.slow  # spawns compute processes (make test-fast skips them)
+
 
 def robot_names(*, db: Database) -> list[str]:
     with db.reader() as s:

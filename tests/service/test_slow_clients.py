@@ -12,6 +12,8 @@ import pytest
 
 from tests.live import running_server
 
+pytestmark = pytest.mark.slow  # live servers (make test-fast skips them)
+
 HEADER_S, BODY_S, LIMIT = 1.0, 1.5, 100_000
 
 
@@ -28,6 +30,11 @@ def port(tmp_path_factory: pytest.TempPathFactory) -> Iterator[int]:
         IWR_MAX_BODY_BYTES=str(LIMIT),
     ) as url:
         yield int(url.rsplit(":", 1)[1])
+
+
+EARLY_S = 0.05
+"""The server's clock starts when it accepts the connection, a moment before the client's `started`: a cut at
+the deadline may look up to this much early from here (seen: 0.99999 s for a 1 s deadline)."""
 
 
 def _connect(port: int) -> socket.socket:
@@ -92,7 +99,7 @@ def test_headers_sent_a_byte_at_a_time_are_cut_at_the_deadline(port: int) -> Non
         data = _read_all(sock)
         elapsed = time.perf_counter() - started
     assert _status(data) == 408 and "headers" in str(_body(data)["detail"])
-    assert HEADER_S <= elapsed < HEADER_S + 3.5  # cut at the deadline, not at the end of the trickle + slack
+    assert HEADER_S - EARLY_S <= elapsed < HEADER_S + 3.5  # cut at the deadline, not at the end of the trickle + slack
     assert b"connection: close" in data.lower()
 
 
@@ -101,7 +108,7 @@ def test_a_connection_that_sends_nothing_is_closed_at_the_deadline(port: int) ->
         started = time.perf_counter()
         data = _read_all(sock)
         elapsed = time.perf_counter() - started
-    assert _status(data) == 408 and HEADER_S <= elapsed < HEADER_S + 2.5  # + slack for a loaded machine
+    assert _status(data) == 408 and HEADER_S - EARLY_S <= elapsed < HEADER_S + 2.5  # + slack for a loaded machine
 
 
 def test_a_body_sent_a_byte_at_a_time_is_cut_at_its_deadline(port: int) -> None:
@@ -117,7 +124,7 @@ def test_a_body_sent_a_byte_at_a_time_is_cut_at_its_deadline(port: int) -> None:
         data = _read_all(sock)
         elapsed = time.perf_counter() - started
     assert _status(data) == 408 and "body" in str(_body(data)["detail"])  # one answer, then closed
-    assert BODY_S <= elapsed < BODY_S + 2.0 and b"connection: close" in data.lower()
+    assert BODY_S - EARLY_S <= elapsed < BODY_S + 2.0 and b"connection: close" in data.lower()
 
 
 def test_a_chunked_body_over_the_limit_is_a_413_like_a_declared_one(port: int) -> None:
