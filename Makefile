@@ -55,13 +55,39 @@ browser:
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium >/dev/null; } || \
 	  echo "note: $(CHROMIUM) is missing (apt-get install chromium): the browser tests will be skipped"
 
+# pytest-xdist: one worker per core (-n auto), then the tests marked `serial` (wall times, deadlines, load:
+# pyproject.toml's markers) in a second pytest alone on the cores. Both parts run even if the first fails, so
+# one run shows every failure. `make pytest XDIST=0` (or test-fast) is one plain serial pytest, for debugging;
+# XDIST=N sets the workers. Each worker builds its own session fixtures (registry, apps); what they share on
+# disk (the native-library cache, PostgreSQL databases, broker queues) is named or written so they cannot mix.
+XDIST ?= auto
+PYTEST_PARALLEL := $(BIN)/pytest -n $(XDIST) --dist worksteal
+# --cov-fail-under=0 on the parts: the floor ([tool.coverage.report] fail_under) is checked once, on the
+# combined data, by `coverage report`.
+COV_PART := --cov --cov-report= --cov-fail-under=0
+
 # Everything, with coverage and its floor ([tool.coverage] in pyproject.toml).
 pytest: $(STAMP) browser
+ifeq ($(XDIST),0)
 	$(BIN)/pytest --cov
+else
+	rc=0; \
+	$(PYTEST_PARALLEL) -m "not serial" $(COV_PART) || rc=$$?; \
+	$(BIN)/pytest -m serial $(COV_PART) --cov-append || rc=$$?; \
+	$(BIN)/coverage report || rc=$$?; \
+	exit $$rc
+endif
 
 # The inner loop: no tests marked slow, no coverage.
 test-fast: $(STAMP)
+ifeq ($(XDIST),0)
 	$(BIN)/pytest -m "not slow"
+else
+	rc=0; \
+	$(PYTEST_PARALLEL) -m "not slow and not serial" || rc=$$?; \
+	$(BIN)/pytest -m "serial and not slow" || rc=$$?; \
+	exit $$rc
+endif
 
 test: lint typecheck pytest
 

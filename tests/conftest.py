@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import itertools
 import os
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _pytest.mark.expression import Expression
 
 from models import Registry, RobotDescription, default_registry, iwr
 
@@ -30,20 +33,61 @@ SLOW_MODULES = frozenset(
 which saves `make test-fast` their collection (the fuzz module alone generates its schemathesis cases and
 creates a PostgreSQL database at import: ~8 s here)."""
 
+SERIAL_MODULES = frozenset(
+    {
+        "tests/service/test_compute.py",
+        "tests/service/test_concurrency.py",
+        "tests/service/test_disconnect.py",
+        "tests/service/test_guards.py",
+        "tests/service/test_jobs.py",
+        "tests/service/test_limits.py",
+        "tests/service/test_load_hardening.py",
+        "tests/service/test_slow_clients.py",
+    }
+)
+"""Modules with tests marked `serial` (wall times, deadlines, load: they run after the parallel part, alone on
+the cores). The serial part (`-m serial`, `-m "serial and not slow"`) collects only these: importing the others
+(schemathesis generates the contract cases at collection) would cost it ~15 s for nothing."""
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
-    if config.getoption("markexpr") == "not slow" and _relative(collection_path) in SLOW_MODULES:
+    path, markexpr = _relative(collection_path), config.getoption("markexpr")
+    if path in SLOW_MODULES and _never_selects(markexpr, slow=True):
+        return True
+    test_module = collection_path.name.startswith("test_") and collection_path.suffix == ".py"
+    if test_module and path not in SERIAL_MODULES and _never_selects(markexpr, serial=False):
         return True
     return None
 
 
+def _never_selects(markexpr: str, **fixed: bool) -> bool:
+    """Whether `-m markexpr` deselects every test whose markers include (True) or lack (False) those `fixed`,
+    whatever its other markers: `slow=True` for `not slow` and the two halves of `make test-fast` (`not slow and
+    not serial`, then `serial and not slow`); `serial=False` for `-m serial`. Every assignment of the expression's
+    other names is tried, so `not slow or serial` keeps the slow modules."""
+    if not markexpr:
+        return False
+    expression = Expression.compile(markexpr)
+    others = sorted(set(re.findall(r"[\w.-]+", markexpr)) - {*fixed, "and", "or", "not", "True", "False"})
+    for values in itertools.product((False, True), repeat=len(others)):
+        marked = dict(zip(others, values, strict=True), **fixed)
+        if expression.evaluate(lambda name, marked=marked, **_: marked.get(name, False)):
+            return False
+    return True
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """A module listed in SLOW_MODULES with a test that is not slow would silently drop out of test-fast."""
+    """A module listed in SLOW_MODULES with a test that is not slow would silently drop out of test-fast, and a
+    serial test outside SERIAL_MODULES out of the serial part (and so out of both `make` runs). This sees every
+    collected item, before `-m` deselects any: the parallel part (`-m "not serial"`) checks the serial ones."""
     fast = {_relative(item.path) for item in items if item.get_closest_marker("slow") is None}
     listed = sorted(fast & SLOW_MODULES)
     assert not listed, f"these modules have tests not marked slow; mark them or unlist the modules: {listed}"
+    serial = {_relative(item.path) for item in items if item.get_closest_marker("serial") is not None}
+    unlisted = sorted(serial - SERIAL_MODULES)
+    assert not unlisted, f"these modules have tests marked serial; list them in SERIAL_MODULES: {unlisted}"
 
 
 def _relative(path: Path) -> str:

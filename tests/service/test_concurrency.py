@@ -17,7 +17,7 @@ from tests.live import running_server
 from tests.service.helpers import records
 
 # A load test: a live server under fifty clients for IWR_CONCURRENCY_SECONDS (20 s by default).
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.serial]  # fifty clients for 10 s, latency bounds: alone on the cores
 
 DESC = iwr()
 CLIENTS = 50

@@ -18,7 +18,7 @@ from service import limits
 from tests.live import running_server
 from tests.service.helpers import records
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.serial]  # freed time against the full calibration time: alone on the cores
 
 DESC = iwr()
 POSES = int(0.9 * limits.SYNC_BUDGET_S / limits.CALIBRATION_S_PER_RECORD)  # ~5 000: just within the budget

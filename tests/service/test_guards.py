@@ -19,6 +19,7 @@ from tests.service.conftest import make_client
 JOINTS = [400.0, 150.0, 90.0, 45.0, 420.0, 420.0, 420.0, 420.0, 420.0, 420.0]
 
 
+@pytest.mark.serial  # refused within 2 s of wall time: alone on the cores
 def test_a_body_of_unknown_keys_is_refused_quickly_and_briefly(client: TestClient, robot_id: str) -> None:
     bomb = "{" + ",".join(f'"k{i}":0' for i in range(300_000)) + "}"  # 3.5 MB: 6.9 s and 19.7 MB on main
     started = time.perf_counter()
@@ -71,6 +72,7 @@ def test_a_slow_body_times_out(monkeypatch: pytest.MonkeyPatch) -> None:
     assert not reached and sent[0]["status"] == 408
 
 
+@pytest.mark.serial  # refused within 0.5 s of wall time: alone on the cores
 def test_kinematics_over_the_budget_are_refused_before_parsing(client: TestClient, robot_id: str) -> None:
     vectors = [JOINTS] * 100_000  # the schema's maximum: 58 000 fit the budget (service.limits)
     fk = json.dumps({"joints": vectors}).encode()

@@ -169,6 +169,7 @@ def test_cancel_a_queued_job_at_once_and_a_running_one_at_its_next_progress_poin
     assert _count(db, robot_id) == (0, 1)
 
 
+@pytest.mark.serial  # a 0.3 s lease renewed by a thread during IPOPT: a starved heartbeat would lapse
 def test_the_lease_is_renewed_through_a_long_ipopt_solve(db: Database, registry: Registry) -> None:
     """The heartbeat is a thread: it must keep renewing while IPOPT runs (CasADi releases the GIL)."""
     robot_id = _robot(db)

@@ -68,6 +68,7 @@ def test_inverse_kinematics_is_capped_at_the_budget(client: TestClient, robot_id
     assert client.post(url, json={"targets": [target] * 3}).status_code == 200
 
 
+@pytest.mark.serial  # refused within 1 s of wall time: alone on the cores
 def test_error_analysis_has_the_same_budget(client: TestClient) -> None:
     at_budget = int((limits.SYNC_BUDGET_S - limits.ERROR_ANALYSIS_FIXED_S) / limits.ERROR_ANALYSIS_S_PER_EVALUATION)
     assert limits.error_analysis(at_budget, 1).seconds <= limits.SYNC_BUDGET_S
@@ -79,6 +80,7 @@ def test_error_analysis_has_the_same_budget(client: TestClient) -> None:
     assert client.post("/v1/error-analysis", json={"poses": 5, "draws": 10}).status_code == 200
 
 
+@pytest.mark.serial  # a 0.6 s slot against a 0.3 s wait: alone on the cores
 def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
     gate = limits.ComputeGate(slots=1, queue=1, wait_s=0.3)
     ran: list[str] = []
@@ -124,6 +126,7 @@ def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
     assert gate.running == 0 and gate.waiting == 0
 
 
+@pytest.mark.serial  # stopped between 0.15 and 0.5 s: alone on the cores
 def test_a_client_that_leaves_mid_computation_stops_it() -> None:
     gate = limits.ComputeGate(slots=1, queue=0, wait_s=0)
     steps: list[float] = []
@@ -157,6 +160,7 @@ def test_a_client_that_leaves_mid_computation_stops_it() -> None:
     assert gate.running == 0
 
 
+@pytest.mark.serial  # stopped between 0.25 and 0.6 s: alone on the cores
 def test_a_computation_past_its_deadline_is_stopped_and_answered_503() -> None:
     gate = limits.ComputeGate(slots=1, queue=0, wait_s=0, deadline_s=0.3)
     steps: list[float] = []

@@ -6,7 +6,7 @@ import pytest
 
 from benchmarks import bench_hardening
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.serial]  # throughput and latency under load: alone on the cores
 
 HEALTHZ_P99_LOADED_S = 0.5
 """What this test holds /healthz to (its own probe process), NOT the issue's 50 ms: with the computations in

@@ -12,7 +12,8 @@ import pytest
 
 from tests.live import running_server
 
-pytestmark = pytest.mark.slow  # live servers (make test-fast skips them)
+# Live servers (make test-fast skips them); the deadlines are asserted in seconds: alone on the cores.
+pytestmark = [pytest.mark.slow, pytest.mark.serial]
 
 HEADER_S, BODY_S, LIMIT = 1.0, 1.5, 100_000
 
