@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import logging
 import os
 import re
 from collections.abc import Iterator
@@ -122,6 +123,21 @@ def _clean_environment(monkeypatch: pytest.MonkeyPatch) -> None:
     the server it starts), whatever an earlier test left in os.environ."""
     for name in _shell_variables():
         monkeypatch.delenv(name)
+
+
+@pytest.fixture(autouse=True)
+def _loggers_stay_enabled() -> Iterator[None]:
+    """import-linter's lint_imports (tests/test_architecture.py) calls logging.config.dictConfig, which disables
+    every logger that exists, the service's too. In one serial run it came after the tests that read the
+    service's logs; under pytest-xdist any test may follow it in its worker: each test leaves the loggers as
+    enabled as it found them."""
+    loggers = logging.Logger.manager.loggerDict
+    before = {name: logger.disabled for name, logger in loggers.items() if isinstance(logger, logging.Logger)}
+    yield
+    for name, disabled in before.items():
+        logger = loggers.get(name)
+        if isinstance(logger, logging.Logger):
+            logger.disabled = disabled
 
 
 @pytest.fixture(scope="session")

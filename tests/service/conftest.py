@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import os
+import sys
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
+import psycopg
 import pytest
 from fastapi.testclient import TestClient
 
@@ -39,6 +41,19 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 
 
 POSTGRES_ADMIN = os.environ.get("IWR_TEST_POSTGRES", "postgresql://postgres@127.0.0.1:5432/postgres")
+
+FUZZ_MODULE = "tests.service.test_contract_fuzz"
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """test_contract_fuzz creates its PostgreSQL database at import, and its fixture drops it after its tests. Under
+    pytest-xdist every worker imports (collects) the module and only one runs those tests: the database of every
+    other worker, and of a run that deselects them, is dropped here (IF EXISTS: the fixture may have done it)."""
+    fuzz = sys.modules.get(FUZZ_MODULE)
+    if fuzz is None or fuzz.PG_ERROR is not None:
+        return
+    with psycopg.connect(POSTGRES_ADMIN, autocommit=True, connect_timeout=3) as admin:
+        admin.execute(f'DROP DATABASE IF EXISTS "{fuzz._PG_NAME}" WITH (FORCE)')
 
 
 def postgres_url() -> Iterator[str]:
