@@ -6,12 +6,13 @@ from models import Registry
 from service import limits
 from service.csv_codec import joints_csv
 from service.deps import MetricsDep, ModelCacheDep, RegistryDep, compute, wants_csv
+from service.json_bodies import OffloopRoute
 from service.model_cache import ModelCache
 from service.responses import model_json
 from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
 from service.services import kinematics
 
-router = APIRouter(prefix="/v1/robots/{robot_id}", tags=["kinematics"])
+router = APIRouter(prefix="/v1/robots/{robot_id}", tags=["kinematics"], route_class=OffloopRoute)
 
 
 INLINE_POSES = 16

@@ -10,9 +10,10 @@ from pathlib import Path
 import anyio
 import pytest
 from fastapi.testclient import TestClient
+from pydantic import BaseModel
 from starlette.types import Message
 
-from service import guards
+from service import guards, json_bodies
 from service.problems import MAX_ERRORS
 from tests.service.conftest import make_client
 
@@ -88,3 +89,53 @@ def test_kinematics_over_the_budget_are_refused_before_parsing(client: TestClien
         f"/v1/robots/{robot_id}/forward-kinematics", content=within, headers={"content-type": "application/json"}
     )
     assert r.status_code == 200 and len(r.json()["poses"]) == 2_000
+
+
+def test_a_large_declared_body_is_validated_off_the_loop_as_the_routes_model(
+    client: TestClient, robot_id: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Over 64 kB, the body reaches the route already validated by `model_validate_json` in the parse process
+    (threads in the tests): same answer as FastAPI's own path, and its errors located as FastAPI's are."""
+    calls: list[str] = []
+    original = json_bodies.validate_json
+
+    def spy(model: type[BaseModel], raw: bytes) -> object:
+        calls.append(model.__name__)
+        return original(model, raw)
+
+    monkeypatch.setattr(json_bodies, "validate_json", spy)
+    vectors = [[*JOINTS[:3], 45.0 + k * 1e-3, *JOINTS[4:]] for k in range(2_000)]
+    large = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors})
+    small = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors[1990:]})
+    assert calls == ["ForwardRequest"]  # the small one is FastAPI's, on the loop
+    assert large.status_code == small.status_code == 200
+    assert large.json()["poses"][1990:] == small.json()["poses"]
+    vectors[1500] = [*JOINTS[:9], "x"]
+    bad = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors})
+    small_bad = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors[1500:1510]})
+    assert bad.status_code == small_bad.status_code == 422 and calls == ["ForwardRequest"] * 2
+    assert bad.json()["field"] == "joints[1500][9]" and small_bad.json()["field"] == "joints[0][9]"
+    assert bad.json()["error_count"] == small_bad.json()["error_count"] == 1
+
+
+def test_a_calibration_over_the_budget_is_refused_before_the_key_check(
+    client: TestClient, robot_id: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    checked: list[int] = []
+    monkeypatch.setattr(guards, "too_many_keys", lambda body: checked.append(len(body)))
+    record = {"joints": JOINTS, "position": [1.0, 2.0, 3.0]}
+    over = json.dumps({"measurements": [record] * 6_000}).encode()  # 6 000 x 0.36 ms: over the 2 s budget
+    assert guards._records(over) == 6_000
+    r = client.post(f"/v1/robots/{robot_id}/calibrations", content=over, headers={"content-type": "application/json"})
+    assert r.status_code == 422 and r.json()["type"].endswith("work-too-large") and "?async=true" in r.json()["detail"]
+    assert checked == []
+    within = json.dumps({"measurements": [record] * 1_000}).encode()  # over 64 kB: checked, then validated
+    r = client.post(f"/v1/robots/{robot_id}/calibrations", content=within, headers={"content-type": "application/json"})
+    assert checked == [len(within)] and r.status_code != 500
+
+
+def test_the_key_check_counts_every_object_and_leaves_malformed_json_to_the_parser() -> None:
+    nested = json.dumps({"a": [{"b": {f"k{i}": i for i in range(65)}}]}).encode()
+    assert guards.too_many_keys(nested) == 65
+    assert guards.too_many_keys(json.dumps({"a": [{f"k{i}": i for i in range(64)}] * 3}).encode()) is None
+    assert guards.too_many_keys(b'{"a": [1, 2') is None and guards.too_many_keys(b"[[[[]]]]") is None
