@@ -15,17 +15,47 @@ returns it as is. Small bodies, other content types and the OpenAPI document are
 from __future__ import annotations
 
 from collections.abc import Callable, Coroutine
-from typing import Any
+from typing import Any, TypeVar
 
 from fastapi import Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
 from pydantic import BaseModel, ValidationError
 
+from service.errors import UnsupportedMediaType
 from service.guards import OFFLOOP_BYTES
 
+M = TypeVar("M", bound=BaseModel)
 
-def validate_json(model: type[BaseModel], raw: bytes) -> BaseModel | list[dict[str, Any]]:
+
+def request_body(model: type[BaseModel]) -> dict[str, Any]:
+    """`openapi_extra` of a route that reads its JSON body itself: the body FastAPI would have declared (the
+    model is added to the components by service.openapi)."""
+    schema = {"$ref": f"#/components/schemas/{model.__name__}"}
+    return {"requestBody": {"required": True, "content": {"application/json": {"schema": schema}}}}
+
+
+async def raw_json_body(request: Request) -> bytes:
+    """The body of a route that reads its JSON itself, as FastAPI would refuse it: another media type is a 415,
+    an empty body a missing one."""
+    kind = request.headers.get("content-type", "application/json").split(";")[0].strip().lower()
+    if not _is_json_type(kind):
+        raise UnsupportedMediaType(f"send the body as application/json, not {kind!r}", content_type=kind)
+    raw = await request.body()
+    if not raw:
+        raise RequestValidationError([{"type": "missing", "loc": ("body",), "msg": "Field required"}])
+    return raw
+
+
+def validated(model: type[M], raw: bytes) -> M:
+    """`raw` as `model` where it is read (on the loop for a small body), or RequestValidationError."""
+    parsed = validate_json(model, raw)
+    if isinstance(parsed, list):
+        raise RequestValidationError(parsed)
+    return parsed
+
+
+def validate_json(model: type[M], raw: bytes) -> M | list[dict[str, Any]]:
     """`raw` as `model`, or its validation errors located in the body (plain data: runs in the parse process).
     Of each error only what the problem shows (service.problems): its `input` may be the whole body."""
     try:
@@ -86,6 +116,9 @@ class OffloopRoute(APIRoute):
 
 
 def _is_json(request: Request) -> bool:
+    return _is_json_type(request.headers.get("content-type", "").split(";")[0].strip().lower())
+
+
+def _is_json_type(kind: str) -> bool:
     # As FastAPI decides whether to parse a body as JSON: application/json or application/*+json.
-    kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
     return kind == "application/json" or (kind.startswith("application/") and kind.endswith("+json"))
