@@ -91,35 +91,34 @@ def route(
     good = converged & within_bounds(desc, theta, v, runtime)
     if not desc.has_hexapod:
         good &= _not_flipped(desc, theta, v, target, position_only=position_only, runtime=runtime)
-    if not desc.has_hexapod and not good.all():
-        rest = np.flatnonzero(~good)
-        found, v_r, start_r = _serial_multistart(
-            desc, theta, target[rest], seeds[rest], w, position_only=position_only, runtime=runtime
-        )
-        v[rest[found]] = v_r[found]
-        start[rest[found]] = start_r[found]
-        good[rest[found]] = True
-        rest = np.flatnonzero(~good)
-        if rest.size:
-            found, v_r, start_r = _homotopy(
+    if not desc.has_hexapod:
+        for fallback in (_serial_multistart, _homotopy):  # each on the targets still failed
+            rest = np.flatnonzero(~good)
+            if rest.size == 0:
+                break
+            found, v_r, start_r = fallback(
                 desc, theta, target[rest], seeds[rest], w, position_only=position_only, runtime=runtime
             )
             v[rest[found]] = v_r[found]
             start[rest[found]] = start_r[found]
             good[rest[found]] = True
-    rest = np.flatnonzero(~good)
-    if rest.size:
-        v[rest], exact = ipopt_solutions(
+
+    def ipopt(idx: NDArray[np.intp], *, exact: bool) -> tuple[Array, NDArray[np.bool_]]:
+        return ipopt_solutions(
             desc,
             theta,
-            target[rest],
-            seeds[rest],
+            target[idx],
+            seeds[idx],
             w,
-            start=start[rest],
+            start=start[idx],
             position_only=position_only,
-            exact=True,
+            exact=exact,
             runtime=runtime,
         )
+
+    rest = np.flatnonzero(~good)
+    if rest.size:
+        v[rest], exact = ipopt(rest, exact=True)
         for i in rest:
             methods[i] = "ipopt"
         missed = rest[~exact]
@@ -128,17 +127,7 @@ def route(
                 desc, theta, target, seeds=seeds, w=w, v=v, missed=missed, position_only=position_only, runtime=runtime
             )
         if missed.size:
-            v[missed], _ = ipopt_solutions(
-                desc,
-                theta,
-                target[missed],
-                seeds[missed],
-                w,
-                start=start[missed],
-                position_only=position_only,
-                exact=False,
-                runtime=runtime,
-            )
+            v[missed], _ = ipopt(missed, exact=False)
             for i in missed:
                 methods[i] = "ipopt-nearest"
     return v, methods
