@@ -369,17 +369,19 @@ def _newton_step(
 
 
 def _project(v: Array, total: float) -> Array:
-    """Euclidean projection onto {0 ≤ w ≤ 1, Σw = total}: clip(v − θ, 0, 1), θ by bisection."""
-    lo, hi = float(v.min()) - 1.0, float(v.max())
-    for _ in range(100):
-        mid = 0.5 * (lo + hi)
-        if np.clip(v - mid, 0.0, 1.0).sum() > total:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-15 * max(1.0, abs(hi)):
-            break
-    return np.asarray(np.clip(v - hi, 0.0, 1.0))  # sums to total within the bisection's 1e-15
+    """Euclidean projection onto {0 ≤ w ≤ 1, Σw = total}: clip(v − θ, 0, 1) with the sum piecewise linear and
+    falling in θ, so θ interpolates between the two breakpoints (vᵢ − 1 or vᵢ) that bracket the total. Exact,
+    one (2n × n) evaluation instead of a bisection's ~50 passes (15 % of a branch-and-bound leaf's time)."""
+    points = np.unique(np.concatenate([v - 1.0, v]))
+    sums = np.clip(v[None, :] - points[:, None], 0.0, 1.0).sum(axis=1)  # falling along the points
+    k = int(np.searchsorted(-sums, -total, side="right")) - 1  # last point whose sum is at least the total
+    if k < 0:
+        theta = float(points[0])
+    elif k >= points.size - 1 or sums[k] == sums[k + 1]:
+        theta = float(points[min(k, points.size - 1)])
+    else:
+        theta = float(points[k] + (sums[k] - total) / (sums[k] - sums[k + 1]) * (points[k + 1] - points[k]))
+    return np.asarray(np.clip(v - theta, 0.0, 1.0))
 
 
 def _on(index: NDArray[Any], values: Array, n: int) -> Array:

@@ -13,7 +13,7 @@ from models import RobotDescription, sample_workspace
 from optimal_design.branching import _branch_on, _Leaf, _solve, tighten
 from optimal_design.criteria import Criterion, utility
 from optimal_design.information import CandidateInformation, candidate_information
-from optimal_design.relaxation import _capped_bisection, capped, first_order, newton_d, relax
+from optimal_design.relaxation import _capped_bisection, _project, capped, first_order, newton_d, relax
 
 
 def test_capped_matches_bisection_and_its_own_definition() -> None:
@@ -35,6 +35,27 @@ def test_capped_matches_bisection_and_its_own_definition() -> None:
             assert np.ptp(c) <= 1e-9 * c.max()
             assert np.all(c.max() * v[w >= 1.0 - 1e-12] >= 1.0 - 1e-9)
         assert np.max(np.abs(w - _capped_bisection(v, total))) < 1e-9
+
+
+def test_projection_onto_the_capped_simplex_is_the_nearest_point() -> None:
+    """clip(v − θ, 0, 1) summing to the total, against a 200-step bisection on θ, ties and integer totals too;
+    and no other feasible point is nearer (random feasible points, Euclidean distance)."""
+    rng = np.random.default_rng(4)
+    for trial in range(400):
+        n = int(rng.integers(2, 120))
+        total = float(rng.integers(1, n)) if trial % 2 else float(rng.uniform(0.5, n - 0.5))
+        v = rng.normal(size=n) * rng.uniform(0.01, 3.0)
+        if trial % 3 == 0:
+            v = np.round(v, 1)  # ties among the breakpoints
+        w = _project(v, total)
+        assert w.sum() == pytest.approx(total, abs=1e-9) and w.min() >= 0.0 and w.max() <= 1.0
+        lo, hi = float(v.min()) - 1.0, float(v.max())
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if np.clip(v - mid, 0.0, 1.0).sum() > total else (lo, mid)
+        assert np.max(np.abs(w - np.clip(v - hi, 0.0, 1.0))) < 1e-9
+        other = capped(rng.random(n) + 1e-3, total)
+        assert np.linalg.norm(v - w) <= np.linalg.norm(v - other) + 1e-12
 
 
 def _leaf_best(info: CandidateInformation, count: int, fixed_in: tuple[int, ...], fixed_out: tuple[int, ...]) -> float:
