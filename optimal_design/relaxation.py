@@ -288,7 +288,10 @@ def newton_d(info: CandidateInformation, count: int, base: Array, start: Array) 
     if not np.isfinite(f):
         return None
     bound = np.inf
-    pool: NDArray[Any] | None = None
+    # The start's support first: a nearby optimum's entrants are mostly there, and the pass over every
+    # candidate that certifies the result brings in any that are not (100 leaves: 2.4-3.5 s instead of 2.9-3.6 s).
+    support = np.flatnonzero(w > 0)
+    pool: NDArray[Any] | None = support if support.size >= 2 * count else None
     for it in range(1, NEWTON_ITERATIONS + 1):
         cancellation.check()
         if pool is not None:
