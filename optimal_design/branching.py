@@ -16,12 +16,12 @@ relaxation, solved by projected Newton steps from its parent's weights (relaxati
 algorithm when Newton does not converge), so its validity does not depend on how far the iterations went; a
 child's bound is also capped by its parent's, which holds for the child's subsets too.
 
-Cost, K = 30 of 2 000 on the loaded 2-core machine: a leaf is ~25-40 ms (4-8 Newton iterations; the
+Cost, K = 30 of 2 000 on the loaded 2-core machine: a leaf is ~15-35 ms (4-8 Newton iterations; the
 multiplicative algorithm took 70-90 iterations, 0.3-0.5 s, and stopped 0.01 above each leaf's optimum), and the
 split is on the candidate whose children the quadratic model says fall furthest (`_branch_on`). The largest leaf
-bound falls from 180.655 to ~180.46 in 1 s, ~180.35 in 5 s (efficiency 0.985) and ~180.25 in 20 s (0.987); the
-multiplicative leaves with the most fractional split reached 180.52 in 20 s. Still an opt-in (`bound_seconds`):
-0.985 needs ~130 leaves, several seconds, against the 1 s D design.
+bound falls from 180.655 to 180.42 in 1 s, 180.36 in 2 s (efficiency 0.985, ~120 leaves) and 180.20 in 20 s
+(0.988); the multiplicative leaves with the most fractional split reached 180.52 in 20 s. Still an opt-in
+(`bound_seconds`): the default D design takes ~1 s in all.
 """
 
 from __future__ import annotations
