@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from models._types import Array
 from optimal_design.criteria import Criterion, utility
 from optimal_design.information import CandidateInformation
-from optimal_design.relaxation import Relaxation, first_order, newton_d
+from optimal_design.relaxation import NEWTON_COUNT, Relaxation, first_order, newton_d
 
 BRANCHED = (Criterion.D, Criterion.A, Criterion.I)
 FRACTIONAL = 1e-4
@@ -209,7 +209,7 @@ def _solve(
         return -np.inf, weights, False  # infeasible: no K-subset in this leaf
     sub = replace(info, blocks=info.blocks[keep], joints=info.joints[keep])
     start = parent[keep]
-    relaxed = newton_d(sub, left, known, start) if criterion is Criterion.D else None
+    relaxed = newton_d(sub, left, known, start) if criterion is Criterion.D and left <= NEWTON_COUNT else None
     if relaxed is None:
         relaxed = first_order(sub, criterion, left, known, start=start)
     weights[keep] = relaxed.weights

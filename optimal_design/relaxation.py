@@ -257,9 +257,21 @@ NEWTON_GAP = 1e-4
 NEWTON_ITERATIONS = 30
 NEWTON_EDGE = 1e-3
 """Weights within this of 0 (1) whose gradient says they should stay there are moved onto the bound."""
+ROOT_NEWTON_ITERATIONS = 10
+"""The default path's polish gives up after this many (K = 30 of 2 000 converges in ~6; at K = 300, where many
+weights sit at 1, Newton crawls: 30 iterations cost 0.4 s and did not converge)."""
+NEWTON_COUNT = 64
+"""Newton runs up to this K (root polish and branch-and-bound leaves): at K = 12-60 of 2 000 the polish converged
+and cost 0.01-0.09 s; at K = 100 and 300 it did not converge within its iterations and cost 0.12 and 0.35 s for
+nothing."""
+NEWTON_FREE_MAX = 300
+"""More free weights than this and Newton gives way to the multiplicative algorithm: its Hessian needs the
+(6·free)² products of their rows (26 MB at 300); at K = 300 of 2 000 the polish cost 0.6 s and did not converge."""
 
 
-def newton_d(info: CandidateInformation, count: int, base: Array, start: Array) -> Relaxation | None:
+def newton_d(
+    info: CandidateInformation, count: int, base: Array, start: Array, *, iterations: int = NEWTON_ITERATIONS
+) -> Relaxation | None:
     """The D relaxation from a nearby optimum (a branch-and-bound leaf's parent), by projected Newton steps;
     None when it does not reach NEWTON_GAP (the caller then runs `first_order`).
 
@@ -292,7 +304,7 @@ def newton_d(info: CandidateInformation, count: int, base: Array, start: Array) 
     # candidate that certifies the result brings in any that are not (100 leaves: 2.4-3.5 s instead of 2.9-3.6 s).
     support = np.flatnonzero(w > 0)
     pool: NDArray[Any] | None = support if support.size >= 2 * count else None
-    for it in range(1, NEWTON_ITERATIONS + 1):
+    for it in range(1, iterations + 1):
         cancellation.check()
         if pool is not None:
             # Between certificates the steps need the gradient on the support and the likely entrants only
@@ -354,6 +366,8 @@ def _newton_step(
     to_zero = (ww <= NEWTON_EDGE) & (gw <= level)
     to_one = (ww >= 1 - NEWTON_EDGE) & (gw >= level)
     free = work[~(to_zero | to_one)]
+    if free.size > NEWTON_FREE_MAX:
+        return None
     step = np.zeros(n)
     step[work[to_zero]] = -w[work[to_zero]]
     step[work[to_one]] = 1 - w[work[to_one]]
@@ -615,11 +629,11 @@ def relax(
     if criterion in (Criterion.E, Criterion.CONDITION):
         return sdp(info, criterion, count, base, d_relaxation=first_order(info, Criterion.D, count, base, start=start))
     relaxed = first_order(info, criterion, count, base, start=start)
-    if criterion is Criterion.D and relaxed.bound is not None:
+    if criterion is Criterion.D and relaxed.bound is not None and count <= NEWTON_COUNT:
         # The multiplicative algorithm stops at a 0.01 gap; a few Newton steps from its weights close it (at
         # K = 30 of 2 000: 180.6636 -> 180.654, ~5 iterations). Only the bound is taken: rounding and exchange
         # start from the same weights as before, so the design does not change.
-        polished = newton_d(info, count, base, relaxed.weights)
+        polished = newton_d(info, count, base, relaxed.weights, iterations=ROOT_NEWTON_ITERATIONS)
         if polished is not None and polished.bound is not None and polished.bound < relaxed.bound:
             relaxed = replace(
                 relaxed,
