@@ -60,7 +60,7 @@ async def create_design(
     cost = (
         limits.target_design(candidates, fixed)
         if body.count is None
-        else limits.pose_design(candidates, body.count, fixed, body.criterion.value)
+        else limits.pose_design(candidates, body.count, fixed, body.criterion.value, bound_seconds=body.bound_seconds)
     )
     limits.admit(cost, run_async=run_async)
     if run_async:
