@@ -1,7 +1,8 @@
 """Mixed load with oversized requests against a live server on loopback (`python -m benchmarks hardening`).
 
 For `DURATION_S`, at once: a /healthz probe every 50 ms (from a process of its own, and from the load
-generator); small forward kinematics; 60-pose calibrations; inverse kinematics of half the synchronous budget
+generator); small forward kinematics, and large (20 000 joint vectors, 3.9 MB) once a second; 60-pose
+calibrations; inverse kinematics of half the synchronous budget
 (1 050 targets, ~1 s each; with the calibrations, more than the compute slots, so some wait and some get 503);
 refused work (a 6 000-pose synchronous calibration, the issue's 10 000-of-100 000 design); bodies over the
 limit (declared 25 MB, and chunked); a 3.5 MB body of 300 000 unknown keys; pose designs as jobs. Measured:
@@ -37,6 +38,9 @@ from tests.live import running_server
 
 DURATION_S = 20.0
 IK_CLIENTS = 3
+FK_LARGE_POSES = 20_000
+"""A forward kinematics body within the budget but far over the 64 kB the loop parses itself (3.9 MB, ~0.7 s
+estimated): validated in the parse process (service.json_bodies), where it stalls no other request."""
 HEALTHZ_P99_S = 0.050
 MEMORY_CEILING_BYTES = 1_700_000_000
 """The peak RSS of all the server's processes together (API, one compute process per core, the parse process,
@@ -174,9 +178,11 @@ def _bodies() -> dict[str, bytes]:
         for p, q in zip(fk.positions, matrix_to_quaternion(fk.rotations), strict=True)
     ]
     joints = (sample_workspace(desc, 8, seed=3) * desc.joint_to_boundary).tolist()
+    many = (sample_workspace(desc, FK_LARGE_POSES, seed=6) * desc.joint_to_boundary).tolist()
     ik_n = int(limits.IK_MAX_TARGETS * 0.5)  # ~1 s estimated: two run at once with the calibrations
     return {
         "fk": json.dumps({"joints": joints}).encode(),
+        "fk_large": json.dumps({"joints": many}).encode(),
         "calibration": json.dumps({"measurements": records, "apply": False}).encode(),
         "calibration_too_large": json.dumps({"measurements": records * 100}).encode(),  # 6 000: over the budget
         "design_too_large": json.dumps({"count": 10_000, "candidate_count": 100_000}).encode(),
@@ -211,6 +217,7 @@ async def _load(url: str, robot: str, duration_s: float) -> dict[str, list[tuple
     tasks = [
         loop("healthz", lambda: (_request(host, "GET", "/healthz"), None), 0.05),
         *(loop("fk", post(f"{base}/forward-kinematics", "fk"), 0.05) for _ in range(2)),
+        loop("fk_large", post(f"{base}/forward-kinematics", "fk_large"), 1.0),
         *(loop("calibration", post(f"{base}/calibrations", "calibration"), 0.3) for _ in range(2)),
         *(loop("ik_at_budget", post(f"{base}/inverse-kinematics", "ik_at_budget"), 0.5) for _ in range(IK_CLIENTS)),
         loop("calibration_too_large", post(f"{base}/calibrations", "calibration_too_large"), 1.0),
@@ -227,6 +234,7 @@ async def _load(url: str, robot: str, duration_s: float) -> dict[str, list[tuple
 EXPECTED: dict[str, set[int]] = {
     "healthz": {200},
     "fk": {200},
+    "fk_large": {200, 503},
     "calibration": {201, 503},
     "ik_at_budget": {200, 503},
     "calibration_too_large": {422, 503},

@@ -8,11 +8,12 @@ those of the structure's runtime (`models.runtime`), never rebuilt.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal, overload
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from models._types import Array
 from models.errors import JointOutOfRange, NonFiniteValue, UnreachablePose, WrongShape
@@ -147,40 +148,39 @@ def check_assembly(
     """UnreachablePose for the first pose whose legs do not assemble into a usable hexapod pose."""
     if desc.hexapod is None:
         return
-    failed = np.flatnonzero(~(closure <= CLOSURE_TOLERANCE_MM))
-    if failed.size:
-        i = int(failed[0])
-        raise UnreachablePose(
-            f"pose {i}: the hexapod cannot assemble with these leg lengths (forward kinematics did not converge; "
-            f"leg equations off by {closure[i]:.3g} mm)",
-            pose=i,
-            reason="no_assembly",
-            count=int(failed.size),
-        )
+    _refuse_first(
+        ~(closure <= CLOSURE_TOLERANCE_MM),
+        "no_assembly",
+        lambda i: (
+            "the hexapod cannot assemble with these leg lengths (forward kinematics did not converge; "
+            f"leg equations off by {closure[i]:.3g} mm)"
+        ),
+    )
     low, high = platform_envelope(desc)
-    outside = np.flatnonzero(np.any((platforms < low) | (platforms > high), axis=1))
-    if outside.size:
-        i = int(outside[0])
-        shown = np.r_[platforms[i, :3], np.degrees(platforms[i, 3:])]
-        raise UnreachablePose(
-            f"pose {i}: the leg lengths put the platform at {np.round(shown, 3).tolist()} (mm, deg), "
-            "outside the hexapod's workspace",
-            pose=i,
-            reason="outside_workspace",
-            count=int(outside.size),
-        )
+    _refuse_first(
+        np.any((platforms < low) | (platforms > high), axis=1),
+        "outside_workspace",
+        lambda i: (
+            f"the leg lengths put the platform at "
+            f"{np.round(np.r_[platforms[i, :3], np.degrees(platforms[i, 3:])], 3).tolist()} (mm, deg), "
+            "outside the hexapod's workspace"
+        ),
+    )
     cond = hexapod_condition(desc, platforms, params, runtime=runtime)
-    hexapod = desc.hexapod
-    singular = np.flatnonzero(cond > hexapod.max_condition)
-    if singular.size:
-        i = int(singular[0])
-        raise UnreachablePose(
-            f"pose {i}: the hexapod is too close to a singularity (condition number {cond[i]:.3g} > "
-            f"{hexapod.max_condition:.3g})",
-            pose=i,
-            reason="near_singularity",
-            count=int(singular.size),
-        )
+    limit = desc.hexapod.max_condition
+    _refuse_first(
+        cond > limit,
+        "near_singularity",
+        lambda i: f"the hexapod is too close to a singularity (condition number {cond[i]:.3g} > {limit:.3g})",
+    )
+
+
+def _refuse_first(failed: NDArray[np.bool_], reason: str, message: Callable[[int], str]) -> None:
+    """UnreachablePose naming the first failed pose (and how many failed) for `reason`."""
+    index = np.flatnonzero(failed)
+    if index.size:
+        i = int(index[0])
+        raise UnreachablePose(f"pose {i}: {message(i)}", pose=i, reason=reason, count=int(index.size))
 
 
 @dataclass(frozen=True)

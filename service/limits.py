@@ -136,11 +136,13 @@ def inverse_kinematics(targets: int) -> Estimate:
     return Estimate(f"inverse kinematics of {targets} targets", seconds, memory)
 
 
-def pose_design(candidates: int, count: int, fixed: int, criterion: str) -> Estimate:
+def pose_design(candidates: int, count: int, fixed: int, criterion: str, *, bound_seconds: float = 0.0) -> Estimate:
+    """`bound_seconds` of branch and bound come on top (D, A and I spend them all unless the tree closes)."""
     m = candidates + fixed
     seconds = DESIGN_FIXED_S + DESIGN_S_PER_CANDIDATE * m + DESIGN_S_PER_CANDIDATE2 * m * m
     seconds *= DESIGN_CRITERION_FACTOR.get(criterion, max(DESIGN_CRITERION_FACTOR.values()))
     seconds *= max(1.0, count / 30) ** DESIGN_K_EXPONENT  # exchange and greedy grow with K (base: K = 30)
+    seconds += bound_seconds
     memory = DESIGN_BASE_BYTES + DESIGN_BYTES_PER_CANDIDATE * m + DESIGN_BYTES_PER_PAIR * count * m
     return Estimate(f"a pose design of {count} among {candidates} candidates ({criterion})", seconds, memory)
 

@@ -15,6 +15,7 @@ from pydantic import BaseModel
 from service.problems import PROBLEM_JSON
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.jobs import JobAccepted
+from service.schemas.kinematics import ForwardRequest, InverseRequest
 from service.schemas.problems import Problem
 from service.schemas.versions import ParameterVersionImport
 from service.security import required_scope
@@ -40,14 +41,21 @@ IDEMPOTENCY_KEY = {
     "description": "Retries with the same key and request replay the first answer (service.idempotency)",
     "schema": {"type": "string", "minLength": 1, "maxLength": 200, "pattern": "^[!-~]+$"},
 }
-EXTRA_MODELS: tuple[type[BaseModel], ...] = (CalibrationCreate, JobAccepted, Problem, ParameterVersionImport)
+EXTRA_MODELS: tuple[type[BaseModel], ...] = (
+    CalibrationCreate,
+    ForwardRequest,
+    InverseRequest,
+    JobAccepted,
+    Problem,
+    ParameterVersionImport,
+)
 DECLARED_PROBLEMS = {
     "409": "Conflict with the resource's state (e.g. a job that already ended)",
     "429": "The job queue is full: retry after the Retry-After header's seconds",
 }
 """Problem responses of the operations that declare them (their routes list the status)."""
-"""Referenced from `openapi_extra` (the calibration route parses its body itself) or from the error responses
-added below, so FastAPI does not see them all."""
+"""Referenced from `openapi_extra` (the calibration and kinematics routes read their bodies themselves) or from
+the error responses added below, so FastAPI does not see them all."""
 
 
 def build(app: FastAPI) -> dict[str, Any]:

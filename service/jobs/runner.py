@@ -26,6 +26,8 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from models import Registry
+from models.cancellation import CancellationToken, cancellable
+from models.cancellation import Cancelled as StoppedMidStep
 from service.model_cache import ModelCache
 from service.persistence import Database
 from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed
@@ -147,16 +149,25 @@ def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
     db = ctx.db
     started = time.perf_counter()
     with Lease(ctx, claim.job_id, worker) as lease:
+        # Between progress points too: the solvers and design loops check this token at each step
+        # (models.cancellation), and the heartbeat sets `cancel` or `lost` within a third of the lease.
+        token = CancellationToken(probe=lambda: lease.cancel or lease.lost)
         try:
-            run_job(
-                db=db,
-                models=ctx.models,
-                registry=ctx.registry,
-                kind=claim.kind,
-                robot_id=claim.robot_id,
-                request=claim.request,
-                job=lease,
-            )
+            try:
+                with cancellable(token):
+                    run_job(
+                        db=db,
+                        models=ctx.models,
+                        registry=ctx.registry,
+                        kind=claim.kind,
+                        robot_id=claim.robot_id,
+                        request=claim.request,
+                        job=lease,
+                    )
+            except StoppedMidStep:
+                if lease.lost:
+                    raise LeaseLost(f"job {claim.job_id}: lease lost") from None
+                raise Cancelled(f"job {claim.job_id} cancelled") from None
             status = "succeeded"
         except LeaseLost:
             log.warning("job %s: lease lost to another worker; nothing written", claim.job_id)

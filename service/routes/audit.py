@@ -6,11 +6,12 @@ from fastapi import APIRouter, Query, Response
 from pydantic import TypeAdapter
 
 from service.deps import DatabaseDep, Limit, Offset
+from service.json_bodies import OffloopRoute
 from service.responses import models_json
 from service.schemas.audit import Action, AuditEventPublic
 from service.services import audit
 
-router = APIRouter(tags=["audit"])
+router = APIRouter(tags=["audit"], route_class=OffloopRoute)
 _EVENTS = TypeAdapter(list[AuditEventPublic])
 
 

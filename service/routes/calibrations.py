@@ -1,7 +1,6 @@
 from __future__ import annotations
 
 import functools
-import re
 from typing import Any, Literal
 
 import anyio
@@ -16,12 +15,13 @@ from service.csv_codec import CAMPAIGN_HEADER, joined_campaign, parse_campaign
 from service.deps import ActorDep, DatabaseDep, JobsDep, Limit, MetricsDep, Offset, RegistryDep, compute, negotiate
 from service.errors import BadRequest, UnsupportedMediaType
 from service.guards import OFFLOOP_BYTES
+from service.json_bodies import OffloopRoute
 from service.responses import model_json
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
 from service.services import calibrations
 from service.services.jobs import submit_job
 
-router = APIRouter(tags=["calibrations"])
+router = APIRouter(tags=["calibrations"], route_class=OffloopRoute)
 # Stored reports are answered through the declared response model: FastAPI validates and serialises a 60-pose
 # report (21.6 kB) in 0.13 ms, less than json.dumps of it in a JSONResponse (0.25 ms), against 36 ms for the
 # identification (measured here, pydantic 2.14 / FastAPI 0.163). So the bypass that skipped the model is gone
@@ -122,15 +122,6 @@ async def _body(
     )
 
 
-_RECORD_KEY = re.compile(rb'"joints"\s*:')
-
-
-def _records_in(raw: bytes) -> int:
-    """The objects with a `joints` key, without parsing (1.6 MB: ~3 ms): in valid JSON `"joints"` before a colon
-    is a key, never text (a quote inside a string is escaped), so this counts the records of a valid body."""
-    return len(_RECORD_KEY.findall(raw))
-
-
 def _validate_json(raw: bytes) -> CalibrationCreate | list[Any]:
     """The body as a CalibrationCreate, or its validation errors (plain data: this runs in a compute process)."""
     try:
@@ -204,9 +195,8 @@ async def create_calibration(
         None, min_length=3, max_length=3, description="CSV bodies: its centre of gravity x, y, z (tool frame, mm)"
     ),
 ) -> dict[str, Any] | Response:
-    if not run_async and request.headers.get("content-type", "application/json").startswith("application/json"):
-        # Refused before any parsing: a body over the budget cost 0.3 s of the parse process here (6 000 records).
-        limits.admit(limits.calibration(_records_in(await request.body())), run_async=False)
+    # A JSON body over the budget was refused before any parsing (service.guards.PRECOUNTED); a CSV one is
+    # counted once parsed.
     body = await _body(
         request,
         apply=apply,

@@ -9,11 +9,12 @@ from fastapi import APIRouter, Query, Request, Response
 
 from service.csv_codec import CAMPAIGN_HEADER, POSE_COLUMNS
 from service.deps import DatabaseDep, ModelCacheDep, negotiate
+from service.json_bodies import OffloopRoute
 from service.responses import model_json
 from service.schemas.campaigns import CampaignPublic
 from service.services import campaigns
 
-router = APIRouter(tags=["campaigns"])
+router = APIRouter(tags=["campaigns"], route_class=OffloopRoute)
 _FORMATS = {"json": "application/json", "csv": "text/csv"}
 _CSV: dict[int | str, dict[str, Any]] = {
     200: {

@@ -8,6 +8,7 @@ from pydantic import TypeAdapter
 from service import limits
 from service.csv_codec import joints_csv
 from service.deps import DatabaseDep, JobsDep, Limit, MetricsDep, ModelCacheDep, Offset, RegistryDep, compute, wants_csv
+from service.json_bodies import OffloopRoute
 from service.model_cache import ModelCache
 from service.responses import model_json, models_json
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
@@ -15,7 +16,7 @@ from service.schemas.jobs import JobAccepted
 from service.services import designs
 from service.services.jobs import submit_job
 
-router = APIRouter(tags=["pose designs"])
+router = APIRouter(tags=["pose designs"], route_class=OffloopRoute)
 _SUMMARIES = TypeAdapter(list[PoseDesignSummaryPublic])
 _CSV_BODY = {
     "content": {
@@ -59,7 +60,7 @@ async def create_design(
     cost = (
         limits.target_design(candidates, fixed)
         if body.count is None
-        else limits.pose_design(candidates, body.count, fixed, body.criterion.value)
+        else limits.pose_design(candidates, body.count, fixed, body.criterion.value, bound_seconds=body.bound_seconds)
     )
     limits.admit(cost, run_async=run_async)
     if run_async:

@@ -4,11 +4,12 @@ from fastapi import APIRouter, Response
 
 from service import limits
 from service.deps import MetricsDep, ModelCacheDep, RegistryDep, compute
+from service.json_bodies import OffloopRoute
 from service.responses import model_json
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
 from service.services import error_analysis
 
-router = APIRouter(tags=["error analysis"])
+router = APIRouter(tags=["error analysis"], route_class=OffloopRoute)
 
 
 @router.post(

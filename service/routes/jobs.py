@@ -4,11 +4,12 @@ from fastapi import APIRouter, Query, Response
 from pydantic import TypeAdapter
 
 from service.deps import DatabaseDep, Limit, Offset
+from service.json_bodies import OffloopRoute
 from service.responses import model_json, models_json
 from service.schemas.jobs import JobKind, JobPublic, JobStatus
 from service.services import jobs
 
-router = APIRouter(tags=["jobs"])
+router = APIRouter(tags=["jobs"], route_class=OffloopRoute)
 _JOBS = TypeAdapter(list[JobPublic])
 
 

@@ -5,9 +5,10 @@ from typing import Any
 from fastapi import APIRouter, Query, Request, Response
 
 from service.deps import DatabaseDep, MetricsDep, compute, negotiate
+from service.json_bodies import OffloopRoute
 from service.services import reports
 
-router = APIRouter(tags=["reports"])
+router = APIRouter(tags=["reports"], route_class=OffloopRoute)
 _FORMATS = {"html": "text/html", "pdf": "application/pdf"}
 _RESPONSES: dict[int | str, dict[str, Any]] = {
     200: {

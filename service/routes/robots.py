@@ -6,13 +6,14 @@ from fastapi import APIRouter, Header, Query, Request, Response
 from pydantic import TypeAdapter
 
 from service.deps import ActorDep, DatabaseDep, Limit, Offset, negotiate
+from service.json_bodies import OffloopRoute
 from service.parameters_csv import PARAMETER_HEADER, parameters_csv
 from service.responses import model_json, models_json
 from service.schemas.robots import MAX_VERSION, ParametersPublic, RobotCreate, RobotPatch, RobotPublic
 from service.schemas.structure import StructureDocument
 from service.services import robots
 
-router = APIRouter(prefix="/v1/robots", tags=["robots"])
+router = APIRouter(prefix="/v1/robots", tags=["robots"], route_class=OffloopRoute)
 _ROBOTS = TypeAdapter(list[RobotPublic])
 IfMatch = Annotated[str | None, Header(description="The robot's ETag as last read: 412 when it has changed since")]
 _PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}

@@ -4,11 +4,12 @@ from fastapi import APIRouter, Response
 from pydantic import TypeAdapter
 
 from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, compute
+from service.json_bodies import OffloopRoute
 from service.responses import model_json, models_json
 from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
 from service.services import validations
 
-router = APIRouter(tags=["validations"])
+router = APIRouter(tags=["validations"], route_class=OffloopRoute)
 _VALIDATIONS = TypeAdapter(list[ValidationPublic])
 
 

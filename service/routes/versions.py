@@ -9,13 +9,16 @@ from pydantic import TypeAdapter, ValidationError
 
 from service.deps import ActorDep, DatabaseDep
 from service.errors import BadRequest, UnsupportedMediaType
+from service.json_bodies import OffloopRoute
 from service.parameters_csv import PARAMETER_HEADER, parse_parameters
 from service.responses import model_json, models_json
 from service.routes.robots import IfMatch
 from service.schemas.versions import ParameterVersionImport, ParameterVersionPublic, VersionDiffPublic
 from service.services import versions
 
-router = APIRouter(prefix="/v1/robots/{robot_id}/parameter-versions", tags=["parameter versions"])
+router = APIRouter(
+    prefix="/v1/robots/{robot_id}/parameter-versions", tags=["parameter versions"], route_class=OffloopRoute
+)
 _VERSIONS = TypeAdapter(list[ParameterVersionPublic])
 Version = Annotated[int, Path(ge=1, le=2**31 - 1)]
 _PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}

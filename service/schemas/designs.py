@@ -12,6 +12,8 @@ from optimal_design.design import MAX_CANDIDATES
 from service.schemas.common import JointVector, OptionalFloat, Payload, Position, Public, Strict, TemperatureC
 
 MAX_FIXED = 10_000
+BOUND_SECONDS_MAX = 60.0
+"""Branch and bound past a minute buys little here (K = 30 of 2 000, D: 0.9851 at 3 s, 0.9878 at 20 s)."""
 
 
 class DesignTarget(Strict):
@@ -70,6 +72,14 @@ class PoseDesignCreate(Strict):
         "Omitted: 0.9 for condition (lowered to what the D design reaches if that is less; the plain condition "
         "design calibrates the TCP little better than random poses), none for E; 0: no floor",
     )
+    bound_seconds: float = Field(
+        default=0,
+        ge=0,
+        le=BOUND_SECONDS_MAX,
+        description="D, A and I with count: spend up to this long tightening the certificate by branch and bound "
+        "(the design can only improve, its efficiency only rise). K = 30 of 2 000, D: 0.980 without, 0.985 after "
+        "2-3 s. Counted in the request's work: beyond the synchronous budget, send it with ?async=true",
+    )
     terms: list[Literal["thermal", "compliance"]] = Field(
         default_factory=list,
         max_length=2,
@@ -90,6 +100,8 @@ class PoseDesignCreate(Strict):
     def _count_or_target(self) -> PoseDesignCreate:
         if (self.count is None) == (self.target is None):
             raise ValueError("give either count (how many poses) or target (what accuracy), not both")
+        if self.target is not None and self.bound_seconds > 0:
+            raise ValueError("bound_seconds applies to a design of count poses, not to a target")
         if self.target is not None and "criterion" not in self.model_fields_set:
             self.criterion = Criterion.I  # the criterion that minimises the predicted RMS TCP error
         return self
@@ -124,6 +136,18 @@ class GreedyPublic(Public):
     seconds: float
 
 
+class BranchAndBoundPublic(Public):
+    """How far `bound_seconds` of branch and bound tightened the relaxation's bound."""
+
+    seconds: float
+    root_utility: float = Field(description="The relaxation's own bound, before branching")
+    root_efficiency: OptionalFloat = Field(description="The design's efficiency against that root bound")
+    nodes: int
+    open_leaves: int
+    optimal: bool = Field(description="Every leaf closed: the design is proven optimal")
+    improved_design: bool = Field(description="A leaf was a better selection than exchange found: it is the design")
+
+
 class BoundPublic(Public):
     """What the convex relaxation proves no selection of K can beat."""
 
@@ -134,6 +158,7 @@ class BoundPublic(Public):
     method: str
     solver_status: str
     note: str | None = Field(default=None, description="What the bound does not account for (e.g. min_spread)")
+    branch_and_bound: BranchAndBoundPublic | None = Field(default=None, description="With bound_seconds > 0")
 
 
 class RelaxationPublic(Public):

@@ -78,6 +78,7 @@ def create_design(
             keep_out=keep_out,
             min_spread=body.min_spread,
             d_efficiency_floor=body.d_efficiency_floor,
+            bound_seconds=body.bound_seconds,
             runtime=runtime,
             levels=levels,
         )

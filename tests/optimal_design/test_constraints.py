@@ -161,10 +161,11 @@ def test_condition_design_keeps_d_efficiency_by_default(desc: RobotDescription) 
     assert small_d.efficiency is not None and small_d.efficiency < 0.9
     small = design_poses(desc, 10, "condition", candidates=few)
     applied = small.constraints["d_efficiency_floor"]
-    assert 0 < applied <= small_d.efficiency + 1e-12 and any("default D-efficiency floor" in n for n in small.notes)
+    # 1e-8: the floor is the log det of the same subset summed in another order (base + blocks), not the same bits
+    assert 0 < applied <= small_d.efficiency + 1e-8 and any("default D-efficiency floor" in n for n in small.notes)
     small_info = candidate_information(desc, few, position_only=False)
     assert small_d.bound is not None
     log_det = float(np.linalg.slogdet(small_info.subset_information(np.array(small.indices)))[1])
-    assert np.exp((log_det - small_d.bound["utility"]) / small_info.n_params) >= applied - 1e-12
+    assert np.exp((log_det - small_d.bound["utility"]) / small_info.n_params) >= applied - 1e-8
     with pytest.raises(InvalidInput, match="above what the D design reaches"):
         design_poses(desc, 10, "condition", candidates=few, d_efficiency_floor=0.9)

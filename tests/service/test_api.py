@@ -266,3 +266,24 @@ def test_error_analysis_with_tolerances_the_robot_cannot_be_assembled_with_is_42
     body |= {"dh_angle_deg": 0.0, "dh_length_mm": 0.0, "joint_position_mm": 0.0}
     answer = client.post("/v1/error-analysis", json=body)
     assert answer.status_code == 422 and answer.json()["field"] == "tolerances", answer.text
+
+
+def test_pose_design_with_branch_and_bound_tightens_its_certificate(client: TestClient, robot_id: str) -> None:
+    body = {"count": 20, "criterion": "D", "candidate_count": 300, "seed": 3}
+    plain = client.post(f"/v1/robots/{robot_id}/pose-designs", json=body).json()
+    tight = client.post(f"/v1/robots/{robot_id}/pose-designs", json={**body, "bound_seconds": 0.5}).json()
+    assert plain["bound"]["branch_and_bound"] is None
+    branched = tight["bound"]["branch_and_bound"]
+    assert branched["nodes"] >= 1 and branched["seconds"] <= 0.5 + 0.3
+    assert tight["bound"]["utility"] <= branched["root_utility"] + 1e-9  # can only fall
+    assert branched["root_efficiency"] == pytest.approx(plain["efficiency"], rel=1e-6)
+    assert tight["efficiency"] >= plain["efficiency"] - 1e-9
+    if not branched["improved_design"]:  # the design is exchange's either way; only the certificate moved
+        assert tight["indices"] == plain["indices"]
+    target = client.post(
+        f"/v1/robots/{robot_id}/pose-designs", json={"target": {"rms_tcp_mm": 0.05}, "bound_seconds": 1}
+    )
+    assert target.status_code == 422 and "bound_seconds" in target.json()["detail"]
+    slow = client.post(f"/v1/robots/{robot_id}/pose-designs", json={**body, "bound_seconds": 10})
+    assert slow.status_code == 422 and slow.json()["type"].endswith("work-too-large")
+    assert "?async=true" in slow.json()["detail"]

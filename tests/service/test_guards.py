@@ -2,18 +2,22 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import anyio
 import pytest
 from fastapi.testclient import TestClient
+from pydantic import BaseModel
 from starlette.types import Message
 
-from service import guards
+from models import iwr, sample_workspace
+from service import guards, json_bodies
 from service.problems import MAX_ERRORS
+from service.routes import kinematics as kinematics_routes
 from tests.service.conftest import make_client
 
 JOINTS = [400.0, 150.0, 90.0, 45.0, 420.0, 420.0, 420.0, 420.0, 420.0, 420.0]
@@ -90,3 +94,86 @@ def test_kinematics_over_the_budget_are_refused_before_parsing(client: TestClien
         f"/v1/robots/{robot_id}/forward-kinematics", content=within, headers={"content-type": "application/json"}
     )
     assert r.status_code == 200 and len(r.json()["poses"]) == 2_000
+
+
+def _where(calls: list[bool], original: Callable[[type[BaseModel], bytes], object]) -> Callable[..., object]:
+    """A spy of `validate_json` that records whether it ran where an event loop runs."""
+
+    def spy(model: type[BaseModel], raw: bytes) -> object:
+        try:
+            asyncio.get_running_loop()
+            calls.append(True)
+        except RuntimeError:
+            calls.append(False)
+        return original(model, raw)
+
+    return spy
+
+
+def test_a_large_kinematics_body_is_validated_in_the_compute_task_not_on_the_loop(
+    client: TestClient, robot_id: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Over 64 kB, forward kinematics' body travels as bytes and is validated where it is computed: same
+    answer as on the loop, and its errors located the same way."""
+    on_loop: list[bool] = []
+    monkeypatch.setattr(kinematics_routes, "validate_json", _where(on_loop, json_bodies.validate_json))
+    monkeypatch.setattr(json_bodies, "validate_json", _where(on_loop, json_bodies.validate_json))
+    vectors = [[*JOINTS[:3], 45.0 + k * 1e-3, *JOINTS[4:]] for k in range(2_000)]
+    large = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors})
+    assert on_loop == [False]
+    small = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors[1990:]})
+    assert on_loop == [False, True]  # a small one is validated on the loop: a hop would cost more
+    assert large.status_code == small.status_code == 200
+    assert large.json()["poses"][1990:] == small.json()["poses"]
+    vectors[1500] = [*JOINTS[:9], "x"]
+    bad = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors})
+    small_bad = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors[1500:1510]})
+    assert bad.status_code == small_bad.status_code == 422 and on_loop == [False, True, False, True]
+    assert bad.json()["field"] == "joints[1500][9]" and small_bad.json()["field"] == "joints[0][9]"
+    assert bad.json()["error_count"] == small_bad.json()["error_count"] == 1
+    assert client.post(f"/v1/robots/{robot_id}/forward-kinematics", content=b"").json()["field"] == ""
+    text = client.post(
+        f"/v1/robots/{robot_id}/forward-kinematics", content=b"{}", headers={"content-type": "text/plain"}
+    )
+    assert text.status_code == 415
+
+
+def test_a_large_declared_body_is_validated_off_the_loop_as_the_routes_model(
+    client: TestClient, robot_id: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Routes whose body FastAPI declares (OffloopRoute): over 64 kB, the body reaches the route already
+    validated as its model by `model_validate_json` off the loop (a thread here, the parse process in a server)."""
+    on_loop: list[bool] = []
+    monkeypatch.setattr(json_bodies, "validate_json", _where(on_loop, json_bodies.validate_json))
+    desc = iwr()
+    candidates = (sample_workspace(desc, 600, seed=1) * desc.joint_to_boundary).tolist()
+    body = {"count": 12, "criterion": "D", "candidates": candidates}
+    assert len(json.dumps(body)) > guards.OFFLOOP_BYTES
+    large = client.post(f"/v1/robots/{robot_id}/pose-designs", json=body)
+    assert large.status_code == 201 and on_loop == [False], large.text[:300]
+    candidates[500][3] = "x"
+    bad = client.post(f"/v1/robots/{robot_id}/pose-designs", json=body)
+    assert bad.status_code == 422 and bad.json()["field"] == "candidates[500][3]" and on_loop == [False, False]
+
+
+def test_a_calibration_over_the_budget_is_refused_before_the_key_check(
+    client: TestClient, robot_id: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    checked: list[int] = []
+    monkeypatch.setattr(guards, "too_many_keys", lambda body: checked.append(len(body)))
+    record = {"joints": JOINTS, "position": [1.0, 2.0, 3.0]}
+    over = json.dumps({"measurements": [record] * 6_000}).encode()  # 6 000 x 0.36 ms: over the 2 s budget
+    assert guards._records(over) == 6_000
+    r = client.post(f"/v1/robots/{robot_id}/calibrations", content=over, headers={"content-type": "application/json"})
+    assert r.status_code == 422 and r.json()["type"].endswith("work-too-large") and "?async=true" in r.json()["detail"]
+    assert checked == []
+    within = json.dumps({"measurements": [record] * 1_000}).encode()  # over 64 kB: checked, then validated
+    r = client.post(f"/v1/robots/{robot_id}/calibrations", content=within, headers={"content-type": "application/json"})
+    assert checked == [len(within)] and r.status_code != 500
+
+
+def test_the_key_check_counts_every_object_and_leaves_malformed_json_to_the_parser() -> None:
+    nested = json.dumps({"a": [{"b": {f"k{i}": i for i in range(65)}}]}).encode()
+    assert guards.too_many_keys(nested) == 65
+    assert guards.too_many_keys(json.dumps({"a": [{f"k{i}": i for i in range(64)}] * 3}).encode()) is None
+    assert guards.too_many_keys(b'{"a": [1, 2') is None and guards.too_many_keys(b"[[[[]]]]") is None

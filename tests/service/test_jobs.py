@@ -20,8 +20,9 @@ import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import update
 
-from models import Registry, iwr, sample_workspace
+from models import Registry, cancellation, iwr, sample_workspace
 from models.simulation import perturbed_robot
+from service.jobs import runner
 from service.jobs.runner import Lease, WorkerContext, execute_job
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
@@ -334,3 +335,39 @@ def test_delete_stops_a_running_design_at_its_next_progress_point_and_nothing_is
     with db.reader() as s:
         assert s.query(PoseDesignRecord).count() == 0
     assert client.delete(f"/v1/jobs/{job_id}").status_code == 409
+
+
+def test_a_cancelled_job_stops_at_its_solvers_next_step_not_at_its_next_progress_point(
+    db: Database, registry: Registry, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The job runs under a token (models.cancellation) that reads the lease's flags, so the solvers' own step
+    checks (IPOPT's iteration callback, the design loops, IK) stop it: here a use case that only steps, ten
+    seconds long, with no progress point after its first."""
+    steps: list[float] = []
+
+    def solver_steps(**kwargs: Any) -> None:
+        kwargs["job"].progress("identifying", 0.05)
+        started = time.perf_counter()
+        while time.perf_counter() - started < 10:
+            cancellation.check()
+            steps.append(time.perf_counter() - started)
+            time.sleep(0.01)
+
+    monkeypatch.setattr(runner, "run_job", solver_steps)
+    robot_id = _robot(db)
+    ctx = WorkerContext(db, ModelCache(db), registry, lease=0.6, max_attempts=3)  # a heartbeat every 0.2 s
+    job_id = _queued(db, robot_id)
+    with ThreadPoolExecutor(1) as pool:
+        running = pool.submit(execute_job, job_id, ctx)
+        while not steps:
+            time.sleep(0.01)
+        time.sleep(0.3)
+        with db.session() as s:
+            assert JobStore(s).request_cancel(job_id)
+        asked = time.perf_counter()
+        assert running.result(timeout=30).status == "cancelled"
+        stopped = time.perf_counter() - asked
+    assert stopped < 1.0 and steps[-1] < 2.0, (stopped, steps[-1])  # the heartbeat's 0.2 s, not the 10 s
+    with db.reader() as s:
+        job = JobStore(s).get(job_id)
+        assert job is not None and job.status == "cancelled"

@@ -24,7 +24,7 @@ def test_mixed_load_with_oversized_requests() -> None:
     result = bench_hardening.run(duration_s=12.0)
     assert result["unexpected"] == {}, result  # no 500, no reset, 503 only as `overloaded`
     assert result["rss_peak_mb"] * 1e6 <= bench_hardening.MEMORY_CEILING_BYTES, result
-    for kind in ("calibration", "fk"):
+    for kind in ("calibration", "fk", "fk_large"):
         assert result[f"{kind}_max_s"] <= bench_hardening.COMPUTE_BUDGET_S, (kind, result)
     assert result["ik_at_budget_max_s"] <= IK_LOADED_S, result
     for kind in ("declared_25MB", "chunked_25MB", "unknown_keys", "design_too_large", "calibration_too_large"):
