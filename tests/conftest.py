@@ -36,6 +36,8 @@ creates a PostgreSQL database at import: ~8 s here)."""
 
 SERIAL_MODULES = frozenset(
     {
+        "tests/models/test_inverse_cancellation.py",
+        "tests/service/test_api.py",
         "tests/service/test_compute.py",
         "tests/service/test_concurrency.py",
         "tests/service/test_disconnect.py",

@@ -268,6 +268,7 @@ def test_error_analysis_with_tolerances_the_robot_cannot_be_assembled_with_is_42
     assert answer.status_code == 422 and answer.json()["field"] == "tolerances", answer.text
 
 
+@pytest.mark.serial  # a 0.5 s branch-and-bound budget kept to 0.3 s of wall time: alone on the cores
 def test_pose_design_with_branch_and_bound_tightens_its_certificate(client: TestClient, robot_id: str) -> None:
     body = {"count": 20, "criterion": "D", "candidate_count": 300, "seed": 3}
     plain = client.post(f"/v1/robots/{robot_id}/pose-designs", json=body).json()

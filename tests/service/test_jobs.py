@@ -337,6 +337,7 @@ def test_delete_stops_a_running_design_at_its_next_progress_point_and_nothing_is
     assert client.delete(f"/v1/jobs/{job_id}").status_code == 409
 
 
+@pytest.mark.serial  # stopped within 1 s of wall time: alone on the cores
 def test_a_cancelled_job_stops_at_its_solvers_next_step_not_at_its_next_progress_point(
     db: Database, registry: Registry, monkeypatch: pytest.MonkeyPatch
 ) -> None:
