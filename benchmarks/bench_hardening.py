@@ -5,7 +5,8 @@ generator); small forward kinematics, and large (20 000 joint vectors, 3.9 MB) o
 calibrations; inverse kinematics of half the synchronous budget
 (1 050 targets, ~1 s each; with the calibrations, more than the compute slots, so some wait and some get 503);
 refused work (a 6 000-pose synchronous calibration, the issue's 10 000-of-100 000 design); bodies over the
-limit (declared 25 MB, and chunked); a 3.5 MB body of 300 000 unknown keys; pose designs as jobs. Measured:
+limit (declared 25 MB, and chunked); a 3.5 MB body of 300 000 unknown keys; pose designs as jobs. The
+probe and the refusals (`_separate`) are sent from processes of their own. Measured:
 /healthz p99, each kind's slowest answer against its budget, the peak RSS (VmHWM) of the server's processes
 against `MEMORY_CEILING_BYTES`, and every status seen (no 500, no reset; 503 only as `overloaded`).
 
@@ -119,6 +120,51 @@ def _probe(port: int, duration_s: float, period_s: float) -> list[float]:
     return times
 
 
+def _timed(port: int, raw: bytes, duration_s: float, period_s: float) -> list[tuple[int, float, bytes]]:
+    """One request every `period_s` from a process of its own, with blocking sockets (as `_probe`): the
+    refusals' budget is the server's answer time, which the load generator's loop, busy with 25 MB bodies,
+    would otherwise add its own stalls to (measured: 1.6 s in the generator for a 0.5 s check)."""
+    seen: list[tuple[int, float, bytes]] = []
+    stop = time.monotonic() + duration_s
+    while time.monotonic() < stop:
+        started = time.perf_counter()
+        data = b""
+        with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
+            try:
+                sock.sendall(raw)
+                while chunk := sock.recv(65536):
+                    data += chunk
+            except OSError:
+                pass  # the server answered and closed before the whole body was written
+        elapsed = time.perf_counter() - started
+        try:
+            status = int(data.split(b" ", 2)[1])
+        except (IndexError, ValueError):
+            status = 0  # no answer at all: a reset connection
+        seen.append((status, elapsed, data.split(b"\r\n\r\n", 1)[-1]))
+        time.sleep(max(0.0, period_s - elapsed))
+    return seen
+
+
+def _separate(host: str, robot: str, bodies: dict[str, bytes]) -> dict[str, tuple[bytes, float]]:
+    """The refusals, each from a process of its own (`_timed`): (the raw request, its period in seconds)."""
+    base = f"/v1/robots/{robot}"
+    chunked = _request(host, "POST", "/v1/robots", b"", {"Transfer-Encoding": "chunked"}).replace(
+        b"Content-Length: 0\r\n", b""
+    )
+    chunk = b"x" * 1_000_000
+    return {
+        "calibration_too_large": (_request(host, "POST", f"{base}/calibrations", bodies["calibration_too_large"]), 1.0),
+        "design_too_large": (_request(host, "POST", f"{base}/pose-designs", bodies["design_too_large"]), 1.0),
+        "unknown_keys": (_request(host, "POST", f"{base}/forward-kinematics", bodies["unknown_keys"]), 1.0),
+        "declared_25MB": (
+            _request(host, "POST", f"{base}/calibrations", b"", {"Content-Length": "25000000"}) + b"x" * 100_000,
+            1.0,
+        ),
+        "chunked_25MB": (chunked + (f"{len(chunk):x}\r\n".encode() + chunk + b"\r\n") * 25 + b"0\r\n\r\n", 2.0),
+    }
+
+
 def _server_pid(port: int) -> int | None:
     for proc in Path("/proc").iterdir():
         if proc.name.isdigit():
@@ -210,22 +256,13 @@ async def _load(url: str, robot: str, duration_s: float) -> dict[str, list[tuple
     def post(path: str, name: str) -> Any:
         return lambda: (_request(host, "POST", path, bodies[name]), None)
 
-    declared_huge = _request(host, "POST", f"{base}/calibrations", b"", {"Content-Length": "25000000"})
-    chunked_head = _request(host, "POST", "/v1/robots", b"", {"Transfer-Encoding": "chunked"}).replace(
-        b"Content-Length: 0\r\n", b""
-    )
     tasks = [
         loop("healthz", lambda: (_request(host, "GET", "/healthz"), None), 0.05),
         *(loop("fk", post(f"{base}/forward-kinematics", "fk"), 0.05) for _ in range(2)),
         loop("fk_large", post(f"{base}/forward-kinematics", "fk_large"), 1.0),
         *(loop("calibration", post(f"{base}/calibrations", "calibration"), 0.3) for _ in range(2)),
         *(loop("ik_at_budget", post(f"{base}/inverse-kinematics", "ik_at_budget"), 0.5) for _ in range(IK_CLIENTS)),
-        loop("calibration_too_large", post(f"{base}/calibrations", "calibration_too_large"), 1.0),
-        loop("design_too_large", post(f"{base}/pose-designs", "design_too_large"), 1.0),
         loop("design_job", post(f"{base}/pose-designs?async=true", "design_job"), 3.0),
-        loop("unknown_keys", post(f"{base}/forward-kinematics", "unknown_keys"), 1.0),
-        loop("declared_25MB", lambda: (declared_huge + b"x" * 100_000, None), 1.0),
-        loop("chunked_25MB", lambda: (chunked_head, [b"x" * 1_000_000] * 25), 2.0),
     ]
     await asyncio.gather(*tasks)
     return seen
@@ -255,10 +292,16 @@ def run(duration_s: float = DURATION_S) -> dict[str, object]:
         robot = json.loads(created[2])["id"]
         load_before = os.getloadavg()[0]
         rss_before = _peak_rss(pid)
-        with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as prober:
+        separate = _separate(urlsplit(url).netloc, robot, _bodies())
+        with ProcessPoolExecutor(1 + len(separate), mp_context=multiprocessing.get_context("spawn")) as prober:
             probe = prober.submit(_probe, port, duration_s, 0.05)
+            sent = {
+                kind: prober.submit(_timed, port, raw, duration_s, period) for kind, (raw, period) in separate.items()
+            }
             seen = asyncio.run(_load(url, robot, duration_s))
             probed = probe.result()
+            for kind, answers in sent.items():
+                seen[kind] = answers.result()
         rss_peak = _peak_rss(pid)
     out: dict[str, Any] = {
         "duration_s": duration_s,
