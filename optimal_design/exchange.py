@@ -168,21 +168,73 @@ def _lowrank_chunk(
     return np.asarray(-(float(np.trace(lm @ inv)) - correction))
 
 
+RITZ_VECTORS = 8
+"""Eigenvectors of M − FₐᵀFₐ (the design without pose a) per end of the spectrum for the Rayleigh–Ritz bounds
+that rank the E and condition swaps before any is evaluated exactly."""
+EXACT_BATCH = 32
+
+
 def _swap_values_spectral(
-    info: CandidateInformation, criterion: Criterion, design: Index, base: Array, pool: Index
+    info: CandidateInformation,
+    criterion: Criterion,
+    design: Index,
+    base: Array,
+    pool: Index,
+    *,
+    admissible: NDArray[np.bool_] | None = None,
 ) -> Array:
+    """E or condition utility of the design with pose a swapped for pool candidate j, for the best swaps: exact
+    where it can matter, −inf where a Rayleigh–Ritz bound proves the swap worse than one evaluated exactly (and
+    where `admissible` is False), so the best swap (the argmax) is the exhaustive evaluation's.
+
+    λ_min(M') ≤ λ_min(VᵀM'V) and λ_max(M') ≥ λ_max(UᵀM'U) for orthonormal V, U (Rayleigh–Ritz); with V and U
+    the weakest and strongest eigenvectors of M − FₐᵀFₐ, each bound is an 8 × 8 problem instead of 54 × 54, and
+    the utility's bound (λ_min's, or −√(λ_max/λ_min)'s) orders the exact evaluations, stopped once no bound
+    left beats the best value found (measured at K = 30 of 2 000: 1.4 s of the E design's exchange before)."""
     m = base + info.subset_information(design)
-    f_in = np.einsum("jri,jrk->jik", info.blocks[pool], info.blocks[pool])
     f_out = np.einsum("ari,ark->aik", info.blocks[design], info.blocks[design])
-    out = np.empty((design.size, pool.size))
-    for a in range(design.size):
-        ev = np.linalg.eigvalsh(m[None] - f_out[a][None] + f_in)
+    f_in = np.einsum("jri,jrk->jik", info.blocks[pool], info.blocks[pool])
+    without = m[None] - f_out
+    ev, vec = np.linalg.eigh(without)
+    k = min(RITZ_VECTORS, m.shape[0])
+    weak = _ritz(ev[:, :k], vec[:, :, :k], info.blocks[pool], lowest=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if criterion is Criterion.E:
+            bound = weak
+        else:
+            strong = _ritz(ev[:, -k:], vec[:, :, -k:], info.blocks[pool], lowest=False)
+            bound = np.where(weak > 0, -np.sqrt(strong / weak), -np.inf)
+    if admissible is not None:
+        bound = np.where(admissible, bound, -np.inf)
+    out = np.full((design.size, pool.size), -np.inf)
+    order = np.argsort(-bound, axis=None)
+    best = -np.inf
+    for lo in range(0, order.size, EXACT_BATCH):
+        batch = order[lo : lo + EXACT_BATCH]
+        a, j = np.unravel_index(batch, bound.shape)
+        live = bound[a, j] > best
+        if not live.any():
+            break  # every swap left is bounded by one already evaluated
+        a, j = a[live], j[live]
+        exact = np.linalg.eigvalsh(without[a] + f_in[j])
         with np.errstate(divide="ignore", invalid="ignore"):
             if criterion is Criterion.E:
-                out[a] = ev[:, 0]
+                values = exact[:, 0]
             else:
-                out[a] = np.where(ev[:, 0] > 0, -np.sqrt(ev[:, -1] / ev[:, 0]), -np.inf)
+                values = np.where(exact[:, 0] > 0, -np.sqrt(exact[:, -1] / exact[:, 0]), -np.inf)
+        out[a, j] = values
+        best = max(best, float(values.max()))
     return out
+
+
+def _ritz(ev: Array, vec: Array, blocks: Array, *, lowest: bool) -> Array:
+    """λ_min (or λ_max) of Vₐᵀ(M − FₐᵀFₐ + BⱼᵀBⱼ)Vₐ for every pose a and candidate j: an upper (lower) bound of
+    the swapped design's λ_min (λ_max). `ev`, `vec`: the eigenpairs of M − FₐᵀFₐ whose vectors are Vₐ."""
+    projected = np.einsum("jri,aik->ajrk", blocks, vec, optimize=True)  # Bⱼ Vₐ
+    small = np.einsum("ajrk,ajrl->ajkl", projected, projected, optimize=True)
+    small += np.eye(ev.shape[1])[None, None] * ev[:, None, :, None]
+    values = np.linalg.eigvalsh(small)
+    return np.asarray(values[..., 0] if lowest else values[..., -1])
 
 
 def exchange(
@@ -210,7 +262,6 @@ def exchange(
     current = utility(criterion, base + info.subset_information(design), info.task)
     swaps = 0
     spectral = criterion in (Criterion.E, Criterion.CONDITION)
-    evaluate = _swap_values_spectral if spectral else _swap_values_lowrank
     small, wide_pool = (SMALL_SPECTRAL_POOL, POOL) if spectral else (SMALL_POOL, LOWRANK_POOL)
     universe = allowed.copy()
     if universe.sum() > UNIVERSE:
@@ -234,12 +285,17 @@ def exchange(
         found = None
         for limit in (small, wide_pool) if wide else (small,):
             pool = order[:limit]
-            values = evaluate(info, criterion, design, base, pool)
+            # Which swaps are allowed at all, before their values: the spectral evaluation skips swaps that a
+            # bound proves worse than an evaluated one, which must be an allowed one.
+            admissible = np.ones((design.size, pool.size), dtype=bool)
             if spread is not None:
-                values = np.where(spread.swap_mask(design, pool), values, -np.inf)
+                admissible &= spread.swap_mask(design, pool)
             if log_det_floor is not None:
-                log_det = _swap_values_lowrank(info, Criterion.D, design, base, pool)
-                values = np.where(log_det >= log_det_floor, values, -np.inf)
+                admissible &= _swap_values_lowrank(info, Criterion.D, design, base, pool) >= log_det_floor
+            if spectral:
+                values = _swap_values_spectral(info, criterion, design, base, pool, admissible=admissible)
+            else:
+                values = np.where(admissible, _swap_values_lowrank(info, criterion, design, base, pool), -np.inf)
             a, b = np.unravel_index(int(np.argmax(values)), values.shape)
             if values[a, b] > current + IMPROVEMENT * max(1.0, abs(current)):
                 found = (int(a), int(pool[b]))
