@@ -22,7 +22,9 @@ pytestmark = [pytest.mark.slow, pytest.mark.serial]  # freed time against the fu
 
 DESC = iwr()
 POSES = int(0.9 * limits.SYNC_BUDGET_S / limits.CALIBRATION_S_PER_RECORD)  # ~5 000: just within the budget
-HANG_UP_AFTER_S = 0.5
+HANG_UP_FRACTION = 0.25
+"""The client hangs up a quarter into the time the same calibration took with its client waiting (1.9-8 s here,
+idle to loaded): mid-fit, whatever the machine's speed."""
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +51,7 @@ def test_a_client_that_hangs_up_stops_its_calibration(server: str) -> None:
         started = time.perf_counter()
         assert http.post(path, content=body, headers={"content-type": "application/json"}).status_code == 201
         full_s = time.perf_counter() - started  # the whole calibration, its client waiting
-        assert full_s > 4 * HANG_UP_AFTER_S, full_s  # long enough for the hang-up to land mid-fit
+        assert full_s > 1.0, full_s  # long enough for a hang-up to land mid-fit and its stop to show
 
         port = int(server.rsplit(":", 1)[1])
         head = (
@@ -57,7 +59,7 @@ def test_a_client_that_hangs_up_stops_its_calibration(server: str) -> None:
         )
         with socket.create_connection(("127.0.0.1", port)) as sock:
             sock.sendall(head.encode() + body)
-            time.sleep(HANG_UP_AFTER_S)
+            time.sleep(HANG_UP_FRACTION * full_s)
         hung_up = time.perf_counter()
         # The only compute process is busy with the abandoned fit until it stops; this request waits for it.
         assert http.post(f"/v1/robots/{robot}/forward-kinematics", json=few).status_code == 200
