@@ -80,7 +80,7 @@ endif
 
 # Bytecode caches on for the test runs, whatever the shell says (this machine sets PYTHONDONTWRITEBYTECODE=1):
 # otherwise each pytest process (a worker per core, then the serial part) recompiles the project and the
-# assertion-rewritten plugins, ~11 s of CPU each (measured: test-fast 1 min 43 s -> 1 min 20 s on a second run).
+# assertion-rewritten plugins, ~11 s of CPU each (measured with the collection alone: 23 s against 12 s).
 pytest test-fast: export PYTHONDONTWRITEBYTECODE :=
 
 # The inner loop: no tests marked slow, no coverage.
