@@ -65,8 +65,8 @@ def _request(host: str, method: str, path: str, body: bytes = b"", headers: dict
     return ("\r\n".join(lines) + "\r\n\r\n").encode() + body
 
 
-async def _send(port: int, raw: bytes, chunks: list[bytes] | None = None) -> tuple[int, float, bytes]:
-    """One request; the answer is read while the body is still being written, as a browser does, so a 413
+async def _send(port: int, raw: bytes) -> tuple[int, float, bytes]:
+    """One request; the answer is read while the body is still being written, as a browser does, so an answer
     sent before the whole body arrived is seen (and the rest of the body is not pushed into a closed socket)."""
     started = time.perf_counter()
     reader, writer = await asyncio.open_connection("127.0.0.1", port)
@@ -75,14 +75,8 @@ async def _send(port: int, raw: bytes, chunks: list[bytes] | None = None) -> tup
         try:
             writer.write(raw)
             await writer.drain()
-            for chunk in chunks or []:
-                writer.write(f"{len(chunk):x}\r\n".encode() + chunk + b"\r\n")
-                await writer.drain()
-            if chunks is not None:
-                writer.write(b"0\r\n\r\n")
-                await writer.drain()
         except (ConnectionError, OSError):
-            pass  # the server answered (413) and closed before the whole body was written
+            pass  # the server answered and closed before the whole body was written
 
     sending = asyncio.create_task(write())
     data = b""
@@ -94,30 +88,21 @@ async def _send(port: int, raw: bytes, chunks: list[bytes] | None = None) -> tup
     sending.cancel()
     writer.close()
     elapsed = time.perf_counter() - started
+    return _status(data), elapsed, data.split(b"\r\n\r\n", 1)[-1]
+
+
+def _status(data: bytes) -> int:
     try:
-        status = int(data.split(b" ", 2)[1])
+        return int(data.split(b" ", 2)[1])
     except (IndexError, ValueError):
-        status = 0  # no answer at all: a reset connection
-    return status, elapsed, data.split(b"\r\n\r\n", 1)[-1]
+        return 0  # no answer at all: a reset connection
 
 
 def _probe(port: int, duration_s: float, period_s: float) -> list[float]:
-    """/healthz every `period_s` from a process of its own, with blocking sockets: the load generator's event
-    loop, busy writing 25 MB bodies, would otherwise count its own stalls as the server's latency."""
-    times: list[float] = []
-    raw = _request(f"127.0.0.1:{port}", "GET", "/healthz")
-    stop = time.monotonic() + duration_s
-    while time.monotonic() < stop:
-        started = time.perf_counter()
-        with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
-            sock.sendall(raw)
-            data = b""
-            while chunk := sock.recv(65536):
-                data += chunk
-        elapsed = time.perf_counter() - started
-        times.append(elapsed if data.startswith(b"HTTP/1.1 200") else float("inf"))
-        time.sleep(max(0.0, period_s - elapsed))
-    return times
+    """/healthz every `period_s` from a process of its own (`_timed`): the load generator's event loop, busy
+    with its other requests, would otherwise count its own stalls as the server's latency."""
+    answers = _timed(port, _request(f"127.0.0.1:{port}", "GET", "/healthz"), duration_s, period_s)
+    return [elapsed if status == 200 else float("inf") for status, elapsed, _ in answers]
 
 
 def _timed(port: int, raw: bytes, duration_s: float, period_s: float) -> list[tuple[int, float, bytes]]:
@@ -137,11 +122,7 @@ def _timed(port: int, raw: bytes, duration_s: float, period_s: float) -> list[tu
             except OSError:
                 pass  # the server answered and closed before the whole body was written
         elapsed = time.perf_counter() - started
-        try:
-            status = int(data.split(b" ", 2)[1])
-        except (IndexError, ValueError):
-            status = 0  # no answer at all: a reset connection
-        seen.append((status, elapsed, data.split(b"\r\n\r\n", 1)[-1]))
+        seen.append((_status(data), elapsed, data.split(b"\r\n\r\n", 1)[-1]))
         time.sleep(max(0.0, period_s - elapsed))
     return seen
 
@@ -246,18 +227,17 @@ async def _load(url: str, robot: str, duration_s: float) -> dict[str, list[tuple
     seen: dict[str, list[tuple[int, float, bytes]]] = defaultdict(list)
     stop = time.monotonic() + duration_s
 
-    async def loop(kind: str, make: Any, period_s: float) -> None:
+    async def loop(kind: str, raw: bytes, period_s: float) -> None:
         while time.monotonic() < stop:
             started = time.monotonic()
-            raw, chunks = make()
-            seen[kind].append(await _send(port, raw, chunks))
+            seen[kind].append(await _send(port, raw))
             await asyncio.sleep(max(0.0, period_s - (time.monotonic() - started)))
 
-    def post(path: str, name: str) -> Any:
-        return lambda: (_request(host, "POST", path, bodies[name]), None)
+    def post(path: str, name: str) -> bytes:
+        return _request(host, "POST", path, bodies[name])
 
     tasks = [
-        loop("healthz", lambda: (_request(host, "GET", "/healthz"), None), 0.05),
+        loop("healthz", _request(host, "GET", "/healthz"), 0.05),
         *(loop("fk", post(f"{base}/forward-kinematics", "fk"), 0.05) for _ in range(2)),
         loop("fk_large", post(f"{base}/forward-kinematics", "fk_large"), 1.0),
         *(loop("calibration", post(f"{base}/calibrations", "calibration"), 0.3) for _ in range(2)),

@@ -78,11 +78,6 @@ def too_many_keys(body: bytes) -> int | None:
     return None
 
 
-def check_json_shape(body: bytes) -> None:
-    """Raise RequestValidationError for an object with too many keys; anything else FastAPI reports itself."""
-    _raise_too_many(too_many_keys(body))
-
-
 def _raise_too_many(keys: int | None) -> None:
     if keys is not None:
         raise RequestValidationError(

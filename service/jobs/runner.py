@@ -26,8 +26,7 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from models import Registry
-from models.cancellation import CancellationToken, cancellable
-from models.cancellation import Cancelled as StoppedMidStep
+from models.cancellation import CancellationToken, Cancelled, cancellable
 from service.model_cache import ModelCache
 from service.persistence import Database
 from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed
@@ -41,10 +40,6 @@ log = logging.getLogger("service.jobs")
 PROGRESS_WRITE_SECONDS = 0.25
 """A progress point writes to the database at most this often (the heartbeat stores the latest anyway): a
 60-pose calibration takes ~30 ms, and three extra transactions would cost it ~10 % of its latency."""
-
-
-class Cancelled(Exception):
-    """Raised at a progress point of a job whose cancellation was requested."""
 
 
 @dataclass(frozen=True)
@@ -153,29 +148,25 @@ def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
         # (models.cancellation), and the heartbeat sets `cancel` or `lost` within a third of the lease.
         token = CancellationToken(probe=lambda: lease.cancel or lease.lost)
         try:
-            try:
-                with cancellable(token):
-                    run_job(
-                        db=db,
-                        models=ctx.models,
-                        registry=ctx.registry,
-                        kind=claim.kind,
-                        robot_id=claim.robot_id,
-                        request=claim.request,
-                        job=lease,
-                    )
-            except StoppedMidStep:
-                if lease.lost:
-                    raise LeaseLost(f"job {claim.job_id}: lease lost") from None
-                raise Cancelled(f"job {claim.job_id} cancelled") from None
+            with cancellable(token):
+                run_job(
+                    db=db,
+                    models=ctx.models,
+                    registry=ctx.registry,
+                    kind=claim.kind,
+                    robot_id=claim.robot_id,
+                    request=claim.request,
+                    job=lease,
+                )
             status = "succeeded"
-        except LeaseLost:
-            log.warning("job %s: lease lost to another worker; nothing written", claim.job_id)
-            return Outcome("lost", ran=True)
-        except Cancelled:
-            with db.session() as s:
-                JobStore(s).cancelled(claim.job_id, worker)
-            status = "cancelled"
+        except (LeaseLost, Cancelled) as stopped:
+            if isinstance(stopped, Cancelled) and not lease.lost:
+                with db.session() as s:
+                    JobStore(s).cancelled(claim.job_id, worker)
+                status = "cancelled"
+            else:  # lost at a progress point, or a solver's step saw the token read the lost lease
+                log.warning("job %s: lease lost to another worker; nothing written", claim.job_id)
+                return Outcome("lost", ran=True)
         except Exception as exc:  # a job records every failure, as the synchronous request would have answered it
             if lookup(exc)[0] >= 500:
                 log.exception("job %s failed", claim.job_id)

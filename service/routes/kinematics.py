@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
@@ -42,12 +43,17 @@ def _forward_raw(*, models: ModelCache, registry: Registry, robot_id: str, raw: 
     )
 
 
-def _inverse(*, models: ModelCache, registry: Registry, robot_id: str, raw: bytes, as_json: bool) -> Any:
+def _inverse(*, models: ModelCache, registry: Registry, robot_id: str, body: InverseRequest, as_json: bool) -> Any:
+    out = kinematics.inverse(models=models, registry=registry, robot_id=robot_id, body=body)
+    return bytes(out.__pydantic_serializer__.to_json(out)) if as_json else out
+
+
+def _inverse_raw(*, models: ModelCache, registry: Registry, robot_id: str, raw: bytes, as_json: bool) -> Any:
+    # A large body validated here, in the compute process (see _forward_raw).
     body = validate_json(InverseRequest, raw)
     if isinstance(body, list):
         return body
-    out = kinematics.inverse(models=models, registry=registry, robot_id=robot_id, body=body)
-    return bytes(out.__pydantic_serializer__.to_json(out)) if as_json else out
+    return _inverse(models=models, registry=registry, robot_id=robot_id, body=body, as_json=as_json)
 
 
 def _answer(out: Any) -> Any:
@@ -91,20 +97,17 @@ async def inverse(
     m: MetricsDep,
 ) -> Response:
     raw = await raw_json_body(request)
-    if len(raw) <= OFFLOOP_BYTES:  # a large one: counted and admitted from the bytes (service.guards.PRECOUNTED)
-        targets = len(validated(InverseRequest, raw).targets)
-        limits.admit(limits.inverse_kinematics(targets), run_async=False, can_run_async=False)
     csv = wants_csv(request)
+    if len(raw) > OFFLOOP_BYTES:  # its work was counted and admitted from the bytes (service.guards.PRECOUNTED)
+        fn: Callable[..., Any] = _inverse_raw
+        given: dict[str, Any] = {"raw": raw}
+    else:  # validated here, once: the compute process gets the model
+        body = validated(InverseRequest, raw)
+        limits.admit(limits.inverse_kinematics(len(body.targets)), run_async=False, can_run_async=False)
+        fn, given = _inverse, {"body": body}
     out = _answer(
         await compute(
-            m,
-            "inverse_kinematics",
-            _inverse,
-            models=models,
-            registry=registry,
-            robot_id=robot_id,
-            raw=raw,
-            as_json=not csv,
+            m, "inverse_kinematics", fn, models=models, registry=registry, robot_id=robot_id, as_json=not csv, **given
         )
     )
     if not csv:
