@@ -21,6 +21,8 @@ a warning in the log, once per library, and the library's name and reason in
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import logging
 import os
@@ -28,6 +30,7 @@ import shutil
 import subprocess
 import tempfile
 import threading
+from collections.abc import Iterator
 from enum import StrEnum
 from pathlib import Path
 
@@ -120,11 +123,28 @@ def compile_functions(name: str, functions: list[ca.Function]) -> dict[str, ca.F
             )
             return _on_vm(name, VmReason.NO_COMPILER, functions)
         try:
-            _build(source, library)
+            with _build_lock(library):
+                # Another process (a test worker, a second job worker on a cold cache) may have built it while
+                # this one waited: a minute of compiler for the largest structures, not to be spent twice.
+                if not library.exists():
+                    _build(source, library)
         except (OSError, subprocess.CalledProcessError, subprocess.TimeoutExpired) as exc:
             log.warning("native compilation of %s failed (%s); using the CasADi VM", name, exc)
             return _on_vm(name, VmReason.COMPILE_FAILED, functions)
     return {f.name(): ca.external(f.name(), str(library)) for f in functions}
+
+
+@contextlib.contextmanager
+def _build_lock(library: Path) -> Iterator[None]:
+    """Held while `library` is built: one builder per library across the processes and threads that share the
+    cache directory (flock is per open file, so threads of one process exclude each other too)."""
+    library.parent.mkdir(parents=True, exist_ok=True)
+    with open(library.parent / f"{library.name}.lock", "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def _build(source: str, library: Path) -> None:

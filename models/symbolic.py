@@ -23,6 +23,10 @@ Two routes to the same numbers, from the same expressions:
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
 import casadi as ca
 
 from models import hexapod as hx
@@ -96,14 +100,16 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
             "joint_deflection", [q, params, cond], [deflection], ["q", "params", "conditions"], ["deflection"]
         )
         q_eff = q_eff + deflection
+    joints = EffectiveJoints.of(q_chain, q_eff)
+    q_seen, d, at = joints.seen, joints.derivative, joints.at
     if not desc.has_hexapod:
-        g = x
+        closure = Closure(x)
     elif with_terms:
-        g = terms_closure(desc, q_eff, legs, x, params=params, cond=cond)
+        closure = terms_closure(desc, q_seen, legs, x, params=params, cond=cond)
     else:
-        g = hx.closure_residual(x, legs, hp)
-
-    g_x = ca.jacobian(g, x)
+        closure = Closure(hx.closure_residual(x, legs, hp))
+    g_x, g_params, g_q = closure.jacobians(x, params, q, derivative=d)
+    g = at(closure.value)
     names_at = ["q", "params", "platform", *extra_names]
     ins_at = [q, params, x, *extra]
     fn["closure"] = ca.Function("closure", ins_at, [g], names_at, ["residual"])
@@ -124,18 +130,25 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     )
 
     # ---- TCP pose given the solved platform; implicit-function-theorem derivatives
-    t = tcp_transform(desc, q_eff, x, params)
+    p_meas = ca.SX.sym("position_meas", 3)
+    r_meas = ca.SX.sym("rotation_meas", 3, 3)
+    t = tcp_transform(desc, q_seen, x, params)
     position, rotation = t[0:3, 3], t[0:3, 0:3]
     vec = ca.vertcat(position, ca.vec(rotation))
-    dvec_dx = ca.jacobian(vec, x)
+    dvec_dx = d(vec, x)
     if desc.has_hexapod:
-        dx_dparams = -ca.solve(g_x, ca.jacobian(g, params))
-        dx_dq = -ca.solve(g_x, ca.jacobian(g, q))
+        dx_dparams = -ca.solve(g_x, g_params)
+        dx_dq = -ca.solve(g_x, g_q)
     else:
         dx_dparams, dx_dq = ca.SX(6, desc.n_params), ca.SX(6, desc.n_joints)
-    d_params = ca.jacobian(vec, params) + dvec_dx @ dx_dparams
-    d_q = ca.jacobian(vec, q) + dvec_dx @ dx_dq
-    j_params = pose_jacobian(position, rotation, d_params)
+    d_params = d(vec, params) + dvec_dx @ dx_dparams
+    d_q = d(vec, q) + dvec_dx @ dx_dq
+    j_params = at(pose_jacobian(position, rotation, d_params))
+    j_q = at(pose_jacobian(position, rotation, d_q))
+    residual_of = ca.vertcat(position - p_meas, matrix_to_rotvec(rotation @ r_meas.T))
+    residual = at(residual_of)
+    d_res = at(d(residual_of, params) + d(residual_of, x) @ dx_dparams)
+    position, rotation, t = at(position), at(rotation), at(t)
     fn["pose_at"] = ca.Function("pose_at", ins_at, [position, rotation], names_at, ["position", "rotation"])
     fn["pose_jacobian_at"] = ca.Function(
         "pose_jacobian_at",
@@ -147,15 +160,11 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     fn["joint_jacobian_at"] = ca.Function(
         "joint_jacobian_at",
         ins_at,
-        [position, rotation, pose_jacobian(position, rotation, d_q)],
+        [position, rotation, j_q],
         names_at,
         ["position", "rotation", "J_q"],
     )
 
-    p_meas = ca.SX.sym("position_meas", 3)
-    r_meas = ca.SX.sym("rotation_meas", 3, 3)
-    residual = ca.vertcat(position - p_meas, matrix_to_rotvec(rotation @ r_meas.T))
-    d_res = ca.jacobian(residual, params) + ca.jacobian(residual, x) @ dx_dparams
     res_names = ["q", "params", "platform", "position_meas", "rotation_meas", *extra_names]
     res_ins = [q, params, x, p_meas, r_meas, *extra]
     fn["residual_at"] = ca.Function("residual_at", res_ins, [residual], res_names, ["residual"])
@@ -260,6 +269,10 @@ def joint_deflection(desc: RobotDescription, q_chain: ca.SX, x: ca.SX, params: c
     base = pose_transform(params[desc.slices["base"]])
     tcp = tcp_transform(desc, q_chain, x, params)
     cog_world = tcp[0:3, 0:3] @ cond[4:7] + tcp[0:3, 3]
+    # frames[i] = world <- {i}, each from the one before (one product per link, shared by every joint's axis).
+    frames = [base]
+    for i in range(len(desc.links)):
+        frames.append(frames[-1] @ links_transform(desc, i, i + 1, q_chain, params))
     out: list[ca.SX] = []
     k = 0
     for i, link in enumerate(desc.links):
@@ -267,8 +280,7 @@ def joint_deflection(desc: RobotDescription, q_chain: ca.SX, x: ca.SX, params: c
             continue
         if link.joint is JointType.REVOLUTE:
             # The joint's axis: z of frame {i} for standard DH (Rz first), of frame {i+1} for modified DH.
-            stop = i if link.convention is Convention.DH else i + 1
-            frame = base @ links_transform(desc, 0, stop, q_chain, params)
+            frame = frames[i if link.convention is Convention.DH else i + 1]
             axis, origin = frame[0:3, 2], frame[0:3, 3]
             torque = ca.dot(axis, ca.cross(cog_world - origin, cond[1:4])) / 1000.0  # N·mm -> N·m
             out.append(params[desc.term_index[f"compliance.joint{k + 1}"]] * torque)
@@ -287,9 +299,78 @@ def thermal_axes(desc: RobotDescription, q_chain: ca.SX, params: ca.SX, cond: ca
     return ca.vertcat(*[q_chain[k] * scale if p else q_chain[k] for k, p in enumerate(prismatic)])
 
 
+Derivative = Callable[[ca.SX, ca.SX], ca.SX]
+"""(expression, variables) -> the expression's Jacobian with respect to the variables."""
+
+
+@dataclass(frozen=True)
+class EffectiveJoints:
+    """The serial joints the chain sees: the commanded ones, or under model terms functions of the parameters
+    and conditions (thermal travel, compliant deflection).
+
+    Differentiated through by CasADi's AD, those functions are repeated in every direction of the TCP's
+    Jacobians (a compliant 6R arm's pose Jacobian: 48 900 SX instructions). So the graphs use a symbol `seen`
+    for them, the chain rule adds ∂e/∂seen · ∂value/∂v (`derivative`), and `at` puts `value` in at the end:
+    the same derivatives in 27 600 instructions. Without terms `seen` is the commanded joints themselves.
+    """
+
+    seen: ca.SX
+    value: ca.SX | None = None
+    _of_value: dict[int, ca.SX] = field(default_factory=dict, compare=False)
+
+    @classmethod
+    def of(cls, commanded: ca.SX, effective: ca.SX) -> EffectiveJoints:
+        if effective is commanded:
+            return cls(commanded)
+        return cls(ca.SX.sym("q_effective", commanded.numel()), effective)
+
+    def derivative(self, expr: ca.SX, wrt: ca.SX) -> ca.SX:
+        direct = ca.jacobian(expr, wrt)
+        if self.value is None:
+            return direct
+        # The joints' own Jacobian once per variable set (q, params, platform), shared by every expression.
+        of_value = self._of_value.setdefault(id(wrt), ca.jacobian(self.value, wrt))
+        return direct + ca.jacobian(expr, self.seen) @ of_value
+
+    def at(self, expr: ca.SX) -> ca.SX:
+        return expr if self.value is None else ca.substitute(expr, self.seen, self.value)
+
+
+@dataclass(frozen=True)
+class Closure:
+    """The closure residual g (`value`) and its Jacobians.
+
+    With compliance g holds the leg tensions t = J⁻ᵀ w, a symbolic 6 × 6 solve. Differentiated through by
+    CasADi's AD, that solve is expanded once per direction: ~50 000 SX instructions per Jacobian and a minute of
+    C compiler for one structure's library. Here t is instead a symbol `tension` in `of_tension` and in the
+    statics `balance` h = Jᵀ t − w = 0, and the Jacobians follow from the implicit-function theorem,
+    dg/dv = ∂g/∂v − ∂g/∂t (∂h/∂t)⁻¹ ∂h/∂v at t = `solved`: the same derivatives, one small solve.
+    """
+
+    value: ca.SX
+    of_tension: ca.SX | None = None
+    tension: ca.SX | None = None
+    balance: ca.SX | None = None
+    solved: ca.SX | None = None
+
+    def jacobians(self, *wrt: ca.SX, derivative: Derivative = ca.jacobian) -> list[ca.SX]:
+        """dg/dv for each v of `wrt`, `derivative` the total derivative of an expression (see
+        `EffectiveJoints`)."""
+        if self.of_tension is None or self.tension is None or self.balance is None or self.solved is None:
+            return [derivative(self.value, v) for v in wrt]
+        t, h = self.tension, self.balance
+        partial = ca.horzcat(*[derivative(self.of_tension, v) for v in wrt])
+        dt = -ca.solve(ca.jacobian(h, t), ca.horzcat(*[derivative(h, v) for v in wrt]))
+        total = ca.substitute(partial + ca.jacobian(self.of_tension, t) @ dt, t, self.solved)
+        columns = [0]
+        for v in wrt:
+            columns.append(columns[-1] + v.numel())
+        return [total[:, a:b] for a, b in itertools.pairwise(columns)]
+
+
 def terms_closure(
     desc: RobotDescription, q_chain_eff: ca.SX, legs: ca.SX, x: ca.SX, *, params: ca.SX, cond: ca.SX
-) -> ca.SX:
+) -> Closure:
     """The leg equations with the terms: |p + R b_i − a_i| = (l_i + δl_i)(1 + κ_legs ΔT) + c_i t_i.
 
     t_i are the leg tensions that carry the payload, t = J⁻ᵀ w (statics of the thesis Jacobian, eq. 48,
@@ -312,10 +393,19 @@ def terms_closure(
         force = r4.T @ cond[1:4]
         arm = r4.T @ (cog_world - origin_world)
         wrench = ca.vertcat(force, ca.cross(arm, force))
-        tension = ca.solve(hx.thesis_jacobian(x, hp).T, wrench)
+        statics = hx.thesis_jacobian(x, hp).T
         compliance = ca.vertcat(*[params[desc.term_index[f"compliance.leg{i + 1}"]] for i in range(hx.N_LEGS)])
-        target = target + compliance * tension
-    return length - target
+        tension = ca.SX.sym("tension", hx.N_LEGS)
+        solved = ca.solve(statics, wrench)
+        of_tension = length - (target + compliance * tension)
+        return Closure(
+            ca.substitute(of_tension, tension, solved),
+            of_tension=of_tension,
+            tension=tension,
+            balance=statics @ tension - wrench,
+            solved=solved,
+        )
+    return Closure(length - target)
 
 
 def _hexapod_functions(fn: dict[str, ca.Function], x: ca.SX, hp_only: ca.SX) -> None:

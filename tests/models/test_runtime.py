@@ -128,6 +128,34 @@ def test_a_built_library_loads_without_a_compiler(tmp_path: Path, monkeypatch: p
     assert fallback.class_name() == "SXFunction"
 
 
+def test_concurrent_builders_of_one_library_compile_it_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two test workers (or job workers) meeting a new structure on a cold cache: one compiles, the other waits
+    for the lock and loads what it built. The compiler is a wrapper that counts its runs."""
+    real = shutil.which(os.environ.get("CC", "cc"))
+    if real is None:
+        pytest.skip("needs a compiler")
+    runs = tmp_path / "runs"
+    wrapper = tmp_path / "counting-cc"
+    wrapper.write_text(f'#!/bin/sh\necho run >> "{runs}"\nsleep 0.5\nexec "{real}" "$@"\n')
+    wrapper.chmod(0o755)
+    monkeypatch.setenv("IWR_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("CC", str(wrapper))
+    x = ca.SX.sym("x", 3)
+    f = ca.Function("probe_cube", [x], [x * x * x])
+    results: list[ca.Function] = []
+    threads = [
+        threading.Thread(target=lambda: results.append(compile_functions("cold", [f])["probe_cube"])) for _ in range(3)
+    ]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert runs.read_text().count("run") == 1
+    assert [r.class_name() for r in results] == ["External"] * 3
+    for loaded in results:
+        np.testing.assert_allclose(np.asarray(loaded([1.0, 2.0, 3.0])).ravel(), [1.0, 8.0, 27.0])
+
+
 def test_a_runtime_without_a_compiler_uses_the_built_robot_library(
     desc: RobotDescription, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
