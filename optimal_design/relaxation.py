@@ -33,9 +33,8 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import cvxpy as cp
 import numpy as np
 from numpy.typing import NDArray
 
@@ -43,6 +42,9 @@ from models import cancellation
 from models._types import Array
 from optimal_design.criteria import Criterion
 from optimal_design.information import CandidateInformation
+
+if TYPE_CHECKING:
+    import cvxpy as cp
 
 MAX_ITERATIONS = 3000
 GAP_D = 0.01
@@ -520,6 +522,10 @@ def _compressed(
 ) -> tuple[Array | None, float | None, NDArray[Any] | None, str, int]:
     """One compressed SDP: (weights over all candidates, bound over all candidates, the candidates the bound
     picks, status, iterations)."""
+    # Imported here, not with the module: cvxpy (and the scipy.stats it loads) is ~0.9 s of start-up that every
+    # API, compute and job process would pay, most of which never solve a certified design.
+    import cvxpy as cp  # noqa: PLC0415
+
     ref_low = float(np.linalg.eigvalsh(weak.T @ (base + info.information(np.ones(index.size), index)) @ weak)[0])
     scale_low = max(ref_low / index.size * count, 1e-300)
 

@@ -1,4 +1,5 @@
-"""`python -m service [--host H] [--port P]`: serve the API with uvicorn (settings from the environment)."""
+"""`python -m service [--host H] [--port P]`: serve the API with uvicorn (settings from the environment);
+`python -m service --warm-only`: build the native libraries into the cache and exit."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ import uvicorn  # noqa: E402
 from service import slow_clients  # noqa: E402
 from service.app import create_app  # noqa: E402
 from service.limits import COMPUTE_DEADLINE_S, GIL_SWITCH_INTERVAL_S  # noqa: E402
+from service.registry import build_registry  # noqa: E402
 from service.settings import get_settings  # noqa: E402
 
 
@@ -27,7 +29,16 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m service", description=__doc__)
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8000)
+    parser.add_argument(
+        "--warm-only",
+        action="store_true",
+        help="build every native library the service builds at start-up into the cache directory "
+        "(IWR_CACHE_DIR), then exit: the image's build stage, which has the compiler the runtime stage lacks",
+    )
     args = parser.parse_args(argv)
+    if args.warm_only:
+        build_registry(get_settings().model_copy(update={"warm_up": True}))
+        return
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     # The served API stops what runs past its deadline (503); an app made by create_app alone (tests, scripts,
     # whose machine may be busy with anything) has none unless configured.

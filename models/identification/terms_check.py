@@ -12,11 +12,11 @@ temperature (load). A serial robot's joint compliance column is its gravity torq
 from __future__ import annotations
 
 import numpy as np
-import scipy.stats
 
 from models._types import Array
 from models.identification.diagnosis import Diagnosis, Finding
 from models.identification.residuals import CampaignProblem, Evaluation
+from models.identification.statistics import chi2_quantile
 from models.kinematics import leg_tensions
 from models.serial_chain import JointType
 from models.terms import GRAVITY_M_S2, MIN_PAYLOAD_SPREAD_KG
@@ -80,7 +80,7 @@ def _score(problem: CampaignProblem, ev: Evaluation, columns: list[Array]) -> tu
     r = ev.residuals.reshape(-1)
     stat = float(np.sum((u[:, keep].T @ r) ** 2))
     # The variance factor stays 1 in the null hypothesis: the test is on the stated noise, as the χ² test is.
-    return stat, k, float(scipy.stats.chi2.ppf(1 - SCORE_ALPHA, k))
+    return stat, k, chi2_quantile(1 - SCORE_ALPHA, k)
 
 
 def _offset_index(problem: CampaignProblem, leg: int) -> int:

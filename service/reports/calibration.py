@@ -16,11 +16,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import scipy.stats
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 
-from models.identification.statistics import NOISE_CONSISTENCY_LEVEL
+from models.identification.statistics import NOISE_CONSISTENCY_LEVEL, variance_factor_interval
 from service.reports import figures
 from service.reports.figures import Array
 
@@ -62,9 +61,7 @@ class CalibrationReport:
         dof = int(self.calibration.get("degrees_of_freedom") or 0)
         if dof <= 0:
             return None
-        tail = (1 - NOISE_CONSISTENCY_LEVEL) / 2
-        bounds = np.asarray(scipy.stats.chi2.ppf([tail, 1 - tail], dof), dtype=float) / dof
-        return float(bounds[0]), float(bounds[1])
+        return variance_factor_interval(dof)
 
     def summary(self) -> list[tuple[str, str, Any]]:
         """(key, label, value) rows of the summary table; keys are the API's, dotted."""

@@ -3,7 +3,7 @@ positions, the stored correlation matrix and the validations of the version it p
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -11,10 +11,15 @@ from service.conversions.calibrations import calibration_public
 from service.conversions.validations import validation_public
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
-from service.reports import CalibrationReport, render_html, render_pdf
+
+if TYPE_CHECKING:
+    from service.reports import CalibrationReport
 
 
 def build_report(*, db: Database, calibration_id: str) -> CalibrationReport:
+    # The report package loads with its first report: matplotlib is 0.9 s of every process's start-up otherwise.
+    from service.reports import CalibrationReport  # noqa: PLC0415
+
     with db.reader() as s:
         repo, life = Repository(s), Lifecycle(s)
         record = repo.calibration(calibration_id)
@@ -46,8 +51,12 @@ def build_report(*, db: Database, calibration_id: str) -> CalibrationReport:
 
 
 def report_html(*, db: Database, calibration_id: str) -> str:
+    from service.reports import render_html  # noqa: PLC0415
+
     return render_html(build_report(db=db, calibration_id=calibration_id))
 
 
 def report_pdf(*, db: Database, calibration_id: str) -> bytes:
+    from service.reports import render_pdf  # noqa: PLC0415
+
     return render_pdf(build_report(db=db, calibration_id=calibration_id))

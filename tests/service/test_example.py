@@ -19,7 +19,7 @@ def test_example_session_with_the_system_python(tmp_path: Path) -> None:
     """The README runs it with whatever Python the user has: the base interpreter, isolated (-I) and without
     site-packages (-S), so not one third-party package is importable."""
     interpreter = Path(sys.base_prefix) / "bin" / f"python{sys.version_info.major}.{sys.version_info.minor}"
-    with running_server(f"sqlite:///{tmp_path}/example.db", IWR_JOB_WORKERS="0") as url:
+    with running_server(f"sqlite:///{tmp_path}/example.db", IWR_JOB_WORKERS="0", IWR_COMPUTE_PROCESSES="1") as url:
         run = subprocess.run(
             [str(interpreter), "-I", "-S", str(ROOT / "examples" / "calibrate_cell.py"), url],
             capture_output=True,

@@ -97,7 +97,10 @@ def test_keys_are_per_api_key(tmp_path: object) -> None:
 @pytest.mark.slow
 def test_a_client_that_times_out_and_retries_creates_one_calibration(tmp_path: object) -> None:
     """The measured bug: a retried POST after a client timeout created a second calibration and version."""
-    with running_server(f"sqlite:///{tmp_path}/live.db", IWR_JOB_WORKERS="0") as url, httpx.Client(base_url=url) as c:
+    with (
+        running_server(f"sqlite:///{tmp_path}/live.db", IWR_JOB_WORKERS="0", IWR_COMPUTE_PROCESSES="1") as url,
+        httpx.Client(base_url=url) as c,
+    ):
         rid = c.post("/v1/robots", json={"name": "cell"}).json()["id"]
         body = {"measurements": _campaign(400)}  # ~0.3 s of identification here: longer than the client waits
         headers = {"Idempotency-Key": "calibration-of-monday"}

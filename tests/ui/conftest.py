@@ -41,7 +41,7 @@ def browser() -> Iterator[object]:
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     database = tmp_path_factory.mktemp("ui") / "iwr.db"
-    with running_server(f"sqlite:///{database}", IWR_JOB_WORKERS="1") as url:
+    with running_server(f"sqlite:///{database}", IWR_JOB_WORKERS="1", IWR_COMPUTE_PROCESSES="1") as url:
         yield url
 
 
