@@ -20,6 +20,8 @@ SLOW_MODULES = frozenset(
         "tests/optimal_design/test_acceptance.py",
         "tests/service/test_compute.py",
         "tests/service/test_concurrency.py",
+        "tests/service/test_contract.py",
+        "tests/service/test_contract_robots.py",
         "tests/service/test_contract_fuzz.py",
         "tests/service/test_disconnect.py",
         "tests/service/test_example.py",
@@ -31,8 +33,8 @@ SLOW_MODULES = frozenset(
     }
 )
 """Modules whose every test is `slow` (their `pytestmark`): under `-m "not slow"` they are not even imported,
-which saves `make test-fast` their collection (the fuzz module alone generates its schemathesis cases and
-creates a PostgreSQL database at import: ~8 s here)."""
+which saves `make test-fast` their collection (the contract and fuzz modules generate their schemathesis cases at
+import, the fuzz module creates a PostgreSQL database too: ~8 s each here)."""
 
 SERIAL_MODULES = frozenset(
     {

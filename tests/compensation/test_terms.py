@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from models import forward_kinematics, iwr, sample_workspace
 from models.compensation import compensate, correct_program
@@ -15,6 +16,7 @@ THETA = DESC.parameters.with_values(
 )
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_compensation_reaches_the_targets_under_their_conditions() -> None:
     q = sample_workspace(iwr(), 10, seed=3)
     cond = make_conditions(10, np.linspace(15.0, 30.0, 10), 40.0, [0.0, 0.0, 150.0])

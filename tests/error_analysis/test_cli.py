@@ -27,6 +27,7 @@ def _numbers(tree: Any) -> list[float]:
     return [float(tree)] if isinstance(tree, int | float) and not isinstance(tree, bool) else []
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_cli_writes_summary_json_and_plots(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out_json, plot, plot_axes = tmp_path / "out" / "ea.json", tmp_path / "ea.png", tmp_path / "axes.png"
     argv = ["--poses", "4", "--draws", "3", "--seed", "1", "--dh-angle-deg", "0.2"]
@@ -59,6 +60,7 @@ def test_json_export_is_strict_json_in_boundary_units(desc: RobotDescription) ->
     assert q3_deg == pytest.approx(res.joints[0, 2] * 180.0 / math.pi)
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_module_runs_as_a_script(tmp_path: Path) -> None:
     out = tmp_path / "r.json"
     done = subprocess.run(

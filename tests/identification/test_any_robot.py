@@ -55,6 +55,7 @@ def test_identification_reaches_the_cramer_rao_accuracy(name: str, position_only
 
 
 @pytest.mark.parametrize("name", ["ur5-dh", "iiwa-mdh", "track"])
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_compensation_reaches_the_truth(name: str) -> None:
     desc = ROBOTS[name]()
     sim = perturbed_robot(desc, seed=2)
@@ -97,6 +98,7 @@ GANTRY = {
 
 
 @pytest.mark.parametrize("name", [*ROBOTS, "gantry"])
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_ik_of_fk_round_trip(name: str) -> None:
     desc = description_from_document(GANTRY, name="gantry") if name == "gantry" else ROBOTS[name]()
     joints = sample_workspace(desc, 40, seed=31)

@@ -96,6 +96,7 @@ COMPLIANCES = (0.10, 0.20, 0.25, 0.15, 0.22, 0.12)
 """µm/N per leg: legs of 4-10 N/µm."""
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_compliance_truth_two_payloads_geometric_fit_fails_and_the_term_recovers_them() -> None:
     desc = iwr().with_terms(ModelTerms(compliance=True))
     values = {f"compliance.leg{i + 1}": c * 1e-3 for i, c in enumerate(COMPLIANCES)}
@@ -123,6 +124,7 @@ def test_compliance_truth_two_payloads_geometric_fit_fails_and_the_term_recovers
     assert error <= 1.3 * bound
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_one_temperature_or_one_payload_leaves_the_terms_unidentifiable(thermal: RobotDescription) -> None:
     both = iwr().with_terms(ModelTerms(thermal=True, compliance=True))
     sim = _truth(both, 3, {"thermal.legs": 20e-6})
@@ -164,6 +166,7 @@ def test_identifiability_counts_with_and_without_a_temperature_spread(thermal: R
     assert len(spread.estimated) == 56 and len(single.estimated) == 54
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_joint_compliances_of_a_serial_arm_from_two_payloads() -> None:
     """A UR5-like arm whose joints 2-6 give 30 … 5 µrad/(N·m) under 0 and 10 kg: the geometric fit misfits by
     far, the compliant one is consistent, recovers them within 3σ and is at the Cramér–Rao bound at new loads."""

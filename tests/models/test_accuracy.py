@@ -31,6 +31,7 @@ def setting() -> tuple[object, object, Campaign]:
     return sim, cube, campaign
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_the_cube_poses_put_the_tcp_on_the_cube_points(setting: tuple) -> None:
     _, cube, _ = setting
     fk = forward_kinematics(DESC, cube.joints, DESC.parameters.nominal)

@@ -87,6 +87,7 @@ def _python(code: str, env: dict[str, str], *args: str) -> object:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_container_without_a_compiler_loads_built_libraries_and_runs_new_structures_on_the_vm(
     tmp_path: Path,
 ) -> None:

@@ -91,6 +91,7 @@ def test_workspace_errors_are_domain_errors(desc: RobotDescription) -> None:
     assert err.value.data["field"] == "n"
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_strict_identification_raises_what_a_failed_result_reports(desc: RobotDescription) -> None:
     sim = perturbed_robot(desc, seed=5)
     campaign = measure(sim, sample_workspace(desc, 40, seed=6), seed=7)

@@ -13,6 +13,7 @@ from models.inverse.solve import inverse_kinematics
 
 
 @pytest.mark.serial  # stopped within 0.2 s of slack past the chunk it was in: alone on the cores
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_unreachable_targets_stop_within_one_chunk_of_ipopt(desc: RobotDescription) -> None:
     """Targets 3 m above the workspace: Newton fails, exact IPOPT fails, nearest IPOPT finds the closest pose:
     ~30 ms a target, all of it in the IPOPT stage. Cancelled after 0.3 s, the call stops within a chunk."""

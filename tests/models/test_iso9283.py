@@ -65,6 +65,7 @@ def test_distance_accuracy_by_hand() -> None:
     assert got.repeatability_mm == pytest.approx(3.0)  # S of {100, 101, 102} = 1
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_repeatability_matches_the_noise_it_was_made_of() -> None:
     """Isotropic Gaussian noise σ per axis: l = σ·χ₃, so E[l] = 2√2/√π σ and sd(l) = √(3 − 8/π) σ."""
     sigma, cycles = 0.025, 20_000

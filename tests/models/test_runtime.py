@@ -43,6 +43,7 @@ def test_base_and_tool_are_inputs_not_graph_constants() -> None:
     np.testing.assert_allclose(b - a, np.tile([0.0, 0.0, 100.0], (4, 1)), atol=1e-9)
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_every_artefact_is_built_once_through_an_injected_registry(desc: RobotDescription) -> None:
     registry = Registry()
     runtime = registry.runtime(desc)

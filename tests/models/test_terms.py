@@ -72,6 +72,7 @@ def test_a_term_needs_the_parts_it_acts_on_and_its_conditions() -> None:
     assert err.value.field == "payload"
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_derivatives_equal_central_differences(desc, joints, conditions) -> None:  # type: ignore[no-untyped-def]
     theta = desc.parameters.nominal
     jac = forward_kinematics(desc, joints, theta, jacobian=True, conditions=conditions).jacobians
@@ -109,6 +110,7 @@ def test_thermal_legs_expand_by_kappa_and_axes_by_their_travel(joints) -> None: 
     assert np.abs(plain.positions - fk.positions).max() < 1e-8
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_compliance_leg_changes_balance_the_payload_wrench(desc, joints) -> None:  # type: ignore[no-untyped-def]
     """Statics written out in numpy: the leg changes / compliance are tensions whose forces and moments on the
     platform balance the payload's weight at its centre of gravity."""
@@ -152,6 +154,7 @@ def _euler_zyx(alpha: float, beta: float, gamma: float) -> np.ndarray:
     return rz @ ry @ rx
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_both_routes_agree(desc, joints, conditions) -> None:  # type: ignore[no-untyped-def]
     """The rootfinder (MX) route and the compiled batch route give the same TCP under the terms."""
     fn = Registry().runtime(desc).kinematics.functions

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -21,6 +22,7 @@ finite = st.floats(-1.0, 1.0, allow_nan=False)
 
 @settings(max_examples=200, deadline=None)
 @given(st.tuples(finite, finite, finite, finite).filter(lambda q: np.linalg.norm(q) > 1e-3))
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_quaternion_matrix_round_trip(q: tuple[float, float, float, float]) -> None:
     quat = np.array(q) / np.linalg.norm(q)
     r = quaternion_to_matrix(quat)
@@ -35,6 +37,7 @@ def test_quaternion_matrix_round_trip(q: tuple[float, float, float, float]) -> N
 
 @settings(max_examples=200, deadline=None)
 @given(st.tuples(finite, finite, finite))
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_symbolic_rodrigues_and_log_match_numeric(v: tuple[float, float, float]) -> None:
     vec = np.array(v) * 2.5  # angles up to ~4.3 rad > pi are fine for Rodrigues
     r_sym = np.array(ca.Function("r", [], [rotvec_to_matrix(ca.DM(vec))])()["o0"])

@@ -19,6 +19,7 @@ from optimal_design.relaxation import relax
 
 
 @pytest.mark.parametrize("criterion", list(Criterion))
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_bound_holds_for_every_subset(desc: RobotDescription, criterion: Criterion) -> None:
     """13 candidates, K = 10: all 286 subsets enumerated, and none beats the bound."""
     joints = sample_workspace(desc, 13, seed=61)
@@ -117,6 +118,7 @@ def test_solver_failure_falls_back_to_greedy(desc: RobotDescription, monkeypatch
 
 
 @pytest.mark.parametrize("criterion", BRANCHED)
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_branch_and_bound_tightens_to_the_exact_optimum(desc: RobotDescription, criterion: Criterion) -> None:
     """13 candidates, K = 10: the relaxation's bound is well above the best of the 286 subsets (its integrality
     gap); branch and bound run to the end proves the design optimal, and every bound on the way stays valid."""

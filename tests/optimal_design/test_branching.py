@@ -37,6 +37,7 @@ def test_capped_matches_bisection_and_its_own_definition() -> None:
         assert np.max(np.abs(w - _capped_bisection(v, total))) < 1e-9
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_projection_onto_the_capped_simplex_is_the_nearest_point() -> None:
     """clip(v − θ, 0, 1) summing to the total, against a 200-step bisection on θ, ties and integer totals too;
     and no other feasible point is nearer (random feasible points, Euclidean distance)."""
@@ -67,6 +68,7 @@ def _leaf_best(info: CandidateInformation, count: int, fixed_in: tuple[int, ...]
     return best
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_newton_leaf_bounds_hold_for_every_subset_of_the_leaf(desc: RobotDescription) -> None:
     """16 candidates, K = 10 (8 008 subsets): at the root and at leaves fixing candidates in and out, the Newton
     certificate is at least the best subset the leaf holds, and within the multiplicative algorithm's gap of
@@ -126,6 +128,7 @@ def test_branching_picks_a_fractional_candidate_whose_children_both_fall(desc: R
     assert worst_child(j) <= worst_child(half) + 1e-6
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_tighten_with_newton_leaves_is_monotone_and_valid(desc: RobotDescription) -> None:
     """14 candidates, K = 10: every budget's bound lies between the best subset and the root's, and it falls
     (weakly) as the node budget grows, down to the optimum when the search closes."""

@@ -91,6 +91,7 @@ def test_min_spread_between_chosen_and_fixed_poses(desc: RobotDescription) -> No
 
 
 @pytest.mark.parametrize("criterion", list(Criterion))
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_bound_holds_under_constraints_by_brute_force(desc: RobotDescription, criterion: Criterion) -> None:
     """16 candidates, a joint sub-range leaves some, K = 10 with a min spread: every feasible subset is below the
     bound, and the design is feasible and no better than the best feasible subset."""
@@ -137,6 +138,7 @@ def test_d_efficiency_floor_for_the_condition_design(desc: RobotDescription) -> 
         design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0.9999)
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_condition_design_keeps_d_efficiency_by_default(desc: RobotDescription) -> None:
     """Omitted, the condition design's floor is 0.9 (soft: lowered to what the D design reaches); 0 turns it off."""
     joints = sample_workspace(desc, 300, seed=86)

@@ -24,6 +24,7 @@ def _exhaustive(info, criterion: Criterion, design, pool) -> np.ndarray:  # type
 
 
 @pytest.mark.parametrize("criterion", [Criterion.E, Criterion.CONDITION])
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_the_best_swap_is_the_exhaustive_one_also_with_swaps_excluded(
     desc: RobotDescription, criterion: Criterion
 ) -> None:

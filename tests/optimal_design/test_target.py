@@ -78,6 +78,7 @@ def test_unreachable_target_says_what_can_be_reached(desc: RobotDescription, joi
     assert result.count <= N and result.design is not None
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_augmentation_with_a_target(desc: RobotDescription, joints: np.ndarray) -> None:
     """'I measured these 12; how many more for x mm?', against a scan of K with the same fixed poses."""
     measured = sample_workspace(desc, 12, seed=72)

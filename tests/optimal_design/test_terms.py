@@ -23,6 +23,7 @@ def _kappa_sigma(joints: np.ndarray, temps: np.ndarray, free: tuple[int, ...]) -
     return float(np.sqrt(cov[k, k]) * THERMAL.parameters.scales[THERMAL.parameters.index["thermal.legs"]] * 1e6)
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_design_over_temperature_levels_spreads_them_and_informs_kappa() -> None:
     design = design_poses(THERMAL, 30, "D", candidate_count=300, seed=3, levels=LEVELS)
     assert {"thermal.legs", "thermal.axes"} <= set(design.identifiable)

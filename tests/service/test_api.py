@@ -227,6 +227,7 @@ def test_jobs_in_a_worker_process(tmp_path: object) -> None:
         assert c.get(f"/v1/robots/{rid}/parameters").json()["version"] == 2
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_pose_design_for_a_target_accuracy(client: TestClient, robot_id: str) -> None:
     url = f"/v1/robots/{robot_id}/pose-designs"
     body = {"target": {"rms_tcp_mm": 0.03}, "candidate_count": 300, "seed": 3}
@@ -269,6 +270,7 @@ def test_error_analysis_with_tolerances_the_robot_cannot_be_assembled_with_is_42
 
 
 @pytest.mark.serial  # a 0.5 s branch-and-bound budget kept to 0.3 s of wall time: alone on the cores
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_pose_design_with_branch_and_bound_tightens_its_certificate(client: TestClient, robot_id: str) -> None:
     body = {"count": 20, "criterion": "D", "candidate_count": 300, "seed": 3}
     plain = client.post(f"/v1/robots/{robot_id}/pose-designs", json=body).json()

@@ -37,6 +37,7 @@ def _calibrate(client: TestClient, robot_id: str, body: dict[str, object]) -> tu
     return r.status_code, r.json()
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_noise_stated_five_times_too_small_is_stored_not_applied(client: TestClient, robot_id: str) -> None:
     recs = _campaign(1, noise=0.125)  # the tracker is 5× noisier than the default σ the body states
     status, body = _calibrate(client, robot_id, {"measurements": recs})
@@ -113,6 +114,7 @@ def test_records_carry_their_own_sigma(client: TestClient, robot_id: str) -> Non
     assert status == 422 and "sigma_mm" in str(problem["detail"])
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_three_blunders_are_excluded_by_default_and_named(client: TestClient, robot_id: str) -> None:
     recs = _campaign(5, n=60)
     rng = np.random.default_rng(6)
@@ -158,6 +160,7 @@ def test_an_excel_csv_calibrates_and_a_stripped_one_is_explained(client: TestCli
     assert r.status_code == 400 and "--data-binary" in r.json()["detail"]
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_joint_and_point_files_from_the_controller_and_spatial_analyzer(client: TestClient, robot_id: str) -> None:
     recs = _campaign(8, n=45)
     names = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]

@@ -1,8 +1,8 @@
-"""The committed OpenAPI document, the error table, and property-based contract tests (schemathesis)."""
+"""Property-based contract tests (schemathesis) of every operation, and the response checker they share with the
+API tests. (The committed OpenAPI document and the error table: tests/service/test_openapi_snapshot.py.)"""
 
 from __future__ import annotations
 
-import inspect
 import json
 from collections.abc import Iterator
 from pathlib import Path
@@ -14,29 +14,12 @@ from hypothesis import HealthCheck, settings
 from schemathesis.checks import not_a_server_error
 from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
 
-from models import errors as domain
-from service import errors
 from service.app import create_app
-from service.openapi_dump import SNAPSHOT, render
-from service.problems import PROBLEMS
 from service.settings import Settings
 from tests.service.contract_check import ContractChecker
 
-
-def test_committed_openapi_matches_the_app() -> None:
-    assert SNAPSHOT.read_text() == render(), "run `python -m service.openapi_dump` and commit service/openapi.json"
-
-
-def test_every_domain_and_service_error_has_a_problem() -> None:
-    members = inspect.getmembers(domain, inspect.isclass)
-    domain_classes = [c for _, c in members if issubclass(c, domain.CalibrationError)]
-    service_classes = [c for _, c in inspect.getmembers(errors, inspect.isclass) if issubclass(c, errors.ServiceError)]
-    assert len(domain_classes) >= 12 and len(service_classes) >= 7
-    unmapped = [c.__name__ for c in (*domain_classes, *service_classes) if c not in PROBLEMS]
-    assert not unmapped, f"add these classes to service.problems.PROBLEMS: {unmapped}"
-    assert all(400 <= PROBLEMS[c][0] < 500 for c in domain_classes), "the caller's data is never a 5xx"
-    slugs = [slug for _, slug, _ in PROBLEMS.values()]
-    assert len(slugs) == len(set(slugs)), "one type per class"
+# Outside the inner loop: schemathesis builds its cases at import, ~8 s of CPU per pytest process.
+pytestmark = pytest.mark.slow
 
 
 _DB = Path(__import__("tempfile").mkdtemp()) / "contract.db"

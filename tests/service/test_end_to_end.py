@@ -4,6 +4,7 @@ the calibrated forward kinematics against the truth, and compensate targets."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, iwr, sample_workspace
@@ -14,6 +15,7 @@ from tests.service.helpers import records
 DESC = iwr()
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_design_measure_calibrate_compensate(client: TestClient) -> None:
     robot = client.post("/v1/robots", json={"name": "cell-7", "model": "iwr"}).json()
     rid = robot["id"]

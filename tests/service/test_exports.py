@@ -25,6 +25,7 @@ def _fk(client: TestClient, robot_id: str, joints: list[list[float]]) -> list[di
 
 
 @pytest.mark.parametrize("media", ["application/json", "text/csv"])
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_an_export_reimports_to_the_same_fk(client: TestClient, robot_id: str, media: str) -> None:
     sim = perturbed_robot(DESC, seed=111)
     recs = records(DESC, sim, sample_workspace(DESC, 40, seed=112), seed=113)

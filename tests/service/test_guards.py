@@ -138,6 +138,7 @@ def test_a_large_kinematics_body_is_validated_in_the_compute_task_not_on_the_loo
     assert text.status_code == 415
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_large_declared_body_is_validated_off_the_loop_as_the_routes_model(
     client: TestClient, robot_id: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:

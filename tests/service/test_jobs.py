@@ -171,6 +171,7 @@ def test_cancel_a_queued_job_at_once_and_a_running_one_at_its_next_progress_poin
 
 
 @pytest.mark.serial  # a 0.3 s lease renewed by a thread during IPOPT: a starved heartbeat would lapse
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_the_lease_is_renewed_through_a_long_ipopt_solve(db: Database, registry: Registry) -> None:
     """The heartbeat is a thread: it must keep renewing while IPOPT runs (CasADi releases the GIL)."""
     robot_id = _robot(db)
@@ -221,6 +222,7 @@ def test_queue_full_answers_429_with_retry_after(tmp_path: Path) -> None:
         assert c.post(f"/v1/robots/{rid}/pose-designs?async=true", json=body).status_code == 202
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_list_newest_first_with_filters_and_progress(client: TestClient, robot_id: str) -> None:
     body = {"count": 12, "criterion": "D", "candidate_count": 200, "seed": 1}
     ids = [client.post(f"/v1/robots/{robot_id}/pose-designs?async=true", json=body).json()["job_id"] for _ in range(3)]

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, iwr, sample_workspace
@@ -55,6 +56,7 @@ def _values(client: TestClient, robot_id: str, version: int | None = None) -> di
     return {p["name"]: p["value"] for p in params}
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_base_only_refit_keeps_the_calibrated_geometry(client: TestClient, robot_id: str) -> None:
     sim = perturbed_robot(DESC, seed=21)
     full = client.post(
@@ -112,6 +114,7 @@ def _validation_error_of(theta: np.ndarray, sim: SimulatedRobot, seed: int) -> f
     return float(np.sqrt(np.mean(np.sum((predicted - truth) ** 2, axis=1))))
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_start_version_is_chosen_and_checked(client: TestClient, robot_id: str) -> None:
     sim = perturbed_robot(DESC, seed=31)
     recs = records(DESC, sim, sample_workspace(DESC, 50, seed=32), seed=33)

@@ -44,6 +44,7 @@ def test_the_estimates_follow_the_measurements() -> None:
     assert limits.inverse_kinematics(100_000).seconds > limits.SYNC_BUDGET_S
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_over_the_budget_a_job_over_the_cap_nothing(client: TestClient, robot_id: str) -> None:
     url = f"/v1/robots/{robot_id}/calibrations"
     big = {"measurements": [RECORD] * 6000}  # 2.2 s estimated

@@ -33,6 +33,7 @@ def _candidates(n: int) -> list[list[float]]:
     return (sample_workspace(DESC, n, seed=1) * DESC.joint_to_boundary).tolist()
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_design_of_every_candidate_and_of_none(api: ContractClient) -> None:
     rid = _robot(api)
     every = api.post(f"/v1/robots/{rid}/pose-designs", json={"count": 40, "candidates": _candidates(40)})

@@ -31,6 +31,7 @@ class Refusing(Registry):
         raise AssertionError(f"a models call fell back to the default registry (structure {desc.structure!r})")
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_every_operation_uses_the_apps_registry(tmp_path: Path, registry: Registry) -> None:
     # The truth, computed before the default registry is refused: a perturbed robot and its measurements.
     sim = perturbed_robot(DESC, seed=17)

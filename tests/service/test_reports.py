@@ -47,6 +47,7 @@ def _calibration(client: TestClient, robot_id: str) -> tuple[dict[str, object], 
     return body, np.array([r["position"] for r in recs], dtype=float)
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_html_report_shows_the_api_numbers_and_real_figures(client: TestClient, robot_id: str) -> None:
     body, positions = _calibration(client, robot_id)
     names = list(body["identifiable"])  # type: ignore[call-overload]

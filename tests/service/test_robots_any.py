@@ -4,6 +4,7 @@ vectors of their own length, exported as URDF and as a document that POST /v1/ro
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, sample_workspace
@@ -87,6 +88,7 @@ def test_a_csv_campaign_with_the_robots_header(client: TestClient) -> None:
     assert ik.status_code == 200 and ik.text.startswith("q1,q2,q3,q4,q5,q6,q7\n")
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_csv_outputs_use_the_robots_joint_header(client: TestClient) -> None:
     # A hexapod alone: its joints are the legs, so every CSV the service writes heads them l1 … l6 (robots.md),
     # never q1 … or the IWR's ten columns.

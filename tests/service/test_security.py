@@ -50,6 +50,7 @@ def _url(template: str) -> str:
 
 @pytest.mark.parametrize(("method", "template"), TABLE, ids=[f"{m} {t}" for m, t in TABLE])
 @pytest.mark.parametrize("scope", [None, *Scope], ids=["no key", *(s.name for s in Scope)])
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_scope_on_route(api: ContractClient, method: str, template: str, scope: Scope | None) -> None:
     """Each route with no key, a wrong key and a key of each scope: 401, 403 below the route's scope, past the
     check otherwise (the body here is empty, so past the check means 404, 422 or 415, never 401 or 403)."""
@@ -108,6 +109,7 @@ def test_bare_keys_stay_write_keys_and_a_file_holds_hashes(tmp_path: Path) -> No
 
 
 @pytest.mark.parametrize(("metrics_public", "docs_public"), [(False, True), (True, False)])
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_metrics_and_docs_behind_a_key_by_setting(tmp_path: Path, metrics_public: bool, docs_public: bool) -> None:
     settings = Settings(
         database_url=f"sqlite:///{tmp_path}/m.db",

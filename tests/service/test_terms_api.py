@@ -6,6 +6,7 @@ models directly."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, iwr, sample_workspace
@@ -39,6 +40,7 @@ def _campaign(seed: int = 3) -> tuple[SimulatedRobot, list[dict[str, object]], n
     return sim, recs, temps
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_thermal_calibration_then_fk_and_ik_at_a_temperature(client: TestClient, robot_id: str) -> None:
     _, recs, _ = _campaign()
     url = f"/v1/robots/{robot_id}/calibrations"
@@ -109,6 +111,7 @@ def test_a_thermal_calibration_then_fk_and_ik_at_a_temperature(client: TestClien
     assert params3["thermal.legs"]["value"] == kappa["value"]
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_geometric_calibration_of_thermal_data_names_the_missing_term(client: TestClient, robot_id: str) -> None:
     _, recs, _ = _campaign()
     r = client.post(f"/v1/robots/{robot_id}/calibrations", json={"measurements": recs, "apply": False})
@@ -120,6 +123,7 @@ def test_a_geometric_calibration_of_thermal_data_names_the_missing_term(client: 
     assert any("temperature term may be missing" in n for n in body["notes"])
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_csv_keeps_the_temperature_column(client: TestClient, robot_id: str) -> None:
     _, recs, _ = _campaign()
     lines = ["q1,q2,q3,q4,l1,l2,l3,l4,l5,l6,x,y,z,qw,qx,qy,qz,temperature_c"]
@@ -157,6 +161,7 @@ def test_bad_term_requests_are_422_naming_the_field(client: TestClient, robot_id
     assert r.status_code == 422
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_pose_design_for_the_thermal_term_spreads_the_temperatures(client: TestClient, robot_id: str) -> None:
     url = f"/v1/robots/{robot_id}/pose-designs"
     body = {"count": 30, "candidate_count": 200, "terms": ["thermal"], "temperature_levels_c": [16, 22, 28]}

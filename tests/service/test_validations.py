@@ -98,6 +98,7 @@ def test_bad_validations_are_refused_and_store_nothing(client: TestClient, robot
     assert client.post(f"/v1/robots/{robot_id}/iso9283-poses", json={"seed": -1}).status_code == 422
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_iso_cube_on_a_simulated_robot_with_known_truth(client: TestClient, robot_id: str) -> None:
     """Calibrate, ask for the ISO cube from the calibrated version, measure it in 30 cycles on the true robot:
     AP of each pose is the true model error there, within the noise of 30 cycles, for both versions."""

@@ -218,6 +218,7 @@ def test_the_campaign_behind_a_calibration(client: TestClient, robot_id: str) ->
     assert client.get("/v1/campaigns/nope").status_code == 404
 
 
+@pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_an_async_calibration_is_audited_under_its_submitter(client: TestClient, robot_id: str) -> None:
     sim = perturbed_robot(DESC, seed=77)
     body = {"measurements": records(DESC, sim, sample_workspace(DESC, 40, seed=78), seed=79)}
