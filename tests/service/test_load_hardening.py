@@ -13,7 +13,8 @@ HEALTHZ_P99_S = 2 * bench_hardening.HEALTHZ_P99_S
 slowest): measured 21-28 ms here at load average ~2.5 (this test alone), 52-190 ms at 4-6 with other builds."""
 REFUSAL_S = 2 * bench_hardening.REFUSAL_BUDGET_S
 """Twice the issue's 1 s, for the same reason: alone on the machine the slowest refusal took 0.07-0.86 s (a
-chunked 25 MB body, drained before its 413), the others at most 0.49 s."""
+chunked 25 MB body, drained before its 413), the others at most 0.49 s; 1.1-1.2 s on 2026-12-02, a day this
+machine ran everything ~1.5x slower. (The assertion had drifted to the bare 1 s; `make bench` reports against it.)"""
 
 
 def test_mixed_load_with_oversized_requests() -> None:
@@ -22,8 +23,8 @@ def test_mixed_load_with_oversized_requests() -> None:
     assert result["rss_peak_mb"] * 1e6 <= bench_hardening.MEMORY_CEILING_BYTES, result
     for kind in ("calibration", "fk", "fk_large", "ik_at_budget"):  # each within its wait, deadline and stop
         assert result[f"{kind}_max_s"] <= bench_hardening.COMPUTE_BUDGET_S, (kind, result)
-    for kind in bench_hardening.REFUSALS:  # the issue's 1 s, as their own processes see the answers
-        assert result[f"{kind}_count"] >= 2 and result[f"{kind}_max_s"] <= bench_hardening.REFUSAL_BUDGET_S, (
+    for kind in bench_hardening.REFUSALS:  # twice the issue's 1 s (REFUSAL_S), as their own processes see them
+        assert result[f"{kind}_count"] >= 2 and result[f"{kind}_max_s"] <= REFUSAL_S, (
             kind,
             result,
         )
