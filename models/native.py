@@ -148,7 +148,6 @@ def _build_lock(library: Path) -> Iterator[None]:
 
 
 def _build(source: str, library: Path) -> None:
-    library.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=library.parent) as tmp:
         c_file = Path(tmp) / "functions.c"
         c_file.write_text(source)

@@ -329,8 +329,10 @@ class EffectiveJoints:
         if self.value is None:
             return direct
         # The joints' own Jacobian once per variable set (q, params, platform), shared by every expression.
-        of_value = self._of_value.setdefault(id(wrt), ca.jacobian(self.value, wrt))
-        return direct + ca.jacobian(expr, self.seen) @ of_value
+        key = id(wrt)
+        if key not in self._of_value:
+            self._of_value[key] = ca.jacobian(self.value, wrt)
+        return direct + ca.jacobian(expr, self.seen) @ self._of_value[key]
 
     def at(self, expr: ca.SX) -> ca.SX:
         return expr if self.value is None else ca.substitute(expr, self.seen, self.value)
