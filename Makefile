@@ -14,20 +14,26 @@ LOCK_FLAGS := --quiet --no-emit-index-url --no-emit-find-links --no-emit-trusted
 
 .PHONY: install install-runtime lock test test-fast lint typecheck pytest bench run clean error-analysis browser fuzz
 
+# The installer is uv, itself pinned: it installs the dev lock in ~6 s where pip took ~60 s (downloads in
+# parallel, no bytecode compiled up front; measured on a clean venv here, 2026-12-02), which is a tenth of
+# `make test`'s ten minutes on a clean clone. The venv's own pip installs only uv.
+UV_VERSION := 0.13.9
+UV := $(BIN)/uv pip install --quiet --python $(BIN)/python
+
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet uv==$(UV_VERSION)
 
 # The developer's install: runtime + tools, exactly as locked, then the project itself without re-resolving.
 $(STAMP): $(DEV_LOCK) pyproject.toml | $(VENV)/bin/python
-	$(BIN)/pip install --quiet -r $(DEV_LOCK)
-	$(BIN)/pip install --quiet --no-deps -e .
+	$(UV) -r $(DEV_LOCK)
+	$(UV) --no-deps -e .
 	touch $(STAMP) $(RUNTIME_STAMP)
 
 # A user's install (`make run`): the runtime lock only, none of the dev tools.
 $(RUNTIME_STAMP): $(RUNTIME_LOCK) pyproject.toml | $(VENV)/bin/python
-	$(BIN)/pip install --quiet -r $(RUNTIME_LOCK)
-	$(BIN)/pip install --quiet --no-deps -e .
+	$(UV) -r $(RUNTIME_LOCK)
+	$(UV) --no-deps -e .
 	touch $(RUNTIME_STAMP)
 
 install: $(STAMP)
