@@ -35,7 +35,7 @@ def _start(cache_dir: str) -> tuple[float, float]:
 def run() -> dict[str, object]:
     with tempfile.TemporaryDirectory() as cache:
         import_s, cold_build = _start(cache)  # empty cache: derive + generate C + compile
-        _, warm_build = _start(cache)  # library on disk: derive + load
+        _, warm_build = _start(cache)  # library on disk: derive + hash + load
     desc = iwr()
     runtime = Registry().runtime(desc)  # the benchmark's own, like an application's
     fns = runtime.kinematics
