@@ -277,7 +277,8 @@ def _children(pid: int) -> set[int]:
 @pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGKILL])
 def test_the_embedded_pool_dies_with_its_server(tmp_path: Path, stop: signal.Signals) -> None:
     """Its workers never outlive the server: after SIGTERM (shutdown stops them) and after kill -9 (each
-    notices its parent is gone)."""
+    notices its parent is gone). SIGTERM is a clean stop: status 0 and no semaphores left to the resource
+    tracker (service/__main__.py's handler)."""
     port = free_port()
     env = {**os.environ, "DATABASE_URL": f"sqlite:///{tmp_path}/e.db", "IWR_JOB_WORKERS": "2", "IWR_WARM_UP": "0"}
     server = subprocess.Popen(
@@ -285,7 +286,7 @@ def test_the_embedded_pool_dies_with_its_server(tmp_path: Path, stop: signal.Sig
         cwd=ROOT,
         env=env,
         stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
+        stderr=(stderr := (tmp_path / "stderr").open("wb")),
     )
     try:
         base = f"http://127.0.0.1:{port}"
@@ -311,10 +312,17 @@ def test_the_embedded_pool_dies_with_its_server(tmp_path: Path, stop: signal.Sig
         while (alive := {p for p in pool if Path(f"/proc/{p}").exists()}) and time.monotonic() < deadline:
             time.sleep(0.1)
         assert not alive, f"pool processes {alive} outlived the server ({stop.name})"
+        if stop == signal.SIGTERM:
+            # The resource tracker, a process of its own, writes its warning when the last holder has gone.
+            time.sleep(1)
+            log = (tmp_path / "stderr").read_text()
+            assert server.returncode == 0, log[-3000:]
+            assert "leaked semaphore" not in log, log[-3000:]
     finally:
         if server.poll() is None:
             server.kill()
             server.wait()
+        stderr.close()
 
 
 @pytest.mark.slow  # a 2 000-candidate design, cancelled mid-way: ~5 s
