@@ -20,10 +20,9 @@ from fastapi.testclient import TestClient
 from hypothesis import HealthCheck, Phase, settings
 from schemathesis.checks import not_a_server_error
 from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
-from sqlalchemy import create_engine
-from sqlalchemy.pool import NullPool
 
 from service.app import create_app
+from service.persistence import Database
 from service.persistence.tables import Base
 from service.settings import Settings
 from tests.service.conftest import POSTGRES_ADMIN
@@ -101,20 +100,20 @@ def test_api_contract_on_postgresql(postgres_app: TestClient, case: schemathesis
 
 
 def _empty(database_url: str) -> None:
-    """Delete every row, through a connection of our own that is closed at once.
+    """Delete every row, through a Database of our own, disposed at once.
 
     Not through `app.state.db`: schemathesis runs the app's lifespan once per test (and ends it at the test's
     teardown), and each run replaces `app.state.db`, so before the test's first call it names the previous
     test's Database, already disposed. A session on it opened a connection in a fresh pool that nobody would
     close: the psycopg ResourceWarning ("deleted while still open") seen in later tests, traced here.
     """
-    engine = create_engine(database_url, poolclass=NullPool)
+    db = Database(database_url)
     try:
-        with engine.begin() as connection:
+        with db.session() as s:
             for table in reversed(Base.metadata.sorted_tables):
-                connection.execute(table.delete())
+                s.execute(table.delete())
     finally:
-        engine.dispose()
+        db.dispose()  # the connection is checked in by then: dispose closes it
 
 
 def _machine(schema: Any, app: Any) -> Any:
