@@ -54,7 +54,7 @@ class _Layout:
 
     @classmethod
     def of(cls, desc: RobotDescription) -> _Layout:
-        if desc.has_hexapod:
+        if desc.has_closure:
             raise ValueError("the numpy baseline models serial arms only")
         index = desc.parameters.index
         rows = []

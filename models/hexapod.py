@@ -64,11 +64,13 @@ def _per_leg(value: float | tuple[float, ...]) -> tuple[float, ...]:
 
 
 def hexapod_parameter_specs(
-    geometry: HexapodGeometry, joint_scale: float, offset_scale: float, group: str = "hexapod"
+    geometry: HexapodGeometry, joint_scale: float, offset_scale: float, group: str = "hexapod", first: int = 1
 ) -> list[ParameterSpec]:
+    """The legs' parameters, named `leg{i}.{field}` from i = `first` (legs are numbered across stages)."""
     specs = []
-    for i in range(N_LEGS):
-        values = (*geometry.base_joints[i], *geometry.platform_joints[i], geometry.leg_offsets[i])
+    for i in range(first - 1, first - 1 + N_LEGS):
+        k = i - first + 1
+        values = (*geometry.base_joints[k], *geometry.platform_joints[k], geometry.leg_offsets[k])
         for field, value in zip(LEG_FIELDS, values, strict=True):
             specs.append(
                 ParameterSpec(

@@ -10,6 +10,7 @@ from models._types import IDENTITY, Pose6
 from models.hexapod import HexapodGeometry
 from models.robot import RobotDescription
 from models.serial_chain import DHLink, JointType
+from models.stages import HexapodStage, SerialStage
 
 _DEG = float(np.pi / 180.0)
 
@@ -49,4 +50,6 @@ IWR_HEXAPOD = HexapodGeometry(
 @lru_cache(maxsize=256)
 def iwr(base: Pose6 = IDENTITY, tool: Pose6 = IDENTITY) -> RobotDescription:
     """The IWR description; `base` and `tool` are the user's nominal guesses (mm, rotation vector rad)."""
-    return RobotDescription(name="iwr", links=IWR_LINKS, hexapod=IWR_HEXAPOD, base=base, tool=tool)
+    return RobotDescription(
+        name="iwr", stages=(SerialStage(IWR_LINKS), HexapodStage(IWR_HEXAPOD)), base=base, tool=tool
+    )

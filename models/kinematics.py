@@ -100,9 +100,9 @@ def solve_platforms(
     n = joints.shape[0]
     theta = np.asarray(params, dtype=float)
     x = np.tile(np.asarray(desc.platform_home, dtype=float), (n, 1)) if seeds is None else np.array(seeds, dtype=float)
-    if not desc.has_hexapod:
+    if not desc.has_closure:
         # No platform to solve: the graphs ignore it (see `models.symbolic`).
-        return np.zeros((n, 6)), np.zeros(n)
+        return np.zeros((n, desc.n_platform)), np.zeros(n)
     todo = np.arange(n)
     closure = np.full(n, np.inf)
     for _ in range(MAX_NEWTON_CALLS):
@@ -116,37 +116,32 @@ def solve_platforms(
     return x, closure
 
 
-def hexapod_condition(
-    desc: RobotDescription, platforms: Array, params: ArrayLike, *, runtime: Runtime | None = None
-) -> Array:
-    """Condition number of the hexapod Jacobian (eq. 48), rotations scaled by the platform radius.
-
-    Unit-free; grows without bound near a singularity.
+def hexapod_condition(desc: RobotDescription, platforms: Array, params: ArrayLike) -> Array:
+    """Condition number of the hexapod Jacobian (eq. 48), rotations scaled by the platform radius: unit-free,
+    without bound near a singularity; the worst parallel stage's where there are several (NaN without one).
     """
-    if desc.hexapod is None:
-        return np.full(platforms.shape[0], np.nan)  # no hexapod: no hexapod condition
-    fns = runtime_for(desc, runtime).kinematics
-    hp = np.asarray(params, dtype=float)[desc.slices["hexapod"]]
-    (blocks,) = fns.batch("hexapod_jacobian", platforms, hp)
-    blocks[:, :, 3:] /= desc.hexapod.characteristic_length
-    # Eigenvalues of JᵀJ (symmetric 6x6) cost a third of an SVD; accurate for conditions up to ~1e7,
-    # far beyond any usable pose.
-    eig = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", blocks, blocks))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(eig[:, 0] > 0, np.sqrt(eig[:, -1] / eig[:, 0]), np.inf)
+    if not desc.has_closure:
+        return np.full(platforms.shape[0], np.nan)  # no parallel stage: no condition of one
+    theta = np.asarray(params, dtype=float)
+    per_stage = [
+        desc.stages[k].conditioning(platforms[:, desc.placements[k].unknowns], theta[desc.placements[k].params])
+        for k in desc.closed_stages
+    ]
+    return np.asarray(np.max(per_stage, axis=0), dtype=float)
 
 
 def platform_envelope(desc: RobotDescription) -> tuple[Array, Array]:
-    assert desc.hexapod is not None, "only a hexapod has a platform envelope"
-    margin = np.array([ENVELOPE_MARGIN_MM] * 3 + [ENVELOPE_MARGIN_RAD] * 3)
-    return np.array(desc.hexapod.workspace_min) - margin, np.array(desc.hexapod.workspace_max) + margin
+    """(lo, hi) of the closures' unknowns with a margin: beyond it an assembly is another (a mirror) one."""
+    assert desc.has_closure, "only a parallel stage has a platform envelope"
+    lo, hi = desc.platform_limits
+    margin = np.tile([ENVELOPE_MARGIN_MM] * 3 + [ENVELOPE_MARGIN_RAD] * 3, lo.size // 6)
+    return lo - margin, hi + margin
 
 
-def check_assembly(
-    desc: RobotDescription, platforms: Array, closure: Array, params: ArrayLike, *, runtime: Runtime | None = None
-) -> None:
-    """UnreachablePose for the first pose whose legs do not assemble into a usable hexapod pose."""
-    if desc.hexapod is None:
+def check_assembly(desc: RobotDescription, platforms: Array, closure: Array, params: ArrayLike) -> None:
+    """UnreachablePose for the first pose whose legs do not assemble into a usable pose of every parallel
+    stage."""
+    if not desc.has_closure:
         return
     _refuse_first(
         ~(closure <= CLOSURE_TOLERANCE_MM),
@@ -162,12 +157,12 @@ def check_assembly(
         "outside_workspace",
         lambda i: (
             f"the leg lengths put the platform at "
-            f"{np.round(np.r_[platforms[i, :3], np.degrees(platforms[i, 3:])], 3).tolist()} (mm, deg), "
+            f"{np.round(np.r_[platforms[i, :3], np.degrees(platforms[i, 3:6])], 3).tolist()} (mm, deg), "
             "outside the hexapod's workspace"
         ),
     )
-    cond = hexapod_condition(desc, platforms, params, runtime=runtime)
-    limit = desc.hexapod.max_condition
+    cond = hexapod_condition(desc, platforms, params)
+    limit = min(desc.stages[k].max_condition for k in desc.closed_stages)
     _refuse_first(
         cond > limit,
         "near_singularity",
@@ -253,7 +248,7 @@ def forward_kinematics(
         check_joint_ranges(desc, q)
     cond = condition_inputs(desc.terms, conditions, q.shape[0]) if desc.terms.any and conditions else None
     platforms, closure = solve_platforms(desc, q, theta, seeds, runtime=rt, conditions=cond)
-    check_assembly(desc, platforms, closure, theta, runtime=rt)
+    check_assembly(desc, platforms, closure, theta)
     if jacobian:
         return pose_jacobian_batch(desc, q, theta, platforms, runtime=rt, conditions=cond)
     return pose_batch(desc, q, theta, platforms, runtime=rt, conditions=cond)

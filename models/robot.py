@@ -15,63 +15,128 @@ from collections.abc import Hashable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
+import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
 from models._types import IDENTITY, Pose6
 from models.errors import InvalidInput
-from models.hexapod import N_LEGS, PARAMS_PER_LEG, HexapodGeometry, hexapod_parameter_specs, platform_rotation
+from models.hexapod import N_LEGS, HexapodGeometry
 from models.parameters import Kind, ParameterScales, ParameterSpec, ParameterTable
-from models.serial_chain import Convention, DHLink, JointType, chain_transform, dh_parameter_specs
+from models.serial_chain import Convention, DHLink, JointType, chain_transform
+from models.stages import HexapodStage, Placement, Section, SerialStage, Stage
 from models.terms import ModelTerms
 from models.transforms import Sym, homogeneous, rotvec_to_matrix
 
 Structure = tuple[Hashable, ...]
 """What the CasADi graphs depend on: per link its convention, joint type and whether it has Hayati's `beta`,
-and where the hexapod stage sits (the number of links before it, or None without one). Geometry, base and
-tool are inputs of the graphs, never part of the key. No user string is in it."""
-
-HEXAPOD_STAGE = 0
-"""In `RobotDescription.stages`, a hexapod stage; a positive number is a serial stage of that many links."""
+and where the hexapod stage sits (the number of links before it, or None without one); other chains of stages
+are keyed by their stages' tokens. Geometry, base and tool are inputs of the graphs, never part of the key. No
+user string is in it."""
 
 
 @dataclass(frozen=True)
 class RobotDescription:
-    """A chain of stages (`shared/spec/robots.md`): serial links (all serial stages' links in order), at most
-    one hexapod, base and tool. `stages` keeps the document's stage boundaries: a serial stage is its number
-    of links, the hexapod `HEXAPOD_STAGE`; by default the links followed by the hexapod (the IWR's shape)."""
+    """A chain of stages (`shared/spec/robots.md`, `models.stages`) between a base and a tool.
+
+    The stages are kept in the document's order (the order of their frames); their joints and parameters are
+    laid out by section (every serial joint and link parameter before every leg), as robots.md orders them.
+    """
 
     name: str
-    links: tuple[DHLink, ...]
-    hexapod: HexapodGeometry | None
+    stages: tuple[Stage, ...]
     base: Pose6 = IDENTITY
     """World <- {0}: x, y, z (mm), rotation vector (rad)."""
     tool: Pose6 = IDENTITY
     """{last frame} -> TCP: x, y, z (mm), rotation vector (rad)."""
     scales: ParameterScales = field(default_factory=ParameterScales)
     """Expected error per parameter kind: the column scaling of identification and design."""
-    stages: tuple[int, ...] | None = None
     terms: ModelTerms = field(default_factory=ModelTerms)
     """Model terms beyond geometry (`models.terms`): off by default."""
 
+    # ------------------------------------------------------------ stages
     @cached_property
-    def stage_layout(self) -> tuple[int, ...]:
-        if self.stages is not None:
-            return self.stages
-        serial = (len(self.links),) if self.links else ()
-        return serial + ((HEXAPOD_STAGE,) if self.hexapod is not None else ())
+    def placements(self) -> tuple[Placement, ...]:
+        """Where each stage's joints, unknowns and parameters sit (`models.stages.Placement`), in stage order."""
+        joint_at = {Section.LINKS: 0, Section.LEGS: sum(s.n_joints for s in self.stages if s.section < Section.LEGS)}
+        n_links_params = sum(s.n_params for s in self.stages if s.section is Section.LINKS)
+        param_at = {Section.LINKS: 6, Section.LEGS: 6 + n_links_params}
+        number = {Section.LINKS: 1, Section.LEGS: 1}
+        joint_number = {Section.LINKS: 1, Section.LEGS: 1}
+        unknown_at = 0
+        out = []
+        for i, stage in enumerate(self.stages):
+            sec = stage.section
+            out.append(
+                Placement(
+                    index=i,
+                    joints=slice(joint_at[sec], joint_at[sec] + stage.n_joints),
+                    unknowns=slice(unknown_at, unknown_at + stage.n_unknowns),
+                    params=slice(param_at[sec], param_at[sec] + stage.n_params),
+                    first_item=number[sec],
+                    first_joint=joint_number[sec],
+                )
+            )
+            joint_at[sec] += stage.n_joints
+            param_at[sec] += stage.n_params
+            number[sec] += stage.n_items
+            joint_number[sec] += stage.n_joints
+            unknown_at += stage.n_unknowns
+        return tuple(out)
+
+    @cached_property
+    def by_section(self) -> tuple[tuple[Stage, Placement], ...]:
+        """The stages with their placements in the order of the robot's vectors (serial, then parallel)."""
+        pairs = zip(self.stages, self.placements, strict=True)
+        return tuple(sorted(pairs, key=lambda sp: (sp[0].section, sp[1].index)))
+
+    @cached_property
+    def links(self) -> tuple[DHLink, ...]:
+        """Every DH/MDH link of the robot, in order (numbered 1, 2, … across its serial stages)."""
+        return tuple(link for stage in self.stages for link in stage.dh_links)
+
+    @cached_property
+    def closed_stages(self) -> tuple[int, ...]:
+        """Indices of the stages with unknowns pinned by closure equations (parallel stages)."""
+        return tuple(i for i, stage in enumerate(self.stages) if stage.n_unknowns)
+
+    @property
+    def has_closure(self) -> bool:
+        """Whether some joints act through closure equations (a parallel stage): forward kinematics is then a
+        root, not a product."""
+        return bool(self.closed_stages)
+
+    @cached_property
+    def n_unknowns(self) -> int:
+        """The closures' unknowns: 6 per platform pose."""
+        return sum(stage.n_unknowns for stage in self.stages)
+
+    @property
+    def n_platform(self) -> int:
+        """Rows of the graphs' `platform` input: the closures' unknowns, or 6 pinned by g = x without any (one
+        signature for every structure, see `models.symbolic`)."""
+        return self.n_unknowns or 6
+
+    @cached_property
+    def hexapod(self) -> HexapodGeometry | None:
+        """The hexapod's geometry, for the hexapod-specific models (terms, the hexapod alone); None without one.
+        Several parallel stages are composed by the symbolic model but have no such single geometry."""
+        found = [stage.geometry for stage in self.stages if isinstance(stage, HexapodStage)]
+        if len(found) > 1:
+            raise InvalidInput(
+                "this operation models a single hexapod; the robot has several parallel stages", field="stages"
+            )
+        return found[0] if found else None
 
     @cached_property
     def hexapod_at(self) -> int | None:
         """How many links come before the hexapod stage (None: no hexapod)."""
-        if self.hexapod is None:
-            return None
         before = 0
-        for size in self.stage_layout:
-            if size == HEXAPOD_STAGE:
+        for stage in self.stages:
+            if isinstance(stage, HexapodStage):
                 return before
-            before += size
-        return before
+            before += len(stage.dh_links)
+        return None
 
     @cached_property
     def structure(self) -> Structure:
@@ -85,7 +150,11 @@ class RobotDescription:
 
     @cached_property
     def geometric_structure(self) -> Structure:
-        if self.hexapod is not None and self.hexapod_at == len(self.links) and self.is_classic:
+        parallel = sum(stage.n_unknowns > 0 for stage in self.stages)
+        known = all(isinstance(stage, SerialStage | HexapodStage) for stage in self.stages)
+        if parallel > 1 or not known:
+            return ("stages", tuple((stage.kind, stage.token) for stage in self.stages))
+        if self.hexapod_at == len(self.links) and self.is_classic:
             # The IWR's shape keeps its key of joint types alone.
             return tuple(link.joint for link in self.links)
         return (tuple(link.token for link in self.links), self.hexapod_at)
@@ -106,6 +175,11 @@ class RobotDescription:
 
     def with_terms(self, terms: ModelTerms) -> RobotDescription:
         """This robot with `terms`; InvalidInput (field `terms`) when a term has nothing to act on."""
+        if terms.any and len(self.closed_stages) > 1:
+            raise InvalidInput(
+                "the thermal and compliance terms model one hexapod; this robot has several parallel stages",
+                field="terms",
+            )
         if terms.thermal and self.hexapod is None and not self.has_prismatic:
             raise InvalidInput(
                 "the thermal term acts on hexapod legs and prismatic axes; this robot has neither",
@@ -123,34 +197,32 @@ class RobotDescription:
 
     @property
     def is_classic(self) -> bool:
-        """Standard-DH moving links followed by a hexapod: the IWR's shape, whose parameter groups keep the
-        IWR's names (`carriage`, `hexapod`)."""
-        return self.hexapod is not None and all(
-            link.convention is Convention.DH and link.joint.moves for link in self.links
+        """Standard-DH moving links and one hexapod: the IWR's shape, whose parameter groups keep the IWR's
+        names (`carriage`, `hexapod`)."""
+        return (
+            len(self.closed_stages) == 1
+            and self.hexapod_at is not None
+            and all(link.convention is Convention.DH and link.joint.moves for link in self.links)
         )
 
     @property
-    def has_hexapod(self) -> bool:
-        return self.hexapod is not None
-
-    @property
     def n_ik(self) -> int:
-        """Unknowns of the inverse kinematics: the serial joints, and the platform pose (6) of a hexapod."""
-        return self.n_chain + (6 if self.hexapod is not None else 0)
+        """Unknowns of the inverse kinematics: the serial joints, and the closures' unknowns (platform poses)."""
+        return self.n_chain + self.n_unknowns
 
     # ------------------------------------------------------------ joints
     @cached_property
     def n_chain(self) -> int:
-        """Serial joints (fixed links have none)."""
-        return sum(link.joint.moves for link in self.links)
+        """Serial joints (fixed links have none): the joints before the legs."""
+        return sum(stage.n_joints for stage in self.stages if stage.section is Section.LINKS)
 
     @property
     def n_legs(self) -> int:
-        return N_LEGS if self.hexapod is not None else 0
+        return self.n_joints - self.n_chain
 
-    @property
+    @cached_property
     def n_joints(self) -> int:
-        return self.n_chain + self.n_legs
+        return sum(stage.n_joints for stage in self.stages)
 
     @cached_property
     def moving_links(self) -> tuple[DHLink, ...]:
@@ -158,50 +230,48 @@ class RobotDescription:
 
     @cached_property
     def joint_names(self) -> tuple[str, ...]:
-        return tuple(f"q{i + 1}" for i in range(self.n_chain)) + tuple(f"l{i + 1}" for i in range(self.n_legs))
+        return tuple(name for stage, at in self.by_section for name in stage.joint_names(at.first_joint))
 
     @cached_property
     def joint_kinds(self) -> tuple[Kind, ...]:
-        return tuple(link.joint.kind for link in self.moving_links) + (Kind.LENGTH,) * self.n_legs
+        return tuple(kind for stage, _ in self.by_section for kind in stage.joint_kinds())
 
     @cached_property
     def joint_min(self) -> NDArray[np.float64]:
-        legs = [] if self.hexapod is None else list(self.hexapod.stroke_mins)
-        return np.array([link.joint_min for link in self.moving_links] + legs, dtype=float)
+        return np.concatenate([stage.joint_limits()[0] for stage, _ in self.by_section]).astype(float)
 
     @cached_property
     def joint_max(self) -> NDArray[np.float64]:
-        legs = [] if self.hexapod is None else list(self.hexapod.stroke_maxs)
-        return np.array([link.joint_max for link in self.moving_links] + legs, dtype=float)
+        return np.concatenate([stage.joint_limits()[1] for stage, _ in self.by_section]).astype(float)
 
     @cached_property
     def joint_to_boundary(self) -> NDArray[np.float64]:
         """Factor from internal joint units (mm, rad) to boundary units (mm, deg)."""
         return np.array([k.to_boundary for k in self.joint_kinds])
 
-    @property
-    def platform_home(self) -> Pose6:
-        """The hexapod's home pose, the first guess of its forward kinematics (zeros without a hexapod: the
+    @cached_property
+    def platform_home(self) -> tuple[float, ...]:
+        """The closures' unknowns at home, the first guess of the forward kinematics (zeros without any: the
         platform variable of the graphs is then unused and solved in one step)."""
-        return self.hexapod.home if self.hexapod is not None else IDENTITY
+        home = tuple(v for stage in self.stages for v in stage.unknown_home())
+        return home or IDENTITY
+
+    @cached_property
+    def platform_limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(lo, hi) of the closures' unknowns (n_unknowns each): their workspace."""
+        lo = [stage.unknown_limits()[0] for stage in self.stages]
+        hi = [stage.unknown_limits()[1] for stage in self.stages]
+        return np.concatenate(lo).astype(float), np.concatenate(hi).astype(float)
 
     # -------------------------------------------------------- parameters
-    @property
-    def link_group(self) -> str:
-        return "carriage" if self.is_classic else "links"
-
-    @property
-    def leg_group(self) -> str:
-        return "hexapod" if self.is_classic else "legs"
-
     @cached_property
     def parameters(self) -> ParameterTable:
         tol = self.scales
         specs: list[ParameterSpec] = []
         specs += _pose_specs("base", self.base, tol.base_length, tol.base_angle)
-        specs += dh_parameter_specs(self.links, tol.dh_length, tol.dh_angle, self.link_group)
-        if self.hexapod is not None:
-            specs += hexapod_parameter_specs(self.hexapod, tol.hexapod_joint, tol.leg_offset, self.leg_group)
+        for stage, at in self.by_section:
+            group = stage.classic_group if self.is_classic else stage.group
+            specs += stage.parameter_specs(at.first_item, tol, group)
         specs += _pose_specs("tool", self.tool, tol.tool_length, tol.tool_angle)
         specs += self._term_specs()
         return ParameterTable(tuple(specs))
@@ -246,8 +316,8 @@ class RobotDescription:
     @cached_property
     def slices(self) -> dict[str, slice]:
         """Parameter slices by group; `carriage`/`links` and `hexapod`/`legs` name the same slices."""
-        n_dh = sum(link.n_params for link in self.links)
-        n_hex = PARAMS_PER_LEG * self.n_legs
+        n_dh = sum(stage.n_params for stage in self.stages if stage.section is Section.LINKS)
+        n_hex = sum(stage.n_params for stage in self.stages if stage.section is Section.LEGS)
         links = slice(6, 6 + n_dh)
         legs = slice(6 + n_dh, 6 + n_dh + n_hex)
         return {
@@ -292,32 +362,42 @@ def pose_transform(pose6: Sym) -> Sym:
 
 
 def links_transform(desc: RobotDescription, first: int, stop: int, q_chain: Sym, params: Sym) -> Sym:
-    """{first} -> {stop}: links first..stop-1 (0-based) with their joints and parameters."""
+    """{first} -> {stop}: links first..stop-1 (0-based, across the serial stages) with their joints and
+    parameters."""
     links = desc.links[first:stop]
     q0 = sum(link.joint.moves for link in desc.links[:first])
     n_q = sum(link.joint.moves for link in links)
-    s = desc.slices["carriage"]
+    s = desc.slices["links"]
     p0, p1 = desc.link_param_offsets[first], desc.link_param_offsets[stop]
     return chain_transform(links, q_chain[q0 : q0 + n_q], params[s.start + p0 : s.start + p1])
 
 
-def carriage_transform(desc: RobotDescription, q_chain: Sym, params: Sym) -> Sym:
-    """World <- the hexapod's base frame (without a hexapod: world <- the last link's frame)."""
-    s = desc.slices
-    at = len(desc.links) if desc.hexapod_at is None else desc.hexapod_at
-    if at == len(desc.links):
-        return pose_transform(params[s["base"]]) @ chain_transform(desc.links, q_chain, params[s["carriage"]])
-    return pose_transform(params[s["base"]]) @ links_transform(desc, 0, at, q_chain, params)
+def stages_transform(desc: RobotDescription, stop: int, q: Sym, platform: Sym, params: Sym) -> Sym:
+    """World <- the end frame of stage `stop - 1` (the base alone for 0): base · stage · … for the joints `q`
+    (all of them, legs included), the closures' unknowns `platform` and the parameters."""
+    t = pose_transform(params[desc.slices["base"]])
+    if q.numel() < desc.n_joints:
+        # The serial joints alone: a stage with unknowns is placed by them, its legs enter only its closure
+        # (`models.stages.base.Stage.transform`), so zeros stand in for the legs.
+        pad = desc.n_joints - q.numel()
+        q = ca.vertcat(q, ca.SX.zeros(pad) if isinstance(q, ca.SX) else ca.MX.zeros(pad))
+    for stage, at in zip(desc.stages[:stop], desc.placements[:stop], strict=True):
+        t = t @ stage.transform(q[at.joints], platform[at.unknowns], params[at.params])
+    return t
 
 
-def tcp_transform(desc: RobotDescription, q_chain: Sym, platform: Sym, params: Sym) -> Sym:
-    """World <- TCP for serial joints and a platform pose (p, Z-Y-X Euler) of the hexapod (ignored without one)."""
-    s = desc.slices
-    if desc.hexapod is None:
-        return carriage_transform(desc, q_chain, params) @ pose_transform(params[s["tool"]])
-    hexapod = homogeneous(platform_rotation(platform), platform[0:3])
-    at = desc.hexapod_at if desc.hexapod_at is not None else len(desc.links)
-    t = carriage_transform(desc, q_chain, params) @ hexapod
-    if at < len(desc.links):
-        t = t @ links_transform(desc, at, len(desc.links), q_chain, params)
-    return t @ pose_transform(params[s["tool"]])
+def carriage_transform(desc: RobotDescription, q: Sym, params: Sym) -> Sym:
+    """World <- the first parallel stage's start frame (without one: world <- the last link's frame). The
+    stages before a parallel one are explicit in their joints (`q`, the serial joints first)."""
+    stop = desc.closed_stages[0] if desc.closed_stages else len(desc.stages)
+    return stages_transform(desc, stop, q, _no_unknowns(q), params)
+
+
+def tcp_transform(desc: RobotDescription, q: Sym, platform: Sym, params: Sym) -> Sym:
+    """World <- TCP for the joints `q` (all of them, or the serial joints alone: a parallel stage's transform
+    is its unknowns', not its legs') and the closures' unknowns `platform` (ignored without a closure)."""
+    return stages_transform(desc, len(desc.stages), q, platform, params) @ pose_transform(params[desc.slices["tool"]])
+
+
+def _no_unknowns(q: Sym) -> Sym:
+    return ca.SX(0, 1) if isinstance(q, ca.SX) else ca.MX(0, 1)

@@ -68,18 +68,28 @@ def structure_tag(structure: Structure) -> str:
         return structure_tag(geometric) + ("_t" if thermal else "") + ("_c" if compliance else "")
     if all(isinstance(j, JointType) for j in structure):
         return "".join("p" if j is JointType.PRISMATIC else "r" for j in structure)
-    tokens, hexapod_at = structure
-    assert isinstance(tokens, tuple)
-    parts = [
-        ("d" if conv == "dh" else "m") + _JOINT_LETTER[joint] + ("b" if beta else "") for conv, joint, beta in tokens
-    ]
-    if hexapod_at is not None:
-        assert isinstance(hexapod_at, int)
-        parts.insert(hexapod_at, "h")
-    tag = "".join(parts)
+    if structure[0] == "stages":  # any chain of stages: each serial stage's links, each other stage's initial
+        _, stages = structure
+        assert isinstance(stages, tuple)
+        tag = "_".join(_links_tag(token) if kind == "serial" else str(kind)[0] for kind, token in stages)
+    else:
+        tokens, hexapod_at = structure
+        assert isinstance(tokens, tuple)
+        parts = [_links_tag((token,)) for token in tokens]
+        if hexapod_at is not None:
+            assert isinstance(hexapod_at, int)
+            parts.insert(hexapod_at, "h")
+        tag = "".join(parts)
     if len(tag) > _TAG_LIMIT:
         tag = tag[:_TAG_LIMIT] + hashlib.sha256(tag.encode()).hexdigest()[:12]
     return tag
+
+
+def _links_tag(tokens: object) -> str:
+    assert isinstance(tokens, tuple)
+    return "".join(
+        ("d" if conv == "dh" else "m") + _JOINT_LETTER[joint] + ("b" if beta else "") for conv, joint, beta in tokens
+    )
 
 
 class Runtime:

@@ -128,10 +128,11 @@ DH_KINDS: tuple[Kind, ...] = tuple(FIELD_KINDS[f] for f in DH_FIELDS)
 
 
 def dh_parameter_specs(
-    links: tuple[DHLink, ...], length_scale: float, angle_scale: float, group: str = "carriage"
+    links: tuple[DHLink, ...], length_scale: float, angle_scale: float, group: str = "carriage", first: int = 1
 ) -> list[ParameterSpec]:
+    """The links' parameters, named `link{i}.{field}` from i = `first` (links are numbered across stages)."""
     specs = []
-    for i, link in enumerate(links, start=1):
+    for i, link in enumerate(links, start=first):
         for field in link.fields:
             kind = FIELD_KINDS[field]
             specs.append(

@@ -73,26 +73,24 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     last: `conditions` (7 per pose). Without terms the graphs are exactly the geometric ones.
     """
     n_chain = desc.n_chain
-    s_hex = desc.slices["hexapod"]
-    n_hex = s_hex.stop - s_hex.start
     with_terms = desc.terms.any
 
     q = ca.SX.sym("q", desc.n_joints)
     params = ca.SX.sym("params", desc.n_params)
-    x = ca.SX.sym("platform", 6)
+    x = ca.SX.sym("platform", desc.n_platform)
     cond = ca.SX.sym("conditions", N_CONDITIONS)
-    q_chain, legs, hp = q[:n_chain], q[n_chain:], params[s_hex]
+    q_chain, legs = q[:n_chain], q[n_chain:]
     extra, extra_names = ([cond], ["conditions"]) if with_terms else ([], [])
     fn: dict[str, ca.Function] = {}
 
-    # ---- hexapod alone
-    hp_only = ca.SX.sym("hexapod_params", n_hex)
-    if desc.has_hexapod:
-        _hexapod_functions(fn, x, hp_only)
+    # ---- the hexapod alone (a robot whose one parallel stage is a hexapod)
+    if _sole_hexapod(desc):
+        s_hex = desc.slices["hexapod"]
+        _hexapod_functions(fn, ca.SX.sym("platform", 6), ca.SX.sym("hexapod_params", s_hex.stop - s_hex.start))
 
-    # ---- closure and Newton, with the platform pose as unknown. Without a hexapod the platform variable
-    # is kept (one signature for every structure) but pinned by g = x: one Newton step solves it exactly,
-    # the TCP does not depend on it, and its implicit-function terms vanish.
+    # ---- closure and Newton, with the closures' unknowns (platform poses) as unknown. Without a closure the
+    # platform variable is kept (one signature for every structure) but pinned by g = x: one Newton step solves
+    # it exactly, the TCP does not depend on it, and its implicit-function terms vanish.
     q_eff = thermal_axes(desc, q_chain, params, cond) if with_terms else q_chain
     deflection = joint_deflection(desc, q_eff, x, params, cond)
     if deflection is not None:
@@ -102,12 +100,13 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
         q_eff = q_eff + deflection
     joints = EffectiveJoints.of(q_chain, q_eff)
     q_seen, d, at = joints.seen, joints.derivative, joints.at
-    if not desc.has_hexapod:
+    geometric = stacked_closure(desc, ca.vertcat(q_chain, legs), x, params)
+    if not desc.has_closure:
         closure = Closure(x)
     elif with_terms:
         closure = terms_closure(desc, q_seen, legs, x, params=params, cond=cond)
     else:
-        closure = Closure(hx.closure_residual(x, legs, hp))
+        closure = Closure(geometric)
     g_x, g_params, g_q = closure.jacobians(x, params, q, derivative=d)
     g = at(closure.value)
     names_at = ["q", "params", "platform", *extra_names]
@@ -116,9 +115,9 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     # Newton steps: with compliance the geometric closure's Jacobian is used (the load's leg changes are
     # micrometres, so the iteration still contracts by ~1e-4 per step) and keeps the unrolled graph small;
     # the implicit-function derivatives below use the exact one.
-    g_x_step = ca.jacobian(hx.closure_residual(x, legs, hp), x) if with_terms and desc.has_hexapod else g_x
+    g_x_step = ca.jacobian(geometric, x) if with_terms and desc.has_closure else g_x
     x_k = x
-    for _ in range(NEWTON_STEPS_PER_CALL if desc.has_hexapod else 1):
+    for _ in range(NEWTON_STEPS_PER_CALL if desc.has_closure else 1):
         g_k = ca.substitute(g, x, x_k)
         x_k = x_k - ca.solve(ca.substitute(g_x_step, x, x_k), g_k)
     fn["newton_solve"] = ca.Function(
@@ -132,15 +131,15 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     # ---- TCP pose given the solved platform; implicit-function-theorem derivatives
     p_meas = ca.SX.sym("position_meas", 3)
     r_meas = ca.SX.sym("rotation_meas", 3, 3)
-    t = tcp_transform(desc, q_seen, x, params)
+    t = tcp_transform(desc, ca.vertcat(q_seen, legs), x, params)
     position, rotation = t[0:3, 3], t[0:3, 0:3]
     vec = ca.vertcat(position, ca.vec(rotation))
     dvec_dx = d(vec, x)
-    if desc.has_hexapod:
+    if desc.has_closure:
         dx_dparams = -ca.solve(g_x, g_params)
         dx_dq = -ca.solve(g_x, g_q)
     else:
-        dx_dparams, dx_dq = ca.SX(6, desc.n_params), ca.SX(6, desc.n_joints)
+        dx_dparams, dx_dq = ca.SX(desc.n_platform, desc.n_params), ca.SX(desc.n_platform, desc.n_joints)
     d_params = d(vec, params) + dvec_dx @ dx_dparams
     d_q = d(vec, q) + dvec_dx @ dx_dq
     j_params = at(pose_jacobian(position, rotation, d_params))
@@ -196,30 +195,16 @@ def _rootfinder_functions(
     fn: dict[str, ca.Function], desc: RobotDescription, g: ca.SX, *, x: ca.SX, q: ca.SX, params: ca.SX, cond: ca.SX
 ) -> None:
     """The rootfinder route (MX): Newton inside CasADi, derivatives by its IFT."""
-    n_chain = desc.n_chain
-    s_hex = desc.slices["hexapod"]
-    n_hex = s_hex.stop - s_hex.start
     with_terms = desc.terms.any
     extra_names = ["conditions"] if with_terms else []
-    q_chain, legs, hp = q[:n_chain], q[n_chain:], params[s_hex]
-    if with_terms:
-        newton = ca.rootfinder(
-            "hexapod_newton", "newton", ca.Function("g", [x, ca.vertcat(q, params, cond)], [g]), NEWTON_OPTIONS
-        )
-    else:
-        newton = ca.rootfinder(
-            "hexapod_newton", "newton", ca.Function("g", [x, ca.vertcat(legs, hp, q_chain)], [g]), NEWTON_OPTIONS
-        )
-    # (q_chain is carried as an unused rootfinder parameter so the closure keeps one signature)
+    inputs = ca.vertcat(q, params, cond) if with_terms else ca.vertcat(q, params)
+    newton = ca.rootfinder("hexapod_newton", "newton", ca.Function("g", [x, inputs], [g]), NEWTON_OPTIONS)
     q_mx = ca.MX.sym("q", desc.n_joints)
     p_mx = ca.MX.sym("params", desc.n_params)
     c_mx = ca.MX.sym("conditions", N_CONDITIONS)
     extra_mx = [c_mx] if with_terms else []
-    seed = ca.MX.sym("platform_seed", 6)
-    if with_terms:
-        platform = newton(seed, ca.vertcat(q_mx, p_mx, c_mx))
-    else:
-        platform = newton(seed, ca.vertcat(q_mx[n_chain:], p_mx[s_hex], q_mx[:n_chain]))
+    seed = ca.MX.sym("platform_seed", desc.n_platform)
+    platform = newton(seed, ca.vertcat(q_mx, p_mx, *extra_mx))
     pos_mx, rot_mx = fn["pose_at"](q_mx, p_mx, platform, *extra_mx)
     fk_names = ["q", "params", "platform_seed", *extra_names]
     fn["fk"] = ca.Function(
@@ -237,34 +222,52 @@ def _rootfinder_functions(
         fk_names,
         ["position", "rotation", "platform", "J"],
     )
-    if desc.has_hexapod:
+    if _sole_hexapod(desc):
+        # The hexapod alone, at the reference conditions: its geometric closure.
+        s_hex = desc.slices["hexapod"]
+        x6, legs, hp = (
+            ca.SX.sym("platform", 6),
+            ca.SX.sym("legs", 6),
+            ca.SX.sym("hexapod_params", s_hex.stop - s_hex.start),
+        )
+        geo = ca.rootfinder(
+            "hexapod_newton_geometric",
+            "newton",
+            ca.Function("g", [x6, ca.vertcat(legs, hp)], [hx.closure_residual(x6, legs, hp)]),
+            NEWTON_OPTIONS,
+        )
         legs_mx = ca.MX.sym("legs", 6)
-        hp_mx = ca.MX.sym("hexapod_params", n_hex)
-        q_dummy = ca.MX.zeros(n_chain)
-        if with_terms:  # the hexapod alone, at the reference conditions: its geometric closure
-            g_geo = hx.closure_residual(x, legs, hp)
-            geo = ca.rootfinder(
-                "hexapod_newton_geometric",
-                "newton",
-                ca.Function("g", [x, ca.vertcat(legs, hp, q_chain)], [g_geo]),
-                NEWTON_OPTIONS,
-            )
-            solved = geo(seed, ca.vertcat(legs_mx, hp_mx, q_dummy))
-        else:
-            solved = newton(seed, ca.vertcat(legs_mx, hp_mx, q_dummy))
+        hp_mx = ca.MX.sym("hexapod_params", s_hex.stop - s_hex.start)
+        seed6 = ca.MX.sym("platform_seed", 6)
         fn["hexapod_fk"] = ca.Function(
             "hexapod_fk",
-            [legs_mx, hp_mx, seed],
-            [solved],
+            [legs_mx, hp_mx, seed6],
+            [geo(seed6, ca.vertcat(legs_mx, hp_mx))],
             ["legs", "hexapod_params", "platform_seed"],
             ["platform"],
         )
 
 
+def _sole_hexapod(desc: RobotDescription) -> bool:
+    """Whether the robot's one parallel stage is a hexapod (the hexapod-alone Functions then exist)."""
+    return len(desc.closed_stages) == 1 and desc.hexapod_at is not None
+
+
+def stacked_closure(desc: RobotDescription, q: ca.SX, x: ca.SX, params: ca.SX) -> ca.SX:
+    """Every parallel stage's closure equations, stacked in stage order (the geometric ones): zero where the
+    unknowns `x` agree with the joints `q`. Empty without a parallel stage."""
+    parts = []
+    for stage, at in zip(desc.stages, desc.placements, strict=True):
+        g = stage.closure(q[at.joints], x[at.unknowns], params[at.params])
+        if g is not None:
+            parts.append(g)
+    return ca.vertcat(*parts) if parts else ca.SX(0, 1)
+
+
 def joint_deflection(desc: RobotDescription, q_chain: ca.SX, x: ca.SX, params: ca.SX, cond: ca.SX) -> ca.SX | None:
     """A serial robot's compliance: k_j τ_j per serial joint (0 for prismatic ones), τ_j (N·m) the payload's
     gravity torque about joint j's axis at the joints `q_chain`; None without the term."""
-    if not (desc.terms.compliance and desc.hexapod is None):
+    if not desc.terms.compliance or desc.has_closure:
         return None
     base = pose_transform(params[desc.slices["base"]])
     tcp = tcp_transform(desc, q_chain, x, params)

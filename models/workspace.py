@@ -14,7 +14,6 @@ import numpy as np
 
 from models._types import Array
 from models.errors import InvalidInput
-from models.kinematics import hexapod_condition, inverse_hexapod
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
 
@@ -57,16 +56,18 @@ def sample_workspace(
     """n joint vectors (n, n_joints), internal units; optionally also their platform poses (n, 6)."""
     if n < 0:
         raise InvalidInput(f"the number of poses must be non-negative, got {n}", field="n", value=n, min=0)
-    rt = runtime_for(desc, runtime)
+    if runtime is not None:
+        runtime_for(desc, runtime)  # a runtime given is checked against desc, though sampling needs none
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     theta = desc.parameters.nominal if params is None else params
-    if desc.hexapod is None:
+    if not desc.has_closure:
         # Serial joints alone: uniform in their ranges, every draw valid.
         lo, hi = desc.joint_min, desc.joint_max
         q = lo + rng.random((n, desc.n_chain)) * (hi - lo)
-        return (q, np.zeros((n, 6))) if return_platforms else q
-    hexapod = desc.hexapod
-    lo_w, hi_w = np.array(hexapod.workspace_min), np.array(hexapod.workspace_max)
+        return (q, np.zeros((n, desc.n_platform))) if return_platforms else q
+    # The serial joints uniform in their ranges, the closures' unknowns uniform in their workspace; each
+    # parallel stage's legs by its inverse kinematics, kept where every stage is usable.
+    lo_w, hi_w = desc.platform_limits
     lo_c, hi_c = desc.joint_min[: desc.n_chain], desc.joint_max[: desc.n_chain]
     joints: list[Array] = []
     platforms: list[Array] = []
@@ -75,16 +76,19 @@ def sample_workspace(
         if have >= n:
             break
         m = max(16, int(1.3 * (n - have)))
-        chain = lo_c + rng.random((m, desc.n_chain)) * (hi_c - lo_c)
-        plat = lo_w + rng.random((m, 6)) * (hi_w - lo_w)
-        legs = inverse_hexapod(desc, plat, theta, runtime=rt)
-        ok = np.all((legs >= np.array(hexapod.stroke_mins)) & (legs <= np.array(hexapod.stroke_maxs)), axis=1)
-        ok &= hexapod_condition(desc, plat, theta, runtime=rt) <= hexapod.max_condition
-        joints.append(np.hstack([chain, legs])[ok])
+        q = np.empty((m, desc.n_joints))
+        q[:, : desc.n_chain] = lo_c + rng.random((m, desc.n_chain)) * (hi_c - lo_c)
+        plat = lo_w + rng.random((m, desc.n_unknowns)) * (hi_w - lo_w)
+        ok = np.ones(m, dtype=bool)
+        for stage, at in zip(desc.stages, desc.placements, strict=True):
+            if stage.n_unknowns:
+                q[:, at.joints] = stage.joints_of_unknowns(plat[:, at.unknowns], theta[at.params])
+            ok &= stage.usable(q[:, at.joints], plat[:, at.unknowns], theta[at.params])
+        joints.append(q[ok])
         platforms.append(plat[ok])
         have += int(ok.sum())
     q = np.vstack(joints)[:n] if joints else np.empty((0, desc.n_joints))
-    x = np.vstack(platforms)[:n] if platforms else np.empty((0, 6))
+    x = np.vstack(platforms)[:n] if platforms else np.empty((0, desc.n_platform))
     if q.shape[0] < n:
         raise InvalidInput(
             "the workspace description admits almost no pose: check strokes and ranges", field="workspace"

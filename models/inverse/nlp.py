@@ -82,14 +82,11 @@ def bounds(desc: RobotDescription) -> tuple[Array, Array, Array, Array]:
     envelope stays far from singular (condition ≤ 5 there, against the limit of 100).
     """
     n = desc.n_chain
-    hexapod = desc.hexapod
-    if hexapod is None:
+    if not desc.has_closure:
         return desc.joint_min.copy(), desc.joint_max.copy(), np.empty(0), np.empty(0)
     outer_low, outer_high = platform_envelope(desc)
-    box_low, box_high = np.asarray(hexapod.workspace_min), np.asarray(hexapod.workspace_max)
+    box_low, box_high = desc.platform_limits
     low, high = (box_low + outer_low) / 2, (box_high + outer_high) / 2
     lbx = np.r_[desc.joint_min[:n], low]
     ubx = np.r_[desc.joint_max[:n], high]
-    lbl = np.array(hexapod.stroke_mins)
-    ubl = np.array(hexapod.stroke_maxs)
-    return lbx, ubx, lbl, ubl
+    return lbx, ubx, desc.joint_min[n:].copy(), desc.joint_max[n:].copy()

@@ -18,7 +18,6 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from models import hexapod as hx
 from models._types import Array
 from models.errors import InvalidInput, NonFiniteValue, WrongShape
 from models.robot import RobotDescription, tcp_transform
@@ -66,13 +65,20 @@ class IkProblem:
 
 def ik_problem(desc: RobotDescription) -> IkProblem:
     q = ca.SX.sym("q_chain", desc.n_chain)
-    # Without a hexapod the platform is no unknown (0 numbers) and there are no legs.
-    x = ca.SX.sym("platform", 6 if desc.has_hexapod else 0)
+    # The closures' unknowns (platform poses; none without a parallel stage) and the legs they command.
+    x = ca.SX.sym("platform", desc.n_unknowns)
     theta = ca.SX.sym("params", desc.n_params)
     target = ca.SX.sym("target", N_TARGET)
     seed = ca.SX.sym("seed", desc.n_joints)
     weights = ca.SX.sym("weights", desc.n_joints)
-    legs = hx.actuator_lengths(x, theta[desc.slices["hexapod"]]) if desc.has_hexapod else ca.SX(0, 1)
+    legs = ca.vertcat(
+        ca.SX(0, 1),
+        *[
+            stage.joint_expressions(x[at.unknowns], theta[at.params])
+            for stage, at in desc.by_section
+            if stage.n_unknowns
+        ],
+    )
     joints = ca.vertcat(q, legs)
     t = tcp_transform(desc, q, x, theta)
     return IkProblem(

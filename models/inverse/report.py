@@ -65,12 +65,12 @@ def report(
     solved = np.flatnonzero(np.isfinite(v).all(axis=1))
     if solved.size:
         # Into the ranges: the solvers honour the bounds to BOUND_SLACK (~1e-9), a controller may refuse 1e-9 over.
-        joints[solved] = np.clip(joints_of(desc, theta, v[solved], runtime), desc.joint_min, desc.joint_max)
+        joints[solved] = np.clip(joints_of(desc, theta, v[solved]), desc.joint_min, desc.joint_max)
         # The check goes the other way: legs -> platform by the hexapod's forward solution, then the TCP.
         platforms, _ = solve_platforms(desc, joints[solved], theta, v[solved, desc.n_chain :], runtime=runtime)
         fk = pose_batch(desc, joints[solved], theta, platforms, runtime=runtime)
         positions[solved], rotations[solved] = fk.positions, fk.rotations
-        condition[solved] = hexapod_condition(desc, platforms, theta, runtime=runtime)
+        condition[solved] = hexapod_condition(desc, platforms, theta)
     pos_err = np.linalg.norm(positions - p, axis=1)
     rot_err = None
     if rot is not None:
@@ -83,9 +83,7 @@ def report(
     final_reasons = list(reasons)
     for i in np.flatnonzero(~reachable):
         if final_reasons[i] is None:
-            final_reasons[i] = why_unreachable(
-                desc, theta, v[i], pos_err[i], None if rot_err is None else rot_err[i], runtime=runtime
-            )
+            final_reasons[i] = why_unreachable(desc, theta, v[i], pos_err[i], None if rot_err is None else rot_err[i])
     return IkSolution(
         joints=joints,
         reachable=reachable,
@@ -100,32 +98,27 @@ def report(
     )
 
 
-def why_unreachable(
-    desc: RobotDescription, theta: Array, v: Array, miss_mm: float, miss_rad: float | None, *, runtime: Runtime
-) -> str:
+def why_unreachable(desc: RobotDescription, theta: Array, v: Array, miss_mm: float, miss_rad: float | None) -> str:
     """Why a target is unreachable: the miss, and which joints, legs or workspace limits hold the answer."""
     lbx, ubx, lbl, ubl = bounds(desc)
-    k_plat = desc.n_ik - desc.n_chain  # 6 with a hexapod, else 0
+    platforms = desc.n_unknowns // 6  # one platform pose per parallel stage
     names = [
         *desc.joint_names[: desc.n_chain],
-        *("platform x", "platform y", "platform z", "platform α", "platform β", "platform γ")[:k_plat],
+        *(f"platform {axis}" for _ in range(platforms) for axis in ("x", "y", "z", "α", "β", "γ")),
     ]
-    units = [
-        *(k.boundary_unit for k in desc.joint_kinds[: desc.n_chain]),
-        *("mm", "mm", "mm", "deg", "deg", "deg")[:k_plat],
-    ]
-    scale = np.r_[desc.joint_to_boundary[: desc.n_chain], *([1.0] * 3 + [np.degrees(1.0)] * 3)[:k_plat]]
+    units = [*(k.boundary_unit for k in desc.joint_kinds[: desc.n_chain]), *(["mm"] * 3 + ["deg"] * 3) * platforms]
+    scale = np.r_[desc.joint_to_boundary[: desc.n_chain], *([1.0] * 3 + [np.degrees(1.0)] * 3) * platforms]
     limits = []
     for k in range(v.size):
         for bound, word in ((lbx[k], "minimum"), (ubx[k], "maximum")):
             if abs(v[k] - bound) <= 1e-6 * max(1.0, abs(bound)):
                 where = "the workspace limit" if k >= desc.n_chain else f"its {word}"
                 limits.append(f"{names[k]} at {where} ({bound * scale[k]:.4g} {units[k]})")
-    legs = joints_of(desc, theta, v[None, :], runtime)[0, desc.n_chain :]
+    legs = joints_of(desc, theta, v[None, :])[0, desc.n_chain :]
     for k, leg in enumerate(legs):
         for bound, word in ((lbl[k], "shortest"), (ubl[k], "longest")):
             if abs(leg - bound) <= 1e-6 * bound:
-                limits.append(f"leg l{k + 1} at its {word} stroke ({bound:.4g} mm)")
+                limits.append(f"leg {desc.joint_names[desc.n_chain + k]} at its {word} stroke ({bound:.4g} mm)")
     miss = f"the nearest reachable pose misses it by {miss_mm:.4g} mm"
     if miss_rad is not None:
         miss += f" and {np.degrees(miss_rad):.4g}°"

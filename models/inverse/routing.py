@@ -32,13 +32,18 @@ were one uninterruptible 6.6 s call per IPOPT stage); chunking costs nothing mea
 BOUND_SLACK = 1e-9
 
 
-def joints_of(desc: RobotDescription, theta: Array, v: Array, runtime: Runtime | None = None) -> Array:
-    if not desc.has_hexapod:
+def joints_of(desc: RobotDescription, theta: Array, v: Array) -> Array:
+    """The joint vectors of IK variables `v` (serial joints, then the closures' unknowns): each parallel stage's
+    legs by its inverse kinematics."""
+    if not desc.has_closure:
         return v.copy()
-    (legs,) = runtime_for(desc, runtime).kinematics.batch(
-        "hexapod_ik", v[:, desc.n_chain :], theta[desc.slices["hexapod"]]
-    )
-    return np.hstack([v[:, : desc.n_chain], legs])
+    q = np.empty((v.shape[0], desc.n_joints))
+    q[:, : desc.n_chain] = v[:, : desc.n_chain]
+    x = v[:, desc.n_chain :]
+    for k in desc.closed_stages:
+        stage, at = desc.stages[k], desc.placements[k]
+        q[:, at.joints] = stage.joints_of_unknowns(x[:, at.unknowns], theta[at.params])
+    return q
 
 
 def periodic_variables(desc: RobotDescription) -> NDArray[np.bool_]:
@@ -51,9 +56,9 @@ def periodic_variables(desc: RobotDescription) -> NDArray[np.bool_]:
     return out
 
 
-def within_bounds(desc: RobotDescription, theta: Array, v: Array, runtime: Runtime | None = None) -> NDArray[np.bool_]:
+def within_bounds(desc: RobotDescription, theta: Array, v: Array) -> NDArray[np.bool_]:
     lbx, ubx, lbl, ubl = bounds(desc)
-    legs = joints_of(desc, theta, v, runtime)[:, desc.n_chain :]
+    legs = joints_of(desc, theta, v)[:, desc.n_chain :]
     ok = np.all((v >= lbx - BOUND_SLACK) & (v <= ubx + BOUND_SLACK), axis=1)
     within: NDArray[np.bool_] = ok & np.all((legs >= lbl - BOUND_SLACK) & (legs <= ubl + BOUND_SLACK), axis=1)
     return within
@@ -88,10 +93,10 @@ def route(
         periodic=periodic,
     )
     methods = ["newton"] * n
-    good = converged & within_bounds(desc, theta, v, runtime)
-    if not desc.has_hexapod:
+    good = converged & within_bounds(desc, theta, v)
+    if not desc.has_closure:
         good &= _not_flipped(desc, theta, v, target, position_only=position_only, runtime=runtime)
-    if not desc.has_hexapod:
+    if not desc.has_closure:
         for fallback in (_serial_multistart, _homotopy):  # each on the targets still failed
             rest = np.flatnonzero(~good)
             if rest.size == 0:
@@ -122,7 +127,7 @@ def route(
         for i in rest:
             methods[i] = "ipopt"
         missed = rest[~exact]
-        if missed.size and not desc.has_hexapod:
+        if missed.size and not desc.has_closure:
             missed = _ipopt_other_starts(
                 desc, theta, target, seeds=seeds, w=w, v=v, missed=missed, position_only=position_only, runtime=runtime
             )
@@ -166,7 +171,7 @@ def _serial_multistart(
         position_only=position_only,
         periodic=periodic_variables(desc),
     )
-    ok = conv & within_bounds(desc, theta, v, runtime)
+    ok = conv & within_bounds(desc, theta, v)
     ok &= _not_flipped(desc, theta, v, target[rep], position_only=position_only, runtime=runtime)
     distance = np.where(ok, np.sum(w * (np.nan_to_num(v) - seeds[rep]) ** 2, axis=1), np.inf).reshape(r, k)
     best = np.argmin(distance, axis=1)
@@ -229,7 +234,7 @@ def _homotopy(
         )
         v[idx] = v_s
         alive[idx[~conv]] = False
-    ok = alive & within_bounds(desc, theta, v, runtime)
+    ok = alive & within_bounds(desc, theta, v)
     ok &= _not_flipped(desc, theta, v, target[rep], position_only=position_only, runtime=runtime)
     distance = np.where(ok, np.sum(w * (np.nan_to_num(v) - seeds[rep]) ** 2, axis=1), np.inf).reshape(r, k)
     best = np.argmin(distance, axis=1)
@@ -337,6 +342,6 @@ def ipopt_solutions(
             v[a : a + k] = np.asarray(out["x"], dtype=float).T.reshape(k, -1)
             g[a : a + k] = np.asarray(out["g"], dtype=float).T.reshape(k, -1)
     met = np.abs(g[:, :m]).max(axis=1) <= REACHED_MM if exact else np.zeros(n, dtype=bool)
-    if exact and not desc.has_hexapod:
+    if exact and not desc.has_closure:
         met &= _not_flipped(desc, theta, v, target, position_only=position_only, runtime=rt)
-    return v, met & within_bounds(desc, theta, v, rt)
+    return v, met & within_bounds(desc, theta, v)

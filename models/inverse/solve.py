@@ -56,7 +56,7 @@ def inverse_kinematics(
         raise NonFiniteValue("the parameters contain non-finite numbers")
     p, rot, reasons = validated_targets(positions, quaternions)
     n = p.shape[0]
-    seeds = seeds_for(desc, seed, n, rt)
+    seeds = seeds_for(desc, seed, n)
     w = joint_weights(desc, weights)
     position_only = rot is None
     valid = np.array([r is None for r in reasons])
@@ -73,7 +73,7 @@ def inverse_kinematics(
             s = seeds[i : i + 1] if previous is None else previous
             vi, mi = route(desc, theta, target[i : i + 1], s, w, position_only=position_only, runtime=rt)
             v[i], methods[i] = vi[0], mi[0]
-            previous = joints_of(desc, theta, vi, rt)
+            previous = joints_of(desc, theta, vi)
     else:
         idx = np.flatnonzero(valid)
         if idx.size:

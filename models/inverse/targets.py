@@ -8,20 +8,20 @@ from numpy.typing import ArrayLike
 from models._types import Array
 from models.campaign import QUATERNION_NORM_TOLERANCE
 from models.errors import WrongShape
-from models.kinematics import as_joint_array, check_joint_ranges, inverse_hexapod
+from models.inverse.routing import joints_of
+from models.kinematics import as_joint_array, check_joint_ranges
 from models.robot import RobotDescription
-from models.runtime import Runtime
 from models.transforms import quaternion_to_matrix
 
 
-def default_seed(desc: RobotDescription, runtime: Runtime | None = None) -> Array:
-    """Mid-range carriage joints and the legs of the hexapod's home pose (nominal geometry)."""
+def default_seed(desc: RobotDescription) -> Array:
+    """Mid-range serial joints and the legs of each parallel stage's home pose (nominal geometry)."""
     n = desc.n_chain
     mid = (desc.joint_min[:n] + desc.joint_max[:n]) / 2
-    if desc.hexapod is None:
+    if not desc.has_closure:
         return mid
-    legs = inverse_hexapod(desc, np.asarray(desc.hexapod.home, dtype=float)[None, :], runtime=runtime)[0]
-    return np.asarray(np.r_[mid, legs], dtype=float)
+    home = np.asarray(desc.platform_home, dtype=float)[None, :]
+    return np.asarray(joints_of(desc, desc.parameters.nominal, np.c_[mid[None, :], home])[0], dtype=float)
 
 
 def validated_targets(
@@ -68,9 +68,9 @@ def validated_targets(
     return p, quaternion_to_matrix(unit), reasons
 
 
-def seeds_for(desc: RobotDescription, seed: ArrayLike | None, n: int, runtime: Runtime) -> Array:
+def seeds_for(desc: RobotDescription, seed: ArrayLike | None, n: int) -> Array:
     if seed is None:
-        return np.tile(default_seed(desc, runtime), (n, 1))
+        return np.tile(default_seed(desc), (n, 1))
     s = as_joint_array(desc, seed)
     if s.shape[0] not in (1, n):
         raise WrongShape(

@@ -16,8 +16,9 @@ from models import Registry, RobotDescription, default_registry, forward_kinemat
 from models.compensation import inverse_kinematics
 from models.identification import identify
 from models.native import compile_functions
-from models.serial_chain import JointType
+from models.serial_chain import DHLink, JointType
 from models.simulation import measure, perturbed_robot
+from models.stages import SerialStage
 from models.transforms import matrix_to_quaternion
 from models.warm import warm_everything
 
@@ -71,13 +72,18 @@ def test_every_artefact_is_built_once_through_an_injected_registry(desc: RobotDe
     assert default_registry().runtime(desc) is not runtime  # injected, not shared
 
 
+def _with_links(desc: RobotDescription, links: tuple[DHLink, ...]) -> RobotDescription:
+    """The IWR with other carriage links (its first stage), the hexapod kept."""
+    return replace(desc, stages=(SerialStage(links), *desc.stages[1:]))
+
+
 def test_registry_evicts_the_least_recently_used_structure(desc: RobotDescription) -> None:
     registry = Registry(capacity=2)
-    revolute = replace(desc, links=(*desc.links[:-1], replace(desc.links[-1], joint=JointType.REVOLUTE)))
-    prismatic = replace(desc, links=(*desc.links[:-1], replace(desc.links[-1], joint=JointType.PRISMATIC)))
+    revolute = _with_links(desc, (*desc.links[:-1], replace(desc.links[-1], joint=JointType.REVOLUTE)))
+    prismatic = _with_links(desc, (*desc.links[:-1], replace(desc.links[-1], joint=JointType.PRISMATIC)))
     assert len({desc.structure, revolute.structure, prismatic.structure}) == 2  # the IWR's last joint is one of them
     other = revolute if revolute.structure != desc.structure else prismatic
-    shorter = replace(desc, links=desc.links[:-1])
+    shorter = _with_links(desc, desc.links[:-1])
     a, b = registry.runtime(desc), registry.runtime(other)
     assert registry.runtime(desc) is a  # now most recent
     c = registry.runtime(shorter)
@@ -105,7 +111,7 @@ def test_concurrent_first_use_builds_once(desc: RobotDescription) -> None:
 
 def test_a_runtime_refuses_another_structure(desc: RobotDescription) -> None:
     runtime = Registry().runtime(desc)
-    shorter = replace(desc, links=desc.links[:-1])
+    shorter = _with_links(desc, desc.links[:-1])
     with pytest.raises(ValueError, match="structure"):
         forward_kinematics(shorter, np.zeros(shorter.n_joints), runtime=runtime)
 
