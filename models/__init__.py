@@ -26,7 +26,6 @@ from models.errors import (
 )
 from models.identifiability import (
     Identifiability,
-    NoiseModel,
     analyse_identifiability,
     scaled_jacobian,
     structural_identifiability,
@@ -40,6 +39,7 @@ from models.kinematics import (
     solve_platforms,
 )
 from models.measurement import MeasurementKind
+from models.noise import NoiseModel
 from models.parameters import Kind, ParameterScales, ParameterSpec, ParameterTable
 from models.robot import RobotDescription, Structure
 from models.runtime import Registry, Runtime, default_registry

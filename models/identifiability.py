@@ -34,6 +34,8 @@ from models._types import Array
 from models.errors import WrongShape
 from models.kinematics import forward_kinematics
 from models.measurement import MeasurementKind
+from models.measurements import measurement
+from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
@@ -46,14 +48,6 @@ CONFOUNDING_REPORT = 4
 """How many identifiable partners to report for each unidentifiable parameter."""
 STRUCTURAL_POSES = 60
 STRUCTURAL_SEED = 20_090_101
-
-
-@dataclass(frozen=True)
-class NoiseModel:
-    """Instrument noise, internal units: σ position (mm) and σ orientation (rad)."""
-
-    position_mm: float = 0.025
-    orientation_rad: float = float(np.radians(0.01))
 
 
 def measurement_rows(kind: MeasurementKind | bool) -> int:
@@ -80,9 +74,8 @@ def scaled_jacobian(
             expected=[-1, 6, len(table)],
             got=list(jacobians.shape),
         )
-    rows = (kind or MeasurementKind.of(bool(position_only))).rows
-    weights = np.array([1 / noise.position_mm] * 3 + [1 / noise.orientation_rad] * 3)[:rows]
-    blocks = jacobians[:, :rows, :] * weights[None, :, None] * table.scales[None, None, :]
+    rows = measurement(kind or MeasurementKind.of(bool(position_only))).information(jacobians, noise)
+    blocks = rows * table.scales[None, None, :]
     return np.asarray(blocks.reshape(-1, len(table)), dtype=float)
 
 

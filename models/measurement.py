@@ -1,4 +1,4 @@
-"""What an instrument measures: the whole TCP pose, or its position only."""
+"""The kinds of measurement, named once: what a campaign's records are (their models: `models.measurements`)."""
 
 from __future__ import annotations
 
@@ -13,8 +13,10 @@ class MeasurementKind(StrEnum):
 
     @property
     def rows(self) -> int:
-        """Measured coordinates per pose."""
-        return 3 if self is MeasurementKind.POSITION else 6
+        """Measured coordinates per pose (the kind's model says: `models.measurements`)."""
+        from models.measurements import MEASUREMENTS  # noqa: PLC0415  (the models import this enum)
+
+        return MEASUREMENTS[self].rows
 
     @property
     def position_only(self) -> bool:
@@ -23,7 +25,9 @@ class MeasurementKind(StrEnum):
     @property
     def label(self) -> str:
         """For messages: "full-pose" or "position-only"."""
-        return "position-only" if self is MeasurementKind.POSITION else "full-pose"
+        from models.measurements import MEASUREMENTS  # noqa: PLC0415  (the models import this enum)
+
+        return MEASUREMENTS[self].label
 
     @staticmethod
     def of(value: MeasurementKind | str | bool) -> MeasurementKind:

@@ -14,8 +14,8 @@ import numpy as np
 from models._types import Array
 from models.campaign import Campaign
 from models.error_analysis.magnitudes import ErrorMagnitudes
-from models.identifiability import NoiseModel
 from models.kinematics import forward_kinematics
+from models.noise import NoiseModel
 from models.robot import RobotDescription
 from models.terms import Conditions
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np

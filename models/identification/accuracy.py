@@ -9,6 +9,7 @@ from models.campaign import Campaign
 from models.identification.result import PredictedAccuracy
 from models.identification.statistics import PoseErrors, tcp_accuracy
 from models.kinematics import CLOSURE_TOLERANCE_MM, pose_jacobian_batch, solve_platforms
+from models.measurements import ModelBatch, measurement
 from models.robot import RobotDescription
 from models.runtime import Runtime
 from models.workspace import workspace_samples
@@ -23,11 +24,9 @@ def pose_errors(
     """Position and orientation error of the model `theta` at each measured pose."""
     cond = campaign.condition_inputs(desc)
     platforms, _ = solve_platforms(desc, campaign.joints, theta, seeds, runtime=runtime, conditions=cond)
-    rot = np.broadcast_to(np.eye(3), (campaign.size, 3, 3)).copy() if campaign.position_only else campaign.rotations
-    (res,) = runtime.kinematics.batch(
-        "residual_at", campaign.joints, theta, platforms, campaign.positions, rot, conditions=cond
-    )
-    return PoseErrors.from_raw(res[:, :3] if campaign.position_only else res)
+    model = ModelBatch(runtime.kinematics, campaign.joints, theta, platforms, cond)
+    res = measurement(campaign.kind).residuals(model, campaign, np.arange(campaign.size, dtype=np.intp))
+    return PoseErrors.from_raw(res)
 
 
 def predicted_accuracy(

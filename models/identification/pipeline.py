@@ -32,7 +32,6 @@ from models.errors import (
 )
 from models.identifiability import (
     Identifiability,
-    NoiseModel,
     analyse_identifiability,
     condition_support,
     minimum_poses,
@@ -60,6 +59,7 @@ from models.identification.solver import solver_pool
 from models.identification.statistics import Covariance, PoseErrors, correlated_pairs, covariance, outlier_threshold
 from models.identification.terms_check import missing_term_diagnoses
 from models.kinematics import forward_kinematics
+from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for

@@ -18,9 +18,10 @@ from numpy.typing import NDArray
 
 from models._types import Array
 from models.campaign import Campaign
-from models.identifiability import NoiseModel
 from models.identification.options import RobustLoss
 from models.kinematics import CLOSURE_TOLERANCE_MM, solve_platforms
+from models.measurements import ModelBatch, measurement
+from models.noise import NoiseModel
 from models.robot import RobotDescription
 from models.runtime import Runtime
 
@@ -56,7 +57,7 @@ class Evaluation:
     jacobian: Array
     """(N·rows, n_free) d residual / d z."""
     raw_jacobian: Array
-    """(N, 6, n_params) unweighted d residual / d θ."""
+    """(N, rows, n_params) unweighted d residual / d θ."""
     objective: float
     """½ Σ ρ(rᵢ²) / m: half the mean loss per equation (m equations)."""
     gradient: Array
@@ -84,20 +85,13 @@ class CampaignProblem:
     def __post_init__(self) -> None:
         self.runtime.check(self.desc)
         self.functions = self.runtime.kinematics
-        rows = self.campaign.kind.rows
-        n = self.campaign.size
-        weights = np.tile([1 / self.noise.position_mm] * 3 + [1 / self.noise.orientation_rad] * 3, (n, 1))
-        if self.campaign.sigma_mm is not None:
-            weights[:, :3] = 1.0 / self.campaign.sigma_mm[:, None]  # each record weighted by its own σ
-        self.rows = rows
-        self.weights = weights[:, :rows]
+        self.measurement = measurement(self.campaign.kind)
+        self.rows = self.measurement.rows
+        self.weights = self.measurement.weights(self.noise, self.campaign.sigma_mm, self.campaign.size)
         """(N, rows) 1/σ per record and residual row."""
         self.scales = self.desc.parameters.scales[self.free]
-        self.rotations = (
-            np.broadcast_to(np.eye(3), (n, 3, 3)).copy() if self.campaign.position_only else self.campaign.rotations
-        )
         if self.active is None:
-            self.active = np.arange(n, dtype=np.intp)
+            self.active = np.arange(self.campaign.size, dtype=np.intp)
         self.conditions = self.campaign.condition_inputs(self.desc)
         """(N, 7) inputs of the model terms, None without terms."""
 
@@ -138,16 +132,10 @@ class CampaignProblem:
         seeds = None if self.platforms is None else self.platforms[self.active]
         cond = self._conditions()
         platforms, closure = solve_platforms(self.desc, q, theta, seeds, runtime=self.runtime, conditions=cond)
-        (res,) = self.functions.batch(
-            "residual_at",
-            q,
-            theta,
-            platforms,
-            self.campaign.positions[self.active],
-            self.rotations[self.active],
-            conditions=cond,
+        res = self.measurement.residuals(
+            ModelBatch(self.functions, q, theta, platforms, cond), self.campaign, self.active
         )
-        r = res[:, : self.rows] * self.weights[self.active]
+        r = res * self.weights[self.active]
         r[~(closure <= CLOSURE_TOLERANCE_MM)] = np.nan
         return np.asarray(r.reshape(-1), dtype=float)
 
@@ -162,18 +150,11 @@ class CampaignProblem:
         platforms, closure = solve_platforms(self.desc, q, theta, seeds, runtime=self.runtime, conditions=cond)
         if not np.all(closure <= CLOSURE_TOLERANCE_MM):
             return None
-        res, jac = self.functions.batch(
-            "residual_jacobian_at",
-            q,
-            theta,
-            platforms,
-            c.positions[self.active],
-            self.rotations[self.active],
-            conditions=cond,
-        )
+        model = ModelBatch(self.functions, q, theta, platforms, cond)
+        res, jac = self.measurement.residual_jacobians(model, c, self.active)
         w = self.weights[self.active]
-        r = res[:, : self.rows] * w
-        j = jac[:, : self.rows, :][:, :, self.free] * w[:, :, None] * self.scales[None, None, :]
+        r = res * w
+        j = jac[:, :, self.free] * w[:, :, None] * self.scales[None, None, :]
         j = j.reshape(-1, self.n_free)
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(j))):
             return None
@@ -187,4 +168,4 @@ class CampaignProblem:
         if self.platforms is None:
             self.platforms = np.tile(np.asarray(self.desc.platform_home, dtype=float), (c.size, 1))
         self.platforms[self.active] = platforms
-        return Evaluation(theta, platforms, r, j, jac[:, : self.rows, :], objective, gradient, hessian)
+        return Evaluation(theta, platforms, r, j, jac, objective, gradient, hessian)

@@ -11,10 +11,10 @@ import numpy as np
 from models import RobotDescription
 from models._types import Array
 from models.campaign import Campaign, make_campaign
-from models.identifiability import NoiseModel
 from models.identification import IdentificationOptions
 from models.identification.acceptance import Check
 from models.identification.result import IdentificationResult, Outlier, PredictedAccuracy, ResidualSummary
+from models.noise import NoiseModel
 from service.conversions.kinematics import joints_in
 from service.conversions.terms import record_conditions
 from service.errors import BadRequest

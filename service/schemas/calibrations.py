@@ -7,9 +7,9 @@ from typing import Literal
 
 from pydantic import ConfigDict, Field
 
-from models.identifiability import NoiseModel
 from models.identification import IdentificationOptions, RobustLoss
 from models.identification.options import DEFAULT_GROUPS
+from models.noise import NoiseModel
 from service.conversions.units import degrees_default
 from service.schemas.common import (
     JointVector,

@@ -10,8 +10,8 @@ import pytest
 from models import forward_kinematics, iwr
 from models.accuracy import evaluate, iso_cube_poses
 from models.campaign import Campaign
-from models.identifiability import NoiseModel
 from models.identification.registration import rigid_fit
+from models.noise import NoiseModel
 from models.simulation import measure, perturbed_robot
 
 DESC = iwr()

@@ -9,7 +9,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import iwr, sample_workspace
-from models.identifiability import NoiseModel
+from models.noise import NoiseModel
 from models.simulation import measure, perturbed_robot
 from tests.service.helpers import finished_job
 

@@ -14,9 +14,9 @@ import pytest
 from models import iwr
 from models.error_analysis import DISTRIBUTIONS, ErrorMagnitudes, error_analysis
 from models.error_analysis.export import result_json
-from models.identifiability import NoiseModel
 from models.identification import IdentificationOptions
 from models.identification.options import DEFAULT_GROUPS
+from models.noise import NoiseModel
 from optimal_design.criteria import Criterion
 from optimal_design.design import MAX_CANDIDATES
 from service.conversions import calibrations

@@ -9,7 +9,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, iwr, sample_workspace
-from models.identifiability import NoiseModel
+from models.noise import NoiseModel
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
 from tests.service.helpers import records
