@@ -1,8 +1,7 @@
 """Everything built from a robot structure, owned by a `Runtime`; runtimes owned by a `Registry`.
 
-The CasADi graphs depend only on `RobotDescription.structure` (per link its
-convention, joint type and Hayati parameter, and where the hexapod sits):
-geometry, base, tool and data are inputs. A `Runtime`
+The CasADi graphs depend only on `RobotDescription.structure` (its stages' tokens: per link its convention,
+joint type and Hayati parameter, and where the hexapod sits): geometry, base, tool and data are inputs. A `Runtime`
 builds each artefact of one structure once, on first use, and keeps it:
 
 - `kinematics`: the kinematic Functions (`models.symbolic`), compiled (`models.native`) behind the batch
@@ -43,10 +42,10 @@ log = logging.getLogger(__name__)
 T = TypeVar("T")
 
 DEFAULT_CAPACITY = 8
+"""Structures a registry keeps; an application serves a handful (one per robot family)."""
 
 Warmer = Callable[[RobotDescription, "Runtime"], None]
 """Builds one layer's artefacts of a runtime ahead of the first request (identification, inverse kinematics)."""
-"""Structures a registry keeps; an application serves a handful (one per robot family)."""
 
 
 _JOINT_LETTER = {JointType.PRISMATIC.value: "p", JointType.REVOLUTE.value: "r", JointType.FIXED.value: "f"}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import itertools
 import logging
 import os
@@ -15,46 +16,51 @@ from _pytest.mark.expression import Expression
 
 from models import Registry, RobotDescription, default_registry, iwr
 
-SLOW_MODULES = frozenset(
-    {
-        "tests/optimal_design/test_acceptance.py",
-        "tests/service/test_compute.py",
-        "tests/service/test_concurrency.py",
-        "tests/service/test_contract.py",
-        "tests/service/test_contract_robots.py",
-        "tests/service/test_contract_fuzz.py",
-        "tests/service/test_disconnect.py",
-        "tests/service/test_example.py",
-        "tests/service/test_generated_client.py",
-        "tests/service/test_load_hardening.py",
-        "tests/service/test_slow_clients.py",
-        "tests/ui/test_docs.py",
-        "tests/ui/test_pages.py",
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _marks(node: ast.AST) -> set[str]:
+    """The names of the `pytest.mark.<name>` that `node` spells (an attribute, a call, a list of them)."""
+    return {
+        sub.attr
+        for sub in ast.walk(node)
+        if isinstance(sub, ast.Attribute)
+        and isinstance(sub.value, ast.Attribute)
+        and sub.value.attr == "mark"
+        and isinstance(sub.value.value, ast.Name)
+        and sub.value.value.id == "pytest"
     }
-)
+
+
+def _modules_marked(marker: str, *, whole: bool) -> frozenset[str]:
+    """The test modules that mark tests with `marker`, read from their source (nothing is imported): with
+    `whole`, only those whose module-level `pytestmark` carries it (every test of the module has it)."""
+    out = set()
+    for path in (ROOT / "tests").rglob("test_*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        if whole:
+            nodes: list[ast.AST] = [
+                stmt.value
+                for stmt in tree.body
+                if isinstance(stmt, ast.Assign)
+                and any(isinstance(t, ast.Name) and t.id == "pytestmark" for t in stmt.targets)
+            ]
+        else:
+            nodes = [tree]
+        if any(marker in _marks(node) for node in nodes):
+            out.add(path.relative_to(ROOT).as_posix())
+    return frozenset(out)
+
+
+SLOW_MODULES = _modules_marked("slow", whole=True)
 """Modules whose every test is `slow` (their `pytestmark`): under `-m "not slow"` they are not even imported,
 which saves `make test-fast` their collection (the contract and fuzz modules generate their schemathesis cases at
 import, the fuzz module creates a PostgreSQL database too: ~8 s each here)."""
 
-SERIAL_MODULES = frozenset(
-    {
-        "tests/models/test_inverse_cancellation.py",
-        "tests/service/test_api.py",
-        "tests/service/test_compute.py",
-        "tests/service/test_concurrency.py",
-        "tests/service/test_disconnect.py",
-        "tests/service/test_guards.py",
-        "tests/service/test_jobs.py",
-        "tests/service/test_limits.py",
-        "tests/service/test_load_hardening.py",
-        "tests/service/test_slow_clients.py",
-    }
-)
+SERIAL_MODULES = _modules_marked("serial", whole=False)
 """Modules with tests marked `serial` (wall times, deadlines, load: they run after the parallel part, alone on
 the cores). The serial part (`-m serial`, `-m "serial and not slow"`) collects only these: importing the others
 (schemathesis generates the contract cases at collection) would cost it ~15 s for nothing."""
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:

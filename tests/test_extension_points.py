@@ -1,0 +1,92 @@
+"""The extension points (docs/architecture.md) stay seams: each registry is complete, and the code that
+composes stages or measurement kinds never asks which kind it holds."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+from pathlib import Path
+
+import pytest
+
+from models.measurement import MeasurementKind
+from models.measurements import MEASUREMENTS, Measurement
+from models.stages import READERS, Stage
+from models.stages.base import Stage as StageProtocol
+from service.schemas.structure import STAGE_KINDS
+
+ROOT = Path(__file__).resolve().parent.parent
+STAGE_AWARE = {"models/stages", "models/hexapod.py", "models/robot.py", "models/iwr.py"}
+"""Where a stage's kind may be named: the stage modules, the hexapod's maths, the description that lays the
+stages out (its single-hexapod convenience for the hexapod-only terms) and the IWR that is built of them."""
+COMPOSERS = (
+    "models/symbolic.py",
+    "models/kinematics.py",
+    "models/workspace.py",
+    "models/structure.py",
+    "models/inverse",
+    "models/identification/residuals.py",
+    "models/identification/accuracy.py",
+    "models/identifiability.py",
+    "optimal_design/information.py",
+)
+
+
+def _protocol_members(protocol: type) -> set[str]:
+    return {
+        name
+        for name, value in vars(protocol).items()
+        if not name.startswith("_") and (callable(value) or isinstance(value, property))
+    } | set(getattr(protocol, "__annotations__", {}))
+
+
+def _sources(paths: tuple[str, ...] | set[str]) -> list[Path]:
+    out: list[Path] = []
+    for rel in paths:
+        path = ROOT / rel
+        out += sorted(path.rglob("*.py")) if path.is_dir() else [path]
+    return out
+
+
+def test_every_stage_kind_of_the_contract_has_a_reader_and_a_whole_stage() -> None:
+    assert set(STAGE_KINDS) == set(READERS)
+    members = _protocol_members(StageProtocol) - {"kind", "section", "group", "classic_group"}
+    for kind, reader in READERS.items():
+        stage_type = inspect.signature(reader).return_annotation
+        cls = reader.__globals__[stage_type] if isinstance(stage_type, str) else stage_type
+        assert cls.kind == kind
+        missing = {m for m in members if not hasattr(cls, m)}
+        assert not missing, f"{cls.__name__} lacks {sorted(missing)} of the Stage protocol"
+    assert Stage is StageProtocol
+
+
+def test_every_measurement_kind_has_a_whole_model() -> None:
+    assert set(MEASUREMENTS) == set(MeasurementKind)
+    members = _protocol_members(Measurement)
+    for kind, model in MEASUREMENTS.items():
+        assert model.kind is kind
+        missing = {m for m in members if not hasattr(model, m)}
+        assert not missing, f"{kind}'s model lacks {sorted(missing)} of the Measurement protocol"
+        assert model.rows == kind.rows and len(model.columns) >= model.rows
+
+
+@pytest.mark.parametrize("path", _sources(COMPOSERS), ids=lambda p: str(p.relative_to(ROOT)))
+def test_composers_never_ask_a_stage_or_a_measurement_its_kind(path: Path) -> None:
+    tree = ast.parse(path.read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute):
+            assert node.attr != "has_hexapod", f"{path.name}:{node.lineno} asks whether there is a hexapod"
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "isinstance":
+            kinds = ast.unparse(node.args[1])
+            assert "Stage" not in kinds and "Measurement" not in kinds, f"{path.name}:{node.lineno} tests a kind"
+        if isinstance(node, ast.Compare) and isinstance(node.left, ast.Attribute) and node.left.attr == "kind":
+            constants = [c for c in node.comparators if isinstance(c, ast.Constant)]
+            assert not constants, f"{path.name}:{node.lineno} compares a kind to a literal"
+
+
+def test_no_module_outside_the_stages_asks_for_a_hexapod_by_flag() -> None:
+    for path in _sources(("models", "optimal_design", "service")):
+        rel = str(path.relative_to(ROOT))
+        if any(rel.startswith(allowed) for allowed in STAGE_AWARE):
+            continue
+        assert "has_hexapod" not in path.read_text(), rel
