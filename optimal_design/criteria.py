@@ -48,9 +48,9 @@ if TYPE_CHECKING:
     """(strong side?, homogeneous?) -> (the compressed information VᵀM(w)V as a cvxpy expression, its size)."""
 
 
+# A criterion's name, as the API spells it (the objects are in CRITERIA). No docstring: pydantic would put it in
+# the API schema's description of the enum.
 class Criterion(StrEnum):
-    """A criterion's name, as the API spells it (the objects are in `CRITERIA`)."""
-
     D = "D"
     A = "A"
     E = "E"
