@@ -57,10 +57,10 @@ if TYPE_CHECKING:
 MAX_ITERATIONS = 3000
 TIME_LIMIT_S = 40.0
 CHECK_EVERY = 25
+"""Iterations on the working set between two passes over every candidate (the pass that certifies)."""
 POWER_MIN = 0.5
 """The multiplicative update's exponent (SmoothCriterion.power) is halved on any drop of the objective, down to
 this."""
-"""Iterations on the working set between two passes over every candidate (the pass that certifies)."""
 INITIAL_SET = 1000
 """Beyond this many candidates the iterations start on the ones with the largest uniform-design variance."""
 PRUNE = 1e-7
