@@ -36,11 +36,11 @@ from numpy.typing import NDArray
 
 from models import cancellation
 from models._types import Array
-from optimal_design.criteria import Criterion, utility
+from optimal_design.criteria import DesignCriterion, criterion_of, names, smooth
 from optimal_design.information import CandidateInformation
 from optimal_design.relaxation import NEWTON_COUNT, Relaxation, first_order, newton_d
 
-BRANCHED = (Criterion.D, Criterion.A, Criterion.I)
+BRANCHED = tuple(names(lambda c: c.branchable))
 FRACTIONAL = 1e-4
 """Weights within this of 0 or 1 are not branched on (their children barely differ from the leaf)."""
 
@@ -72,7 +72,7 @@ class _Leaf:
 
 def tighten(
     info: CandidateInformation,
-    criterion: Criterion,
+    criterion: str | DesignCriterion,
     count: int,
     base: Array,
     root: Relaxation,
@@ -86,8 +86,9 @@ def tighten(
     `incumbent` is the utility of a feasible K-subset; leaves that cannot beat it are closed. A leaf that is a
     single subset better than the incumbent becomes the incumbent (`better`). The returned bound is the largest
     bound over the open leaves or the incumbent, so it holds for every K-subset whatever the budget."""
-    if criterion not in BRANCHED:
-        raise ValueError(f"branch and bound tightens the first-order criteria {BRANCHED}, not {criterion.value}")
+    crit = criterion_of(criterion)
+    if not crit.branchable:
+        raise ValueError(f"branch and bound tightens the first-order criteria {BRANCHED}, not {crit.name.value}")
     if root.bound is None:
         raise ValueError("the root relaxation has no bound to tighten")
     started = time.perf_counter()
@@ -101,11 +102,11 @@ def tighten(
         if -leaf.priority <= incumbent:
             break  # every open leaf is at most the incumbent: the design is optimal
         heapq.heappop(heap)
-        j = _branch_on(info, criterion, base, leaf, _free(n, leaf))
+        j = _branch_on(info, crit, base, leaf, _free(n, leaf))
         for fixed_in, fixed_out in (((*leaf.fixed_in, j), leaf.fixed_out), (leaf.fixed_in, (*leaf.fixed_out, j))):
             nodes += 1
             try:
-                bound, weights, exact = _solve(info, criterion, count, base, (fixed_in, fixed_out), parent=leaf.weights)
+                bound, weights, exact = _solve(info, crit, count, base, (fixed_in, fixed_out), parent=leaf.weights)
             except (np.linalg.LinAlgError, ValueError, ArithmeticError):
                 bound, weights, exact = -leaf.priority, leaf.weights, False  # the parent's bound holds for it
             if not exact:
@@ -131,7 +132,9 @@ def tighten(
     )
 
 
-def _branch_on(info: CandidateInformation, criterion: Criterion, base: Array, leaf: _Leaf, free: NDArray[Any]) -> int:
+def _branch_on(
+    info: CandidateInformation, criterion: str | DesignCriterion, base: Array, leaf: _Leaf, free: NDArray[Any]
+) -> int:
     """The fractional candidate whose two children the leaf's quadratic model says fall furthest: the larger of
     min(drop if forced in, drop if forced out).
 
@@ -152,12 +155,7 @@ def _branch_on(info: CandidateInformation, criterion: Criterion, base: Array, le
         rows = info.blocks[frac].reshape(-1, info.n_params)
         near = rows @ inv @ rows.T
         r = info.rows
-        if criterion is Criterion.D:  # ∂²/∂wᵢ∂wⱼ log det M = −tr(M⁻¹FᵢM⁻¹Fⱼ)
-            pair = near * near
-        else:  # ∂²/∂wᵢ∂wⱼ (−tr LM⁻¹) = −2 tr(M⁻¹LM⁻¹ Fᵢ M⁻¹ Fⱼ), symmetrised
-            task = np.eye(info.n_params) if criterion is Criterion.A else info.task
-            far = rows @ (inv @ task @ inv) @ rows.T
-            pair = near * far + (near * far).T
+        pair = smooth(criterion).branch_curvature(info, inv, rows, near)
         h = pair.reshape(frac.size, r, frac.size, r).sum(axis=(1, 3))
         hinv = np.linalg.inv(h + 1e-10 * np.trace(h) / frac.size * np.eye(frac.size))
     except np.linalg.LinAlgError:
@@ -180,7 +178,7 @@ def _free(n: int, leaf: _Leaf) -> NDArray[Any]:
 
 def _solve(
     info: CandidateInformation,
-    criterion: Criterion,
+    criterion: str | DesignCriterion,
     count: int,
     base: Array,
     fixed: tuple[tuple[int, ...], tuple[int, ...]],
@@ -190,6 +188,7 @@ def _solve(
     """(bound over the leaf's K-subsets, the leaf's relaxed weights over all candidates, whether the leaf is one
     subset and the bound its utility); `fixed` = (the candidates every subset of the leaf holds, those none
     holds)."""
+    crit = smooth(criterion)
     fixed_in, fixed_out = fixed
     n = info.size
     mask = np.ones(n, dtype=bool)
@@ -206,14 +205,14 @@ def _solve(
         if left:
             weights[keep] = 1.0
             known = known + info.subset_information(keep)
-        return utility(criterion, known, info.task), weights, True
+        return crit.utility(known, info.task), weights, True
     if keep.size < left:
         return -np.inf, weights, False  # infeasible: no K-subset in this leaf
     sub = replace(info, blocks=info.blocks[keep], joints=info.joints[keep])
     start = parent[keep]
-    relaxed = newton_d(sub, left, known, start) if criterion is Criterion.D and left <= NEWTON_COUNT else None
+    relaxed = newton_d(sub, left, known, start) if crit.newton and left <= NEWTON_COUNT else None
     if relaxed is None:
-        relaxed = first_order(sub, criterion, left, known, start=start)
+        relaxed = first_order(sub, crit, left, known, start=start)
     weights[keep] = relaxed.weights
     assert relaxed.bound is not None
     return float(relaxed.bound), weights, False

@@ -20,7 +20,15 @@ from numpy.typing import NDArray
 from models import cancellation
 from models._types import Array
 from optimal_design.constraints import Spread
-from optimal_design.criteria import Criterion, utility
+from optimal_design.criteria import (
+    D_OPTIMAL,
+    DesignCriterion,
+    SmoothCriterion,
+    SpectralCriterion,
+    criterion_of,
+    smooth,
+    spectral,
+)
 from optimal_design.information import CandidateInformation
 
 Index = NDArray[Any]
@@ -116,20 +124,19 @@ def greedy(info: CandidateInformation, count: int, base: Array, allowed: Index, 
 
 
 def _swap_values_lowrank(
-    info: CandidateInformation, criterion: Criterion, design: Index, base: Array, pool: Index
+    info: CandidateInformation, criterion: str | DesignCriterion, design: Index, base: Array, pool: Index
 ) -> Array:
     """Utility after swapping design[a] for pool[b], all pairs (len(design), len(pool)), in chunks of pairs."""
+    crit = smooth(criterion)
     m = base + info.subset_information(design)
     inv = np.linalg.inv(m)
     step = max(1, PAIR_CHUNK // max(design.size, 1))
-    parts = [
-        _lowrank_chunk(info, criterion, design, pool[lo : lo + step], m=m, inv=inv) for lo in range(0, pool.size, step)
-    ]
+    parts = [_lowrank_chunk(info, crit, design, pool[lo : lo + step], m=m, inv=inv) for lo in range(0, pool.size, step)]
     return np.hstack(parts) if parts else np.empty((design.size, 0))
 
 
 def _lowrank_chunk(
-    info: CandidateInformation, criterion: Criterion, design: Index, pool: Index, *, m: Array, inv: NDArray[Any]
+    info: CandidateInformation, criterion: SmoothCriterion, design: Index, pool: Index, *, m: Array, inv: NDArray[Any]
 ) -> Array:
     r = info.rows
     a_in = info.blocks[pool]  # (J, r, P)
@@ -144,28 +151,7 @@ def _lowrank_chunk(
     s[:, :, r:, r:] = -np.eye(r) + ii[:, None]
     s[:, :, :r, r:] = ij
     s[:, :, r:, :r] = ij.transpose(0, 1, 3, 2)
-    if criterion is Criterion.D:
-        sign, logdet_s = np.linalg.slogdet(s)
-        # det(M') = det(M) det(C) det(S), det(C) = (−1)^r
-        value = np.linalg.slogdet(m)[1] + logdet_s
-        value[sign * (-1) ** r <= 0] = -np.inf
-        return np.asarray(value)
-    lm = np.eye(m.shape[0]) if criterion is Criterion.A else info.task
-    q = inv @ lm @ inv
-    # trace(L M'⁻¹) = trace(L M⁻¹) − trace(S⁻¹ Uᵀ Q U)
-    qjj = np.einsum("jri,ik,jsk->jrs", a_in, q, a_in, optimize=True)
-    qii = np.einsum("ari,ik,ask->ars", a_out, q, a_out, optimize=True)
-    qij = np.einsum("jri,ik,ask->ajrs", a_in, q, a_out, optimize=True)
-    w = np.empty_like(s)
-    w[:, :, :r, :r] = qjj[None]
-    w[:, :, r:, r:] = qii[:, None]
-    w[:, :, :r, r:] = qij
-    w[:, :, r:, :r] = qij.transpose(0, 1, 3, 2)
-    try:
-        correction = np.einsum("abii->ab", np.linalg.solve(s, w))
-    except np.linalg.LinAlgError:
-        return np.full((n_i, n_j), -np.inf)
-    return np.asarray(-(float(np.trace(lm @ inv)) - correction))
+    return criterion.swap_values(info, s, m=m, inv=inv, a_in=a_in, a_out=a_out)
 
 
 RITZ_VECTORS = 8
@@ -176,7 +162,7 @@ EXACT_BATCH = 32
 
 def _swap_values_spectral(
     info: CandidateInformation,
-    criterion: Criterion,
+    criterion: str | DesignCriterion,
     design: Index,
     base: Array,
     pool: Index,
@@ -191,6 +177,7 @@ def _swap_values_spectral(
     the weakest and strongest eigenvectors of M − FₐᵀFₐ, each bound is an 8 × 8 problem instead of 54 × 54, and
     the utility's bound (λ_min's, or −√(λ_max/λ_min)'s) orders the exact evaluations, stopped once no bound
     left beats the best value found (measured at K = 30 of 2 000: 1.4 s of the E design's exchange before)."""
+    crit = spectral(criterion)
     m = base + info.subset_information(design)
     f_out = np.einsum("ari,ark->aik", info.blocks[design], info.blocks[design])
     f_in = np.einsum("jri,jrk->jik", info.blocks[pool], info.blocks[pool])
@@ -199,11 +186,7 @@ def _swap_values_spectral(
     k = min(RITZ_VECTORS, m.shape[0])
     weak = _ritz(ev[:, :k], vec[:, :, :k], info.blocks[pool], lowest=True)
     with np.errstate(divide="ignore", invalid="ignore"):
-        if criterion is Criterion.E:
-            bound = weak
-        else:
-            strong = _ritz(ev[:, -k:], vec[:, :, -k:], info.blocks[pool], lowest=False)
-            bound = np.where(weak > 0, -np.sqrt(strong / weak), -np.inf)
+        bound = crit.ritz_bound(weak, lambda: _ritz(ev[:, -k:], vec[:, :, -k:], info.blocks[pool], lowest=False))
     if admissible is not None:
         bound = np.where(admissible, bound, -np.inf)
     out = np.full((design.size, pool.size), -np.inf)
@@ -218,10 +201,7 @@ def _swap_values_spectral(
         a, j = a[live], j[live]
         exact = np.linalg.eigvalsh(without[a] + f_in[j])
         with np.errstate(divide="ignore", invalid="ignore"):
-            if criterion is Criterion.E:
-                values = exact[:, 0]
-            else:
-                values = np.where(exact[:, 0] > 0, -np.sqrt(exact[:, -1] / exact[:, 0]), -np.inf)
+            values = crit.spectral_values(exact)
         out[a, j] = values
         best = max(best, float(values.max()))
     return out
@@ -239,7 +219,7 @@ def _ritz(ev: Array, vec: Array, blocks: Array, *, lowest: bool) -> Array:
 
 def exchange(
     info: CandidateInformation,
-    criterion: Criterion,
+    criterion: str | DesignCriterion,
     design: Index,
     *,
     base: Array,
@@ -258,17 +238,18 @@ def exchange(
     the small one has no improving swap; the design returned has no improving swap in the wide pool (every
     allowed candidate when there are at most LOWRANK_POOL, for D, A and I). With `spread`, only swaps that
     keep every pair of poses at least the minimum spread apart are considered."""
+    crit = criterion_of(criterion)
     design = np.array(design)
-    current = utility(criterion, base + info.subset_information(design), info.task)
+    current = crit.utility(base + info.subset_information(design), info.task)
     swaps = 0
-    spectral = criterion in (Criterion.E, Criterion.CONDITION)
-    small, wide_pool = (SMALL_SPECTRAL_POOL, POOL) if spectral else (SMALL_POOL, LOWRANK_POOL)
+    on_spectrum = isinstance(crit, SpectralCriterion)
+    small, wide_pool = (SMALL_SPECTRAL_POOL, POOL) if on_spectrum else (SMALL_POOL, LOWRANK_POOL)
     universe = allowed.copy()
     if universe.sum() > UNIVERSE:
         # Scoring every candidate at every swap cost 150 ms a swap at M = 20 000 (2.6 s of 4.9 s): score them all
         # once, then rescore only the UNIVERSE most promising at each swap.
         first = np.flatnonzero(allowed)
-        score = _pool_score(info, criterion, design, base, first, weights=weights)
+        score = _pool_score(info, crit, design, base, first, weights=weights)
         universe = np.zeros_like(allowed)
         universe[first[np.argsort(-score)[:UNIVERSE]]] = True
     while swaps < MAX_SWAPS:
@@ -280,7 +261,7 @@ def exchange(
             break
         order = candidates
         if candidates.size > small:
-            score = _pool_score(info, criterion, design, base, candidates, weights=weights)
+            score = _pool_score(info, crit, design, base, candidates, weights=weights)
             order = candidates[np.argsort(-score)]
         found = None
         for limit in (small, wide_pool) if wide else (small,):
@@ -291,11 +272,11 @@ def exchange(
             if spread is not None:
                 admissible &= spread.swap_mask(design, pool)
             if log_det_floor is not None:
-                admissible &= _swap_values_lowrank(info, Criterion.D, design, base, pool) >= log_det_floor
-            if spectral:
-                values = _swap_values_spectral(info, criterion, design, base, pool, admissible=admissible)
+                admissible &= _swap_values_lowrank(info, D_OPTIMAL, design, base, pool) >= log_det_floor
+            if on_spectrum:
+                values = _swap_values_spectral(info, crit, design, base, pool, admissible=admissible)
             else:
-                values = np.where(admissible, _swap_values_lowrank(info, criterion, design, base, pool), -np.inf)
+                values = np.where(admissible, _swap_values_lowrank(info, crit, design, base, pool), -np.inf)
             a, b = np.unravel_index(int(np.argmax(values)), values.shape)
             if values[a, b] > current + IMPROVEMENT * max(1.0, abs(current)):
                 found = (int(a), int(pool[b]))
@@ -306,28 +287,21 @@ def exchange(
             break
         design[found[0]] = found[1]
         swaps += 1
-        current = utility(criterion, base + info.subset_information(design), info.task)
+        current = crit.utility(base + info.subset_information(design), info.task)
     return np.sort(design), swaps
 
 
 def _pool_score(
-    info: CandidateInformation, criterion: Criterion, design: Index, base: Array, pool: Index, *, weights: Array | None
+    info: CandidateInformation,
+    criterion: DesignCriterion,
+    design: Index,
+    base: Array,
+    pool: Index,
+    *,
+    weights: Array | None,
 ) -> Array:
-    """How much each outside candidate would add: its variance function tr(M⁻¹AᵢᵀAᵢ) for the low-rank criteria,
-    its reach along the design's weakest directions for E and condition (plus its relaxed weight)."""
-    m = base + info.subset_information(design)
-    if criterion in (Criterion.E, Criterion.CONDITION):
-        ev, vec = np.linalg.eigh(m)
-        weak = vec[:, :3] / np.sqrt(np.maximum(ev[:3], 1e-300))
-        gain = np.sum((info.blocks[pool] @ weak) ** 2, axis=(1, 2))
-    else:
-        # First-order gain of adding the candidate: tr(∂f/∂M · AᵀA) with ∂f/∂M = M⁻¹ (D) or M⁻¹ L M⁻¹ (A, I).
-        # The plain variance function ranked A swaps badly: with it the A exchange fell back to the wide pool in
-        # most of its 44 swaps (5.7 s at K = 30 of 2 000).
-        inv = np.linalg.inv(m)
-        if criterion is not Criterion.D:
-            inv = inv @ (info.task if criterion is Criterion.I else np.eye(m.shape[0])) @ inv
-        gain = info.quadratic(inv, pool)
+    """How much each outside candidate would add (DesignCriterion.pool_gain), plus its relaxed weight."""
+    gain = criterion.pool_gain(info, base + info.subset_information(design), pool)
     if weights is not None:
         gain = gain + weights[pool] * gain.max()
     return np.asarray(gain)

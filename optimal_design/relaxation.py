@@ -40,31 +40,33 @@ from numpy.typing import NDArray
 
 from models import cancellation
 from models._types import Array
-from optimal_design.criteria import Criterion
+from optimal_design.criteria import (
+    D_OPTIMAL,
+    DesignCriterion,
+    SpectralCriterion,
+    criterion_of,
+    smooth,
+    spectral,
+    top_sum,
+)
 from optimal_design.information import CandidateInformation
 
 if TYPE_CHECKING:
     import cvxpy as cp
 
 MAX_ITERATIONS = 3000
-GAP_D = 0.01
-"""Stop the D iterations when the bound is within this of log det (an efficiency gap of 0.02 % at P = 54)."""
-GAP_RELATIVE = 1e-3
 TIME_LIMIT_S = 40.0
 CHECK_EVERY = 25
-POWER = {Criterion.D: 3.0, Criterion.A: 1.5, Criterion.I: 2.0}
-"""Exponent of the multiplicative update wᵢ ← wᵢ gᵢ^power. The classical 1 (D) and 1/2 (A, I) are the proven
-monotone ones; at K = 30 of 2 000 these converge in 92 (D), 87 (A) and 126 (I) iterations instead of 272, 257 and
-477, to the same bounds; larger ones diverged (A at 2, I at 3). Any drop of the objective halves the exponent,
-down to POWER_MIN, and the certificate never depends on it."""
-POWER_MIN = 0.5
 """Iterations on the working set between two passes over every candidate (the pass that certifies)."""
+POWER_MIN = 0.5
+"""The multiplicative update's exponent (SmoothCriterion.power) is halved on any drop of the objective, down to
+this."""
 INITIAL_SET = 1000
 """Beyond this many candidates the iterations start on the ones with the largest uniform-design variance."""
 PRUNE = 1e-7
 """Weights below this leave the working set (they change log det by < 1e-5); a later full pass can bring them back."""
-SCREENED = {Criterion.E: 240, Criterion.CONDITION: 240}
-"""Candidates in the first SDP round (column generation adds more). Both spend their time on a larger weak
+SCREENED = 240
+"""Candidates in the first SDP round (column generation adds more). E and condition spend their time on a larger weak
 subspace instead: at K = 30 of 2 000, 400 rather than 240 tightened the E bound by 1 % and the condition bound by
 0.7 % for 1.7x the SDP time."""
 SUBSPACE_RATIO = 300.0
@@ -80,14 +82,13 @@ LARGE = 5000
 bound keeps falling after round 3. At K = 30 of 20 000: E bound 0.00640 (3 rounds) -> 0.00603 (6), condition
 6 746 -> 7 290 (efficiency 0.865 -> 0.920 and 0.860 -> 0.942), for ~3x the SDP time (one loaded run: E 26 s ->
 59 s in all). At 2 000 the rounds stay 3, for the 5 s target (the bound still fell 8 % in the third)."""
-SUBSPACE_GROW = {Criterion.E: 12, Criterion.CONDITION: 12}
-ALWAYS_GROW = {Criterion.E, Criterion.CONDITION}
-"""Weak directions added per round (the strong side adds 2 when missed). λ_min's relaxed optimum lives where the
-D relaxation is *not* weakest: the first round's E weights leave directions outside the 15-direction basis at
-λ ≈ 0.0017 while the compressed bound says 0.0056, so every round adds the relaxed design's 12 weakest
-eigenvectors. At K = 30 of 2 000: E bound 0.00519 (2 directions a round, grown only when missed, at most 24) ->
-0.00443 (15 -> 27 -> 36 directions), against 0.00429 for the uncompressed SDP on all 2 000 candidates (146 s);
-condition bound 8 123 -> 8 806."""
+SUBSPACE_GROW = 12
+"""Weak directions added per round, every round (the strong side adds 2 when missed). λ_min's relaxed optimum
+lives where the D relaxation is *not* weakest: the first round's E weights leave directions outside the
+15-direction basis at λ ≈ 0.0017 while the compressed bound says 0.0056, so every round adds the relaxed design's
+12 weakest eigenvectors. At K = 30 of 2 000: E bound 0.00519 (2 directions a round, grown only when missed, at
+most 24) -> 0.00443 (15 -> 27 -> 36 directions), against 0.00429 for the uncompressed SDP on all 2 000 candidates
+(146 s); condition bound 8 123 -> 8 806."""
 SOLVER_OPTIONS: dict[str, float] = {"tol_gap_rel": 1e-5, "tol_gap_abs": 1e-7, "tol_feas": 1e-6}
 """Looser than Clarabel's 1e-8 defaults: 15 % fewer iterations, bounds equal to 6 digits at K = 30 of 2 000. The
 bound's validity does not depend on the solver's accuracy: it is recomputed from the (PSD-projected) duals."""
@@ -158,33 +159,13 @@ def _capped_bisection(values: Array, total: float) -> Array:
     return np.minimum(1.0, hi * values)
 
 
-def _topk(g: Array, k: int) -> float:
-    return float(np.partition(g, g.size - k)[g.size - k :].sum()) if k > 0 else 0.0
-
-
-def gradient(
-    info: CandidateInformation, criterion: Criterion, m: Array, index: NDArray[Any] | None = None
-) -> tuple[float, Array]:
-    """(f(M), ∂f/∂wᵢ) for the smooth concave criteria D (log det), A (−tr M⁻¹), I (−tr L M⁻¹).
-
-    `index` restricts the gradient to some candidates (the working set)."""
-    inv = np.linalg.inv(m)
-    if criterion is Criterion.D:
-        f = float(np.linalg.slogdet(m)[1])
-        q = inv
-    else:
-        lm = np.eye(m.shape[0]) if criterion is Criterion.A else info.task
-        f = -float(np.trace(lm @ inv))
-        q = inv @ lm @ inv
-    return f, info.quadratic(q, index)
-
-
-def _tolerance(criterion: Criterion, f: float) -> float:
-    return GAP_D if criterion is Criterion.D else GAP_RELATIVE * abs(f)
-
-
 def first_order(
-    info: CandidateInformation, criterion: Criterion, count: int, base: Array, *, start: Array | None = None
+    info: CandidateInformation,
+    criterion: str | DesignCriterion,
+    count: int,
+    base: Array,
+    *,
+    start: Array | None = None,
 ) -> Relaxation:
     """Capped multiplicative algorithm with its Frank–Wolfe certificate (D, A, I), on a working set.
 
@@ -197,19 +178,20 @@ def first_order(
     `start` (weights of a nearby problem, e.g. the previous K of a scan) warm-starts the iterations.
     """
     started = time.perf_counter()
+    crit = smooth(criterion)
     n = info.size
-    power = POWER[criterion]
+    power = crit.power
     if start is not None and start.shape == (n,) and float(np.sum(start)) > 0:
         # The start's support and the 3K candidates its gradient likes most: spreading a little weight over
         # every candidate instead kept all of them in the working set for the first ~10 iterations (a third of
         # a branch-and-bound leaf's time at M = 2 000).
         held = np.maximum(start, 0.0)
-        _, g0 = gradient(info, criterion, base + info.information(capped(held + 1e-3 * count / n, count)))
+        _, g0 = crit.gradient(info, base + info.information(capped(held + 1e-3 * count / n, count)))
         top = np.argpartition(-g0, min(3 * count, n - 1))[: 3 * count]
         active = np.union1d(np.flatnonzero(held > PRUNE), top)
         w = _on(active, capped(held[active] + 1e-3 * count / active.size, count), n)
     elif n > INITIAL_SET:
-        _, g0 = gradient(info, criterion, base + info.information(np.full(n, count / n)))
+        _, g0 = crit.gradient(info, base + info.information(np.full(n, count / n)))
         active = np.sort(np.argsort(-g0)[: max(INITIAL_SET, 4 * count)])
         w = np.zeros(n)
         w[active] = count / active.size
@@ -222,15 +204,15 @@ def first_order(
         it += 1
         m = base + info.information(w[active], active)
         previous = f
-        f, ga = gradient(info, criterion, m, active)
+        f, ga = crit.gradient(info, m, active)
         if f < previous - 1e-12 * abs(previous) and power > POWER_MIN:
             power = max(POWER_MIN, power / 2)  # an overshoot: the update exponent was too bold for this problem
-        restricted = f + _topk(ga, count) - float(ga @ w[active])
-        if since >= CHECK_EVERY or restricted - f <= _tolerance(criterion, f):
+        restricted = f + top_sum(ga, count) - float(ga @ w[active])
+        if since >= CHECK_EVERY or restricted - f <= crit.tolerance(f):
             since = 0
-            _, g = gradient(info, criterion, m)
-            bound = min(bound, f + _topk(g, count) - float(g @ w))
-            if bound - f <= _tolerance(criterion, f) or time.perf_counter() - started > TIME_LIMIT_S:
+            _, g = crit.gradient(info, m)
+            bound = min(bound, f + top_sum(g, count) - float(g @ w))
+            if bound - f <= crit.tolerance(f) or time.perf_counter() - started > TIME_LIMIT_S:
                 break
             # next working set: the support and the 3K candidates the linearisation likes most
             top = np.argpartition(-g, min(3 * count, n - 1))[: 3 * count]
@@ -248,7 +230,7 @@ def first_order(
         weights=w,
         bound=float(bound),
         method="capped multiplicative algorithm on a working set, Frank–Wolfe gap certificate over all candidates",
-        status="optimal" if bound - f <= _tolerance(criterion, f) else "gap open",
+        status="optimal" if bound - f <= crit.tolerance(f) else "gap open",
         iterations=it,
         seconds=time.perf_counter() - started,
     )
@@ -311,15 +293,15 @@ def newton_d(
         if pool is not None:
             # Between certificates the steps need the gradient on the support and the likely entrants only
             # (a pass over every candidate was 90 % of a leaf's time).
-            _, partial = gradient(info, Criterion.D, m, pool)
-            if _topk(partial, count) - float(partial @ w[pool]) > NEWTON_GAP:
+            _, partial = D_OPTIMAL.gradient(info, m, pool)
+            if top_sum(partial, count) - float(partial @ w[pool]) > NEWTON_GAP:
                 g = np.full(n, -np.inf)
                 g[pool] = partial
             else:
                 pool = None  # converged on the pool: certify over every candidate
         if pool is None:
-            _, g = gradient(info, Criterion.D, m)
-            bound = min(bound, f + _topk(g, count) - float(g @ w))
+            _, g = D_OPTIMAL.gradient(info, m)
+            bound = min(bound, f + top_sum(g, count) - float(g @ w))
             pool = np.union1d(np.flatnonzero(w > 0), np.argpartition(-g, min(4 * count, n - 1))[: 4 * count])
         if bound - f <= NEWTON_GAP:
             return Relaxation(
@@ -431,7 +413,7 @@ def _screen(info: CandidateInformation, weights: Array, weak: Array, size: int) 
 
 def sdp(
     info: CandidateInformation,
-    criterion: Criterion,
+    criterion: str | DesignCriterion,
     count: int,
     base: Array,
     *,
@@ -449,40 +431,35 @@ def sdp(
     0.00528 -> 0.00519, condition number 7 786 -> 8 123).
     """
     started = time.perf_counter()
-    d = d_relaxation or first_order(info, Criterion.D, count, base)
+    crit = spectral(criterion)
+    d = d_relaxation or first_order(info, D_OPTIMAL, count, base)
     ref = base + info.information(d.weights)
     weak = _subspace(ref, strong=False)
     strong = _subspace(ref, strong=True)
-    index = _screen(info, d.weights, weak, SCREENED[criterion])
+    index = _screen(info, d.weights, weak, SCREENED)
     best: tuple[Array, float] | None = None
     iterations, status = 0, "not run"
     for _ in range(SDP_ROUNDS_LARGE if info.size > LARGE else SDP_ROUNDS):
         cancellation.check()
         weights, bound, chosen, status, its = _compressed(
-            info, criterion, count, base, index=index, weak=weak, strong=strong
+            info, crit, count, base, index=index, weak=weak, strong=strong
         )
         iterations += its
         if weights is None or bound is None or chosen is None:
             break
         if best is None or bound < best[1]:
             best = (weights, bound)
-        # Column generation: candidates the dual bound picks but the SDP did not see enter the next round.
-        entering = np.setdiff1d(chosen, index)
-        # Directions the relaxed design left weak (strong) that the basis missed enter too.
+        # Column generation: candidates the dual bound picks but the SDP did not see enter the next round, and
+        # so do the relaxed design's weakest directions (every round, see SUBSPACE_GROW) and, when the strong
+        # side counts, the strongest ones the basis missed.
+        index = np.union1d(index, np.setdiff1d(chosen, index))
         _, vec = np.linalg.eigh(base + info.information(weights))
-        grow = SUBSPACE_GROW[criterion]
-        missed_low = criterion in ALWAYS_GROW or (
-            np.linalg.norm(vec[:, :grow] - weak @ (weak.T @ vec[:, :grow]), axis=0).max() > SUBSPACE_MISS
-        )
         missed_high = (
-            criterion is Criterion.CONDITION
+            crit.strong_side
             and np.linalg.norm(vec[:, -2:] - strong @ (strong.T @ vec[:, -2:]), axis=0).max() > SUBSPACE_MISS
         )
-        if entering.size == 0 and not missed_low and not missed_high:
-            break
-        index = np.union1d(index, entering)
-        if missed_low and weak.shape[1] < SUBSPACE_MAX:
-            weak = np.linalg.qr(np.hstack([weak, vec[:, :grow]]))[0][:, :SUBSPACE_MAX]
+        if weak.shape[1] < SUBSPACE_MAX:
+            weak = np.linalg.qr(np.hstack([weak, vec[:, :SUBSPACE_GROW]]))[0][:, :SUBSPACE_MAX]
         if missed_high and strong.shape[1] < SUBSPACE_MAX:
             strong = np.linalg.qr(np.hstack([strong, vec[:, -2:]]))[0][:, :SUBSPACE_MAX]
     method = (
@@ -497,7 +474,7 @@ def sdp(
             status=status,
             iterations=iterations,
             seconds=time.perf_counter() - started,
-            note=f"Clarabel did not solve the {criterion.value} relaxation to optimality ({status}): "
+            note=f"Clarabel did not solve the {crit.name.value} relaxation to optimality ({status}): "
             "no bound is reported; the design comes from rounding and exchange on the exact criterion",
         )
     return Relaxation(
@@ -512,7 +489,7 @@ def sdp(
 
 def _compressed(
     info: CandidateInformation,
-    criterion: Criterion,
+    criterion: SpectralCriterion,
     count: int,
     base: Array,
     *,
@@ -529,36 +506,24 @@ def _compressed(
     ref_low = float(np.linalg.eigvalsh(weak.T @ (base + info.information(np.ones(index.size), index)) @ weak)[0])
     scale_low = max(ref_low / index.size * count, 1e-300)
 
-    def compressed(basis: Array, scale: float, homogeneous: bool) -> tuple[cp.Expression, int]:
+    def compress(on_strong: bool, homogeneous: bool) -> tuple[cp.Expression, int]:
+        if on_strong:
+            ref_high = float(np.linalg.eigvalsh(strong.T @ info.information(np.ones(index.size), index) @ strong)[-1])
+            basis, scale = strong, max(ref_high / index.size * count, 1e-300)
+        else:
+            basis, scale = weak, scale_low
         rows = info.blocks[index] @ basis / np.sqrt(scale)
         q = basis.shape[1]
         f = np.einsum("mri,mrj->mij", rows, rows).reshape(index.size, q * q)
         flat = cp.reshape(f.T @ w, (q, q), order="C")
         fixed = basis.T @ base @ basis / scale
-        # The condition problem is homogenised (w stands for τ·w), so the measured poses scale with τ too.
+        # A homogenised problem (w stands for τ·w) scales the measured poses with τ too.
         return (flat + flat.T) / 2 + (tau * fixed if homogeneous else fixed), q
 
     tau = cp.Variable(nonneg=True)
     w = cp.Variable(index.size, nonneg=True)
     s = cp.Variable()
-    if criterion is Criterion.E:
-        low, q_low = compressed(weak, scale_low, homogeneous=False)
-        lower = low - s * np.eye(q_low) >> 0
-        constraints = [lower]
-        problem = cp.Problem(cp.Maximize(s), [lower, cp.sum(w) == count, w <= 1])
-    else:
-        # Homogenised (u = τ·w, Σu = Kτ, u ≤ τ): the upper spectrum is pinned and the lower one pushed up:
-        # max s with VᵀM(u)V ⪰ s·I, UᵀM(u)U ⪯ I, so cond ≥ scale_high/(s·scale_low) for every K-subset — an
-        # exact convex form of the quasi-convex problem that Clarabel solves reliably (the form with a free upper
-        # bound t, min t s.t. I ⪯ M(u) ⪯ t·I, fails on these spectra).
-        ref_high = float(np.linalg.eigvalsh(strong.T @ info.information(np.ones(index.size), index) @ strong)[-1])
-        scale_high = max(ref_high / index.size * count, 1e-300)
-        low, q_low = compressed(weak, scale_low, homogeneous=True)
-        up, q_up = compressed(strong, scale_high, homogeneous=True)
-        lower = low - s * np.eye(q_low) >> 0
-        upper = np.eye(q_up) - up >> 0
-        constraints = [lower, upper]
-        problem = cp.Problem(cp.Maximize(s), [lower, upper, cp.sum(w) == count * tau, w <= tau])
+    problem, constraints = criterion.sdp_problem(cp, compress, count, w=w, tau=tau, s=s)
     status = "not run"
     for options in SOLVER_ATTEMPTS:
         try:
@@ -576,15 +541,12 @@ def _compressed(
     # "optimal_inaccurate" is usable too: the bound is recomputed from the PSD-projected duals, valid for any.
     if status not in ("optimal", "optimal_inaccurate") or any(dv is None for dv in duals) or w.value is None:
         return None, None, None, status, iterations
-    raw = np.asarray(w.value, dtype=float)
-    if criterion is Criterion.CONDITION:
-        raw = raw / max(float(np.asarray(tau.value)), 1e-300)
+    scale = 0.0 if tau.value is None else float(np.asarray(tau.value))  # τ is no variable of a plain problem
+    raw = criterion.relaxed_weights(np.asarray(w.value, dtype=float), scale)
     weights = np.zeros(info.size)
     weights[index] = np.clip(raw, 0.0, 1.0)
     # Lift the duals back to the full parameter space: V Y Vᵀ is a density matrix there (up to its trace).
-    zs = [weak @ np.asarray(duals[0], dtype=float) @ weak.T]
-    if criterion is Criterion.CONDITION:
-        zs.append(strong @ np.asarray(duals[1], dtype=float) @ strong.T)
+    zs = [basis @ np.asarray(dual, dtype=float) @ basis.T for basis, dual in zip((weak, strong), duals, strict=False)]
     bound, chosen = _dual_bound(info, criterion, count, base, zs)
     return weights, bound, chosen, status, iterations
 
@@ -595,47 +557,27 @@ def _psd(z: Array) -> Array:
     return np.asarray((vec * np.clip(ev, 0.0, None)) @ vec.T)
 
 
-def _traces(info: CandidateInformation, z: Array) -> Array:
-    return np.asarray(info.quadratic(z) / np.trace(z), dtype=float)
-
-
 def _dual_bound(
-    info: CandidateInformation, criterion: Criterion, count: int, base: Array, zs: list[Array]
+    info: CandidateInformation, criterion: SpectralCriterion, count: int, base: Array, zs: list[Array]
 ) -> tuple[float, NDArray[Any]]:
     """Bound on the utility of every K-subset from density matrices (see module docstring), and the K-subset
     that attains the bound's inner maximum (the candidates the next column-generation round must see)."""
-    zs = [_psd(z) for z in zs]
-    if criterion is Criterion.E:
-        z = zs[0]
-        c = _traces(info, z)
-        return float(np.trace(z @ base) / np.trace(z) + _topk(c, count)), np.argpartition(-c, count - 1)[:count]
-    z1, z2 = zs
-    a, b = _traces(info, z2), _traces(info, z1)
-    a0, b0 = np.trace(z2 @ base) / np.trace(z2), np.trace(z1 @ base) / np.trace(z1)
-    lo, hi = 0.0, float((a0 + _topk(a, count)) / max(b0 + _bottomk(b, count), 1e-300))
-    hi = max(hi, 1.0)
-    for _ in range(200):
-        r = 0.5 * (lo + hi)
-        if a0 - r * b0 + _bottomk(a - r * b, count) <= 0:
-            hi = r
-        else:
-            lo = r
-    ratio = lo  # no K-subset has λ_max/λ_min below this
-    chosen = np.argpartition(a - hi * b, count - 1)[:count]
-    return -float(np.sqrt(max(ratio, 0.0))), chosen  # utility of the condition criterion: −cond(J)
-
-
-def _bottomk(g: Array, k: int) -> float:
-    return float(np.partition(g, k - 1)[:k].sum()) if k > 0 else 0.0
+    return criterion.dual_bound(info, count, base, [_psd(z) for z in zs])
 
 
 def relax(
-    info: CandidateInformation, criterion: Criterion, count: int, base: Array, *, start: Array | None = None
+    info: CandidateInformation,
+    criterion: str | DesignCriterion,
+    count: int,
+    base: Array,
+    *,
+    start: Array | None = None,
 ) -> Relaxation:
-    if criterion in (Criterion.E, Criterion.CONDITION):
-        return sdp(info, criterion, count, base, d_relaxation=first_order(info, Criterion.D, count, base, start=start))
-    relaxed = first_order(info, criterion, count, base, start=start)
-    if criterion is Criterion.D and relaxed.bound is not None and count <= NEWTON_COUNT:
+    crit = criterion_of(criterion)
+    if isinstance(crit, SpectralCriterion):
+        return sdp(info, crit, count, base, d_relaxation=first_order(info, D_OPTIMAL, count, base, start=start))
+    relaxed = first_order(info, crit, count, base, start=start)
+    if smooth(crit).newton and relaxed.bound is not None and count <= NEWTON_COUNT:
         # The multiplicative algorithm stops at a 0.01 gap; a few Newton steps from its weights close it (at
         # K = 30 of 2 000: 180.6636 -> 180.654, ~5 iterations). Only the bound is taken: rounding and exchange
         # start from the same weights as before, so the design does not change.

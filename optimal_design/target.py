@@ -34,13 +34,17 @@ from models.blas import single_threaded_blas
 from models.errors import InvalidInput, TargetUnreachable, TooFewMeasurements
 from models.runtime import Runtime
 from optimal_design.constraints import KeepOut
-from optimal_design.criteria import Criterion, metrics
-from optimal_design.design import PoseDesign, Problem, prepare, solve
+from optimal_design.criteria import I_OPTIMAL, Criterion, DesignCriterion, criterion_of, metrics, names
 from optimal_design.information import max_tcp_error
+from optimal_design.problem import DesignInputs, DesignProblem
 from optimal_design.relaxation import first_order
+from optimal_design.report import PoseDesign
+from optimal_design.solve import solve
 
 METRICS = {"rms_tcp_mm": "predicted_rms_tcp_mm", "max_tcp_mm": "predicted_max_tcp_mm"}
 MAX_PROBES = 40
+CURVE = (Criterion.D, Criterion.I)
+"""The criteria whose designs every point of the curve reports (its `D_…` and `I_…` errors)."""
 
 
 @dataclass(frozen=True)
@@ -61,7 +65,7 @@ class TargetDesign:
     notes: tuple[str, ...] = field(default=())
 
 
-def _error(problem: Problem, m: Array, key: str) -> float:
+def _error(problem: DesignProblem, m: Array, key: str) -> float:
     if key == "max_tcp_mm":
         assert problem.info.task_rows is not None
         return max_tcp_error(problem.info.task_rows, m)
@@ -74,7 +78,7 @@ def design_for_target(
     *,
     rms_tcp_mm: float | None = None,
     max_tcp_mm: float | None = None,
-    criterion: str | Criterion = Criterion.I,
+    criterion: str | Criterion | DesignCriterion = Criterion.I,
     measurement: str = "pose",
     candidates: ArrayLike | None = None,
     candidate_count: int = 2000,
@@ -89,26 +93,10 @@ def design_for_target(
 ) -> TargetDesign:
     """The smallest K (beyond `fixed`) whose `criterion` design (D or I) reaches the target, and the curve."""
     started = time.perf_counter()
-    given = {k: v for k, v in (("rms_tcp_mm", rms_tcp_mm), ("max_tcp_mm", max_tcp_mm)) if v is not None}
-    if len(given) != 1:
-        raise InvalidInput("give exactly one target: rms_tcp_mm or max_tcp_mm")
-    key, goal = next(iter(given.items()))
-    if not math.isfinite(goal) or goal <= 0:
-        raise InvalidInput(
-            f"the target {key} must be a positive number of millimetres, got {goal}", field=key, value=goal, min=0.0
-        )
-    crit = criterion if isinstance(criterion, Criterion) else Criterion.parse(criterion)
-    if crit not in (Criterion.D, Criterion.I):
-        raise InvalidInput(
-            f"the target mode designs with the D or I criterion (I minimises the predicted RMS TCP error), "
-            f"not {crit.value}",
-            field="criterion",
-            value=crit.value,
-            allowed=[Criterion.D.value, Criterion.I.value],
-        )
-    problem = prepare(
-        desc,
-        measurement,
+    key, goal = _goal(rms_tcp_mm, max_tcp_mm)
+    crit = _targetable(criterion)
+    inputs = DesignInputs(
+        measurement=measurement,
         candidates=candidates,
         candidate_count=candidate_count,
         seed=seed,
@@ -120,22 +108,21 @@ def design_for_target(
         min_spread=min_spread,
         runtime=runtime,
     )
+    problem = DesignProblem.build(desc, inputs)
     info = problem.info
     notes: list[str] = []
-    fixed_mm: float | None = None
-    if problem.n_fixed and problem.minimum_count() == 0:
-        fixed_mm = _error(problem, problem.base, key)
-        if fixed_mm <= goal:
-            return TargetDesign(
-                target={key: goal},
-                count=0,
-                design=None,
-                curve=(),
-                reachable_mm=_error(problem, problem.base + info.information(np.ones(info.size)), key),
-                fixed_mm=fixed_mm,
-                seconds=time.perf_counter() - started,
-                notes=("the fixed poses already reach the target: no more are needed",),
-            )
+    fixed_mm = _error(problem, problem.base, key) if problem.n_fixed and problem.minimum_count() == 0 else None
+    if fixed_mm is not None and fixed_mm <= goal:
+        return TargetDesign(
+            target={key: goal},
+            count=0,
+            design=None,
+            curve=(),
+            reachable_mm=_error(problem, problem.base + info.information(np.ones(info.size)), key),
+            fixed_mm=fixed_mm,
+            seconds=time.perf_counter() - started,
+            notes=("the fixed poses already reach the target: no more are needed",),
+        )
     reachable = _error(problem, problem.base + info.information(np.ones(info.size)), key)
     if reachable > goal:
         raise TargetUnreachable(
@@ -151,16 +138,7 @@ def design_for_target(
     low = max(1, problem.minimum_count())
     count = search.smallest(low, info.size)
     if count is None:
-        best = min((p[f"{crit.value}_{key}"] for p in search.curve()), default=math.inf)
-        raise TargetUnreachable(
-            f"no design of up to {info.size} poses at min_spread {min_spread} reaches a predicted {_label(key)} "
-            f"of {goal:g} mm; the best design found reaches {best:.4g} mm (every candidate, ignoring the spread, "
-            f"would give {reachable:.4g} mm): lower min_spread or relax the target",
-            field=key,
-            target_mm=goal,
-            reachable_mm=best,
-            candidates=int(info.size),
-        )
+        raise _spread_too_tight(search, min_spread, reachable)
     if problem.spread is not None:
         notes.append("min_spread applies to every design of the curve; random poses ignore it")
     return TargetDesign(
@@ -175,6 +153,48 @@ def design_for_target(
     )
 
 
+def _goal(rms_tcp_mm: float | None, max_tcp_mm: float | None) -> tuple[str, float]:
+    """(which error, its target) of the one target given."""
+    given = {k: v for k, v in (("rms_tcp_mm", rms_tcp_mm), ("max_tcp_mm", max_tcp_mm)) if v is not None}
+    if len(given) != 1:
+        raise InvalidInput("give exactly one target: rms_tcp_mm or max_tcp_mm")
+    key, goal = next(iter(given.items()))
+    if not math.isfinite(goal) or goal <= 0:
+        raise InvalidInput(
+            f"the target {key} must be a positive number of millimetres, got {goal}", field=key, value=goal, min=0.0
+        )
+    return key, goal
+
+
+def _targetable(criterion: str | Criterion | DesignCriterion) -> Criterion:
+    crit = criterion_of(criterion).name
+    targetable = names(lambda c: c.targetable)
+    if crit not in targetable:
+        raise InvalidInput(
+            f"the target mode designs with the {' or '.join(targetable)} criterion (I minimises the "
+            f"predicted RMS TCP error), not {crit.value}",
+            field="criterion",
+            value=crit.value,
+            allowed=[c.value for c in targetable],
+        )
+    return crit
+
+
+def _spread_too_tight(search: _Search, min_spread: float | None, reachable: float) -> TargetUnreachable:
+    """No design reached the goal though every candidate would: the spread is what keeps it away."""
+    key, goal, size = search.key, search.goal, search.problem.info.size
+    best = min((p[f"{search.crit.value}_{key}"] for p in search.curve()), default=math.inf)
+    return TargetUnreachable(
+        f"no design of up to {size} poses at min_spread {min_spread} reaches a predicted {_label(key)} "
+        f"of {goal:g} mm; the best design found reaches {best:.4g} mm (every candidate, ignoring the spread, "
+        f"would give {reachable:.4g} mm): lower min_spread or relax the target",
+        field=key,
+        target_mm=goal,
+        reachable_mm=best,
+        candidates=int(size),
+    )
+
+
 def _label(key: str) -> str:
     return "RMS TCP position error" if key == "rms_tcp_mm" else "worst-pose TCP position error"
 
@@ -183,7 +203,7 @@ class _Search:
     """Designs by K, computed once each, warm-started from the nearest K already solved."""
 
     def __init__(
-        self, desc: RobotDescription, problem: Problem, crit: Criterion, *, key: str, goal: float, seed: int
+        self, desc: RobotDescription, problem: DesignProblem, crit: Criterion, *, key: str, goal: float, seed: int
     ) -> None:
         self.desc, self.problem, self.crit, self.key, self.goal, self.seed = desc, problem, crit, key, goal, seed
         self.designs: dict[tuple[Criterion, int], PoseDesign] = {}
@@ -226,7 +246,7 @@ class _Search:
             if near:
                 k0 = min(near, key=lambda k: abs(k - count))
                 start = self.relaxed[k0] * (count / k0)
-            r = first_order(self.problem.info, Criterion.I, count, self.problem.base, start=start)
+            r = first_order(self.problem.info, I_OPTIMAL, count, self.problem.base, start=start)
             self.relaxed[count] = r.weights
             self.bounds[count] = math.sqrt(-r.bound) if r.bound is not None and r.bound < 0 else 0.0
         return self.bounds[count]
@@ -283,12 +303,12 @@ class _Search:
         counts = sorted({k for (_, k) in self.designs})
         out = []
         for k in counts:
-            for c in (Criterion.D, Criterion.I):
+            for c in CURVE:
                 self.design(c, k)
             point: dict[str, Any] = {"count": k}
             mine = self.designs.get((self.crit, k))
             point[self.key] = None if mine is None else mine.metrics[METRICS[self.key]]
-            for c in (Criterion.D, Criterion.I):
+            for c in CURVE:
                 d = self.designs.get((c, k))
                 point[f"{c.value}_{self.key}"] = None if d is None else d.metrics[METRICS[self.key]]
             # the I certificate: no selection of k poses has a lower predicted RMS error

@@ -35,6 +35,7 @@ import anyio
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from models.cancellation import CancellationToken, Cancelled
+from optimal_design.criteria import cost_factor
 from service.compute import ComputePool, Task
 from service.errors import ClientGone, Overloaded, WorkTooLarge
 
@@ -56,13 +57,10 @@ IK_MAX_TARGETS = int(SYNC_BUDGET_S / IK_S_PER_TARGET)
 """2 105: what the budget allows, since inverse kinematics cannot run as a job."""
 
 # Pose design after its speed-up (optimal_design's benchmark, K = 30, a loaded 2-core machine): D 0.52 s at
-# M = 2 000 and 3.9 s at M = 20 000, linear in M; the other criteria's multiples of D at M = 2 000 below. Taken
+# M = 2 000 and 3.9 s at M = 20 000, linear in M; the other criteria's multiples of D: their cost_factor. Taken
 # 1.5x up, so an estimate errs on the side of a job.
 DESIGN_FIXED_S = 0.05  # information blocks and baselines at small M
 DESIGN_S_PER_CANDIDATE = 2.9e-4  # (3.9 - 0.52) s / 18 000 candidates, x1.5
-DESIGN_S_PER_CANDIDATE2 = 0.0  # no longer grows faster than M: the relaxation works on a working set
-DESIGN_CRITERION_FACTOR = {"D": 1.0, "A": 2.1, "I": 2.3, "E": 6.5, "condition": 6.3}
-"""Relative to D at M = 2 000, K = 30 (0.52, 1.1, 1.2, 3.4, 3.3 s)."""
 DESIGN_K_EXPONENT = 0.55  # K = 30 -> 300 at M = 2 000: 4.6 s -> 16 s (x3.5 for x10)
 DESIGN_BASE_BYTES = 150_000_000  # peak 252 MB at M = 2 000 and 671 MB at M = 20 000 (K = 30, after the speed-up)
 DESIGN_BYTES_PER_CANDIDATE = 30_000  # (671 - 252) MB / 18 000 candidates = 23 KB, rounded up
@@ -139,8 +137,8 @@ def inverse_kinematics(targets: int) -> Estimate:
 def pose_design(candidates: int, count: int, fixed: int, criterion: str, *, bound_seconds: float = 0.0) -> Estimate:
     """`bound_seconds` of branch and bound come on top (D, A and I spend them all unless the tree closes)."""
     m = candidates + fixed
-    seconds = DESIGN_FIXED_S + DESIGN_S_PER_CANDIDATE * m + DESIGN_S_PER_CANDIDATE2 * m * m
-    seconds *= DESIGN_CRITERION_FACTOR.get(criterion, max(DESIGN_CRITERION_FACTOR.values()))
+    seconds = DESIGN_FIXED_S + DESIGN_S_PER_CANDIDATE * m
+    seconds *= cost_factor(criterion)
     seconds *= max(1.0, count / 30) ** DESIGN_K_EXPONENT  # exchange and greedy grow with K (base: K = 30)
     seconds += bound_seconds
     memory = DESIGN_BASE_BYTES + DESIGN_BYTES_PER_CANDIDATE * m + DESIGN_BYTES_PER_PAIR * count * m

@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-import optimal_design.design as module
+import optimal_design.solve as module
 from models import RobotDescription, sample_workspace
 from models.errors import InvalidInput, JointOutOfRange, TooFewMeasurements, UnreachablePose
 from optimal_design import Criterion, design_poses
