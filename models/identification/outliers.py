@@ -26,14 +26,7 @@ def find_outliers(
     flagged = flagged[np.argsort(-stat[flagged], kind="stable")]
     errors = PoseErrors.from_raw(ev.residuals / problem.weights[active])
     found = tuple(
-        Outlier(
-            pose=int(active[k]),
-            position_mm=float(errors.position_mm[k]),
-            orientation_rad=None if errors.orientation_rad is None else float(errors.orientation_rad[k]),
-            statistic=float(stat[k]),
-            threshold=threshold,
-            excluded=exclude,
-        )
+        Outlier.at(errors, int(k), pose=int(active[k]), statistic=stat[k], threshold=threshold, excluded=exclude)
         for k in flagged
     )
     return found, (active[flagged] if exclude else np.empty(0, dtype=np.intp))

@@ -357,14 +357,7 @@ def _far_outliers(
     threshold = outlier_threshold(campaign.size, problem.rows, options.outlier_alpha)
     order = np.argsort(-np.nan_to_num(statistic, nan=np.inf), kind="stable")
     return tuple(
-        Outlier(
-            pose=int(far[k]),
-            position_mm=float(errors.position_mm[k]),
-            orientation_rad=None if errors.orientation_rad is None else float(errors.orientation_rad[k]),
-            statistic=float(statistic[k]),
-            threshold=threshold,
-            excluded=True,
-        )
+        Outlier.at(errors, k, pose=int(far[k]), statistic=statistic[k], threshold=threshold, excluded=True)
         for k in order
     )
 

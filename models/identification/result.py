@@ -60,6 +60,14 @@ class Outlier:
     threshold: float
     excluded: bool
 
+    @classmethod
+    def at(
+        cls, errors: PoseErrors, k: int, *, pose: int, statistic: float, threshold: float, excluded: bool
+    ) -> Outlier:
+        """Record `pose`, the `k`-th of `errors`, flagged by its `statistic` against `threshold`."""
+        orientation = None if errors.orientation_rad is None else float(errors.orientation_rad[k])
+        return cls(pose, float(errors.position_mm[k]), orientation, float(statistic), threshold, excluded)
+
 
 @dataclass(frozen=True)
 class SolverReport:

@@ -48,30 +48,20 @@ class TcpMeasurement:
         return np.asarray(campaign.rotations[index], dtype=float)
 
     def residuals(self, model: ModelBatch, campaign: Campaign, index: Index) -> Array:
-        m = model
-        (res,) = m.functions.batch(
-            "residual_at",
-            m.q,
-            m.theta,
-            m.platforms,
-            campaign.positions[index],
-            self._rotations(campaign, index),
-            conditions=m.conditions,
-        )
+        (res,) = self._evaluate("residual_at", model, campaign, index)
         return np.asarray(res[:, : self.rows], dtype=float)
 
     def residual_jacobians(self, model: ModelBatch, campaign: Campaign, index: Index) -> tuple[Array, Array]:
-        m = model
-        res, jac = m.functions.batch(
-            "residual_jacobian_at",
-            m.q,
-            m.theta,
-            m.platforms,
-            campaign.positions[index],
-            self._rotations(campaign, index),
-            conditions=m.conditions,
-        )
+        res, jac = self._evaluate("residual_jacobian_at", model, campaign, index)
         return np.asarray(res[:, : self.rows]), np.asarray(jac[:, : self.rows, :])
+
+    def _evaluate(self, name: str, model: ModelBatch, campaign: Campaign, index: Index) -> tuple[Array, ...]:
+        """The compiled residual Function `name` at the records `index` (all six rows)."""
+        rotations = self._rotations(campaign, index)
+        m = model
+        return m.functions.batch(
+            name, m.q, m.theta, m.platforms, campaign.positions[index], rotations, conditions=m.conditions
+        )
 
     def information(self, pose_jacobians: Array, noise: NoiseModel) -> Array:
         weights = self.weights(noise, None, 1)[0]

@@ -44,22 +44,26 @@ def create_design(
     joint_ranges, keep_out = constraints_in(desc, body)
     if job is not None:
         job.progress("designing", 0.05)
+    # What both kinds of design take (the request's options in internal units).
+    common: dict[str, Any] = {
+        "measurement": body.measurement,
+        "candidates": candidates,
+        "candidate_count": body.candidate_count,
+        "seed": body.seed,
+        "fixed": fixed,
+        "params": theta,
+        "joint_ranges": joint_ranges,
+        "keep_out": keep_out,
+        "min_spread": body.min_spread,
+        "runtime": runtime,
+    }
     if body.target is not None:
         found = design_for_target(
             desc,
             rms_tcp_mm=body.target.rms_tcp_mm,
             max_tcp_mm=body.target.max_tcp_mm,
             criterion=body.criterion,
-            measurement=body.measurement,
-            candidates=candidates,
-            candidate_count=body.candidate_count,
-            seed=body.seed,
-            fixed=fixed,
-            params=theta,
-            joint_ranges=joint_ranges,
-            keep_out=keep_out,
-            min_spread=body.min_spread,
-            runtime=runtime,
+            **common,
         )
         report_model = target_report_out(desc, found, candidates_given=candidates is not None, criterion=body.criterion)
     else:
@@ -68,19 +72,10 @@ def create_design(
             desc,
             body.count,
             body.criterion,
-            body.measurement,
-            candidates=candidates,
-            candidate_count=body.candidate_count,
-            seed=body.seed,
-            fixed=fixed,
-            params=theta,
-            joint_ranges=joint_ranges,
-            keep_out=keep_out,
-            min_spread=body.min_spread,
             d_efficiency_floor=body.d_efficiency_floor,
             bound_seconds=body.bound_seconds,
-            runtime=runtime,
             levels=levels,
+            **common,
         )
         report_model = report_out(desc, design, candidates_given=candidates is not None)
     report = report_model.model_dump(mode="json")
