@@ -39,14 +39,17 @@ import, the fuzz module creates a PostgreSQL database too: ~8 s each here)."""
 SERIAL_MODULES = frozenset(
     {
         "tests/models/test_inverse_cancellation.py",
+        "tests/models/test_urdf_hostile.py",
         "tests/service/test_api.py",
         "tests/service/test_compute.py",
         "tests/service/test_concurrency.py",
         "tests/service/test_disconnect.py",
         "tests/service/test_guards.py",
+        "tests/service/test_hostile_inputs.py",
         "tests/service/test_jobs.py",
         "tests/service/test_limits.py",
         "tests/service/test_load_hardening.py",
+        "tests/service/test_parser_linearity.py",
         "tests/service/test_slow_clients.py",
     }
 )
