@@ -15,7 +15,7 @@ from models.errors import InvalidInput
 from models.structure import description_from_document
 from models.urdf import document_from_urdf
 from models.urdf_tree import MAX_LINKS
-from tests.linearity import LINEAR_RATIO, doubling_ratio
+from tests.linearity import LINEAR_RATIO, best_doubling_ratio
 
 LIMIT = '<limit lower="-1" upper="1" effort="0" velocity="0"/>'
 
@@ -160,16 +160,22 @@ def test_a_zero_axis_is_refused() -> None:
 
 @pytest.mark.serial
 def test_reading_is_linear_in_the_links() -> None:
-    assert doubling_ratio(lambda n: document_from_urdf(chain(n), "l0", f"l{n}"), 250) <= LINEAR_RATIO
+    texts = {n: chain(n) for n in (250, 500)}
+    assert best_doubling_ratio(lambda n: document_from_urdf(texts[n], "l0", f"l{n}"), 250) <= LINEAR_RATIO
+
+
+def ring(n: int) -> str:
+    """A root l0 and a ring of n links that no root reaches."""
+    joints = [joint(f"r{i}", f"l{i + 1}", f"l{(i + 1) % n + 1}") for i in range(n)]
+    return urdf([f"l{i}" for i in range(n + 1)], joints)
 
 
 @pytest.mark.serial
 def test_refusing_a_cycle_is_linear_in_the_links() -> None:
-    def ring(n: int) -> None:
-        # a root l0 and a ring of n links nobody reaches
-        joints = [joint(f"r{i}", f"l{i + 1}", f"l{(i + 1) % n + 1}") for i in range(n)]
-        text = urdf([f"l{i}" for i in range(n + 1)], joints)
-        with pytest.raises(InvalidInput):
-            document_from_urdf(text, "l0", "l1")
+    texts = {n: ring(n) for n in (400, 800)}
 
-    assert doubling_ratio(ring, 400) <= LINEAR_RATIO
+    def refuse(n: int) -> None:
+        with pytest.raises(InvalidInput, match="form a cycle"):
+            document_from_urdf(texts[n], "l0", "l1")
+
+    assert best_doubling_ratio(refuse, 400) <= LINEAR_RATIO
