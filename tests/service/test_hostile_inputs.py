@@ -5,13 +5,20 @@ from __future__ import annotations
 
 import resource
 import time
+from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
+from pydantic import BaseModel, ValidationError
 
+from models import Registry
+from service.schemas.calibrations import CalibrationCreate
+from service.schemas.validations import ValidationCreate
 from tests.models.test_urdf_hostile import chain, joint, urdf
+from tests.service.conftest import make_client, postgres_url
 
-pytestmark = pytest.mark.serial  # wall-time bounds: alone on the cores
+SERIAL = pytest.mark.serial  # the tests with wall-time bounds run alone on the cores
 
 
 @pytest.fixture
@@ -28,6 +35,7 @@ def _peak_rss_kb() -> int:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 
 
+@SERIAL
 def test_a_urdf_with_a_cycle_is_a_422_at_once(warm: TestClient) -> None:
     client = warm
     # The issue's request: two joints l1 -> l2 -> l1 below nothing; it hung and grew ~85 MB/s before.
@@ -46,6 +54,7 @@ def test_a_urdf_with_a_cycle_is_a_422_at_once(warm: TestClient) -> None:
     assert [r["name"] for r in client.get("/v1/robots").json()] == ["ok"]  # nothing stored
 
 
+@SERIAL
 def test_a_urdf_of_10_000_links_is_a_422_naming_the_limit(warm: TestClient) -> None:
     client = warm
     # bare links and joints (1.1 MB, under the 2 MB the schema allows a URDF)
@@ -60,6 +69,7 @@ def test_a_urdf_of_10_000_links_is_a_422_naming_the_limit(warm: TestClient) -> N
     assert answer.status_code == 422 and "at most 1000" in answer.json()["detail"]
 
 
+@SERIAL
 def test_a_csv_header_of_20_000_columns_is_answered_at_once(warm: TestClient) -> None:
     # The issue's 6.1 s (names.count per column); a 400 naming what is missing now, its list of columns cut.
     robot = warm.post("/v1/robots", json={"name": "cell"}).json()["id"]
@@ -71,3 +81,42 @@ def test_a_csv_header_of_20_000_columns_is_answered_at_once(warm: TestClient) ->
     assert answer.status_code == 400, answer.status_code  # a file that cannot be read: the campaign files' 400
     detail = answer.json()["detail"]
     assert "names no joint" in detail and "(20000 in all)" in detail and len(detail) < 1_000
+
+
+@pytest.fixture(params=["sqlite", pytest.param("postgresql", marks=pytest.mark.slow)])
+def any_db_client(request: pytest.FixtureRequest, tmp_path: Path, registry: Registry) -> Iterator[TestClient]:
+    """A client on SQLite, and on PostgreSQL (where a NUL was a 500) in `make test`."""
+    urls = iter([f"sqlite:///{tmp_path}/iwr.db"]) if request.param == "sqlite" else postgres_url()
+    url = next(urls)
+    with make_client(url, registry) as c:
+        yield c
+    next(urls, None)  # drops the PostgreSQL database
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("name", "cell\x003"), ("name", "cell-3\nFORGED log line"), ("name", "bell\x07"), ("notes", "a\x00b")],
+)
+def test_patch_refuses_what_post_refuses(any_db_client: TestClient, field: str, value: str) -> None:
+    client = any_db_client
+    robot = client.post("/v1/robots", json={"name": "cell-3"}).json()
+    answer = client.patch(f"/v1/robots/{robot['id']}", json={field: value})
+    assert answer.status_code == 422, answer.text
+    assert answer.json()["errors"][0]["loc"] == ["body", field]
+    assert client.post("/v1/robots", json={"name": value}).status_code == 422 or field == "notes"  # POST's rule
+    stored = client.get(f"/v1/robots/{robot['id']}").json()
+    assert (stored["name"], stored["notes"], stored["revision"]) == ("cell-3", None, robot["revision"])
+
+
+def test_notes_keep_their_lines_and_tabs(client: TestClient, robot_id: str) -> None:
+    notes = "re-measured after the crash\n\tbase only\r\n"
+    answer = client.patch(f"/v1/robots/{robot_id}", json={"notes": notes})
+    assert answer.status_code == 200 and answer.json()["notes"] == notes
+
+
+@pytest.mark.parametrize("schema", [CalibrationCreate, ValidationCreate])
+def test_calibration_and_validation_notes_take_the_same_rule(schema: type[BaseModel]) -> None:
+    record = {"joints": [400, 150, 90, 45, 420, 420, 420, 420, 420, 420], "position": [1, 2, 3]}
+    assert schema.model_validate({"measurements": [record], "notes": "line 1\n\tline 2"})
+    with pytest.raises(ValidationError, match="notes"):
+        schema.model_validate({"measurements": [record], "notes": "a\x00b"})
