@@ -120,3 +120,25 @@ def test_calibration_and_validation_notes_take_the_same_rule(schema: type[BaseMo
     assert schema.model_validate({"measurements": [record], "notes": "line 1\n\tline 2"})
     with pytest.raises(ValidationError, match="notes"):
         schema.model_validate({"measurements": [record], "notes": "a\x00b"})
+
+
+@SERIAL
+@pytest.mark.parametrize("depth", [5_000, 40_000])  # 10 kB, on the loop; 80 kB, the large bodies' check
+def test_json_nested_5000_deep_is_a_422_naming_the_limit(client: TestClient, robot_id: str, depth: int) -> None:
+    body = b'{"joints": ' + b"[" * depth + b"]" * depth + b"}"
+    for path in ("/v1/robots", f"/v1/robots/{robot_id}/forward-kinematics"):
+        start = time.perf_counter()
+        answer = client.post(path, content=body, headers={"content-type": "application/json"})
+        assert time.perf_counter() - start < 1.0
+        assert answer.status_code == 422, answer.text
+        problem = answer.json()
+        assert problem["type"].endswith("/validation-error")
+        assert problem["errors"] == [
+            {"loc": ["body"], "field": "", "msg": f"JSON nested {depth + 1} levels deep; at most 32 are accepted"}
+        ]
+    assert client.get("/healthz").status_code == 200
+
+
+def test_brackets_inside_strings_are_not_nesting(client: TestClient) -> None:
+    answer = client.post("/v1/robots", json={"name": "[" * 100 + "{" * 100})
+    assert answer.status_code == 201, answer.text
