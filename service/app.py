@@ -185,6 +185,9 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         lifespan=lifespan,
         docs_url=None,  # served by service.ui with local assets: the default loads Swagger UI from a CDN
         redoc_url=None,
+        # No 307 to the path without its slash: its Location copied the client's Host header (service.guards
+        # answers a 404 naming the path instead).
+        redirect_slashes=False,
     )
     app.state.settings = settings
     app.state.api_keys = settings.keys  # parsed once: a wrong entry stops the start-up (service.security)

@@ -1,5 +1,7 @@
 """Request hygiene before any route runs: what no route can answer well by itself.
 
+- A path that differs from a route's only by a trailing slash is a 404 naming the route's path (Starlette's 307
+  copied the client's Host header into its Location; the app has `redirect_slashes=False`).
 - A path with a NUL character names nothing: every id is a UUID the service made, and PostgreSQL text cannot
   even hold NUL (psycopg raises DataError, which was a 500). Answered 404 here, for every route, present and
   future, before a query is built.
@@ -21,6 +23,7 @@ import anyio
 import numpy as np
 import orjson
 from fastapi.exceptions import RequestValidationError
+from starlette.routing import Match
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service import limits, problems
@@ -52,11 +55,38 @@ class RequestGuard:
         self.app = app
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        exc: NotFound | None = None
         if scope["type"] == "http" and "\x00" in scope.get("path", ""):
             exc = NotFound("no resource has a NUL character in its id", resource="path")
+        elif scope["type"] == "http" and (canonical := _without_trailing_slash(scope)) is not None:
+            exc = NotFound(
+                f"no resource at {scope['path']!r}: the service's paths end without a slash; use {canonical!r}",
+                resource="path",
+            )
+        if exc is not None:
             await problems.response(problems.to_problem(exc))(scope, receive, send)
             return
         await self.app(scope, receive, send)
+
+
+def _without_trailing_slash(scope: Scope) -> str | None:
+    """The route's path when the request's only differs by a trailing slash (None otherwise).
+
+    Starlette's answer was a 307 whose Location it built from the client's own Host header, before any key was
+    checked: a redirect to wherever the client (or a proxy's confused cache) said. The app no longer redirects
+    (`redirect_slashes=False`); this names the canonical path in a 404 problem, no Location at all, so a client
+    fixes its URL once instead of following a hop on every call."""
+    path: str = scope.get("path", "")
+    app = scope.get("app")
+    if len(path) < 2 or not path.endswith("/") or app is None:
+        return None
+    routes = app.router.routes
+    if any(route.matches(scope)[0] is not Match.NONE for route in routes):
+        return None  # a path that ends with a slash by right (a static mount's folder)
+    stripped = {**scope, "path": path.rstrip("/")}
+    if any(route.matches(stripped)[0] is not Match.NONE for route in routes):
+        return str(stripped["path"])
+    return None
 
 
 def too_many_keys(body: bytes) -> int | None:

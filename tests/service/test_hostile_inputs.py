@@ -142,3 +142,21 @@ def test_json_nested_5000_deep_is_a_422_naming_the_limit(client: TestClient, rob
 def test_brackets_inside_strings_are_not_nesting(client: TestClient) -> None:
     answer = client.post("/v1/robots", json={"name": "[" * 100 + "{" * 100})
     assert answer.status_code == 201, answer.text
+
+
+def test_a_trailing_slash_is_a_404_naming_the_path_never_a_redirect(tmp_path: Path, registry: Registry) -> None:
+    # With keys required and none sent: the 307 came before any key check and its Location took the Host header.
+    with make_client(f"sqlite:///{tmp_path}/iwr.db", registry, api_keys="k-secret") as c:
+        for method, path, canonical in (
+            ("GET", "/v1/robots/", "/v1/robots"),
+            ("POST", "/v1/robots/", "/v1/robots"),
+            ("GET", "/v1/robots/r1/parameters/", "/v1/robots/r1/parameters"),
+            ("GET", "/healthz//", "/healthz"),
+        ):
+            answer = c.request(method, path, headers={"host": "evil.example"}, follow_redirects=False)
+            assert answer.status_code == 404, (method, path, answer.status_code)
+            assert "location" not in answer.headers
+            assert answer.headers["content-type"].startswith("application/problem+json")
+            assert f"use {canonical!r}" in answer.json()["detail"] and "evil" not in answer.text
+        assert c.get("/v1/nothing/", follow_redirects=False).json()["detail"] == "Not Found"  # no route: plain 404
+        assert c.get("/healthz").status_code == 200
