@@ -41,8 +41,8 @@ process, where a 20 MB body's 60 ms to 0.5 s is nobody's wait but its own."""
 MAX_OBJECT_KEYS = 64
 """Keys per JSON object; the schemas' largest object has 9."""
 MAX_DEPTH = 32
-"""Nesting of a JSON body's arrays and objects, at most; the schemas' deepest document has 6 levels (a structure's
-stages, links, range). 5 000 levels were a bare 400 "error parsing the body" (the JSON decoder's recursion
+"""Nesting of a JSON body's arrays and objects, at most; the schemas' deepest document has 7 levels (a robot's
+structure, stages, links, range). 5 000 levels were a bare 400 "error parsing the body" (the JSON decoder's recursion
 limit), not a problem saying what to fix."""
 DRAIN_BYTES = 64_000_000
 """A body over the limit is read to its end (and dropped) before the 413, up to this much: a server that answers
