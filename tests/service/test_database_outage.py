@@ -111,7 +111,7 @@ def test_an_outage_is_a_503_with_retry_after_then_the_same_process_recovers(
         assert time.perf_counter() - start < 6.0  # the connect timeout (5 s) at worst; refused: at once
         assert answer.status_code == 503, (method, path, answer.text)
         assert answer.headers["retry-after"] == "5"
-        assert answer.json()["type"].endswith("/not-ready") and "retry in 5 s" in answer.json()["detail"]
+        assert answer.json()["type"].endswith("/database-unavailable") and "retry in 5 s" in answer.json()["detail"]
     assert client.get("/healthz").status_code == 200  # the process is alive
     assert client.get("/readyz").status_code == 503
     relay.up()
