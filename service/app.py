@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import logging
 import time
 import uuid
@@ -158,6 +159,9 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         runtimes = registry if registry is not None else await anyio.to_thread.run_sync(build_registry, settings)
         if settings.warm_up:
             app.state.metrics.native.set(1.0 if native_functions(runtimes) else 0.0)
+            # The URDF reader's import (yourdfpy and trimesh: 2-5 s here) now, not in the first URDF request of
+            # the process, which must answer (a hostile document too) within a second.
+            await anyio.to_thread.run_sync(importlib.import_module, "yourdfpy")
         models = ModelCache(db)
         runner = make_runner(settings, db, models, runtimes)
         app.state.db, app.state.models, app.state.registry, app.state.jobs = db, models, runtimes, runner
