@@ -102,9 +102,12 @@ endif
 
 test: lint typecheck pytest
 
-# Schemathesis longer than `make test` does (SQLite and PostgreSQL, stateless and stateful): ~10 min here.
+# Schemathesis longer than `make test` does (SQLite and PostgreSQL, stateless and stateful): ~10 min here;
+# then hypothesis on the URDF and structure readers, 2 000 random documents per property, not the fixed seed
+# of `make test` (~20 s).
 fuzz: $(STAMP)
 	IWR_FUZZ_EXAMPLES=150 IWR_FUZZ_STEPS=10 $(BIN)/pytest -p no:cacheprovider tests/service/test_contract_fuzz.py
+	IWR_URDF_FUZZ_EXAMPLES=2000 $(BIN)/pytest -p no:cacheprovider tests/models/test_urdf_fuzz.py
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks

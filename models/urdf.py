@@ -37,6 +37,7 @@ from models.robot import RobotDescription
 from models.serial_chain import Convention, JointType
 from models.structure import Document
 from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
+from models.urdf_tree import check_serial, check_size, tree_parents
 
 MM_PER_M = 1000.0
 PARALLEL_SIN = 1e-9
@@ -52,24 +53,23 @@ def _chain(robot: Any, base_link: str, tip_link: str) -> list[Any]:
     for field, name in (("base_link", base_link), ("tip_link", tip_link)):
         if name not in links:
             raise InvalidInput(f"the URDF has no link {name!r}", field=field, value=name)
-    by_child = {joint.child: joint for joint in robot.joints}
+    by_child = tree_parents(robot)
     path: list[Any] = []
     at = tip_link
-    while at != base_link:
+    while at != base_link:  # ends: tree_parents checked a tree, whose every walk up ends at its root
         joint = by_child.get(at)
         if joint is None:
-            raise InvalidInput(f"{tip_link!r} is not below {base_link!r} in the URDF's tree", field="tip_link")
+            raise InvalidInput(
+                f"{tip_link!r} is not below {base_link!r} in the URDF's tree (going up from it ends at the root "
+                f"{at!r}): choose a base_link among the links above the tip",
+                field="tip_link",
+                value=tip_link,
+            )
         path.append(joint)
         at = joint.parent
     path.reverse()
     for joint in path:
-        if joint.type not in ("revolute", "continuous", "prismatic", "fixed"):
-            raise InvalidInput(
-                f"joint {joint.name!r} is {joint.type}: a serial stage has revolute, prismatic and fixed joints",
-                field="urdf",
-                value=str(joint.type),
-                allowed=["revolute", "continuous", "prismatic", "fixed"],
-            )
+        check_serial(joint)
     if not any(joint.type != "fixed" for joint in path):
         raise InvalidInput("the chain between base_link and tip_link has no moving joint", field="tip_link")
     return path
@@ -150,6 +150,7 @@ def document_from_urdf(urdf: str, base_link: str, tip_link: str) -> Document:
     """The robots.md document of the URDF chain from `base_link` to `tip_link` (see the module docstring)."""
     import yourdfpy  # a heavy import (trimesh), needed only by URDF requests
 
+    check_size(urdf)
     try:
         model = yourdfpy.URDF.load(
             io.BytesIO(urdf.encode()),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import logging
 import time
 import uuid
@@ -158,6 +159,9 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         runtimes = registry if registry is not None else await anyio.to_thread.run_sync(build_registry, settings)
         if settings.warm_up:
             app.state.metrics.native.set(1.0 if native_functions(runtimes) else 0.0)
+            # The URDF reader's import (yourdfpy and trimesh: 2-5 s here) now, not in the first URDF request of
+            # the process, which must answer (a hostile document too) within a second.
+            await anyio.to_thread.run_sync(importlib.import_module, "yourdfpy")
         models = ModelCache(db)
         runner = make_runner(settings, db, models, runtimes)
         app.state.db, app.state.models, app.state.registry, app.state.jobs = db, models, runtimes, runner
@@ -185,6 +189,9 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         lifespan=lifespan,
         docs_url=None,  # served by service.ui with local assets: the default loads Swagger UI from a CDN
         redoc_url=None,
+        # No 307 to the path without its slash: its Location copied the client's Host header (service.guards
+        # answers a 404 naming the path instead).
+        redirect_slashes=False,
     )
     app.state.settings = settings
     app.state.api_keys = settings.keys  # parsed once: a wrong entry stops the start-up (service.security)

@@ -15,6 +15,7 @@ from service.campaign_io import (
     read_spatial_analyzer,
     read_table,
 )
+from service.campaign_io.errors import listed
 
 CAMPAIGN_HEADER = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6", "x", "y", "z", "qw", "qx", "qy", "qz"]
 JOINT_HEADER = CAMPAIGN_HEADER[:10]
@@ -51,11 +52,11 @@ def joint_columns(columns: Sequence[str]) -> list[str]:
     legs = [leg for leg in LEGS if leg in columns]
     found = serial + legs
     if not found:
-        raise CampaignFileError(f"the header names no joint (q1 … q_m, l1 … l6; found: {', '.join(columns)})", line=1)
+        raise CampaignFileError(f"the header names no joint (q1 … q_m, l1 … l6; found: {listed(columns)})", line=1)
     expected = [f"q{k + 1}" for k in range(len(serial))]
     if serial != expected:
         missing = sorted(set(expected) - set(serial), key=lambda c: int(c[1:]))
-        raise CampaignFileError(f"the joint columns skip {', '.join(missing)}: robots.md numbers them q1 … q_m", line=1)
+        raise CampaignFileError(f"the joint columns skip {listed(missing)}: robots.md numbers them q1 … q_m", line=1)
     return found
 
 

@@ -22,6 +22,7 @@ Tree (the domain's `models.errors.CalibrationError` is the other root `service.p
     ├── QueueFull             429  the job queue is at its bound (with Retry-After)
     ├── Interrupted           503  a job whose worker stopped with the service
     └── NotReady              503  the database does not answer
+        └── DatabaseUnavailable     …mid-request: a lost connection, a locked or full SQLite (with Retry-After)
 
 Persistence raises `NotFound` without knowing HTTP; `service.problems` alone maps these classes to status,
 type and title.
@@ -135,3 +136,11 @@ class Interrupted(ServiceError):
 
 class NotReady(ServiceError):
     pass
+
+
+class DatabaseUnavailable(NotReady):
+    """The database refused or dropped the connection, or cannot write now (SQLite locked or its disk full):
+    a 503 with `retry_after`, never a 500; the next request connects afresh (the pool pings first)."""
+
+    def __init__(self, detail: str, *, retry_after: int) -> None:
+        super().__init__(detail, retry_after=retry_after)

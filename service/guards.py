@@ -1,5 +1,7 @@
 """Request hygiene before any route runs: what no route can answer well by itself.
 
+- A path that differs from a route's only by a trailing slash is a 404 naming the route's path (Starlette's 307
+  copied the client's Host header into its Location; the app has `redirect_slashes=False`).
 - A path with a NUL character names nothing: every id is a UUID the service made, and PostgreSQL text cannot
   even hold NUL (psycopg raises DataError, which was a 500). Answered 404 here, for every route, present and
   future, before a query is built.
@@ -7,7 +9,7 @@
   over `OFFLOOP_BYTES` is parsed and checked off the event loop first (in a compute process, service.compute):
   no object with more keys than `MAX_OBJECT_KEYS` (measured on main: 300 000 unknown keys in 3.5 MB blocked
   the loop 6.9 s and answered 19.7 MB of errors; the issue's 1.3 million keys, 20 s and 86 MB). The largest
-  schema object has 9 keys.
+  schema object has 9 keys. No JSON body nests deeper than `MAX_DEPTH` (any size; counted in the raw bytes).
 """
 
 from __future__ import annotations
@@ -18,8 +20,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import anyio
+import numpy as np
 import orjson
 from fastapi.exceptions import RequestValidationError
+from starlette.routing import Match
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service import limits, problems
@@ -36,6 +40,10 @@ INLINE_CHECK_BYTES = 1_000_000
 process, where a 20 MB body's 60 ms to 0.5 s is nobody's wait but its own."""
 MAX_OBJECT_KEYS = 64
 """Keys per JSON object; the schemas' largest object has 9."""
+MAX_DEPTH = 32
+"""Nesting of a JSON body's arrays and objects, at most; the schemas' deepest document has 7 levels (a robot's
+structure, stages, links, range). 5 000 levels were a bare 400 "error parsing the body" (the JSON decoder's recursion
+limit), not a problem saying what to fix."""
 DRAIN_BYTES = 64_000_000
 """A body over the limit is read to its end (and dropped) before the 413, up to this much: a server that answers
 and closes while the client still sends makes the kernel reset the connection, and the client never sees the
@@ -47,11 +55,38 @@ class RequestGuard:
         self.app = app
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        exc: NotFound | None = None
         if scope["type"] == "http" and "\x00" in scope.get("path", ""):
             exc = NotFound("no resource has a NUL character in its id", resource="path")
+        elif scope["type"] == "http" and (canonical := _without_trailing_slash(scope)) is not None:
+            exc = NotFound(
+                f"no resource at {scope['path']!r}: the service's paths end without a slash; use {canonical!r}",
+                resource="path",
+            )
+        if exc is not None:
             await problems.response(problems.to_problem(exc))(scope, receive, send)
             return
         await self.app(scope, receive, send)
+
+
+def _without_trailing_slash(scope: Scope) -> str | None:
+    """The route's path when the request's only differs by a trailing slash (None otherwise).
+
+    Starlette's answer was a 307 whose Location it built from the client's own Host header, before any key was
+    checked: a redirect to wherever the client (or a proxy's confused cache) said. The app no longer redirects
+    (`redirect_slashes=False`); this names the canonical path in a 404 problem, no Location at all, so a client
+    fixes its URL once instead of following a hop on every call."""
+    path: str = scope.get("path", "")
+    app = scope.get("app")
+    if len(path) < 2 or not path.endswith("/") or app is None:
+        return None
+    routes = app.router.routes
+    if any(route.matches(scope)[0] is not Match.NONE for route in routes):
+        return None  # a path that ends with a slash by right (a static mount's folder)
+    stripped = {**scope, "path": path.rstrip("/")}
+    if any(route.matches(stripped)[0] is not Match.NONE for route in routes):
+        return str(stripped["path"])
+    return None
 
 
 def too_many_keys(body: bytes) -> int | None:
@@ -76,6 +111,40 @@ def too_many_keys(body: bytes) -> int | None:
         elif isinstance(node, list):
             containers.extend(v for v in node if isinstance(v, dict | list))
     return None
+
+
+_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"')
+"""A JSON string, escapes included (unrolled: linear, no backtracking between alternatives)."""
+_NOT_BRACKETS = bytes(c for c in range(256) if c not in b"[]{}")
+_STEP = np.zeros(256, dtype=np.int8)
+_STEP[list(b"[{")], _STEP[list(b"]}")] = 1, -1
+
+
+def too_deep(body: bytes) -> int | None:
+    """The nesting depth of a JSON body when it is over MAX_DEPTH (None: it is not). Linear and C-speed: the
+    strings removed, the brackets kept, their running sum's maximum (a 1 MB body ~10 ms here). Brackets that do
+    not balance are the decoder's to report; only the depth is counted here."""
+    if body.count(b"[") + body.count(b"{") <= MAX_DEPTH:  # the common case, without a copy
+        return None
+    brackets = _STRING.sub(b"", body).translate(None, _NOT_BRACKETS)
+    if len(brackets) <= MAX_DEPTH:
+        return None
+    depth = int(np.cumsum(_STEP[np.frombuffer(brackets, dtype=np.uint8)], dtype=np.int64).max())
+    return depth if depth > MAX_DEPTH else None
+
+
+def _raise_too_deep(depth: int | None) -> None:
+    if depth is not None:
+        raise RequestValidationError(
+            [{"loc": ("body",), "msg": f"JSON nested {depth} levels deep; at most {MAX_DEPTH} are accepted"}]
+        )
+
+
+def shape_errors(body: bytes) -> tuple[int | None, int | None]:
+    """(depth over MAX_DEPTH, keys over MAX_OBJECT_KEYS) of a JSON body, each None when within: the checks a
+    large body gets off the loop, in one hop (plain arguments and answer, for the parse process)."""
+    depth = too_deep(body)
+    return depth, None if depth is not None else too_many_keys(body)
 
 
 def _raise_too_many(keys: int | None) -> None:
@@ -155,9 +224,14 @@ class BodyGuard:
             if too_large:
                 raise PayloadTooLarge(f"the request body exceeds {self.limit} bytes; send less", limit=self.limit)
             content_type = dict(scope.get("headers", [])).get(b"content-type", b"application/json")
-            if len(body) > OFFLOOP_BYTES and b"json" in content_type.lower():
-                precheck(scope.get("path", ""), scope.get("query_string", b""), body)
-                _raise_too_many(await _key_check(scope, body))
+            if b"json" in content_type.lower():
+                if len(body) <= OFFLOOP_BYTES:
+                    _raise_too_deep(too_deep(body))  # 64 kB at most: ~1 ms on the loop
+                else:
+                    precheck(scope.get("path", ""), scope.get("query_string", b""), body)
+                    depth, keys = await _shape_check(scope, body)
+                    _raise_too_deep(depth)
+                    _raise_too_many(keys)
         except TimeoutError:
             exc: Exception = RequestTimeout(f"the request body did not arrive within {timeout_s:g} s")
             answer = problems.response(problems.to_problem(exc))
@@ -180,11 +254,11 @@ class BodyGuard:
         await self.app(scope, replay, send)
 
 
-async def _key_check(scope: Scope, body: bytes) -> int | None:
+async def _shape_check(scope: Scope, body: bytes) -> tuple[int | None, int | None]:
     if len(body) <= INLINE_CHECK_BYTES:
-        return too_many_keys(body)
+        return shape_errors(body)
     pool = getattr(scope["app"].state, "compute", None) if "app" in scope else None
-    return await (pool.call(too_many_keys, body) if pool else anyio.to_thread.run_sync(too_many_keys, body))
+    return await (pool.call(shape_errors, body) if pool else anyio.to_thread.run_sync(shape_errors, body))
 
 
 async def _read(receive: Receive, limit: int) -> tuple[bytes, bool, bool]:

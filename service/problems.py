@@ -59,6 +59,7 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     service.JobFinished: (409, "job-finished", "Job already finished"),
     service.QueueFull: (429, "queue-full", "Job queue full"),
     service.Interrupted: (503, "interrupted", "Interrupted"),
+    service.DatabaseUnavailable: (503, "database-unavailable", "Database unavailable"),
     service.NotReady: (503, "not-ready", "Not ready"),
     service.ServiceError: (500, "service-error", "Service error"),
     # the framework's: request validation, and HTTP errors Starlette raises itself (unknown path, method)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from service.campaign_io.errors import CampaignFileError
+from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.tabular import Row, Table
 
 MM_PER: dict[str, float] = {"mm": 1.0, "m": 1000.0, "cm": 10.0, "um": 1e-3, "µm": 1e-3, "in": 25.4, "inch": 25.4}
@@ -92,16 +92,17 @@ def _column_map(table: Table, joint_names: Sequence[str]) -> tuple[dict[str, str
         if clash:
             raise CampaignFileError(
                 f"columns q0…q3 read as a quaternion (scalar first, as Leica writes it) clash with the robot's joints "
-                f"{', '.join(clash)}: name the quaternion columns qw, qx, qy, qz in a table that also has joints",
+                f"{listed(clash)}: name the quaternion columns qw, qx, qy, qz in a table that also has joints",
                 line=1,
             )
         for canonical, alias in zip(("qw", "qx", "qy", "qz"), ("q0", "q1", "q2", "q3"), strict=True):
             if alias in columns:
                 found[canonical] = alias
+    used = set(found.values())  # a set: `in found.values()` per joint was quadratic in a header of 20 000 joints
     for name in joints & columns:
-        if name not in found.values():
+        if name not in used:
             found[name] = name
-    used = set(found.values())
+            used.add(name)
     unknown = [c for c in table.columns if c not in used and c]
     return found, unknown
 
@@ -127,13 +128,11 @@ def measured_points(
     found, unknown = _column_map(table, joint_names)
     missing = [c for c in ("x", "y", "z") if c not in found]
     if missing:
-        raise CampaignFileError(
-            f"the header has no column {', '.join(missing)} (found: {', '.join(table.columns)})", line=1
-        )
+        raise CampaignFileError(f"the header has no column {listed(missing)} (found: {listed(table.columns)})", line=1)
     notes = list(table.notes)
     ignored = [c for c in unknown if c not in KNOWN_IGNORED]
     if ignored:
-        notes.append(f"columns ignored (unknown): {', '.join(ignored)}")
+        notes.append(f"columns ignored (unknown): {listed(ignored)}")
     scale = _length(table, found["x"], options)
     if scale != 1.0:
         notes.append(f"positions converted to mm (×{scale:g})")
@@ -179,8 +178,8 @@ def joint_rows(table: Table, joint_names: Sequence[str]) -> list[tuple[int, str 
     missing = [n for n in names if n not in found]
     if missing:
         raise CampaignFileError(
-            f"the header has no column for the joint(s) {', '.join(missing)}: the robot's joints are "
-            f"{', '.join(names)} (found: {', '.join(table.columns)})",
+            f"the header has no column for the joint(s) {listed(missing)}: the robot's joints are "
+            f"{listed(names)} (found: {listed(table.columns)})",
             line=1,
         )
     out = []

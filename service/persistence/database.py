@@ -9,9 +9,36 @@ from typing import Any
 
 from sqlalchemy import Engine, create_engine, event, text
 from sqlalchemy.engine import make_url
+from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
+from service.errors import DatabaseUnavailable
+
 MIGRATIONS = Path(__file__).resolve().parent.parent / "migrations"
+
+
+RETRY_AFTER_S = 5
+"""Retry-After of a request the database could not serve: a restart or fail-over takes seconds."""
+CONNECT_TIMEOUT_S = 5
+"""PostgreSQL: a server that does not answer the connection (a dropped route, a host down) fails it after this,
+instead of holding the request until the kernel gives up (minutes)."""
+
+
+@contextmanager
+def _available() -> Iterator[None]:
+    """The database's connection-level failures as `DatabaseUnavailable` (a 503 with Retry-After), not a 500:
+    a refused or dropped connection (PostgreSQL restarted, the network gone), SQLite locked past its timeout or
+    its disk full. Errors of the statement itself (an IntegrityError) are left to the caller."""
+    try:
+        yield
+    except DBAPIError as exc:
+        if not (exc.connection_invalidated or isinstance(exc, OperationalError | InterfaceError)):
+            raise
+        reason = str(exc.orig).strip().splitlines()[0] if exc.orig is not None else type(exc).__name__
+        raise DatabaseUnavailable(
+            f"the database cannot serve this request now ({reason}); retry in {RETRY_AFTER_S} s",
+            retry_after=RETRY_AFTER_S,
+        ) from exc
 
 
 class Database:
@@ -25,7 +52,7 @@ class Database:
             # pysqlite's own transaction handling off, so that `begin` below decides how transactions start.
             kwargs["connect_args"] = {"check_same_thread": False, "timeout": 30, "isolation_level": None}
         else:
-            kwargs |= {"pool_size": 10, "max_overflow": 20}
+            kwargs |= {"pool_size": 10, "max_overflow": 20, "connect_args": {"connect_timeout": CONNECT_TIMEOUT_S}}
         self.engine: Engine = create_engine(url, **kwargs)
         self.read_engine: Engine = self.engine
         if parsed.get_backend_name() == "sqlite":
@@ -52,18 +79,18 @@ class Database:
     @contextmanager
     def session(self) -> Iterator[Session]:
         """One transaction: committed when the block succeeds, rolled back otherwise."""
-        with self.sessions() as session, session.begin():
+        with _available(), self.sessions() as session, session.begin():
             yield session
 
     @contextmanager
     def reader(self) -> Iterator[Session]:
         """A read-only transaction (on SQLite: no write lock)."""
-        with self.read_sessions() as session, session.begin():
+        with _available(), self.read_sessions() as session, session.begin():
             yield session
 
     def current_version(self, robot_id: str) -> int | None:
         """The robot's current parameter version, by one indexed lookup without the ORM (hot path)."""
-        with self.read_engine.connect() as connection:
+        with _available(), self.read_engine.connect() as connection:
             found = connection.execute(
                 text("SELECT current_version FROM robots WHERE id = :id"), {"id": robot_id}
             ).scalar()

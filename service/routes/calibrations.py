@@ -17,6 +17,7 @@ from service.errors import BadRequest, UnsupportedMediaType
 from service.guards import OFFLOOP_BYTES
 from service.json_bodies import OffloopRoute
 from service.responses import model_json
+from service.routes.robots import IfMatch
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
 from service.services import calibrations
 from service.services.jobs import submit_job
@@ -59,6 +60,7 @@ _BODY = {
             "content": {"application/json": {"schema": {"$ref": "#/components/schemas/JobAccepted"}}},
         },
         "406": {"description": "The Accept header allows no JSON (a calibration is a JSON document)"},
+        "412": {"description": "If-Match is stale"},
         "429": {"description": "Job queue full"},
     },
 }
@@ -194,6 +196,7 @@ async def create_calibration(
     payload_cog_mm: list[float] | None = Query(
         None, min_length=3, max_length=3, description="CSV bodies: its centre of gravity x, y, z (tool frame, mm)"
     ),
+    if_match: IfMatch = None,
 ) -> dict[str, Any] | Response:
     # A JSON body over the budget was refused before any parsing (service.guards.PRECOUNTED); a CSV one is
     # counted once parsed.
@@ -209,10 +212,20 @@ async def create_calibration(
     )
     limits.admit(limits.calibration(len(body.measurements)), run_async=run_async)
     if run_async:
-        accepted = submit_job(db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body, actor=actor)
+        accepted = submit_job(
+            db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body, actor=actor, if_match=if_match
+        )
         return model_json(accepted, status_code=202)
     return await compute(
-        m, "identification", calibrations.calibrate, db=db, registry=registry, robot_id=robot_id, body=body, actor=actor
+        m,
+        "identification",
+        calibrations.calibrate,
+        db=db,
+        registry=registry,
+        robot_id=robot_id,
+        body=body,
+        actor=actor,
+        if_match=if_match,
     )
 
 

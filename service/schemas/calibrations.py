@@ -12,6 +12,7 @@ from models.identification.options import DEFAULT_GROUPS
 from models.noise import NoiseModel
 from service.conversions.units import degrees_default
 from service.schemas.common import (
+    FreeText,
     JointVector,
     OptionalFloat,
     Payload,
@@ -77,9 +78,6 @@ class InstrumentPublic(Public):
     serial: str | None
 
 
-NOTES_MAX = 10_000
-
-
 class CalibrationCreate(Strict):
     measurements: list[Record] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
     noise: Noise = Noise()
@@ -105,7 +103,7 @@ class CalibrationCreate(Strict):
         description="Parameter version the fit starts from (default: the robot's current one); the parameters "
         "it does not estimate keep this version's values",
     )
-    notes: str | None = Field(default=None, max_length=NOTES_MAX, description="Free text, kept with the calibration")
+    notes: FreeText | None = Field(default=None, description="Free text, kept with the calibration")
     instrument: Instrument | None = Field(default=None, description="The instrument that measured the campaign")
 
 

@@ -21,6 +21,16 @@ class Public(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+NOTES_MAX = 10_000
+
+FreeText = Annotated[
+    str,
+    Field(max_length=NOTES_MAX, pattern=r"^[^\x00-\x08\x0b\x0c\x0e-\x1f\x7f]*$"),
+]
+"""Free text (notes): lines and tabs, no other control character. PostgreSQL text cannot hold NUL (psycopg's
+DataError was a 500, where SQLite stored it), and the others are nobody's notes but a terminal's escapes."""
+
+
 def _finite_or_none(value: Any) -> Any:
     # The one place NaN and infinities become null: strict JSON (and PostgreSQL's JSON type) has no such numbers.
     if isinstance(value, float) and not math.isfinite(value):

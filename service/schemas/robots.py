@@ -5,7 +5,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from service.schemas.common import PARAMETER_UNITS, OptionalFloat, Pose, PosePublic, Public, Strict
+from service.schemas.common import PARAMETER_UNITS, FreeText, OptionalFloat, Pose, PosePublic, Public, Strict
 from service.schemas.structure import StructureDocument
 
 MAX_VERSION = 2**31 - 1
@@ -42,10 +42,10 @@ class RobotPatch(Strict):
     """Only the fields given change. New base or tool guesses make a new parameter version (provenance `edit`)
     with those six values set to the guess and the rest kept from the current version."""
 
-    name: str | None = Field(default=None, min_length=1, max_length=200)
+    name: PrintableName | None = None  # POST's rule: a NUL or a newline got past PATCH (issue 31)
     base: Pose | None = Field(default=None, description="New nominal guess of world <- robot base")
     tool: Pose | None = Field(default=None, description="New nominal guess of platform -> TCP")
-    notes: str | None = Field(default=None, max_length=10_000, description='Free text; "" clears it')
+    notes: FreeText | None = Field(default=None, description='Free text; "" clears it')
 
 
 class RobotPublic(Public):

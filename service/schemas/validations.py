@@ -9,12 +9,11 @@ from pydantic import ConfigDict, Field
 
 from service.schemas.calibrations import (
     MAX_MEASUREMENTS,
-    NOTES_MAX,
     Instrument,
     InstrumentPublic,
     Record,
 )
-from service.schemas.common import Public, Strict
+from service.schemas.common import FreeText, Public, Strict
 
 
 def _absent_if_none(value: object) -> bool:
@@ -40,7 +39,7 @@ class ValidationCreate(Strict):
         description="Fit the instrument frame to each version first (best rigid motion, closed form): for the "
         "nominal version, or a version calibrated from another station. The errors then show the geometry alone",
     )
-    notes: str | None = Field(default=None, max_length=NOTES_MAX)
+    notes: FreeText | None = None
     instrument: Instrument | None = None
 
 

@@ -22,7 +22,7 @@ from service.conversions.terms import padded, requested_model
 from service.conversions.terms import start_values as start_values_for
 from service.errors import CalibrationFailed, Conflict
 from service.persistence import Database, Repository
-from service.persistence.lifecycle import Actor, Lifecycle
+from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import ParameterVersion
 from service.schemas.calibrations import CalibrationCreate
@@ -37,14 +37,19 @@ def calibrate(
     body: CalibrationCreate,
     actor: Actor | None = None,
     job: JobHooks | None = None,
+    if_match: str | None = None,
 ) -> dict[str, Any]:
     """Identify, then store the campaign, the calibration and (when it passed its checks and `apply`) the new
     version together, with the job's own `succeeded` when run as one. The result as `CalibrationPublic` JSON; a
-    failed fit is stored, then raised as `CalibrationFailed` (a 422 naming the stored attempt; its job fails)."""
+    failed fit is stored, then raised as `CalibrationFailed` (a 422 naming the stored attempt; its job fails).
+
+    `if_match` (the robot's ETag) is checked before any work, where the start version is read: the fit then
+    applies only over that version (a 409 otherwise, the calibration stored, not applied)."""
     if job is not None:
         job.progress("reading", 0.0)
     with db.reader() as s:
         repo = Repository(s)
+        check_revision(repo.robot(robot_id), if_match)
         # The terms of `options.terms` (a 422 naming it for a robot without the parts they act on); the start
         # version's values for what it has, the terms' nominal values for what it has not.
         desc = requested_model(description(repo.robot(robot_id)), body.options.terms)
@@ -105,7 +110,7 @@ def calibrate(
             # Optimistic concurrency: another writer made a version while this fit ran (or the fit started
             # from an older one). Applying would silently discard that version's work; keep this one stored.
             won_by = robot.current_version
-            record.result = {**payload, "not_applied_reason": f"version {won_by} became current meanwhile"}
+            record.result = {**payload, "not_applied_reason": _lost_race(calibration_id, start_version, won_by)}
         elif apply:
             # What this fit estimated carries its new statistics; the rest keeps the start version's.
             std, ident = start_std, start_ident
@@ -141,14 +146,21 @@ def calibrate(
         )
     if won_by is not None and job is None:  # after the commit: the calibration is stored, only not applied
         raise Conflict(
-            f"calibration {calibration_id} is stored but not applied: it started from parameter version "
-            f"{start_version}, and version {won_by} became current meanwhile; review both, then calibrate "
-            f"again from version {won_by} or restore the one you want",
+            _lost_race(calibration_id, start_version, won_by),
             calibration_id=calibration_id,
             start_version=start_version,
             current_version=won_by,
         )
     return answer
+
+
+def _lost_race(calibration_id: str, start_version: int, won_by: int) -> str:
+    """The conflict's words: the synchronous request's 409 detail, and a job's `not_applied_reason`."""
+    return (
+        f"conflict: calibration {calibration_id} is stored but not applied: it started from parameter version "
+        f"{start_version}, and version {won_by} became current meanwhile; review both, then calibrate "
+        f"again from version {won_by} or restore the one you want"
+    )
 
 
 def _predicted_accuracy(repo: Repository, version: ParameterVersion) -> float | None:

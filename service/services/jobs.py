@@ -16,7 +16,7 @@ from service.errors import JobFinished, NotFound, NotReady, QueueFull
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.job_store import JobStore
-from service.persistence.lifecycle import Actor
+from service.persistence.lifecycle import Actor, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import Job
 from service.problems import to_problem
@@ -44,13 +44,18 @@ def submit_job(
     robot_id: str,
     body: BaseModel,
     actor: Actor | None = None,
+    if_match: str | None = None,
 ) -> JobAccepted:
     """Store the validated request as a queued job of an existing robot and hand it to the engine; 429 when
     the engine's `queue_limit` jobs are already waiting. `actor` (who submitted it) goes with the job, so what the
-    job changes is audited under the submitter's key name and request id."""
+    job changes is audited under the submitter's key name and request id. `if_match` (the robot's ETag) is
+    checked now, and what the job starts from is fixed now (`_pinned`): a worker that starts it later works on
+    what the client saw when it submitted."""
     job_id, queue_limit = new_id(), jobs.queue_limit
     with db.session() as s:
-        Repository(s).robot(robot_id)
+        robot = Repository(s).robot(robot_id)
+        check_revision(robot, if_match)
+        body = _pinned(body, robot.current_version)
         store = JobStore(s)
         waiting = store.count("queued")
         if waiting >= queue_limit:
@@ -71,6 +76,16 @@ def submit_job(
             JobStore(s).fail_unsent(job_id, to_problem(unreachable))
         raise unreachable from exc
     return accepted_out(job)
+
+
+def _pinned(body: BaseModel, current_version: int) -> BaseModel:
+    """A calibration without `start_version` starts from the version current at submission, not at whatever is
+    current when a worker picks it up: a job submitted at version 4 was applied as version 6 over a synchronous
+    version 5 (issue 31). Pinned, it is stored and not applied when another version became current meanwhile,
+    as a synchronous calibration is (its result names the conflict)."""
+    if isinstance(body, CalibrationCreate) and body.start_version is None:
+        return body.model_copy(update={"start_version": current_version})
+    return body
 
 
 SUBMITTED_BY = "_submitted_by"
