@@ -31,11 +31,11 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
+from harness.live import running_server
 from models import forward_kinematics, iwr, sample_workspace
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion
 from service import limits
-from tests.live import running_server
 
 DURATION_S = 20.0
 IK_CLIENTS = 3

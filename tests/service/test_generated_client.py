@@ -30,7 +30,7 @@ import httpx
 import numpy as np
 import pytest
 
-from tests.live import ROOT, running_server
+from harness.live import ROOT, running_server
 
 pytestmark = pytest.mark.slow
 

@@ -10,11 +10,11 @@ import httpx
 import pytest
 from sqlalchemy import update
 
+from harness.live import running_server
 from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.persistence.tables import IdempotencyRecord
 from service.services import designs
-from tests.live import running_server
 from tests.service.conftest import make_client
 from tests.service.contract_check import ContractClient
 from tests.service.helpers import records

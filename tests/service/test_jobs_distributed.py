@@ -13,6 +13,7 @@ from typing import Any
 import pytest
 from sqlalchemy import create_engine, text
 
+from harness.fleet import RABBITMQ, REDIS, call, campaign, fleet, wait_for
 from models import Registry
 from service.jobs import WorkerContext
 from service.jobs.engine import CeleryRunner
@@ -20,7 +21,7 @@ from service.model_cache import ModelCache
 from service.persistence import Database
 from service.settings import Settings
 from tests.service.conftest import postgres_url
-from tests.service.fleet import RABBITMQ, REDIS, broker, call, campaign, fleet, wait_for
+from tests.service.helpers import broker
 
 LEASE = "2"
 """Seconds: a killed worker's job is taken over ~2 s later (the default, 10 s, would only make this slower)."""
