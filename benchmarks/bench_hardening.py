@@ -282,8 +282,8 @@ def run(duration_s: float = DURATION_S) -> dict[str, object]:
             }
             seen = asyncio.run(_load(url, robot, duration_s))
             probed = probe.result()
-            for kind, answers in sent.items():
-                seen[kind] = answers.result()
+            for kind, future in sent.items():
+                seen[kind] = future.result()
         rss_peak = _peak_rss(pid)
     out: dict[str, Any] = {
         "duration_s": duration_s,

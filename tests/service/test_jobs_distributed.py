@@ -123,11 +123,11 @@ def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_ki
         # none twice: one stored result per job, one parameter version per calibration
         engine = create_engine(pg)
         with engine.connect() as c:
-            calibrations = c.execute(text("SELECT count(*) FROM calibrations")).scalar()
-            versions = c.execute(text("SELECT count(*) FROM parameter_versions")).scalar()
-            designs = c.execute(text("SELECT count(*) FROM pose_designs")).scalar()
-            results = c.execute(text("SELECT count(DISTINCT result_id) FROM jobs")).scalar()
-            applied = c.execute(text("SELECT count(*) FROM calibrations WHERE applied")).scalar()
+            calibrations = c.execute(text("SELECT count(*) FROM calibrations")).scalar_one()
+            versions = c.execute(text("SELECT count(*) FROM parameter_versions")).scalar_one()
+            designs = c.execute(text("SELECT count(*) FROM pose_designs")).scalar_one()
+            results = c.execute(text("SELECT count(DISTINCT result_id) FROM jobs")).scalar_one()
+            applied = c.execute(text("SELECT count(*) FROM calibrations WHERE applied")).scalar_one()
         engine.dispose()
         assert (calibrations, designs, results) == (150, 50, 200)
         # One new version per applied calibration, none twice. (The same campaign again predicts no better than
