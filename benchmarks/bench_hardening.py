@@ -31,11 +31,11 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
+from harness.live import running_server
 from models import forward_kinematics, iwr, sample_workspace
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion
 from service import limits
-from tests.live import running_server
 
 DURATION_S = 20.0
 IK_CLIENTS = 3
@@ -282,8 +282,8 @@ def run(duration_s: float = DURATION_S) -> dict[str, object]:
             }
             seen = asyncio.run(_load(url, robot, duration_s))
             probed = probe.result()
-            for kind, answers in sent.items():
-                seen[kind] = answers.result()
+            for kind, future in sent.items():
+                seen[kind] = future.result()
         rss_peak = _peak_rss(pid)
     out: dict[str, Any] = {
         "duration_s": duration_s,

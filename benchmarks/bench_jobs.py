@@ -21,11 +21,11 @@ from pathlib import Path
 import psycopg
 
 from benchmarks.timing import target
+from harness.fleet import RABBITMQ, Fleet, call, campaign, fleet
 from models import iwr, sample_workspace
 from models.campaign import make_campaign
 from models.identification import identify
 from models.simulation import measure, perturbed_robot
-from tests.service.fleet import RABBITMQ, Fleet, call, campaign, fleet
 
 POSTGRES_ADMIN = os.environ.get("IWR_TEST_POSTGRES", "postgresql://postgres@127.0.0.1:5432/postgres")
 JOBS = 60

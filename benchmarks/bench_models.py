@@ -44,6 +44,7 @@ def run() -> dict[str, object]:
     batch = best_of(lambda: forward_kinematics(desc, joints, jacobian=True, runtime=runtime), 5)
 
     theta = desc.parameters.nominal
+    assert desc.hexapod is not None
     home = np.array(desc.hexapod.home)
 
     def loop_same_functions() -> None:

@@ -36,7 +36,7 @@ import scipy.optimize
 
 from benchmarks.numpy_arm import PerPoseArm, VectorisedArm
 from benchmarks.timing import median_of, target
-from models import NoiseModel, default_registry, forward_kinematics, sample_workspace
+from models import NoiseModel, RobotDescription, default_registry, forward_kinematics, sample_workspace
 from models.blas import single_threaded_blas
 from models.examples import iiwa_like
 from models.identification import identify
@@ -93,11 +93,13 @@ def _fresh_structure() -> dict[str, object]:
     return result
 
 
-def _cramer_rao_rms(desc: object, truth: np.ndarray, fit: np.ndarray, check: np.ndarray, free: np.ndarray) -> float:
-    jac = forward_kinematics(desc, fit, truth, jacobian=True).jacobians  # type: ignore[arg-type]
+def _cramer_rao_rms(
+    desc: RobotDescription, truth: np.ndarray, fit: np.ndarray, check: np.ndarray, free: np.ndarray
+) -> float:
+    jac = forward_kinematics(desc, fit, truth, jacobian=True).jacobians
     a = (jac[:, :3, :][:, :, free] / NOISE.position_mm).reshape(-1, free.size)
     cov = np.linalg.inv(a.T @ a)
-    jp = forward_kinematics(desc, check, truth, jacobian=True).jacobians[:, :3, free]  # type: ignore[arg-type]
+    jp = forward_kinematics(desc, check, truth, jacobian=True).jacobians[:, :3, free]
     return float(np.sqrt(np.mean(np.einsum("mij,jk,mik->m", jp, cov, jp))))
 
 

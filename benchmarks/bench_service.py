@@ -17,11 +17,11 @@ import numpy as np
 
 from benchmarks.load import open_loop, request_bytes
 from benchmarks.timing import target
+from harness.live import running_server
 from models import iwr, sample_workspace
 from models.campaign import make_campaign
 from models.identification import identify
 from models.simulation import measure, perturbed_robot
-from tests.live import running_server
 
 CLIENTS = 50
 PERIOD_S = 0.25

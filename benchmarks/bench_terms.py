@@ -11,7 +11,7 @@ after (with the terms).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -40,7 +40,7 @@ def _truth() -> SimulatedRobot:
     return SimulatedRobot(desc, sim.nominal, desc.parameters.with_values(sim.truth, values))
 
 
-def _interleaved(calls: list[Callable[[], object]], repeats: int = REPEATS) -> list[float]:
+def _interleaved(calls: Sequence[Callable[[], object]], repeats: int = REPEATS) -> list[float]:
     """Fastest time of each call over `repeats` rounds, the calls taking turns within each round: the shared
     machine's load drifts over seconds, and taking turns puts every variant under the same drift."""
     for call in calls:

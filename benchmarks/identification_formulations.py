@@ -49,6 +49,7 @@ def solve_nested(
     theta = ca.MX(theta_start)
     theta[free.tolist()] = theta[free.tolist()] + scales * z
     qi, pi, ri, th = ca.MX.sym("q", desc.n_joints), ca.MX.sym("p", 3), ca.MX.sym("r", 9), ca.MX.sym("t", desc.n_params)
+    assert desc.hexapod is not None
     pos, rot, _ = fns["fk"](qi, th, ca.DM(desc.hexapod.home))
     res = _residual(pos, rot, pi, ri, noise)
     per_pose = ca.Function("res", [qi, th, pi, ri], [ca.sumsqr(res)]).map(n)

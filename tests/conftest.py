@@ -84,7 +84,7 @@ def _never_selects(markexpr: str, **fixed: bool) -> bool:
     others = sorted(set(re.findall(r"[\w.-]+", markexpr)) - {*fixed, "and", "or", "not", "True", "False"})
     for values in itertools.product((False, True), repeat=len(others)):
         marked = dict(zip(others, values, strict=True), **fixed)
-        if expression.evaluate(lambda name, marked=marked, **_: marked.get(name, False)):
+        if expression.evaluate(lambda name, /, marked=marked, **_: marked.get(name, False)):
             return False
     return True
 

@@ -7,6 +7,7 @@ AST scan this test used to be could not (`models` core → a module → `models.
 
 from __future__ import annotations
 
+import ast
 import tomllib
 from pathlib import Path
 
@@ -30,3 +31,26 @@ def test_the_layers_named_in_the_plan_have_contracts() -> None:
     }
     assert {"service.routes", "fastapi"} <= forbidden[("service.persistence",)]
     assert {"fastapi", "sqlalchemy", "pydantic"} <= forbidden[("models", "optimal_design")]
+
+
+def _imported(path: Path) -> set[str]:
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            names |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module)
+    return names
+
+
+@pytest.mark.parametrize("package", ["benchmarks", "harness"])
+def test_benchmarks_and_the_harness_never_import_the_tests(package: str) -> None:
+    """`python -m benchmarks` runs outside pytest: importing tests/ would tie it to test modules that move and to
+    pytest itself, so what both need lives in harness/. import-linter checks only its root packages, hence a scan."""
+    files = sorted((ROOT / package).rglob("*.py"))
+    assert files, f"{package}/ has no modules"
+    offending = {
+        str(f.relative_to(ROOT)): sorted(n for n in _imported(f) if n == "tests" or n.startswith("tests."))
+        for f in files
+    }
+    assert not {f: names for f, names in offending.items() if names}

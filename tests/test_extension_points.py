@@ -52,8 +52,7 @@ def test_every_stage_kind_of_the_contract_has_a_reader_and_a_whole_stage() -> No
     assert set(STAGE_KINDS) == set(READERS)
     members = _protocol_members(StageProtocol) - {"kind", "section", "group", "classic_group"}
     for kind, reader in READERS.items():
-        stage_type = inspect.signature(reader).return_annotation
-        cls = reader.__globals__[stage_type] if isinstance(stage_type, str) else stage_type
+        cls = inspect.signature(reader, eval_str=True).return_annotation
         assert cls.kind == kind
         missing = {m for m in members if not hasattr(cls, m)}
         assert not missing, f"{cls.__name__} lacks {sorted(missing)} of the Stage protocol"

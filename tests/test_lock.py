@@ -16,7 +16,7 @@ PIN = re.compile(r"([A-Za-z0-9][A-Za-z0-9._-]*)==([A-Za-z0-9.!+_-]+)")
 
 
 def _declared(requirements: list[str]) -> set[str]:
-    out = set()
+    out: set[str] = set()
     for line in requirements:
         req = Requirement(line)
         if req.marker is None or req.marker.evaluate():
@@ -25,7 +25,7 @@ def _declared(requirements: list[str]) -> set[str]:
 
 
 def _locked(name: str) -> dict[str, str]:
-    pins = {}
+    pins: dict[str, str] = {}
     for line in (ROOT / "requirements" / name).read_text().splitlines():
         if match := PIN.match(line):  # the pins; comments and annotations aside
             pins[canonicalize_name(match[1])] = match[2]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 import pytest
 
@@ -67,6 +69,7 @@ def test_round_trip_on_the_model(desc: RobotDescription, sim: SimulatedRobot, ca
     angle = np.linalg.norm(matrix_to_rotvec_np(fk.rotations @ np.swapaxes(quaternion_to_matrix(quats), 1, 2)), axis=1)
     assert np.degrees(angle).max() < 1e-6
     assert np.all(answer.joints >= desc.joint_min - 1e-9) and np.all(answer.joints <= desc.joint_max + 1e-9)
+    assert desc.hexapod is not None
     assert np.all(answer.condition < desc.hexapod.max_condition)
 
 
@@ -167,7 +170,8 @@ def test_commands_lie_inside_the_ranges_and_invalid_targets_have_no_error() -> N
     targets[5] += [0.0, 0.0, 5000.0]  # unreachable: the nearest pose, at its limits
     quats[7] = quats[7] * 3.0  # not a unit quaternion: invalid
     answer = inverse_kinematics(desc, targets, quats)
-    solved = np.isfinite(answer.joints).all(axis=1)
+    # numpy's stubs type all(axis=...) as bool | array; along an axis of a 2-D array it is an array
+    solved = cast(np.ndarray, np.isfinite(answer.joints).all(axis=1))
     assert solved.sum() == 199 and not solved[7]
     assert np.all(answer.joints[solved] >= desc.joint_min) and np.all(answer.joints[solved] <= desc.joint_max)
     assert answer.orientation_error_rad is not None and np.isnan(answer.orientation_error_rad[7])

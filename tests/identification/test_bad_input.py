@@ -62,9 +62,9 @@ def test_record_level_errors_name_the_record(desc: RobotDescription, campaign: C
     with pytest.raises(InvalidQuaternion, match="record 2"):
         make_campaign(desc, campaign.joints, campaign.positions, quats)
     quats[2] = campaign.quaternions[2] * (1 + 5e-4)  # near-unit: normalised, accepted
-    assert np.allclose(
-        np.linalg.norm(make_campaign(desc, campaign.joints, campaign.positions, quats).quaternions, axis=1), 1
-    )
+    normalised = make_campaign(desc, campaign.joints, campaign.positions, quats).quaternions
+    assert normalised is not None
+    assert np.allclose(np.linalg.norm(normalised, axis=1), 1)
 
 
 def test_data_from_another_robot_fail_with_a_reason(desc: RobotDescription, campaign: Campaign) -> None:

@@ -33,8 +33,8 @@ def _truth(desc: RobotDescription, seed: int, values: dict[str, float]) -> Simul
 def _cramer_rao(
     desc: RobotDescription,
     sim: SimulatedRobot,
-    fit: tuple[np.ndarray, Conditions],
-    check: tuple[np.ndarray, Conditions],
+    fit: tuple[np.ndarray, Conditions | None],
+    check: tuple[np.ndarray, Conditions | None],
     free: np.ndarray,
 ) -> float:
     """RMS TCP position error an efficient estimator reaches at the check poses, from the truth's Jacobians."""

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from models import forward_kinematics, iwr
-from models.accuracy import evaluate, iso_cube_poses
+from models.accuracy import CubePoses, evaluate, iso_cube_poses
 from models.campaign import Campaign
 from models.identification.registration import rigid_fit
 from models.noise import NoiseModel
-from models.simulation import measure, perturbed_robot
+from models.simulation import SimulatedRobot, measure, perturbed_robot
 
 DESC = iwr()
 SIGMA = 0.025
@@ -22,7 +22,7 @@ EXPECTED_RP = SIGMA * (2 * math.sqrt(2 / math.pi) + 3 * math.sqrt(3 - 8 / math.p
 
 
 @pytest.fixture(scope="module")
-def setting() -> tuple[object, object, Campaign]:
+def setting() -> tuple[SimulatedRobot, CubePoses, Campaign]:
     sim = perturbed_robot(DESC, seed=61)
     cube = iso_cube_poses(DESC, DESC.parameters.nominal)
     # ISO 9283 order: each cycle visits P1…P5; the noise of every visit is independent.
@@ -32,14 +32,14 @@ def setting() -> tuple[object, object, Campaign]:
 
 
 @pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
-def test_the_cube_poses_put_the_tcp_on_the_cube_points(setting: tuple) -> None:
+def test_the_cube_poses_put_the_tcp_on_the_cube_points(setting: tuple[SimulatedRobot, CubePoses, Campaign]) -> None:
     _, cube, _ = setting
     fk = forward_kinematics(DESC, cube.joints, DESC.parameters.nominal)
     np.testing.assert_allclose(fk.positions, cube.cube.points, atol=1e-6)
     assert cube.cube.edge_mm > 50
 
 
-def test_the_true_parameters_have_only_the_noise_left(setting: tuple) -> None:
+def test_the_true_parameters_have_only_the_noise_left(setting: tuple[SimulatedRobot, CubePoses, Campaign]) -> None:
     sim, _, campaign = setting
     report = evaluate(DESC, sim.truth, campaign)
     assert len(report.iso_poses) == 5 and all(len(p.records) == CYCLES for p in report.iso_poses)
@@ -52,7 +52,7 @@ def test_the_true_parameters_have_only_the_noise_left(setting: tuple) -> None:
     assert all(abs(d.characteristics.accuracy_mm) < 4 * SIGMA for d in report.iso_distances)
 
 
-def test_the_nominal_model_shows_its_geometric_error(setting: tuple) -> None:
+def test_the_nominal_model_shows_its_geometric_error(setting: tuple[SimulatedRobot, CubePoses, Campaign]) -> None:
     sim, cube, campaign = setting
     report = evaluate(DESC, DESC.parameters.nominal, campaign, register=True)
     # Independent truth: the true TCP against the nominal one registered onto it without noise.

@@ -37,7 +37,7 @@ NEW = {  # the same arm on a prismatic lift: a structure the container has never
             "convention": "dh",
             "links": [
                 {"joint": "prismatic", "a": 0.0, "alpha": 0.0, "d": 0.0, "theta": 0.0, "range": [0, 500]},
-                *ARM["stages"][0]["links"],  # type: ignore[index]
+                *ARM["stages"][0]["links"],
             ],
         }
     ]

@@ -14,6 +14,7 @@ from models.transforms import euler_zyx, rotvec_to_matrix
 
 
 def _workspace_corners(desc: RobotDescription) -> np.ndarray:
+    assert desc.hexapod is not None
     lo, hi = np.array(desc.hexapod.workspace_min), np.array(desc.hexapod.workspace_max)
     return np.array([np.where(mask, hi, lo) for mask in itertools.product([0, 1], repeat=6)], dtype=float)
 
@@ -35,6 +36,7 @@ def test_ik_fk_round_trip_over_the_workspace(desc: RobotDescription) -> None:
 def test_rootfinder_fk_converges_from_home(desc: RobotDescription) -> None:
     fk = default_registry().runtime(desc).kinematics["hexapod_fk"]
     hp = desc.parameters.nominal[desc.slices["hexapod"]]
+    assert desc.hexapod is not None
     platforms = np.vstack([_workspace_corners(desc), sample_workspace(desc, 50, 3, return_platforms=True)[1]])
     for x in platforms:
         legs = inverse_hexapod(desc, x[None, :])[0]
@@ -69,6 +71,7 @@ def test_condition_number_flags_a_singular_hexapod(desc: RobotDescription) -> No
     per_leg = theta[hexapod].reshape(6, 7)
     per_leg[:, 3:6] = 0.0
     theta[hexapod] = per_leg.ravel()
+    assert desc.hexapod is not None
     home = np.array([desc.hexapod.home])
     assert hexapod_condition(desc, home, theta)[0] > 1e12
     assert hexapod_condition(desc, home, desc.parameters.nominal)[0] < desc.hexapod.max_condition

@@ -23,7 +23,7 @@ def _rz_ry_rx(a: float, b: float, c: float) -> np.ndarray:
     rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
     ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
     rz = np.array([[cc, -sc, 0], [sc, cc, 0], [0, 0, 1]])
-    return rz @ ry @ rx
+    return np.asarray(rz @ ry @ rx)
 
 
 def test_pose_accuracy_and_repeatability_by_hand() -> None:

@@ -35,7 +35,7 @@ def _finite_difference_jacobian(desc: RobotDescription, joints: np.ndarray, thet
 def _assert_columns_close(ad: np.ndarray, fd: np.ndarray, rtol: float) -> None:
     for j in range(ad.shape[-1]):
         a, f = ad[..., j], fd[..., j]
-        scale = max(np.linalg.norm(f), 1.0)
+        scale = max(float(np.linalg.norm(f)), 1.0)
         assert np.linalg.norm(a - f) <= rtol * scale, f"parameter {j}: |AD - FD| = {np.linalg.norm(a - f):.3g}"
 
 
@@ -54,6 +54,7 @@ def test_rootfinder_route_equals_explicit_implicit_function_theorem(desc: RobotD
     theta = perturbed_robot(desc, 5).truth
     joints = sample_workspace(desc, 5, seed=2)
     batch = forward_kinematics(desc, joints, theta, jacobian=True)
+    assert desc.hexapod is not None
     for k, q in enumerate(joints):
         position, rotation, _, jac = fns["fk_jacobian"](q, theta, desc.hexapod.home)
         np.testing.assert_allclose(np.array(position).ravel(), batch.positions[k], atol=1e-9)
@@ -81,5 +82,5 @@ def test_residual_jacobian_matches_finite_differences(desc: RobotDescription) ->
             "residual_at", joints, minus, forward_kinematics(desc, joints, minus).platforms, fk.positions, fk.rotations
         )[0]
         fd = (rp - rm) / (2 * h)
-        assert np.linalg.norm(jac[:, :, j] - fd) <= 1e-6 * max(np.linalg.norm(fd), 1.0), desc.parameters.names[j]
+        assert np.linalg.norm(jac[:, :, j] - fd) <= 1e-6 * max(float(np.linalg.norm(fd)), 1.0), desc.parameters.names[j]
     assert np.abs(res[:, :3]).max() > 0.1  # the nominal model really is off

@@ -87,7 +87,7 @@ def _reference_tcp(desc: RobotDescription, q: np.ndarray, x: np.ndarray, theta: 
 
     t = _pose(theta[desc.slices["base"]]) @ link(1, q[0], True) @ link(2, q[1], False)
     t = t @ _platform(x[0:6]) @ link(3, q[2], False) @ _platform(x[6:12])
-    return t @ _pose(theta[desc.slices["tool"]])
+    return np.asarray(t @ _pose(theta[desc.slices["tool"]]))
 
 
 def test_layout_keeps_serial_joints_and_link_parameters_before_the_legs() -> None:

@@ -72,7 +72,7 @@ def reference_serial_fk(desc: RobotDescription, q: np.ndarray, theta: np.ndarray
             t = t @ _rz(th) @ _t(0, 0, d) @ _t(a, 0, 0) @ _rx(al) @ _ry(beta)
         else:
             t = t @ _rx(al) @ _ry(beta) @ _t(a, 0, 0) @ _rz(th) @ _t(0, 0, d)
-    return t @ _pose(theta[desc.slices["tool"]])
+    return np.asarray(t @ _pose(theta[desc.slices["tool"]]))
 
 
 def _perturbed(desc: RobotDescription, seed: int) -> np.ndarray:

@@ -99,7 +99,8 @@ def test_thermal_legs_expand_by_kappa_and_axes_by_their_travel(joints) -> None: 
     fk = forward_kinematics(desc, joints, theta, conditions=temps)
     geometric = inverse_hexapod(iwr(), fk.platforms)  # commanded lengths of the geometric model: |v| - δl
     offsets = np.array(iwr().hexapod.leg_offsets)  # type: ignore[union-attr]
-    dt = temps.temperature_c - 20.0  # type: ignore[operator]
+    assert temps.temperature_c is not None
+    dt = temps.temperature_c - 20.0
     expected = (joints[:, 4:] + offsets) * (1 + 20e-6 * dt[:, None]) - offsets
     assert np.abs(geometric - expected).max() < 1e-9
     # the carriage: the thermal model at ΔT is the geometric one at scaled prismatic travel and expanded legs
@@ -151,7 +152,7 @@ def _euler_zyx(alpha: float, beta: float, gamma: float) -> np.ndarray:
     rz = np.array([[ca, -sa, 0], [sa, ca, 0], [0, 0, 1]])
     ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
     rx = np.array([[1, 0, 0], [0, cg, -sg], [0, sg, cg]])
-    return rz @ ry @ rx
+    return np.asarray(rz @ ry @ rx)
 
 
 @pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
@@ -182,7 +183,7 @@ def test_a_serial_robots_joints_turn_by_compliance_times_the_gravity_torque() ->
 
     def cog_world(joints: np.ndarray) -> np.ndarray:
         fk = forward_kinematics(plain, joints, check_ranges=False)
-        return np.einsum("nij,j->ni", fk.rotations, cog) + fk.positions
+        return np.asarray(np.einsum("nij,j->ni", fk.rotations, cog) + fk.positions)
 
     h = 1e-6
     torque = np.zeros((4, 6))

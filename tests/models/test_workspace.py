@@ -17,6 +17,7 @@ def test_samples_respect_ranges_strokes_and_conditioning(desc: RobotDescription)
     joints, platforms = sample_workspace(desc, 2000, seed=8, return_platforms=True)
     assert joints.shape == (2000, 10)
     assert np.all(joints >= desc.joint_min) and np.all(joints <= desc.joint_max)
+    assert desc.hexapod is not None
     lo, hi = np.array(desc.hexapod.workspace_min), np.array(desc.hexapod.workspace_max)
     assert np.all(platforms >= lo) and np.all(platforms <= hi)
     assert np.all(hexapod_condition(desc, platforms, desc.parameters.nominal) <= desc.hexapod.max_condition)

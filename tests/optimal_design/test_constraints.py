@@ -56,7 +56,7 @@ def test_keep_out_box_excludes_tcp_and_platform_centre(desc: RobotDescription) -
     box = (mid - half, mid + half)
 
     def inside(p: np.ndarray) -> np.ndarray:
-        return np.all((p >= box[0]) & (p <= box[1]), axis=1)
+        return np.asarray(np.all((p >= box[0]) & (p <= box[1]), axis=1))
 
     blocked = inside(tcp) | inside(centres)
     assert 0 < blocked.sum() < 250
@@ -125,7 +125,7 @@ def test_d_efficiency_floor_for_the_condition_design(desc: RobotDescription) -> 
     plain = design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0)
     floored = design_poses(desc, 20, "condition", candidates=joints, d_efficiency_floor=0.9)
     d = design_poses(desc, 20, "D", candidates=joints)
-    assert d.bound is not None and floored.bound is not None
+    assert d.bound is not None and floored.bound is not None and plain.bound is not None
     # independently: log det of the chosen poses against the certified D bound
     info = candidate_information(desc, joints, position_only=False)
     log_det = float(np.linalg.slogdet(info.subset_information(np.array(floored.indices)))[1])

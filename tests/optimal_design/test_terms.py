@@ -50,8 +50,8 @@ def test_conditions_of_given_candidates() -> None:
     cand = sample_workspace(iwr(), 120, seed=6)
     temps = np.linspace(16.0, 28.0, 120)
     design = design_poses(THERMAL, 30, "D", candidates=cand, conditions=make_conditions(120, temps))
-    assert design.conditions is not None
-    assert np.allclose(design.conditions.temperature_c, temps[list(design.indices)])  # type: ignore[index]
+    assert design.conditions is not None and design.conditions.temperature_c is not None
+    assert np.allclose(design.conditions.temperature_c, temps[list(design.indices)])
     with pytest.raises(InvalidInput) as err:
         design_poses(THERMAL, 30, "D", candidates=cand, conditions=make_conditions(10, 20.0))
     assert err.value.field == "conditions"

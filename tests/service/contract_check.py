@@ -90,7 +90,7 @@ class ContractClient(TestClient):
         super().__init__(app, **kwargs)
         self.contract = ContractChecker(app.openapi() if document is None else document)
 
-    def request(self, method: str, url: httpx.URL | str, **kwargs: Any) -> httpx.Response:  # type: ignore[override]
+    def request(self, method: str, url: httpx.URL | str, **kwargs: Any) -> httpx.Response:
         response = super().request(method, url, **kwargs)
         self.contract.check(
             method.upper(),

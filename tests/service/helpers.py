@@ -1,31 +1,19 @@
-"""Simulated measurements in the API's boundary units, and waiting for a job over the API."""
+"""Simulated measurements in the API's boundary units, waiting for a job over the API, and a broker or a skip."""
 
 from __future__ import annotations
 
+import os
+import socket
 import time
 from typing import Any
 
-import numpy as np
+import pytest
 from fastapi.testclient import TestClient
 
-from models import RobotDescription
-from models.simulation import SimulatedRobot, measure
+# The harness builds its campaigns from the same records; the service tests keep importing them from here.
+from harness.records import records
 
-
-def records(
-    desc: RobotDescription, sim: SimulatedRobot, joints: np.ndarray, seed: int, *, position_only: bool = False
-) -> list[dict[str, object]]:
-    campaign = measure(sim, joints, seed=seed, position_only=position_only)
-    out = []
-    for k in range(campaign.size):
-        rec: dict[str, object] = {
-            "joints": (campaign.joints[k] * desc.joint_to_boundary).tolist(),
-            "position": campaign.positions[k].tolist(),
-        }
-        if campaign.quaternions is not None:
-            rec["orientation"] = campaign.quaternions[k].tolist()
-        out.append(rec)
-    return out
+__all__ = ["broker", "finished_job", "records"]
 
 
 def finished_job(client: TestClient, url: str, *, seconds: float = 30.0) -> dict[str, Any]:
@@ -38,3 +26,16 @@ def finished_job(client: TestClient, url: str, *, seconds: float = 30.0) -> dict
         if time.monotonic() > deadline:
             raise AssertionError(f"job {url} did not finish in {seconds:g} s: {job}")
         time.sleep(0.05)
+
+
+def broker(url: str) -> str:
+    """The broker's URL when it answers; otherwise skip (fail under CI, where it must run)."""
+    host_port = url.rsplit("@", maxsplit=1)[-1].rsplit("://", maxsplit=1)[-1].split("/", maxsplit=1)[0]
+    host, port = host_port.rsplit(":", 1)
+    try:
+        socket.create_connection((host, int(port)), timeout=2).close()
+    except OSError as exc:
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"the broker {url} must be running for CI on this machine: {exc}")
+        pytest.skip(f"no broker at {host}:{port} ({exc})")
+    return url

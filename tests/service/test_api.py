@@ -18,7 +18,8 @@ DESC = iwr()
 
 
 def _deg(joints: np.ndarray) -> list[list[float]]:
-    return (joints * DESC.joint_to_boundary).tolist()
+    out: list[list[float]] = (joints * DESC.joint_to_boundary).tolist()
+    return out
 
 
 def test_robot_lifecycle(client: TestClient) -> None:

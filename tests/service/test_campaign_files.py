@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -20,6 +22,7 @@ from tests.service.helpers import records
 
 DESC = iwr()
 JOINTS = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
+Records = list[dict[str, list[float]]]
 
 
 @pytest.fixture(scope="module")
@@ -28,19 +31,19 @@ def truth() -> list[dict[str, list[float]]]:
     return records(DESC, sim, sample_workspace(DESC, 12, seed=52), seed=53)  # type: ignore[return-value]
 
 
-def _same(got: list[dict[str, object]], want: list[dict[str, list[float]]], *, atol: float = 1e-9) -> None:
+def _same(got: list[dict[str, Any]], want: list[dict[str, list[float]]], *, atol: float = 1e-9) -> None:
     assert len(got) == len(want)
     for g, w in zip(got, want, strict=True):
-        np.testing.assert_allclose(g["joints"], w["joints"], atol=atol)  # type: ignore[arg-type]
-        np.testing.assert_allclose(g["position"], w["position"], atol=atol)  # type: ignore[arg-type]
-        np.testing.assert_allclose(g["orientation"], w["orientation"], atol=atol)  # type: ignore[arg-type]
+        np.testing.assert_allclose(g["joints"], w["joints"], atol=atol)
+        np.testing.assert_allclose(g["position"], w["position"], atol=atol)
+        np.testing.assert_allclose(g["orientation"], w["orientation"], atol=atol)
 
 
 def _european(v: float) -> str:
     return repr(v).replace(".", ",")
 
 
-def test_an_excel_export_with_bom_semicolons_decimal_commas_comments_and_extra_columns(truth: list) -> None:
+def test_an_excel_export_with_bom_semicolons_decimal_commas_comments_and_extra_columns(truth: Records) -> None:
     # Excel in a German locale: BOM, ';', decimal commas, CRLF; columns reordered, one the service does not know.
     header = ["Operator", "X [mm]", "Y [mm]", "Z [mm]", "qw", "qx", "qy", "qz", *reversed(JOINTS)]
     lines = ["\ufeff# exported from the cell's spreadsheet", ";".join(header)]
@@ -54,7 +57,7 @@ def test_an_excel_export_with_bom_semicolons_decimal_commas_comments_and_extra_c
     assert any("operator" in n for n in notes) and any("decimal commas" in n for n in notes)
 
 
-def test_a_leica_style_point_file_joined_with_the_controller_joint_file(truth: list) -> None:
+def test_a_leica_style_point_file_joined_with_the_controller_joint_file(truth: Records) -> None:
     # The tracker writes metres, U95 in mm, the scalar-first quaternion as Q0…Q3, a temperature and a timestamp.
     points = ["Point ID,X [m],Y [m],Z [m],U95 [mm],Q0,Q1,Q2,Q3,Temperature [°C],Timestamp"]
     for k, r in enumerate(reversed(truth)):  # another order than the joint file's
@@ -74,7 +77,7 @@ def test_a_leica_style_point_file_joined_with_the_controller_joint_file(truth: l
     assert any("converted to mm" in n for n in notes)
 
 
-def test_a_spatial_analyzer_point_export(truth: list) -> None:
+def test_a_spatial_analyzer_point_export(truth: Records) -> None:
     lines = ["// SpatialAnalyzer ASCII export", "Collection Group Target X Y Z Uncertainty"]
     lines += [
         f"A Calibration P{k + 1:03d} " + " ".join(f"{v:.6f}" for v in r["position"]) + " 0.02"
@@ -92,7 +95,7 @@ def test_a_spatial_analyzer_point_export(truth: list) -> None:
         assert g["orientation"] is None and g["sigma_mm"] == 0.02
 
 
-def test_quaternions_in_xyzw_order_by_option(truth: list) -> None:
+def test_quaternions_in_xyzw_order_by_option(truth: Records) -> None:
     # A table with the robot's joints q1…q4 cannot also hold a Leica-style quaternion q0…q3.
     clash = read_table(",".join(["q0", *JOINTS, "x", "y", "z"]) + "\n" + ",".join(["1"] * 14))
     with pytest.raises(CampaignFileError, match="clash with the robot's joints q1, q2, q3"):

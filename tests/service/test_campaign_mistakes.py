@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from tests.service.helpers import finished_job
 DESC = iwr()
 
 
-def _campaign(seed: int, n: int = 50, noise: float = 0.025) -> list[dict[str, object]]:
+def _campaign(seed: int, n: int = 50, noise: float = 0.025) -> list[dict[str, list[float]]]:
     sim = perturbed_robot(DESC, seed=seed)
     c = measure(sim, sample_workspace(DESC, n, seed=seed + 1), NoiseModel(noise, math.radians(0.01)), seed=seed + 2)
     out = []
@@ -32,7 +33,7 @@ def _campaign(seed: int, n: int = 50, noise: float = 0.025) -> list[dict[str, ob
     return out
 
 
-def _calibrate(client: TestClient, robot_id: str, body: dict[str, object]) -> tuple[int, dict[str, object]]:
+def _calibrate(client: TestClient, robot_id: str, body: dict[str, object]) -> tuple[int, dict[str, Any]]:
     r = client.post(f"/v1/robots/{robot_id}/calibrations", json=body)
     return r.status_code, r.json()
 
@@ -57,9 +58,9 @@ def test_noise_stated_five_times_too_small_is_stored_not_applied(client: TestCli
     # (apply: false — applying a fit from a version that is no longer current is refused with a 409 anyway)
     honest_body = {"measurements": recs, "noise": {"position_mm": 0.125}, "start_version": 1, "apply": False}
     status, honest = _calibrate(client, robot_id, honest_body)
-    assert status == 201 and all(c["passed"] for c in honest["checks"]), honest["checks"]  # type: ignore[union-attr]
+    assert status == 201 and all(c["passed"] for c in honest["checks"]), honest["checks"]
     status, against_forced = _calibrate(client, robot_id, {**honest_body, "start_version": 2, "apply": True})
-    failed = [c["name"] for c in against_forced["checks"] if not c["passed"]]  # type: ignore[union-attr]
+    failed = [c["name"] for c in against_forced["checks"] if not c["passed"]]
     assert status == 201 and failed == ["accuracy"] and not against_forced["applied"]
 
 
@@ -77,7 +78,7 @@ def test_each_slip_is_a_422_that_names_it(
 ) -> None:
     recs = _campaign(2)
     for r in recs:
-        joints, position, q = list(r["joints"]), list(r["position"]), list(r["orientation"])  # type: ignore[call-overload]
+        joints, position, q = list(r["joints"]), list(r["position"]), list(r["orientation"])
         if mistake == "metres":
             r["position"] = [v / 1000 for v in position]
         elif mistake == "radians":
@@ -88,9 +89,9 @@ def test_each_slip_is_a_422_that_names_it(
         elif mistake == "left_handed":
             r["position"] = [position[0], -position[1], position[2]]
     status, problem = _calibrate(client, robot_id, {"measurements": recs})
-    assert status == 422 and problem["type"].endswith("calibration-failed")  # type: ignore[union-attr]
+    assert status == 422 and problem["type"].endswith("calibration-failed")
     assert words in str(problem["detail"])
-    assert [d["finding"] for d in problem["diagnoses"]] == [finding]  # type: ignore[union-attr]
+    assert [d["finding"] for d in problem["diagnoses"]] == [finding]
     stored = client.get(f"/v1/calibrations/{problem['calibration_id']}").json()
     assert stored["status"] == "failed" and not stored["applied"]
 
@@ -98,7 +99,7 @@ def test_each_slip_is_a_422_that_names_it(
 def test_a_failed_fit_ends_its_job_failed(client: TestClient, robot_id: str) -> None:
     recs = _campaign(3)
     for r in recs:
-        r["position"] = [v / 1000 for v in r["position"]]  # type: ignore[attr-defined]
+        r["position"] = [v / 1000 for v in r["position"]]
     job = client.post(f"/v1/robots/{robot_id}/calibrations?async=true", json={"measurements": recs}).json()
     state = finished_job(client, f"/v1/jobs/{job['job_id']}")
     assert state["status"] == "failed"
@@ -124,7 +125,7 @@ def test_three_blunders_are_excluded_by_default_and_named(client: TestClient, ro
         recs[k]["position"] = (np.array(recs[k]["position"]) + shift).tolist()
     status, body = _calibrate(client, robot_id, {"measurements": recs})
     assert status == 201 and body["applied"], body.get("not_applied_reason")
-    excluded = [o for o in body["outliers"] if o["excluded"]]  # type: ignore[union-attr]
+    excluded = [o for o in body["outliers"] if o["excluded"]]
     assert sorted(o["pose"] for o in excluded) == [4, 17, 44]
     assert [o["statistic"] for o in excluded] == sorted((o["statistic"] for o in excluded), reverse=True)
     assert all(2.0 < o["position_mm"] < 3.5 for o in excluded)
@@ -144,10 +145,10 @@ def test_an_excel_csv_calibrates_and_a_stripped_one_is_explained(client: TestCli
     names = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
     header = ["Operator", "X [m]", "Y [m]", "Z [m]", "qw", "qx", "qy", "qz", *reversed(names)]
     lines = ["\ufeff# cell 3, shift 2", ";".join(header)]
-    for r in recs:
-        metres = [f"{v / 1000:.9f}".replace(".", ",") for v in r["position"]]  # type: ignore[attr-defined]
-        quat = [f"{v:.12f}".replace(".", ",") for v in r["orientation"]]  # type: ignore[attr-defined]
-        joints = [f"{v:.9f}".replace(".", ",") for v in reversed(r["joints"])]  # type: ignore[call-overload]
+    for rec in recs:  # not `r`: that name is the responses' below
+        metres = [f"{v / 1000:.9f}".replace(".", ",") for v in rec["position"]]
+        quat = [f"{v:.12f}".replace(".", ",") for v in rec["orientation"]]
+        joints = [f"{v:.9f}".replace(".", ",") for v in reversed(rec["joints"])]
         lines.append(";".join(["anna", *metres, *quat, *joints]))
     url = f"/v1/robots/{robot_id}/calibrations"
     r = client.post(url, content="\r\n".join(lines), headers={"content-type": "text/csv"})
@@ -165,11 +166,10 @@ def test_joint_and_point_files_from_the_controller_and_spatial_analyzer(client: 
     recs = _campaign(8, n=45)
     names = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
     joints = ["target," + ",".join(names)] + [
-        f"P{k:03d}," + ",".join(repr(v) for v in r["joints"])  # type: ignore[attr-defined]
-        for k, r in enumerate(recs)
+        f"P{k:03d}," + ",".join(repr(v) for v in r["joints"]) for k, r in enumerate(recs)
     ]
     points = ["// SpatialAnalyzer ASCII export, positions only"] + [
-        f"A Cell3 P{k:03d} " + " ".join(f"{v:.6f}" for v in r["position"]) + " 0.025"  # type: ignore[attr-defined]
+        f"A Cell3 P{k:03d} " + " ".join(f"{v:.6f}" for v in r["position"]) + " 0.025"
         for k, r in reversed(list(enumerate(recs)))
     ]
     files = {

@@ -11,9 +11,9 @@ import httpx
 import numpy as np
 import pytest
 
+from harness.live import running_server
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
-from tests.live import running_server
 from tests.service.helpers import records
 
 # A load test: a live server under fifty clients for IWR_CONCURRENCY_SECONDS (20 s by default).

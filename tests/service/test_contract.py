@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 import schemathesis
@@ -39,7 +40,7 @@ def running_app() -> Iterator[TestClient]:
 # budget's 18 000 poses x draws (service.limits), seconds each; tests/service/conftest.py marks that case slow.
 @schema.parametrize()
 @settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
-def test_api_contract(case: schemathesis.Case) -> None:
+def test_api_contract(case: schemathesis.Case[Any]) -> None:
     """Every operation: no 5xx, responses conform to their schemas."""
     case.call_and_validate(checks=[not_a_server_error, response_schema_conformance, content_type_conformance])
 

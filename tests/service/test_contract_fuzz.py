@@ -94,7 +94,7 @@ def sqlite_app() -> Iterator[TestClient]:
 
 @pg_schema.exclude(path=SLOW).parametrize()
 @SETTINGS
-def test_api_contract_on_postgresql(postgres_app: TestClient, case: schemathesis.Case) -> None:
+def test_api_contract_on_postgresql(postgres_app: TestClient, case: schemathesis.Case[Any]) -> None:
     """What found the 2^31 version and the NUL characters: PostgreSQL's types are narrower than SQLite's."""
     case.call_and_validate(checks=CHECKS)
 
@@ -128,13 +128,13 @@ def _machine(schema: Any, app: Any) -> Any:
             _empty(app.state.settings.database_url)
             super().__init__()
 
-        def before_call(self, case: schemathesis.Case, **kwargs: Any) -> None:
+        def before_call(self, case: schemathesis.Case[Any], **kwargs: Any) -> None:
             # A generated key repeated across examples would replay (or refuse) instead of run: the sequence's
             # answers would depend on earlier examples, which hypothesis reports as a flaky strategy.
             if case.headers:
                 case.headers.pop("Idempotency-Key", None)
 
-        def validate_response(self, response: Any, case: schemathesis.Case, **kwargs: Any) -> None:
+        def validate_response(self, response: Any, case: schemathesis.Case[Any], **kwargs: Any) -> None:
             case.validate_response(response, checks=CHECKS)
 
     return Machine

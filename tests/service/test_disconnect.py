@@ -12,10 +12,10 @@ from pathlib import Path
 import httpx
 import pytest
 
+from harness.live import running_server
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service import limits
-from tests.live import running_server
 from tests.service.helpers import records
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]  # freed time against the full calibration time: alone on the cores

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.live import ROOT, running_server
+from harness.live import ROOT, running_server
 
 # A live server and a full calibration through the example client: ~14 s.
 pytestmark = pytest.mark.slow

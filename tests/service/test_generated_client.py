@@ -30,7 +30,7 @@ import httpx
 import numpy as np
 import pytest
 
-from tests.live import ROOT, running_server
+from harness.live import ROOT, running_server
 
 pytestmark = pytest.mark.slow
 
@@ -94,6 +94,7 @@ def _operation(client_package: ModuleType, method: str, path: str) -> ModuleType
     """The generated module of the operation at `method path`, found by its operationId."""
     operation_id = json.loads(CONTRACT.read_text())["paths"][path][method]["operationId"]
     name = re.sub(r"[^a-z0-9]+", "_", operation_id.lower()).strip("_")
+    assert client_package.__file__ is not None  # a package, imported from its folder
     found = sorted((Path(client_package.__file__).parent / "api").glob(f"*/{name}.py"))
     assert len(found) == 1, f"no single generated module for {operation_id}: {found}"
     return importlib.import_module(f"{PACKAGE}.api.{found[0].parent.name}.{name}")

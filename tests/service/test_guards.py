@@ -72,7 +72,7 @@ def test_a_slow_body_times_out(monkeypatch: pytest.MonkeyPatch) -> None:
         sent.append(message)
 
     scope = {"type": "http", "method": "POST", "path": "/v1/robots", "headers": []}
-    anyio.run(guards.BodyGuard(app, limit=1_000_000), scope, trickle, send)  # type: ignore[arg-type]
+    anyio.run(guards.BodyGuard(app, limit=1_000_000), scope, trickle, send)
     assert not reached and sent[0]["status"] == 408
 
 
@@ -118,7 +118,7 @@ def test_a_large_kinematics_body_is_validated_in_the_compute_task_not_on_the_loo
     on_loop: list[bool] = []
     monkeypatch.setattr(kinematics_routes, "validate_json", _where(on_loop, json_bodies.validate_json))
     monkeypatch.setattr(json_bodies, "validate_json", _where(on_loop, json_bodies.validate_json))
-    vectors = [[*JOINTS[:3], 45.0 + k * 1e-3, *JOINTS[4:]] for k in range(2_000)]
+    vectors: list[list[float | str]] = [[*JOINTS[:3], 45.0 + k * 1e-3, *JOINTS[4:]] for k in range(2_000)]
     large = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors})
     assert on_loop == [False]
     small = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors[1990:]})

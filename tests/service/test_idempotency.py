@@ -10,11 +10,11 @@ import httpx
 import pytest
 from sqlalchemy import update
 
+from harness.live import running_server
 from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.persistence.tables import IdempotencyRecord
 from service.services import designs
-from tests.live import running_server
 from tests.service.conftest import make_client
 from tests.service.contract_check import ContractClient
 from tests.service.helpers import records
@@ -81,7 +81,7 @@ def test_a_refusal_is_replayed_and_a_key_expires(api: ContractClient) -> None:
 @pytest.mark.parametrize("bad", ["", "x" * 201, "tab\there", "é"])
 @pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_malformed_key_is_a_400(api: ContractClient, bad: str) -> None:
-    r = api.post("/v1/robots", json={"name": "x"}, headers={"Idempotency-Key": bad.encode("utf-8")})  # type: ignore[dict-item]
+    r = api.post("/v1/robots", json={"name": "x"}, headers={"Idempotency-Key": bad.encode("utf-8")})  # type: ignore[arg-type]
     assert r.status_code == 400 and "Idempotency-Key" in r.json()["detail"]
 
 

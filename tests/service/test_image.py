@@ -14,9 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from tests.live import ROOT, free_port
+from harness.fleet import RABBITMQ, call, campaign, wait_for
+from harness.live import ROOT, free_port
 from tests.service.conftest import postgres_url
-from tests.service.fleet import RABBITMQ, broker, call, campaign, wait_for
+from tests.service.helpers import broker
 
 BASE_IMAGE = "docker.io/library/python:3.11-slim-bookworm"
 IMAGE = "localhost/iwr-calibration:test"

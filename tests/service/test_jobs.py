@@ -20,6 +20,8 @@ import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import update
 
+from harness.fleet import call
+from harness.live import ROOT, free_port
 from models import Registry, cancellation, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.jobs import runner
@@ -30,9 +32,7 @@ from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed
 from service.persistence.tables import Job, PoseDesignRecord
 from service.schemas.robots import RobotCreate
 from service.services.robots import create_robot
-from tests.live import ROOT, free_port
 from tests.service.conftest import make_client
-from tests.service.fleet import call
 from tests.service.helpers import records
 
 DESC = iwr()

@@ -13,6 +13,7 @@ from typing import Any
 import pytest
 from sqlalchemy import create_engine, text
 
+from harness.fleet import RABBITMQ, REDIS, call, campaign, fleet, wait_for
 from models import Registry
 from service.jobs import WorkerContext
 from service.jobs.engine import CeleryRunner
@@ -20,7 +21,7 @@ from service.model_cache import ModelCache
 from service.persistence import Database
 from service.settings import Settings
 from tests.service.conftest import postgres_url
-from tests.service.fleet import RABBITMQ, REDIS, broker, call, campaign, fleet, wait_for
+from tests.service.helpers import broker
 
 LEASE = "2"
 """Seconds: a killed worker's job is taken over ~2 s later (the default, 10 s, would only make this slower)."""
@@ -122,11 +123,11 @@ def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_ki
         # none twice: one stored result per job, one parameter version per calibration
         engine = create_engine(pg)
         with engine.connect() as c:
-            calibrations = c.execute(text("SELECT count(*) FROM calibrations")).scalar()
-            versions = c.execute(text("SELECT count(*) FROM parameter_versions")).scalar()
-            designs = c.execute(text("SELECT count(*) FROM pose_designs")).scalar()
-            results = c.execute(text("SELECT count(DISTINCT result_id) FROM jobs")).scalar()
-            applied = c.execute(text("SELECT count(*) FROM calibrations WHERE applied")).scalar()
+            calibrations = c.execute(text("SELECT count(*) FROM calibrations")).scalar_one()
+            versions = c.execute(text("SELECT count(*) FROM parameter_versions")).scalar_one()
+            designs = c.execute(text("SELECT count(*) FROM pose_designs")).scalar_one()
+            results = c.execute(text("SELECT count(DISTINCT result_id) FROM jobs")).scalar_one()
+            applied = c.execute(text("SELECT count(*) FROM calibrations WHERE applied")).scalar_one()
         engine.dispose()
         assert (calibrations, designs, results) == (150, 50, 200)
         # One new version per applied calibration, none twice. (The same campaign again predicts no better than

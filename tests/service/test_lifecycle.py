@@ -28,7 +28,7 @@ STATION_MOVE_SHIFT = np.array([850.0, -1200.0, 40.0])
 def _moved(base: np.ndarray) -> np.ndarray:
     """A base (world ← robot: x, y, z, rotation vector) seen from the new station: new world ← old world ∘ base."""
     rotation = STATION_MOVE_ROTATION @ rotvec_to_matrix_np(base[3:])
-    return np.r_[STATION_MOVE_ROTATION @ base[:3] + STATION_MOVE_SHIFT, matrix_to_rotvec_np(rotation)]
+    return np.asarray(np.r_[STATION_MOVE_ROTATION @ base[:3] + STATION_MOVE_SHIFT, matrix_to_rotvec_np(rotation)])
 
 
 def _moved_instrument(sim: SimulatedRobot) -> SimulatedRobot:

@@ -117,7 +117,7 @@ def test_the_gate_bounds_concurrent_compute_and_skips_gone_clients() -> None:
             tg.start_soon(call, "no-room", 0, 0.1)  # the queue of one is full: 503 at once
         assert outcomes["first"] == "first"
         assert isinstance(outcomes["waits-too-long"], Overloaded) and isinstance(outcomes["no-room"], Overloaded)
-        assert outcomes["no-room"].data["retry_after"] == limits.RETRY_AFTER_S  # type: ignore[union-attr]
+        assert outcomes["no-room"].data["retry_after"] == limits.RETRY_AFTER_S
         with pytest.raises(ClientGone):
             await gate.run(work("for-nobody", 0), absent)
         assert await gate.run(work("after", 0), present) == "after"

@@ -30,7 +30,8 @@ def _robot(api: ContractClient) -> str:
 
 
 def _candidates(n: int) -> list[list[float]]:
-    return (sample_workspace(DESC, n, seed=1) * DESC.joint_to_boundary).tolist()
+    out: list[list[float]] = (sample_workspace(DESC, n, seed=1) * DESC.joint_to_boundary).tolist()
+    return out
 
 
 @pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)

@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from models import Registry, iwr, sample_workspace
+from models import Registry, identification, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.jobs.runner import WorkerContext, execute_job
 from service.model_cache import ModelCache
@@ -33,7 +33,7 @@ def test_two_calibrations_in_flight_the_second_is_stored_not_applied(
     """The measured bug: two calibrations 0.5 s apart both applied; the later-finishing one silently won."""
     rid = api.post("/v1/robots", json={"name": "cell"}).json()["id"]
     slow_started, fast_done = threading.Event(), threading.Event()
-    real = calibrations.identify
+    real = identification.identify  # the function calibrations imported
 
     calls = 0
 

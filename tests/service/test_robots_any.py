@@ -3,6 +3,8 @@ vectors of their own length, exported as URDF and as a document that POST /v1/ro
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
@@ -144,7 +146,7 @@ def _hexapod(**changes: object) -> dict[str, object]:
     return document
 
 
-def _arm(*links: dict[str, object], convention: str = "dh") -> dict[str, object]:
+def _arm(*links: Mapping[str, object], convention: str = "dh") -> dict[str, object]:
     return {"stages": [{"kind": "serial", "convention": convention, "links": list(links)}]}
 
 

@@ -10,7 +10,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from tests.live import running_server
+from harness.live import running_server
 
 # Live servers (make test-fast skips them); the deadlines are asserted in seconds: alone on the cores.
 pytestmark = [pytest.mark.slow, pytest.mark.serial]

@@ -6,6 +6,7 @@ import math
 from collections.abc import Iterator
 from typing import Any
 
+import httpx
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
@@ -36,7 +37,7 @@ def client(database_url: str, registry: Registry) -> Iterator[TestClient]:
 
     original = c.request
 
-    def request(method: str, url: str, **kwargs: Any) -> Any:
+    def request(method: str, url: httpx.URL | str, **kwargs: Any) -> httpx.Response:
         headers = dict(kwargs.pop("headers", None) or {})
         name = headers.pop("X-Test-Actor", "tester")
         headers["X-API-Key"] = _key(name)
@@ -47,7 +48,7 @@ def client(database_url: str, registry: Registry) -> Iterator[TestClient]:
         yield c
 
 
-def _calibrate(client: TestClient, robot_id: str, seed: int, **extra: object) -> dict[str, object]:
+def _calibrate(client: TestClient, robot_id: str, seed: int, **extra: object) -> dict[str, Any]:
     sim = perturbed_robot(DESC, seed=seed)
     body = {"measurements": records(DESC, sim, sample_workspace(DESC, 40, seed=seed + 1), seed=seed + 2), **extra}
     answer = client.post(f"/v1/robots/{robot_id}/calibrations", json=body, headers={"X-Test-Actor": "metrology"})

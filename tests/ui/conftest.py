@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.live import running_server
+from harness.live import running_server
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARTIFACTS = Path(__file__).resolve().parents[2] / "build" / "test-artifacts" / "ui"

@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -19,12 +18,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import pytest
-
+from harness.live import ROOT, free_port, wait_ready
+from harness.records import records
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
-from tests.live import ROOT, free_port, wait_ready
-from tests.service.helpers import records
 
 RABBITMQ = os.environ.get("IWR_TEST_RABBITMQ", "amqp://guest:guest@127.0.0.1:5672//")
 REDIS = os.environ.get("IWR_TEST_REDIS", "redis://127.0.0.1:6379/0")
@@ -35,19 +32,6 @@ def campaign(poses: int, seed: int = 4) -> dict[str, Any]:
     desc = iwr()
     sim = perturbed_robot(desc, seed=6)
     return {"measurements": records(desc, sim, sample_workspace(desc, poses, seed=3), seed=seed)}
-
-
-def broker(url: str) -> str:
-    """The broker's URL when it answers; otherwise skip (fail under CI, where it must run)."""
-    host_port = url.rsplit("@", maxsplit=1)[-1].rsplit("://", maxsplit=1)[-1].split("/", maxsplit=1)[0]
-    host, port = host_port.rsplit(":", 1)
-    try:
-        socket.create_connection((host, int(port)), timeout=2).close()
-    except OSError as exc:
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"the broker {url} must be running for CI on this machine: {exc}")
-        pytest.skip(f"no broker at {host}:{port} ({exc})")
-    return url
 
 
 def call(base: str, method: str, path: str, body: Any = None, timeout: float = 30) -> tuple[int, Any]:
