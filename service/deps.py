@@ -12,7 +12,7 @@ from typing import Annotated, Any, TypeVar
 from fastapi import Depends, Query, Request
 
 from models import Registry
-from service import limits, logs, security
+from service import limits, logs, operations, security
 from service.compute import Task
 from service.errors import NotAcceptable
 from service.jobs import Requeuing
@@ -42,8 +42,7 @@ def _state(attribute: str, kind: type[T]) -> Callable[[Request], Awaitable[T]]:
 async def require_api_key(request: Request) -> None:
     """On the /v1 routers: with keys configured, a key whose scope covers the route (service.security), and
     `request.state.actor` set to the key's name."""
-    route = request.scope.get("route")
-    security.authorize(request, security.required_scope(request.method, getattr(route, "path", "")))
+    security.authorize(request, operations.required_scope(request.scope.get("route")))
 
 
 async def actor(request: Request) -> Actor:

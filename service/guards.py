@@ -15,8 +15,6 @@
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import anyio
@@ -26,7 +24,7 @@ from fastapi.exceptions import RequestValidationError
 from starlette.routing import Match
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service import limits, problems
+from service import limits, operations, problems
 from service.errors import NotFound, PayloadTooLarge, RequestTimeout, ServiceError
 
 BODY_TIMEOUT_S = 30.0
@@ -154,50 +152,16 @@ def _raise_too_many(keys: int | None) -> None:
         )
 
 
-def _joint_vectors(body: bytes) -> int:
-    # `{"joints": [[...], [...], ...]}`: one bracket per vector and one for the list (numbers hold none)
-    return body.count(b"[") - 1
-
-
-def _targets(body: bytes) -> int:
-    # Every target has a position; in valid JSON `"position"` before a colon is a key, never text.
-    return len(_POSITION_KEY.findall(body))
-
-
-def _records(body: bytes) -> int:
-    # Every measurement record has joints; `"joints"` before a colon is a key, never text (1.6 MB: ~3 ms).
-    return len(_JOINTS_KEY.findall(body))
-
-
-_POSITION_KEY = re.compile(rb'"position"\s*:')
-_JOINTS_KEY = re.compile(rb'"joints"\s*:')
-
-
-@dataclass(frozen=True)
-class Precount:
-    count: Callable[[bytes], int]
-    estimate: Callable[[int], limits.Estimate]
-    can_run_async: bool
-
-
-PRECOUNTED: dict[re.Pattern[str], Precount] = {
-    re.compile(r"/forward-kinematics$"): Precount(_joint_vectors, limits.forward_kinematics, can_run_async=False),
-    re.compile(r"/inverse-kinematics$"): Precount(_targets, limits.inverse_kinematics, can_run_async=False),
-    re.compile(r"^/v1/robots/[^/]+/calibrations$"): Precount(_records, limits.calibration, can_run_async=True),
-}
-"""Routes whose work can be counted in the raw bytes (C speed: ~1 ms per MB): over the synchronous budget they
-are refused before anything is parsed, the key check included (measured: the schema's 100 000 joint vectors,
-7 MB, took 0.8 s of loop to parse and validate, only to be refused; a 6 000-record calibration's key check
-waited up to 2.9 s for the parse process behind other large bodies, only to be refused)."""
-
-
-def precheck(path: str, query: bytes, body: bytes) -> None:
-    """422 `work-too-large` for a body whose counted work is over the budget (unless it is sent as a job)."""
-    run_async = b"async=true" in query.lower()
-    for route, precount in PRECOUNTED.items():
-        if route.search(path):
-            estimate = precount.estimate(precount.count(body))
-            limits.admit(estimate, run_async=run_async and precount.can_run_async, can_run_async=precount.can_run_async)
+def precheck(scope: Scope, body: bytes) -> None:
+    """422 `work-too-large` for a body whose counted work (its operation's `precount`, `service.operations`) is
+    over the budget, unless it is sent as a job and the operation has one."""
+    found = operations.matching(scope)
+    if found is None or found.precount is None:
+        return
+    can_run_async = found.job is not None
+    run_async = can_run_async and b"async=true" in scope.get("query_string", b"").lower()
+    estimate = found.precount.estimate(found.precount.count(body))
+    limits.admit(estimate, run_async=run_async, can_run_async=can_run_async)
 
 
 class BodyGuard:
@@ -228,7 +192,7 @@ class BodyGuard:
                 if len(body) <= OFFLOOP_BYTES:
                     _raise_too_deep(too_deep(body))  # 64 kB at most: ~1 ms on the loop
                 else:
-                    precheck(scope.get("path", ""), scope.get("query_string", b""), body)
+                    precheck(scope, body)
                     depth, keys = await _shape_check(scope, body)
                     _raise_too_deep(depth)
                     _raise_too_many(keys)

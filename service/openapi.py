@@ -12,13 +12,14 @@ from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 from pydantic import BaseModel
 
+from service.operations import table as operation_table
 from service.problems import PROBLEM_JSON
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.jobs import JobAccepted
 from service.schemas.kinematics import ForwardRequest, InverseRequest
 from service.schemas.problems import Problem
 from service.schemas.versions import ParameterVersionImport
-from service.security import required_scope
+from service.security import Scope
 
 PROBLEM_RESPONSES = {
     "400": "Malformed request (e.g. a CSV body that does not follow the header)",
@@ -49,13 +50,13 @@ EXTRA_MODELS: tuple[type[BaseModel], ...] = (
     Problem,
     ParameterVersionImport,
 )
+"""Referenced from `openapi_extra` (the calibration and kinematics routes read their bodies themselves) or from
+the error responses added below, so FastAPI does not see them all."""
 DECLARED_PROBLEMS = {
     "409": "Conflict with the resource's state (e.g. a job that already ended)",
     "429": "The job queue is full: retry after the Retry-After header's seconds",
 }
 """Problem responses of the operations that declare them (their routes list the status)."""
-"""Referenced from `openapi_extra` (the calibration and kinematics routes read their bodies themselves) or from
-the error responses added below, so FastAPI does not see them all."""
 
 
 def build(app: FastAPI) -> dict[str, Any]:
@@ -68,6 +69,7 @@ def build(app: FastAPI) -> dict[str, Any]:
         components[model.__name__] = extra
     components.pop("HTTPValidationError", None)
     components.pop("ValidationError", None)
+    policies = operation_table(app)
     for path, operations in schema.get("paths", {}).items():
         for method, operation in operations.items():
             responses = operation.setdefault("responses", {})
@@ -91,7 +93,8 @@ def build(app: FastAPI) -> dict[str, Any]:
             if path.startswith("/v1"):
                 # Declared whether or not this instance has keys, so generated clients always send one.
                 operation["security"] = [{"ApiKey": []}]
-                operation["x-scope"] = required_scope(method, path).name
+                policy = policies.get((method.upper(), path))
+                operation["x-scope"] = (Scope.admin if policy is None else policy.scope).name
     schema["components"]["securitySchemes"] = {
         "ApiKey": {
             "type": "apiKey",

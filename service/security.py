@@ -1,4 +1,4 @@
-"""API keys with a name and a scope, stored as hashes; the scope each route needs, declared once per route.
+"""API keys with a name and a scope, stored as hashes (the scope each route needs: `service.operations`).
 
 Scopes are ordered: `read` < `write` < `admin`. A key of a scope may do everything the scopes below it may.
 
@@ -28,8 +28,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from fastapi import FastAPI, Request
-from fastapi.routing import iter_route_contexts
+from fastapi import Request
 from starlette.types import ASGIApp, Receive, Send
 from starlette.types import Scope as AsgiScope
 
@@ -96,49 +95,8 @@ def parse_keys(env: str, file: str | None) -> tuple[ApiKey, ...]:
 
 
 # ------------------------------------------------------------------ the scope of every route
-ROUTE_SCOPES: dict[tuple[str, str], Scope] = {
-    ("GET", "/v1/robots"): Scope.read,
-    ("POST", "/v1/robots"): Scope.write,
-    ("GET", "/v1/robots/{robot_id}"): Scope.read,
-    ("DELETE", "/v1/robots/{robot_id}"): Scope.admin,
-    ("GET", "/v1/robots/{robot_id}/parameters"): Scope.read,
-    ("PATCH", "/v1/robots/{robot_id}"): Scope.write,
-    ("GET", "/v1/robots/{robot_id}/structure"): Scope.read,
-    # Versions: restoring or importing makes another version current, as deleting discards: admin.
-    ("GET", "/v1/robots/{robot_id}/parameter-versions"): Scope.read,
-    ("GET", "/v1/robots/{robot_id}/parameter-versions/{a}/diff/{b}"): Scope.read,
-    ("POST", "/v1/robots/{robot_id}/parameter-versions/{version}/restore"): Scope.admin,
-    ("POST", "/v1/robots/{robot_id}/parameter-versions"): Scope.admin,
-    ("GET", "/v1/audit"): Scope.read,
-    ("GET", "/v1/campaigns/{campaign_id}"): Scope.read,
-    ("GET", "/v1/calibrations/{calibration_id}/report"): Scope.read,
-    ("GET", "/v1/robots/{robot_id}/pose-designs"): Scope.read,
-    ("POST", "/v1/robots/{robot_id}/validations"): Scope.write,
-    ("GET", "/v1/robots/{robot_id}/validations"): Scope.read,
-    ("GET", "/v1/validations/{validation_id}"): Scope.read,
-    ("POST", "/v1/robots/{robot_id}/iso9283-poses"): Scope.read,  # computes the cube's commands, stores nothing
-    ("POST", "/v1/robots/{robot_id}/forward-kinematics"): Scope.read,
-    ("POST", "/v1/robots/{robot_id}/inverse-kinematics"): Scope.read,
-    ("POST", "/v1/robots/{robot_id}/pose-designs"): Scope.write,
-    ("GET", "/v1/pose-designs/{design_id}"): Scope.read,
-    ("POST", "/v1/robots/{robot_id}/calibrations"): Scope.write,
-    ("GET", "/v1/robots/{robot_id}/calibrations"): Scope.read,
-    ("GET", "/v1/calibrations/{calibration_id}"): Scope.read,
-    ("GET", "/v1/jobs/{job_id}"): Scope.read,
-    ("GET", "/v1/jobs"): Scope.read,
-    ("DELETE", "/v1/jobs/{job_id}"): Scope.write,  # cancels what a write key submitted; deletes no record
-    ("POST", "/v1/error-analysis"): Scope.read,
-}
-"""(method, path template) -> the least scope that may call it. Computations that store nothing (kinematics,
-error analysis) are `read`; whatever creates a record is `write`; deleting and restoring are `admin`. A route
-missing here is refused to every key but `admin` (fail closed), and `tests/service/test_security.py` fails."""
-
 OTHER_SCOPES: dict[str, Scope] = {"/metrics": Scope.read, "/docs": Scope.read, "/openapi.json": Scope.read}
 """Outside /v1, guarded only when the settings say so (`metrics_public`, `docs_public` false)."""
-
-
-def required_scope(method: str, template: str) -> Scope:
-    return ROUTE_SCOPES.get((method.upper(), template), Scope.admin)
 
 
 def authenticate(keys: tuple[ApiKey, ...], given: str | None) -> ApiKey:
@@ -168,17 +126,6 @@ def authorize(request: Request, needed: Scope) -> None:
             scope=key.scope.name,
             required=needed.name,
         )
-
-
-def route_table(app: FastAPI) -> list[tuple[str, str]]:
-    """(method, template) of every /v1 operation of the app, in or out of the schema: what ROUTE_SCOPES covers."""
-    return sorted(
-        (method, str(route.path))
-        for route in iter_route_contexts(app.routes)
-        if str(route.path).startswith("/v1")
-        for method in route.methods or ()
-        if method != "HEAD"
-    )
 
 
 class GuardedPaths:

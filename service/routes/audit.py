@@ -7,8 +7,10 @@ from pydantic import TypeAdapter
 
 from service.deps import DatabaseDep, Limit, Offset
 from service.json_bodies import OffloopRoute
+from service.operations import operation
 from service.responses import models_json
 from service.schemas.audit import Action, AuditEventPublic
+from service.security import Scope
 from service.services import audit
 
 router = APIRouter(tags=["audit"], route_class=OffloopRoute)
@@ -16,6 +18,7 @@ _EVENTS = TypeAdapter(list[AuditEventPublic])
 
 
 @router.get("/v1/audit", response_model=list[AuditEventPublic])
+@operation(Scope.read)
 def list_audit(
     db: DatabaseDep,
     *,

@@ -16,9 +16,11 @@ from service.deps import ActorDep, DatabaseDep, JobsDep, Limit, MetricsDep, Offs
 from service.errors import BadRequest, UnsupportedMediaType
 from service.guards import OFFLOOP_BYTES
 from service.json_bodies import OffloopRoute
+from service.operations import CALIBRATION, Runs, operation
 from service.responses import model_json
 from service.routes.robots import IfMatch
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
+from service.security import Scope
 from service.services import calibrations
 from service.services.jobs import submit_job
 
@@ -170,6 +172,7 @@ async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[st
     openapi_extra=_BODY,
     dependencies=[Depends(_json_answer)],
 )
+@operation(Scope.write, runs=Runs.COMPUTE, precount=CALIBRATION, job="calibration")
 async def create_calibration(
     robot_id: str,
     request: Request,
@@ -198,7 +201,7 @@ async def create_calibration(
     ),
     if_match: IfMatch = None,
 ) -> dict[str, Any] | Response:
-    # A JSON body over the budget was refused before any parsing (service.guards.PRECOUNTED); a CSV one is
+    # A JSON body over the budget was refused before any parsing (its `precount`, service.operations); a CSV one is
     # counted once parsed.
     body = await _body(
         request,
@@ -230,6 +233,7 @@ async def create_calibration(
 
 
 @router.get("/v1/robots/{robot_id}/calibrations", response_model=list[CalibrationPublic])
+@operation(Scope.read)
 def list_calibrations(
     robot_id: str,
     db: DatabaseDep,
@@ -244,6 +248,7 @@ def list_calibrations(
     response_model=CalibrationPublic,
     responses={406: {"description": "The Accept header allows no JSON (its campaign as CSV: /v1/campaigns/{id})"}},
 )
+@operation(Scope.read)
 def get_calibration(calibration_id: str, request: Request, db: DatabaseDep) -> dict[str, Any]:
     # A calibration is a JSON document (its campaign has a CSV form: GET /v1/campaigns/{id}); 406 for anything
     # else rather than JSON a CSV client cannot read.

@@ -10,8 +10,10 @@ from fastapi import APIRouter, Query, Request, Response
 from service.csv_codec import CAMPAIGN_HEADER, POSE_COLUMNS
 from service.deps import DatabaseDep, ModelCacheDep, negotiate
 from service.json_bodies import OffloopRoute
+from service.operations import operation
 from service.responses import model_json
 from service.schemas.campaigns import CampaignPublic
+from service.security import Scope
 from service.services import campaigns
 
 router = APIRouter(tags=["campaigns"], route_class=OffloopRoute)
@@ -48,6 +50,7 @@ def campaign_csv(campaign: CampaignPublic, joint_names: Sequence[str]) -> str:
 
 
 @router.get("/v1/campaigns/{campaign_id}", response_model=CampaignPublic, responses=_CSV)
+@operation(Scope.read)
 def get_campaign(
     campaign_id: str,
     request: Request,

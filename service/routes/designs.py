@@ -10,9 +10,11 @@ from service.csv_codec import joints_csv
 from service.deps import DatabaseDep, JobsDep, Limit, MetricsDep, ModelCacheDep, Offset, RegistryDep, compute, wants_csv
 from service.json_bodies import OffloopRoute
 from service.model_cache import ModelCache
+from service.operations import Runs, operation
 from service.responses import model_json, models_json
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
 from service.schemas.jobs import JobAccepted
+from service.security import Scope
 from service.services import designs
 from service.services.jobs import submit_job
 
@@ -43,6 +45,7 @@ def _answer(
 
 
 @router.post("/v1/robots/{robot_id}/pose-designs", status_code=201, response_model=PoseDesignPublic, responses=_CREATED)
+@operation(Scope.write, runs=Runs.COMPUTE, job="pose_design")
 async def create_design(
     robot_id: str,
     *,
@@ -73,11 +76,13 @@ async def create_design(
 
 
 @router.get("/v1/pose-designs/{design_id}", response_model=PoseDesignPublic, responses=_FOUND)
+@operation(Scope.read)
 def get_design(design_id: str, request: Request, db: DatabaseDep, models: ModelCacheDep) -> dict[str, Any] | Response:
     return _answer(request, designs.get_design(db=db, design_id=design_id), 200, models)
 
 
 @router.get("/v1/robots/{robot_id}/pose-designs", response_model=list[PoseDesignSummaryPublic])
+@operation(Scope.read)
 def list_designs(
     robot_id: str,
     db: DatabaseDep,

@@ -5,8 +5,10 @@ from fastapi import APIRouter, Response
 from service import limits
 from service.deps import MetricsDep, ModelCacheDep, RegistryDep, compute
 from service.json_bodies import OffloopRoute
+from service.operations import Runs, operation
 from service.responses import model_json
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
+from service.security import Scope
 from service.services import error_analysis
 
 router = APIRouter(tags=["error analysis"], route_class=OffloopRoute)
@@ -17,6 +19,7 @@ router = APIRouter(tags=["error analysis"], route_class=OffloopRoute)
     response_model=ErrorAnalysisPublic,
     responses={404: {"description": "No robot has the body's robot_id"}},
 )
+@operation(Scope.read, runs=Runs.COMPUTE)
 async def run_error_analysis(
     body: ErrorAnalysisRequest, registry: RegistryDep, m: MetricsDep, models: ModelCacheDep
 ) -> Response:

@@ -5,8 +5,10 @@ from pydantic import TypeAdapter
 
 from service.deps import DatabaseDep, Limit, Offset
 from service.json_bodies import OffloopRoute
+from service.operations import operation
 from service.responses import model_json, models_json
 from service.schemas.jobs import JobKind, JobPublic, JobStatus
+from service.security import Scope
 from service.services import jobs
 
 router = APIRouter(tags=["jobs"], route_class=OffloopRoute)
@@ -14,6 +16,7 @@ _JOBS = TypeAdapter(list[JobPublic])
 
 
 @router.get("/v1/jobs", response_model=list[JobPublic])
+@operation(Scope.read)
 def list_jobs(
     db: DatabaseDep,
     *,
@@ -29,6 +32,7 @@ def list_jobs(
 
 
 @router.get("/v1/jobs/{job_id}", response_model=JobPublic)
+@operation(Scope.read)
 def get_job(job_id: str, db: DatabaseDep) -> Response:
     return model_json(jobs.get_job(db=db, job_id=job_id))
 
@@ -38,6 +42,7 @@ def get_job(job_id: str, db: DatabaseDep) -> Response:
     response_model=JobPublic,
     responses={409: {"description": "The job has already ended"}},
 )
+@operation(Scope.write)  # cancels what a write key submitted; deletes no record
 def cancel_job(job_id: str, db: DatabaseDep) -> Response:
     """A queued job is cancelled at once; a running one stops at its next progress point (the answer then
     says `cancel_requested`), and nothing of it is written."""

@@ -13,8 +13,10 @@ from service.deps import MetricsDep, ModelCacheDep, RegistryDep, compute, wants_
 from service.guards import OFFLOOP_BYTES
 from service.json_bodies import OffloopRoute, raw_json_body, request_body, validate_json, validated
 from service.model_cache import ModelCache
+from service.operations import FORWARD_KINEMATICS, INVERSE_KINEMATICS, Runs, operation
 from service.responses import model_json
 from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
+from service.security import Scope
 from service.services import kinematics
 
 router = APIRouter(prefix="/v1/robots/{robot_id}", tags=["kinematics"], route_class=OffloopRoute)
@@ -63,11 +65,12 @@ def _answer(out: Any) -> Any:
 
 
 @router.post("/forward-kinematics", response_model=ForwardResponse, openapi_extra=request_body(ForwardRequest))
+@operation(Scope.read, runs=Runs.COMPUTE, precount=FORWARD_KINEMATICS)
 async def forward(
     robot_id: str, request: Request, models: ModelCacheDep, registry: RegistryDep, m: MetricsDep
 ) -> Response:
     raw = await raw_json_body(request)
-    if len(raw) > OFFLOOP_BYTES:  # its work was counted and admitted from the bytes (service.guards.PRECOUNTED)
+    if len(raw) > OFFLOOP_BYTES:  # its work was counted and admitted from the bytes (its `precount`, service.operations)
         out = await compute(
             m, "forward_kinematics", _forward_raw, models=models, registry=registry, robot_id=robot_id, raw=raw
         )
@@ -88,6 +91,7 @@ async def forward(
     openapi_extra=request_body(InverseRequest),
     responses={200: {"content": {"text/csv": {"schema": {"type": "string"}}}}},
 )
+@operation(Scope.read, runs=Runs.COMPUTE, precount=INVERSE_KINEMATICS)
 async def inverse(
     robot_id: str,
     *,
@@ -98,7 +102,7 @@ async def inverse(
 ) -> Response:
     raw = await raw_json_body(request)
     csv = wants_csv(request)
-    if len(raw) > OFFLOOP_BYTES:  # its work was counted and admitted from the bytes (service.guards.PRECOUNTED)
+    if len(raw) > OFFLOOP_BYTES:  # its work was counted and admitted from the bytes (its `precount`, service.operations)
         fn: Callable[..., Any] = _inverse_raw
         given: dict[str, Any] = {"raw": raw}
     else:  # validated here, once: the compute process gets the model

@@ -6,6 +6,8 @@ from fastapi import APIRouter, Query, Request, Response
 
 from service.deps import DatabaseDep, MetricsDep, compute, negotiate
 from service.json_bodies import OffloopRoute
+from service.operations import Runs, operation
+from service.security import Scope
 from service.services import reports
 
 router = APIRouter(tags=["reports"], route_class=OffloopRoute)
@@ -23,6 +25,7 @@ _RESPONSES: dict[int | str, dict[str, Any]] = {
 
 
 @router.get("/v1/calibrations/{calibration_id}/report", response_class=Response, responses=_RESPONSES)
+@operation(Scope.read, runs=Runs.COMPUTE)
 async def calibration_report(
     calibration_id: str,
     request: Request,

@@ -7,10 +7,12 @@ from pydantic import TypeAdapter
 
 from service.deps import ActorDep, DatabaseDep, Limit, Offset, negotiate
 from service.json_bodies import OffloopRoute
+from service.operations import operation
 from service.parameters_csv import PARAMETER_HEADER, parameters_csv
 from service.responses import model_json, models_json
 from service.schemas.robots import MAX_VERSION, ParametersPublic, RobotCreate, RobotPatch, RobotPublic
 from service.schemas.structure import StructureDocument
+from service.security import Scope
 from service.services import robots
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"], route_class=OffloopRoute)
@@ -31,6 +33,7 @@ def _etag(revision: int) -> dict[str, str]:
 
 
 @router.post("", status_code=201, response_model=RobotPublic)
+@operation(Scope.write)
 def create_robot(body: RobotCreate, db: DatabaseDep, actor: ActorDep) -> Response:
     robot = robots.create_robot(db=db, body=body, actor=actor)
     response = model_json(robot, status_code=201)
@@ -39,6 +42,7 @@ def create_robot(body: RobotCreate, db: DatabaseDep, actor: ActorDep) -> Respons
 
 
 @router.get("", response_model=list[RobotPublic])
+@operation(Scope.read)
 def list_robots(
     db: DatabaseDep,
     limit: Limit = 100,
@@ -48,6 +52,7 @@ def list_robots(
 
 
 @router.get("/{robot_id}", response_model=RobotPublic)
+@operation(Scope.read)
 def get_robot(robot_id: str, db: DatabaseDep) -> Response:
     robot = robots.get_robot(db=db, robot_id=robot_id)
     response = model_json(robot)
@@ -60,6 +65,7 @@ def get_robot(robot_id: str, db: DatabaseDep) -> Response:
     response_model=RobotPublic,
     responses={**_PRECONDITION, 409: {"description": "Another robot has that name"}},
 )
+@operation(Scope.write)
 def patch_robot(
     robot_id: str, body: RobotPatch, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None
 ) -> Response:
@@ -70,6 +76,7 @@ def patch_robot(
 
 
 @router.delete("/{robot_id}", status_code=204, responses=_PRECONDITION)
+@operation(Scope.admin)
 def delete_robot(robot_id: str, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None) -> Response:
     robots.delete_robot(db=db, robot_id=robot_id, actor=actor, if_match=if_match)
     return Response(status_code=204)
@@ -88,6 +95,7 @@ def delete_robot(robot_id: str, db: DatabaseDep, actor: ActorDep, if_match: IfMa
         **{k: v for k, v in _PARAMETERS_CSV.items() if k != 200},
     },
 )
+@operation(Scope.read)
 def get_parameters(
     robot_id: str,
     request: Request,
@@ -114,6 +122,7 @@ def get_parameters(
 
 
 @router.get("/{robot_id}/structure", response_model=StructureDocument)
+@operation(Scope.read)
 def get_structure(
     robot_id: str,
     db: DatabaseDep,

@@ -5,8 +5,10 @@ from pydantic import TypeAdapter
 
 from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, compute
 from service.json_bodies import OffloopRoute
+from service.operations import Runs, operation
 from service.responses import model_json, models_json
 from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
+from service.security import Scope
 from service.services import validations
 
 router = APIRouter(tags=["validations"], route_class=OffloopRoute)
@@ -14,6 +16,7 @@ _VALIDATIONS = TypeAdapter(list[ValidationPublic])
 
 
 @router.post("/v1/robots/{robot_id}/validations", status_code=201, response_model=ValidationPublic)
+@operation(Scope.write, runs=Runs.COMPUTE)
 async def create_validation(
     robot_id: str, body: ValidationCreate, db: DatabaseDep, registry: RegistryDep, m: MetricsDep
 ) -> Response:
@@ -26,6 +29,7 @@ async def create_validation(
 
 
 @router.get("/v1/robots/{robot_id}/validations", response_model=list[ValidationPublic])
+@operation(Scope.read)
 def list_validations(
     robot_id: str,
     db: DatabaseDep,
@@ -36,11 +40,13 @@ def list_validations(
 
 
 @router.get("/v1/validations/{validation_id}", response_model=ValidationPublic)
+@operation(Scope.read)
 def get_validation(validation_id: str, db: DatabaseDep) -> Response:
     return model_json(validations.get_validation(db=db, validation_id=validation_id))
 
 
 @router.post("/v1/robots/{robot_id}/iso9283-poses", response_model=IsoPosesPublic)
+@operation(Scope.read, runs=Runs.COMPUTE)  # computes the cube's commands, stores nothing
 async def iso9283_poses(
     robot_id: str, db: DatabaseDep, registry: RegistryDep, m: MetricsDep, body: IsoPosesCreate | None = None
 ) -> Response:

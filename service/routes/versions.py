@@ -10,10 +10,12 @@ from pydantic import TypeAdapter, ValidationError
 from service.deps import ActorDep, DatabaseDep
 from service.errors import BadRequest, UnsupportedMediaType
 from service.json_bodies import OffloopRoute
+from service.operations import operation
 from service.parameters_csv import PARAMETER_HEADER, parse_parameters
 from service.responses import model_json, models_json
 from service.routes.robots import IfMatch
 from service.schemas.versions import ParameterVersionImport, ParameterVersionPublic, VersionDiffPublic
+from service.security import Scope
 from service.services import versions
 
 router = APIRouter(
@@ -34,6 +36,7 @@ _IMPORT_BODY = {
 
 
 @router.get("", response_model=list[ParameterVersionPublic])
+@operation(Scope.read)
 def list_versions(robot_id: str, db: DatabaseDep) -> Response:
     """Oldest first; the ETag is the robot's (If-Match of a restore)."""
     rows, etag = versions.list_versions(db=db, robot_id=robot_id)
@@ -43,11 +46,13 @@ def list_versions(robot_id: str, db: DatabaseDep) -> Response:
 
 
 @router.get("/{a}/diff/{b}", response_model=VersionDiffPublic)
+@operation(Scope.read)
 def diff_versions(robot_id: str, db: DatabaseDep, a: Version, b: Version) -> Response:
     return model_json(versions.diff(db=db, robot_id=robot_id, a=a, b=b))
 
 
 @router.post("/{version}/restore", status_code=201, response_model=ParameterVersionPublic, responses=_PRECONDITION)
+@operation(Scope.admin)  # restoring makes another version current, as deleting discards
 def restore_version(
     robot_id: str, db: DatabaseDep, actor: ActorDep, version: Version, if_match: IfMatch = None
 ) -> Response:
@@ -80,6 +85,7 @@ async def _import_body(request: Request) -> ParameterVersionImport:
 @router.post(
     "", status_code=201, response_model=ParameterVersionPublic, responses=_PRECONDITION, openapi_extra=_IMPORT_BODY
 )
+@operation(Scope.admin)  # importing makes another version current
 async def import_version(
     robot_id: str, request: Request, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None
 ) -> Response:

@@ -20,8 +20,8 @@ from urllib.parse import urlsplit
 import pytest
 from sqlalchemy import event
 
+from harness.live import free_port
 from models import Registry
-from tests.live import free_port
 from tests.service.conftest import make_client, postgres_url
 from tests.service.contract_check import ContractClient
 

@@ -15,7 +15,7 @@ from pydantic import BaseModel
 from starlette.types import Message
 
 from models import iwr, sample_workspace
-from service import guards, json_bodies
+from service import guards, json_bodies, operations
 from service.problems import MAX_ERRORS
 from service.routes import kinematics as kinematics_routes
 from tests.service.conftest import make_client
@@ -82,7 +82,8 @@ def test_kinematics_over_the_budget_are_refused_before_parsing(client: TestClien
     fk = json.dumps({"joints": vectors}).encode()
     targets = [{"position": [1.0, 2.0, 3.0], "orientation": [1.0, 0.0, 0.0, 0.0]}] * 3_000
     ik = json.dumps({"targets": targets, "seed": JOINTS}).encode()
-    assert guards._joint_vectors(fk) == len(vectors) and guards._targets(ik) == len(targets)  # the counts are exact
+    counted = operations.FORWARD_KINEMATICS.count(fk), operations.INVERSE_KINEMATICS.count(ik)
+    assert counted == (len(vectors), len(targets))  # the counts are exact
     for path, body in (("forward-kinematics", fk), ("inverse-kinematics", ik)):
         started = time.perf_counter()
         r = client.post(f"/v1/robots/{robot_id}/{path}", content=body, headers={"content-type": "application/json"})
@@ -164,7 +165,7 @@ def test_a_calibration_over_the_budget_is_refused_before_the_key_check(
     monkeypatch.setattr(guards, "too_many_keys", lambda body: checked.append(len(body)))
     record = {"joints": JOINTS, "position": [1.0, 2.0, 3.0]}
     over = json.dumps({"measurements": [record] * 6_000}).encode()  # 6 000 x 0.36 ms: over the 2 s budget
-    assert guards._records(over) == 6_000
+    assert operations.CALIBRATION.count(over) == 6_000
     r = client.post(f"/v1/robots/{robot_id}/calibrations", content=over, headers={"content-type": "application/json"})
     assert r.status_code == 422 and r.json()["type"].endswith("work-too-large") and "?async=true" in r.json()["detail"]
     assert checked == []

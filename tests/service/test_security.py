@@ -14,7 +14,8 @@ from fastapi.testclient import TestClient
 from service import security
 from service.app import create_app
 from service.deps import ApiKeyDep
-from service.security import ROUTE_SCOPES, Scope, digest, parse_keys, required_scope, route_table
+from service.operations import Operation, table
+from service.security import Scope, digest, parse_keys
 from service.settings import Settings
 from tests.service.contract_check import ContractClient
 
@@ -25,17 +26,39 @@ _DB = Path(__import__("tempfile").mkdtemp()) / "security.db"
 APP = create_app(
     Settings(database_url=f"sqlite:///{_DB}", api_keys=ENTRIES, job_workers=0, warm_up=False, log_level="ERROR")
 )
-TABLE = route_table(APP)
+POLICIES = table(APP)
+TABLE = sorted(POLICIES)
+DECLARED: dict[tuple[str, str], Operation] = {route: op for route, op in POLICIES.items() if op is not None}
 
 
-def test_every_route_declares_its_scope() -> None:
-    """A new /v1 route fails here until service.security.ROUTE_SCOPES says which scope it needs."""
+def test_every_route_declares_its_operation() -> None:
+    """A new /v1 route fails here until its endpoint declares its policy (`@operation`, service.operations)."""
     assert len(TABLE) >= 14
-    missing = [route for route in TABLE if route not in ROUTE_SCOPES]
-    assert not missing, f"declare the scope of these routes in service.security.ROUTE_SCOPES: {missing}"
-    assert required_scope("DELETE", "/v1/robots/{robot_id}") is Scope.admin
-    assert required_scope("POST", "/v1/robots/{robot_id}/parameter-versions/{version}/restore") is Scope.admin
-    assert required_scope("GET", "/v1/some/new/route") is Scope.admin  # fail closed
+    missing = [route for route, op in POLICIES.items() if op is None]
+    assert not missing, f"declare these routes' policy with @operation (service.operations): {missing}"
+    assert DECLARED[("DELETE", "/v1/robots/{robot_id}")].scope is Scope.admin
+    assert DECLARED[("POST", "/v1/robots/{robot_id}/parameter-versions/{version}/restore")].scope is Scope.admin
+    # Storing nothing is reading: kinematics and error analysis; creating a record is writing.
+    assert DECLARED[("POST", "/v1/robots/{robot_id}/forward-kinematics")].scope is Scope.read
+    assert DECLARED[("POST", "/v1/robots/{robot_id}/calibrations")].scope is Scope.write
+    assert DECLARED[("POST", "/v1/robots/{robot_id}/calibrations")].job == "calibration"
+
+
+def test_policy_tables_hold_no_path_strings() -> None:
+    """Scopes, byte pre-counts and job kinds live on the routes: no module keeps a table keyed by paths."""
+    root = Path(__file__).resolve().parents[2] / "service"
+    keyed = [
+        re.compile(r'\("(GET|POST|PUT|PATCH|DELETE)",\s*"/'),  # (method, path) keys
+        re.compile(r're\.compile\(r?"[^"]*(/v1|kinematics|calibrations)'),  # path patterns
+        re.compile(r'"/v1[^"]*"\s*:'),  # path keys
+    ]
+    offenders = [
+        f"{path.relative_to(root.parent)}:{n}"
+        for path in sorted(root.rglob("*.py"))
+        for n, line in enumerate(path.read_text().splitlines(), 1)
+        if any(pattern.search(line) for pattern in keyed)
+    ]
+    assert not offenders, offenders
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +79,7 @@ def test_scope_on_route(api: ContractClient, method: str, template: str, scope: 
     check otherwise (the body here is empty, so past the check means 404, 422 or 415, never 401 or 403)."""
     headers = {} if scope is None else {"X-API-Key": KEYS[scope]}
     r = api.request(method, _url(template), headers=headers, content=b"{}")
-    needed = ROUTE_SCOPES[(method, template)]
+    needed = DECLARED[(method, template)].scope
     if scope is None:
         assert r.status_code == 401 and r.headers["www-authenticate"] == "ApiKey"
     elif scope < needed:
@@ -77,8 +100,7 @@ def test_a_new_route_is_caught_and_the_actor_is_the_key_name(tmp_path: Path) -> 
         return {"actor": request.state.actor}
 
     app.include_router(router)
-    assert ("GET", "/v1/whoami") in route_table(app)  # so test_every_route_declares_its_scope would fail on it
-    assert ("GET", "/v1/whoami") not in ROUTE_SCOPES
+    assert table(app)[("GET", "/v1/whoami")] is None  # so test_every_route_declares_its_operation would fail
     with TestClient(app) as c:
         assert c.get("/v1/whoami", headers={"X-API-Key": "not-a-key"}).status_code == 401
         assert c.get("/v1/whoami", headers={"X-API-Key": KEYS[Scope.write]}).status_code == 403  # fail closed
@@ -140,4 +162,4 @@ def test_the_document_declares_the_scheme_and_every_scope() -> None:
     for method, template in TABLE:
         operation = doc["paths"][template][method.lower()]
         assert operation["security"] == [{"ApiKey": []}]
-        assert operation["x-scope"] == ROUTE_SCOPES[(method, template)].name
+        assert operation["x-scope"] == DECLARED[(method, template)].scope.name

@@ -1,0 +1,136 @@
+"""Each HTTP operation's policy, declared once, on its route.
+
+An operation says who may call it (`scope`), where its work runs (`runs`), how its work is counted from the raw
+bytes before anything is parsed (`precount`, for the bodies that can be large) and which job kind it becomes
+with `?async=true` (`job`). The route's endpoint carries it (`@operation(...)`); everything else derives from the
+routes: the key check (`service.deps.require_api_key`), the byte pre-count (`service.guards`), the `x-scope` of
+the published contract (`service.openapi`) and the table `tests/service/test_security.py` checks. A route that
+declares nothing is refused to every key but `admin` (fail closed).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any, TypeVar
+
+from fastapi import FastAPI
+from fastapi.routing import iter_route_contexts
+from starlette.routing import Match
+from starlette.types import Scope as AsgiScope
+
+from service import limits
+from service.schemas.jobs import JobKind
+from service.security import Scope
+
+F = TypeVar("F", bound=Callable[..., Any])
+_ATTRIBUTE = "__operation__"
+
+
+class Runs(StrEnum):
+    """Where an operation's work runs: what it may cost the event loop and the compute slots."""
+
+    LOOP = "loop"
+    """On the event loop: no database, no numerics (health, job cancellation bookkeeping is a thread)."""
+    THREAD = "thread"
+    """In the threadpool: database reads and writes, small checks."""
+    COMPUTE = "compute"
+    """In a compute process behind the gate (`service.limits.ComputeGate`): the numerics."""
+
+
+@dataclass(frozen=True)
+class Precount:
+    """The work of a body counted in its raw bytes (C speed, ~1 ms per MB): over the synchronous budget it is
+    refused before anything is parsed, the key check included."""
+
+    count: Callable[[bytes], int]
+    estimate: Callable[[int], limits.Estimate]
+
+
+@dataclass(frozen=True)
+class Operation:
+    scope: Scope
+    """The least scope of an API key that may call it: computations that store nothing are `read`, whatever
+    creates a record `write`, deleting and restoring `admin`."""
+    runs: Runs = Runs.THREAD
+    precount: Precount | None = None
+    job: JobKind | None = None
+    """The job kind it becomes with `?async=true` (None: it has no async form)."""
+
+
+def _joint_vectors(body: bytes) -> int:
+    # `{"joints": [[...], [...], ...]}`: one bracket per vector and one for the list (numbers hold none)
+    return body.count(b"[") - 1
+
+
+def _targets(body: bytes) -> int:
+    # Every target has a position; in valid JSON `"position"` before a colon is a key, never text.
+    return len(_POSITION_KEY.findall(body))
+
+
+def _records(body: bytes) -> int:
+    # Every measurement record has joints; `"joints"` before a colon is a key, never text (1.6 MB: ~3 ms).
+    return len(_JOINTS_KEY.findall(body))
+
+
+_POSITION_KEY = re.compile(rb'"position"\s*:')
+_JOINTS_KEY = re.compile(rb'"joints"\s*:')
+
+# Measured: the schema's 100 000 joint vectors, 7 MB, took 0.8 s of loop to parse and validate, only to be
+# refused; a 6 000-record calibration's key check waited up to 2.9 s for the parse process behind other large
+# bodies, only to be refused. Counted in the bytes, both are refused in milliseconds.
+FORWARD_KINEMATICS = Precount(_joint_vectors, limits.forward_kinematics)
+INVERSE_KINEMATICS = Precount(_targets, limits.inverse_kinematics)
+CALIBRATION = Precount(_records, limits.calibration)
+
+
+def operation(
+    scope: Scope, *, runs: Runs = Runs.THREAD, precount: Precount | None = None, job: JobKind | None = None
+) -> Callable[[F], F]:
+    """Declares the policy of the endpoint it decorates (put it under the router's decorator)."""
+    declared = Operation(scope, runs, precount, job)
+
+    def mark(endpoint: F) -> F:
+        setattr(endpoint, _ATTRIBUTE, declared)
+        return endpoint
+
+    return mark
+
+
+def of_route(route: object) -> Operation | None:
+    """The operation a route's endpoint declares (None: nothing declared)."""
+    found = getattr(getattr(route, "endpoint", None), _ATTRIBUTE, None)
+    return found if isinstance(found, Operation) else None
+
+
+def required_scope(route: object) -> Scope:
+    """The scope a route needs: its declaration's, or `admin` for a route that declares none."""
+    found = of_route(route)
+    return Scope.admin if found is None else found.scope
+
+
+def _v1_routes(app: FastAPI) -> Iterator[tuple[str, str, object]]:
+    for route in iter_route_contexts(app.routes):
+        path = str(getattr(route, "path", ""))
+        if path.startswith("/v1"):
+            for method in getattr(route, "methods", None) or ():
+                if method != "HEAD":
+                    yield method, path, route
+
+
+def table(app: FastAPI) -> dict[tuple[str, str], Operation | None]:
+    """(method, path template) -> the declared operation of every /v1 route, in or out of the schema."""
+    return {(method, path): of_route(route) for method, path, route in sorted(_v1_routes(app), key=lambda r: r[:2])}
+
+
+def matching(scope: AsgiScope) -> Operation | None:
+    """The operation of the route a request will reach, for the middleware that runs before routing (the
+    included routers' routes, in their order)."""
+    app = scope.get("app")
+    for route in iter_route_contexts(getattr(app, "routes", ())):
+        match, _ = route.matches(scope)
+        if match is Match.FULL:
+            return of_route(route)
+    return None
