@@ -70,7 +70,7 @@ async def forward(
     robot_id: str, request: Request, models: ModelCacheDep, registry: RegistryDep, m: MetricsDep
 ) -> Response:
     raw = await raw_json_body(request)
-    if len(raw) > OFFLOOP_BYTES:  # its work was counted and admitted from the bytes (its `precount`, service.operations)
+    if len(raw) > OFFLOOP_BYTES:  # counted and admitted from the bytes (its `precount`, service.operations)
         out = await compute(
             m, "forward_kinematics", _forward_raw, models=models, registry=registry, robot_id=robot_id, raw=raw
         )
@@ -102,7 +102,7 @@ async def inverse(
 ) -> Response:
     raw = await raw_json_body(request)
     csv = wants_csv(request)
-    if len(raw) > OFFLOOP_BYTES:  # its work was counted and admitted from the bytes (its `precount`, service.operations)
+    if len(raw) > OFFLOOP_BYTES:  # counted and admitted from the bytes (its `precount`, service.operations)
         fn: Callable[..., Any] = _inverse_raw
         given: dict[str, Any] = {"raw": raw}
     else:  # validated here, once: the compute process gets the model
