@@ -15,9 +15,8 @@ from pydantic import BaseModel
 from starlette.types import Message
 
 from models import iwr, sample_workspace
-from service import guards, json_bodies, operations
+from service import dispatch, guards, json_bodies, operations
 from service.problems import MAX_ERRORS
-from service.routes import kinematics as kinematics_routes
 from tests.service.conftest import make_client
 
 JOINTS = [400.0, 150.0, 90.0, 45.0, 420.0, 420.0, 420.0, 420.0, 420.0, 420.0]
@@ -117,7 +116,7 @@ def test_a_large_kinematics_body_is_validated_in_the_compute_task_not_on_the_loo
     """Over 64 kB, forward kinematics' body travels as bytes and is validated where it is computed: same
     answer as on the loop, and its errors located the same way."""
     on_loop: list[bool] = []
-    monkeypatch.setattr(kinematics_routes, "validate_json", _where(on_loop, json_bodies.validate_json))
+    monkeypatch.setattr(dispatch, "validate_json", _where(on_loop, json_bodies.validate_json))
     monkeypatch.setattr(json_bodies, "validate_json", _where(on_loop, json_bodies.validate_json))
     vectors: list[list[float | str]] = [[*JOINTS[:3], 45.0 + k * 1e-3, *JOINTS[4:]] for k in range(2_000)]
     large = client.post(f"/v1/robots/{robot_id}/forward-kinematics", json={"joints": vectors})
