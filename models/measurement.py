@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from enum import StrEnum
 
+from models.errors import InvalidInput
+
 
 class MeasurementKind(StrEnum):
     POSE = "pose"
@@ -28,6 +30,16 @@ class MeasurementKind(StrEnum):
         from models.measurements import MEASUREMENTS  # noqa: PLC0415  (the models import this enum)
 
         return MEASUREMENTS[self].label
+
+    @staticmethod
+    def parse(value: object, *, field: str = "measurement") -> MeasurementKind:
+        """The kind a user named; InvalidInput naming `field` and the kinds there are otherwise."""
+        allowed = [kind.value for kind in MeasurementKind]
+        if value not in allowed:
+            raise InvalidInput(
+                f"{field} must be one of {allowed}, got {value!r}", field=field, value=str(value), allowed=allowed
+            )
+        return MeasurementKind(str(value))
 
     @staticmethod
     def of(value: MeasurementKind | str | bool) -> MeasurementKind:

@@ -18,6 +18,7 @@ from models._types import Array
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows, poses_for
 from models.kinematics import as_joint_array, check_joint_ranges
+from models.measurement import MeasurementKind
 from models.runtime import Runtime
 from models.terms import Conditions
 from optimal_design.constraints import KeepOut, Spread, joint_range_mask, keep_out_mask
@@ -25,7 +26,6 @@ from optimal_design.information import CandidateInformation, candidate_informati
 
 MAX_CANDIDATES = 100_000
 SAMPLING_ROUNDS = 20
-MEASUREMENTS = ("pose", "position")
 
 
 @dataclass(frozen=True)
@@ -148,14 +148,7 @@ class DesignProblem:
 
 
 def _position_only(measurement: str) -> bool:
-    if measurement not in MEASUREMENTS:
-        raise InvalidInput(
-            f"measurement must be 'pose' or 'position', got {measurement!r}",
-            field="measurement",
-            value=str(measurement),
-            allowed=list(MEASUREMENTS),
-        )
-    return measurement == "position"
+    return MeasurementKind.parse(measurement).position_only
 
 
 class _Filters:

@@ -23,6 +23,11 @@ class Check:
     passed: bool
     detail: str
 
+    @classmethod
+    def of(cls, name: str, passed: bool, if_passed: str, if_failed: str) -> Check:
+        """The check `name`, described by whichever of the two outcomes it had."""
+        return cls(name, passed, if_passed if passed else if_failed)
+
 
 def acceptance_checks(
     result: IdentificationResult,
@@ -65,30 +70,26 @@ def acceptance_checks(
                 f"[{lo:.3g}, {hi:.3g}]{allowed}): {advice}",
             )
         )
-    if result.rank >= expected_rank:
-        checks.append(Check("identifiable", True, f"{result.rank} parameters identified, as the structure allows"))
-    else:
-        checks.append(
-            Check(
-                "identifiable",
-                False,
-                f"these poses identify only {result.rank} of the {expected_rank} parameters the structure allows: "
-                "measure more varied poses (a pose design picks them)",
-            )
+    checks.append(
+        Check.of(
+            "identifiable",
+            result.rank >= expected_rank,
+            f"{result.rank} parameters identified, as the structure allows",
+            f"these poses identify only {result.rank} of the {expected_rank} parameters the structure allows: "
+            "measure more varied poses (a pose design picks them)",
         )
+    )
     before, after = result.residuals_before.rms_mm, result.residuals_after.rms_mm
     # A re-fit from a calibrated version starts where the residuals are already at the noise: allow their
     # wobble (the fit minimises weighted residuals; this compares the unweighted RMS).
-    if after <= RESIDUAL_TOLERANCE * before:
-        checks.append(Check("residuals", True, f"RMS error on these poses {before:.4g} → {after:.4g} mm"))
-    else:
-        checks.append(
-            Check(
-                "residuals",
-                False,
-                f"the fit leaves these poses worse than it found them ({before:.4g} → {after:.4g} mm)",
-            )
+    checks.append(
+        Check.of(
+            "residuals",
+            after <= RESIDUAL_TOLERANCE * before,
+            f"RMS error on these poses {before:.4g} → {after:.4g} mm",
+            f"the fit leaves these poses worse than it found them ({before:.4g} → {after:.4g} mm)",
         )
+    )
     predicted = result.predicted_accuracy.rms_position_mm
     if start_accuracy_mm is None:
         checks.append(Check("accuracy", True, f"predicted TCP accuracy {predicted:.4g} mm RMS (start: uncalibrated)"))
