@@ -1,7 +1,7 @@
 """The command line's JSON file of a tolerance study, in mm and degrees (the only unit conversion of the study).
 
-The HTTP service builds its own answer from the result's fields (`service.conversions.error_analysis`); this is
-the file `python -m models.error_analysis --json` writes.
+The file `python -m models.error_analysis --json` writes, and the body of the HTTP service's answer
+(`service.conversions.error_analysis`).
 """
 
 from __future__ import annotations
