@@ -1,7 +1,5 @@
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from models import Registry
@@ -25,7 +23,7 @@ from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import ParameterVersion
-from service.schemas.calibrations import CalibrationCreate
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
 from service.services.hooks import JobHooks
 
 
@@ -38,9 +36,9 @@ def calibrate(
     actor: Actor | None = None,
     job: JobHooks | None = None,
     if_match: str | None = None,
-) -> dict[str, Any]:
+) -> CalibrationPublic:
     """Identify, then store the campaign, the calibration and (when it passed its checks and `apply`) the new
-    version together, with the job's own `succeeded` when run as one. The result as `CalibrationPublic` JSON; a
+    version together, with the job's own `succeeded` when run as one. The result as stored; a
     failed fit is stored, then raised as `CalibrationFailed` (a 422 naming the stored attempt; its job fails).
 
     `if_match` (the robot's ETag) is checked before any work, where the start version is read: the fit then
@@ -187,11 +185,11 @@ def _start_version(repo: Repository, robot_id: str, version: int | None) -> Para
     return repo.version(robot_id, version)
 
 
-def list_calibrations(*, db: Database, robot_id: str, limit: int, offset: int) -> list[dict[str, Any]]:
+def list_calibrations(*, db: Database, robot_id: str, limit: int, offset: int) -> list[CalibrationPublic]:
     with db.reader() as s:
         return [calibration_public(r) for r in Repository(s).calibrations(robot_id, limit, offset)]
 
 
-def get_calibration(*, db: Database, calibration_id: str) -> dict[str, Any]:
+def get_calibration(*, db: Database, calibration_id: str) -> CalibrationPublic:
     with db.reader() as s:
         return calibration_public(Repository(s).calibration(calibration_id))
