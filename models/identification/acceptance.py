@@ -9,7 +9,7 @@ check says what it found in words an engineer can act on; the service applies on
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from models.identification.result import IdentificationResult
 
@@ -107,6 +107,35 @@ def acceptance_checks(
             )
         )
     return tuple(checks)
+
+
+@dataclass(frozen=True)
+class Acceptance:
+    """What becomes of a fit: applied, or not and why. Only a fit that succeeded and was asked to be applied gets
+    a verdict; any other is simply not applied (no reason: nobody asked)."""
+
+    apply: bool
+    """The result becomes the robot's parameters, if the version it started from is still current then."""
+    reason: str | None = None
+    """Why a fit asked to be applied is not: its failed checks, or the version that became current meanwhile."""
+    forced: bool = False
+    """Applied although a check failed (force_apply)."""
+
+    def superseded(self, reason: str) -> Acceptance:
+        """Not applied after all: another version became current while the fit ran. `forced` stays what it was,
+        so the stored calibration still says that force_apply overrode a failed check."""
+        return replace(self, apply=False, reason=reason)
+
+
+def decide(checks: tuple[Check, ...], *, succeeded: bool, requested: bool, force: bool) -> Acceptance:
+    """The one decision: `requested` (the request's `apply`) of a fit that `succeeded` applies when every check
+    passed, or, `force` (force_apply), in spite of the failed ones. A failed fit is never applied."""
+    if not (succeeded and requested):
+        return Acceptance(apply=False)
+    refused = failed_checks(checks)
+    if refused is None:
+        return Acceptance(apply=True)
+    return Acceptance(apply=True, forced=True) if force else Acceptance(apply=False, reason=refused)
 
 
 def failed_checks(checks: tuple[Check, ...]) -> str | None:

@@ -19,7 +19,7 @@ from service.conversions.kinematics import joints_in
 from service.conversions.terms import record_conditions
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord
-from service.schemas.calibrations import CalibrationCreate, CalibrationReportPublic, Record
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic, Record
 from service.schemas.common import Payload, timestamp
 
 
@@ -202,18 +202,21 @@ def _correlation(result: IdentificationResult) -> dict[str, Any] | None:
     return {"names": list(result.identifiable_names), "matrix": matrix.tolist()}
 
 
-def calibration_public(record: CalibrationRecord) -> dict[str, Any]:
-    """The stored report (validated when it was built) with the row's columns: a `CalibrationPublic` as JSON."""
-    return {
-        **record.result,
-        "id": record.id,
-        "robot_id": record.robot_id,
-        "campaign_id": record.campaign_id,
-        "status": record.status,
-        "applied": record.applied,
-        "parameter_version": record.parameter_version,
-        "start_version": record.start_version,
-        "created_at": timestamp(record.created_at),
-        "user_notes": record.notes,
-        "instrument": record.instrument,
-    }
+def calibration_public(record: CalibrationRecord) -> CalibrationPublic:
+    """The stored report with the row's columns. Validated again on the way out: a calibration stored before a
+    field existed gets its default, as the declared response model gave it."""
+    return CalibrationPublic.model_validate(
+        {
+            **record.result,
+            "id": record.id,
+            "robot_id": record.robot_id,
+            "campaign_id": record.campaign_id,
+            "status": record.status,
+            "applied": record.applied,
+            "parameter_version": record.parameter_version,
+            "start_version": record.start_version,
+            "created_at": timestamp(record.created_at),
+            "user_notes": record.notes,
+            "instrument": record.instrument,
+        }
+    )

@@ -11,7 +11,13 @@ from optimal_design.criteria import Criterion
 from service.conversions.kinematics import joints_out
 from service.persistence.tables import PoseDesignRecord
 from service.schemas.common import timestamp
-from service.schemas.designs import KeepOutBox, PoseDesignCreate, PoseDesignReportPublic
+from service.schemas.designs import (
+    KeepOutBox,
+    PoseDesignCreate,
+    PoseDesignPublic,
+    PoseDesignReportPublic,
+    PoseDesignSummaryPublic,
+)
 
 
 def report_out(desc: RobotDescription, design: PoseDesign, *, candidates_given: bool) -> PoseDesignReportPublic:
@@ -115,6 +121,19 @@ def constraints_in(
     return ranges, keep_out
 
 
-def design_public(record: PoseDesignRecord) -> dict[str, Any]:
-    """The stored report (validated when built) with the row's columns: a `PoseDesignPublic`, as JSON."""
+def _document(record: PoseDesignRecord) -> dict[str, Any]:
+    """The stored report with the row's columns."""
     return {**record.result, "id": record.id, "robot_id": record.robot_id, "created_at": timestamp(record.created_at)}
+
+
+def design_public(record: PoseDesignRecord) -> PoseDesignPublic:
+    return PoseDesignPublic.model_validate(_document(record))
+
+
+def design_summary(record: PoseDesignRecord) -> PoseDesignSummaryPublic:
+    """Its line in a robot's list, validated from the stored keys it shows (a page of designs need not validate
+    every design's poses)."""
+    document = _document(record)
+    return PoseDesignSummaryPublic.model_validate(
+        {k: document[k] for k in PoseDesignSummaryPublic.model_fields if k in document}
+    )

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from service.persistence.tables import Job
+from service.schemas.calibrations import CalibrationPublic
+from service.schemas.designs import PoseDesignPublic
 from service.schemas.jobs import JobAccepted, JobPublic
 
 
@@ -12,7 +12,7 @@ def accepted_out(job: Job) -> JobAccepted:
     return JobAccepted(job_id=job.id, status_url=f"/v1/jobs/{job.id}")
 
 
-def job_out(job: Job, result: dict[str, Any] | None) -> JobPublic:
+def job_out(job: Job, result: CalibrationPublic | PoseDesignPublic | None) -> JobPublic:
     return JobPublic.model_validate(
         {
             "id": job.id,

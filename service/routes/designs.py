@@ -33,15 +33,13 @@ _CREATED: dict[int | str, dict[str, Any]] = {
 _FOUND: dict[int | str, dict[str, Any]] = {200: _CSV_BODY}
 
 
-def _answer(
-    request: Request, design: dict[str, Any], status_code: int, models: ModelCache
-) -> dict[str, Any] | Response:
-    """The stored report through the declared response model (see routes/calibrations.py), or its poses as CSV
+def _answer(request: Request, design: PoseDesignPublic, status_code: int, models: ModelCache) -> Response:
+    """The stored report (validated where the service read it, see routes/calibrations.py), or its poses as CSV
     under the robot's joint header (robots.md: q1 … q_m, then l1 … l6)."""
     if wants_csv(request):
-        names = models.current(design["robot_id"])[0].joint_names
-        return Response(joints_csv(design["poses"], names), media_type="text/csv", status_code=status_code)
-    return design
+        names = models.current(design.robot_id)[0].joint_names
+        return Response(joints_csv(design.poses, names), media_type="text/csv", status_code=status_code)
+    return model_json(design, status_code=status_code)
 
 
 @router.post("/v1/robots/{robot_id}/pose-designs", status_code=201, response_model=PoseDesignPublic, responses=_CREATED)
@@ -57,7 +55,7 @@ async def create_design(
     jobs: JobsDep,
     m: MetricsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
-) -> dict[str, Any] | Response:
+) -> Response:
     candidates = len(body.candidates) if body.candidates is not None else body.candidate_count
     fixed = len(body.fixed) if body.fixed is not None else 0
     cost = (
@@ -77,7 +75,7 @@ async def create_design(
 
 @router.get("/v1/pose-designs/{design_id}", response_model=PoseDesignPublic, responses=_FOUND)
 @operation(Scope.read)
-def get_design(design_id: str, request: Request, db: DatabaseDep, models: ModelCacheDep) -> dict[str, Any] | Response:
+def get_design(design_id: str, request: Request, db: DatabaseDep, models: ModelCacheDep) -> Response:
     return _answer(request, designs.get_design(db=db, design_id=design_id), 200, models)
 
 

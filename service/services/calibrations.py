@@ -1,14 +1,12 @@
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from models import Registry
 from models.errors import InvalidInput
 from models.identifiability import structural_identifiability
 from models.identification import IdentificationOptions, identify
-from models.identification.acceptance import acceptance_checks, failed_checks
+from models.identification.acceptance import acceptance_checks, decide
 from service.conversions.calibrations import (
     calibration_public,
     campaign_in,
@@ -25,7 +23,7 @@ from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import ParameterVersion
-from service.schemas.calibrations import CalibrationCreate
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
 from service.services.hooks import JobHooks
 
 
@@ -38,9 +36,9 @@ def calibrate(
     actor: Actor | None = None,
     job: JobHooks | None = None,
     if_match: str | None = None,
-) -> dict[str, Any]:
+) -> CalibrationPublic:
     """Identify, then store the campaign, the calibration and (when it passed its checks and `apply`) the new
-    version together, with the job's own `succeeded` when run as one. The result as `CalibrationPublic` JSON; a
+    version together, with the job's own `succeeded` when run as one. The result as stored; a
     failed fit is stored, then raised as `CalibrationFailed` (a 422 naming the stored attempt; its job fails).
 
     `if_match` (the robot's ETag) is checked before any work, where the start version is read: the fit then
@@ -83,16 +81,10 @@ def calibrate(
         sigma_mm=body.noise.position_mm,
         held_accuracy_mm=start_accuracy if partial else None,
     )
-    refused = failed_checks(checks)
+    decision = decide(checks, succeeded=result.succeeded, requested=body.apply, force=body.force_apply)
     report = report_out(
         desc, result, start_values=start_values, start_version=start_version, checks=checks, noise=noise
     )
-    payload = report.model_dump(mode="json")
-    payload["notes"] = [*body.import_notes, *payload["notes"]]
-    apply = result.succeeded and body.apply and (refused is None or body.force_apply)
-    if result.succeeded and body.apply:
-        payload["not_applied_reason"] = None if apply else refused
-        payload["forced"] = refused is not None and apply
     records = [r.model_dump() for r in body.measurements]
     calibration_id = new_id()
     if job is not None:
@@ -101,17 +93,26 @@ def calibrate(
     with db.session() as s:
         repo = Repository(s)
         robot = repo.robot(robot_id, lock=True)  # still there, and one calibration at a time per robot
-        stored = repo.add_campaign(robot_id, records)
-        record = repo.add_calibration(calibration_id, robot_id, stored.id, result.status, payload)
-        record.start_version = start_version
-        record.notes = body.notes
-        record.instrument = None if body.instrument is None else body.instrument.model_dump()
-        if apply and robot.current_version != start_version:
+        if decision.apply and robot.current_version != start_version:
             # Optimistic concurrency: another writer made a version while this fit ran (or the fit started
             # from an older one). Applying would silently discard that version's work; keep this one stored.
             won_by = robot.current_version
-            record.result = {**payload, "not_applied_reason": _lost_race(calibration_id, start_version, won_by)}
-        elif apply:
+            decision = decision.superseded(_lost_race(calibration_id, start_version, won_by))
+        stored = repo.add_campaign(robot_id, records)
+        document = report.model_copy(
+            update={
+                "notes": [*body.import_notes, *report.notes],
+                "not_applied_reason": decision.reason,
+                "forced": decision.forced,
+            }
+        )
+        record = repo.add_calibration(
+            calibration_id, robot_id, stored.id, result.status, document.model_dump(mode="json")
+        )
+        record.start_version = start_version
+        record.notes = body.notes
+        record.instrument = None if body.instrument is None else body.instrument.model_dump()
+        if decision.apply:
             # What this fit estimated carries its new statistics; the rest keeps the start version's.
             std, ident = start_std, start_ident
             for i in result.estimated:
@@ -130,7 +131,7 @@ def calibrate(
                 version=record.parameter_version,
                 # `forced` only when it was: an applied calibration that failed a check (force_apply).
                 details={"from_version": previous, "calibration_id": calibration_id}
-                | ({"forced": True} if payload.get("forced") else {}),
+                | ({"forced": True} if decision.forced else {}),
             )
         if job is not None and result.succeeded:
             # The job's `succeeded` joins this transaction (a calibration that lost the race is stored, not
@@ -184,11 +185,11 @@ def _start_version(repo: Repository, robot_id: str, version: int | None) -> Para
     return repo.version(robot_id, version)
 
 
-def list_calibrations(*, db: Database, robot_id: str, limit: int, offset: int) -> list[dict[str, Any]]:
+def list_calibrations(*, db: Database, robot_id: str, limit: int, offset: int) -> list[CalibrationPublic]:
     with db.reader() as s:
         return [calibration_public(r) for r in Repository(s).calibrations(robot_id, limit, offset)]
 
 
-def get_calibration(*, db: Database, calibration_id: str) -> dict[str, Any]:
+def get_calibration(*, db: Database, calibration_id: str) -> CalibrationPublic:
     with db.reader() as s:
         return calibration_public(Repository(s).calibration(calibration_id))

@@ -5,13 +5,19 @@ from typing import Any
 from models import Registry
 from models.errors import InvalidInput
 from optimal_design import design_for_target, design_poses
-from service.conversions.designs import constraints_in, design_public, report_out, target_report_out
+from service.conversions.designs import (
+    constraints_in,
+    design_public,
+    design_summary,
+    report_out,
+    target_report_out,
+)
 from service.conversions.kinematics import joints_in
 from service.conversions.terms import design_levels, requested_model, start_values
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
-from service.schemas.designs import PoseDesignCreate, PoseDesignSummaryPublic
+from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
 from service.services.hooks import JobHooks
 
 
@@ -23,8 +29,8 @@ def create_design(
     robot_id: str,
     body: PoseDesignCreate,
     job: JobHooks | None = None,
-) -> dict[str, Any]:
-    """The new design as `PoseDesignPublic` JSON, designed with the robot's current parameters (and stored with
+) -> PoseDesignPublic:
+    """The new design as stored, designed with the robot's current parameters (and stored with
     the job's own `succeeded` when run as one)."""
     if job is not None:
         job.progress("reading", 0.0)
@@ -90,7 +96,7 @@ def create_design(
         return design_public(record)
 
 
-def get_design(*, db: Database, design_id: str) -> dict[str, Any]:
+def get_design(*, db: Database, design_id: str) -> PoseDesignPublic:
     with db.reader() as s:
         return design_public(Repository(s).design(design_id))
 
@@ -98,9 +104,4 @@ def get_design(*, db: Database, design_id: str) -> dict[str, Any]:
 def list_designs(*, db: Database, robot_id: str, limit: int, offset: int) -> list[PoseDesignSummaryPublic]:
     with db.reader() as s:
         Repository(s).robot(robot_id)
-        return [
-            PoseDesignSummaryPublic.model_validate(
-                {k: v for k, v in design_public(r).items() if k in PoseDesignSummaryPublic.model_fields}
-            )
-            for r in Lifecycle(s).designs(robot_id, limit, offset)
-        ]
+        return [design_summary(r) for r in Lifecycle(s).designs(robot_id, limit, offset)]

@@ -20,8 +20,8 @@ from service.persistence.lifecycle import Actor, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import Job
 from service.problems import to_problem
-from service.schemas.calibrations import CalibrationCreate
-from service.schemas.designs import PoseDesignCreate
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
+from service.schemas.designs import PoseDesignCreate, PoseDesignPublic
 from service.schemas.jobs import JobAccepted, JobKind, JobPublic, JobStatus
 from service.services import calibrations, designs
 from service.services.hooks import JobHooks
@@ -116,7 +116,7 @@ def _calibration(run: _Run) -> str:
     found = calibrations.calibrate(
         db=run.db, registry=run.registry, robot_id=run.robot_id, body=body, actor=actor, job=run.job
     )
-    return str(found["id"])
+    return found.id
 
 
 def _design(run: _Run) -> str:
@@ -124,7 +124,7 @@ def _design(run: _Run) -> str:
     found = designs.create_design(
         db=run.db, models=run.models, registry=run.registry, robot_id=run.robot_id, body=body, job=run.job
     )
-    return str(found["id"])
+    return found.id
 
 
 RUNS: dict[str, Callable[[_Run], str]] = {
@@ -150,7 +150,7 @@ def run_job(
 
 
 def _public(repo: Repository, job: Job, *, with_result: bool = True) -> JobPublic:
-    result = None
+    result: CalibrationPublic | PoseDesignPublic | None = None
     if with_result and job.status == "succeeded" and job.result_id:
         if job.kind == "calibration":
             result = calibration_public(repo.calibration(job.result_id))

@@ -23,7 +23,8 @@ def build_report(*, db: Database, calibration_id: str) -> CalibrationReport:
     with db.reader() as s:
         repo, life = Repository(s), Lifecycle(s)
         record = repo.calibration(calibration_id)
-        document = calibration_public(record)
+        # The report reads the document as a client does: the answer's JSON.
+        document = calibration_public(record).model_dump(mode="json")
         robot_name = repo.robot(record.robot_id).name
         positions = np.array([r["position"] for r in life.campaign(record.campaign_id).records], dtype=float)
         produced = record.parameter_version

@@ -29,17 +29,17 @@ def test_calibration_and_version_are_written_together(db: Database, registry: Re
         {"measurements": records(DESC, sim, sample_workspace(DESC, 30, seed=1), seed=2)}
     )
     record = calibrate(db=db, registry=registry, robot_id=robot.id, body=body)
-    assert record["status"] == "succeeded" and record["parameter_version"] == 2
+    assert record.status == "succeeded" and record.parameter_version == 2
     with db.session() as s:
         repo = Repository(s)
         assert repo.robot(robot.id).current_version == 2
         version = repo.version(robot.id)
-        assert version.calibration_id == record["id"] and version.provenance == "calibration"
+        assert version.calibration_id == record.id and version.provenance == "calibration"
         assert repo.version(robot.id, 1).provenance == "nominal"
         assert len(repo.calibrations(robot.id, 10, 0)) == 1
     # apply = false: stored, not applied
     again = calibrate(db=db, registry=registry, robot_id=robot.id, body=body.model_copy(update={"apply": False}))
-    assert not again["applied"] and again["parameter_version"] is None
+    assert not again.applied and again.parameter_version is None
     with db.session() as s:
         assert Repository(s).robot(robot.id).current_version == 2
     db.migrate()  # idempotent: a restart migrates again, and what was written stays
