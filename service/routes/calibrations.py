@@ -1,7 +1,8 @@
 from __future__ import annotations
 
 import functools
-from typing import Any, Literal
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal
 
 import anyio
 from fastapi import APIRouter, Depends, Query, Request, Response
@@ -68,17 +69,51 @@ _BODY = {
 }
 
 
-async def _body(
-    request: Request,
+@dataclass(frozen=True)
+class CampaignQuery:
+    """What the query adds to a campaign sent as a file (CSV or multipart), where the body has no field for it;
+    `apply` overrides a JSON body's too."""
+
+    apply: bool | None
+    noise_position_mm: float | None
+    noise_orientation_deg: float | None
+    file_options: ImportOptions
+    terms: list[str] | None
+    payload_kg: float | None
+    payload_cog_mm: list[float] | None
+
+
+def campaign_query(
     *,
-    apply: bool | None,
-    noise_position_mm: float | None,
-    noise_orientation_deg: float | None,
-    file_options: ImportOptions,
-    terms: list[str] | None = None,
-    payload_kg: float | None = None,
-    payload_cog_mm: list[float] | None = None,
-) -> CalibrationCreate:
+    apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
+    noise_position_mm: float | None = Query(None, gt=0, le=1000, description="σ position, CSV bodies"),
+    noise_orientation_deg: float | None = Query(None, gt=0, le=180, description="σ orientation, CSV bodies"),
+    length_unit: Literal["mm", "m", "cm", "um", "in"] = Query(
+        "mm", description="CSV bodies: unit of x, y, z and sigma where the header does not state one ('X [m]')"
+    ),
+    quaternion_order: QuaternionOrder = Query(
+        QuaternionOrder.WXYZ, description="CSV bodies: of q0…q3 columns (Leica-style); qw/qx/qy/qz name themselves"
+    ),
+    terms: list[Literal["thermal", "compliance"]] | None = Query(
+        None, description="CSV bodies: options.terms (the temperature_c column feeds the thermal term)"
+    ),
+    payload_kg: float | None = Query(None, ge=0, le=10_000, description="CSV bodies: the campaign's payload mass"),
+    payload_cog_mm: list[float] | None = Query(
+        None, min_length=3, max_length=3, description="CSV bodies: its centre of gravity x, y, z (tool frame, mm)"
+    ),
+) -> CampaignQuery:
+    return CampaignQuery(
+        apply,
+        noise_position_mm,
+        noise_orientation_deg,
+        ImportOptions(length_unit=length_unit, quaternion_order=quaternion_order),
+        list(terms) if terms else None,
+        payload_kg,
+        payload_cog_mm,
+    )
+
+
+async def _body(request: Request, query: CampaignQuery) -> CalibrationCreate:
     """The campaign as JSON, as one CSV, or as the controller's joint file and the instrument's point file
     (multipart: `joints`, `points`, optional `points_format`), with noise and apply from the query."""
     content_type = request.headers.get("content-type", "application/json").split(";")[0].strip().lower()
@@ -89,24 +124,24 @@ async def _body(
                 text = _text(raw, "the CSV body")
                 # Off the event loop, like the JSON body below: a large file parses for seconds.
                 measurements, notes = await request.app.state.compute.call(
-                    functools.partial(parse_campaign, text, options=file_options)
+                    functools.partial(parse_campaign, text, options=query.file_options)
                 )
             else:
-                measurements, notes = await _files(request, file_options)
+                measurements, notes = await _files(request, query.file_options)
             payload: dict[str, Any] = {"measurements": measurements, "import_notes": notes}
             noise = {}
-            if noise_position_mm is not None:
-                noise["position_mm"] = noise_position_mm
-            if noise_orientation_deg is not None:
-                noise["orientation_deg"] = noise_orientation_deg
+            if query.noise_position_mm is not None:
+                noise["position_mm"] = query.noise_position_mm
+            if query.noise_orientation_deg is not None:
+                noise["orientation_deg"] = query.noise_orientation_deg
             if noise:
                 payload["noise"] = noise
-            if apply is not None:
-                payload["apply"] = apply
-            if terms:
-                payload["options"] = {"terms": terms}
-            if payload_kg is not None:
-                payload["payload"] = {"mass_kg": payload_kg, "cog_mm": payload_cog_mm or [0.0, 0.0, 0.0]}
+            if query.apply is not None:
+                payload["apply"] = query.apply
+            if query.terms:
+                payload["options"] = {"terms": query.terms}
+            if query.payload_kg is not None:
+                payload["payload"] = {"mass_kg": query.payload_kg, "cog_mm": query.payload_cog_mm or [0.0, 0.0, 0.0]}
             return await anyio.to_thread.run_sync(CalibrationCreate.model_validate, payload)
         if content_type in ("application/json", ""):
             # A large body in the parse process (100 000 records validate in 2.2 s here, in a thread holding the
@@ -118,7 +153,7 @@ async def _body(
             )
             if isinstance(parsed, list):
                 raise RequestValidationError(parsed)
-            return parsed.model_copy(update={"apply": apply}) if apply is not None else parsed
+            return parsed.model_copy(update={"apply": query.apply}) if query.apply is not None else parsed
     except ValidationError as exc:
         raise RequestValidationError(exc.errors(include_url=False, include_context=False)) from exc
     raise UnsupportedMediaType(
@@ -183,36 +218,12 @@ async def create_calibration(
     registry: RegistryDep,
     actor: ActorDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
-    apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
-    noise_position_mm: float | None = Query(None, gt=0, le=1000, description="σ position, CSV bodies"),
-    noise_orientation_deg: float | None = Query(None, gt=0, le=180, description="σ orientation, CSV bodies"),
-    length_unit: Literal["mm", "m", "cm", "um", "in"] = Query(
-        "mm", description="CSV bodies: unit of x, y, z and sigma where the header does not state one ('X [m]')"
-    ),
-    quaternion_order: QuaternionOrder = Query(
-        QuaternionOrder.WXYZ, description="CSV bodies: of q0…q3 columns (Leica-style); qw/qx/qy/qz name themselves"
-    ),
-    terms: list[Literal["thermal", "compliance"]] | None = Query(
-        None, description="CSV bodies: options.terms (the temperature_c column feeds the thermal term)"
-    ),
-    payload_kg: float | None = Query(None, ge=0, le=10_000, description="CSV bodies: the campaign's payload mass"),
-    payload_cog_mm: list[float] | None = Query(
-        None, min_length=3, max_length=3, description="CSV bodies: its centre of gravity x, y, z (tool frame, mm)"
-    ),
+    query: Annotated[CampaignQuery, Depends(campaign_query)],
     if_match: IfMatch = None,
 ) -> Response:
     # A JSON body over the budget was refused before any parsing (its `precount`, service.operations); a CSV one is
     # counted once parsed.
-    body = await _body(
-        request,
-        apply=apply,
-        noise_position_mm=noise_position_mm,
-        noise_orientation_deg=noise_orientation_deg,
-        file_options=ImportOptions(length_unit=length_unit, quaternion_order=quaternion_order),
-        terms=list(terms) if terms else None,
-        payload_kg=payload_kg,
-        payload_cog_mm=payload_cog_mm,
-    )
+    body = await _body(request, query)
     limits.admit(limits.calibration(len(body.measurements)), run_async=run_async)
     if run_async:
         accepted = submit_job(
