@@ -9,9 +9,11 @@ from __future__ import annotations
 import math
 from datetime import datetime
 from enum import StrEnum
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter
+
+from models.measurement import MeasurementKind
 
 
 def values_of(enum: type[StrEnum]) -> Any:
@@ -22,6 +24,12 @@ def values_of(enum: type[StrEnum]) -> Any:
     code the member. Modules alias the result under `TYPE_CHECKING` (mypy sees the enum, which is what the field
     holds), since a type built at run time is no type to mypy."""
     return Annotated[Literal[tuple(member.value for member in enum)], AfterValidator(enum)]
+
+
+if TYPE_CHECKING:
+    Measurement = MeasurementKind
+else:
+    Measurement = values_of(MeasurementKind)
 
 
 class Strict(BaseModel):
