@@ -33,8 +33,10 @@ from models.transforms import Sym, homogeneous, rot_x, rot_y, rot_z
 
 
 class JointType(StrEnum):
-    PRISMATIC = "prismatic"
+    """In the order robots.md and the published schema list them (the service's schema derives from this)."""
+
     REVOLUTE = "revolute"
+    PRISMATIC = "prismatic"
     FIXED = "fixed"
 
     @property

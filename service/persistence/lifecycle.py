@@ -15,6 +15,7 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from service.audit_actions import AuditAction
 from service.errors import NotFound, PreconditionFailed
 from service.persistence.repository import Repository, new_id
 from service.persistence.tables import (
@@ -25,17 +26,6 @@ from service.persistence.tables import (
     Robot,
     ValidationRecord,
 )
-
-ACTIONS = (
-    "robot.created",
-    "robot.updated",
-    "robot.deleted",
-    "version.calibrated",
-    "version.restored",
-    "version.imported",
-    "version.edited",
-)
-"""Audit actions: the robot's own changes, then every way its current parameter version changes."""
 
 
 @dataclass(frozen=True)
@@ -73,21 +63,21 @@ class Lifecycle:
     def changed(
         self,
         robot: Robot,
-        action: str,
+        action: AuditAction,
         actor: Actor,
         *,
         version: int | None = None,
         details: dict[str, Any] | None = None,
         bump: bool = True,
     ) -> AuditEvent:
-        if action not in ACTIONS:
-            raise ValueError(f"unknown audit action {action!r}")  # a programming error, not the caller's data
         if bump:
             robot.revision = (robot.revision or 1) + 1
         event = AuditEvent(
             actor=actor.name,
             request_id=actor.request_id,
-            action=action,
+            # Still a check at run time (a ValueError, a programming error) for callers mypy does not see; the
+            # column holds the plain string, as a row read back does.
+            action=AuditAction(action).value,
             robot_id=robot.id,
             version=version,
             details=details,
@@ -100,7 +90,7 @@ class Lifecycle:
         self,
         *,
         robot_id: str | None,
-        action: str | None,
+        action: AuditAction | None,
         since: datetime | None,
         until: datetime | None,
         limit: int,
@@ -110,7 +100,7 @@ class Lifecycle:
         if robot_id is not None:
             query = query.where(AuditEvent.robot_id == robot_id)
         if action is not None:
-            query = query.where(AuditEvent.action == action)
+            query = query.where(AuditEvent.action == action.value)
         if since is not None:
             query = query.where(AuditEvent.at >= since)
         if until is not None:

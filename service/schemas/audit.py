@@ -3,21 +3,17 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Literal
+from typing import TYPE_CHECKING
 
 from pydantic import Field
 
-from service.schemas.common import Public
+from service.audit_actions import AuditAction
+from service.schemas.common import Public, values_of
 
-Action = Literal[
-    "robot.created",
-    "robot.updated",
-    "robot.deleted",
-    "version.calibrated",
-    "version.restored",
-    "version.imported",
-    "version.edited",
-]
+if TYPE_CHECKING:
+    Action = AuditAction
+else:
+    Action = values_of(AuditAction)
 
 
 def _absent_if_none(value: object) -> bool:

@@ -14,6 +14,7 @@ from service.conversions.units import degrees_default
 from service.schemas.common import (
     FreeText,
     JointVector,
+    Measurement,
     OptionalFloat,
     Payload,
     Position,
@@ -237,7 +238,7 @@ class CalibrationReportPublic(Public):
     outliers: list[OutlierPublic]
     solver: SolverReportPublic
     predicted_accuracy: PredictedAccuracyPublic
-    measurement: Literal["pose", "position"]
+    measurement: Measurement
     measurements: int
     seconds: float
     notes: list[str]

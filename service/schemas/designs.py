@@ -7,9 +7,19 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
+from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from optimal_design.design import MAX_CANDIDATES
-from service.schemas.common import JointVector, OptionalFloat, Payload, Position, Public, Strict, TemperatureC
+from service.schemas.common import (
+    JointVector,
+    Measurement,
+    OptionalFloat,
+    Payload,
+    Position,
+    Public,
+    Strict,
+    TemperatureC,
+)
 
 MAX_FIXED = 10_000
 BOUND_SECONDS_MAX = 60.0
@@ -46,7 +56,7 @@ class PoseDesignCreate(Strict):
         default=None, description="Instead of count: the smallest K whose design reaches this predicted accuracy"
     )
     criterion: Criterion = Field(default=Criterion.D, description="With a target: D or I (default there: I)")
-    measurement: Literal["pose", "position"] = "pose"
+    measurement: Measurement = MeasurementKind.POSE
     candidates: list[JointVector] | None = Field(default=None, max_length=MAX_CANDIDATES)
     candidate_count: int = Field(default=2000, ge=1, le=MAX_CANDIDATES)
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
@@ -201,7 +211,7 @@ class PoseDesignReportPublic(Public):
     """What a pose design computed: stored once, as validated here, and served as stored."""
 
     criterion: Criterion
-    measurement: Literal["pose", "position"]
+    measurement: Measurement
     count: int
     poses: list[list[float]] = Field(description="K joint vectors, mm and deg")
     indices: list[int] | None = Field(description="Into the given candidates; null when they were sampled")
@@ -245,6 +255,6 @@ class PoseDesignSummaryPublic(Public):
     robot_id: str
     created_at: datetime
     criterion: Criterion
-    measurement: Literal["pose", "position"]
+    measurement: Measurement
     count: int
     value: OptionalFloat

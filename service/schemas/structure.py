@@ -11,12 +11,19 @@ accepted back as it is.
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, SerializerFunctionWrapHandler, model_serializer
 
 from models.hexapod import N_LEGS
+from models.serial_chain import JointType
 from models.structure import MAX_LINKS
+from service.schemas.common import values_of
+
+if TYPE_CHECKING:
+    Joint = JointType
+else:
+    Joint = values_of(JointType)
 
 
 class Document(BaseModel):
@@ -53,7 +60,7 @@ class StructureLink(Document):
     """One link: `dh` A = Rz(θ) Tz(d) Tx(a) Rx(α), `mdh` A = Rx(α) Tx(a) Rz(θ) Tz(d); a revolute joint adds its
     reading to `theta`, a prismatic one to `d`."""
 
-    joint: Literal["revolute", "prismatic", "fixed"]
+    joint: Joint
     a: Number = Field(default=0.0, description="mm")
     alpha: Number = Field(default=0.0, description="deg")
     d: Number = Field(default=0.0, description="mm")

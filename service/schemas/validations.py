@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Literal
 
 from pydantic import ConfigDict, Field
 
@@ -13,7 +12,7 @@ from service.schemas.calibrations import (
     InstrumentPublic,
     Record,
 )
-from service.schemas.common import FreeText, Public, Strict
+from service.schemas.common import FreeText, Measurement, Public, Strict
 
 
 def _absent_if_none(value: object) -> bool:
@@ -117,7 +116,7 @@ class ValidationPublic(Public):
     robot_id: str
     campaign_id: str
     created_at: datetime
-    measurement: Literal["pose", "position"]
+    measurement: Measurement
     measurements: int
     notes: str | None
     instrument: InstrumentPublic | None

@@ -3,6 +3,7 @@ from __future__ import annotations
 from datetime import UTC, datetime
 
 from models.errors import InvalidInput
+from service.audit_actions import AuditAction
 from service.persistence import Database
 from service.persistence.lifecycle import Lifecycle
 from service.persistence.tables import AuditEvent
@@ -37,7 +38,7 @@ def list_events(
     *,
     db: Database,
     robot_id: str | None,
-    action: str | None,
+    action: AuditAction | None,
     since: datetime | None,
     until: datetime | None,
     limit: int,

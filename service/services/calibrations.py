@@ -7,6 +7,7 @@ from models.errors import InvalidInput
 from models.identifiability import structural_identifiability
 from models.identification import IdentificationOptions, identify
 from models.identification.acceptance import acceptance_checks, decide
+from service.audit_actions import AuditAction
 from service.conversions.calibrations import (
     calibration_public,
     campaign_in,
@@ -126,7 +127,7 @@ def calibrate(
             record.applied = True
             Lifecycle(s).changed(
                 robot,
-                "version.calibrated",
+                AuditAction.VERSION_CALIBRATED,
                 who,
                 version=record.parameter_version,
                 # `forced` only when it was: an applied calibration that failed a check (force_apply).

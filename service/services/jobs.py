@@ -189,7 +189,7 @@ def cancel_job(*, db: Database, job_id: str) -> JobPublic:
         if not store.request_cancel(job_id):
             found = store.get(job_id)
             status = found.status if found is not None else "unknown"
-            raise JobFinished(f"job {job_id} has already ended ({status}); nothing to cancel", status=status)
+            raise JobFinished(f"job {job_id} has already ended ({status}); nothing to cancel", job_status=status)
     return get_job(db=db, job_id=job_id)
 
 

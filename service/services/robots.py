@@ -3,6 +3,7 @@ from __future__ import annotations
 import numpy as np
 
 from models.urdf import urdf_from_description
+from service.audit_actions import AuditAction
 from service.conversions.robots import description, frame_in, new_description, parameters_out, robot_out, structure_out
 from service.conversions.terms import stored_model
 from service.errors import Conflict
@@ -23,7 +24,9 @@ def create_robot(*, db: Database, body: RobotCreate, actor: Actor = NO_ACTOR) ->
         _name_is_free(repo, body.name)
         robot = repo.add_robot(body.name, model, list(desc.base), list(desc.tool), nominal, structure=document)
         repo.version(robot.id, 1).actor = actor.name
-        Lifecycle(s).changed(robot, "robot.created", actor, version=1, details={"name": robot.name}, bump=False)
+        Lifecycle(s).changed(
+            robot, AuditAction.ROBOT_CREATED, actor, version=1, details={"name": robot.name}, bump=False
+        )
         return robot_out(robot)
 
 
@@ -84,9 +87,11 @@ def patch_robot(
             )
             changed += sorted(frames)
             details = {"from_version": previous.version, "changed": sorted(frames)}
-            life.changed(robot, "version.edited", actor, version=new, details=details, bump=False)
+            life.changed(robot, AuditAction.VERSION_EDITED, actor, version=new, details=details, bump=False)
         if changed:  # one revision per PATCH, whatever it changed
-            life.changed(robot, "robot.updated", actor, version=robot.current_version, details={"changed": changed})
+            life.changed(
+                robot, AuditAction.ROBOT_UPDATED, actor, version=robot.current_version, details={"changed": changed}
+            )
         return robot_out(robot)
 
 
@@ -95,7 +100,9 @@ def delete_robot(*, db: Database, robot_id: str, actor: Actor = NO_ACTOR, if_mat
         repo, life = Repository(s), Lifecycle(s)
         robot = repo.robot(robot_id, lock=True)
         check_revision(robot, if_match)
-        life.changed(robot, "robot.deleted", actor, version=robot.current_version, details={"name": robot.name})
+        life.changed(
+            robot, AuditAction.ROBOT_DELETED, actor, version=robot.current_version, details={"name": robot.name}
+        )
         life.delete_validations(robot_id)
         repo.delete_robot(robot_id)
 

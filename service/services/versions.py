@@ -4,6 +4,7 @@ import is a new version that becomes current, recorded in the audit trail with w
 from __future__ import annotations
 
 from models.errors import InvalidInput
+from service.audit_actions import AuditAction
 from service.conversions.robots import description
 from service.conversions.terms import requested_model, stored_model
 from service.conversions.versions import diff_out, import_in, version_out
@@ -60,7 +61,7 @@ def restore(
         )
         life.changed(
             robot,
-            "version.restored",
+            AuditAction.VERSION_RESTORED,
             actor,
             version=new,
             details={"from_version": previous, "restored_from": source.version},
@@ -87,5 +88,5 @@ def import_version(
         new = life.add_version(
             robot, values=values, std_errors=std, identifiable=ident, provenance="import", actor=actor
         )
-        life.changed(robot, "version.imported", actor, version=new, details={"from_version": previous})
+        life.changed(robot, AuditAction.VERSION_IMPORTED, actor, version=new, details={"from_version": previous})
         return version_out(repo.version(robot_id, new), new), etag(robot)
