@@ -169,7 +169,7 @@ def report_out(
                 "max_orientation_deg": max_orientation_deg,
                 "workspace_poses": accuracy.poses,
             },
-            "measurement": "position" if result.position_only else "pose",
+            "measurement": result.kind.value,
             "measurements": result.measurements,
             "seconds": result.seconds,
             "notes": list(result.notes),

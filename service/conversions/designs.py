@@ -6,6 +6,7 @@ from typing import Any
 
 from models import RobotDescription
 from models.errors import InvalidInput
+from models.measurement import MeasurementKind
 from optimal_design import PoseDesign, TargetDesign
 from optimal_design.criteria import Criterion
 from service.conversions.kinematics import joints_out
@@ -25,7 +26,7 @@ def report_out(desc: RobotDescription, design: PoseDesign, *, candidates_given: 
     return PoseDesignReportPublic.model_validate(
         {
             "criterion": design.criterion,
-            "measurement": "position" if design.position_only else "pose",
+            "measurement": MeasurementKind.of(design.position_only).value,
             "count": len(design.indices),
             "poses": joints_out(desc, design.joints),
             "indices": list(design.indices) if candidates_given else None,
@@ -75,7 +76,7 @@ def target_report_out(
     return PoseDesignReportPublic.model_validate(
         {
             "criterion": criterion,
-            "measurement": "pose",
+            "measurement": MeasurementKind.POSE.value,  # a target no design reaches: no poses, nothing measured
             "count": 0,
             "poses": [],
             "indices": [] if candidates_given else None,

@@ -52,7 +52,7 @@ def validate(*, db: Database, registry: Registry, robot_id: str, body: Validatio
         for v in versions
     ]
     document = {
-        "measurement": "pose" if campaign.quaternions is not None else "position",
+        "measurement": campaign.kind.value,
         "measurements": campaign.size,
         "results": results,
     }
