@@ -8,6 +8,7 @@ instrument, e.g. a laser tracker with one reflector).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -49,11 +50,14 @@ class Campaign:
     def position_only(self) -> bool:
         return self.quaternions is None
 
-    @property
+    @cached_property
     def rotations(self) -> Array:
+        """(N, 3, 3) the measured orientations, computed once (a fit reads them at every evaluation); read-only."""
         if self.quaternions is None:
             raise InvalidInput("a position-only campaign has no orientations", field="quaternions")
-        return quaternion_to_matrix(self.quaternions)
+        rotations = quaternion_to_matrix(self.quaternions)
+        rotations.setflags(write=False)
+        return rotations
 
     def subset(self, index: ArrayLike) -> Campaign:
         idx = np.asarray(index)

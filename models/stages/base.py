@@ -14,8 +14,6 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any, ClassVar, Protocol
 
-import numpy as np
-
 from models._types import Array
 from models.parameters import Kind, ParameterScales, ParameterSpec
 from models.serial_chain import DHLink
@@ -148,8 +146,3 @@ class StageReader(Protocol):
     """Reads one stage's document, raising `InvalidInput` with the field's path (`where`)."""
 
     def __call__(self, raw: Mapping[str, Any], where: str) -> Stage: ...
-
-
-def empty(n: int) -> tuple[Array, Array]:
-    """(lo, hi) of no numbers."""
-    return np.zeros(n), np.zeros(n)
