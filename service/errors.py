@@ -1,9 +1,9 @@
 """The service's own errors (not the mathematics'): each names what went wrong and carries JSON-safe data.
 
-Every class declares its fields (keyword-only, typed), as `models.errors` does, so a misspelt member is a type
-error where it is raised; `.data` is the dictionary of those that have a value, the problem document's
-extension members, in declaration order. Tree (the domain's `models.errors.CalibrationError` is the other root
-`service.problems` renders):
+Every class declares its fields as annotated attributes (`declared`: keyword-only, typed), so a misspelt
+member is a type error where it is raised; `.data` is the dictionary of those that have a value, the problem
+document's extension members, in declaration order. Tree (the domain's `models.errors.CalibrationError` is the
+other root `service.problems` renders):
 
     ServiceError()
     ├── BadRequest(line, column, record)               400  a body the service cannot parse
@@ -35,18 +35,22 @@ knowing HTTP; `service.problems` alone maps these classes to status, type and ti
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+import dataclasses
+from typing import Any, ClassVar, TypeVar, dataclass_transform
+
+E = TypeVar("E", bound="ServiceError")
 
 
+@dataclasses.dataclass(eq=False)
 class ServiceError(Exception):
     """Root of the service's errors."""
 
+    detail: str
     fields: ClassVar[tuple[str, ...]] = ()
-    """The names of the keyword-only fields of the class, in `.data` order."""
+    """The names of the keyword-only fields of the class, in `.data` order (set by `declared`)."""
 
-    def __init__(self, detail: str) -> None:
-        super().__init__(detail)
-        self.detail = detail
+    def __post_init__(self) -> None:
+        super().__init__(self.detail)
 
     @property
     def data(self) -> dict[str, Any]:
@@ -58,193 +62,146 @@ class ServiceError(Exception):
         return {name: value for name, value in values if value is not None}
 
 
+@dataclass_transform(kw_only_default=True, eq_default=False)
+def declared(cls: type[E]) -> type[E]:
+    """An error class whose annotated attributes are its keyword-only fields (a dataclass: a misspelt or missing
+    member is a type error where it is raised), compared by identity as exceptions are."""
+    made = dataclasses.dataclass(eq=False, kw_only=True)(cls)
+    made.fields = tuple(f.name for f in dataclasses.fields(made) if f.name != "detail")
+    return made
+
+
+@declared
 class BadRequest(ServiceError):
     """`line` and `column` (1-based) locate the mistake in a file; `record` (0-based) in a campaign."""
 
-    fields: ClassVar[tuple[str, ...]] = ("line", "column", "record")
-
-    def __init__(
-        self, detail: str, *, line: int | None = None, column: int | None = None, record: int | None = None
-    ) -> None:
-        super().__init__(detail)
-        self.line = line
-        self.column = column
-        self.record = record
+    line: int | None = None
+    column: int | None = None
+    record: int | None = None
 
 
+@declared
 class CalibrationFailed(ServiceError):
     """A calibration whose fit failed: stored for the record (`calibration_id`), never applied."""
 
-    fields: ClassVar[tuple[str, ...]] = ("calibration_id", "diagnoses")
-
-    def __init__(self, detail: str, *, calibration_id: str, diagnoses: list[dict[str, Any]]) -> None:
-        super().__init__(detail)
-        self.calibration_id = calibration_id
-        self.diagnoses = diagnoses
+    calibration_id: str
+    diagnoses: list[dict[str, Any]]
 
 
+@declared
 class Unauthorized(ServiceError):
     pass
 
 
+@declared
 class Forbidden(ServiceError):
     """`scope`: the key's; `required`: the operation's."""
 
-    fields: ClassVar[tuple[str, ...]] = ("scope", "required")
-
-    def __init__(self, detail: str, *, scope: str, required: str) -> None:
-        super().__init__(detail)
-        self.scope = scope
-        self.required = required
+    scope: str
+    required: str
 
 
+@declared
 class NotFound(ServiceError):
     """`id` is left out where the resource has none of its own (a parameter version, a path)."""
 
-    fields: ClassVar[tuple[str, ...]] = ("resource", "id")
-
-    def __init__(self, detail: str, *, resource: str, id: str | None = None) -> None:
-        super().__init__(detail)
-        self.resource = resource
-        self.id = id
+    resource: str
+    id: str | None = None
 
 
+@declared
 class NotAcceptable(ServiceError):
-    fields: ClassVar[tuple[str, ...]] = ("offered",)
-
-    def __init__(self, detail: str, *, offered: list[str]) -> None:
-        super().__init__(detail)
-        self.offered = offered
+    offered: list[str]
 
 
+@declared
 class PreconditionFailed(ServiceError):
     """`current` is the ETag the resource has now, so the client can re-read and decide."""
 
-    fields: ClassVar[tuple[str, ...]] = ("current",)
-
-    def __init__(self, detail: str, *, current: str) -> None:
-        super().__init__(detail)
-        self.current = current
+    current: str
 
 
+@declared
 class Conflict(ServiceError):
     """One class for three races, each with its own members: a robot name taken (`id`, the robot holding it),
     a calibration that lost to a newer parameter version (`calibration_id`, `start_version`,
     `current_version`), an Idempotency-Key whose first request still runs (`retry_after`)."""
 
-    fields: ClassVar[tuple[str, ...]] = ("id", "calibration_id", "start_version", "current_version", "retry_after")
-
-    def __init__(
-        self,
-        detail: str,
-        *,
-        id: str | None = None,
-        calibration_id: str | None = None,
-        start_version: int | None = None,
-        current_version: int | None = None,
-        retry_after: int | None = None,
-    ) -> None:
-        super().__init__(detail)
-        self.id = id
-        self.calibration_id = calibration_id
-        self.start_version = start_version
-        self.current_version = current_version
-        self.retry_after = retry_after
+    id: str | None = None
+    calibration_id: str | None = None
+    start_version: int | None = None
+    current_version: int | None = None
+    retry_after: int | None = None
 
 
+@declared
 class IdempotencyKeyReused(ServiceError):
     pass
 
 
+@declared
 class WorkTooLarge(ServiceError):
     """Over the cap of any job, the estimate and the cap in time and memory; over the synchronous budget, the
     time only and whether `?async=true` would take it (`use_async`)."""
 
-    fields: ClassVar[tuple[str, ...]] = ("estimated_s", "estimated_bytes", "limit_s", "limit_bytes", "use_async")
-
-    def __init__(
-        self,
-        detail: str,
-        *,
-        estimated_s: float,
-        limit_s: float,
-        estimated_bytes: int | None = None,
-        limit_bytes: int | None = None,
-        use_async: bool | None = None,
-    ) -> None:
-        super().__init__(detail)
-        self.estimated_s = estimated_s
-        self.estimated_bytes = estimated_bytes
-        self.limit_s = limit_s
-        self.limit_bytes = limit_bytes
-        self.use_async = use_async
+    estimated_s: float
+    estimated_bytes: int | None = None
+    limit_s: float
+    limit_bytes: int | None = None
+    use_async: bool | None = None
 
 
+@declared
 class Overloaded(ServiceError):
-    fields: ClassVar[tuple[str, ...]] = ("retry_after",)
-
-    def __init__(self, detail: str, *, retry_after: int) -> None:
-        super().__init__(detail)
-        self.retry_after = retry_after
+    retry_after: int
 
 
+@declared
 class ClientGone(ServiceError):
     pass
 
 
+@declared
 class RequestTimeout(ServiceError):
     pass
 
 
+@declared
 class PayloadTooLarge(ServiceError):
-    fields: ClassVar[tuple[str, ...]] = ("limit",)
-
-    def __init__(self, detail: str, *, limit: int) -> None:
-        super().__init__(detail)
-        self.limit = limit
+    limit: int
 
 
+@declared
 class UnsupportedMediaType(ServiceError):
-    fields: ClassVar[tuple[str, ...]] = ("content_type",)
-
-    def __init__(self, detail: str, *, content_type: str) -> None:
-        super().__init__(detail)
-        self.content_type = content_type
+    content_type: str
 
 
+@declared
 class JobFinished(ServiceError):
     """`job_status`, not `status`: a problem document's `status` is the HTTP one."""
 
-    fields: ClassVar[tuple[str, ...]] = ("job_status",)
-
-    def __init__(self, detail: str, *, job_status: str) -> None:
-        super().__init__(detail)
-        self.job_status = job_status
+    job_status: str
 
 
+@declared
 class QueueFull(ServiceError):
-    fields: ClassVar[tuple[str, ...]] = ("limit", "retry_after")
-
-    def __init__(self, detail: str, *, limit: int, retry_after: int) -> None:
-        super().__init__(detail)
-        self.limit = limit
-        self.retry_after = retry_after
+    limit: int
+    retry_after: int
 
 
+@declared
 class Interrupted(ServiceError):
     pass
 
 
+@declared
 class NotReady(ServiceError):
     pass
 
 
+@declared
 class DatabaseUnavailable(NotReady):
     """The database refused or dropped the connection, or cannot write now (SQLite locked or its disk full):
     a 503 with `retry_after`, never a 500; the next request connects afresh (the pool pings first)."""
 
-    fields: ClassVar[tuple[str, ...]] = ("retry_after",)
-
-    def __init__(self, detail: str, *, retry_after: int) -> None:
-        super().__init__(detail)
-        self.retry_after = retry_after
+    retry_after: int
