@@ -13,11 +13,11 @@ from datetime import datetime
 from typing import Any
 
 from sqlalchemy import select
-from sqlalchemy.orm import Session
 
 from service.audit_actions import AuditAction
-from service.errors import NotFound, PreconditionFailed
+from service.errors import PreconditionFailed
 from service.persistence.repository import Repository, new_id
+from service.persistence.store import Store
 from service.persistence.tables import (
     AuditEvent,
     CampaignRecord,
@@ -35,6 +35,19 @@ class Actor:
 
     name: str | None = None
     request_id: str | None = None
+
+
+@dataclass(frozen=True)
+class AuditQuery:
+    """Which events of the trail: one robot's (also after its deletion), one action, a time window
+    [since, until) in aware datetimes, and a page."""
+
+    robot_id: str | None = None
+    action: AuditAction | None = None
+    since: datetime | None = None
+    until: datetime | None = None
+    limit: int = 100
+    offset: int = 0
 
 
 def etag(robot: Robot) -> str:
@@ -55,10 +68,7 @@ def check_revision(robot: Robot, if_match: str | None) -> None:
     )
 
 
-class Lifecycle:
-    def __init__(self, session: Session) -> None:
-        self.s = session
-
+class Lifecycle(Store):
     # ---------------------------------------------------------------- changes and the trail
     def changed(
         self,
@@ -72,40 +82,31 @@ class Lifecycle:
     ) -> AuditEvent:
         if bump:
             robot.revision = (robot.revision or 1) + 1
-        event = AuditEvent(
-            actor=actor.name,
-            request_id=actor.request_id,
-            # Still a check at run time (a ValueError, a programming error) for callers mypy does not see; the
-            # column holds the plain string, as a row read back does.
-            action=AuditAction(action).value,
-            robot_id=robot.id,
-            version=version,
-            details=details,
+        return self._insert(
+            AuditEvent(
+                actor=actor.name,
+                request_id=actor.request_id,
+                # Still a check at run time (a ValueError, a programming error) for callers mypy does not see; the
+                # column holds the plain string, as a row read back does.
+                action=AuditAction(action).value,
+                robot_id=robot.id,
+                version=version,
+                details=details,
+            )
         )
-        self.s.add(event)
-        self.s.flush()
-        return event
 
-    def events(
-        self,
-        *,
-        robot_id: str | None,
-        action: AuditAction | None,
-        since: datetime | None,
-        until: datetime | None,
-        limit: int,
-        offset: int,
-    ) -> list[AuditEvent]:
+    def events(self, wanted: AuditQuery) -> list[AuditEvent]:
         query = select(AuditEvent)
-        if robot_id is not None:
-            query = query.where(AuditEvent.robot_id == robot_id)
-        if action is not None:
-            query = query.where(AuditEvent.action == action.value)
-        if since is not None:
-            query = query.where(AuditEvent.at >= since)
-        if until is not None:
-            query = query.where(AuditEvent.at < until)
-        return list(self.s.scalars(query.order_by(AuditEvent.at, AuditEvent.id).limit(limit).offset(offset)))
+        if wanted.robot_id is not None:
+            query = query.where(AuditEvent.robot_id == wanted.robot_id)
+        if wanted.action is not None:
+            query = query.where(AuditEvent.action == wanted.action.value)
+        if wanted.since is not None:
+            query = query.where(AuditEvent.at >= wanted.since)
+        if wanted.until is not None:
+            query = query.where(AuditEvent.at < wanted.until)
+        query = query.order_by(AuditEvent.at, AuditEvent.id).limit(wanted.limit).offset(wanted.offset)
+        return list(self.s.scalars(query))
 
     # ---------------------------------------------------------------- versions
     def versions(self, robot_id: str) -> list[ParameterVersion]:
@@ -125,23 +126,27 @@ class Lifecycle:
         calibration_id: str | None = None,
     ) -> int:
         """A new version (never an update of an old one) that becomes current, made by `actor`."""
-        return Repository(self.s).add_version(
-            robot,
-            values,
-            std_errors,
-            identifiable,
-            calibration_id,
-            provenance=provenance,
-            actor=actor.name,
-            restored_from=restored_from,
+        version = Repository(self.s).latest_version(robot.id) + 1
+        self._insert(
+            ParameterVersion(
+                robot_id=robot.id,
+                version=version,
+                values=list(values),
+                std_errors=None if std_errors is None else list(std_errors),
+                identifiable=None if identifiable is None else list(identifiable),
+                provenance=provenance,
+                calibration_id=calibration_id,
+                actor=actor.name,
+                restored_from=restored_from,
+            )
         )
+        robot.current_version = version
+        self.s.flush()
+        return version
 
     # ---------------------------------------------------------------- campaigns, validations, designs
     def campaign(self, campaign_id: str) -> CampaignRecord:
-        found = self.s.get(CampaignRecord, campaign_id)
-        if found is None:
-            raise NotFound(f"no campaign with id {campaign_id!r}", resource="campaign", id=campaign_id)
-        return found
+        return self._by_id(CampaignRecord, campaign_id, "campaign")
 
     def add_validation(
         self,
@@ -151,28 +156,22 @@ class Lifecycle:
         notes: str | None,
         instrument: dict[str, Any] | None,
     ) -> ValidationRecord:
-        record = ValidationRecord(
-            id=new_id(), robot_id=robot_id, campaign_id=campaign_id, result=result, notes=notes, instrument=instrument
+        return self._insert(
+            ValidationRecord(
+                id=new_id(),
+                robot_id=robot_id,
+                campaign_id=campaign_id,
+                result=result,
+                notes=notes,
+                instrument=instrument,
+            )
         )
-        self.s.add(record)
-        self.s.flush()
-        return record
 
     def validation(self, validation_id: str) -> ValidationRecord:
-        found = self.s.get(ValidationRecord, validation_id)
-        if found is None:
-            raise NotFound(f"no validation with id {validation_id!r}", resource="validation", id=validation_id)
-        return found
+        return self._by_id(ValidationRecord, validation_id, "validation")
 
     def validations(self, robot_id: str, limit: int = 1000, offset: int = 0) -> list[ValidationRecord]:
-        query = (
-            select(ValidationRecord)
-            .where(ValidationRecord.robot_id == robot_id)
-            .order_by(ValidationRecord.created_at, ValidationRecord.id)
-            .limit(limit)
-            .offset(offset)
-        )
-        return list(self.s.scalars(query))
+        return self._of_robot(ValidationRecord, robot_id, limit, offset)
 
     def delete_validations(self, robot_id: str) -> None:
         # Before the campaigns they point at (Repository.delete_robot deletes those row by row).
@@ -181,11 +180,4 @@ class Lifecycle:
         self.s.flush()
 
     def designs(self, robot_id: str, limit: int, offset: int) -> list[PoseDesignRecord]:
-        query = (
-            select(PoseDesignRecord)
-            .where(PoseDesignRecord.robot_id == robot_id)
-            .order_by(PoseDesignRecord.created_at, PoseDesignRecord.id)
-            .limit(limit)
-            .offset(offset)
-        )
-        return list(self.s.scalars(query))
+        return self._of_robot(PoseDesignRecord, robot_id, limit, offset)

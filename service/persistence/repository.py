@@ -7,9 +7,9 @@ from datetime import UTC, datetime
 from typing import Any
 
 from sqlalchemy import func, select
-from sqlalchemy.orm import Session
 
 from service.errors import NotFound
+from service.persistence.store import Store
 from service.persistence.tables import CalibrationRecord, CampaignRecord, Job, ParameterVersion, PoseDesignRecord, Robot
 
 
@@ -17,10 +17,7 @@ def new_id() -> str:
     return str(uuid.uuid4())
 
 
-class Repository:
-    def __init__(self, session: Session) -> None:
-        self.s = session
-
+class Repository(Store):
     # ---------------------------------------------------------------- robots
     def add_robot(
         self,
@@ -32,11 +29,10 @@ class Repository:
         *,
         structure: dict[str, Any] | None = None,
     ) -> Robot:
-        robot = Robot(id=new_id(), name=name, model=model, base=base, tool=tool, current_version=1, structure=structure)
-        self.s.add(robot)
-        self.s.flush()
-        self.s.add(ParameterVersion(robot_id=robot.id, version=1, values=nominal, provenance="nominal"))
-        self.s.flush()
+        robot = self._insert(
+            Robot(id=new_id(), name=name, model=model, base=base, tool=tool, current_version=1, structure=structure)
+        )
+        self._insert(ParameterVersion(robot_id=robot.id, version=1, values=nominal, provenance="nominal"))
         return robot
 
     def robot(self, robot_id: str, *, lock: bool = False) -> Robot:
@@ -84,96 +80,39 @@ class Repository:
             raise NotFound(f"no robot with id {robot_id!r}", resource="robot", id=robot_id)
         return int(latest)
 
-    def add_version(
-        self,
-        robot: Robot,
-        values: list[float],
-        std_errors: list[Any] | None,
-        identifiable: list[Any] | None,
-        calibration_id: str | None,
-        *,
-        provenance: str = "calibration",
-        actor: str | None = None,
-        restored_from: int | None = None,
-    ) -> int:
-        """A new version (never an update of an old one) that becomes the robot's current one."""
-        version = self.latest_version(robot.id) + 1
-        self.s.add(
-            ParameterVersion(
-                robot_id=robot.id,
-                version=version,
-                values=list(values),
-                std_errors=None if std_errors is None else list(std_errors),
-                identifiable=None if identifiable is None else list(identifiable),
-                provenance=provenance,
-                calibration_id=calibration_id,
-                actor=actor,
-                restored_from=restored_from,
-            )
-        )
-        robot.current_version = version
-        self.s.flush()
-        return version
-
     # ---------------------------------------------------------------- campaigns and calibrations
     def add_campaign(self, robot_id: str, records: list[dict[str, Any]]) -> CampaignRecord:
-        campaign = CampaignRecord(id=new_id(), robot_id=robot_id, records=records)
-        self.s.add(campaign)
-        self.s.flush()
-        return campaign
+        return self._insert(CampaignRecord(id=new_id(), robot_id=robot_id, records=records))
 
     def add_calibration(
         self, calibration_id: str, robot_id: str, campaign_id: str, status: str, result: dict[str, Any]
     ) -> CalibrationRecord:
-        record = CalibrationRecord(
-            id=calibration_id, robot_id=robot_id, campaign_id=campaign_id, status=status, result=result
+        return self._insert(
+            CalibrationRecord(
+                id=calibration_id, robot_id=robot_id, campaign_id=campaign_id, status=status, result=result
+            )
         )
-        self.s.add(record)
-        self.s.flush()
-        return record
 
     def calibration(self, calibration_id: str) -> CalibrationRecord:
-        found = self.s.get(CalibrationRecord, calibration_id)
-        if found is None:
-            raise NotFound(f"no calibration with id {calibration_id!r}", resource="calibration", id=calibration_id)
-        return found
+        return self._by_id(CalibrationRecord, calibration_id, "calibration")
 
     def calibrations(self, robot_id: str, limit: int, offset: int) -> list[CalibrationRecord]:
         self.robot(robot_id)
-        query = (
-            select(CalibrationRecord)
-            .where(CalibrationRecord.robot_id == robot_id)
-            .order_by(CalibrationRecord.created_at, CalibrationRecord.id)
-            .limit(limit)
-            .offset(offset)
-        )
-        return list(self.s.scalars(query))
+        return self._of_robot(CalibrationRecord, robot_id, limit, offset)
 
     # ---------------------------------------------------------------- designs
     def add_design(self, robot_id: str, request: dict[str, Any], result: dict[str, Any]) -> PoseDesignRecord:
-        record = PoseDesignRecord(id=new_id(), robot_id=robot_id, request=request, result=result)
-        self.s.add(record)
-        self.s.flush()
-        return record
+        return self._insert(PoseDesignRecord(id=new_id(), robot_id=robot_id, request=request, result=result))
 
     def design(self, design_id: str) -> PoseDesignRecord:
-        found = self.s.get(PoseDesignRecord, design_id)
-        if found is None:
-            raise NotFound(f"no pose design with id {design_id!r}", resource="pose_design", id=design_id)
-        return found
+        return self._by_id(PoseDesignRecord, design_id, "pose_design")
 
     # ---------------------------------------------------------------- jobs
     def add_job(self, kind: str, robot_id: str, request: dict[str, Any]) -> Job:
-        job = Job(id=new_id(), kind=kind, robot_id=robot_id, request=request, status="queued")
-        self.s.add(job)
-        self.s.flush()
-        return job
+        return self._insert(Job(id=new_id(), kind=kind, robot_id=robot_id, request=request, status="queued"))
 
     def job(self, job_id: str) -> Job:
-        found = self.s.get(Job, job_id)
-        if found is None:
-            raise NotFound(f"no job with id {job_id!r}", resource="job", id=job_id)
-        return found
+        return self._by_id(Job, job_id, "job")
 
     def jobs_with_status(self, status: str) -> list[Job]:
         return list(self.s.scalars(select(Job).where(Job.status == status).order_by(Job.created_at)))

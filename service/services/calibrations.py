@@ -121,8 +121,14 @@ def calibrate(
                 std[i], ident[i] = (value if np.isfinite(value) else None), True
             previous = robot.current_version
             who = actor or Actor()
-            record.parameter_version = repo.add_version(
-                robot, result.parameters.tolist(), std, ident, calibration_id, actor=who.name
+            record.parameter_version = Lifecycle(s).add_version(
+                robot,
+                values=result.parameters.tolist(),
+                std_errors=std,
+                identifiable=ident,
+                provenance="calibration",
+                actor=who,
+                calibration_id=calibration_id,
             )
             record.applied = True
             Lifecycle(s).changed(

@@ -11,6 +11,7 @@ import pytest
 from service.errors import NotFound
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
+from service.persistence.lifecycle import Actor, Lifecycle
 from service.schemas.robots import RobotCreate
 from service.services.robots import create_robot
 
@@ -31,8 +32,10 @@ def test_a_new_version_is_read_and_the_cache_stays_bounded(db: Database) -> None
     changed = nominal.copy()
     changed[0] += 1.0
     with db.session() as s:
-        repo = Repository(s)
-        repo.add_version(repo.robot(ids[0]), changed.tolist(), [None] * len(changed), [False] * len(changed), "c")
+        robot = Repository(s).robot(ids[0])
+        Lifecycle(s).add_version(
+            robot, values=changed.tolist(), std_errors=None, identifiable=None, provenance="test", actor=Actor()
+        )
     np.testing.assert_array_equal(cache.current(ids[0])[1], changed)
     for robot_id in ids:
         cache.current(robot_id)
