@@ -8,6 +8,7 @@ from pydantic import TypeAdapter
 from service.deps import DatabaseDep, Limit, Offset
 from service.json_bodies import OffloopRoute
 from service.operations import operation
+from service.persistence.lifecycle import AuditQuery
 from service.responses import models_json
 from service.schemas.audit import Action, AuditEventPublic
 from service.security import Scope
@@ -30,7 +31,6 @@ def list_audit(
     offset: Offset = 0,
 ) -> Response:
     """Oldest first: robots created, changed and deleted, and every change of a robot's current version."""
-    events = audit.list_events(
-        db=db, robot_id=robot_id, action=action, since=since, until=until, limit=limit, offset=offset
-    )
+    wanted = AuditQuery(robot_id=robot_id, action=action, since=since, until=until, limit=limit, offset=offset)
+    events = audit.list_events(db=db, query=wanted)
     return models_json(events, _EVENTS)

@@ -1,11 +1,11 @@
 from __future__ import annotations
 
+from dataclasses import replace
 from datetime import UTC, datetime
 
 from models.errors import InvalidInput
-from service.audit_actions import AuditAction
 from service.persistence import Database
-from service.persistence.lifecycle import Lifecycle
+from service.persistence.lifecycle import AuditQuery, Lifecycle
 from service.persistence.tables import AuditEvent
 from service.schemas.audit import AuditEventPublic
 
@@ -34,19 +34,9 @@ def event_out(event: AuditEvent) -> AuditEventPublic:
     )
 
 
-def list_events(
-    *,
-    db: Database,
-    robot_id: str | None,
-    action: AuditAction | None,
-    since: datetime | None,
-    until: datetime | None,
-    limit: int,
-    offset: int,
-) -> list[AuditEventPublic]:
-    start, end = _aware(since, "since"), _aware(until, "until")
+def list_events(*, db: Database, query: AuditQuery) -> list[AuditEventPublic]:
+    start, end = _aware(query.since, "since"), _aware(query.until, "until")
     if start is not None and end is not None and end <= start:
         raise InvalidInput("until must be after since", field="until")
     with db.reader() as s:
-        rows = Lifecycle(s).events(robot_id=robot_id, action=action, since=start, until=end, limit=limit, offset=offset)
-        return [event_out(e) for e in rows]
+        return [event_out(e) for e in Lifecycle(s).events(replace(query, since=start, until=end))]
