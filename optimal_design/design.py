@@ -5,18 +5,21 @@ re-exported here."""
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from typing import Unpack
 
-from numpy.typing import ArrayLike
-
-from models import NoiseModel, RobotDescription
+from models import RobotDescription
 from models.blas import single_threaded_blas
-from models.runtime import Runtime
-from models.terms import Conditions
 from optimal_design.baselines import RANDOM_DRAWS, random_baseline
-from optimal_design.constraints import KeepOut
 from optimal_design.criteria import CONDITION_D_FLOOR, Criterion, DesignCriterion, criterion_of
-from optimal_design.problem import MAX_CANDIDATES, SAMPLING_ROUNDS, DesignInputs, DesignProblem, Problem, prepare
+from optimal_design.problem import (
+    MAX_CANDIDATES,
+    SAMPLING_ROUNDS,
+    DesignInputs,
+    DesignOptions,
+    DesignProblem,
+    Problem,
+    prepare,
+)
 from optimal_design.report import PoseDesign, efficiency
 from optimal_design.solve import solve
 
@@ -26,6 +29,7 @@ __all__ = [
     "RANDOM_DRAWS",
     "SAMPLING_ROUNDS",
     "DesignInputs",
+    "DesignOptions",
     "DesignProblem",
     "PoseDesign",
     "Problem",
@@ -44,21 +48,9 @@ def design_poses(
     criterion: str | Criterion | DesignCriterion = Criterion.D,
     measurement: str = "pose",
     *,
-    candidates: ArrayLike | None = None,
-    candidate_count: int = 2000,
-    seed: int = 0,
-    fixed: ArrayLike | None = None,
-    noise: NoiseModel | None = None,
-    params: ArrayLike | None = None,
-    joint_ranges: Mapping[int, tuple[float, float]] | None = None,
-    keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
-    min_spread: float | None = None,
     d_efficiency_floor: float | None = None,
-    runtime: Runtime | None = None,
     bound_seconds: float = 0.0,
-    conditions: Conditions | None = None,
-    levels: Conditions | None = None,
-    fixed_conditions: Conditions | None = None,
+    **options: Unpack[DesignOptions],
 ) -> PoseDesign:
     """Choose `count` poses among candidates (given, or `candidate_count` sampled in the workspace).
 
@@ -74,32 +66,17 @@ def design_poses(
     `conditions`, `levels` and `fixed_conditions` give the candidates' and fixed poses' conditions (see
     `DesignInputs`): the chosen ones come back in `PoseDesign.conditions`.
 
-    The keywords stay spelled out (rather than one options object) because the service, the benchmarks and the
-    tests call this with them; the problem's share of them is `DesignInputs`, built here once."""
+    The problem's keywords (`DesignOptions`: candidates, candidate_count, seed, fixed, noise, params,
+    joint_ranges, keep_out, min_spread, runtime, conditions, levels, fixed_conditions) build `DesignInputs`, once."""
     started = time.perf_counter()
     crit = criterion_of(criterion)
-    inputs = DesignInputs(
-        measurement=measurement,
-        candidates=candidates,
-        candidate_count=candidate_count,
-        seed=seed,
-        fixed=fixed,
-        noise=noise,
-        params=params,
-        joint_ranges=joint_ranges,
-        keep_out=keep_out,
-        min_spread=min_spread,
-        runtime=runtime,
-        conditions=conditions,
-        levels=levels,
-        fixed_conditions=fixed_conditions,
-    )
+    inputs = DesignInputs(measurement=measurement, **options)
     return solve(
         desc,
         DesignProblem.build(desc, inputs),
         crit,
         count,
-        seed=seed,
+        seed=inputs.seed,
         started=started,
         d_efficiency_floor=d_efficiency_floor,
         bound_seconds=bound_seconds,

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -51,6 +51,25 @@ class DesignInputs:
     conditions: Conditions | None = None
     levels: Conditions | None = None
     fixed_conditions: Conditions | None = None
+
+
+class DesignOptions(TypedDict, total=False):
+    """The keywords of `design_poses` and `design_for_target` that build the problem: `DesignInputs`' fields but
+    the measurement (a test keeps the two in step)."""
+
+    candidates: ArrayLike | None
+    candidate_count: int
+    seed: int
+    fixed: ArrayLike | None
+    noise: NoiseModel | None
+    params: ArrayLike | None
+    joint_ranges: Mapping[int, tuple[float, float]] | None
+    keep_out: KeepOut | Sequence[Sequence[float]] | None
+    min_spread: float | None
+    runtime: Runtime | None
+    conditions: Conditions | None
+    levels: Conditions | None
+    fixed_conditions: Conditions | None
 
 
 @dataclass(frozen=True)

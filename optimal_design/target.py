@@ -21,22 +21,18 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Unpack
 
 import numpy as np
-from numpy.typing import ArrayLike
 
-from models import NoiseModel, RobotDescription
+from models import RobotDescription
 from models._types import Array
 from models.blas import single_threaded_blas
 from models.errors import InvalidInput, TargetUnreachable, TooFewMeasurements
-from models.runtime import Runtime
-from optimal_design.constraints import KeepOut
 from optimal_design.criteria import I_OPTIMAL, Criterion, DesignCriterion, criterion_of, metrics, names
 from optimal_design.information import max_tcp_error
-from optimal_design.problem import DesignInputs, DesignProblem
+from optimal_design.problem import DesignInputs, DesignOptions, DesignProblem
 from optimal_design.relaxation import first_order
 from optimal_design.report import PoseDesign
 from optimal_design.solve import solve
@@ -80,34 +76,13 @@ def design_for_target(
     max_tcp_mm: float | None = None,
     criterion: str | Criterion | DesignCriterion = Criterion.I,
     measurement: str = "pose",
-    candidates: ArrayLike | None = None,
-    candidate_count: int = 2000,
-    seed: int = 0,
-    fixed: ArrayLike | None = None,
-    noise: NoiseModel | None = None,
-    params: ArrayLike | None = None,
-    joint_ranges: Mapping[int, tuple[float, float]] | None = None,
-    keep_out: KeepOut | Sequence[Sequence[float]] | None = None,
-    min_spread: float | None = None,
-    runtime: Runtime | None = None,
+    **options: Unpack[DesignOptions],
 ) -> TargetDesign:
     """The smallest K (beyond `fixed`) whose `criterion` design (D or I) reaches the target, and the curve."""
     started = time.perf_counter()
     key, goal = _goal(rms_tcp_mm, max_tcp_mm)
     crit = _targetable(criterion)
-    inputs = DesignInputs(
-        measurement=measurement,
-        candidates=candidates,
-        candidate_count=candidate_count,
-        seed=seed,
-        fixed=fixed,
-        noise=noise,
-        params=params,
-        joint_ranges=joint_ranges,
-        keep_out=keep_out,
-        min_spread=min_spread,
-        runtime=runtime,
-    )
+    inputs = DesignInputs(measurement=measurement, **options)
     problem = DesignProblem.build(desc, inputs)
     info = problem.info
     notes: list[str] = []
@@ -134,11 +109,11 @@ def design_for_target(
             reachable_mm=reachable,
             candidates=int(info.size),
         )
-    search = _Search(desc, problem, crit, key=key, goal=goal, seed=seed)
+    search = _Search(desc, problem, crit, key=key, goal=goal, seed=inputs.seed)
     low = max(1, problem.minimum_count())
     count = search.smallest(low, info.size)
     if count is None:
-        raise _spread_too_tight(search, min_spread, reachable)
+        raise _spread_too_tight(search, inputs.min_spread, reachable)
     if problem.spread is not None:
         notes.append("min_spread applies to every design of the curve; random poses ignore it")
     return TargetDesign(

@@ -1,10 +1,8 @@
 from __future__ import annotations
 
-from typing import Any
-
 from models import Registry
 from models.errors import InvalidInput
-from optimal_design import design_for_target, design_poses
+from optimal_design import DesignOptions, design_for_target, design_poses
 from service.conversions.designs import (
     constraints_in,
     design_public,
@@ -51,24 +49,25 @@ def create_design(
     if job is not None:
         job.progress("designing", 0.05)
     # What both kinds of design take (the request's options in internal units).
-    common: dict[str, Any] = {
-        "measurement": body.measurement,
-        "candidates": candidates,
-        "candidate_count": body.candidate_count,
-        "seed": body.seed,
-        "fixed": fixed,
-        "params": theta,
-        "joint_ranges": joint_ranges,
-        "keep_out": keep_out,
-        "min_spread": body.min_spread,
-        "runtime": runtime,
-    }
+    common = DesignOptions(
+        candidates=candidates,
+        candidate_count=body.candidate_count,
+        seed=body.seed,
+        fixed=fixed,
+        params=theta,
+        joint_ranges=joint_ranges,
+        keep_out=keep_out,
+        min_spread=body.min_spread,
+        runtime=runtime,
+        levels=levels,  # None without model terms, which the target mode refuses above
+    )
     if body.target is not None:
         found = design_for_target(
             desc,
             rms_tcp_mm=body.target.rms_tcp_mm,
             max_tcp_mm=body.target.max_tcp_mm,
             criterion=body.criterion,
+            measurement=body.measurement,
             **common,
         )
         report_model = target_report_out(desc, found, candidates_given=candidates is not None, criterion=body.criterion)
@@ -78,9 +77,9 @@ def create_design(
             desc,
             body.count,
             body.criterion,
+            body.measurement,
             d_efficiency_floor=body.d_efficiency_floor,
             bound_seconds=body.bound_seconds,
-            levels=levels,
             **common,
         )
         report_model = report_out(desc, design, candidates_given=candidates is not None)

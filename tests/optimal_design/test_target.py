@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from models import RobotDescription, sample_workspace
 from models.errors import InvalidInput
 from optimal_design import TargetUnreachable, design_for_target, design_poses, metrics
 from optimal_design.information import candidate_information
+from optimal_design.problem import DesignInputs, DesignOptions
 
 N = 40
 
@@ -102,3 +105,9 @@ def test_target_input(desc: RobotDescription, joints: np.ndarray) -> None:
         design_for_target(desc, rms_tcp_mm=-1.0, candidates=joints)
     with pytest.raises(InvalidInput, match="D or I"):
         design_for_target(desc, rms_tcp_mm=0.1, criterion="E", candidates=joints)
+
+
+def test_the_design_keywords_are_the_problem_inputs_but_the_measurement() -> None:
+    """`DesignOptions` (the keywords of both entry points) and `DesignInputs` (what the problem is built from) are
+    declared apart: a field added to one and not the other would be dropped or refused."""
+    assert set(DesignOptions.__annotations__) == {f.name for f in fields(DesignInputs)} - {"measurement"}
