@@ -3,6 +3,8 @@ not converge; IPOPT's nearest reachable pose where the target cannot be reached 
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -64,6 +66,56 @@ def within_bounds(desc: RobotDescription, theta: Array, v: Array) -> NDArray[np.
     return within
 
 
+@dataclass(frozen=True)
+class IkBatch:
+    """Targets to solve on one model, and what every routing step shares: the parameters, each target's seed
+    (the joints it should stay near), the joint weights, whether the orientation is free, the compiled model.
+    `target` rows are the position (mm) then the rotation's columns (`N_TARGET` numbers)."""
+
+    desc: RobotDescription
+    theta: Array
+    target: Array
+    seeds: Array
+    w: Array
+    position_only: bool
+    runtime: Runtime
+
+    def subset(self, idx: NDArray[np.intp]) -> IkBatch:
+        """These targets (an index may repeat: one row per start tried)."""
+        return replace(self, target=self.target[idx], seeds=self.seeds[idx])
+
+    def newton(self, start: Array, goal: Array | None = None) -> tuple[Array, NDArray[np.bool_]]:
+        """KKT Newton from `start` towards `goal` (default: the targets); (v, converged)."""
+        lbx, ubx, _, _ = bounds(self.desc)
+        return newton_kkt(
+            kkt_functions(self.desc, self.runtime),
+            start.copy(),
+            self.target if goal is None else goal,
+            seed=self.seeds,
+            weights=np.broadcast_to(self.w, self.seeds.shape),
+            theta=self.theta,
+            lower=lbx,
+            upper=ubx,
+            position_only=self.position_only,
+            periodic=periodic_variables(self.desc),
+        )
+
+    def accepted(self, v: Array, converged: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        """Converged inside every range, and (a serial arm) on the wanted orientation, not half a turn away."""
+        ok = converged & within_bounds(self.desc, self.theta, v)
+        if not self.desc.has_closure:
+            ok &= _not_flipped(self, v)
+        return ok
+
+    def nearest_to_seed(self, v: Array, ok: NDArray[np.bool_], k: int) -> tuple[NDArray[np.bool_], NDArray[np.intp]]:
+        """Of `k` solutions a target (rows grouped by target), the accepted one nearest the seed (the NLP's own
+        objective): (found, the row picked)."""
+        r = v.shape[0] // k
+        distance = np.where(ok, np.sum(self.w * (np.nan_to_num(v) - self.seeds) ** 2, axis=1), np.inf).reshape(r, k)
+        best = np.argmin(distance, axis=1)
+        return np.isfinite(distance[np.arange(r), best]), np.arange(r) * k + best
+
+
 def route(
     desc: RobotDescription,
     theta: Array,
@@ -76,107 +128,52 @@ def route(
 ) -> tuple[Array, list[str]]:
     """Route each target: KKT Newton from the nearest start; IPOPT where a bound is active or Newton did not
     converge; IPOPT's nearest reachable pose where the target cannot be reached exactly."""
+    batch = IkBatch(desc, theta, target, seeds, w, position_only, runtime)
     n = target.shape[0]
     start = start_table(desc, theta, runtime).nearest(target, position_only=position_only)
-    lbx, ubx, _, _ = bounds(desc)
-    periodic = periodic_variables(desc)
-    v, converged = newton_kkt(
-        kkt_functions(desc, runtime),
-        start.copy(),
-        target,
-        seed=seeds,
-        weights=np.broadcast_to(w, seeds.shape),
-        theta=theta,
-        lower=lbx,
-        upper=ubx,
-        position_only=position_only,
-        periodic=periodic,
-    )
+    v, converged = batch.newton(start)
     methods = ["newton"] * n
-    good = converged & within_bounds(desc, theta, v)
-    if not desc.has_closure:
-        good &= _not_flipped(desc, theta, v, target, position_only=position_only, runtime=runtime)
+    good = batch.accepted(v, converged)
     if not desc.has_closure:
         for fallback in (_serial_multistart, _homotopy):  # each on the targets still failed
             rest = np.flatnonzero(~good)
             if rest.size == 0:
                 break
-            found, v_r, start_r = fallback(
-                desc, theta, target[rest], seeds[rest], w, position_only=position_only, runtime=runtime
-            )
+            found, v_r, start_r = fallback(batch.subset(rest))
             v[rest[found]] = v_r[found]
             start[rest[found]] = start_r[found]
             good[rest[found]] = True
 
-    def ipopt(idx: NDArray[np.intp], *, exact: bool) -> tuple[Array, NDArray[np.bool_]]:
-        return ipopt_solutions(
-            desc,
-            theta,
-            target[idx],
-            seeds[idx],
-            w,
-            start=start[idx],
-            position_only=position_only,
-            exact=exact,
-            runtime=runtime,
-        )
-
     rest = np.flatnonzero(~good)
     if rest.size:
-        v[rest], exact = ipopt(rest, exact=True)
+        v[rest], exact = ipopt_solutions(batch.subset(rest), start=start[rest], exact=True)
         for i in rest:
             methods[i] = "ipopt"
         missed = rest[~exact]
         if missed.size and not desc.has_closure:
-            missed = _ipopt_other_starts(
-                desc, theta, target, seeds=seeds, w=w, v=v, missed=missed, position_only=position_only, runtime=runtime
-            )
+            missed = _ipopt_other_starts(batch, v=v, missed=missed)
         if missed.size:
-            v[missed], _ = ipopt(missed, exact=False)
+            v[missed], _ = ipopt_solutions(batch.subset(missed), start=start[missed], exact=False)
             for i in missed:
                 methods[i] = "ipopt-nearest"
     return v, methods
 
 
-def _serial_multistart(
-    desc: RobotDescription,
-    theta: Array,
-    target: Array,
-    seeds: Array,
-    w: Array,
-    *,
-    position_only: bool,
-    runtime: Runtime,
-) -> tuple[NDArray[np.bool_], Array, Array]:
+def _serial_multistart(batch: IkBatch) -> tuple[NDArray[np.bool_], Array, Array]:
     """Newton from the `SERIAL_STARTS` table poses nearest each target in task space and from its seed, all in
-    one batch; per target the solution nearest the seed (the NLP's own objective) among those that converged
-    inside every range on the wanted orientation. (found, v, the start that gave it)."""
-    r = target.shape[0]
-    table = start_table(desc, theta, runtime)
+    one batch; per target the solution nearest the seed among those accepted. (found, v, the start that gave
+    it)."""
+    r = batch.target.shape[0]
+    table = start_table(batch.desc, batch.theta, batch.runtime)
     # The seed too: a program's own joints (compensation) are usually on the right branch.
-    starts = np.concatenate([table.nearest_k(target, SERIAL_STARTS, position_only=position_only), seeds[:, None]], 1)
+    nearest = table.nearest_k(batch.target, SERIAL_STARTS, position_only=batch.position_only)
+    starts = np.concatenate([nearest, batch.seeds[:, None]], 1)
     k = starts.shape[1]
     flat = starts.reshape(r * k, -1)
-    rep = np.repeat(np.arange(r), k)
-    lbx, ubx, _, _ = bounds(desc)
-    v, conv = newton_kkt(
-        kkt_functions(desc, runtime),
-        flat.copy(),
-        target[rep],
-        seed=seeds[rep],
-        weights=np.broadcast_to(w, flat.shape),
-        theta=theta,
-        lower=lbx,
-        upper=ubx,
-        position_only=position_only,
-        periodic=periodic_variables(desc),
-    )
-    ok = conv & within_bounds(desc, theta, v)
-    ok &= _not_flipped(desc, theta, v, target[rep], position_only=position_only, runtime=runtime)
-    distance = np.where(ok, np.sum(w * (np.nan_to_num(v) - seeds[rep]) ** 2, axis=1), np.inf).reshape(r, k)
-    best = np.argmin(distance, axis=1)
-    pick = np.arange(r) * k + best
-    return np.isfinite(distance[np.arange(r), best]), v[pick], flat[pick]
+    tries = batch.subset(np.repeat(np.arange(r), k))
+    v, conv = tries.newton(flat)
+    found, pick = tries.nearest_to_seed(v, tries.accepted(v, conv), k)
+    return found, v[pick], flat[pick]
 
 
 HOMOTOPY_STARTS = 32
@@ -189,28 +186,16 @@ start stays on the start's branch. Measured, full-pose FK targets from the defau
 and track arm 250/250 each (the direct starts alone left 1 in 250 on the UR5-like arm)."""
 
 
-def _homotopy(
-    desc: RobotDescription,
-    theta: Array,
-    target: Array,
-    seeds: Array,
-    w: Array,
-    *,
-    position_only: bool,
-    runtime: Runtime,
-) -> tuple[NDArray[np.bool_], Array, Array]:
+def _homotopy(batch: IkBatch) -> tuple[NDArray[np.bool_], Array, Array]:
     """Newton continuation from the nearest table poses to each target; (found, v, start) as the multistart."""
-    r = target.shape[0]
-    table = start_table(desc, theta, runtime)
-    rows = table.nearest_k_index(target, HOMOTOPY_STARTS, position_only=position_only).reshape(-1)
-    k = HOMOTOPY_STARTS
-    rep = np.repeat(np.arange(r), k)
+    r, k = batch.target.shape[0], HOMOTOPY_STARTS
+    table = start_table(batch.desc, batch.theta, batch.runtime)
+    rows = table.nearest_k_index(batch.target, k, position_only=batch.position_only).reshape(-1)
+    tries = batch.subset(np.repeat(np.arange(r), k))
     p0, r0 = table.positions[rows], table.rotations[rows]
-    p1 = target[rep, :3]
-    r1 = target[rep, 3:12].reshape(-1, 3, 3).transpose(0, 2, 1)
+    p1 = tries.target[:, :3]
+    r1 = tries.target[:, 3:12].reshape(-1, 3, 3).transpose(0, 2, 1)
     turn = matrix_to_rotvec_np(r0.transpose(0, 2, 1) @ r1)
-    lbx, ubx, _, _ = bounds(desc)
-    periodic = periodic_variables(desc)
     v = table.start[rows].copy()
     alive = np.ones(r * k, dtype=bool)
     for step in range(1, HOMOTOPY_STEPS + 1):
@@ -220,38 +205,21 @@ def _homotopy(
         idx = np.flatnonzero(alive)
         if idx.size == 0:
             break
-        v_s, conv = newton_kkt(
-            kkt_functions(desc, runtime),
-            v[idx].copy(),
-            goal[idx],
-            seed=seeds[rep[idx]],
-            weights=np.broadcast_to(w, (idx.size, w.size)),
-            theta=theta,
-            lower=lbx,
-            upper=ubx,
-            position_only=position_only,
-            periodic=periodic,
-        )
-        v[idx] = v_s
+        v[idx], conv = tries.subset(idx).newton(v[idx], goal[idx])
         alive[idx[~conv]] = False
-    ok = alive & within_bounds(desc, theta, v)
-    ok &= _not_flipped(desc, theta, v, target[rep], position_only=position_only, runtime=runtime)
-    distance = np.where(ok, np.sum(w * (np.nan_to_num(v) - seeds[rep]) ** 2, axis=1), np.inf).reshape(r, k)
-    best = np.argmin(distance, axis=1)
-    pick = np.arange(r) * k + best
-    return np.isfinite(distance[np.arange(r), best]), v[pick], table.start[rows][pick]
+    found, pick = tries.nearest_to_seed(v, alive & tries.accepted(v, alive), k)
+    return found, v[pick], table.start[rows][pick]
 
 
-def _not_flipped(
-    desc: RobotDescription, theta: Array, v: Array, target: Array, *, position_only: bool, runtime: Runtime
-) -> NDArray[np.bool_]:
+def _not_flipped(batch: IkBatch, v: Array) -> NDArray[np.bool_]:
     """The orientation equations (sin(angle)·axis) also vanish half a turn away: a serial arm's wrist can
     converge there (seen on the track arm, 1 target in 40); such an answer is no answer."""
-    if position_only:
+    if batch.position_only:
         return np.ones(v.shape[0], dtype=bool)
     safe = np.where(np.isfinite(v), v, 0.0)
-    _, rot = runtime_for(desc, runtime).kinematics.batch("pose_at", safe, theta, np.zeros((v.shape[0], 6)))
-    wanted = target[:, 3:12].reshape(-1, 3, 3).transpose(0, 2, 1)
+    kinematics = runtime_for(batch.desc, batch.runtime).kinematics
+    _, rot = kinematics.batch("pose_at", safe, batch.theta, np.zeros((v.shape[0], 6)))
+    wanted = batch.target[:, 3:12].reshape(-1, 3, 3).transpose(0, 2, 1)
     return np.asarray(np.einsum("nij,nij->n", rot, wanted) > 1.0)  # trace(R Rtᵀ) > 1: angle below 90°
 
 
@@ -262,55 +230,33 @@ from four; UR5-like 94 % from four; iiwa-like 98 % from eight). Since then 1 of 
 went on to IPOPT (iiwa-like; IPOPT solved it): it stays for such and for targets not reachable exactly."""
 
 
-def _ipopt_other_starts(
-    desc: RobotDescription,
-    theta: Array,
-    target: Array,
-    *,
-    seeds: Array,
-    w: Array,
-    v: Array,
-    missed: NDArray[np.intp],
-    position_only: bool,
-    runtime: Runtime,
-) -> NDArray[np.intp]:
-    """Exact IPOPT from the next nearest starts for the targets still missed; those still missed after."""
-    table = start_table(desc, theta, runtime)
+def _ipopt_other_starts(batch: IkBatch, *, v: Array, missed: NDArray[np.intp]) -> NDArray[np.intp]:
+    """Exact IPOPT from the next nearest starts for the targets still missed (solutions written into `v`);
+    those still missed after."""
+    table = start_table(batch.desc, batch.theta, batch.runtime)
     for j in range(1, IPOPT_STARTS):
         if missed.size == 0:
             break
-        other = table.nearest_k(target[missed], j + 1, position_only=position_only)[:, j, :]
-        v_j, exact = ipopt_solutions(
-            desc,
-            theta,
-            target[missed],
-            seeds[missed],
-            w,
-            start=other,
-            position_only=position_only,
-            exact=True,
-            runtime=runtime,
-        )
+        these = batch.subset(missed)
+        other = table.nearest_k(these.target, j + 1, position_only=batch.position_only)[:, j, :]
+        v_j, exact = ipopt_solutions(these, start=other, exact=True)
         v[missed[exact]] = v_j[exact]
         missed = missed[~exact]
     return missed
 
 
-def ipopt_solutions(
-    desc: RobotDescription,
-    theta: Array,
-    target: Array,
-    seeds: Array,
-    w: Array,
-    *,
-    start: Array,
-    position_only: bool,
-    exact: bool,
-    runtime: Runtime | None = None,
-) -> tuple[Array, NDArray[np.bool_]]:
+def ipopt_solutions(batch: IkBatch, *, start: Array, exact: bool) -> tuple[Array, NDArray[np.bool_]]:
     """IPOPT on each target, `IPOPT_CHUNK` targets per mapped call; returns the solutions and whether the
     equations hold."""
-    rt = runtime_for(desc, runtime)
+    desc, theta, target, seeds, w, position_only = (
+        batch.desc,
+        batch.theta,
+        batch.target,
+        batch.seeds,
+        batch.w,
+        batch.position_only,
+    )
+    rt = runtime_for(desc, batch.runtime)
     n = target.shape[0]
     solvers = ik_solvers(desc, rt)
     solver = solvers.solver(exact=exact, position_only=position_only)
@@ -343,5 +289,5 @@ def ipopt_solutions(
             g[a : a + k] = np.asarray(out["g"], dtype=float).T.reshape(k, -1)
     met = np.abs(g[:, :m]).max(axis=1) <= REACHED_MM if exact else np.zeros(n, dtype=bool)
     if exact and not desc.has_closure:
-        met &= _not_flipped(desc, theta, v, target, position_only=position_only, runtime=rt)
+        met &= _not_flipped(batch, v)
     return v, met & within_bounds(desc, theta, v)

@@ -15,6 +15,7 @@ from models.inverse import default_seed, routing, starts
 from models.inverse.kkt import kkt_functions, newton_kkt
 from models.inverse.nlp import bounds
 from models.inverse.problem import joint_weights
+from models.runtime import runtime_for
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, quaternion_to_matrix
 
@@ -96,9 +97,8 @@ def test_batch_newton_finds_the_ipopt_optimum(desc: RobotDescription, calibrated
         position_only=False,
     )
     ok &= routing.within_bounds(desc, theta, v)
-    reference, met = routing.ipopt_solutions(
-        desc, theta, target, seeds, w, start=start, position_only=False, exact=True
-    )
+    batch = routing.IkBatch(desc, theta, target, seeds, w, position_only=False, runtime=runtime_for(desc))
+    reference, met = routing.ipopt_solutions(batch, start=start, exact=True)
     assert ok.mean() > 0.8 and met.all()
     assert np.abs(v[ok] - reference[ok]).max() < 1e-5  # mm and rad: IPOPT's own tolerance
 
