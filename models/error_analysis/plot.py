@@ -39,9 +39,22 @@ def _title(result: ErrorAnalysisResult) -> str:
     )
 
 
-def _save(fig: Any, path: Path) -> None:
+def _label(ax: Any, title: str, ylabel: str, *, bottom: bool) -> None:
+    ax.set_title(title)
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    if bottom:  # the rows share their x axis: only the bottom one names it
+        ax.set_xlabel("pose")
+
+
+def _finish(plt: Any, fig: Any, axes: Any, result: ErrorAnalysisResult, path: Path) -> Path:
+    """One legend (every panel has the same lines), the study as title, the file written and the figure freed."""
+    axes[0, 0].legend(fontsize=8, ncol=2)
+    fig.suptitle(_title(result), fontsize=10)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def plot_absolute(result: ErrorAnalysisResult, path: str | Path) -> Path:
@@ -77,16 +90,8 @@ def plot_absolute(result: ErrorAnalysisResult, path: str | Path) -> Path:
                         linewidth=1.2 if exact else 0.9,
                         label=f"{_LABELS[sub]}, {'exact' if exact else 'first order'}",
                     )
-            ax.set_title(f"absolute {quantity} error, {how}")
-            ax.set_ylabel(f"|error| ({unit})")
-            ax.grid(alpha=0.3)
-            if row == 1:
-                ax.set_xlabel("pose")
-    axes[0, 0].legend(fontsize=8, ncol=2)
-    fig.suptitle(_title(result), fontsize=10)
-    _save(fig, out)
-    plt.close(fig)
-    return out
+            _label(ax, f"absolute {quantity} error, {how}", f"|error| ({unit})", bottom=row == 1)
+    return _finish(plt, fig, axes, result, out)
 
 
 def plot_axes(result: ErrorAnalysisResult, path: str | Path) -> Path:
@@ -116,13 +121,6 @@ def plot_axes(result: ErrorAnalysisResult, path: str | Path) -> Path:
                         label=f"{axis}, {'exact' if exact else 'first order'}",
                     )
             ax.axhline(0.0, color="black", linewidth=0.5)
-            ax.set_title(f"{quantity} error of the {_LABELS[sub]} (first draw)")
-            ax.set_ylabel(f"{quantity} error ({unit})")
-            ax.grid(alpha=0.3)
-            if row == 1:
-                ax.set_xlabel("pose")
-    axes[0, 0].legend(fontsize=8, ncol=2)
-    fig.suptitle(_title(result), fontsize=10)
-    _save(fig, out)
-    plt.close(fig)
-    return out
+            title = f"{quantity} error of the {_LABELS[sub]} (first draw)"
+            _label(ax, title, f"{quantity} error ({unit})", bottom=row == 1)
+    return _finish(plt, fig, axes, result, out)

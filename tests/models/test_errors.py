@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import inspect
-import json
 from typing import Any
 
 import numpy as np
@@ -16,6 +15,7 @@ from models.identification.options import IdentificationOptions
 from models.robot import RobotDescription
 from models.simulation import measure, perturbed_robot
 from models.workspace import sample_workspace
+from tests.error_trees import check_declared_fields
 
 CLASSES = [c for _, c in inspect.getmembers(errors, inspect.isclass) if issubclass(c, errors.CalibrationError)]
 SAMPLE: dict[str, Any] = {
@@ -49,20 +49,9 @@ SAMPLE: dict[str, Any] = {
 }
 
 
-def _keyword_fields(cls: type[errors.CalibrationError]) -> list[str]:
-    params = inspect.signature(cls.__init__).parameters.values()
-    return [p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY]
-
-
 @pytest.mark.parametrize("cls", CLASSES, ids=lambda c: c.__name__)
 def test_every_field_is_declared_and_appears_in_data(cls: type[errors.CalibrationError]) -> None:
-    names = _keyword_fields(cls)
-    assert set(names) == set(cls.fields), "the constructor's keyword-only arguments are the class's fields"
-    exc = cls("what went wrong", **{n: SAMPLE[n] for n in names})
-    assert exc.detail == str(exc) == "what went wrong"
-    assert list(exc.data) == list(cls.fields)
-    assert exc.data == {n: SAMPLE[n] for n in cls.fields}
-    json.dumps(exc.data, allow_nan=False)  # JSON-safe
+    check_declared_fields(cls, SAMPLE)
 
 
 def test_the_tree_in_the_docstring_names_every_class_and_its_fields() -> None:
