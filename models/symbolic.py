@@ -72,6 +72,9 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     A structure with model terms (`models.terms`) gives every Function that depends on them one more input,
     last: `conditions` (7 per pose). Without terms the graphs are exactly the geometric ones.
     """
+    # Long on purpose: one symbolic graph: every Function below shares the same symbols and sub-expressions (the
+    # closure, its Jacobians, the implicit-function terms), so splitting it would pass a dozen symbols between
+    # helpers.
     n_chain = desc.n_chain
     with_terms = desc.terms.any
 

@@ -148,6 +148,8 @@ def _limits(joint: Any) -> list[float]:
 
 def document_from_urdf(urdf: str, base_link: str, tip_link: str) -> Document:
     """The robots.md document of the URDF chain from `base_link` to `tip_link` (see the module docstring)."""
+    # Long on purpose: one pass down the chain, link by link: each joint's conversion needs the frame the
+    # previous one left.
     import yourdfpy  # a heavy import (trimesh), needed only by URDF requests
 
     check_size(urdf)

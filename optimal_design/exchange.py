@@ -238,6 +238,8 @@ def exchange(
     the small one has no improving swap; the design returned has no improving swap in the wide pool (every
     allowed candidate when there are at most LOWRANK_POOL, for D, A and I). With `spread`, only swaps that
     keep every pair of poses at least the minimum spread apart are considered."""
+    # Long on purpose: one local search whose loop state (the factorisation, the candidates' values) every step
+    # updates.
     crit = criterion_of(criterion)
     design = np.array(design)
     current = crit.utility(base + info.subset_information(design), info.task)

@@ -177,6 +177,8 @@ def first_order(
     (1.1 s) to ~0.2 s, M = 20 000 from 446 full iterations that hit the 40 s limit to ~1 s.
     `start` (weights of a nearby problem, e.g. the previous K of a scan) warm-starts the iterations.
     """
+    # Long on purpose: one algorithm (multiplicative updates, working set, certificate) whose loop state every
+    # step shares.
     started = time.perf_counter()
     crit = smooth(criterion)
     n = info.size
@@ -265,6 +267,8 @@ def newton_d(
     onto the capped simplex and halved until log det rises) reaches a 1e-6 gap in 4-6 iterations from the
     parent's weights, at K = 30 of 2 000. The bound is the same Frank–Wolfe certificate over every candidate as
     `first_order`'s (valid for any weights with M ≻ 0), so how the weights were found does not matter."""
+    # Long on purpose: one projected-Newton loop with its line search and certificate; every step shares its
+    # state.
     started = time.perf_counter()
     n = info.size
     if count <= 0 or count >= n or start.shape != (n,):
@@ -430,6 +434,8 @@ def sdp(
     ~400, and the larger screened set with column generation tightened both bounds at K = 30 of 2 000 (λ_min
     0.00528 -> 0.00519, condition number 7 786 -> 8 123).
     """
+    # Long on purpose: screening, the compressed solve and the certificate over all candidates: one chain of
+    # results.
     started = time.perf_counter()
     crit = spectral(criterion)
     d = d_relaxation or first_order(info, D_OPTIMAL, count, base)
@@ -499,6 +505,7 @@ def _compressed(
 ) -> tuple[Array | None, float | None, NDArray[Any] | None, str, int]:
     """One compressed SDP: (weights over all candidates, bound over all candidates, the candidates the bound
     picks, status, iterations)."""
+    # Long on purpose: the cvxpy problem written out in one place reads as the formulation it is.
     # Imported here, not with the module: cvxpy (and the scipy.stats it loads) is ~0.9 s of start-up that every
     # API, compute and job process would pay, most of which never solve a certified design.
     import cvxpy as cp  # noqa: PLC0415

@@ -309,6 +309,8 @@ def _d_floor(
 
     `soft` (a criterion's default floor): a floor above what the D design reaches is lowered to it instead of
     refused."""
+    # Long on purpose: the floor's three cases (none, reached, lowered) each need the D design and its bound
+    # built above.
     if not crit.takes_d_floor:
         raise InvalidInput(
             f"d_efficiency_floor applies to the {listing(names(lambda c: c.takes_d_floor))} criteria, "

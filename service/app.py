@@ -149,6 +149,8 @@ def make_runner(settings: Settings, db: Database, models: ModelCache, registry: 
 def create_app(settings: Settings | None = None, *, registry: Registry | None = None) -> FastAPI:
     """The application; it builds its own robot runtimes at start-up (`service.registry.build_registry`)
     unless given `registry` (tests share one across apps; whoever passes it has warmed it as they need)."""
+    # Long on purpose: the application's wiring in one place (state, middleware, routes, start-up and shutdown),
+    # in order.
     settings = settings or get_settings()
     logs.configure(settings.log_level)
 

@@ -87,3 +87,24 @@ def test_no_module_outside_the_stages_asks_for_a_hexapod_by_flag() -> None:
         if any(rel.startswith(allowed) for allowed in STAGE_AWARE):
             continue
         assert "has_hexapod" not in path.read_text(), rel
+
+
+LONGEST_LINES = 60
+
+
+def test_a_function_over_sixty_lines_says_why() -> None:
+    """A long function is a step that was not split: it must say why in a comment ("Long on purpose: …")."""
+    unexplained = []
+    for package in ("models", "optimal_design", "service", "harness"):
+        for path in sorted((ROOT / package).rglob("*.py")):
+            if "migrations" in path.parts:
+                continue
+            source = path.read_text()
+            lines = source.splitlines()
+            for node in ast.walk(ast.parse(source)):
+                if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                    assert node.end_lineno is not None
+                    body = lines[node.lineno - 1 : node.end_lineno]
+                    if len(body) > LONGEST_LINES and not any("# Long on purpose:" in line for line in body):
+                        unexplained.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({len(body)} lines)")
+    assert not unexplained, unexplained

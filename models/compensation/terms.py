@@ -85,6 +85,8 @@ def terms_inverse_kinematics(
     `runtime` serves `desc`'s structure (its checking FK), `geometric_runtime` the geometric one (`desc.geometric`).
     `seed`, `weights` and `follow` act on the effective joints (they differ from the commands by micrometres).
     """
+    # Long on purpose: the fixed-point loop between the geometric IK and the terms' correction carries its state
+    # across rounds.
     geo = desc.geometric
     rt = runtime_for(desc, runtime)
     geo_rt = runtime_for(geo, geometric_runtime)

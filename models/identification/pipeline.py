@@ -90,6 +90,8 @@ def identify(
     A fit that fails comes back with `status` FAILED and its reason; with `strict=True` it raises instead:
     `SolverFailed` when IPOPT did not converge, `InconsistentData` when the data cannot come from this robot.
     """
+    # Long on purpose: the pipeline's steps in order (validate, scale, solve, statistics, diagnoses), each a
+    # call, kept in one place so the order, which the result's meaning depends on, reads top to bottom.
     started = time.perf_counter()
     rt = runtime_for(desc, runtime)
     noise, options = _checked(noise or NoiseModel()), options or IdentificationOptions()
@@ -277,6 +279,7 @@ def _solve(
     Returns the problem of the last solve and its evaluation at the polished solution (None where the model
     is undefined there).
     """
+    # Long on purpose: the solve-reweigh-polish loop shares its evaluation counts and warm starts across rounds.
     pool = solver_pool(problem.runtime)
     lower, upper = solver_bounds(problem, options)
     z0 = np.clip(np.zeros(problem.n_free), lower, upper)

@@ -146,6 +146,8 @@ def newton_kkt(
     `periodic`: the variables (revolute joints whose range spans a full turn) that are first turned by whole
     turns back into their range, nearest the seed: there they are the same pose, not a bound to hold.
     """
+    # Long on purpose: one vectorised active-set iteration; its state (active bounds, step, convergence) is
+    # shared by every line.
     name = "ik_kkt_position" if position_only else "ik_kkt_pose"
     m = 3 if position_only else 6
     n, k = v.shape

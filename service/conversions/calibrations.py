@@ -104,6 +104,7 @@ def report_out(
 ) -> CalibrationReportPublic:
     """The whole report, boundary units. `nominal` is the robot's nominal geometry and `start` the start
     version's values (the fit's `result.nominal`), so a re-fit shows both."""
+    # Long on purpose: one report document built field by field: its sections read as the schema declares them.
     table = desc.parameters
     chosen = set(result.estimated)
     value = table.as_boundary(result.parameters).tolist()

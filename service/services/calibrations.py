@@ -1,12 +1,16 @@
 from __future__ import annotations
 
-import numpy as np
+from dataclasses import dataclass
 
-from models import Registry
+import numpy as np
+from sqlalchemy.orm import Session
+
+from models import Registry, RobotDescription
+from models._types import Array
 from models.errors import InvalidInput
 from models.identifiability import structural_identifiability
-from models.identification import IdentificationOptions, identify
-from models.identification.acceptance import acceptance_checks, decide
+from models.identification import IdentificationOptions, IdentificationResult, identify
+from models.identification.acceptance import Acceptance, acceptance_checks, decide
 from service.audit_actions import AuditAction
 from service.conversions.calibrations import (
     calibration_public,
@@ -23,8 +27,8 @@ from service.errors import CalibrationFailed, Conflict
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.repository import new_id
-from service.persistence.tables import ParameterVersion
-from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
+from service.persistence.tables import CalibrationRecord, ParameterVersion, Robot
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic
 from service.services.hooks import JobHooks
 
 
@@ -46,29 +50,81 @@ def calibrate(
     applies only over that version (a 409 otherwise, the calibration stored, not applied)."""
     if job is not None:
         job.progress("reading", 0.0)
+    start = _read_start(db, robot_id, body, if_match)
+    if job is not None:
+        job.progress("identifying", 0.05)
+    fit = _fit(registry, start, body)
+    if job is not None:
+        job.progress("storing", 0.95)
+    calibration_id = new_id()
+    answer, won_by = _store(db, robot_id, body, start, fit, calibration_id=calibration_id, actor=actor, job=job)
+    if not fit.result.succeeded:
+        raise CalibrationFailed(
+            f"the calibration failed and was not applied: {fit.result.reason} (stored as calibration {calibration_id})",
+            calibration_id=calibration_id,
+            diagnoses=diagnoses_out(fit.result),
+        )
+    if won_by is not None and job is None:  # after the commit: the calibration is stored, only not applied
+        raise Conflict(
+            _lost_race(calibration_id, start.version, won_by),
+            calibration_id=calibration_id,
+            start_version=start.version,
+            current_version=won_by,
+        )
+    return answer
+
+
+@dataclass(frozen=True)
+class _Start:
+    """What the fit starts from, read in one transaction: the model with the requested terms, and the start
+    version's number, values, per-parameter statistics (padded to the model's parameters) and the predicted
+    accuracy of the calibration that made it."""
+
+    desc: RobotDescription
+    version: int
+    values: Array
+    std_errors: list[float | None]
+    identifiable: list[float | None]
+    accuracy_mm: float | None
+
+
+def _read_start(db: Database, robot_id: str, body: CalibrationCreate, if_match: str | None) -> _Start:
     with db.reader() as s:
         repo = Repository(s)
         check_revision(repo.robot(robot_id), if_match)
         # The terms of `options.terms` (a 422 naming it for a robot without the parts they act on); the start
         # version's values for what it has, the terms' nominal values for what it has not.
         desc = requested_model(description(repo.robot(robot_id)), body.options.terms)
-        start_row = _start_version(repo, robot_id, body.start_version)
-        start_version = start_row.version
-        stored_values = np.asarray(start_row.values, dtype=float)
-        start_values = start_values_for(desc, stored_values)
-        same = stored_values.size == desc.n_params
-        start_std = padded(list(start_row.std_errors or []) if same else [], desc.n_params, None)
-        start_ident = padded(list(start_row.identifiable or []) if same else [], desc.n_params, False)
-        start_accuracy = _predicted_accuracy(repo, start_row)
+        row = _start_version(repo, robot_id, body.start_version)
+        stored = np.asarray(row.values, dtype=float)
+        same = stored.size == desc.n_params
+        return _Start(
+            desc=desc,
+            version=row.version,
+            values=start_values_for(desc, stored),
+            std_errors=padded(list(row.std_errors or []) if same else [], desc.n_params, None),
+            identifiable=padded(list(row.identifiable or []) if same else [], desc.n_params, False),
+            accuracy_mm=_predicted_accuracy(repo, row),
+        )
+
+
+@dataclass(frozen=True)
+class _Fit:
+    result: IdentificationResult
+    decision: Acceptance
+    report: CalibrationReportPublic
+
+
+def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
+    """The identification, its acceptance checks and the decision, and the report (nothing stored yet)."""
+    desc = start.desc
     campaign = campaign_in(desc, body)
     options = options_in(body)
-    if job is not None:
-        job.progress("identifying", 0.05)
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
     noise = noise_in(body)
     runtime = registry.runtime(desc)
-    result = identify(desc, campaign, noise=noise, nominal=start_values, options=options, runtime=runtime)
+    result = identify(desc, campaign, noise=noise, nominal=start.values, options=options, runtime=runtime)
     candidates = desc.parameters.indices(options.estimate)
     expected = structural_identifiability(desc, candidates, campaign.kind, runtime=runtime).rank
     everything = structural_identifiability(
@@ -78,31 +134,44 @@ def calibrate(
     checks = acceptance_checks(
         result,
         expected_rank=expected,
-        start_accuracy_mm=start_accuracy,
+        start_accuracy_mm=start.accuracy_mm,
         sigma_mm=body.noise.position_mm,
-        held_accuracy_mm=start_accuracy if partial else None,
+        held_accuracy_mm=start.accuracy_mm if partial else None,
     )
     decision = decide(checks, succeeded=result.succeeded, requested=body.apply, force=body.force_apply)
     report = report_out(
-        desc, result, start_values=start_values, start_version=start_version, checks=checks, noise=noise
+        desc, result, start_values=start.values, start_version=start.version, checks=checks, noise=noise
     )
-    records = [r.model_dump() for r in body.measurements]
-    calibration_id = new_id()
-    if job is not None:
-        job.progress("storing", 0.95)
+    return _Fit(result, decision, report)
+
+
+def _store(
+    db: Database,
+    robot_id: str,
+    body: CalibrationCreate,
+    start: _Start,
+    fit: _Fit,
+    *,
+    calibration_id: str,
+    actor: Actor | None,
+    job: JobHooks | None,
+) -> tuple[CalibrationPublic, int | None]:
+    """The campaign, the calibration and, when applied, the new version and its audit event, in one
+    transaction; (the calibration as stored, the version that won the race if another became current)."""
+    result, decision = fit.result, fit.decision
     won_by: int | None = None
     with db.session() as s:
         repo = Repository(s)
         robot = repo.robot(robot_id, lock=True)  # still there, and one calibration at a time per robot
-        if decision.apply and robot.current_version != start_version:
+        if decision.apply and robot.current_version != start.version:
             # Optimistic concurrency: another writer made a version while this fit ran (or the fit started
             # from an older one). Applying would silently discard that version's work; keep this one stored.
             won_by = robot.current_version
-            decision = decision.superseded(_lost_race(calibration_id, start_version, won_by))
-        stored = repo.add_campaign(robot_id, records)
-        document = report.model_copy(
+            decision = decision.superseded(_lost_race(calibration_id, start.version, won_by))
+        stored = repo.add_campaign(robot_id, [r.model_dump() for r in body.measurements])
+        document = fit.report.model_copy(
             update={
-                "notes": [*body.import_notes, *report.notes],
+                "notes": [*body.import_notes, *fit.report.notes],
                 "not_applied_reason": decision.reason,
                 "forced": decision.forced,
             }
@@ -110,56 +179,47 @@ def calibrate(
         record = repo.add_calibration(
             calibration_id, robot_id, stored.id, result.status, document.model_dump(mode="json")
         )
-        record.start_version = start_version
+        record.start_version = start.version
         record.notes = body.notes
         record.instrument = None if body.instrument is None else body.instrument.model_dump()
         if decision.apply:
-            # What this fit estimated carries its new statistics; the rest keeps the start version's.
-            std, ident = start_std, start_ident
-            for i in result.estimated:
-                value = float(result.std_errors[i])
-                std[i], ident[i] = (value if np.isfinite(value) else None), True
-            previous = robot.current_version
-            who = actor or Actor()
-            record.parameter_version = Lifecycle(s).add_version(
-                robot,
-                values=result.parameters.tolist(),
-                std_errors=std,
-                identifiable=ident,
-                provenance="calibration",
-                actor=who,
-                calibration_id=calibration_id,
-            )
-            record.applied = True
-            Lifecycle(s).changed(
-                robot,
-                AuditAction.VERSION_CALIBRATED,
-                who,
-                version=record.parameter_version,
-                # `forced` only when it was: an applied calibration that failed a check (force_apply).
-                details={"from_version": previous, "calibration_id": calibration_id}
-                | ({"forced": True} if decision.forced else {}),
-            )
+            _apply(s, robot, record, start, fit, who=actor or Actor())
         if job is not None and result.succeeded:
             # The job's `succeeded` joins this transaction (a calibration that lost the race is stored, not
             # applied: its job did its work, the reason is in the result); a failed fit ends the job `failed`
             # below, with the same problem the synchronous request answers.
             job.commit(s, calibration_id)
-        answer = calibration_public(record)
-    if not result.succeeded:
-        raise CalibrationFailed(
-            f"the calibration failed and was not applied: {result.reason} (stored as calibration {calibration_id})",
-            calibration_id=calibration_id,
-            diagnoses=diagnoses_out(result),
-        )
-    if won_by is not None and job is None:  # after the commit: the calibration is stored, only not applied
-        raise Conflict(
-            _lost_race(calibration_id, start_version, won_by),
-            calibration_id=calibration_id,
-            start_version=start_version,
-            current_version=won_by,
-        )
-    return answer
+        return calibration_public(record), won_by
+
+
+def _apply(s: Session, robot: Robot, record: CalibrationRecord, start: _Start, fit: _Fit, *, who: Actor) -> None:
+    """The fit's parameters become the robot's new version, with its audit event (inside `_store`'s
+    transaction). What this fit estimated carries its new statistics; the rest keeps the start version's."""
+    result, calibration_id = fit.result, record.id
+    std, ident = list(start.std_errors), list(start.identifiable)
+    for i in result.estimated:
+        value = float(result.std_errors[i])
+        std[i], ident[i] = (value if np.isfinite(value) else None), True
+    previous = robot.current_version
+    record.parameter_version = Lifecycle(s).add_version(
+        robot,
+        values=result.parameters.tolist(),
+        std_errors=std,
+        identifiable=ident,
+        provenance="calibration",
+        actor=who,
+        calibration_id=calibration_id,
+    )
+    record.applied = True
+    Lifecycle(s).changed(
+        robot,
+        AuditAction.VERSION_CALIBRATED,
+        who,
+        version=record.parameter_version,
+        # `forced` only when it was: an applied calibration that failed a check (force_apply).
+        details={"from_version": previous, "calibration_id": calibration_id}
+        | ({"forced": True} if fit.decision.forced else {}),
+    )
 
 
 def _lost_race(calibration_id: str, start_version: int, won_by: int) -> str:

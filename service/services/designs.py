@@ -1,6 +1,6 @@
 from __future__ import annotations
 
-from models import Registry
+from models import Registry, RobotDescription
 from models.errors import InvalidInput
 from optimal_design import DesignOptions, design_for_target, design_poses
 from service.conversions.designs import (
@@ -32,35 +32,9 @@ def create_design(
     the job's own `succeeded` when run as one)."""
     if job is not None:
         job.progress("reading", 0.0)
-    desc, theta = models.current(robot_id)
-    if body.terms:
-        # A design for a calibration with model terms: their columns, at the levels the user can set.
-        if body.target is not None:
-            raise InvalidInput("terms: a design with model terms takes a count, not a target", field="terms")
-        desc = requested_model(desc, body.terms)
-        theta = start_values(desc, theta)
-    levels = design_levels(desc, body.temperature_levels_c, body.payload_levels)
-    runtime = registry.runtime(desc)
-    if body.candidates is not None and not body.candidates:
-        raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
-    candidates = joints_in(desc, body.candidates) if body.candidates is not None else None
-    fixed = joints_in(desc, body.fixed) if body.fixed is not None else None
-    joint_ranges, keep_out = constraints_in(desc, body)
+    desc, common = _problem(models, registry, robot_id, body)
     if job is not None:
         job.progress("designing", 0.05)
-    # What both kinds of design take (the request's options in internal units).
-    common = DesignOptions(
-        candidates=candidates,
-        candidate_count=body.candidate_count,
-        seed=body.seed,
-        fixed=fixed,
-        params=theta,
-        joint_ranges=joint_ranges,
-        keep_out=keep_out,
-        min_spread=body.min_spread,
-        runtime=runtime,
-        levels=levels,  # None without model terms, which the target mode refuses above
-    )
     if body.target is not None:
         found = design_for_target(
             desc,
@@ -70,7 +44,9 @@ def create_design(
             measurement=body.measurement,
             **common,
         )
-        report_model = target_report_out(desc, found, candidates_given=candidates is not None, criterion=body.criterion)
+        report_model = target_report_out(
+            desc, found, candidates_given=body.candidates is not None, criterion=body.criterion
+        )
     else:
         assert body.count is not None  # the schema asks for count or target
         design = design_poses(
@@ -82,7 +58,7 @@ def create_design(
             bound_seconds=body.bound_seconds,
             **common,
         )
-        report_model = report_out(desc, design, candidates_given=candidates is not None)
+        report_model = report_out(desc, design, candidates_given=body.candidates is not None)
     report = report_model.model_dump(mode="json")
     if job is not None:
         job.progress("storing", 0.95)
@@ -93,6 +69,37 @@ def create_design(
         if job is not None:
             job.commit(s, record.id)
         return design_public(record)
+
+
+def _problem(
+    models: ModelCache, registry: Registry, robot_id: str, body: PoseDesignCreate
+) -> tuple[RobotDescription, DesignOptions]:
+    """The model to design on (the current parameters, with the requested terms) and the request's options in
+    internal units."""
+    desc, theta = models.current(robot_id)
+    if body.terms:
+        # A design for a calibration with model terms: their columns, at the levels the user can set.
+        if body.target is not None:
+            raise InvalidInput("terms: a design with model terms takes a count, not a target", field="terms")
+        desc = requested_model(desc, body.terms)
+        theta = start_values(desc, theta)
+    levels = design_levels(desc, body.temperature_levels_c, body.payload_levels)
+    if body.candidates is not None and not body.candidates:
+        raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
+    joint_ranges, keep_out = constraints_in(desc, body)
+    options = DesignOptions(
+        candidates=joints_in(desc, body.candidates) if body.candidates is not None else None,
+        candidate_count=body.candidate_count,
+        seed=body.seed,
+        fixed=joints_in(desc, body.fixed) if body.fixed is not None else None,
+        params=theta,
+        joint_ranges=joint_ranges,
+        keep_out=keep_out,
+        min_spread=body.min_spread,
+        runtime=registry.runtime(desc),
+        levels=levels,  # None without model terms, which the target mode refuses above
+    )
+    return desc, options
 
 
 def get_design(*, db: Database, design_id: str) -> PoseDesignPublic:
