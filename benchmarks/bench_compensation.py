@@ -13,6 +13,7 @@ from models.compensation import inverse_kinematics
 from models.identification import identify
 from models.inverse import default_seed, routing, starts
 from models.inverse.problem import joint_weights
+from models.runtime import runtime_for
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion
 
@@ -39,16 +40,10 @@ def run() -> dict[str, object]:
     _, nearest = table.pose_tree.query(starts.features(positions, fk.rotations))
     seeds = np.tile(default_seed(desc), (n, 1))
     started = time.perf_counter()
-    routing.ipopt_solutions(
-        desc,
-        theta,
-        target_rows,
-        seeds,
-        joint_weights(desc, None),
-        start=table.start[nearest],
-        position_only=False,
-        exact=True,
+    batch = routing.IkBatch(
+        desc, theta, target_rows, seeds, joint_weights(desc, None), position_only=False, runtime=runtime_for(desc)
     )
+    routing.ipopt_solutions(batch, start=table.start[nearest], exact=True)
     ipopt_s = time.perf_counter() - started
     return {
         "first_call_new_calibration_s": first_s,
