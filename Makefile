@@ -12,7 +12,8 @@ RUNTIME_STAMP := $(VENV)/.installed-runtime
 LOCK_FLAGS := --quiet --no-emit-index-url --no-emit-find-links --no-emit-trusted-host --strip-extras \
 	--annotation-style=line
 
-.PHONY: install install-runtime lock test test-fast lint typecheck pytest bench run clean error-analysis browser fuzz
+.PHONY: install install-runtime lock test test-fast lint typecheck pytest bench run clean error-analysis browser fuzz \
+	audit
 
 # The installer is uv, itself pinned: `make install` on a clean clone takes ~11 s where pip took ~69 s
 # (downloads in parallel, no bytecode compiled up front; measured here, 2026-12-02), a tenth of `make test`'s
@@ -44,6 +45,7 @@ install-runtime: $(RUNTIME_STAMP)
 lock: $(STAMP)
 	$(BIN)/pip-compile $(LOCK_FLAGS) --upgrade -o $(RUNTIME_LOCK) pyproject.toml
 	$(BIN)/pip-compile $(LOCK_FLAGS) --upgrade --extra dev -c $(RUNTIME_LOCK) -o $(DEV_LOCK) pyproject.toml
+	$(BIN)/pip-compile $(LOCK_FLAGS) -o requirements/audit.lock requirements/audit.in
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
@@ -109,6 +111,22 @@ fuzz: $(STAMP)
 	IWR_FUZZ_EXAMPLES=150 IWR_FUZZ_STEPS=10 $(BIN)/pytest -p no:cacheprovider tests/service/test_contract_fuzz.py
 	IWR_URDF_FUZZ_EXAMPLES=2000 $(BIN)/pytest -p no:cacheprovider tests/models/test_urdf_fuzz.py
 
+# The dependency audit: pip-audit, in a venv of its own (requirements/audit.lock: the tool never imports the
+# project), looks up every pinned package of both lock files in an advisory database, PyPI's by default
+# (`make audit AUDIT_SERVICE=osv` for OSV's). --strict makes a package it could not look up a failure, so an
+# unreachable or partial source never reads as "no known vulnerabilities". Not part of `make test`: no advisory
+# source is reachable from this machine or its CI (docs/security.md says how to run it where one is).
+AUDIT_VENV := .venv-audit
+AUDIT_SERVICE ?= pypi
+$(AUDIT_VENV)/.installed: requirements/audit.lock | $(VENV)/bin/python
+	$(PYTHON) -m venv $(AUDIT_VENV)
+	$(BIN)/uv pip install --quiet --python $(AUDIT_VENV)/bin/python -r requirements/audit.lock
+	touch $@
+
+audit: $(AUDIT_VENV)/.installed
+	$(AUDIT_VENV)/bin/pip-audit --strict --no-deps --disable-pip --progress-spinner off \
+	  --vulnerability-service $(AUDIT_SERVICE) -r $(RUNTIME_LOCK) -r $(DEV_LOCK)
+
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
 
@@ -122,4 +140,4 @@ run: $(RUNTIME_STAMP)
 	$(BIN)/python -m service --host $(HOST) --port $(PORT)
 
 clean:
-	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .coverage .import_linter_cache
+	rm -rf $(VENV) $(AUDIT_VENV) .mypy_cache .ruff_cache .pytest_cache .coverage .import_linter_cache

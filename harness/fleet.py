@@ -72,12 +72,12 @@ class Fleet:
             **self.extra,
         }
 
-    def _popen(self, name: str, args: list[str]) -> subprocess.Popen[bytes]:
+    def _popen(self, name: str, args: list[str], **own: str) -> subprocess.Popen[bytes]:
         with (self.logs / f"{name}.log").open("ab") as log:  # the child keeps its own descriptor
             return subprocess.Popen(
                 [sys.executable, *args],
                 cwd=ROOT,
-                env=self.env(),
+                env={**self.env(), **own},
                 stdout=log,
                 stderr=subprocess.STDOUT,
                 start_new_session=True,
@@ -92,8 +92,9 @@ class Fleet:
         self.apis[name] = (process, base)
         return base
 
-    def start_worker(self, name: str) -> subprocess.Popen[bytes]:
-        process = self._popen(name, ["-m", "service.worker"])
+    def start_worker(self, name: str, **own: str) -> subprocess.Popen[bytes]:
+        """`own`: environment of this worker alone (e.g. a crash point, `service.faults`)."""
+        process = self._popen(name, ["-m", "service.worker"], **own)
         self.workers[name] = process
         return process
 

@@ -42,7 +42,7 @@ import anyio
 from models import Registry
 from models.cancellation import CancellationToken, cancellable
 from service import logs
-from service.errors import Overloaded
+from service.errors import Overloaded, ParseTimeout
 from service.model_cache import ModelCache
 from service.persistence import Database
 from service.registry import build_registry
@@ -236,12 +236,31 @@ class ComputePool:
             with self._lock:
                 self._parser = None
             future = self._parse_pool().submit(fn, *args)
+        deadline = self.settings.parse_deadline_seconds
         try:
-            return await asyncio.wrap_future(future)
+            return await asyncio.wait_for(asyncio.wrap_future(future), deadline)
+        except TimeoutError:
+            self._kill_parser()
+            raise ParseTimeout(
+                f"the body was not read within {deadline:g} s (the parse deadline) and was dropped; send less in "
+                "one request (a campaign in parts, fewer targets)",
+                limit_s=deadline,
+            ) from None
         except BrokenProcessPool:
             with self._lock:
                 self._parser = None
             raise Overloaded("the parse process stopped; retry", retry_after=1) from None
+
+    def _kill_parser(self) -> None:
+        """End the parse process that holds a body past its deadline; the next body gets a new one. The bodies
+        queued behind it fail with the broken pool and are answered 503 to retry. (ProcessPoolExecutor has no
+        public way to stop a running call before Python 3.14: its processes are killed directly.)"""
+        with self._lock:
+            parser, self._parser = self._parser, None
+        if parser is not None:
+            for process in _processes_of(parser):
+                process.kill()
+            parser.shutdown(wait=False)
 
     async def run(self, task: Task, token: CancellationToken) -> Any:
         """Run `task`; when `token` is set meanwhile, the computation is told to stop (models.cancellation)."""
@@ -308,5 +327,10 @@ class ComputePool:
         for pool in pools:
             if pool is not None:
                 pool.shutdown(wait=False, cancel_futures=True)
-                for process in list((getattr(pool, "_processes", None) or {}).values()):
+                for process in _processes_of(pool):
                     process.terminate()
+
+
+def _processes_of(pool: ProcessPoolExecutor) -> list[Any]:
+    """The pool's live processes (a private attribute: the executor offers no other way to end them)."""
+    return list((getattr(pool, "_processes", None) or {}).values())

@@ -21,6 +21,7 @@ other root `service.problems` renders):
     ├── IdempotencyKeyReused()                         422  an Idempotency-Key sent again with another request
     ├── WorkTooLarge(estimated_s, estimated_bytes, limit_s, limit_bytes, use_async)
     │                                                  422  more work than a synchronous request (or any job)
+    ├── ParseTimeout(limit_s)                          422  a body not read within the parse deadline
     ├── Overloaded(retry_after)                        503  every compute slot busy
     ├── ClientGone()                                   503  the client left before its computation started
     ├── JobFinished(job_status)                        409  DELETE of a job that already ended
@@ -149,6 +150,13 @@ class WorkTooLarge(ServiceError):
     limit_s: float
     limit_bytes: int | None = None
     use_async: bool | None = None
+
+
+@declared
+class ParseTimeout(ServiceError):
+    """A body whose reading passed the parse deadline (`limit_s`): dropped, its parse process replaced."""
+
+    limit_s: float
 
 
 @declared

@@ -51,6 +51,7 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     service.Conflict: (409, "conflict", "Conflict"),
     service.IdempotencyKeyReused: (422, "idempotency-key-reused", "Idempotency-Key reused"),
     service.WorkTooLarge: (422, "work-too-large", "Too much work for one request"),
+    service.ParseTimeout: (422, "parse-timeout", "The body took too long to read"),
     service.Overloaded: (503, "overloaded", "Overloaded"),
     service.ClientGone: (503, "client-gone", "Client gone"),
     service.RequestTimeout: (408, "request-timeout", "Request timeout"),

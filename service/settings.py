@@ -31,6 +31,13 @@ class Settings(BaseSettings):
         description="A synchronous computation still running after this is stopped where it can be and answered "
         "503 (none: no deadline). `python -m service` defaults it to service.limits.COMPUTE_DEADLINE_S (5 s).",
     )
+    parse_deadline_seconds: float = Field(
+        default=15.0,
+        gt=0,
+        description="A large body still being read (parsed and checked in the parse process) after this is "
+        "refused with 422 and its process replaced, so the bodies behind it are not held (a 20 MB calibration, the "
+        "largest body the limit admits, is read in ~0.8 s here).",
+    )
     header_timeout_seconds: float = Field(
         default=10.0, gt=0, description="A request's line and headers within this, else 408 and closed."
     )

@@ -57,7 +57,7 @@ def test_runtime_lock_has_no_dev_tools_and_dev_lock_agrees_with_it() -> None:
     assert {name: dev[name] for name in runtime} == runtime
 
 
-@pytest.mark.parametrize("lock", ["runtime.lock", "dev.lock"])
+@pytest.mark.parametrize("lock", ["runtime.lock", "dev.lock", "audit.lock"])
 def test_lock_is_portable(lock: str) -> None:
     """No index URL, wheel folder, local path or hash of this machine: a clean clone elsewhere installs it."""
     lines = [line.strip() for line in (ROOT / "requirements" / lock).read_text().splitlines()]
@@ -65,3 +65,16 @@ def test_lock_is_portable(lock: str) -> None:
     assert entries
     assert not [line for line in entries if not PIN.fullmatch(line)], "only name==version lines"
     assert not [line for line in entries if "file:" in line or "://" in line or "--" in line]
+
+
+def test_the_audit_tool_is_locked_as_declared_and_fails_on_what_it_cannot_look_up() -> None:
+    """`make audit`'s tool is pinned at the version requirements/audit.in names; the audit runs --strict, so a
+    package the advisory source does not know (an unreachable or partial source) fails it instead of passing."""
+    declared = {
+        canonicalize_name(m[1]): m[2]
+        for line in (ROOT / "requirements" / "audit.in").read_text().splitlines()
+        if (m := PIN.match(line))
+    }
+    assert declared == {"pip-audit": _locked("audit.lock")["pip-audit"]}
+    recipe = (ROOT / "Makefile").read_text().split("\naudit:", 1)[1].split("\n\n", 1)[0]
+    assert "--strict" in recipe and "$(RUNTIME_LOCK)" in recipe and "$(DEV_LOCK)" in recipe

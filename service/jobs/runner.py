@@ -27,6 +27,7 @@ from sqlalchemy.orm import Session
 
 from models import Registry
 from models.cancellation import CancellationToken, Cancelled, cancellable
+from service.faults import crash_point
 from service.model_cache import ModelCache
 from service.persistence import Database
 from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed
@@ -158,6 +159,9 @@ def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
                     request=claim.request,
                     job=lease,
                 )
+            # The job's row says succeeded in the same commit as what it made; a death here (before the broker's
+            # acknowledgement) must cost nothing but a redelivery that finds the job done.
+            crash_point("job-committed")
             status = "succeeded"
         except (LeaseLost, Cancelled) as stopped:
             if isinstance(stopped, Cancelled) and not lease.lost:

@@ -15,7 +15,7 @@ from models import Registry, cancellation, iwr
 from models.cancellation import CancellationToken, Cancelled
 from service import compute
 from service.compute import ComputePool, Task
-from service.errors import NotFound, Overloaded
+from service.errors import NotFound, Overloaded, ParseTimeout
 from service.guards import too_many_keys
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
@@ -155,3 +155,35 @@ def test_a_process_serves_from_its_own_registry(pool: ComputePool) -> None:
     _, child = anyio.run(main)
     assert child != os.getpid()
     assert len(pool.local.registry) == 0  # nothing was built in this process's registry
+
+
+def _alive(process_id: int) -> bool:
+    try:
+        os.kill(process_id, 0)
+    except ProcessLookupError:
+        return False
+    return Path(f"/proc/{process_id}/stat").read_text().split()[2] != "Z"  # a zombie is dead, not yet reaped
+
+
+def test_a_parse_past_its_deadline_is_refused_and_frees_the_parse_process(
+    pool: ComputePool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    async def main() -> tuple[int, float, int]:
+        stuck = int(await pool.call(pid))  # the parse process, started under the default deadline
+        monkeypatch.setattr(pool.settings, "parse_deadline_seconds", 0.5)
+        started = time.perf_counter()
+        with pytest.raises(ParseTimeout) as refused:
+            await pool.call(time.sleep, 60)  # a parse that would hold the process for a minute
+        took = time.perf_counter() - started
+        assert refused.value.data == {"limit_s": 0.5}
+        monkeypatch.setattr(pool.settings, "parse_deadline_seconds", 15.0)  # the next one starts a process
+        fresh = int(await pool.call(pid))
+        return stuck, took, fresh
+
+    stuck, took, fresh = anyio.run(main)
+    assert took < 2.0, took  # the deadline, not the minute
+    assert fresh != stuck  # a new parse process serves the next body
+    deadline = time.monotonic() + 5
+    while _alive(stuck) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not _alive(stuck), "the stuck parse process was ended, not left running"

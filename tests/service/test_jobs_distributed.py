@@ -90,6 +90,29 @@ def test_kill_9_of_the_worker_mid_job_redelivers_it_and_it_succeeds_once(pg: str
             assert len(designs) == 1 and job["result"]["poses"]
 
 
+@pytest.mark.slow  # one worker, one job: ~10 s
+def test_a_worker_killed_after_the_job_committed_leaves_one_result(pg: str, tmp_path: Path) -> None:
+    """The pool process dies (as kill -9) after the transaction that stored the calibration and marked the job
+    succeeded, before the broker's acknowledgement: the message comes back, the redelivery finds the job done."""
+    with fleet(pg, broker(RABBITMQ), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
+        base = f.start_api("api")
+        f.start_worker("w", IWR_FAULT="job-committed")
+        f.wait_ready("w")
+        _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
+        status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(60))
+        assert status == 202, accepted
+        job = wait_for(base, [accepted["job_id"]], timeout=120)[accepted["job_id"]]
+        deadline = time.monotonic() + 60
+        log = f.logs / "w.log"
+        while log.read_text().count("iwr.run_job[") < 3 and time.monotonic() < deadline:
+            time.sleep(0.1)  # received, lost with its process, received again and succeeded
+        text = log.read_text()
+        assert "WorkerLostError" in text and text.count("iwr.run_job[") >= 3, text[-3000:]
+        _, again = call(base, "GET", f"/v1/jobs/{accepted['job_id']}")
+        assert again == job and job["status"] == "succeeded" and job["attempts"] == 1, job
+        assert _rows(pg, robot["id"]) == (1, 2), "one calibration row, one new parameter version"
+
+
 @pytest.mark.slow  # 2 APIs, 2 workers, 200 jobs, a restart and a kill: ~90 s here
 def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_kill(pg: str, tmp_path: Path) -> None:
     with fleet(pg, broker(RABBITMQ), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
