@@ -57,6 +57,8 @@ class TargetDesign:
     """The error with every admissible candidate measured: nothing below it can be reached."""
     fixed_mm: float | None
     """The error of the fixed poses alone (None without fixed poses or when they identify nothing)."""
+    measurement: str
+    """The kind of measurement designed for (what the report says even when no pose is needed)."""
     seconds: float
     notes: tuple[str, ...] = field(default=())
 
@@ -95,6 +97,7 @@ def design_for_target(
             curve=(),
             reachable_mm=_error(problem, problem.base + info.information(np.ones(info.size)), key),
             fixed_mm=fixed_mm,
+            measurement=inputs.measurement,
             seconds=time.perf_counter() - started,
             notes=("the fixed poses already reach the target: no more are needed",),
         )
@@ -123,6 +126,7 @@ def design_for_target(
         curve=tuple(search.curve()),
         reachable_mm=reachable,
         fixed_mm=fixed_mm,
+        measurement=inputs.measurement,
         seconds=time.perf_counter() - started,
         notes=tuple(notes),
     )

@@ -76,7 +76,7 @@ def target_report_out(
     return PoseDesignReportPublic.model_validate(
         {
             "criterion": criterion,
-            "measurement": MeasurementKind.POSE.value,  # a target no design reaches: no poses, nothing measured
+            "measurement": MeasurementKind.of(found.measurement).value,  # what was asked for; no pose is needed
             "count": 0,
             "poses": [],
             "indices": [] if candidates_given else None,

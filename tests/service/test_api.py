@@ -249,6 +249,18 @@ def test_pose_design_for_a_target_accuracy(client: TestClient, robot_id: str) ->
     assert both.status_code == 422 and "either count" in both.json()["detail"]
 
 
+def test_a_target_the_fixed_poses_already_reach_needs_none_and_names_the_measurement(
+    client: TestClient, robot_id: str
+) -> None:
+    fixed = (sample_workspace(DESC, 60, seed=81) * DESC.joint_to_boundary).tolist()
+    body = {"target": {"rms_tcp_mm": 1.0}, "fixed": fixed, "measurement": "position", "candidate_count": 100}
+    r = client.post(f"/v1/robots/{robot_id}/pose-designs", json=body)
+    assert r.status_code == 201, r.text
+    design = r.json()
+    assert design["count"] == 0 and design["poses"] == [] and design["measurement"] == "position"
+    assert design["fixed_mm"] is not None and design["fixed_mm"] <= 1.0
+
+
 def test_pose_design_constraints(client: TestClient, robot_id: str) -> None:
     url = f"/v1/robots/{robot_id}/pose-designs"
     r = client.post(
