@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from models._types import Array
-from models.identification.residuals import CampaignProblem
+from models.identification.residuals import FitProblem
 
 POLISH_STEPS = 4
 POLISH_DECREMENT = 1e-6
 """Gauss–Newton polishing stops when the next step would lower Σr² by less than this (in σ²)."""
 
 
-def polish(problem: CampaignProblem, z: Array, lower: Array, upper: Array) -> tuple[Array, int]:
+def polish(problem: FitProblem, z: Array, lower: Array, upper: Array) -> tuple[Array, int]:
     """Full Gauss–Newton steps after IPOPT until the next one would lower Σr² by < POLISH_DECREMENT σ².
 
     IPOPT stops on an absolute gradient test; in a badly conditioned campaign that can leave the weakest

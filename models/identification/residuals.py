@@ -12,6 +12,7 @@ poses) and differentiated by the implicit function theorem in the compiled
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -63,6 +64,15 @@ class Evaluation:
     gradient: Array
     hessian: Array
     """Gauss–Newton (IRLS for robust losses): Σ ρ'ᵢ Jᵢᵀ Jᵢ, positive semi-definite."""
+
+
+class FitProblem(Protocol):
+    """What the solver and the polish ask of a least-squares problem: its unknowns and everything at a point."""
+
+    @property
+    def n_free(self) -> int: ...
+
+    def evaluate(self, z: Array) -> Evaluation | None: ...
 
 
 @dataclass

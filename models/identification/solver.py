@@ -31,7 +31,7 @@ import numpy as np
 
 from models import cancellation
 from models._types import Array
-from models.identification.residuals import CampaignProblem
+from models.identification.residuals import FitProblem
 from models.runtime import Runtime
 
 IPOPT_OPTIONS: dict[str, Any] = {
@@ -144,7 +144,7 @@ class _StopWhenCancelled(ca.Callback):  # type: ignore[misc]
 class _Solver:
     def __init__(self, n: int, max_iter: int) -> None:
         self.n = n
-        self._problem: CampaignProblem | None = None
+        self._problem: FitProblem | None = None
         self._callbacks = [
             _Callback("lsq_grad", self, "grad", n),
             _Callback("lsq_hess", self, "hess", n),
@@ -162,12 +162,12 @@ class _Solver:
         }
         self.nlp = ca.nlpsol(f"calibration_{n}", "ipopt", {"x": z, "f": f(z, ca.MX(0, 1))}, options)
 
-    def problem(self) -> CampaignProblem:
+    def problem(self) -> FitProblem:
         if self._problem is None:
             raise RuntimeError("solver called without a problem")  # a bug here, never the user's data
         return self._problem
 
-    def solve(self, problem: CampaignProblem, z0: Array, lower: Array, upper: Array) -> IpoptRun:
+    def solve(self, problem: FitProblem, z0: Array, lower: Array, upper: Array) -> IpoptRun:
         self._problem = problem
         started = time.perf_counter()
         try:
@@ -209,7 +209,7 @@ class SolverPool:
         self._idle: dict[tuple[int, int], list[_Solver]] = {}
         self._lock = threading.Lock()
 
-    def solve(self, problem: CampaignProblem, z0: Array, lower: Array, upper: Array, max_iter: int = 100) -> IpoptRun:
+    def solve(self, problem: FitProblem, z0: Array, lower: Array, upper: Array, max_iter: int = 100) -> IpoptRun:
         solver = self._take(problem.n_free, max_iter)
         try:
             return solver.solve(problem, z0, lower, upper)

@@ -1,0 +1,320 @@
+"""Identification from records against references (ballbar anchors, fixed points, planes): the robot's
+parameters and every reference's unknowns in one weighted least-squares problem, solved by IPOPT through the
+same solver pool as a tracker campaign, with its covariance and χ² check.
+
+What these data cannot see is said, not guessed. No reference fixes a frame (`Reference.fixes_frame`): moving
+the robot's base moves every anchor, point and plane with it, so the base transform is held at its start value
+and reported unidentifiable, and the references are identified in the frame that base defines. Of the rest,
+the references' own unknowns are kept first (a reference the data do not determine is refused, naming it), and
+the robot's parameters are chosen from what those leave (QR with column pivoting on the columns projected off
+the references'), so a redundancy is resolved against the robot's parameter, never a reference's.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from models._types import Array
+from models.errors import InvalidInput, TooFewMeasurements
+from models.identifiability import analyse_identifiability
+from models.identification.options import IdentificationOptions
+from models.identification.polish import polish
+from models.identification.residuals import Evaluation
+from models.identification.solver import IpoptRun, solver_pool
+from models.identification.statistics import Covariance, covariance
+from models.kinematics import forward_kinematics
+from models.measurements.references import ReferenceRecords
+from models.noise import NoiseModel
+from models.parameters import ParameterTable
+from models.robot import RobotDescription
+from models.runtime import Runtime, runtime_for
+
+FRAME_GROUPS = ("base",)
+
+"""The parameters a frame-free campaign cannot determine: the robot's base transform."""
+
+
+@dataclass
+class ReferenceProblem:
+    """The weighted least squares of reference records. Unknowns z: the free robot parameters, then every
+    reference's unknowns, each in units of its scale (θ[free] = θ₀[free] + scale · z)."""
+
+    desc: RobotDescription
+    runtime: Runtime
+    groups: tuple[ReferenceRecords, ...]
+    noise: NoiseModel
+    theta_start: Array
+    free: NDArray[np.intp]
+    u_start: Array
+    u_scales: Array
+    _last: tuple[bytes, Evaluation | None] | None = field(default=None, repr=False)
+    evaluations: int = 0
+
+    def __post_init__(self) -> None:
+        self.joints = np.vstack([g.joints for g in self.groups])
+        self.records = np.cumsum([0, *(g.size for g in self.groups)])
+        self.blocks = np.cumsum([0, *(len(g.reference.unknowns) for g in self.groups)])
+        self.scales = self.desc.parameters.scales[self.free]
+        self.weights = [
+            1.0 / (np.full(g.size, self.noise.position_mm) if g.sigma_mm is None else np.asarray(g.sigma_mm))
+            for g in self.groups
+        ]
+
+    @property
+    def n_free(self) -> int:
+        return int(self.free.size + self.u_start.size)
+
+    def split(self, z: Array) -> tuple[Array, Array]:
+        theta = self.theta_start.copy()
+        theta[self.free] += self.scales * z[: self.free.size]
+        return theta, self.u_start + self.u_scales * z[self.free.size :]
+
+    def evaluate(self, z: Array) -> Evaluation | None:
+        key = np.asarray(z, dtype=float).tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        result = self._evaluate(np.asarray(z, dtype=float))
+        self._last = (key, result)
+        return result
+
+    def _evaluate(self, z: Array) -> Evaluation | None:
+        self.evaluations += 1
+        theta, u = self.split(z)
+        fk = forward_kinematics(self.desc, self.joints, theta, jacobian=True, check_ranges=False, runtime=self.runtime)
+        residuals, jacobians, raw = [], [], []
+        n_robot = self.free.size
+        for k, group in enumerate(self.groups):
+            records = slice(self.records[k], self.records[k + 1])
+            block = slice(self.blocks[k], self.blocks[k + 1])
+            r, d_theta, d_u = group.reference.residuals(
+                fk.positions[records], fk.jacobians[records, :3, :], u[block], group.values
+            )
+            w = self.weights[k][:, None]
+            rows = r.shape[0] * r.shape[1]
+            j = np.zeros((rows, self.n_free))
+            j[:, :n_robot] = (d_theta[:, :, self.free] * self.scales * w[:, :, None]).reshape(rows, n_robot)
+            j[:, n_robot + block.start : n_robot + block.stop] = (d_u * self.u_scales[block] * w[:, :, None]).reshape(
+                rows, -1
+            )
+            residuals.append((r * w).reshape(-1))
+            jacobians.append(j)
+            raw.append(d_theta.reshape(rows, -1))
+        flat, jac = np.concatenate(residuals), np.vstack(jacobians)
+        if not (np.all(np.isfinite(flat)) and np.all(np.isfinite(jac))):
+            return None
+        per = 1.0 / flat.size  # per equation, as the tracker's problem: IPOPT's tolerance means the same
+        return Evaluation(
+            theta=theta,
+            platforms=fk.platforms,
+            residuals=flat[:, None],
+            jacobian=jac,
+            raw_jacobian=np.vstack(raw)[:, None, :],
+            objective=0.5 * per * float(flat @ flat),
+            gradient=per * (jac.T @ flat),
+            hessian=per * (jac.T @ jac),
+        )
+
+
+@dataclass(frozen=True)
+class ReferenceEstimate:
+    """One reference's unknowns as identified (internal units: mm, rad) with their standard errors."""
+
+    kind: str
+    name: str
+    names: tuple[str, ...]
+    values: Array
+    std_errors: Array
+    rms_residual_mm: float
+    records: int
+
+
+@dataclass(frozen=True)
+class ReferenceFit:
+    """The robot's parameters and the references' unknowns from one campaign of reference records."""
+
+    table: ParameterTable
+    parameters: Array
+    start: Array
+    estimated: tuple[int, ...]
+    std_errors: Array
+    """Per robot parameter; NaN for those held (not estimated)."""
+    unidentifiable: tuple[str, ...]
+    """Robot parameters these data cannot determine, held at their start values."""
+    frame: str
+    """What the parameters and the references are expressed in."""
+    references: tuple[ReferenceEstimate, ...]
+    parameter_covariance: Array
+    """A-posteriori covariance of the estimated robot parameters (`estimated` order), internal units."""
+    covariance: Covariance
+    solver_status: str
+    solver_success: bool
+    iterations: int
+    seconds: float
+
+    @property
+    def variance_factor(self) -> float:
+        return self.covariance.variance_factor
+
+    @property
+    def noise_consistent(self) -> bool:
+        return self.covariance.noise_consistent
+
+
+def identify_references(
+    desc: RobotDescription,
+    groups: tuple[ReferenceRecords, ...],
+    *,
+    noise: NoiseModel | None = None,
+    nominal: Array | None = None,
+    options: IdentificationOptions | None = None,
+    runtime: Runtime | None = None,
+) -> ReferenceFit:
+    """Identify `desc`'s parameters (those of `options.estimate` these data determine) and every reference's
+    unknowns from `groups` (internal units); see the module docstring for what is held and why."""
+    started = time.perf_counter()
+    rt, noise, options = runtime_for(desc, runtime), noise or NoiseModel(), options or IdentificationOptions()
+    _check(groups)
+    table = desc.parameters
+    theta = table.nominal if nominal is None else table.vector(nominal)
+    groups = tuple(_started(desc, theta, g, rt) for g in groups)
+    u_start = np.concatenate([[s.nominal for s in g.reference.unknowns] for g in groups])
+    u_scales = np.concatenate([[s.scale for s in g.reference.unknowns] for g in groups])
+    frame_free = not any(g.reference.fixes_frame for g in groups)
+    frame = set(table.indices(FRAME_GROUPS)) if frame_free else set()
+    candidates = tuple(i for i in table.indices(options.estimate) if i not in frame)
+    problem = ReferenceProblem(desc, rt, groups, noise, theta, np.arange(0, dtype=np.intp), u_start, u_scales)
+    free = _identifiable(problem, candidates)
+    problem = ReferenceProblem(desc, rt, groups, noise, theta, np.asarray(free, dtype=np.intp), u_start, u_scales)
+    lower, upper = np.full(problem.n_free, -np.inf), np.full(problem.n_free, np.inf)
+    run = solver_pool(rt).solve(problem, np.zeros(problem.n_free), lower, upper, options.max_iterations)
+    z, _ = polish(problem, run.z, lower, upper)
+    final = problem.evaluate(z)
+    if final is None:
+        raise InvalidInput("the model is undefined at the fitted parameters: these records do not fit this robot")
+    return _result(
+        problem, z, final, run, held=sorted(set(table.indices(options.estimate)) - set(free)), started=started
+    )
+
+
+def _check(groups: tuple[ReferenceRecords, ...]) -> None:
+    """Records that can determine their references, and a length among them; a 4xx naming the fix otherwise."""
+    if not groups:
+        raise InvalidInput("no reference records: give at least one anchor, point or plane", field="measurements")
+    names = [g.reference.name for g in groups]
+    if len(set(names)) != len(names):
+        raise InvalidInput(f"reference names repeat: {names}; give each anchor, point and plane once")
+    for group in groups:
+        group.check()
+    if not any(g.reference.fixes_scale for g in groups):
+        raise InvalidInput(
+            "fixed points and planes fix no length: the robot and its points and planes scaled together fit them "
+            "as well (down to a robot of zero size); add the records of a ballbar or a distance sensor (an anchor) "
+            "or tracker records",
+            field="measurements",
+            reason="no_length_scale",
+        )
+
+
+def _result(
+    problem: ReferenceProblem, z: Array, final: Evaluation, run: IpoptRun, *, held: list[int], started: float
+) -> ReferenceFit:
+    """The fit at its solution: the parameters and references with their standard errors and covariance."""
+    table, u_scales = problem.desc.parameters, problem.u_scales
+    frame_free = not any(g.reference.fixes_frame for g in problem.groups)
+    cov = covariance(final.jacobian, final.residuals)
+    scales = np.concatenate([problem.scales, u_scales])
+    std = np.sqrt(np.diag(cov.z)) * scales
+    theta_fit, u_fit = problem.split(z)
+    robot_std = np.full(len(table), np.nan)
+    robot_std[problem.free] = std[: problem.free.size]
+    return ReferenceFit(
+        table=table,
+        parameters=theta_fit,
+        start=problem.theta_start,
+        estimated=tuple(int(i) for i in problem.free),
+        std_errors=robot_std,
+        unidentifiable=tuple(table.names[i] for i in held),
+        frame=(
+            "the robot's base held at its start values (distance, point and plane records fix no frame): the "
+            "parameters and the references are expressed in that base's frame"
+            if frame_free
+            else "the instrument frame"
+        ),
+        references=_estimates(problem, final, u_fit, std[problem.free.size :]),
+        parameter_covariance=(cov.z * np.outer(scales, scales))[: problem.free.size, : problem.free.size],
+        covariance=cov,
+        solver_status=run.status,
+        solver_success=run.success,
+        iterations=run.iterations,
+        seconds=time.perf_counter() - started,
+    )
+
+
+def _identifiable(problem: ReferenceProblem, candidates: tuple[int, ...]) -> list[int]:
+    """The robot parameters to estimate beside every reference's unknowns (see the module docstring)."""
+    groups = problem.groups
+    everything = ReferenceProblem(
+        problem.desc,
+        problem.runtime,
+        groups,
+        problem.noise,
+        problem.theta_start,
+        np.arange(len(problem.desc.parameters)),
+        problem.u_start,
+        problem.u_scales,
+    )
+    start = everything.evaluate(np.zeros(everything.n_free))
+    if start is None:
+        raise InvalidInput("the model is undefined at the start values: these records do not fit this robot")
+    n_robot = len(problem.desc.parameters)
+    robot, refs = start.jacobian[:, :n_robot], start.jacobian[:, n_robot:]
+    q, r, _ = np.linalg.svd(refs, full_matrices=False)
+    strong = r > r[0] * 1e-9
+    if not strong.all():
+        weak = int(np.argmin(strong))
+        block = int(np.searchsorted(everything.blocks, weak, side="right") - 1)
+        ref = groups[block].reference
+        raise TooFewMeasurements(
+            f"the records of {ref.kind} {ref.name!r} do not determine it (for a plane: touches spread over an "
+            "area, not along a line; for an anchor: records around it in all directions)",
+            got=groups[block].size,
+            needed=ref.minimum_records,
+            missing=0,
+            kind=ref.kind,
+        )
+    projected = robot - q @ (q.T @ robot)
+    return list(analyse_identifiability(projected, problem.desc.parameters, candidates).identifiable)
+
+
+def _started(desc: RobotDescription, theta: Array, group: ReferenceRecords, rt: Runtime) -> ReferenceRecords:
+    """The records with their reference's closed-form start under the start model (`Reference.started`)."""
+    p = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt).positions
+    return ReferenceRecords(group.reference.started(p, group.values), group.joints, group.values, group.sigma_mm)
+
+
+def _estimates(problem: ReferenceProblem, final: Evaluation, u: Array, std: Array) -> tuple[ReferenceEstimate, ...]:
+    out = []
+    residual_mm = final.residuals[:, 0]
+    row = 0
+    for k, group in enumerate(problem.groups):
+        ref, block = group.reference, slice(problem.blocks[k], problem.blocks[k + 1])
+        rows = group.size * ref.rows
+        weights = np.repeat(problem.weights[k], ref.rows)
+        mm = residual_mm[row : row + rows] / weights
+        row += rows
+        out.append(
+            ReferenceEstimate(
+                kind=ref.kind,
+                name=ref.name,
+                names=tuple(s.name for s in ref.unknowns),
+                values=u[block],
+                std_errors=std[block],
+                rms_residual_mm=float(np.sqrt(np.mean(mm**2))),
+                records=group.size,
+            )
+        )
+    return tuple(out)

@@ -1,0 +1,253 @@
+"""Measurements against a fixed reference the cell owns, not an instrument frame: each record pins the TCP's
+position to an unknown feature that the fit identifies with the robot's parameters.
+
+- `Anchor` (a ballbar's centre pivot, a wire or laser sensor's origin): the record is the TCP's distance to the
+  anchor point, `‖p − a‖`, plus an unknown length offset when the bar's length is not known
+  (`length_unknown`): r = ‖p − a‖ − (d + δ). Unknowns: a (3), δ (1, optional).
+- `FixedPoint` (a sphere in a socket, reached in several orientations): the TCP is on the same point c in
+  every record, r = p − c (3 rows). Unknowns: c (3).
+- `Plane` (a probe's ball centre, its radius already added, touching one plate): r = n · p − h, with the unit
+  normal n turned from its start n₀ by two small angles (α about e₁, β about e₂, both ⟂ n₀) so that three
+  numbers describe it without a constraint. Unknowns: α, β (rad), h (mm).
+
+Each reference depends on the TCP position p(q, θ) alone, so its rows and their θ-derivatives come from the
+position rows of the forward kinematics and its Jacobian; the derivatives by its own unknowns are written out
+here (a test checks them against finite differences). None of them fixes a frame: the base transform moves
+every anchor, point and plane with it (`fixes_frame`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar, Protocol
+
+import numpy as np
+
+from models._types import Array
+from models.errors import InvalidInput, TooFewMeasurements
+from models.parameters import Kind, ParameterSpec
+
+POSITION_SCALE_MM = 1.0
+"""The expected error of a reference's start position (mm), the scale of its columns (as a link length's)."""
+ANGLE_SCALE_RAD = 1e-3
+"""A plane normal's expected start error (rad)."""
+MIN_PLANE_SPREAD_MM = 5.0
+"""A plane's touches must spread at least this (RMS) across their best line, or its tilt about that line is
+not determined (a plate is touched over tens of millimetres)."""
+
+
+class Reference(Protocol):
+    """One reference feature and what a record against it says (see the module docstring)."""
+
+    name: str
+    kind: ClassVar[str]
+    rows: ClassVar[int]
+    fixes_frame: ClassVar[bool]
+    fixes_scale: ClassVar[bool]
+    """Whether its records carry a length (a distance does; coincidence with a point or a plane does not: the
+    whole robot and its points and planes scaled together satisfy them as well)."""
+
+    @property
+    def unknowns(self) -> tuple[ParameterSpec, ...]:
+        """Its own parameters (named `<kind>.<name>.<component>`), with their start values and scales."""
+        ...
+
+    @property
+    def minimum_records(self) -> int:
+        """Records needed before it can be determined at all (its unknowns, counted in rows)."""
+        ...
+
+    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        """At TCP positions p (n, 3) with ∂p/∂θ dp (n, 3, P), its unknowns u and the records' measured values:
+        (r (n, rows), ∂r/∂θ (n, rows, P), ∂r/∂u (n, rows, len(u))), model minus measurement, unweighted."""
+        ...
+
+    def started(self, p: Array, values: Array) -> Reference:
+        """The same reference with its start computed in closed form from the records' TCP positions p (n, 3)
+        under the start model: what the fit iterates from (a user's rough guess is not needed)."""
+        ...
+
+
+def _position_specs(prefix: str, start: Array) -> tuple[ParameterSpec, ...]:
+    return tuple(
+        ParameterSpec(f"{prefix}.{axis}", prefix, Kind.LENGTH, float(v), POSITION_SCALE_MM)
+        for axis, v in zip("xyz", start, strict=True)
+    )
+
+
+@dataclass(frozen=True)
+class Anchor:
+    """A fixed point the records measure the TCP's distance to; `start` its position guess (mm, the robot's
+    world frame), `length_unknown` a ballbar whose length offset δ is identified too."""
+
+    name: str
+    start: tuple[float, float, float]
+    length_unknown: bool = False
+
+    kind: ClassVar[str] = "anchor"
+    rows: ClassVar[int] = 1
+    fixes_frame: ClassVar[bool] = False
+    fixes_scale: ClassVar[bool] = True
+
+    @property
+    def unknowns(self) -> tuple[ParameterSpec, ...]:
+        specs = _position_specs(f"anchor.{self.name}", np.asarray(self.start))
+        if self.length_unknown:
+            specs += (ParameterSpec(f"anchor.{self.name}.length", f"anchor.{self.name}", Kind.LENGTH, 0.0, 1.0),)
+        return specs
+
+    @property
+    def minimum_records(self) -> int:
+        return len(self.unknowns) + 1
+
+    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        offset = p - u[:3]
+        length = np.linalg.norm(offset, axis=1)
+        if np.any(length < 1e-9):
+            raise InvalidInput(f"anchor {self.name!r}: a record puts the TCP on the anchor itself", field="anchors")
+        unit = offset / length[:, None]
+        delta = u[3] if self.length_unknown else 0.0
+        r = (length - (values + delta))[:, None]
+        d_theta = np.einsum("nk,nkp->np", unit, dp)[:, None, :]
+        d_u = -unit
+        if self.length_unknown:
+            d_u = np.hstack([d_u, -np.ones((p.shape[0], 1))])
+        return r, d_theta, d_u[:, None, :]
+
+    def started(self, p: Array, values: Array) -> Anchor:
+        # ‖p − a‖² = d²  ⇔  2 p·a − ‖a‖² = ‖p‖² − d²: linear in (a, ‖a‖²), a sphere through the records.
+        matrix = np.hstack([2 * p, -np.ones((p.shape[0], 1))])
+        solution, *_ = np.linalg.lstsq(matrix, np.sum(p**2, axis=1) - values**2, rcond=None)
+        x, y, z = (float(v) for v in solution[:3])
+        return Anchor(self.name, (x, y, z), self.length_unknown)
+
+
+@dataclass(frozen=True)
+class FixedPoint:
+    """A point the TCP is brought onto in every record of it (no instrument reading at all)."""
+
+    name: str
+    start: tuple[float, float, float]
+
+    kind: ClassVar[str] = "point"
+    rows: ClassVar[int] = 3
+    fixes_frame: ClassVar[bool] = False
+    fixes_scale: ClassVar[bool] = False
+
+    @property
+    def unknowns(self) -> tuple[ParameterSpec, ...]:
+        return _position_specs(f"point.{self.name}", np.asarray(self.start))
+
+    @property
+    def minimum_records(self) -> int:
+        return 2
+
+    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        n = p.shape[0]
+        return p - u[None, :3], dp.copy(), np.broadcast_to(-np.eye(3), (n, 3, 3)).copy()
+
+    def started(self, p: Array, values: Array) -> FixedPoint:
+        x, y, z = (float(v) for v in p.mean(axis=0))
+        return FixedPoint(self.name, (x, y, z))
+
+
+@dataclass(frozen=True)
+class Plane:
+    """A plate the probe touches; `normal` and `offset` its start (n₀ unit, h₀ = n₀ · a point on it, mm)."""
+
+    name: str
+    normal: tuple[float, float, float]
+    offset: float
+
+    kind: ClassVar[str] = "plane"
+    rows: ClassVar[int] = 1
+    fixes_frame: ClassVar[bool] = False
+    fixes_scale: ClassVar[bool] = False
+
+    @property
+    def unknowns(self) -> tuple[ParameterSpec, ...]:
+        group = f"plane.{self.name}"
+        return (
+            ParameterSpec(f"{group}.alpha", group, Kind.ANGLE, 0.0, ANGLE_SCALE_RAD),
+            ParameterSpec(f"{group}.beta", group, Kind.ANGLE, 0.0, ANGLE_SCALE_RAD),
+            ParameterSpec(f"{group}.offset", group, Kind.LENGTH, float(self.offset), POSITION_SCALE_MM),
+        )
+
+    @property
+    def minimum_records(self) -> int:
+        return 4
+
+    def basis(self) -> tuple[Array, Array, Array]:
+        """(n₀, e₁, e₂): the start normal and two unit vectors completing a right-handed frame."""
+        n0 = np.asarray(self.normal, dtype=float)
+        n0 = n0 / np.linalg.norm(n0)
+        helper = np.eye(3)[int(np.argmin(np.abs(n0)))]
+        e1 = np.cross(n0, helper)
+        e1 /= np.linalg.norm(e1)
+        return n0, e1, np.cross(n0, e1)
+
+    def normal_at(self, alpha: float, beta: float) -> tuple[Array, Array, Array]:
+        """(n, ∂n/∂α, ∂n/∂β) of n = v / ‖v‖, v = n₀ + α e₁ + β e₂."""
+        n0, e1, e2 = self.basis()
+        v = n0 + alpha * e1 + beta * e2
+        norm = float(np.linalg.norm(v))
+        n = v / norm
+        project = (np.eye(3) - np.outer(n, n)) / norm
+        return n, project @ e1, project @ e2
+
+    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        n, dn_a, dn_b = self.normal_at(float(u[0]), float(u[1]))
+        r = (p @ n - u[2])[:, None]
+        d_theta = np.einsum("k,nkp->np", n, dp)[:, None, :]
+        d_u = np.stack([p @ dn_a, p @ dn_b, -np.ones(p.shape[0])], axis=1)[:, None, :]
+        return r, d_theta, d_u
+
+    def started(self, p: Array, values: Array) -> Plane:
+        centre = p.mean(axis=0)
+        _, s, vt = np.linalg.svd(p - centre)
+        across = float(s[1]) / np.sqrt(p.shape[0]) if s.size > 1 else 0.0
+        if across < MIN_PLANE_SPREAD_MM:
+            raise InvalidInput(
+                f"plane {self.name!r}: every touch lies on one line (they spread {across:.2g} mm RMS across it); "
+                f"touch it over an area, at least {MIN_PLANE_SPREAD_MM:g} mm either side of any line",
+                field="measurements",
+                reason="collinear_touches",
+            )
+        normal = vt[2] if np.dot(vt[2], np.asarray(self.normal)) >= 0 else -vt[2]  # the user's side of the plate
+        nx, ny, nz = (float(v) for v in normal)
+        return Plane(self.name, (nx, ny, nz), float(normal @ centre))
+
+
+@dataclass(frozen=True)
+class ReferenceRecords:
+    """The records measured against one reference: joints (n, n_joints, internal units), each record's
+    measured value (an anchor's distance, mm; unused by points and planes) and its σ (mm; None: the noise
+    model's position σ)."""
+
+    reference: Anchor | FixedPoint | Plane
+    joints: Array
+    values: Array
+    sigma_mm: Array | None = None
+
+    @property
+    def size(self) -> int:
+        return int(self.joints.shape[0])
+
+    def check(self) -> None:
+        """Enough records to determine the reference at all; a 4xx naming it otherwise."""
+        ref, needed = self.reference, self.reference.minimum_records
+        if self.size < needed:
+            raise TooFewMeasurements(
+                f"{ref.kind} {ref.name!r} has {self.size} records: at least {needed} are needed to determine its "
+                f"{len(ref.unknowns)} unknowns; measure {needed - self.size} more",
+                got=self.size,
+                needed=needed,
+                missing=needed - self.size,
+                kind=ref.kind,
+            )
+        if self.values.shape != (self.size,):
+            raise InvalidInput(
+                f"{ref.kind} {ref.name!r}: expected one measured value per record ({self.size}), got "
+                f"{self.values.shape}",
+                field="measurements",
+            )

@@ -1,0 +1,216 @@
+"""Calibration from references the cell owns (issue 27, the models' core): a ballbar's anchors, fixed points and
+planes, each identified with the robot's parameters, against a simulated truth whose parameters are known.
+
+The truth's base is the nominal one: these records fix no frame, so the fit holds the base and identifies every
+reference in that base's frame; a truth in the same gauge can then be compared parameter by parameter."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from models import RobotDescription, forward_kinematics, sample_workspace
+from models.errors import InvalidInput, TooFewMeasurements
+from models.examples import ur5_like
+from models.identification.options import IdentificationOptions
+from models.identification.reference_fit import ReferenceFit, identify_references
+from models.identification.registration import rigid_fit
+from models.inverse import inverse_kinematics
+from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords
+from models.noise import NoiseModel
+from models.simulation import perturbed_robot
+from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
+
+SIGMA_MM = 0.002
+DESC = ur5_like()
+
+
+def _truth(desc: RobotDescription, seed: int) -> np.ndarray:
+    truth = perturbed_robot(desc, seed=seed).truth.copy()
+    base = desc.slices["base"]
+    truth[base] = desc.parameters.nominal[base]  # the gauge these records leave free (module docstring)
+    return truth
+
+
+def _distances(
+    truth: np.ndarray, anchor: np.ndarray, joints: np.ndarray, delta: float, rng: np.random.Generator
+) -> np.ndarray:
+    p = forward_kinematics(DESC, joints, truth).positions
+    return np.asarray(np.linalg.norm(p - anchor, axis=1) - delta + rng.normal(0, SIGMA_MM, len(joints)))
+
+
+# ---------------------------------------------------------------------------------------------- derivatives
+@pytest.mark.parametrize(
+    "reference",
+    [
+        Anchor("a", (300.0, -200.0, 100.0)),
+        Anchor("b", (300.0, -200.0, 100.0), length_unknown=True),
+        FixedPoint("p", (100.0, 200.0, 300.0)),
+        Plane("f", (0.2, -0.1, 0.97), 150.0),
+    ],
+    ids=lambda r: f"{r.kind}{'-offset' if getattr(r, 'length_unknown', False) else ''}",
+)
+def test_each_reference_derivative_matches_finite_differences(reference: Anchor | FixedPoint | Plane) -> None:
+    rng = np.random.default_rng(1)
+    n, params = 5, 4
+    p = rng.normal(0, 300, (n, 3))
+    dp = rng.normal(0, 1, (n, 3, params))
+    u = np.array([s.nominal for s in reference.unknowns]) + rng.normal(0, 0.01, len(reference.unknowns))
+    values = rng.uniform(200, 400, n)
+    r, d_theta, d_u = reference.residuals(p, dp, u, values)
+    h = 1e-6
+    for k in range(len(u)):  # by its own unknowns
+        step = np.zeros_like(u)
+        step[k] = h
+        plus, minus = reference.residuals(p, dp, u + step, values)[0], reference.residuals(p, dp, u - step, values)[0]
+        np.testing.assert_allclose(d_u[:, :, k], (plus - minus) / 2 / h, atol=1e-6)
+    for axis in range(3):  # by θ through p: ∂r/∂θ = ∂r/∂p · ∂p/∂θ
+        step = np.zeros(3)
+        step[axis] = h
+        fd_p = (
+            (reference.residuals(p + step, dp, u, values)[0] - reference.residuals(p - step, dp, u, values)[0]) / 2 / h
+        )
+        np.testing.assert_allclose(np.einsum("nr,np->nrp", fd_p, dp[:, axis, :]).shape, d_theta.shape)
+    chain = np.zeros_like(d_theta)
+    for axis in range(3):
+        step = np.zeros(3)
+        step[axis] = h
+        fd_p = (
+            (reference.residuals(p + step, dp, u, values)[0] - reference.residuals(p - step, dp, u, values)[0]) / 2 / h
+        )
+        chain += fd_p[:, :, None] * dp[:, None, axis, :]
+    np.testing.assert_allclose(d_theta, chain, atol=1e-6)
+    assert r.shape == (n, reference.rows)
+
+
+# ---------------------------------------------------------------------------------------------- ballbar
+ANCHORS = np.array([[450.0, 150.0, 50.0], [-150.0, 450.0, 250.0], [200.0, -400.0, 400.0]])
+
+
+def _ballbar(seed: int, per_anchor: int = 36, delta: float = 0.35) -> tuple[np.ndarray, tuple[ReferenceRecords, ...]]:
+    rng = np.random.default_rng(seed)
+    truth = _truth(DESC, seed)
+    groups = []
+    for k, anchor in enumerate(ANCHORS):
+        joints = sample_workspace(DESC, per_anchor, seed=100 * seed + k)
+        unknown = k == 2  # the third bar's length offset is not known
+        d = _distances(truth, anchor, joints, delta if unknown else 0.0, rng)
+        guess = tuple(anchor + rng.normal(0, 20, 3))  # a tape-measure guess: ignored by the closed-form start
+        sigma = np.full(per_anchor, SIGMA_MM)
+        groups.append(ReferenceRecords(Anchor(f"a{k + 1}", guess, length_unknown=unknown), joints, d, sigma))
+    return truth, tuple(groups)
+
+
+def _aligned_rms(fit_positions: np.ndarray, true_positions: np.ndarray) -> float:
+    """RMS TCP error after the best rigid motion: what records that fix no frame can be judged by."""
+    aligned = rigid_fit(fit_positions, true_positions).apply(fit_positions)
+    return float(np.sqrt(np.mean(np.sum((aligned - true_positions) ** 2, axis=1))))
+
+
+def _predicted_rms(fit: ReferenceFit, joints: np.ndarray) -> float:
+    """The Cramér–Rao prediction of the TCP error at `joints`: the fit's covariance through the position rows."""
+    est = np.array(fit.estimated)
+    jac = forward_kinematics(DESC, joints, fit.parameters, jacobian=True).jacobians[:, :3, est]
+    cov = fit.parameter_covariance
+    return float(np.sqrt(np.mean(np.einsum("nip,pq,niq->n", jac, cov, jac))))
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_three_ballbar_pivots_calibrate_the_robot_to_its_cramer_rao_bound(seed: int) -> None:
+    truth, groups = _ballbar(seed)
+    fit = identify_references(DESC, groups, noise=NoiseModel(SIGMA_MM, 1e-5))
+    assert fit.solver_success
+    # What distances cannot see: the base (a frame), and the rotation about and shift along the first axis that
+    # turn and lift every anchor with the arm; said, not guessed.
+    assert {f"base.{c}" for c in ("x", "y", "z", "rx", "ry", "rz")} <= set(fit.unidentifiable)
+    assert {"link1.theta", "link1.d"} <= set(fit.unidentifiable) and "base" in fit.frame
+    # χ² honest: the variance factor is that of noise of the stated σ.
+    assert fit.noise_consistent, (fit.variance_factor, fit.covariance.chi2_interval)
+    # The TCP on fresh poses, after the best rigid alignment, within twice the bound the fit predicts for itself
+    # (the issue's benchmark holds it to 1.3x over more seeds), and far below the nominal model's error.
+    fresh = sample_workspace(DESC, 300, seed=999)
+    true_p = forward_kinematics(DESC, fresh, truth).positions
+    after = _aligned_rms(forward_kinematics(DESC, fresh, fit.parameters).positions, true_p)
+    before = _aligned_rms(forward_kinematics(DESC, fresh).positions, true_p)
+    bound = _predicted_rms(fit, fresh)
+    assert after < 2.0 * bound and after < 0.01 * before, (after, bound, before)
+    # The anchors' mutual distances (what no gauge moves) and the unknown length offset, within their errors.
+    a = np.array([r.values[:3] for r in fit.references])
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        error = np.linalg.norm(a[i] - a[j]) - np.linalg.norm(ANCHORS[i] - ANCHORS[j])
+        assert abs(error) < 0.01, (i, j, error)
+    offset = fit.references[2]
+    assert offset.names[-1] == "anchor.a3.length"
+    assert abs(offset.values[3] - 0.35) < 4.5 * offset.std_errors[3], (offset.values[3], offset.std_errors[3])
+    assert all(r.rms_residual_mm < 3 * SIGMA_MM for r in fit.references)
+
+
+def test_too_few_records_of_an_anchor_name_it() -> None:
+    _, groups = _ballbar(1, per_anchor=36)
+    short = ReferenceRecords(groups[0].reference, groups[0].joints[:3], groups[0].values[:3])
+    with pytest.raises(TooFewMeasurements, match="anchor 'a1' has 3 records"):
+        identify_references(DESC, (short, *groups[1:]))
+
+
+# ---------------------------------------------------------------------------------------------- point and plane
+def _reaching(truth: np.ndarray, positions: np.ndarray, seed: int) -> np.ndarray:
+    """Joints of the true robot with its TCP at `positions` in random orientations (the reachable ones)."""
+    rng = np.random.default_rng(seed)
+    rotations = [rotvec_to_matrix_np(rng.normal(0, 0.6, 3)) @ np.diag([1.0, -1.0, -1.0]) for _ in positions]
+    quats = matrix_to_quaternion(np.array(rotations))
+    answer = inverse_kinematics(DESC, positions, quats, truth)
+    return np.asarray(answer.joints[answer.reachable])
+
+
+def test_fixed_points_and_a_plane_identify_the_robot_and_the_features() -> None:
+    seed = 4
+    truth = _truth(DESC, seed)
+    rng = np.random.default_rng(seed)
+    groups = []
+    points = np.array([[400.0, 100.0, 200.0], [-100.0, 420.0, 150.0], [250.0, -350.0, 300.0], [300.0, 300.0, 450.0]])
+    for k, point in enumerate(points):
+        joints = _reaching(truth, np.tile(point, (14, 1)), seed + k)
+        assert joints.shape[0] >= 8
+        joints = joints[:10]
+        # The TCP sits in the socket to within σ: the records' joints are the truth's (the point is what moves).
+        groups.append(ReferenceRecords(FixedPoint(f"p{k + 1}", (0.0, 0.0, 0.0)), joints, np.zeros(len(joints))))
+    normal, offset = np.array([0.0, 0.0, 1.0]), 60.0
+    on_plane = np.column_stack([rng.uniform(150, 450, 40), rng.uniform(-300, 300, 40), np.full(40, offset)])
+    joints = _reaching(truth, on_plane, seed + 10)[:30]
+    groups.append(ReferenceRecords(Plane("f1", tuple(normal), offset), joints, np.zeros(len(joints))))
+    with pytest.raises(InvalidInput, match="fix no length") as refused:
+        identify_references(DESC, tuple(groups))
+    assert refused.value.reason == "no_length_scale"
+    # One ballbar pivot beside them gives the length (exact distances, as the points' and the plane's records).
+    bar = sample_workspace(DESC, 30, seed=seed)
+    distance = np.linalg.norm(forward_kinematics(DESC, bar, truth).positions - ANCHORS[0], axis=1)
+    groups.append(ReferenceRecords(Anchor("a1", (0.0, 0.0, 0.0)), bar, distance))
+    fit = identify_references(DESC, tuple(groups), noise=NoiseModel(SIGMA_MM, 1e-5))
+    assert fit.solver_success and "base.x" in fit.unidentifiable
+    # Exact records: the fit is the truth up to the rigid motion these records leave free, to the solver's
+    # tolerance, and the points are the true points after that motion.
+    fresh = sample_workspace(DESC, 100, seed=77)
+    fitted, true_p = (forward_kinematics(DESC, fresh, theta).positions for theta in (fit.parameters, truth))
+    motion = rigid_fit(fitted, true_p)
+    assert _aligned_rms(fitted, true_p) < 1e-4
+    found = motion.apply(np.array([r.values for r in fit.references[:4]]))
+    np.testing.assert_allclose(found, points, atol=1e-4)
+    assert max(r.rms_residual_mm for r in fit.references) < 1e-6
+
+
+def test_a_plane_touched_along_a_line_is_refused() -> None:
+    truth = _truth(DESC, 5)
+    line = np.column_stack([np.linspace(200, 400, 12), np.full(12, 50.0), np.full(12, 80.0)])
+    joints = _reaching(truth, line, 5)
+    plane = ReferenceRecords(Plane("f1", (0.0, 0.0, 1.0), 80.0), joints, np.zeros(len(joints)))
+    _, groups = _ballbar(1)
+    with pytest.raises(InvalidInput, match="plane 'f1': every touch lies on one line") as refused:
+        identify_references(DESC, (*groups, plane))
+    assert refused.value.reason == "collinear_touches"
+
+
+def test_a_narrowed_estimate_holds_the_rest() -> None:
+    _, groups = _ballbar(2)
+    fit = identify_references(DESC, groups, options=IdentificationOptions(estimate=("tool",)))
+    names = {fit.table.names[i] for i in fit.estimated}
+    assert names and all(n.startswith("tool.") for n in names)
