@@ -177,30 +177,45 @@ def identify_references(
     unknowns from `groups` (internal units); see the module docstring for what is held and why."""
     started = time.perf_counter()
     rt, noise, options = runtime_for(desc, runtime), noise or NoiseModel(), options or IdentificationOptions()
-    _check(groups)
+    check_references(groups)
     table = desc.parameters
     theta = table.nominal if nominal is None else table.vector(nominal)
     groups = tuple(_started(desc, theta, g, rt) for g in groups)
-    u_start = np.concatenate([[s.nominal for s in g.reference.unknowns] for g in groups])
-    u_scales = np.concatenate([[s.scale for s in g.reference.unknowns] for g in groups])
-    frame_free = not any(g.reference.fixes_frame for g in groups)
-    frame = set(table.indices(FRAME_GROUPS)) if frame_free else set()
-    candidates = tuple(i for i in table.indices(options.estimate) if i not in frame)
-    problem = ReferenceProblem(desc, rt, groups, noise, theta, np.arange(0, dtype=np.intp), u_start, u_scales)
-    free = _identifiable(problem, candidates)
-    problem = ReferenceProblem(desc, rt, groups, noise, theta, np.asarray(free, dtype=np.intp), u_start, u_scales)
+    problem = reference_problem(desc, groups, noise=noise, theta=theta, estimate=options.estimate, runtime=rt)
     lower, upper = np.full(problem.n_free, -np.inf), np.full(problem.n_free, np.inf)
     run = solver_pool(rt).solve(problem, np.zeros(problem.n_free), lower, upper, options.max_iterations)
     z, _ = polish(problem, run.z, lower, upper)
     final = problem.evaluate(z)
     if final is None:
         raise InvalidInput("the model is undefined at the fitted parameters: these records do not fit this robot")
-    return _result(
-        problem, z, final, run, held=sorted(set(table.indices(options.estimate)) - set(free)), started=started
-    )
+    held = sorted(set(table.indices(options.estimate)) - {int(i) for i in problem.free})
+    return _result(problem, z, final, run, held=held, started=started)
 
 
-def _check(groups: tuple[ReferenceRecords, ...]) -> None:
+def reference_problem(
+    desc: RobotDescription,
+    groups: tuple[ReferenceRecords, ...],
+    *,
+    noise: NoiseModel,
+    theta: Array,
+    estimate: tuple[str, ...],
+    runtime: Runtime,
+) -> ReferenceProblem:
+    """The problem over the robot parameters of `estimate` these records determine (the frame held where no
+    reference fixes one) and every reference's unknowns, at the references' current starts: what the fit
+    solves, and what pose design weighs candidates by."""
+    table = desc.parameters
+    u_start = np.concatenate([[s.nominal for s in g.reference.unknowns] for g in groups])
+    u_scales = np.concatenate([[s.scale for s in g.reference.unknowns] for g in groups])
+    frame_free = not any(g.reference.fixes_frame for g in groups)
+    frame = set(table.indices(FRAME_GROUPS)) if frame_free else set()
+    candidates = tuple(i for i in table.indices(estimate) if i not in frame)
+    none = np.arange(0, dtype=np.intp)
+    free = _identifiable(ReferenceProblem(desc, runtime, groups, noise, theta, none, u_start, u_scales), candidates)
+    return ReferenceProblem(desc, runtime, groups, noise, theta, np.asarray(free, dtype=np.intp), u_start, u_scales)
+
+
+def check_references(groups: tuple[ReferenceRecords, ...]) -> None:
     """Records that can determine their references, and a length among them; a 4xx naming the fix otherwise."""
     if not groups:
         raise InvalidInput("no reference records: give at least one anchor, point or plane", field="measurements")

@@ -1,0 +1,108 @@
+"""Which records to take against references (a ballbar's anchors, fixed points, planes): pose design on the
+rows those records would add to the fit of `models.identification.reference_fit`.
+
+A candidate is a joint vector against one of the references (its anchor position, point or plane taken as the
+user describes it). Its block holds exactly the scaled rows the fit would stack: columns the robot parameters
+that fit would estimate, then every reference's unknowns. The task matrix `L` has the robot's TCP sensitivity
+in the robot columns and zeros in the references', so trace(L M⁻¹) is the predicted TCP variance with the
+references' unknowns marginalised out: what their records leave of the robot's accuracy. Everything after the
+blocks (the relaxation and its certificate, rounding, exchange, the random baseline) is the tracker's design.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TypedDict, Unpack
+
+import numpy as np
+
+from models import NoiseModel, RobotDescription
+from models._types import Array
+from models.blas import single_threaded_blas
+from models.identification.options import IdentificationOptions
+from models.identification.reference_fit import check_references, reference_problem
+from models.measurements.references import ReferenceRecords
+from models.runtime import Runtime, runtime_for
+from optimal_design.criteria import Criterion, DesignCriterion, criterion_of
+from optimal_design.information import CandidateInformation, task_matrix, task_rows
+from optimal_design.problem import DesignProblem
+from optimal_design.report import PoseDesign
+from optimal_design.solve import solve
+
+
+def reference_information(
+    desc: RobotDescription,
+    candidates: tuple[ReferenceRecords, ...],
+    *,
+    noise: NoiseModel | None = None,
+    params: Array | None = None,
+    estimate: tuple[str, ...] = IdentificationOptions().estimate,
+    runtime: Runtime | None = None,
+) -> CandidateInformation:
+    """The blocks of every candidate record (`candidates`: per reference, its candidate joints; their values are
+    not used) over the unknowns the fit would estimate."""
+    rt, noise = runtime_for(desc, runtime), noise or NoiseModel()
+    check_references(candidates)
+    theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
+    problem = reference_problem(desc, candidates, noise=noise, theta=theta, estimate=estimate, runtime=rt)
+    at_start = problem.evaluate(np.zeros(problem.n_free))
+    if at_start is None:
+        raise ValueError("the model is undefined at these candidates")  # sampled or checked joints: a bug
+    rows = max(g.reference.rows for g in candidates)
+    blocks = np.zeros((problem.joints.shape[0], rows, problem.n_free))
+    row = 0
+    for k, group in enumerate(candidates):
+        r = group.reference.rows
+        records = slice(problem.records[k], problem.records[k + 1])
+        blocks[records, :r, :] = at_start.jacobian[row : row + group.size * r].reshape(group.size, r, -1)
+        row += group.size * r
+    free = tuple(int(i) for i in problem.free)
+    n_robot, n_all = len(free), problem.n_free
+    task = np.zeros((n_all, n_all))
+    task[:n_robot, :n_robot] = task_matrix(desc, free, runtime=rt)
+    tcp_rows = np.zeros((*task_rows(desc, free, runtime=rt).shape[:2], n_all))
+    tcp_rows[:, :, :n_robot] = task_rows(desc, free, runtime=rt)
+    return CandidateInformation(
+        joints=problem.joints,
+        blocks=blocks,
+        free=free,
+        task=task,
+        position_only=True,
+        task_rows=tcp_rows,
+    )
+
+
+class _Options(TypedDict, total=False):
+    noise: NoiseModel | None
+    params: Array | None
+    estimate: tuple[str, ...]
+    runtime: Runtime | None
+
+
+@single_threaded_blas
+def design_reference_records(
+    desc: RobotDescription,
+    candidates: tuple[ReferenceRecords, ...],
+    count: int,
+    criterion: str | Criterion | DesignCriterion = Criterion.I,
+    *,
+    seed: int = 0,
+    **options: Unpack[_Options],
+) -> PoseDesign:
+    """Choose `count` of the candidate records (their order: the candidates' groups one after the other, so a
+    chosen index says which reference it belongs to). The I criterion (default) minimises the predicted TCP
+    error directly."""
+    started = time.perf_counter()
+    info = reference_information(desc, candidates, **options)
+    problem = DesignProblem(
+        info=info,
+        base=np.zeros((info.n_params, info.n_params)),
+        n_fixed=0,
+        rows=info.rows,
+        position_only=True,
+        origin=np.arange(info.size),
+        excluded={},
+        spread=None,
+        offered=info.size,
+    )
+    return solve(desc, problem, criterion_of(criterion), count, seed=seed, started=started)
