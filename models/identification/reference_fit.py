@@ -23,11 +23,12 @@ from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import analyse_identifiability
 from models.identification.options import IdentificationOptions
 from models.identification.polish import polish
+from models.identification.registration import registered_base, rigid_fit
 from models.identification.residuals import Evaluation
 from models.identification.solver import IpoptRun, solver_pool
 from models.identification.statistics import Covariance, covariance
 from models.kinematics import forward_kinematics
-from models.measurements.references import ReferenceRecords
+from models.measurements.references import ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
@@ -179,7 +180,7 @@ def identify_references(
     rt, noise, options = runtime_for(desc, runtime), noise or NoiseModel(), options or IdentificationOptions()
     check_references(groups)
     table = desc.parameters
-    theta = table.nominal if nominal is None else table.vector(nominal)
+    theta = _registered(desc, table.nominal if nominal is None else table.vector(nominal), groups, rt)
     groups = tuple(_started(desc, theta, g, rt) for g in groups)
     problem = reference_problem(desc, groups, noise=noise, theta=theta, estimate=options.estimate, runtime=rt)
     lower, upper = np.full(problem.n_free, -np.inf), np.full(problem.n_free, np.inf)
@@ -257,7 +258,7 @@ def _result(
             "the robot's base held at its start values (distance, point and plane records fix no frame): the "
             "parameters and the references are expressed in that base's frame"
             if frame_free
-            else "the instrument frame"
+            else "the tracker's frame (the robot's base, identified with the rest)"
         ),
         references=_estimates(problem, final, u_fit, std[problem.free.size :]),
         parameter_covariance=(cov.z * np.outer(scales, scales))[: problem.free.size, : problem.free.size],
@@ -287,6 +288,8 @@ def _identifiable(problem: ReferenceProblem, candidates: tuple[int, ...]) -> lis
         raise InvalidInput("the model is undefined at the start values: these records do not fit this robot")
     n_robot = len(problem.desc.parameters)
     robot, refs = start.jacobian[:, :n_robot], start.jacobian[:, n_robot:]
+    if refs.shape[1] == 0:
+        return list(analyse_identifiability(robot, problem.desc.parameters, candidates).identifiable)
     q, r, _ = np.linalg.svd(refs, full_matrices=False)
     strong = r > r[0] * 1e-9
     if not strong.all():
@@ -303,6 +306,18 @@ def _identifiable(problem: ReferenceProblem, candidates: tuple[int, ...]) -> lis
         )
     projected = robot - q @ (q.T @ robot)
     return list(analyse_identifiability(projected, problem.desc.parameters, candidates).identifiable)
+
+
+def _registered(desc: RobotDescription, theta: Array, groups: tuple[ReferenceRecords, ...], rt: Runtime) -> Array:
+    """With tracker records beside the references, the base from their closed-form registration (the tracker
+    may stand metres away and turned: IPOPT starts where the frame already fits); unchanged without."""
+    tracked = [g for g in groups if isinstance(g.reference, TrackerPositions)]
+    if not tracked:
+        return theta
+    joints = np.vstack([g.joints for g in tracked])
+    measured = np.vstack([g.values for g in tracked])
+    nominal = forward_kinematics(desc, joints, theta, check_ranges=False, runtime=rt).positions
+    return registered_base(desc, theta, rigid_fit(nominal, measured))
 
 
 def _started(desc: RobotDescription, theta: Array, group: ReferenceRecords, rt: Runtime) -> ReferenceRecords:

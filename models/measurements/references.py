@@ -46,6 +46,8 @@ class Reference(Protocol):
     fixes_scale: ClassVar[bool]
     """Whether its records carry a length (a distance does; coincidence with a point or a plane does not: the
     whole robot and its points and planes scaled together satisfy them as well)."""
+    value_columns: ClassVar[int]
+    """Measured numbers per record: a distance 1, a tracker's position 3, a point or a plane touch 0."""
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -85,6 +87,7 @@ class Anchor:
     length_unknown: bool = False
 
     kind: ClassVar[str] = "anchor"
+    value_columns: ClassVar[int] = 1
     rows: ClassVar[int] = 1
     fixes_frame: ClassVar[bool] = False
     fixes_scale: ClassVar[bool] = True
@@ -130,6 +133,7 @@ class FixedPoint:
     start: tuple[float, float, float]
 
     kind: ClassVar[str] = "point"
+    value_columns: ClassVar[int] = 0
     rows: ClassVar[int] = 3
     fixes_frame: ClassVar[bool] = False
     fixes_scale: ClassVar[bool] = False
@@ -160,6 +164,7 @@ class Plane:
     offset: float
 
     kind: ClassVar[str] = "plane"
+    value_columns: ClassVar[int] = 0
     rows: ClassVar[int] = 1
     fixes_frame: ClassVar[bool] = False
     fixes_scale: ClassVar[bool] = False
@@ -219,12 +224,40 @@ class Plane:
 
 
 @dataclass(frozen=True)
+class TrackerPositions:
+    """Positions a tracker measured in its own frame (the robot's `base` is that frame), in a campaign with
+    references: residual p − m (3 rows), no unknowns of its own, and it fixes the frame and the length."""
+
+    name: str = "tracker"
+
+    kind: ClassVar[str] = "position"
+    value_columns: ClassVar[int] = 3
+    rows: ClassVar[int] = 3
+    fixes_frame: ClassVar[bool] = True
+    fixes_scale: ClassVar[bool] = True
+
+    @property
+    def unknowns(self) -> tuple[ParameterSpec, ...]:
+        return ()
+
+    @property
+    def minimum_records(self) -> int:
+        return 1
+
+    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        return p - values, dp.copy(), np.zeros((p.shape[0], 3, 0))
+
+    def started(self, p: Array, values: Array) -> TrackerPositions:
+        return self
+
+
+@dataclass(frozen=True)
 class ReferenceRecords:
     """The records measured against one reference: joints (n, n_joints, internal units), each record's
-    measured value (an anchor's distance, mm; unused by points and planes) and its σ (mm; None: the noise
-    model's position σ)."""
+    measured value (an anchor's distance, mm; a tracker's position (n, 3), mm; unused by points and planes) and
+    its σ (mm; None: the noise model's position σ)."""
 
-    reference: Anchor | FixedPoint | Plane
+    reference: Anchor | FixedPoint | Plane | TrackerPositions
     joints: Array
     values: Array
     sigma_mm: Array | None = None
@@ -245,9 +278,9 @@ class ReferenceRecords:
                 missing=needed - self.size,
                 kind=ref.kind,
             )
-        if self.values.shape != (self.size,):
+        expected = (self.size,) if ref.value_columns <= 1 else (self.size, ref.value_columns)
+        if ref.value_columns and self.values.shape != expected:
             raise InvalidInput(
-                f"{ref.kind} {ref.name!r}: expected one measured value per record ({self.size}), got "
-                f"{self.values.shape}",
+                f"{ref.kind} {ref.name!r}: expected measured values of shape {expected}, got {self.values.shape}",
                 field="measurements",
             )

@@ -16,7 +16,7 @@ from models.identification.options import IdentificationOptions
 from models.identification.reference_fit import ReferenceFit, identify_references
 from models.identification.registration import rigid_fit
 from models.inverse import inverse_kinematics
-from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords
+from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
 from models.simulation import perturbed_robot
 from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
@@ -214,3 +214,32 @@ def test_a_narrowed_estimate_holds_the_rest() -> None:
     fit = identify_references(DESC, groups, options=IdentificationOptions(estimate=("tool",)))
     names = {fit.table.names[i] for i in fit.estimated}
     assert names and all(n.startswith("tool.") for n in names)
+
+
+# ---------------------------------------------------------------------------------------------- mixed with a tracker
+def test_tracker_positions_beside_the_ballbar_fix_the_frame_and_the_anchors_in_it() -> None:
+    """A campaign mixing kinds: a few tracker positions (the tracker 3 m away, turned 30°: its frame is the
+    robot's base) fix the frame the ballbar alone leaves free; base, robot and anchors come out in the tracker's
+    frame, the TCP within its bound without any alignment."""
+    seed = 6
+    rng = np.random.default_rng(seed)
+    truth = perturbed_robot(DESC, seed=seed).truth  # the base is the tracker's frame, far from nominal
+    joints = sample_workspace(DESC, 15, seed=61)
+    seen = forward_kinematics(DESC, joints, truth).positions + rng.normal(0, SIGMA_MM, (15, 3))
+    groups = [ReferenceRecords(TrackerPositions(), joints, seen)]
+    world_anchors = forward_kinematics(DESC, sample_workspace(DESC, 3, seed=62), truth).positions  # in its frame
+    for k, anchor in enumerate(world_anchors):
+        bar = sample_workspace(DESC, 30, seed=63 + k)
+        d = np.linalg.norm(forward_kinematics(DESC, bar, truth).positions - anchor, axis=1)
+        d = d + rng.normal(0, SIGMA_MM, 30)
+        groups.append(ReferenceRecords(Anchor(f"a{k + 1}", (0.0, 0.0, 0.0)), bar, d))
+    fit = identify_references(DESC, tuple(groups), noise=NoiseModel(SIGMA_MM, 1e-5))
+    assert fit.solver_success and fit.noise_consistent
+    assert not {n for n in fit.unidentifiable if n.startswith("base.")} - {"base.rz"}  # at most what θ1 absorbs
+    assert "tracker" in fit.frame
+    for ref, anchor in zip(fit.references[1:], world_anchors, strict=True):
+        assert np.abs((ref.values[:3] - anchor) / ref.std_errors[:3]).max() < 4.5, (ref.name, ref.values, anchor)
+    fresh = sample_workspace(DESC, 300, seed=999)
+    error = forward_kinematics(DESC, fresh, fit.parameters).positions - forward_kinematics(DESC, fresh, truth).positions
+    rms = float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
+    assert rms < 2.0 * _predicted_rms(fit, fresh), (rms, _predicted_rms(fit, fresh))
