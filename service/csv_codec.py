@@ -43,21 +43,49 @@ def joined_campaign(
     return joined_records(joint_table, point_table, joint_columns(joint_table.columns), options or ImportOptions())
 
 
+JOINT_STYLES = ("q", "a", "j", "axis", "joint")
+"""How a header may number the serial joints, 1-based: q1 … (robots.md), A1 … (KUKA), J1 … (ABB, Fanuc), axis1 …
+and joint1 … (case does not matter: the reader lowers it). One style a file."""
+
+
 def joint_columns(columns: Sequence[str]) -> list[str]:
-    """The joint columns a header names, in robots.md order: q1 … q_m, then l1 … l6 (a Leica q0…q3 quaternion
-    is not joints: q0 marks it)."""
+    """The joint columns a header names, in the robot's order: the serial joints 1 … m in one of
+    `JOINT_STYLES`, then a hexapod's legs l1 … l6 (a Leica q0…q3 quaternion is not joints: q0 marks it)."""
     if "q0" in columns:
         return JOINT_HEADER  # a Leica-style q0…q3 quaternion: the reader names the clash with the joints
-    serial = sorted((c for c in columns if re.fullmatch(r"q[1-9][0-9]*", c)), key=lambda c: int(c[1:]))
+    styles = {
+        style: sorted(
+            (c for c in columns if re.fullmatch(rf"{style}[1-9][0-9]*", c)), key=lambda c: int(c[len(style) :])
+        )
+        for style in JOINT_STYLES
+    }
+    used = [style for style, found in styles.items() if found]
     legs = [leg for leg in LEGS if leg in columns]
-    found = serial + legs
-    if not found:
-        raise CampaignFileError(f"the header names no joint (q1 … q_m, l1 … l6; found: {listed(columns)})", line=1)
-    expected = [f"q{k + 1}" for k in range(len(serial))]
+    if len(used) > 1:
+        raise CampaignFileError(
+            f"the header numbers its joints in more than one way ({listed([styles[u][0] for u in used])}): "
+            "name them all alike, e.g. q1 … q_m or A1 … A_m",
+            line=1,
+        )
+    if not used and not legs:
+        raise CampaignFileError(
+            "the header names no joint column: name the robot's joints q1 … q_m in its order (A1 …, J1 …, axis1 … "
+            f"and joint1 … are read too; a hexapod's legs are l1 … l6); found: {listed(columns)}",
+            line=1,
+        )
+    style = used[0] if used else "q"
+    serial = styles[style]
+    expected = [f"{style}{k + 1}" for k in range(len(serial))]
     if serial != expected:
-        missing = sorted(set(expected) - set(serial), key=lambda c: int(c[1:]))
-        raise CampaignFileError(f"the joint columns skip {listed(missing)}: robots.md numbers them q1 … q_m", line=1)
-    return found
+        missing = sorted(set(expected) - set(serial), key=lambda c: int(c[len(style) :]))
+        raise CampaignFileError(f"the joint columns skip {listed(missing)}: number them 1 … m in order", line=1)
+    return serial + legs
+
+
+def _numbered(columns: Sequence[str], style: str) -> list[str]:
+    """The columns named `<style><k>` (k from 1), by k."""
+    found = [c for c in columns if re.fullmatch(rf"{style}[1-9][0-9]*", c)]
+    return sorted(found, key=lambda c: int(c[len(style) :]))
 
 
 def joints_csv(rows: Sequence[Sequence[float | None]], names: Sequence[str]) -> str:

@@ -19,6 +19,9 @@ from service.campaign_io.tabular import Row, Table
 MM_PER: dict[str, float] = {"mm": 1.0, "m": 1000.0, "cm": 10.0, "um": 1e-3, "µm": 1e-3, "in": 25.4, "inch": 25.4}
 """Length units a file may use, in mm: the only conversion of file lengths (the API itself takes mm)."""
 
+DEG_PER: dict[str, float] = {"deg": 1.0, "°": 1.0, "degree": 1.0, "degrees": 1.0, "rad": 57.29577951308232}
+"""Angle units a joint column may state, in degrees (the API's unit of revolute joints); radians are 180/π."""
+
 U95_COVERAGE = 2.0
 
 ALIASES: dict[str, tuple[str, ...]] = {
@@ -182,11 +185,39 @@ def joint_rows(table: Table, joint_names: Sequence[str]) -> list[tuple[int, str 
             f"{listed(names)} (found: {listed(table.columns)})",
             line=1,
         )
+    factors = [_joint_factor(table, n) for n in names]
     out = []
     for row in table.rows:
         pose_id = row.cells[found["pose_id"]].strip() if "pose_id" in found else None
-        out.append((row.line, pose_id, [table.number(row, n) for n in names]))
+        out.append((row.line, pose_id, [table.number(row, n) * f for n, f in zip(names, factors, strict=True)]))
     return out
+
+
+def _joint_factor(table: Table, column: str) -> float:
+    """A joint column's unit as its header states it (`q2 [rad]`, `q1 [m]`) to the API's (degrees for a revolute
+    joint, mm for a prismatic one): 1 without a unit. An unknown unit is refused, never read as degrees."""
+    unit = table.units.get(column)
+    if unit is None:
+        return 1.0
+    if unit in DEG_PER:
+        return DEG_PER[unit]
+    if unit in MM_PER:
+        return MM_PER[unit]
+    raise CampaignFileError(
+        f"column {column}: unknown joint unit {unit!r} in the header; use deg or rad for a revolute joint, "
+        f"{', '.join(MM_PER)} for a prismatic one",
+        column=table.column_number(column),
+    )
+
+
+def joint_unit_notes(table: Table, joint_names: Sequence[str]) -> list[str]:
+    """What the reader converted in the joint columns (a unit other than the API's)."""
+    notes = []
+    for name in (normalise_joint(n) for n in joint_names):
+        unit = table.units.get(name)
+        if unit is not None and unit not in ("deg", "°", "degree", "degrees", "mm"):
+            notes.append(f"joint column {name} is in {unit}: converted to {'degrees' if unit in DEG_PER else 'mm'}")
+    return notes
 
 
 def record(joints: list[float], point: Measured) -> dict[str, Any]:
@@ -204,6 +235,7 @@ def campaign_records(
     """One table with the joints and the measurement of each pose."""
     points, notes = measured_points(table, options, joint_names)
     joints = joint_rows(table, joint_names)
+    notes = [*notes, *joint_unit_notes(table, joint_names)]
     return [record(q, p) for (_, _, q), p in zip(joints, points, strict=True)], notes
 
 
@@ -213,6 +245,7 @@ def joined_records(
     """The controller's joint file and the instrument's point file, joined by pose id (in the joint file's order)."""
     joints = joint_rows(joint_table, joint_names)
     points, notes = measured_points(point_table, options)
+    notes = [*notes, *joint_unit_notes(joint_table, joint_names)]
     if any(pid is None for _, pid, _ in joints) or any(p.pose_id is None for p in points):
         raise CampaignFileError(
             "to join a joint file and a point file both need a pose id column (pose_id, id, point, name or target)"
