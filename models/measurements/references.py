@@ -118,11 +118,40 @@ class Anchor:
         return r, d_theta, d_u[:, None, :]
 
     def started(self, p: Array, values: Array) -> Anchor:
-        # ‖p − a‖² = d²  ⇔  2 p·a − ‖a‖² = ‖p‖² − d²: linear in (a, ‖a‖²), a sphere through the records.
-        matrix = np.hstack([2 * p, -np.ones((p.shape[0], 1))])
-        solution, *_ = np.linalg.lstsq(matrix, np.sum(p**2, axis=1) - values**2, rcond=None)
-        x, y, z = (float(v) for v in solution[:3])
+        centre, misfit = _sphere(p, values)
+        # A bar read in another unit fits no sphere around any point; scaled back it fits one, as a bar must.
+        for unit, factor in DISTANCE_SLIPS.items():
+            _, scaled = _sphere(p, values * factor)
+            if misfit > SLIP_MISFIT_MM and scaled < SLIP_RATIO * misfit:
+                raise InvalidInput(
+                    f"anchor {self.name!r}: the distances look like {unit} ({values.mean():.4g} on average; times "
+                    f"{factor:g} they fit a sphere to {scaled:.2g} mm RMS, as given to {misfit:.3g} mm): give them in "
+                    "mm",
+                    field="measurements",
+                    reason="distance_unit",
+                    value=unit,
+                )
+        x, y, z = (float(v) for v in centre)
         return Anchor(self.name, (x, y, z), self.length_unknown)
+
+
+DISTANCE_SLIPS = {"inches": 25.4, "metres": 1000.0, "centimetres": 10.0}
+"""Units a distance file slips into, and their factor to mm."""
+SLIP_MISFIT_MM = 1.0
+"""A sphere misfit the nominal model's errors cannot explain (they are tenths of a millimetre) ..."""
+SLIP_RATIO = 0.1
+"""... and that the rescaled distances cut tenfold: then the unit is named, not fitted."""
+
+
+def _sphere(p: Array, d: Array) -> tuple[Array, float]:
+    """The sphere through the records: its centre and the RMS misfit of the distances to it (mm).
+
+    ‖p − a‖² = d²  ⇔  2 p·a − ‖a‖² = ‖p‖² − d²: linear in (a, ‖a‖²); the misfit is that of the distances."""
+    matrix = np.hstack([2 * p, -np.ones((p.shape[0], 1))])
+    solution, *_ = np.linalg.lstsq(matrix, np.sum(p**2, axis=1) - d**2, rcond=None)
+    centre = solution[:3]
+    misfit = float(np.sqrt(np.mean((np.linalg.norm(p - centre, axis=1) - d) ** 2)))
+    return centre, misfit
 
 
 @dataclass(frozen=True)

@@ -243,3 +243,12 @@ def test_tracker_positions_beside_the_ballbar_fix_the_frame_and_the_anchors_in_i
     error = forward_kinematics(DESC, fresh, fit.parameters).positions - forward_kinematics(DESC, fresh, truth).positions
     rms = float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
     assert rms < 2.0 * _predicted_rms(fit, fresh), (rms, _predicted_rms(fit, fresh))
+
+
+@pytest.mark.parametrize(("unit", "factor"), [("inches", 25.4), ("metres", 1000.0)])
+def test_a_bar_read_in_another_unit_is_named_not_fitted(unit: str, factor: float) -> None:
+    _, groups = _ballbar(1)
+    slipped = ReferenceRecords(groups[1].reference, groups[1].joints, groups[1].values / factor)
+    with pytest.raises(InvalidInput, match=f"anchor 'a2': the distances look like {unit}") as refused:
+        identify_references(DESC, (groups[0], slipped, groups[2]))
+    assert refused.value.reason == "distance_unit" and refused.value.value == unit
