@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import RobotDescription, forward_kinematics, sample_workspace
+from models import RobotDescription, forward_kinematics, iwr, sample_workspace
 from models.errors import InvalidInput, TooFewMeasurements
 from models.examples import ur5_like
 from models.identification.options import IdentificationOptions
@@ -252,3 +252,38 @@ def test_a_bar_read_in_another_unit_is_named_not_fitted(unit: str, factor: float
     with pytest.raises(InvalidInput, match=f"anchor 'a2': the distances look like {unit}") as refused:
         identify_references(DESC, (groups[0], slipped, groups[2]))
     assert refused.value.reason == "distance_unit" and refused.value.value == unit
+
+
+def test_the_iwr_from_ballbar_data_alone_says_what_it_identifies_and_reaches_its_bound() -> None:
+    """The hybrid robot (a hexapod on a carriage) from four pivots × 50 records: what distances can identify of
+    it is estimated, the rest (the frame, what turns with the first axis, the tool's orientation, the leg
+    coordinates the others absorb) is named and held."""
+    desc = iwr()
+    truth = perturbed_robot(desc, seed=3).truth.copy()
+    truth[desc.slices["base"]] = desc.parameters.nominal[desc.slices["base"]]
+    rng = np.random.default_rng(3)
+    reach = forward_kinematics(desc, sample_workspace(desc, 200, seed=1), truth).positions
+    low, high = reach.min(axis=0), reach.max(axis=0)
+    fractions = ([0.2, 0.2, 0.1], [0.8, 0.3, 0.2], [0.5, 0.8, 0.1], [0.3, 0.6, 0.9])
+    groups = []
+    for k, fraction in enumerate(fractions):
+        pivot = low + (high - low) * np.array(fraction)
+        joints = sample_workspace(desc, 50, seed=10 + k)
+        d = np.linalg.norm(forward_kinematics(desc, joints, truth).positions - pivot, axis=1) + rng.normal(
+            0, SIGMA_MM, 50
+        )
+        groups.append(ReferenceRecords(Anchor(f"a{k + 1}", (0.0, 0.0, 0.0)), joints, d))
+    fit = identify_references(desc, tuple(groups), noise=NoiseModel(SIGMA_MM, 1e-5))
+    assert fit.solver_success and fit.noise_consistent
+    held = set(fit.unidentifiable)
+    assert {f"base.{c}" for c in ("x", "y", "z", "rx", "ry", "rz")} | {"tool.rx", "tool.ry", "tool.rz"} <= held
+    assert len(fit.estimated) + len(held) == len(desc.parameters) and len(fit.estimated) >= 40
+    fresh = sample_workspace(desc, 300, seed=999)
+    true_p = forward_kinematics(desc, fresh, truth).positions
+    est = np.array(fit.estimated)
+    jac = forward_kinematics(desc, fresh, fit.parameters, jacobian=True).jacobians[:, :3, est]
+    cov = fit.parameter_covariance / fit.variance_factor
+    bound = float(np.sqrt(np.mean(np.einsum("nip,pq,niq->n", jac, cov, jac))))
+    after = _aligned_rms(forward_kinematics(desc, fresh, fit.parameters).positions, true_p)
+    before = _aligned_rms(forward_kinematics(desc, fresh).positions, true_p)
+    assert after <= bound and after < 0.02 * before, (after, bound, before)
