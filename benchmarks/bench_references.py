@@ -22,11 +22,11 @@ import scipy.optimize
 
 from benchmarks.numpy_arm import VectorisedArm
 from benchmarks.timing import target
+from harness.ballbar import aligned_rms, ballbar_campaign, predicted_rms
 from models import NoiseModel, forward_kinematics, sample_workspace
 from models.examples import ur5_like
 from models.identification import identify
 from models.identification.reference_fit import ReferenceFit, identify_references
-from models.identification.registration import rigid_fit
 from models.measurements.references import Anchor, ReferenceRecords
 from models.simulation import measure, perturbed_robot
 from optimal_design.references import design_reference_records
@@ -41,30 +41,7 @@ DESC = ur5_like()
 
 
 def _campaign(seed: int) -> tuple[np.ndarray, tuple[ReferenceRecords, ...]]:
-    rng = np.random.default_rng(seed)
-    truth = perturbed_robot(DESC, seed=seed).truth.copy()
-    truth[DESC.slices["base"]] = DESC.parameters.nominal[DESC.slices["base"]]  # the gauge distances leave free
-    groups = []
-    for k, anchor in enumerate(ANCHORS):
-        joints = sample_workspace(DESC, PER_ANCHOR, seed=100 * seed + k)
-        p = forward_kinematics(DESC, joints, truth).positions
-        unknown = k == 2
-        d = np.linalg.norm(p - anchor, axis=1) - (DELTA_MM if unknown else 0.0) + rng.normal(0, SIGMA_MM, PER_ANCHOR)
-        groups.append(ReferenceRecords(Anchor(f"a{k + 1}", (0.0, 0.0, 0.0), length_unknown=unknown), joints, d))
-    return truth, tuple(groups)
-
-
-def _aligned_rms(fitted: np.ndarray, true: np.ndarray) -> float:
-    aligned = rigid_fit(fitted, true).apply(fitted)
-    return float(np.sqrt(np.mean(np.sum((aligned - true) ** 2, axis=1))))
-
-
-def _bound(fit: ReferenceFit, joints: np.ndarray) -> float:
-    """The Cramér–Rao prediction: the covariance at the stated σ (the variance factor taken out)."""
-    est = np.array(fit.estimated)
-    jac = forward_kinematics(DESC, joints, fit.parameters, jacobian=True).jacobians[:, :3, est]
-    cov = fit.parameter_covariance / fit.variance_factor
-    return float(np.sqrt(np.mean(np.einsum("nip,pq,niq->n", jac, cov, jac))))
+    return ballbar_campaign(DESC, seed, per_pivot=PER_ANCHOR, sigma_mm=SIGMA_MM, offset_mm=DELTA_MM, pivots=ANCHORS)
 
 
 def _reference_estimator(fit: ReferenceFit, groups: tuple[ReferenceRecords, ...]) -> np.ndarray:
@@ -107,10 +84,10 @@ def run() -> dict[str, object]:
         fit = identify_references(DESC, groups, noise=NOISE)
         times.append(time.perf_counter() - started)
         true_p = forward_kinematics(DESC, fresh, truth).positions
-        after = _aligned_rms(forward_kinematics(DESC, fresh, fit.parameters).positions, true_p)
-        before = _aligned_rms(forward_kinematics(DESC, fresh).positions, true_p)
-        bound = _bound(fit, fresh)
-        reference = _aligned_rms(forward_kinematics(DESC, fresh, _reference_estimator(fit, groups)).positions, true_p)
+        after = aligned_rms(forward_kinematics(DESC, fresh, fit.parameters).positions, true_p)
+        before = aligned_rms(forward_kinematics(DESC, fresh).positions, true_p)
+        bound = predicted_rms(DESC, fit, fresh, stated=True)
+        reference = aligned_rms(forward_kinematics(DESC, fresh, _reference_estimator(fit, groups)).positions, true_p)
         ratios.append(after / bound)
         improvement.append(after / before)
         agreement.append(after / reference)
@@ -121,7 +98,7 @@ def run() -> dict[str, object]:
                 "bound_um": 1e3 * bound,
                 "nominal_um": 1e3 * before,
                 "reference_estimator_um": 1e3 * reference,
-                "variance_factor": fit.variance_factor,
+                "variance_factor": fit.covariance.variance_factor,
                 "unidentifiable": list(fit.unidentifiable),
             }
         )

@@ -48,11 +48,11 @@ def reference_information(
     at_start = problem.evaluate(np.zeros(problem.n_free))
     if at_start is None:
         raise ValueError("the model is undefined at these candidates")  # sampled or checked joints: a bug
-    rows = max(g.reference.rows for g in candidates)
+    rows = max(g.reference.traits.rows for g in candidates)
     blocks = np.zeros((problem.joints.shape[0], rows, problem.n_free))
     row = 0
     for k, group in enumerate(candidates):
-        r = group.reference.rows
+        r = group.reference.traits.rows
         records = slice(problem.records[k], problem.records[k + 1])
         blocks[records, :r, :] = at_start.jacobian[row : row + group.size * r].reshape(group.size, r, -1)
         row += group.size * r

@@ -24,11 +24,11 @@ from models.identifiability import analyse_identifiability
 from models.identification.options import IdentificationOptions
 from models.identification.polish import polish
 from models.identification.registration import registered_base, rigid_fit
-from models.identification.residuals import Evaluation
+from models.identification.residuals import EvaluatedOnce, Evaluation
 from models.identification.solver import IpoptRun, solver_pool
 from models.identification.statistics import Covariance, covariance
 from models.kinematics import forward_kinematics
-from models.measurements.references import ReferenceRecords, TrackerPositions
+from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
@@ -40,7 +40,7 @@ FRAME_GROUPS = ("base",)
 
 
 @dataclass
-class ReferenceProblem:
+class ReferenceProblem(EvaluatedOnce):
     """The weighted least squares of reference records. Unknowns z: the free robot parameters, then every
     reference's unknowns, each in units of its scale (θ[free] = θ₀[free] + scale · z)."""
 
@@ -73,14 +73,6 @@ class ReferenceProblem:
         theta = self.theta_start.copy()
         theta[self.free] += self.scales * z[: self.free.size]
         return theta, self.u_start + self.u_scales * z[self.free.size :]
-
-    def evaluate(self, z: Array) -> Evaluation | None:
-        key = np.asarray(z, dtype=float).tobytes()
-        if self._last is not None and self._last[0] == key:
-            return self._last[1]
-        result = self._evaluate(np.asarray(z, dtype=float))
-        self._last = (key, result)
-        return result
 
     def _evaluate(self, z: Array) -> Evaluation | None:
         self.evaluations += 1
@@ -124,12 +116,13 @@ class ReferenceProblem:
 class ReferenceEstimate:
     """One reference's unknowns as identified (internal units: mm, rad) with their standard errors."""
 
-    kind: str
-    name: str
-    names: tuple[str, ...]
+    reference: Anchor | FixedPoint | Plane | TrackerPositions
+    """As the fit started it (its closed-form start)."""
     values: Array
+    """Its unknowns at the solution, in `reference.unknowns` order."""
     std_errors: Array
     rms_residual_mm: float
+    """Of its records at the solution."""
     records: int
 
 
@@ -139,8 +132,11 @@ class ReferenceFit:
 
     table: ParameterTable
     parameters: Array
+    """The robot's, at the solution (internal units)."""
     start: Array
+    """What the fit started from (the nominal values, or a given version's; with tracker records, registered)."""
     estimated: tuple[int, ...]
+    """The robot parameters estimated (table indices)."""
     std_errors: Array
     """Per robot parameter; NaN for those held (not estimated)."""
     unidentifiable: tuple[str, ...]
@@ -151,18 +147,9 @@ class ReferenceFit:
     parameter_covariance: Array
     """A-posteriori covariance of the estimated robot parameters (`estimated` order), internal units."""
     covariance: Covariance
-    solver_status: str
-    solver_success: bool
-    iterations: int
+    """Of every unknown, in scale units, with the variance factor and its χ² interval."""
+    solver: IpoptRun
     seconds: float
-
-    @property
-    def variance_factor(self) -> float:
-        return self.covariance.variance_factor
-
-    @property
-    def noise_consistent(self) -> bool:
-        return self.covariance.noise_consistent
 
 
 def identify_references(
@@ -208,7 +195,7 @@ def reference_problem(
     table = desc.parameters
     u_start = np.concatenate([[s.nominal for s in g.reference.unknowns] for g in groups])
     u_scales = np.concatenate([[s.scale for s in g.reference.unknowns] for g in groups])
-    frame_free = not any(g.reference.fixes_frame for g in groups)
+    frame_free = not any(g.reference.traits.fixes_frame for g in groups)
     frame = set(table.indices(FRAME_GROUPS)) if frame_free else set()
     candidates = tuple(i for i in table.indices(estimate) if i not in frame)
     none = np.arange(0, dtype=np.intp)
@@ -225,7 +212,7 @@ def check_references(groups: tuple[ReferenceRecords, ...]) -> None:
         raise InvalidInput(f"reference names repeat: {names}; give each anchor, point and plane once")
     for group in groups:
         group.check()
-    if not any(g.reference.fixes_scale for g in groups):
+    if not any(g.reference.traits.fixes_scale for g in groups):
         raise InvalidInput(
             "fixed points and planes fix no length: the robot and its points and planes scaled together fit them "
             "as well (down to a robot of zero size); add the records of a ballbar or a distance sensor (an anchor) "
@@ -240,7 +227,7 @@ def _result(
 ) -> ReferenceFit:
     """The fit at its solution: the parameters and references with their standard errors and covariance."""
     table, u_scales = problem.desc.parameters, problem.u_scales
-    frame_free = not any(g.reference.fixes_frame for g in problem.groups)
+    frame_free = not any(g.reference.traits.fixes_frame for g in problem.groups)
     cov = covariance(final.jacobian, final.residuals)
     scales = np.concatenate([problem.scales, u_scales])
     std = np.sqrt(np.diag(cov.z)) * scales
@@ -263,9 +250,7 @@ def _result(
         references=_estimates(problem, final, u_fit, std[problem.free.size :]),
         parameter_covariance=(cov.z * np.outer(scales, scales))[: problem.free.size, : problem.free.size],
         covariance=cov,
-        solver_status=run.status,
-        solver_success=run.success,
-        iterations=run.iterations,
+        solver=run,
         seconds=time.perf_counter() - started,
     )
 
@@ -297,12 +282,12 @@ def _identifiable(problem: ReferenceProblem, candidates: tuple[int, ...]) -> lis
         block = int(np.searchsorted(everything.blocks, weak, side="right") - 1)
         ref = groups[block].reference
         raise TooFewMeasurements(
-            f"the records of {ref.kind} {ref.name!r} do not determine it (for a plane: touches spread over an "
+            f"the records of {ref.traits.kind} {ref.name!r} do not determine it (for a plane: touches spread over an "
             "area, not along a line; for an anchor: records around it in all directions)",
             got=groups[block].size,
             needed=ref.minimum_records,
             missing=0,
-            kind=ref.kind,
+            kind=ref.traits.kind,
         )
     projected = robot - q @ (q.T @ robot)
     return list(analyse_identifiability(projected, problem.desc.parameters, candidates).identifiable)
@@ -332,15 +317,13 @@ def _estimates(problem: ReferenceProblem, final: Evaluation, u: Array, std: Arra
     row = 0
     for k, group in enumerate(problem.groups):
         ref, block = group.reference, slice(problem.blocks[k], problem.blocks[k + 1])
-        rows = group.size * ref.rows
-        weights = np.repeat(problem.weights[k], ref.rows)
+        rows = group.size * ref.traits.rows
+        weights = np.repeat(problem.weights[k], ref.traits.rows)
         mm = residual_mm[row : row + rows] / weights
         row += rows
         out.append(
             ReferenceEstimate(
-                kind=ref.kind,
-                name=ref.name,
-                names=tuple(s.name for s in ref.unknowns),
+                reference=ref,
                 values=u[block],
                 std_errors=std[block],
                 rms_residual_mm=float(np.sqrt(np.mean(mm**2))),

@@ -75,8 +75,27 @@ class FitProblem(Protocol):
     def evaluate(self, z: Array) -> Evaluation | None: ...
 
 
+class EvaluatedOnce:
+    """Everything at z, kept for the next call at the same z (IPOPT asks for f, ∇f and ∇²f at one point);
+    None where the model is undefined (a hexapod that does not close, non-finite numbers). A problem provides
+    `_evaluate` and a `_last` field."""
+
+    _last: tuple[bytes, Evaluation | None] | None
+
+    def evaluate(self, z: Array) -> Evaluation | None:
+        key = np.asarray(z, dtype=float).tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        result = self._evaluate(np.asarray(z, dtype=float))
+        self._last = (key, result)
+        return result
+
+    def _evaluate(self, z: Array) -> Evaluation | None:
+        raise NotImplementedError
+
+
 @dataclass
-class CampaignProblem:
+class CampaignProblem(EvaluatedOnce):
     desc: RobotDescription
     runtime: Runtime
     """Of `desc`'s structure: its compiled Functions evaluate every batch."""
@@ -121,18 +140,6 @@ class CampaignProblem:
         theta = self.theta_start.copy()
         theta[self.free] += self.scales * z
         return theta
-
-    def evaluate(self, z: Array) -> Evaluation | None:
-        """Everything at z (cached: IPOPT asks for f, ∇f and ∇²f at the same point).
-
-        None where the model is undefined: a hexapod that does not close, or non-finite numbers.
-        """
-        key = np.asarray(z, dtype=float).tobytes()
-        if self._last is not None and self._last[0] == key:
-            return self._last[1]
-        result = self._evaluate(np.asarray(z, dtype=float))
-        self._last = (key, result)
-        return result
 
     def residual_vector(self, z: Array) -> Array:
         """Standardised residuals only (no Jacobian), flattened; NaN where the model is undefined."""

@@ -36,18 +36,28 @@ MIN_PLANE_SPREAD_MM = 5.0
 not determined (a plate is touched over tens of millimetres)."""
 
 
+@dataclass(frozen=True)
+class Traits:
+    """What a kind of reference is, the same for every reference of it."""
+
+    kind: str
+    """As records and messages name it: "anchor", "point", "plane", "position"."""
+    rows: int
+    """Equations a record gives."""
+    value_columns: int
+    """Measured numbers per record: a distance 1, a tracker's position 3, a point or a plane touch 0."""
+    fixes_frame: bool
+    """Whether its records see the instrument frame (a tracker's do; a reference's move with the base)."""
+    fixes_scale: bool
+    """Whether its records carry a length (a distance does; coincidence with a point or a plane does not: the
+    whole robot and its points and planes scaled together satisfy them as well)."""
+
+
 class Reference(Protocol):
     """One reference feature and what a record against it says (see the module docstring)."""
 
     name: str
-    kind: ClassVar[str]
-    rows: ClassVar[int]
-    fixes_frame: ClassVar[bool]
-    fixes_scale: ClassVar[bool]
-    """Whether its records carry a length (a distance does; coincidence with a point or a plane does not: the
-    whole robot and its points and planes scaled together satisfy them as well)."""
-    value_columns: ClassVar[int]
-    """Measured numbers per record: a distance 1, a tracker's position 3, a point or a plane touch 0."""
+    traits: ClassVar[Traits]
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -86,11 +96,7 @@ class Anchor:
     start: tuple[float, float, float]
     length_unknown: bool = False
 
-    kind: ClassVar[str] = "anchor"
-    value_columns: ClassVar[int] = 1
-    rows: ClassVar[int] = 1
-    fixes_frame: ClassVar[bool] = False
-    fixes_scale: ClassVar[bool] = True
+    traits: ClassVar[Traits] = Traits("anchor", rows=1, value_columns=1, fixes_frame=False, fixes_scale=True)
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -161,11 +167,7 @@ class FixedPoint:
     name: str
     start: tuple[float, float, float]
 
-    kind: ClassVar[str] = "point"
-    value_columns: ClassVar[int] = 0
-    rows: ClassVar[int] = 3
-    fixes_frame: ClassVar[bool] = False
-    fixes_scale: ClassVar[bool] = False
+    traits: ClassVar[Traits] = Traits("point", rows=3, value_columns=0, fixes_frame=False, fixes_scale=False)
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -192,11 +194,7 @@ class Plane:
     normal: tuple[float, float, float]
     offset: float
 
-    kind: ClassVar[str] = "plane"
-    value_columns: ClassVar[int] = 0
-    rows: ClassVar[int] = 1
-    fixes_frame: ClassVar[bool] = False
-    fixes_scale: ClassVar[bool] = False
+    traits: ClassVar[Traits] = Traits("plane", rows=1, value_columns=0, fixes_frame=False, fixes_scale=False)
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -259,11 +257,7 @@ class TrackerPositions:
 
     name: str = "tracker"
 
-    kind: ClassVar[str] = "position"
-    value_columns: ClassVar[int] = 3
-    rows: ClassVar[int] = 3
-    fixes_frame: ClassVar[bool] = True
-    fixes_scale: ClassVar[bool] = True
+    traits: ClassVar[Traits] = Traits("position", rows=3, value_columns=3, fixes_frame=True, fixes_scale=True)
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -300,16 +294,17 @@ class ReferenceRecords:
         ref, needed = self.reference, self.reference.minimum_records
         if self.size < needed:
             raise TooFewMeasurements(
-                f"{ref.kind} {ref.name!r} has {self.size} records: at least {needed} are needed to determine its "
-                f"{len(ref.unknowns)} unknowns; measure {needed - self.size} more",
+                f"{ref.traits.kind} {ref.name!r} has {self.size} records: at least {needed} are needed to determine "
+                f"its {len(ref.unknowns)} unknowns; measure {needed - self.size} more",
                 got=self.size,
                 needed=needed,
                 missing=needed - self.size,
-                kind=ref.kind,
+                kind=ref.traits.kind,
             )
-        expected = (self.size,) if ref.value_columns <= 1 else (self.size, ref.value_columns)
-        if ref.value_columns and self.values.shape != expected:
+        expected = (self.size,) if ref.traits.value_columns <= 1 else (self.size, ref.traits.value_columns)
+        if ref.traits.value_columns and self.values.shape != expected:
             raise InvalidInput(
-                f"{ref.kind} {ref.name!r}: expected measured values of shape {expected}, got {self.values.shape}",
+                f"{ref.traits.kind} {ref.name!r}: expected measured values of shape {expected}, got "
+                f"{self.values.shape}",
                 field="measurements",
             )

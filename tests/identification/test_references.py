@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from harness.ballbar import PIVOTS, aligned_rms, ballbar_campaign, gauge_truth, predicted_rms
 from models import RobotDescription, forward_kinematics, iwr, sample_workspace
 from models.errors import InvalidInput, TooFewMeasurements
 from models.examples import ur5_like
@@ -26,17 +27,7 @@ DESC = ur5_like()
 
 
 def _truth(desc: RobotDescription, seed: int) -> np.ndarray:
-    truth = perturbed_robot(desc, seed=seed).truth.copy()
-    base = desc.slices["base"]
-    truth[base] = desc.parameters.nominal[base]  # the gauge these records leave free (module docstring)
-    return truth
-
-
-def _distances(
-    truth: np.ndarray, anchor: np.ndarray, joints: np.ndarray, delta: float, rng: np.random.Generator
-) -> np.ndarray:
-    p = forward_kinematics(DESC, joints, truth).positions
-    return np.asarray(np.linalg.norm(p - anchor, axis=1) - delta + rng.normal(0, SIGMA_MM, len(joints)))
+    return gauge_truth(desc, seed)
 
 
 # ---------------------------------------------------------------------------------------------- derivatives
@@ -48,7 +39,7 @@ def _distances(
         FixedPoint("p", (100.0, 200.0, 300.0)),
         Plane("f", (0.2, -0.1, 0.97), 150.0),
     ],
-    ids=lambda r: f"{r.kind}{'-offset' if getattr(r, 'length_unknown', False) else ''}",
+    ids=lambda r: f"{r.traits.kind}{'-offset' if getattr(r, 'length_unknown', False) else ''}",
 )
 def test_each_reference_derivative_matches_finite_differences(reference: Anchor | FixedPoint | Plane) -> None:
     rng = np.random.default_rng(1)
@@ -80,52 +71,36 @@ def test_each_reference_derivative_matches_finite_differences(reference: Anchor 
         )
         chain += fd_p[:, :, None] * dp[:, None, axis, :]
     np.testing.assert_allclose(d_theta, chain, atol=1e-6)
-    assert r.shape == (n, reference.rows)
+    assert r.shape == (n, reference.traits.rows)
 
 
 # ---------------------------------------------------------------------------------------------- ballbar
-ANCHORS = np.array([[450.0, 150.0, 50.0], [-150.0, 450.0, 250.0], [200.0, -400.0, 400.0]])
+ANCHORS = PIVOTS
 
 
-def _ballbar(seed: int, per_anchor: int = 36, delta: float = 0.35) -> tuple[np.ndarray, tuple[ReferenceRecords, ...]]:
-    rng = np.random.default_rng(seed)
-    truth = _truth(DESC, seed)
-    groups = []
-    for k, anchor in enumerate(ANCHORS):
-        joints = sample_workspace(DESC, per_anchor, seed=100 * seed + k)
-        unknown = k == 2  # the third bar's length offset is not known
-        d = _distances(truth, anchor, joints, delta if unknown else 0.0, rng)
-        guess = tuple(anchor + rng.normal(0, 20, 3))  # a tape-measure guess: ignored by the closed-form start
-        sigma = np.full(per_anchor, SIGMA_MM)
-        groups.append(ReferenceRecords(Anchor(f"a{k + 1}", guess, length_unknown=unknown), joints, d, sigma))
-    return truth, tuple(groups)
+def _ballbar(seed: int, per_anchor: int = 36) -> tuple[np.ndarray, tuple[ReferenceRecords, ...]]:
+    return ballbar_campaign(DESC, seed, per_pivot=per_anchor, sigma_mm=SIGMA_MM)
 
 
-def _aligned_rms(fit_positions: np.ndarray, true_positions: np.ndarray) -> float:
-    """RMS TCP error after the best rigid motion: what records that fix no frame can be judged by."""
-    aligned = rigid_fit(fit_positions, true_positions).apply(fit_positions)
-    return float(np.sqrt(np.mean(np.sum((aligned - true_positions) ** 2, axis=1))))
+def _aligned_rms(fitted: np.ndarray, true: np.ndarray) -> float:
+    return aligned_rms(fitted, true)
 
 
 def _predicted_rms(fit: ReferenceFit, joints: np.ndarray) -> float:
-    """The Cramér–Rao prediction of the TCP error at `joints`: the fit's covariance through the position rows."""
-    est = np.array(fit.estimated)
-    jac = forward_kinematics(DESC, joints, fit.parameters, jacobian=True).jacobians[:, :3, est]
-    cov = fit.parameter_covariance
-    return float(np.sqrt(np.mean(np.einsum("nip,pq,niq->n", jac, cov, jac))))
+    return predicted_rms(DESC, fit, joints)
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_three_ballbar_pivots_calibrate_the_robot_to_its_cramer_rao_bound(seed: int) -> None:
     truth, groups = _ballbar(seed)
     fit = identify_references(DESC, groups, noise=NoiseModel(SIGMA_MM, 1e-5))
-    assert fit.solver_success
+    assert fit.solver.success
     # What distances cannot see: the base (a frame), and the rotation about and shift along the first axis that
     # turn and lift every anchor with the arm; said, not guessed.
     assert {f"base.{c}" for c in ("x", "y", "z", "rx", "ry", "rz")} <= set(fit.unidentifiable)
     assert {"link1.theta", "link1.d"} <= set(fit.unidentifiable) and "base" in fit.frame
     # χ² honest: the variance factor is that of noise of the stated σ.
-    assert fit.noise_consistent, (fit.variance_factor, fit.covariance.chi2_interval)
+    assert fit.covariance.noise_consistent, (fit.covariance.variance_factor, fit.covariance.chi2_interval)
     # The TCP on fresh poses, after the best rigid alignment, within twice the bound the fit predicts for itself
     # (the issue's benchmark holds it to 1.3x over more seeds), and far below the nominal model's error.
     fresh = sample_workspace(DESC, 300, seed=999)
@@ -140,7 +115,7 @@ def test_three_ballbar_pivots_calibrate_the_robot_to_its_cramer_rao_bound(seed: 
         error = np.linalg.norm(a[i] - a[j]) - np.linalg.norm(ANCHORS[i] - ANCHORS[j])
         assert abs(error) < 0.01, (i, j, error)
     offset = fit.references[2]
-    assert offset.names[-1] == "anchor.a3.length"
+    assert offset.reference.unknowns[-1].name == "anchor.a3.length"
     assert abs(offset.values[3] - 0.35) < 4.5 * offset.std_errors[3], (offset.values[3], offset.std_errors[3])
     assert all(r.rms_residual_mm < 3 * SIGMA_MM for r in fit.references)
 
@@ -186,7 +161,7 @@ def test_fixed_points_and_a_plane_identify_the_robot_and_the_features() -> None:
     distance = np.linalg.norm(forward_kinematics(DESC, bar, truth).positions - ANCHORS[0], axis=1)
     groups.append(ReferenceRecords(Anchor("a1", (0.0, 0.0, 0.0)), bar, distance))
     fit = identify_references(DESC, tuple(groups), noise=NoiseModel(SIGMA_MM, 1e-5))
-    assert fit.solver_success and "base.x" in fit.unidentifiable
+    assert fit.solver.success and "base.x" in fit.unidentifiable
     # Exact records: the fit is the truth up to the rigid motion these records leave free, to the solver's
     # tolerance, and the points are the true points after that motion.
     fresh = sample_workspace(DESC, 100, seed=77)
@@ -234,11 +209,15 @@ def test_tracker_positions_beside_the_ballbar_fix_the_frame_and_the_anchors_in_i
         d = d + rng.normal(0, SIGMA_MM, 30)
         groups.append(ReferenceRecords(Anchor(f"a{k + 1}", (0.0, 0.0, 0.0)), bar, d))
     fit = identify_references(DESC, tuple(groups), noise=NoiseModel(SIGMA_MM, 1e-5))
-    assert fit.solver_success and fit.noise_consistent
+    assert fit.solver.success and fit.covariance.noise_consistent
     assert not {n for n in fit.unidentifiable if n.startswith("base.")} - {"base.rz"}  # at most what θ1 absorbs
     assert "tracker" in fit.frame
     for ref, anchor in zip(fit.references[1:], world_anchors, strict=True):
-        assert np.abs((ref.values[:3] - anchor) / ref.std_errors[:3]).max() < 4.5, (ref.name, ref.values, anchor)
+        assert np.abs((ref.values[:3] - anchor) / ref.std_errors[:3]).max() < 4.5, (
+            ref.reference.name,
+            ref.values,
+            anchor,
+        )
     fresh = sample_workspace(DESC, 300, seed=999)
     error = forward_kinematics(DESC, fresh, fit.parameters).positions - forward_kinematics(DESC, fresh, truth).positions
     rms = float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
@@ -274,16 +253,13 @@ def test_the_iwr_from_ballbar_data_alone_says_what_it_identifies_and_reaches_its
         )
         groups.append(ReferenceRecords(Anchor(f"a{k + 1}", (0.0, 0.0, 0.0)), joints, d))
     fit = identify_references(desc, tuple(groups), noise=NoiseModel(SIGMA_MM, 1e-5))
-    assert fit.solver_success and fit.noise_consistent
+    assert fit.solver.success and fit.covariance.noise_consistent
     held = set(fit.unidentifiable)
     assert {f"base.{c}" for c in ("x", "y", "z", "rx", "ry", "rz")} | {"tool.rx", "tool.ry", "tool.rz"} <= held
     assert len(fit.estimated) + len(held) == len(desc.parameters) and len(fit.estimated) >= 40
     fresh = sample_workspace(desc, 300, seed=999)
     true_p = forward_kinematics(desc, fresh, truth).positions
-    est = np.array(fit.estimated)
-    jac = forward_kinematics(desc, fresh, fit.parameters, jacobian=True).jacobians[:, :3, est]
-    cov = fit.parameter_covariance / fit.variance_factor
-    bound = float(np.sqrt(np.mean(np.einsum("nip,pq,niq->n", jac, cov, jac))))
+    bound = predicted_rms(desc, fit, fresh, stated=True)
     after = _aligned_rms(forward_kinematics(desc, fresh, fit.parameters).positions, true_p)
     before = _aligned_rms(forward_kinematics(desc, fresh).positions, true_p)
     assert after <= bound and after < 0.02 * before, (after, bound, before)
