@@ -13,7 +13,7 @@ the references'), so a redundancy is resolved against the robot's parameter, nev
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,7 +26,7 @@ from models.identification.polish import polish
 from models.identification.registration import registered_base, rigid_fit
 from models.identification.residuals import EvaluatedOnce, Evaluation
 from models.identification.solver import IpoptRun, solver_pool
-from models.identification.statistics import Covariance, covariance
+from models.identification.statistics import Covariance, covariance, outlier_threshold
 from models.kinematics import forward_kinematics
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
@@ -35,6 +35,9 @@ from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
 
 FRAME_GROUPS = ("base",)
+MAX_EXCLUDED_SHARE = 0.2
+"""Blunders are a few records: when more fail the test, the model or the stated noise misfits the campaign as a
+whole, and they are named without being dropped (as for a tracker campaign)."""
 
 """The parameters a frame-free campaign cannot determine: the robot's base transform."""
 
@@ -127,6 +130,19 @@ class ReferenceEstimate:
 
 
 @dataclass(frozen=True)
+class ReferenceOutlier:
+    """A record whose residual fails the χ² test: its reference (by name and by place among the groups), its
+    index among that reference's records as given, its statistic (Σr² in σ units) and the test's threshold."""
+
+    reference: str
+    group: int
+    record: int
+    statistic: float
+    threshold: float
+    excluded: bool
+
+
+@dataclass(frozen=True)
 class ReferenceFit:
     """The robot's parameters and the references' unknowns from one campaign of reference records."""
 
@@ -149,6 +165,8 @@ class ReferenceFit:
     covariance: Covariance
     """Of every unknown, in scale units, with the variance factor and its χ² interval."""
     solver: IpoptRun
+    outliers: tuple[ReferenceOutlier, ...]
+    """Records no clean one would show, worst first; left out of the fit where `excluded`."""
     seconds: float
 
 
@@ -169,15 +187,75 @@ def identify_references(
     table = desc.parameters
     theta = _registered(desc, table.nominal if nominal is None else table.vector(nominal), groups, rt)
     groups = tuple(_started(desc, theta, g, rt) for g in groups)
-    problem = reference_problem(desc, groups, noise=noise, theta=theta, estimate=options.estimate, runtime=rt)
+    problem, z, final, run, outliers = _fit_without_blunders(
+        desc, groups, noise=noise, theta=theta, options=options, rt=rt
+    )
+    held = sorted(set(table.indices(options.estimate)) - {int(i) for i in problem.free})
+    return _result(problem, z, final, run, held=held, started=started, outliers=outliers)
+
+
+def _fit_without_blunders(
+    desc: RobotDescription,
+    groups: tuple[ReferenceRecords, ...],
+    *,
+    noise: NoiseModel,
+    theta: Array,
+    options: IdentificationOptions,
+    rt: Runtime,
+) -> tuple[ReferenceProblem, Array, Evaluation, IpoptRun, tuple[ReferenceOutlier, ...]]:
+    """The fit, refitted without its worst failing record while a few fail the outlier test (least squares
+    smears a blunder over the others, so one at a time); with more than a few, every record back in and the
+    failing ones named, none dropped: the model or the stated noise misfits the campaign as a whole (as for a
+    tracker campaign)."""
+
+    def fitted(records: tuple[ReferenceRecords, ...]) -> tuple[ReferenceProblem, Array, Evaluation, IpoptRun]:
+        problem = reference_problem(desc, records, noise=noise, theta=theta, estimate=options.estimate, runtime=rt)
+        return (problem, *_solved(problem, options))
+
+    given, kept = groups, [np.arange(g.size) for g in groups]
+    outliers: list[ReferenceOutlier] = []
+    total = sum(g.size for g in groups)
+    while True:
+        problem, z, final, run = fitted(groups)
+        failing = _failing(problem, final, options.outlier_alpha, total)
+        if not failing:
+            return problem, z, final, run, tuple(outliers)
+        if not options.exclude_outliers or len(outliers) + 1 > MAX_EXCLUDED_SHARE * total:
+            if groups is not given:
+                problem, z, final, run = fitted(given)
+            named = tuple(replace(o, excluded=False) for o in _failing(problem, final, options.outlier_alpha, total))
+            return problem, z, final, run, named
+        k, i = failing[0].group, failing[0].record
+        outliers.append(replace(failing[0], record=int(kept[k][i])))
+        keep = np.delete(np.arange(groups[k].size), i)
+        kept[k] = kept[k][keep]
+        groups = (*groups[:k], groups[k].subset(keep), *groups[k + 1 :])
+        check_references(groups)
+
+
+def _solved(problem: ReferenceProblem, options: IdentificationOptions) -> tuple[Array, Evaluation, IpoptRun]:
     lower, upper = np.full(problem.n_free, -np.inf), np.full(problem.n_free, np.inf)
-    run = solver_pool(rt).solve(problem, np.zeros(problem.n_free), lower, upper, options.max_iterations)
+    run = solver_pool(problem.runtime).solve(problem, np.zeros(problem.n_free), lower, upper, options.max_iterations)
     z, _ = polish(problem, run.z, lower, upper)
     final = problem.evaluate(z)
     if final is None:
         raise InvalidInput("the model is undefined at the fitted parameters: these records do not fit this robot")
-    held = sorted(set(table.indices(options.estimate)) - {int(i) for i in problem.free})
-    return _result(problem, z, final, run, held=held, started=started)
+    return z, final, run
+
+
+def _failing(problem: ReferenceProblem, final: Evaluation, alpha: float, total: int) -> list[ReferenceOutlier]:
+    """The records whose Σr² (σ units) no clean record would show (a Bonferroni χ² test over the `total`
+    records, as the tracker's), worst first (by statistic over threshold); indices within the groups as fitted."""
+    residuals = final.residuals[:, 0]
+    row, found = 0, []
+    for k, group in enumerate(problem.groups):
+        rows = group.reference.traits.rows
+        statistic = np.sum(residuals[row : row + group.size * rows].reshape(group.size, rows) ** 2, axis=1)
+        row += group.size * rows
+        threshold = outlier_threshold(total, rows, alpha)
+        for i in np.flatnonzero(statistic > threshold):
+            found.append(ReferenceOutlier(group.reference.name, k, int(i), float(statistic[i]), threshold, True))
+    return sorted(found, key=lambda o: -o.statistic / o.threshold)
 
 
 def reference_problem(
@@ -223,7 +301,14 @@ def check_references(groups: tuple[ReferenceRecords, ...]) -> None:
 
 
 def _result(
-    problem: ReferenceProblem, z: Array, final: Evaluation, run: IpoptRun, *, held: list[int], started: float
+    problem: ReferenceProblem,
+    z: Array,
+    final: Evaluation,
+    run: IpoptRun,
+    *,
+    held: list[int],
+    started: float,
+    outliers: tuple[ReferenceOutlier, ...],
 ) -> ReferenceFit:
     """The fit at its solution: the parameters and references with their standard errors and covariance."""
     table, u_scales = problem.desc.parameters, problem.u_scales
@@ -251,6 +336,7 @@ def _result(
         parameter_covariance=(cov.z * np.outer(scales, scales))[: problem.free.size, : problem.free.size],
         covariance=cov,
         solver=run,
+        outliers=outliers,
         seconds=time.perf_counter() - started,
     )
 

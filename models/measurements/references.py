@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import ClassVar, Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from models._types import Array
 from models.errors import InvalidInput, TooFewMeasurements
@@ -288,6 +289,10 @@ class ReferenceRecords:
     @property
     def size(self) -> int:
         return int(self.joints.shape[0])
+
+    def subset(self, index: NDArray[np.intp]) -> ReferenceRecords:
+        sigma = None if self.sigma_mm is None else self.sigma_mm[index]
+        return ReferenceRecords(self.reference, self.joints[index], self.values[index], sigma)
 
     def check(self) -> None:
         """Enough records to determine the reference at all; a 4xx naming it otherwise."""

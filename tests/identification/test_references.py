@@ -263,3 +263,30 @@ def test_the_iwr_from_ballbar_data_alone_says_what_it_identifies_and_reaches_its
     after = _aligned_rms(forward_kinematics(desc, fresh, fit.parameters).positions, true_p)
     before = _aligned_rms(forward_kinematics(desc, fresh).positions, true_p)
     assert after <= bound and after < 0.02 * before, (after, bound, before)
+
+
+def test_a_misread_distance_is_named_and_left_out() -> None:
+    truth, groups = _ballbar(2)
+    values = groups[1].values.copy()
+    values[7] += 0.5  # one reading 250 σ off (a bumped bar, a typo)
+    slipped = ReferenceRecords(groups[1].reference, groups[1].joints, values, groups[1].sigma_mm)
+    fit = identify_references(DESC, (groups[0], slipped, groups[2]), noise=NoiseModel(SIGMA_MM, 1e-5))
+    assert [(o.reference, o.record, o.excluded) for o in fit.outliers] == [("a2", 7, True)]
+    assert fit.covariance.noise_consistent and fit.references[1].records == groups[1].size - 1
+    fresh = sample_workspace(DESC, 300, seed=999)
+    after = _aligned_rms(
+        forward_kinematics(DESC, fresh, fit.parameters).positions, forward_kinematics(DESC, fresh, truth).positions
+    )
+    assert after < 2.0 * _predicted_rms(fit, fresh)
+
+
+def test_many_bad_records_are_named_not_dropped() -> None:
+    _, groups = _ballbar(3)
+    rng = np.random.default_rng(0)
+    noisy = tuple(
+        ReferenceRecords(g.reference, g.joints, g.values + rng.normal(0, 0.05, g.size), g.sigma_mm) for g in groups
+    )  # every record 25 σ off: the stated noise is wrong, not a few records
+    fit = identify_references(DESC, noisy, noise=NoiseModel(SIGMA_MM, 1e-5))
+    assert len(fit.outliers) > 0.2 * sum(g.size for g in groups) and not any(o.excluded for o in fit.outliers)
+    assert [r.records for r in fit.references] == [g.size for g in groups]  # every record kept
+    assert not fit.covariance.noise_consistent
