@@ -22,7 +22,7 @@ import uvicorn  # noqa: E402
 
 from service import slow_clients  # noqa: E402
 from service.app import create_app  # noqa: E402
-from service.limits import COMPUTE_DEADLINE_S, GIL_SWITCH_INTERVAL_S  # noqa: E402
+from service.limits import DEADLINE_PER_BUDGET, GIL_SWITCH_INTERVAL_S  # noqa: E402
 from service.registry import build_registry  # noqa: E402
 from service.settings import get_settings  # noqa: E402
 
@@ -44,8 +44,10 @@ def main(argv: list[str] | None = None) -> None:
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     # The served API stops what runs past its deadline (503); an app made by create_app alone (tests, scripts,
     # whose machine may be busy with anything) has none unless configured.
-    os.environ.setdefault("IWR_COMPUTE_DEADLINE_SECONDS", str(COMPUTE_DEADLINE_S))
     settings = get_settings()
+    if "IWR_COMPUTE_DEADLINE_SECONDS" not in os.environ:  # 2.5 budgets, whatever the budget is set to
+        deadline = DEADLINE_PER_BUDGET * settings.sync_budget_seconds
+        settings = settings.model_copy(update={"compute_deadline_seconds": deadline})
     signal.signal(signal.SIGTERM, _exit_cleanly)
     uvicorn.run(
         create_app(settings),

@@ -20,6 +20,7 @@ from service.metrics import Metrics
 from service.model_cache import ModelCache
 from service.persistence import Database
 from service.persistence.lifecycle import Actor
+from service.settings import Settings
 
 T = TypeVar("T")
 INJECTED = {"db", "models", "registry"}
@@ -58,6 +59,8 @@ ModelCacheDep = Annotated[ModelCache, Depends(_state("models", ModelCache))]
 RegistryDep = Annotated[Registry, Depends(_state("registry", Registry))]
 """The application's robot runtimes (made by its lifespan: `service.registry.build_registry`)."""
 JobsDep = Annotated[Requeuing, Depends(_state("jobs", Requeuing))]
+SettingsDep = Annotated[Settings, Depends(_state("settings", Settings))]
+"""The application's settings (`sync_budget_seconds` for `service.limits.admit`)."""
 ApiKeyDep = Depends(require_api_key)
 Limit = Annotated[int, Query(ge=1, le=1000)]
 """A page's size (`?limit=`, default 100 where the route says so)."""

@@ -61,7 +61,8 @@ async def computed(
     body = validated(what.schema, raw)
     if what.inline is not None and what.inline(body):
         return _answer(what.run(body=body, **dependencies), as_json)
-    limits.admit(what.estimate(body), run_async=False, can_run_async=False)
+    budget = request.app.state.settings.sync_budget_seconds
+    limits.admit(what.estimate(body), run_async=False, can_run_async=False, budget_s=budget)
     return await compute(m, what.kind, _from_model, run=what.run, body=body, as_json=as_json, **dependencies)
 
 

@@ -161,7 +161,8 @@ def precheck(scope: Scope, body: bytes) -> None:
     can_run_async = found.job is not None
     run_async = can_run_async and b"async=true" in scope.get("query_string", b"").lower()
     estimate = found.precount.estimate(found.precount.count(body))
-    limits.admit(estimate, run_async=run_async, can_run_async=can_run_async)
+    budget = scope["app"].state.settings.sync_budget_seconds
+    limits.admit(estimate, run_async=run_async, can_run_async=can_run_async, budget_s=budget)
 
 
 class BodyGuard:

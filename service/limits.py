@@ -42,7 +42,8 @@ from service.errors import ClientGone, Overloaded, WorkTooLarge
 T = TypeVar("T")
 
 SYNC_BUDGET_S = 2.0
-"""Estimated seconds of work a synchronous request may ask for (the issue's ~2 s): above it, a job."""
+"""The default of `Settings.sync_budget_seconds`: estimated seconds of work a synchronous request may ask for
+(the issue's ~2 s); above it, a job. The constants below derived from it describe the default budget."""
 JOB_MAX_S = 600.0
 """The hard cap of any job's estimated time: ten minutes of one core."""
 JOB_MEMORY_BYTES = 1_500_000_000
@@ -78,7 +79,8 @@ SYNC_COMPUTE_SLOTS = CORES
 """Synchronous computations at once: each holds a core, in its own compute process (service.compute)."""
 SYNC_QUEUE = CORES
 """Requests that may wait for a slot; beyond them, 503 at once."""
-COMPUTE_DEADLINE_S = 2.5 * SYNC_BUDGET_S
+DEADLINE_PER_BUDGET = 2.5
+COMPUTE_DEADLINE_S = DEADLINE_PER_BUDGET * SYNC_BUDGET_S
 """A synchronous computation still running after this (2.5x the budget its estimate fits in: the server is
 overloaded) is stopped where the solver allows it (models.cancellation) and answered 503 with Retry-After, so a
 synchronous request answers within QUEUE_WAIT_S + COMPUTE_DEADLINE_S (measured before: a 1 s inverse kinematics
@@ -99,8 +101,9 @@ class Estimate:
     bytes: int
 
 
-def admit(estimate: Estimate, *, run_async: bool, can_run_async: bool = True) -> None:
-    """Refuse work over the synchronous budget (unless it runs as a job) or over the hard cap of any job."""
+def admit(estimate: Estimate, *, run_async: bool, can_run_async: bool = True, budget_s: float = SYNC_BUDGET_S) -> None:
+    """Refuse work over the synchronous budget `budget_s` (the application's `sync_budget_seconds`) unless it
+    runs as a job, or over the hard cap of any job."""
     if estimate.seconds > JOB_MAX_S or estimate.bytes > JOB_MEMORY_BYTES:
         raise WorkTooLarge(
             f"{estimate.what} is estimated at {estimate.seconds:.0f} s and {estimate.bytes / 1e9:.1f} GB, over the "
@@ -110,13 +113,13 @@ def admit(estimate: Estimate, *, run_async: bool, can_run_async: bool = True) ->
             limit_s=JOB_MAX_S,
             limit_bytes=JOB_MEMORY_BYTES,
         )
-    if not run_async and estimate.seconds > SYNC_BUDGET_S:
+    if not run_async and estimate.seconds > budget_s:
         advice = "send it with ?async=true (a job)" if can_run_async else "send fewer at a time"
         raise WorkTooLarge(
-            f"{estimate.what} is estimated at {estimate.seconds:.1f} s, over the {SYNC_BUDGET_S:.0f} s budget of a "
+            f"{estimate.what} is estimated at {estimate.seconds:.1f} s, over the {budget_s:g} s budget of a "
             f"synchronous request: {advice}",
             estimated_s=round(estimate.seconds, 3),
-            limit_s=SYNC_BUDGET_S,
+            limit_s=budget_s,
             use_async=can_run_async,
         )
 

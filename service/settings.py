@@ -25,11 +25,18 @@ class Settings(BaseSettings):
     metrics_public: bool = Field(default=False, description="/metrics without a key (else a read key, with keys).")
     docs_public: bool = Field(default=True, description="/docs and /openapi.json without a key.")
     max_body_bytes: int = Field(default=20_000_000, description="Larger request bodies get 413.")
+    sync_budget_seconds: float = Field(
+        default=2.0,
+        gt=0,
+        description="Estimated seconds of work a synchronous request may ask for; above it a calibration or a design "
+        "is refused with 422 saying to send it with ?async=true (a job), other work saying to send less. "
+        "`python -m service` sets the compute deadline to 2.5x it unless IWR_COMPUTE_DEADLINE_SECONDS is given.",
+    )
     compute_deadline_seconds: float | None = Field(
         default=None,
         gt=0,
         description="A synchronous computation still running after this is stopped where it can be and answered "
-        "503 (none: no deadline). `python -m service` defaults it to service.limits.COMPUTE_DEADLINE_S (5 s).",
+        "503 (none: no deadline). `python -m service` defaults it to 2.5x `sync_budget_seconds` (5 s).",
     )
     parse_deadline_seconds: float = Field(
         default=15.0,

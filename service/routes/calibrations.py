@@ -8,7 +8,18 @@ from pydantic import TypeAdapter
 from service import limits
 from service.campaign_requests import CampaignQuery, campaign_body, campaign_query
 from service.csv_codec import CAMPAIGN_HEADER
-from service.deps import ActorDep, DatabaseDep, JobsDep, Limit, MetricsDep, Offset, RegistryDep, compute, negotiate
+from service.deps import (
+    ActorDep,
+    DatabaseDep,
+    JobsDep,
+    Limit,
+    MetricsDep,
+    Offset,
+    RegistryDep,
+    SettingsDep,
+    compute,
+    negotiate,
+)
 from service.json_bodies import OffloopRoute
 from service.operations import CALIBRATION, Runs, operation
 from service.responses import model_json, models_json
@@ -84,6 +95,7 @@ async def create_calibration(
     *,
     registry: RegistryDep,
     actor: ActorDep,
+    settings: SettingsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
     query: Annotated[CampaignQuery, Depends(campaign_query)],
     if_match: IfMatch = None,
@@ -91,7 +103,7 @@ async def create_calibration(
     # A JSON body over the budget was refused before any parsing (its `precount`, service.operations); a CSV one is
     # counted once parsed.
     body = await campaign_body(request, query)
-    limits.admit(limits.calibration(len(body.measurements)), run_async=run_async)
+    limits.admit(limits.calibration(len(body.measurements)), run_async=run_async, budget_s=settings.sync_budget_seconds)
     if run_async:
         accepted = submit_job(
             db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body, actor=actor, if_match=if_match

@@ -7,7 +7,18 @@ from pydantic import TypeAdapter
 
 from service import limits
 from service.csv_codec import joints_csv
-from service.deps import DatabaseDep, JobsDep, Limit, MetricsDep, ModelCacheDep, Offset, RegistryDep, compute, wants_csv
+from service.deps import (
+    DatabaseDep,
+    JobsDep,
+    Limit,
+    MetricsDep,
+    ModelCacheDep,
+    Offset,
+    RegistryDep,
+    SettingsDep,
+    compute,
+    wants_csv,
+)
 from service.json_bodies import OffloopRoute
 from service.model_cache import ModelCache
 from service.operations import Runs, operation
@@ -54,6 +65,7 @@ async def create_design(
     registry: RegistryDep,
     jobs: JobsDep,
     m: MetricsDep,
+    settings: SettingsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
 ) -> Response:
     candidates = len(body.candidates) if body.candidates is not None else body.candidate_count
@@ -63,7 +75,7 @@ async def create_design(
         if body.count is None
         else limits.pose_design(candidates, body.count, fixed, body.criterion.value, bound_seconds=body.bound_seconds)
     )
-    limits.admit(cost, run_async=run_async)
+    limits.admit(cost, run_async=run_async, budget_s=settings.sync_budget_seconds)
     if run_async:
         accepted = submit_job(db=db, jobs=jobs, kind="pose_design", robot_id=robot_id, body=body)
         return model_json(accepted, status_code=202)

@@ -4,17 +4,19 @@ from __future__ import annotations
 
 import time
 from collections.abc import Awaitable, Callable
+from pathlib import Path
 
 import anyio
 import pytest
 from fastapi.testclient import TestClient
 from starlette.types import Message
 
-from models import cancellation, forward_kinematics, iwr, sample_workspace
+from models import Registry, cancellation, forward_kinematics, iwr, sample_workspace
 from models.cancellation import CancellationToken
 from models.transforms import matrix_to_quaternion
 from service import limits
 from service.errors import ClientGone, Overloaded, WorkTooLarge
+from tests.service.conftest import make_client
 
 DESC = iwr()
 JOINTS = [400.0, 150.0, 90.0, 45.0, 420.0, 420.0, 420.0, 420.0, 420.0, 420.0]
@@ -210,3 +212,20 @@ def test_admit_names_the_estimate() -> None:
         limits.admit(limits.calibration(10_000), run_async=False)
     limits.admit(limits.calibration(10_000), run_async=True)
     limits.admit(limits.calibration(100), run_async=False)
+
+
+def test_the_synchronous_budget_is_a_setting(tmp_path: Path, registry: Registry) -> None:
+    """`IWR_SYNC_BUDGET_SECONDS`: a deployment on a faster machine (or a stricter one) moves the line between a
+    synchronous request and a job; every refusal names the budget it applied and says to use ?async=true."""
+    seconds = limits.calibration(2000).seconds  # ~0.7 s: inside the default budget
+    assert seconds < limits.SYNC_BUDGET_S
+    with make_client(f"sqlite:///{tmp_path}/b.db", registry, sync_budget_seconds=0.5) as strict:
+        robot = strict.post("/v1/robots", json={"name": "strict"}).json()["id"]
+        url = f"/v1/robots/{robot}/calibrations"
+        r = strict.post(url, json={"measurements": [RECORD] * 2000})
+        assert r.status_code == 422 and r.json()["limit_s"] == 0.5 and r.json()["use_async"] is True, r.text
+        assert "over the 0.5 s budget" in r.json()["detail"] and "?async=true" in r.json()["detail"]
+        design = {"count": 30, "candidate_count": 2000}  # a D design estimated at ~0.7 s
+        assert limits.pose_design(2000, 30, 0, "D").seconds > 0.5
+        r = strict.post(f"/v1/robots/{robot}/pose-designs", json=design)
+        assert r.status_code == 422 and r.json()["limit_s"] == 0.5
