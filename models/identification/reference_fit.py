@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
-from models.errors import InvalidInput, TooFewMeasurements
+from models.errors import InvalidInput, NonFiniteValue, TooFewMeasurements
 from models.identifiability import analyse_identifiability
 from models.identification.options import IdentificationOptions
 from models.identification.polish import polish
@@ -27,7 +27,7 @@ from models.identification.registration import registered_base, rigid_fit
 from models.identification.residuals import EvaluatedOnce, Evaluation
 from models.identification.solver import IpoptRun, solver_pool
 from models.identification.statistics import Covariance, covariance, outlier_threshold
-from models.kinematics import forward_kinematics
+from models.kinematics import as_joint_array, check_joint_ranges, forward_kinematics
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
@@ -184,6 +184,7 @@ def identify_references(
     started = time.perf_counter()
     rt, noise, options = runtime_for(desc, runtime), noise or NoiseModel(), options or IdentificationOptions()
     check_references(groups)
+    groups = tuple(_validated(desc, g) for g in groups)
     table = desc.parameters
     theta = _registered(desc, table.nominal if nominal is None else table.vector(nominal), groups, rt)
     groups = tuple(_started(desc, theta, g, rt) for g in groups)
@@ -377,6 +378,29 @@ def _identifiable(problem: ReferenceProblem, candidates: tuple[int, ...]) -> lis
         )
     projected = robot - q @ (q.T @ robot)
     return list(analyse_identifiability(projected, problem.desc.parameters, candidates).identifiable)
+
+
+def _validated(desc: RobotDescription, group: ReferenceRecords) -> ReferenceRecords:
+    """The records' joints in range and every number finite, σ positive: a 4xx naming the reference and the
+    record otherwise (`models.errors`)."""
+    ref = group.reference
+    joints = as_joint_array(desc, group.joints)
+    check_joint_ranges(desc, joints)
+    values = np.asarray(group.values, dtype=float)
+    finite = np.isfinite(values.reshape(group.size, -1)).all(axis=1) if values.size else np.ones(group.size, bool)
+    bad = np.flatnonzero(~finite)
+    if bad.size:
+        raise NonFiniteValue(
+            f"{ref.traits.kind} {ref.name!r}, record {int(bad[0])}: its measured value is not a finite number",
+            field="measurements",
+            pose=int(bad[0]),
+        )
+    sigma = None if group.sigma_mm is None else np.asarray(group.sigma_mm, dtype=float)
+    if sigma is not None and not (sigma.shape == (group.size,) and np.all(np.isfinite(sigma) & (sigma > 0))):
+        raise InvalidInput(
+            f"{ref.traits.kind} {ref.name!r}: sigma_mm must be one positive number per record", field="sigma_mm"
+        )
+    return ReferenceRecords(ref, joints, values, sigma)
 
 
 def _registered(desc: RobotDescription, theta: Array, groups: tuple[ReferenceRecords, ...], rt: Runtime) -> Array:

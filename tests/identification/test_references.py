@@ -11,7 +11,7 @@ import pytest
 
 from harness.ballbar import PIVOTS, aligned_rms, ballbar_campaign, gauge_truth, predicted_rms
 from models import RobotDescription, forward_kinematics, iwr, sample_workspace
-from models.errors import InvalidInput, TooFewMeasurements
+from models.errors import InvalidInput, JointOutOfRange, NonFiniteValue, TooFewMeasurements, WrongShape
 from models.examples import ur5_like
 from models.identification.options import IdentificationOptions
 from models.identification.reference_fit import ReferenceFit, identify_references
@@ -290,3 +290,21 @@ def test_many_bad_records_are_named_not_dropped() -> None:
     assert len(fit.outliers) > 0.2 * sum(g.size for g in groups) and not any(o.excluded for o in fit.outliers)
     assert [r.records for r in fit.references] == [g.size for g in groups]  # every record kept
     assert not fit.covariance.noise_consistent
+
+
+def test_bad_records_are_refused_naming_the_reference_and_the_record() -> None:
+    _, groups = _ballbar(1)
+    first = groups[0]
+    nan = first.values.copy()
+    nan[4] = np.nan
+    out_of_range = first.joints.copy()
+    out_of_range[2, 1] = DESC.joint_max[1] + 1.0
+    cases = [
+        (ReferenceRecords(first.reference, first.joints, nan), NonFiniteValue, "anchor 'a1', record 4"),
+        (ReferenceRecords(first.reference, out_of_range, first.values), JointOutOfRange, "q2"),
+        (ReferenceRecords(first.reference, first.joints, first.values, -np.ones(first.size)), InvalidInput, "sigma"),
+        (ReferenceRecords(first.reference, first.joints[:, :4], first.values), WrongShape, "joint"),
+    ]
+    for bad, error, message in cases:
+        with pytest.raises(error, match=message):
+            identify_references(DESC, (bad, *groups[1:]))
