@@ -22,14 +22,24 @@ class Cancelled(Exception):
     """The computation was stopped because its token was set; nothing it produced is a result."""
 
 
+DEADLINE = "deadline"
+"""The reason a server sets when a computation runs past its deadline (`cancel(DEADLINE)`), as opposed to a
+client that left or a job that was cancelled: a structure's first build is not the computation's own time
+(`exempt_builds`)."""
+
+
 class CancellationToken:
-    """Set once (`cancel()`, or the `probe` answering True), read cheaply and often (`cancelled`, `check()`)."""
+    """Set once (`cancel()`, or the `probe` answering True), read cheaply and often (`cancelled`, `check()`).
+    `reason` is the first `cancel`'s."""
 
     def __init__(self, probe: Callable[[], bool] | None = None) -> None:
         self._event = threading.Event()
         self._probe = probe
+        self.reason: str | None = None
 
-    def cancel(self) -> None:
+    def cancel(self, reason: str = "stop") -> None:
+        if self.reason is None:
+            self.reason = reason
         self._event.set()
 
     @property
@@ -39,6 +49,51 @@ class CancellationToken:
     def check(self) -> None:
         if self.cancelled:
             raise Cancelled("the computation was cancelled")
+
+
+_builds = [0]
+"""Structure builds started in this process (`models.runtime`: a structure's Functions, native libraries, solvers,
+tables), and how many run now."""
+_building = [0]
+_build_lock = threading.Lock()
+
+
+@contextmanager
+def structure_build() -> Iterator[None]:
+    """Mark a structure's first-use build (what every later request of that structure finds ready)."""
+    with _build_lock:
+        _builds[0] += 1
+        _building[0] += 1
+    try:
+        yield
+    finally:
+        with _build_lock:
+            _building[0] -= 1
+
+
+def builds_since(count: int) -> bool:
+    """Whether a structure build started since `builds_started()` said `count`, or one runs now."""
+    with _build_lock:
+        return _builds[0] != count or _building[0] > 0
+
+
+def builds_started() -> int:
+    with _build_lock:
+        return _builds[0]
+
+
+def exempt_builds(passed: Callable[[], str | None]) -> CancellationToken:
+    """A token that stops when `passed()` (the reason the caller set) is a stop, or a deadline that passed during
+    a computation that built no structure: a structure's first build (a compile of seconds) is not work the
+    deadline meant to bound, so the request that happens to pay it runs to its end. The count is the process's:
+    in a compute process that is the one computation; among threads, a build by another also exempts this one."""
+    start = builds_started()
+
+    def stopped() -> bool:
+        reason = passed()
+        return reason is not None and (reason != DEADLINE or not builds_since(start))
+
+    return CancellationToken(probe=stopped)
 
 
 _current: ContextVar[CancellationToken | None] = ContextVar("cancellation_token", default=None)

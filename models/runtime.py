@@ -28,6 +28,7 @@ from collections import Counter, OrderedDict
 from collections.abc import Callable, Hashable, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar, cast
 
+from models import cancellation
 from models.batch import BatchFunctions
 from models.native import compile_functions
 from models.robot import RobotDescription, Structure
@@ -156,7 +157,11 @@ class Runtime:
                     store.move_to_end(key)
                     return cast(T, store[key])
             started = time.perf_counter()
-            value = build()
+            if capacity is None:  # a structure's own artefact, built once: its first use (models.cancellation)
+                with cancellation.structure_build():
+                    value = build()
+            else:  # keyed by data (a calibrated parameter vector's tables): a request's own work
+                value = build()
             seconds = time.perf_counter() - started
             with self._lock:
                 store[key] = value

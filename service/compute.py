@@ -40,7 +40,7 @@ from typing import Any
 import anyio
 
 from models import Registry
-from models.cancellation import CancellationToken, cancellable
+from models.cancellation import DEADLINE, CancellationToken, cancellable, exempt_builds
 from service import logs
 from service.errors import Overloaded, ParseTimeout
 from service.model_cache import ModelCache
@@ -150,11 +150,15 @@ def _call(task: Task, supplied: dict[str, Any], token: CancellationToken | None,
         logs.request_id.reset(reset)
 
 
+_REASONS: dict[int, str | None] = {0: None, 1: "stop", 2: DEADLINE}
+"""A slot's shared byte: 0 run, 1 stop (the client left, nobody waits), 2 the deadline passed."""
+
+
 def _in_process(task: Task, slot: int, request_id: str | None) -> Any:
     state = _process
     if state is None:
         raise RuntimeError("a compute task outside a compute process")  # a bug here, never the client's
-    token = None if slot < 0 else CancellationToken(probe=lambda: state.flags[slot] != 0)
+    token = None if slot < 0 else exempt_builds(lambda: _REASONS[state.flags[slot]])
     try:
         return _call(task, state.supplied(), token, request_id)
     except Exception as exc:
@@ -266,7 +270,8 @@ class ComputePool:
         """Run `task`; when `token` is set meanwhile, the computation is told to stop (models.cancellation)."""
         if self.processes <= 0:
             rid = logs.request_id.get()
-            return await anyio.to_thread.run_sync(_call, task, self.local.supplied(), token, rid)
+            inner = exempt_builds(lambda: token.reason if token.cancelled else None)
+            return await anyio.to_thread.run_sync(_call, task, self.local.supplied(), inner, rid)
         with self._lock:
             if not self._free:  # the gate admits no more than the slots; this is the pool's own guard
                 raise Overloaded("every compute process is busy", retry_after=1)
@@ -300,7 +305,7 @@ class ComputePool:
                 if done:
                     break
                 if token is not None and token.cancelled and slot >= 0:
-                    self.flags[slot] = 1
+                    self.flags[slot] = 2 if token.reason == DEADLINE else 1
             return waiting.result()
         except BrokenProcessPool:
             # A process died (killed, out of memory): this request fails as overloaded, the next gets a new pool.

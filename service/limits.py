@@ -34,7 +34,7 @@ from typing import Any, TypeVar
 import anyio
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from models.cancellation import CancellationToken, Cancelled
+from models.cancellation import DEADLINE, CancellationToken, Cancelled
 from optimal_design.criteria import cost_factor
 from service.compute import ComputePool, Task
 from service.errors import ClientGone, Overloaded, WorkTooLarge
@@ -274,7 +274,7 @@ async def _watch(receive: Receive, token: CancellationToken) -> None:
 async def _deadline(token: CancellationToken, seconds: float, late: anyio.Event) -> None:
     await anyio.sleep(seconds)
     late.set()
-    token.cancel()
+    token.cancel(DEADLINE)  # a computation paying its structure's first build runs on (models.cancellation)
 
 
 _current: ContextVar[tuple[ComputeGate, Receive, Scope] | None] = ContextVar("compute_gate", default=None)

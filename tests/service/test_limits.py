@@ -13,6 +13,7 @@ from starlette.types import Message
 
 from models import Registry, cancellation, forward_kinematics, iwr, sample_workspace
 from models.cancellation import CancellationToken
+from models.examples import ur5_like_document
 from models.transforms import matrix_to_quaternion
 from service import limits
 from service.errors import ClientGone, Overloaded, WorkTooLarge
@@ -229,3 +230,25 @@ def test_the_synchronous_budget_is_a_setting(tmp_path: Path, registry: Registry)
         assert limits.pose_design(2000, 30, 0, "D").seconds > 0.5
         r = strict.post(f"/v1/robots/{robot}/pose-designs", json=design)
         assert r.status_code == 422 and r.json()["limit_s"] == 0.5
+
+
+@pytest.mark.parametrize(
+    "processes", [0, pytest.param(1, marks=pytest.mark.slow)], ids=["threads", "compute-process"]
+)  # in a compute process, the deadline crosses as a byte of shared memory (service.compute)
+def test_a_structures_first_build_does_not_count_against_the_deadline(tmp_path: Path, processes: int) -> None:
+    """Issue 29/30: the first design on a new structure answered 503 "overloaded" because it was compiling. The
+    deadline still stops a computation that runs late on its own; the one that pays a structure's first build
+    (its Functions, libraries, solvers, tables: each once per process) runs to its end."""
+    url = f"sqlite:///{tmp_path}/d.db"
+    with make_client(url, compute_deadline_seconds=0.05, compute_processes=processes) as tight:  # nothing built
+        robot = tight.post("/v1/robots", json={"name": "arm", "structure": ur5_like_document()}).json()["id"]
+        design = {"count": 30, "candidate_count": 2000, "seed": 1}
+        started = time.perf_counter()
+        first = tight.post(f"/v1/robots/{robot}/pose-designs", json=design)
+        first_s = time.perf_counter() - started
+        assert first.status_code == 201, first.text
+        assert first_s > 0.05  # it did run past the deadline: the build was exempt, not absent
+        # Warm now: the same design on its own is longer than the deadline, and is stopped as before.
+        late = tight.post(f"/v1/robots/{robot}/pose-designs", json={**design, "seed": 2})
+        assert late.status_code == 503 and late.json()["type"].endswith("/overloaded"), late.text
+        assert "did not finish within 0.05 s" in late.json()["detail"]
