@@ -28,6 +28,7 @@ from optimal_design.information import CandidateInformation, task_matrix, task_r
 from optimal_design.problem import DesignProblem
 from optimal_design.report import PoseDesign
 from optimal_design.solve import solve
+from optimal_design.target import Target, TargetDesign, target_on
 
 
 def reference_information(
@@ -93,8 +94,33 @@ def design_reference_records(
     chosen index says which reference it belongs to). The I criterion (default) minimises the predicted TCP
     error directly."""
     started = time.perf_counter()
+    problem = _problem(desc, candidates, options)
+    return solve(desc, problem, criterion_of(criterion), count, seed=seed, started=started)
+
+
+@single_threaded_blas
+def reference_records_for_target(
+    desc: RobotDescription,
+    candidates: tuple[ReferenceRecords, ...],
+    *,
+    rms_tcp_mm: float | None = None,
+    max_tcp_mm: float | None = None,
+    criterion: str | Criterion | DesignCriterion = Criterion.I,
+    seed: int = 0,
+    **options: Unpack[_Options],
+) -> TargetDesign:
+    """How many of the candidate records reach a predicted TCP accuracy ("how many ballbar records for
+    0.05 mm"): the smallest count whose design does, and the curve of the error against the count."""
+    started = time.perf_counter()
+    target = Target.of(rms_tcp_mm, max_tcp_mm, criterion)
+    problem = _problem(desc, candidates, options)
+    kinds = sorted({g.reference.traits.kind for g in candidates})
+    return target_on(desc, problem, target, seed=seed, measurement="+".join(kinds), started=started)
+
+
+def _problem(desc: RobotDescription, candidates: tuple[ReferenceRecords, ...], options: _Options) -> DesignProblem:
     info = reference_information(desc, candidates, **options)
-    problem = DesignProblem(
+    return DesignProblem(
         info=info,
         base=np.zeros((info.n_params, info.n_params)),
         n_fixed=0,
@@ -105,4 +131,3 @@ def design_reference_records(
         spread=None,
         offered=info.size,
     )
-    return solve(desc, problem, criterion_of(criterion), count, seed=seed, started=started)

@@ -82,10 +82,33 @@ def design_for_target(
 ) -> TargetDesign:
     """The smallest K (beyond `fixed`) whose `criterion` design (D or I) reaches the target, and the curve."""
     started = time.perf_counter()
-    key, goal = _goal(rms_tcp_mm, max_tcp_mm)
-    crit = _targetable(criterion)
     inputs = DesignInputs(measurement=measurement, **options)
     problem = DesignProblem.build(desc, inputs)
+    target = Target.of(rms_tcp_mm, max_tcp_mm, criterion)
+    return target_on(desc, problem, target, seed=inputs.seed, measurement=measurement, started=started)
+
+
+@dataclass(frozen=True)
+class Target:
+    """One accuracy goal: which error (`key`: rms_tcp_mm or max_tcp_mm), its value in mm, the criterion."""
+
+    key: str
+    goal: float
+    criterion: Criterion
+
+    @classmethod
+    def of(
+        cls, rms_tcp_mm: float | None, max_tcp_mm: float | None, criterion: str | Criterion | DesignCriterion
+    ) -> Target:
+        key, goal = _goal(rms_tcp_mm, max_tcp_mm)
+        return cls(key, goal, _targetable(criterion))
+
+
+def target_on(
+    desc: RobotDescription, problem: DesignProblem, target: Target, *, seed: int, measurement: str, started: float
+) -> TargetDesign:
+    """The target mode on a built problem (a tracker's candidates, or a reference's: optimal_design.references)."""
+    key, goal, crit = target.key, target.goal, target.criterion
     info = problem.info
     notes: list[str] = []
     fixed_mm = _error(problem, problem.base, key) if problem.n_fixed and problem.minimum_count() == 0 else None
@@ -97,7 +120,7 @@ def design_for_target(
             curve=(),
             reachable_mm=_error(problem, problem.base + info.information(np.ones(info.size)), key),
             fixed_mm=fixed_mm,
-            measurement=inputs.measurement,
+            measurement=measurement,
             seconds=time.perf_counter() - started,
             notes=("the fixed poses already reach the target: no more are needed",),
         )
@@ -112,11 +135,10 @@ def design_for_target(
             reachable_mm=reachable,
             candidates=int(info.size),
         )
-    search = _Search(desc, problem, crit, key=key, goal=goal, seed=inputs.seed)
-    low = max(1, problem.minimum_count())
-    count = search.smallest(low, info.size)
+    search = _Search(desc, problem, crit, key=key, goal=goal, seed=seed)
+    count = search.smallest(max(1, problem.minimum_count()), info.size)
     if count is None:
-        raise _spread_too_tight(search, inputs.min_spread, reachable)
+        raise _spread_too_tight(search, problem.spread.minimum if problem.spread is not None else None, reachable)
     if problem.spread is not None:
         notes.append("min_spread applies to every design of the curve; random poses ignore it")
     return TargetDesign(
@@ -126,7 +148,7 @@ def design_for_target(
         curve=tuple(search.curve()),
         reachable_mm=reachable,
         fixed_mm=fixed_mm,
-        measurement=inputs.measurement,
+        measurement=measurement,
         seconds=time.perf_counter() - started,
         notes=tuple(notes),
     )

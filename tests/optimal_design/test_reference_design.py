@@ -12,7 +12,8 @@ from models.identification.reference_fit import identify_references
 from models.measurements.references import Anchor, ReferenceRecords
 from models.noise import NoiseModel
 from models.simulation import perturbed_robot
-from optimal_design.references import design_reference_records, reference_information
+from optimal_design import TargetUnreachable
+from optimal_design.references import design_reference_records, reference_information, reference_records_for_target
 
 DESC = ur5_like()
 SIGMA_MM = 0.002
@@ -80,3 +81,20 @@ def test_a_designed_set_of_30_ballbar_records_predicts_and_reaches_less_than_ran
     )
     assert 0.6 * designed <= got_design <= 1.4 * designed, (got_design, designed)
     assert got_design < got_random, (got_design, got_random)
+
+
+@pytest.mark.slow  # a curve of designs over 450 candidates and three simulated fits: a few seconds
+def test_how_many_ballbar_records_for_a_target_accuracy() -> None:
+    candidates = _candidates()
+    goal = 0.0015  # 1.5 µm RMS at the TCP: ~115 records (the minimum, 28, predicts 4.4 µm)
+    found = reference_records_for_target(DESC, candidates, rms_tcp_mm=goal, noise=NOISE, seed=1)
+    assert found.design is not None and found.measurement == "anchor"
+    assert found.design.metrics["predicted_rms_tcp_mm"] <= goal
+    curve = {p["count"]: p for p in found.curve}
+    assert found.count > 28 and found.count - 1 in curve  # the answer is the smallest count:
+    assert curve[found.count - 1]["I_rms_tcp_mm"] > goal  # one record fewer misses the target
+    chosen = np.array(found.design.indices)
+    reached = np.median([_fit_error(chosen, candidates, s) for s in (21, 22, 23)])
+    assert reached <= 1.4 * goal, (reached, found.count)
+    with pytest.raises(TargetUnreachable):
+        reference_records_for_target(DESC, candidates, rms_tcp_mm=1e-6, noise=NOISE)
