@@ -25,9 +25,9 @@ class RobotCreate(Strict):
     )
     structure: StructureDocument | None = Field(
         default=None,
-        description="A description document of shared/spec/robots.md (then `model` reads 'custom'). An addition "
-        "to robots.md: a `dh` link whose alpha is 0 or ±180° may carry Hayati's `beta` (deg) as `mdh` links do, "
-        "then A_i = Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β)",
+        description="The robot's description document (the StructureDocument schema: base, stages, tool; then "
+        "`model` reads 'custom'). A `dh` link whose alpha is 0 or ±180° may carry Hayati's `beta` (deg) as `mdh` "
+        "links do, then A_i = Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β)",
     )
     urdf: str | None = Field(
         default=None, max_length=2_000_000, description="A URDF; the chain from `base_link` to `tip_link` is the robot"
@@ -58,7 +58,7 @@ class RobotPublic(Public):
     tool: PosePublic
     notes: str | None = None
     revision: int = Field(description="Bumped by every change of the robot or its current version; the ETag")
-    structure: StructureDocument = Field(description="The robot's description document (shared/spec/robots.md)")
+    structure: StructureDocument = Field(description="The robot's description document (StructureDocument)")
     joint_names: list[str] = Field(description="The joint vector's order: q1 … q_m, then l1 … l6 for a hexapod")
     joint_units: list[Literal["mm", "deg"]]
     parameter_count: int

@@ -113,7 +113,8 @@ STAGE_KINDS = ("serial", "hexapod")
 
 
 class StructureDocument(Document):
-    """A robot as a chain of stages from its base to its tool (shared/spec/robots.md)."""
+    """A robot as a chain of stages from its base to its tool, in mm and degrees: serial links (DH or MDH) and at
+    most one hexapod, between an optional base and tool."""
 
     base: StructurePose | None = Field(default=None, description="world <- robot base (default identity)")
     tool: StructurePose | None = Field(default=None, description="last frame -> TCP (default identity)")
