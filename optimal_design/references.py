@@ -61,8 +61,9 @@ def reference_information(
     n_robot, n_all = len(free), problem.n_free
     task = np.zeros((n_all, n_all))
     task[:n_robot, :n_robot] = task_matrix(desc, free, runtime=rt)
-    tcp_rows = np.zeros((*task_rows(desc, free, runtime=rt).shape[:2], n_all))
-    tcp_rows[:, :, :n_robot] = task_rows(desc, free, runtime=rt)
+    robot_rows = task_rows(desc, free, runtime=rt)
+    tcp_rows = np.zeros((*robot_rows.shape[:2], n_all))
+    tcp_rows[:, :, :n_robot] = robot_rows
     return CandidateInformation(
         joints=problem.joints,
         blocks=blocks,

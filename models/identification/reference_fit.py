@@ -209,11 +209,16 @@ def _fit_without_blunders(
     failing ones named, none dropped: the model or the stated noise misfits the campaign as a whole (as for a
     tracker campaign)."""
 
+    # What the records determine is analysed once, on them all (as the tracker's pipeline keeps its starting
+    # subset): a refit without a blunder estimates the same parameters.
+    given = groups
+    first = reference_problem(desc, given, noise=noise, theta=theta, estimate=options.estimate, runtime=rt)
+
     def fitted(records: tuple[ReferenceRecords, ...]) -> tuple[ReferenceProblem, Array, Evaluation, IpoptRun]:
-        problem = reference_problem(desc, records, noise=noise, theta=theta, estimate=options.estimate, runtime=rt)
+        problem = first if records is given else replace(first, groups=records, _last=None, evaluations=0)
         return (problem, *_solved(problem, options))
 
-    given, kept = groups, [np.arange(g.size) for g in groups]
+    kept = [np.arange(g.size) for g in groups]
     outliers: list[ReferenceOutlier] = []
     total = sum(g.size for g in groups)
     while True:
