@@ -8,8 +8,10 @@ import numpy as np
 from models import RobotDescription, forward_kinematics, sample_workspace
 from models.identification.reference_fit import ReferenceFit
 from models.identification.registration import rigid_fit
+from models.inverse import inverse_kinematics
 from models.measurements.references import Anchor, ReferenceRecords
 from models.simulation import perturbed_robot
+from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
 
 PIVOTS = np.array([[450.0, 150.0, 50.0], [-150.0, 450.0, 250.0], [200.0, -400.0, 400.0]])
 """Three pivots around a UR5-sized working volume (mm), none on a line with the others."""
@@ -46,6 +48,15 @@ def ballbar_campaign(
         sigma = np.full(per_pivot, sigma_mm)
         groups.append(ReferenceRecords(Anchor(f"a{k + 1}", (gx, gy, gz), length_unknown=unknown), joints, d, sigma))
     return truth, tuple(groups)
+
+
+def reaching(desc: RobotDescription, truth: np.ndarray, positions: np.ndarray, seed: int) -> np.ndarray:
+    """Joints of the true robot with its TCP at `positions` (a socket's point, a plate's touches) in random
+    tool-down orientations; only the reachable ones."""
+    rng = np.random.default_rng(seed)
+    rotations = [rotvec_to_matrix_np(rng.normal(0, 0.6, 3)) @ np.diag([1.0, -1.0, -1.0]) for _ in positions]
+    answer = inverse_kinematics(desc, positions, matrix_to_quaternion(np.array(rotations)), truth)
+    return np.asarray(answer.joints[answer.reachable])
 
 
 def aligned_rms(fitted: np.ndarray, true: np.ndarray) -> float:

@@ -14,6 +14,7 @@ from pydantic import ValidationError
 from python_multipart.exceptions import MultipartParseError
 
 from service.campaign_io import ImportOptions, QuaternionOrder
+from service.campaign_io.reference_table import anchor_names
 from service.csv_codec import joined_campaign, parse_campaign
 from service.errors import BadRequest, UnsupportedMediaType
 from service.guards import OFFLOOP_BYTES
@@ -32,6 +33,7 @@ class CampaignQuery:
     terms: list[str] | None
     payload_kg: float | None
     payload_cog_mm: list[float] | None
+    length_unknown: list[str]
 
 
 def campaign_query(
@@ -52,6 +54,11 @@ def campaign_query(
     payload_cog_mm: list[float] | None = Query(
         None, min_length=3, max_length=3, description="CSV bodies: its centre of gravity x, y, z (tool frame, mm)"
     ),
+    length_unknown: list[str] | None = Query(
+        None,
+        max_length=100,
+        description="CSV bodies with distance records: the anchors whose bar length offset is unknown (identified)",
+    ),
 ) -> CampaignQuery:
     return CampaignQuery(
         apply,
@@ -61,6 +68,7 @@ def campaign_query(
         list(terms) if terms else None,
         payload_kg,
         payload_cog_mm,
+        list(length_unknown or []),
     )
 
 
@@ -79,20 +87,7 @@ async def campaign_body(request: Request, query: CampaignQuery) -> CalibrationCr
                 )
             else:
                 measurements, notes = await _files(request, query.file_options)
-            payload: dict[str, Any] = {"measurements": measurements, "import_notes": notes}
-            noise = {}
-            if query.noise_position_mm is not None:
-                noise["position_mm"] = query.noise_position_mm
-            if query.noise_orientation_deg is not None:
-                noise["orientation_deg"] = query.noise_orientation_deg
-            if noise:
-                payload["noise"] = noise
-            if query.apply is not None:
-                payload["apply"] = query.apply
-            if query.terms:
-                payload["options"] = {"terms": query.terms}
-            if query.payload_kg is not None:
-                payload["payload"] = {"mass_kg": query.payload_kg, "cog_mm": query.payload_cog_mm or [0.0, 0.0, 0.0]}
+            payload = _file_payload(measurements, notes, query)
             return await anyio.to_thread.run_sync(CalibrationCreate.model_validate, payload)
         if content_type in ("application/json", ""):
             # A large body in the parse process (100 000 records validate in 2.2 s here, in a thread holding the
@@ -110,6 +105,30 @@ async def campaign_body(request: Request, query: CampaignQuery) -> CalibrationCr
     raise UnsupportedMediaType(
         f"send the campaign as application/json or text/csv, not {content_type!r}", content_type=content_type
     )
+
+
+def _file_payload(measurements: list[dict[str, object]], notes: list[str], query: CampaignQuery) -> dict[str, Any]:
+    """A file's records as a calibration body, with what the query adds (noise, apply, terms, payload, anchors)."""
+    payload: dict[str, Any] = {"measurements": measurements, "import_notes": notes}
+    anchors = anchor_names(measurements)
+    if anchors or query.length_unknown:
+        # A file names its anchors in its rows; the query says which bars' lengths are unknown.
+        payload["anchors"] = {a: {"length_unknown": a in query.length_unknown} for a in anchors}
+        payload["anchors"].update({a: {"length_unknown": True} for a in query.length_unknown})
+    noise = {}
+    if query.noise_position_mm is not None:
+        noise["position_mm"] = query.noise_position_mm
+    if query.noise_orientation_deg is not None:
+        noise["orientation_deg"] = query.noise_orientation_deg
+    if noise:
+        payload["noise"] = noise
+    if query.apply is not None:
+        payload["apply"] = query.apply
+    if query.terms:
+        payload["options"] = {"terms": query.terms}
+    if query.payload_kg is not None:
+        payload["payload"] = {"mass_kg": query.payload_kg, "cog_mm": query.payload_cog_mm or [0.0, 0.0, 0.0]}
+    return payload
 
 
 def _validate_json(raw: bytes) -> CalibrationCreate | list[Any]:

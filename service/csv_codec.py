@@ -16,6 +16,7 @@ from service.campaign_io import (
     read_table,
 )
 from service.campaign_io.errors import listed
+from service.campaign_io.reference_table import is_reference_table, reference_records
 
 CAMPAIGN_HEADER = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6", "x", "y", "z", "qw", "qx", "qy", "qz"]
 JOINT_HEADER = CAMPAIGN_HEADER[:10]
@@ -30,6 +31,8 @@ def parse_campaign(text: str, *, options: ImportOptions | None = None) -> tuple[
     checks their count, a 422 naming its length) and x, y, z [, qw, qx, qy, qz] [, sigma_mm] [, temperature_c]
     (kept on each record: the thermal model term uses it, the score test after a geometric fit reads it)."""
     table = read_table(text, expected=CAMPAIGN_HEADER)
+    if is_reference_table(table):  # a `kind` column: distance, point, plane and tracker rows
+        return reference_records(table, joint_columns(table.columns), options or ImportOptions())
     return campaign_records(table, joint_columns(table.columns), options or ImportOptions())
 
 

@@ -25,21 +25,21 @@ from models.identification.options import IdentificationOptions
 from models.identification.polish import polish
 from models.identification.registration import registered_base, rigid_fit
 from models.identification.residuals import EvaluatedOnce, Evaluation
+from models.identification.result import ReferenceEstimate
 from models.identification.solver import IpoptRun, solver_pool
 from models.identification.statistics import Covariance, covariance, outlier_threshold
 from models.kinematics import as_joint_array, check_joint_ranges, forward_kinematics
-from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
+from models.measurements.references import ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
 
 FRAME_GROUPS = ("base",)
+"""The parameters a frame-free campaign cannot determine: the robot's base transform."""
 MAX_EXCLUDED_SHARE = 0.2
 """Blunders are a few records: when more fail the test, the model or the stated noise misfits the campaign as a
 whole, and they are named without being dropped (as for a tracker campaign)."""
-
-"""The parameters a frame-free campaign cannot determine: the robot's base transform."""
 
 
 @dataclass
@@ -57,6 +57,8 @@ class ReferenceProblem(EvaluatedOnce):
     u_scales: Array
     _last: tuple[bytes, Evaluation | None] | None = field(default=None, repr=False)
     evaluations: int = 0
+    polish_steps: int = 0
+    """Gauss–Newton steps taken after IPOPT on this problem (`_solved`)."""
 
     def __post_init__(self) -> None:
         self.joints = np.vstack([g.joints for g in self.groups])
@@ -116,20 +118,6 @@ class ReferenceProblem(EvaluatedOnce):
 
 
 @dataclass(frozen=True)
-class ReferenceEstimate:
-    """One reference's unknowns as identified (internal units: mm, rad) with their standard errors."""
-
-    reference: Anchor | FixedPoint | Plane | TrackerPositions
-    """As the fit started it (its closed-form start)."""
-    values: Array
-    """Its unknowns at the solution, in `reference.unknowns` order."""
-    std_errors: Array
-    rms_residual_mm: float
-    """Of its records at the solution."""
-    records: int
-
-
-@dataclass(frozen=True)
 class ReferenceOutlier:
     """A record whose residual fails the χ² test: its reference (by name and by place among the groups), its
     index among that reference's records as given, its statistic (Σr² in σ units) and the test's threshold."""
@@ -168,6 +156,14 @@ class ReferenceFit:
     outliers: tuple[ReferenceOutlier, ...]
     """Records no clean one would show, worst first; left out of the fit where `excluded`."""
     seconds: float
+    groups: tuple[ReferenceRecords, ...] = ()
+    """Every record as given, each group with its reference's closed-form start (what `references` started
+    from): the records the per-record errors before and after the fit are reported on."""
+    rechecked: bool = False
+    """The records determine the same robot parameters at the solution as at the start (the linearisation the
+    choice was made on held)."""
+    evaluations: int = 0
+    polish_steps: int = 0
 
 
 def identify_references(
@@ -192,7 +188,18 @@ def identify_references(
         desc, groups, noise=noise, theta=theta, options=options, rt=rt
     )
     held = sorted(set(table.indices(options.estimate)) - {int(i) for i in problem.free})
-    return _result(problem, z, final, run, held=held, started=started, outliers=outliers)
+    fit = _result(problem, z, final, run, held=held, started=started, outliers=outliers)
+    theta_fit, u_fit = problem.split(z)
+    at_solution = replace(problem, theta_start=theta_fit, u_start=u_fit, _last=None, evaluations=0, polish_steps=0)
+    again = _identifiable(at_solution, _candidates(desc, problem.groups, options.estimate))
+    return replace(
+        fit,
+        groups=groups,
+        rechecked=len(again) == problem.free.size,  # the rank, as the tracker pipeline re-checks it
+        evaluations=problem.evaluations,
+        polish_steps=problem.polish_steps,
+        seconds=time.perf_counter() - started,
+    )
 
 
 def _fit_without_blunders(
@@ -215,7 +222,9 @@ def _fit_without_blunders(
     first = reference_problem(desc, given, noise=noise, theta=theta, estimate=options.estimate, runtime=rt)
 
     def fitted(records: tuple[ReferenceRecords, ...]) -> tuple[ReferenceProblem, Array, Evaluation, IpoptRun]:
-        problem = first if records is given else replace(first, groups=records, _last=None, evaluations=0)
+        problem = (
+            first if records is given else replace(first, groups=records, _last=None, evaluations=0, polish_steps=0)
+        )
         return (problem, *_solved(problem, options))
 
     kept = [np.arange(g.size) for g in groups]
@@ -226,12 +235,15 @@ def _fit_without_blunders(
         failing = _failing(problem, final, options.outlier_alpha, total)
         if not failing:
             return problem, z, final, run, tuple(outliers)
-        if not options.exclude_outliers or len(outliers) + 1 > MAX_EXCLUDED_SHARE * total:
+        k, i = failing[0].group, failing[0].record
+        # Excluding must leave every reference determined: a plate's touches that fail one by one are a wrong
+        # plate (or another plate's), not blunders.
+        too_many = len(outliers) + 1 > MAX_EXCLUDED_SHARE * total
+        if not options.exclude_outliers or too_many or groups[k].size <= groups[k].reference.minimum_records:
             if groups is not given:
                 problem, z, final, run = fitted(given)
             named = tuple(replace(o, excluded=False) for o in _failing(problem, final, options.outlier_alpha, total))
             return problem, z, final, run, named
-        k, i = failing[0].group, failing[0].record
         outliers.append(replace(failing[0], record=int(kept[k][i])))
         keep = np.delete(np.arange(groups[k].size), i)
         kept[k] = kept[k][keep]
@@ -242,7 +254,7 @@ def _fit_without_blunders(
 def _solved(problem: ReferenceProblem, options: IdentificationOptions) -> tuple[Array, Evaluation, IpoptRun]:
     lower, upper = np.full(problem.n_free, -np.inf), np.full(problem.n_free, np.inf)
     run = solver_pool(problem.runtime).solve(problem, np.zeros(problem.n_free), lower, upper, options.max_iterations)
-    z, _ = polish(problem, run.z, lower, upper)
+    z, problem.polish_steps = polish(problem, run.z, lower, upper)
     final = problem.evaluate(z)
     if final is None:
         raise InvalidInput("the model is undefined at the fitted parameters: these records do not fit this robot")
@@ -276,15 +288,23 @@ def reference_problem(
     """The problem over the robot parameters of `estimate` these records determine (the frame held where no
     reference fixes one) and every reference's unknowns, at the references' current starts: what the fit
     solves, and what pose design weighs candidates by."""
-    table = desc.parameters
     u_start = np.concatenate([[s.nominal for s in g.reference.unknowns] for g in groups])
     u_scales = np.concatenate([[s.scale for s in g.reference.unknowns] for g in groups])
-    frame_free = not any(g.reference.traits.fixes_frame for g in groups)
-    frame = set(table.indices(FRAME_GROUPS)) if frame_free else set()
-    candidates = tuple(i for i in table.indices(estimate) if i not in frame)
+    candidates = _candidates(desc, groups, estimate)
     none = np.arange(0, dtype=np.intp)
     free = _identifiable(ReferenceProblem(desc, runtime, groups, noise, theta, none, u_start, u_scales), candidates)
     return ReferenceProblem(desc, runtime, groups, noise, theta, np.asarray(free, dtype=np.intp), u_start, u_scales)
+
+
+def _candidates(
+    desc: RobotDescription, groups: tuple[ReferenceRecords, ...], estimate: tuple[str, ...]
+) -> tuple[int, ...]:
+    """The robot parameters of `estimate` that may be estimated at all: not the base where no group fixes a
+    frame (module docstring)."""
+    table = desc.parameters
+    frame_free = not any(g.reference.traits.fixes_frame for g in groups)
+    frame = set(table.indices(FRAME_GROUPS)) if frame_free else set()
+    return tuple(i for i in table.indices(estimate) if i not in frame)
 
 
 def check_references(groups: tuple[ReferenceRecords, ...]) -> None:
@@ -405,7 +425,7 @@ def _validated(desc: RobotDescription, group: ReferenceRecords) -> ReferenceReco
         raise InvalidInput(
             f"{ref.traits.kind} {ref.name!r}: sigma_mm must be one positive number per record", field="sigma_mm"
         )
-    return ReferenceRecords(ref, joints, values, sigma)
+    return replace(group, joints=joints, values=values, sigma_mm=sigma)
 
 
 def _registered(desc: RobotDescription, theta: Array, groups: tuple[ReferenceRecords, ...], rt: Runtime) -> Array:
@@ -423,7 +443,7 @@ def _registered(desc: RobotDescription, theta: Array, groups: tuple[ReferenceRec
 def _started(desc: RobotDescription, theta: Array, group: ReferenceRecords, rt: Runtime) -> ReferenceRecords:
     """The records with their reference's closed-form start under the start model (`Reference.started`)."""
     p = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt).positions
-    return ReferenceRecords(group.reference.started(p, group.values), group.joints, group.values, group.sigma_mm)
+    return group.with_reference(group.reference.started(p, group.values))
 
 
 def _estimates(problem: ReferenceProblem, final: Evaluation, u: Array, std: Array) -> tuple[ReferenceEstimate, ...]:

@@ -12,6 +12,7 @@ from models.identifiability import Confounding
 from models.identification.diagnosis import Diagnosis
 from models.identification.statistics import PoseErrors
 from models.measurement import MeasurementKind
+from models.measurements.references import Anchor, FixedPoint, Plane, TrackerPositions
 from models.parameters import ParameterTable
 
 
@@ -47,6 +48,11 @@ class ResidualSummary:
             per_pose_mm=pos,
             per_pose_rad=rot,
         )
+
+    @staticmethod
+    def of_positions(per_record_mm: Array) -> ResidualSummary:
+        """Of records that measure no orientation (a distance, a touch, a position), their errors in mm."""
+        return ResidualSummary.of(PoseErrors(per_record_mm, None))
 
 
 @dataclass(frozen=True)
@@ -101,6 +107,20 @@ class PredictedAccuracy:
 
 
 @dataclass(frozen=True)
+class ReferenceEstimate:
+    """One reference's unknowns as identified (internal units: mm, rad) with their standard errors."""
+
+    reference: Anchor | FixedPoint | Plane | TrackerPositions
+    """As the fit started it (its closed-form start)."""
+    values: Array
+    """Its unknowns at the solution, in `reference.unknowns` order."""
+    std_errors: Array
+    rms_residual_mm: float
+    """Of its records at the solution."""
+    records: int
+
+
+@dataclass(frozen=True)
 class IdentificationResult:
     status: Status
     """SUCCEEDED or FAILED (equal to the strings "succeeded", "failed"); a failed result must never be applied
@@ -143,6 +163,13 @@ class IdentificationResult:
     After a fit that fails its variance-factor test, also a missing temperature or load term (`terms_check`)."""
     missing: tuple[tuple[str, str], ...] = ()
     """(parameter, what to measure): the model terms' parameters the campaign's conditions cannot determine."""
+    references: tuple[ReferenceEstimate, ...] = ()
+    """A campaign against references (anchors, points, planes): each one's unknowns as identified."""
+    frame: str | None = None
+    """What the parameters are expressed in, where the records do not say it themselves (references fix no
+    frame); None: the instrument's frame, registered as the base."""
+    record_kinds: tuple[tuple[str, int], ...] = ()
+    """(kind, records) of a campaign of several kinds: "distance", "point", "plane", "position"."""
 
     @property
     def succeeded(self) -> bool:

@@ -18,7 +18,7 @@ every anchor, point and plane with it (`fixes_frame`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar, Protocol
 
 import numpy as np
@@ -279,20 +279,30 @@ class TrackerPositions:
 class ReferenceRecords:
     """The records measured against one reference: joints (n, n_joints, internal units), each record's
     measured value (an anchor's distance, mm; a tracker's position (n, 3), mm; unused by points and planes) and
-    its σ (mm; None: the noise model's position σ)."""
+    its σ (mm; None: the noise model's position σ); `index` where each record stands in the campaign as the user
+    gave it (None: 0, 1, … within this group), so that a record is named as the user knows it."""
 
     reference: Anchor | FixedPoint | Plane | TrackerPositions
     joints: Array
     values: Array
     sigma_mm: Array | None = None
+    index: NDArray[np.intp] | None = None
 
     @property
     def size(self) -> int:
         return int(self.joints.shape[0])
 
+    @property
+    def positions(self) -> NDArray[np.intp]:
+        """Each record's place in the campaign as given."""
+        return np.arange(self.size, dtype=np.intp) if self.index is None else self.index
+
     def subset(self, index: NDArray[np.intp]) -> ReferenceRecords:
         sigma = None if self.sigma_mm is None else self.sigma_mm[index]
-        return ReferenceRecords(self.reference, self.joints[index], self.values[index], sigma)
+        return ReferenceRecords(self.reference, self.joints[index], self.values[index], sigma, self.positions[index])
+
+    def with_reference(self, reference: Anchor | FixedPoint | Plane | TrackerPositions) -> ReferenceRecords:
+        return replace(self, reference=reference)
 
     def check(self) -> None:
         """Enough records to determine the reference at all; a 4xx naming it otherwise."""

@@ -114,7 +114,7 @@ def normalise_joint(name: str) -> str:
     return name.strip().lower()
 
 
-def _length(table: Table, column: str, options: ImportOptions) -> float:
+def length_factor(table: Table, column: str, options: ImportOptions) -> float:
     unit = table.units.get(column, options.length_unit).lower()
     if unit not in MM_PER:
         raise CampaignFileError(
@@ -136,7 +136,7 @@ def measured_points(
     ignored = [c for c in unknown if c not in KNOWN_IGNORED]
     if ignored:
         notes.append(f"columns ignored (unknown): {listed(ignored)}")
-    scale = _length(table, found["x"], options)
+    scale = length_factor(table, found["x"], options)
     if scale != 1.0:
         notes.append(f"positions converted to mm (×{scale:g})")
     quaternion = [found.get(c) for c in ("qw", "qx", "qy", "qz")]
@@ -167,9 +167,9 @@ def measured_points(
 
 def _sigma(table: Table, row: Row, found: dict[str, str], options: ImportOptions) -> float | None:
     if "u95" in found:
-        return table.number(row, found["u95"]) * _length(table, found["u95"], options) / U95_COVERAGE
+        return table.number(row, found["u95"]) * length_factor(table, found["u95"], options) / U95_COVERAGE
     if "sigma_mm" in found:
-        value = table.number(row, found["sigma_mm"]) * _length(table, found["sigma_mm"], options)
+        value = table.number(row, found["sigma_mm"]) * length_factor(table, found["sigma_mm"], options)
         return value / U95_COVERAGE if options.uncertainty is UncertaintyKind.U95 else value
     return None
 

@@ -16,6 +16,7 @@ from models.identification.acceptance import Check
 from models.identification.result import IdentificationResult, Outlier, PredictedAccuracy, ResidualSummary
 from models.noise import NoiseModel
 from service.conversions.kinematics import joints_in
+from service.conversions.references import references_out
 from service.conversions.terms import record_conditions
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord
@@ -24,7 +25,9 @@ from service.schemas.common import Payload, timestamp
 
 
 def campaign_in(desc: RobotDescription, body: CalibrationCreate) -> Campaign:
-    return records_in(desc, body.measurements, default_sigma_mm=body.noise.position_mm, payload=body.payload)
+    """A tracker campaign (`has_references` is false: every record is a tracker's)."""
+    tracker = [r for r in body.measurements if isinstance(r, Record)]
+    return records_in(desc, tracker, default_sigma_mm=body.noise.position_mm, payload=body.payload)
 
 
 def records_in(
@@ -181,6 +184,9 @@ def report_out(
             "noise": None
             if noise is None
             else {"position_mm": noise.position_mm, "orientation_deg": math.degrees(noise.orientation_rad)},
+            "references": references_out(result.references),
+            "frame": result.frame,
+            "record_kinds": dict(result.record_kinds) or None,
         }
     )
 

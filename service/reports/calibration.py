@@ -24,6 +24,15 @@ from service.reports import figures
 from service.reports.figures import Array
 
 PARAMETER_ROWS_PER_PDF_PAGE = 38
+REFERENCE_HEADER = [
+    "kind",
+    "name",
+    "records",
+    "position (mm) / normal",
+    "length or plane offset (mm)",
+    "largest std error",
+    "RMS residual (mm)",
+]
 
 
 @dataclass(frozen=True)
@@ -74,6 +83,7 @@ class CalibrationReport:
             ("parameter_version", "Produced version", c.get("parameter_version")),
             ("measurement", "Measurement", c.get("measurement")),
             ("measurements", "Poses", c.get("measurements")),
+            ("frame", "Frame", c.get("frame")),
             ("residuals.before.rms_mm", "RMS error before (mm)", self.before.get("rms_mm")),
             ("residuals.after.rms_mm", "RMS error after (mm)", self.after.get("rms_mm")),
             ("residuals.before.max_mm", "Max error before (mm)", self.before.get("max_mm")),
@@ -109,6 +119,17 @@ class CalibrationReport:
                     "confounded_with": partners,
                 }
             )
+        return rows
+
+    def reference_rows(self) -> list[list[Any]]:
+        """One row per identified anchor, point or plane: what it is, where, its records' RMS residual."""
+        rows = []
+        for ref in self.calibration.get("references") or []:
+            where = ref.get("position_mm") or ref.get("normal")
+            extra = ref.get("length_offset_mm") if ref["kind"] == "anchor" else ref.get("offset_mm")
+            std = max((u["std_error"] or 0.0) for u in ref["unknowns"]) if ref["unknowns"] else None
+            located = ", ".join(f"{v:.4f}" for v in where) if where else ""
+            rows.append([ref["kind"], ref["name"], ref["records"], located, extra, std, ref["rms_residual_mm"]])
         return rows
 
     # ------------------------------------------------------------------ figures
@@ -242,6 +263,11 @@ def render_html(report: CalibrationReport) -> str:
         css="parameters",
     )
     notes = "".join(f'<p class="note">{html.escape(str(n))}</p>' for n in c.get("notes") or [])
+    references = (
+        "<h2>References</h2>" + _table(REFERENCE_HEADER, report.reference_rows(), css="references")
+        if report.reference_rows()
+        else ""
+    )
     validation = _validation_html(report.validations) if report.validations else ""
     return (
         f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
@@ -252,7 +278,7 @@ def render_html(report: CalibrationReport) -> str:
         f'<b class="{status_class}">{html.escape(str(c.get("status")))}</b></p>'
         f'{notes}<h2>Summary</h2><table class="summary">{summary}</table>'
         f"<h2>Figures</h2>{figures_html}"
-        f"<h2>Outliers</h2>{outlier_html}{validation}"
+        f"<h2>Outliers</h2>{outlier_html}{references}{validation}"
         f"<h2>Parameters</h2>{params}</body></html>"
     )
 
@@ -284,4 +310,7 @@ def render_pdf(report: CalibrationReport) -> bytes:
         for start in range(0, len(rows), PARAMETER_ROWS_PER_PDF_PAGE):
             page = [header, *rows[start : start + PARAMETER_ROWS_PER_PDF_PAGE]]
             pdf.savefig(_text_page("Parameters", page))
+        if report.reference_rows():
+            lines = [" | ".join(REFERENCE_HEADER), *(" | ".join(_cell(v) for v in r) for r in report.reference_rows())]
+            pdf.savefig(_text_page("References", [*lines, "", str(c.get("frame") or "")]))
     return out.getvalue()

@@ -12,7 +12,8 @@ from service.deps import DatabaseDep, ModelCacheDep, negotiate
 from service.json_bodies import OffloopRoute
 from service.operations import operation
 from service.responses import model_json
-from service.schemas.campaigns import CampaignPublic
+from service.schemas.campaigns import CampaignPublic, CampaignRecordPublic
+from service.schemas.references import DistanceRecordPublic, PlaneRecordPublic, PointRecordPublic
 from service.security import Scope
 from service.services import campaigns
 
@@ -36,17 +37,35 @@ _CSV: dict[int | str, dict[str, Any]] = {
 
 def campaign_csv(campaign: CampaignPublic, joint_names: Sequence[str]) -> str:
     """The spec's campaign CSV (what POST …/calibrations accepts) under the robot's joint header (robots.md),
-    numbers exactly as stored."""
+    numbers exactly as stored; a campaign with distance, point or plane records in the layout of several kinds
+    (`service.campaign_io.reference_table`)."""
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    with_orientation = any(r.orientation is not None for r in campaign.measurements)
+    tracker = [r for r in campaign.measurements if isinstance(r, CampaignRecordPublic)]
+    if len(tracker) < len(campaign.measurements):
+        writer.writerow(["kind", "reference", *joint_names, "distance_mm", "x", "y", "z", "sigma_mm"])
+        for r in campaign.measurements:
+            writer.writerow(_kind_row(r))
+        return out.getvalue()
+    with_orientation = any(r.orientation is not None for r in tracker)
     writer.writerow([*joint_names, *(POSE_COLUMNS if with_orientation else POSE_COLUMNS[:3])])
-    for r in campaign.measurements:
+    for r in tracker:
         cells = [repr(float(v)) for v in (*r.joints, *r.position)]
         if with_orientation:
             cells += [repr(float(v)) for v in r.orientation] if r.orientation is not None else ["", "", "", ""]
         writer.writerow(cells)
     return out.getvalue()
+
+
+def _kind_row(r: CampaignRecordPublic | DistanceRecordPublic | PointRecordPublic | PlaneRecordPublic) -> list[str]:
+    joints = [repr(float(v)) for v in r.joints]
+    if isinstance(r, CampaignRecordPublic):
+        return ["tracker", "", *joints, "", *(repr(float(v)) for v in r.position), ""]
+    sigma = "" if r.sigma_mm is None else repr(float(r.sigma_mm))
+    if isinstance(r, DistanceRecordPublic):
+        return ["distance", r.anchor, *joints, repr(float(r.distance_mm)), "", "", "", sigma]
+    name = r.point if isinstance(r, PointRecordPublic) else r.plane
+    return [r.kind, name, *joints, "", "", "", "", sigma]
 
 
 @router.get("/v1/campaigns/{campaign_id}", response_model=CampaignPublic, responses=_CSV)

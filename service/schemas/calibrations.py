@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import ConfigDict, Field
+from pydantic import ConfigDict, Discriminator, Field, Tag
 
 from models.identification import IdentificationOptions, RobustLoss
 from models.identification.options import DEFAULT_GROUPS
@@ -22,6 +22,18 @@ from service.schemas.common import (
     Quaternion,
     Strict,
     TemperatureC,
+)
+from service.schemas.references import (
+    RECORD_KIND_ERROR,
+    AnchorDescription,
+    DistanceRecord,
+    PlaneDescription,
+    PlaneRecord,
+    PointDescription,
+    PointRecord,
+    ReferenceName,
+    ReferencePublic,
+    record_tag,
 )
 from service.schemas.robots import ParameterPublic
 
@@ -44,6 +56,16 @@ class Record(Strict):
         default=None, description="The robot's temperature at this record (°C); required by the thermal term"
     )
     payload: Payload | None = Field(default=None, description="This record's payload (default: the campaign's)")
+
+
+CampaignRecord = Annotated[
+    Annotated[Record, Tag("tracker")]
+    | Annotated[DistanceRecord, Tag("distance")]
+    | Annotated[PointRecord, Tag("point")]
+    | Annotated[PlaneRecord, Tag("plane")],
+    Discriminator(record_tag, **RECORD_KIND_ERROR),
+]
+"""A campaign's record: a tracker's (no `kind`) or one of the instruments a cell owns (`kind`)."""
 
 
 class Noise(Strict):
@@ -80,7 +102,19 @@ class InstrumentPublic(Public):
 
 
 class CalibrationCreate(Strict):
-    measurements: list[Record] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
+    measurements: list[CampaignRecord] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
+    anchors: dict[ReferenceName, AnchorDescription] = Field(
+        default_factory=dict,
+        max_length=100,
+        description="Every anchor a distance record names (a ballbar pivot, a sensor's origin), with an optional "
+        "guess of its position and whether the bar's length offset is unknown",
+    )
+    points: dict[ReferenceName, PointDescription] = Field(
+        default_factory=dict, max_length=100, description="Optional guesses of the fixed points' positions"
+    )
+    planes: dict[ReferenceName, PlaneDescription] = Field(
+        default_factory=dict, max_length=100, description="Optional: the side each plane is touched from"
+    )
     noise: Noise = Noise()
     apply: bool = True
     import_notes: list[str] = Field(
@@ -258,6 +292,18 @@ class CalibrationReportPublic(Public):
     )
     noise: NoisePublic | None = Field(
         default=None, description="The measurement noise the fit assumed; null for calibrations stored before"
+    )
+    references: list[ReferencePublic] = Field(
+        default_factory=list,
+        description="The anchors, points and planes the records measured, as identified with the robot",
+    )
+    frame: str | None = Field(
+        default=None,
+        description="What the parameters and references are expressed in, where the records fix no frame "
+        "(distances, points, planes); null: the instrument's frame, registered as the base",
+    )
+    record_kinds: dict[str, int] | None = Field(
+        default=None, description="Records per kind of a campaign with any but tracker records"
     )
 
 

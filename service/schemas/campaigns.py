@@ -7,6 +7,7 @@ from datetime import datetime
 from pydantic import Field
 
 from service.schemas.common import Public
+from service.schemas.references import DistanceRecordPublic, PlaneRecordPublic, PointRecordPublic
 
 
 class CampaignRecordPublic(Public):
@@ -19,4 +20,6 @@ class CampaignPublic(Public):
     id: str
     robot_id: str
     created_at: datetime
-    measurements: list[CampaignRecordPublic]
+    measurements: list[CampaignRecordPublic | DistanceRecordPublic | PointRecordPublic | PlaneRecordPublic] = Field(
+        description="As received: a tracker's records (no kind), or a distance, point or plane record"
+    )

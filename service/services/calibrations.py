@@ -1,6 +1,6 @@
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -11,6 +11,7 @@ from models.errors import InvalidInput
 from models.identifiability import structural_identifiability
 from models.identification import IdentificationOptions, IdentificationResult, identify
 from models.identification.acceptance import Acceptance, acceptance_checks, decide
+from models.identification.reference_result import expected_rank, identify_reference_campaign
 from service.audit_actions import AuditAction
 from service.conversions.calibrations import (
     calibration_public,
@@ -20,6 +21,7 @@ from service.conversions.calibrations import (
     options_in,
     report_out,
 )
+from service.conversions.references import has_references, reference_groups_in
 from service.conversions.robots import description
 from service.conversions.terms import padded, requested_model
 from service.conversions.terms import start_values as start_values_for
@@ -118,19 +120,28 @@ class _Fit:
 def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     """The identification, its acceptance checks and the decision, and the report (nothing stored yet)."""
     desc = start.desc
-    campaign = campaign_in(desc, body)
     options = options_in(body)
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
     noise = noise_in(body)
     runtime = registry.runtime(desc)
-    result = identify(desc, campaign, noise=noise, nominal=start.values, options=options, runtime=runtime)
     candidates = desc.parameters.indices(options.estimate)
-    expected = structural_identifiability(desc, candidates, campaign.kind, runtime=runtime).rank
-    everything = structural_identifiability(
-        desc, desc.parameters.indices(IdentificationOptions().estimate), campaign.kind, runtime=runtime
-    )
-    partial = expected < everything.rank  # parameters held at the start version's (calibrated) values
+    everything = desc.parameters.indices(IdentificationOptions().estimate)
+    if has_references(body.measurements):
+        groups, notes = reference_groups_in(desc, body)
+        result = identify_reference_campaign(
+            desc, groups, noise=noise, nominal=start.values, options=options, runtime=runtime
+        )
+        result = replace(result, notes=(*notes, *result.notes))
+        fixes_frame = any(g.reference.traits.fixes_frame for g in groups)
+        expected = expected_rank(desc, candidates, fixes_frame=fixes_frame, runtime=runtime)
+        most = expected_rank(desc, everything, fixes_frame=fixes_frame, runtime=runtime)
+    else:
+        campaign = campaign_in(desc, body)
+        result = identify(desc, campaign, noise=noise, nominal=start.values, options=options, runtime=runtime)
+        expected = structural_identifiability(desc, candidates, campaign.kind, runtime=runtime).rank
+        most = structural_identifiability(desc, everything, campaign.kind, runtime=runtime).rank
+    partial = expected < most  # parameters held at the start version's (calibrated) values
     checks = acceptance_checks(
         result,
         expected_rank=expected,

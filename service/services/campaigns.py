@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+from typing import Any
+
 from service.persistence import Database
 from service.persistence.lifecycle import Lifecycle
 from service.schemas.campaigns import CampaignPublic
@@ -13,9 +15,18 @@ def get_campaign(*, db: Database, campaign_id: str) -> CampaignPublic:
                 "id": row.id,
                 "robot_id": row.robot_id,
                 "created_at": row.created_at,
-                "measurements": [
-                    {"joints": r["joints"], "position": r["position"], "orientation": r.get("orientation")}
-                    for r in row.records
-                ],
+                "measurements": [_record(r) for r in row.records],
             }
         )
+
+
+REFERENCE_FIELDS = {"distance": ("anchor", "distance_mm"), "point": ("point",), "plane": ("plane",)}
+"""What a stored record of each kind shows beside its joints and σ (a tracker's: position and orientation)."""
+
+
+def _record(stored: dict[str, Any]) -> dict[str, Any]:
+    kind = stored.get("kind")
+    if kind is None:
+        return {"joints": stored["joints"], "position": stored["position"], "orientation": stored.get("orientation")}
+    shown = ("kind", "joints", *REFERENCE_FIELDS[kind], "sigma_mm")
+    return {key: stored.get(key) for key in shown}

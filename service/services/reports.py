@@ -26,7 +26,11 @@ def build_report(*, db: Database, calibration_id: str) -> CalibrationReport:
         # The report reads the document as a client does: the answer's JSON.
         document = calibration_public(record).model_dump(mode="json")
         robot_name = repo.robot(record.robot_id).name
-        positions = np.array([r["position"] for r in life.campaign(record.campaign_id).records], dtype=float)
+        records = life.campaign(record.campaign_id).records
+        # A figure of measured positions needs every record to have one (distances and touches have none).
+        positions = (
+            np.array([r["position"] for r in records], dtype=float) if all("position" in r for r in records) else None
+        )
         produced = record.parameter_version
         validations: list[dict[str, Any]] = []
         if produced is not None:

@@ -9,18 +9,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness.ballbar import PIVOTS, aligned_rms, ballbar_campaign, gauge_truth, predicted_rms
+from harness.ballbar import PIVOTS, aligned_rms, ballbar_campaign, gauge_truth, predicted_rms, reaching
 from models import forward_kinematics, iwr, sample_workspace
 from models.errors import InvalidInput, JointOutOfRange, NonFiniteValue, TooFewMeasurements, WrongShape
 from models.examples import ur5_like
 from models.identification.options import IdentificationOptions
 from models.identification.reference_fit import identify_references
 from models.identification.registration import rigid_fit
-from models.inverse import inverse_kinematics
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
 from models.simulation import perturbed_robot
-from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
 
 SIGMA_MM = 0.002
 DESC = ur5_like()
@@ -115,15 +113,6 @@ def test_too_few_records_of_an_anchor_name_it() -> None:
 
 
 # ---------------------------------------------------------------------------------------------- point and plane
-def _reaching(truth: np.ndarray, positions: np.ndarray, seed: int) -> np.ndarray:
-    """Joints of the true robot with its TCP at `positions` in random orientations (the reachable ones)."""
-    rng = np.random.default_rng(seed)
-    rotations = [rotvec_to_matrix_np(rng.normal(0, 0.6, 3)) @ np.diag([1.0, -1.0, -1.0]) for _ in positions]
-    quats = matrix_to_quaternion(np.array(rotations))
-    answer = inverse_kinematics(DESC, positions, quats, truth)
-    return np.asarray(answer.joints[answer.reachable])
-
-
 def test_fixed_points_and_a_plane_identify_the_robot_and_the_features() -> None:
     seed = 4
     truth = gauge_truth(DESC, seed)
@@ -131,14 +120,14 @@ def test_fixed_points_and_a_plane_identify_the_robot_and_the_features() -> None:
     groups = []
     points = np.array([[400.0, 100.0, 200.0], [-100.0, 420.0, 150.0], [250.0, -350.0, 300.0], [300.0, 300.0, 450.0]])
     for k, point in enumerate(points):
-        joints = _reaching(truth, np.tile(point, (14, 1)), seed + k)
+        joints = reaching(DESC, truth, np.tile(point, (14, 1)), seed + k)
         assert joints.shape[0] >= 8
         joints = joints[:10]
         # The TCP sits in the socket to within σ: the records' joints are the truth's (the point is what moves).
         groups.append(ReferenceRecords(FixedPoint(f"p{k + 1}", (0.0, 0.0, 0.0)), joints, np.zeros(len(joints))))
     normal, offset = np.array([0.0, 0.0, 1.0]), 60.0
     on_plane = np.column_stack([rng.uniform(150, 450, 40), rng.uniform(-300, 300, 40), np.full(40, offset)])
-    joints = _reaching(truth, on_plane, seed + 10)[:30]
+    joints = reaching(DESC, truth, on_plane, seed + 10)[:30]
     groups.append(ReferenceRecords(Plane("f1", tuple(normal), offset), joints, np.zeros(len(joints))))
     with pytest.raises(InvalidInput, match="fix no length") as refused:
         identify_references(DESC, tuple(groups))
@@ -163,7 +152,7 @@ def test_fixed_points_and_a_plane_identify_the_robot_and_the_features() -> None:
 def test_a_plane_touched_along_a_line_is_refused() -> None:
     truth = gauge_truth(DESC, 5)
     line = np.column_stack([np.linspace(200, 400, 12), np.full(12, 50.0), np.full(12, 80.0)])
-    joints = _reaching(truth, line, 5)
+    joints = reaching(DESC, truth, line, 5)
     plane = ReferenceRecords(Plane("f1", (0.0, 0.0, 1.0), 80.0), joints, np.zeros(len(joints)))
     _, groups = _ballbar(1)
     with pytest.raises(InvalidInput, match="plane 'f1': every touch lies on one line") as refused:

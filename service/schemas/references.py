@@ -1,0 +1,136 @@
+"""Records of the instruments a cell owns (a ballbar or a distance sensor, a socket, a touch probe on a plate)
+and the descriptions of the references they measure, as a campaign carries them (boundary units: mm, deg).
+
+A record names its kind (`"kind"`); a record without one is a tracker's (`Record`). The names of anchors,
+points and planes become parameter names (`anchor.a1.x`), so they are short identifiers.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import Field
+
+from service.schemas.common import JointVector, Position, Public, Strict
+
+ReferenceName = Annotated[
+    str,
+    Field(
+        min_length=1,
+        max_length=64,
+        pattern=r"^[A-Za-z0-9_-]+$",
+        description="Letters, digits, _ and - (it names the reference's parameters: anchor.<name>.x)",
+        examples=["a1"],
+    ),
+]
+RecordSigma = Annotated[
+    float, Field(gt=0, le=100, description="This record's uncertainty (1 σ, mm); default: noise.position_mm")
+]
+
+
+class DistanceRecord(Strict):
+    """The TCP's distance to a fixed anchor: a ballbar's centre pivot, a wire or laser sensor's origin."""
+
+    kind: Literal["distance"]
+    joints: JointVector
+    anchor: ReferenceName
+    distance_mm: float = Field(gt=0, le=1e5, description="mm; with the anchor's length_unknown, up to an offset")
+    sigma_mm: RecordSigma | None = None
+
+
+class PointRecord(Strict):
+    """The TCP on the same unknown fixed point as every record of that name (a sphere in a socket, reached in
+    several orientations): no reading at all."""
+
+    kind: Literal["point"]
+    joints: JointVector
+    point: ReferenceName
+    sigma_mm: RecordSigma | None = None
+
+
+class PlaneRecord(Strict):
+    """The TCP (a probe's ball centre, its radius already added) touching one unknown plane."""
+
+    kind: Literal["plane"]
+    joints: JointVector
+    plane: ReferenceName
+    sigma_mm: RecordSigma | None = None
+
+
+class AnchorDescription(Strict):
+    position_mm: Position | None = Field(
+        default=None, description="A guess of its position (robot base frame, mm); default: found from the records"
+    )
+    length_unknown: bool = Field(
+        default=False, description="The bar's length offset is not known: it is identified (anchor.<name>.length)"
+    )
+
+
+class PointDescription(Strict):
+    position_mm: Position | None = Field(default=None, description="A guess; default: found from the records")
+
+
+class PlaneDescription(Strict):
+    normal: Annotated[list[float], Field(min_length=3, max_length=3)] | None = Field(
+        default=None,
+        description="The side the probe touches from (any length, not zero); default: found from the records, "
+        "pointing to +z where it is ambiguous",
+    )
+
+
+def record_tag(value: Any) -> str:
+    """Which record a value is: its `kind`, or a tracker's where it names none (the contract's rule)."""
+    kind = value.get("kind", "tracker") if isinstance(value, dict) else getattr(value, "kind", "tracker")
+    return str(kind)
+
+
+RECORD_KIND_ERROR = {
+    "custom_error_type": "record_kind",
+    "custom_error_message": "a record's kind is one of 'distance', 'point', 'plane', or absent (a tracker's)",
+}
+
+
+ReferenceRecord = DistanceRecord | PointRecord | PlaneRecord
+
+
+class ReferenceUnknownPublic(Public):
+    name: str = Field(description="anchor.<name>.x …, point.<name>.x …, plane.<name>.alpha …")
+    value: float
+    std_error: float | None
+    unit: Literal["mm", "deg"]
+
+
+class ReferencePublic(Public):
+    """A reference as the calibration identified it, in the frame the report's `frame` names."""
+
+    kind: Literal["anchor", "point", "plane", "position"]
+    name: str
+    records: int
+    rms_residual_mm: float
+    unknowns: list[ReferenceUnknownPublic]
+    position_mm: list[float] | None = Field(default=None, description="An anchor's or a point's position")
+    length_offset_mm: float | None = Field(default=None, description="An anchor with length_unknown: its offset")
+    normal: list[float] | None = Field(default=None, description="A plane's unit normal")
+    offset_mm: float | None = Field(default=None, description="A plane's distance from the origin along its normal")
+
+
+class DistanceRecordPublic(Public):
+    kind: Literal["distance"]
+    joints: list[float]
+    anchor: str
+    distance_mm: float
+    sigma_mm: float | None = None
+
+
+class PointRecordPublic(Public):
+    kind: Literal["point"]
+    joints: list[float]
+    point: str
+    sigma_mm: float | None = None
+
+
+class PlaneRecordPublic(Public):
+    kind: Literal["plane"]
+    joints: list[float]
+    plane: str
+    sigma_mm: float | None = None
