@@ -466,3 +466,61 @@ def _estimates(problem: ReferenceProblem, final: Evaluation, u: Array, std: Arra
             )
         )
     return tuple(out)
+
+
+def record_errors(
+    desc: RobotDescription, groups: tuple[ReferenceRecords, ...], theta: Array, unknowns: tuple[Array, ...], rt: Runtime
+) -> Array:
+    """Each record's error (mm: a distance's or a touch's |r|, a point's or a position's ‖r‖) under the robot
+    `theta` and each group's reference unknowns, in the campaign's order (`ReferenceRecords.positions`)."""
+    order = np.concatenate([g.positions for g in groups])
+    errors = np.empty(order.size)
+    at = 0
+    for group, u in zip(groups, unknowns, strict=True):
+        p = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt).positions
+        r, _, _ = group.reference.residuals(p, np.zeros((group.size, 3, 0)), u, group.values)
+        errors[at : at + group.size] = np.linalg.norm(r, axis=1)
+        at += group.size
+    out = np.empty_like(errors)
+    out[np.argsort(order, kind="stable")] = errors
+    return out
+
+
+@dataclass(frozen=True)
+class ReferenceCheck:
+    """A parameter version against reference records: the references placed where the records put them under
+    that version (their unknowns fitted, the robot held), and what each record then misses by."""
+
+    errors_mm: Array
+    """Per record, in the campaign's order."""
+    references: tuple[ReferenceRecords, ...]
+    """The groups as checked, each with its closed-form start."""
+    unknowns: tuple[Array, ...]
+    """Each reference's fitted unknowns."""
+
+
+def check_version(
+    desc: RobotDescription,
+    groups: tuple[ReferenceRecords, ...],
+    theta: Array,
+    *,
+    noise: NoiseModel | None = None,
+    runtime: Runtime | None = None,
+) -> ReferenceCheck:
+    """How well the version `theta` explains reference records (a ballbar check of a calibrated robot): only
+    the references' own unknowns are fitted, so what remains is the geometry's error as these records see it,
+    after the best placement of each anchor, point and plane. A length is not needed: the robot is held."""
+    rt, noise = runtime_for(desc, runtime), noise or NoiseModel()
+    if not groups:
+        raise InvalidInput("no reference records: give at least one anchor, point or plane", field="measurements")
+    for group in groups:
+        group.check()
+    groups = tuple(_started(desc, theta, _validated(desc, g), rt) for g in groups)
+    u_start = np.concatenate([[s.nominal for s in g.reference.unknowns] for g in groups])
+    u_scales = np.concatenate([[s.scale for s in g.reference.unknowns] for g in groups])
+    none = np.arange(0, dtype=np.intp)
+    problem = ReferenceProblem(desc, rt, groups, noise, theta, none, u_start, u_scales)
+    z, _, _ = _solved(problem, IdentificationOptions())
+    _, u = problem.split(z)
+    unknowns = tuple(u[problem.blocks[k] : problem.blocks[k + 1]] for k in range(len(groups)))
+    return ReferenceCheck(record_errors(desc, groups, theta, unknowns, rt), groups, unknowns)

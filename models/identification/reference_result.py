@@ -19,10 +19,15 @@ from models._types import Array
 from models.identifiability import structural_identifiability
 from models.identification.accuracy import predicted_accuracy
 from models.identification.options import IdentificationOptions
-from models.identification.reference_fit import FRAME_GROUPS, ReferenceFit, ReferenceOutlier, identify_references
+from models.identification.reference_fit import (
+    FRAME_GROUPS,
+    ReferenceFit,
+    ReferenceOutlier,
+    identify_references,
+    record_errors,
+)
 from models.identification.result import IdentificationResult, Outlier, ResidualSummary, SolverReport, Status
 from models.identification.statistics import correlated_pairs
-from models.kinematics import forward_kinematics
 from models.measurement import MeasurementKind
 from models.measurements.references import ReferenceRecords
 from models.noise import NoiseModel
@@ -126,22 +131,12 @@ def _notes(fit: ReferenceFit) -> tuple[str, ...]:
 
 
 def _record_errors(desc: RobotDescription, fit: ReferenceFit, rt: Runtime, *, fitted: bool) -> Array:
-    """Each record's error (mm, its kind's norm), in the campaign's order, at the start (the start parameters
-    and the references' closed-form starts) or at the solution."""
-    theta = fit.parameters if fitted else fit.start
-    order = np.concatenate([g.positions for g in fit.groups])
-    errors = np.empty(order.size)
-    at = 0
-    for group, estimate in zip(fit.groups, fit.references, strict=True):
-        ref = group.reference
-        u = estimate.values if fitted else np.array([s.nominal for s in ref.unknowns])
-        p = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt).positions
-        r, _, _ = ref.residuals(p, np.zeros((group.size, 3, 0)), u, group.values)
-        errors[at : at + group.size] = np.linalg.norm(r, axis=1)
-        at += group.size
-    out = np.empty_like(errors)
-    out[np.argsort(order, kind="stable")] = errors
-    return out
+    """Each record's error in the campaign's order, at the start (the start parameters and the references'
+    closed-form starts) or at the solution."""
+    if fitted:
+        return record_errors(desc, fit.groups, fit.parameters, tuple(e.values for e in fit.references), rt)
+    starts = tuple(np.array([s.nominal for s in g.reference.unknowns]) for g in fit.groups)
+    return record_errors(desc, fit.groups, fit.start, starts, rt)
 
 
 def _outlier(fit: ReferenceFit, outlier: ReferenceOutlier, errors: Array) -> Outlier:

@@ -4,7 +4,8 @@ identified references as the report states them (boundary units: mm, deg)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -15,8 +16,15 @@ from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceR
 from models.parameters import Kind
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
-from service.schemas.calibrations import CalibrationCreate, CampaignRecord, Record
-from service.schemas.references import DistanceRecord, PlaneRecord, PointRecord
+from service.schemas.calibrations import CampaignRecord, Record
+from service.schemas.references import (
+    AnchorDescription,
+    DistanceRecord,
+    PlaneDescription,
+    PlaneRecord,
+    PointDescription,
+    PointRecord,
+)
 
 DEFAULT_PLANE_SIDE = (0.0, 0.0, 1.0)
 """The side a plane is taken to be touched from when its description gives none (the fit's sign only)."""
@@ -27,29 +35,33 @@ def has_references(measurements: Sequence[CampaignRecord]) -> bool:
     return any(not isinstance(r, Record) for r in measurements)
 
 
+@dataclass(frozen=True)
+class Described:
+    """The references a body describes (its `anchors`, `points`, `planes`)."""
+
+    anchors: Mapping[str, AnchorDescription]
+    points: Mapping[str, PointDescription]
+    planes: Mapping[str, PlaneDescription]
+
+
 def reference_groups_in(
-    desc: RobotDescription, body: CalibrationCreate
+    desc: RobotDescription, measurements: Sequence[CampaignRecord], described: Described, *, sigma_mm: float
 ) -> tuple[tuple[ReferenceRecords, ...], list[str]]:
     """The records grouped by the reference they measure (internal units), each record keeping its place in
-    the campaign; and the notes the conversion makes. A record that names an undescribed anchor, a description
-    no record uses, a model term these records cannot carry: a 4xx naming it."""
-    if body.options.terms:
-        raise BadRequest(
-            f"options.terms {body.options.terms} need tracker records: distance, point and plane records carry no "
-            "temperature or load per record yet; calibrate the geometry from them without terms"
-        )
+    the campaign (`sigma_mm`: a record's σ where it states none); and the notes the conversion makes. A record
+    that names an undescribed anchor, a description no record uses: a 4xx naming it."""
     by_reference: dict[tuple[str, str], list[int]] = {}
-    for i, record in enumerate(body.measurements):
+    for i, record in enumerate(measurements):
         by_reference.setdefault(_reference_of(record), []).append(i)
-    _check_descriptions(body, by_reference)
+    _check_descriptions(described, by_reference)
     notes: list[str] = []
     groups = []
     for (kind, name), index in by_reference.items():
-        records = [body.measurements[i] for i in index]
+        records = [measurements[i] for i in index]
         joints = joints_in(desc, [r.joints for r in records])
-        sigma = _sigmas(records, body.noise.position_mm)
+        sigma = _sigmas(records, sigma_mm)
         positions = np.asarray(index, dtype=np.intp)
-        groups.append(ReferenceRecords(_reference(body, kind, name), joints, _values(records), sigma, positions))
+        groups.append(ReferenceRecords(_reference(described, kind, name), joints, _values(records), sigma, positions))
         if kind == "tracker" and any(isinstance(r, Record) and r.orientation is not None for r in records):
             notes.append(
                 "the tracker records' orientations are not used beside distance, point or plane records: their "
@@ -68,7 +80,7 @@ def _reference_of(record: CampaignRecord) -> tuple[str, str]:
     return "tracker", "tracker"
 
 
-def _check_descriptions(body: CalibrationCreate, used: dict[tuple[str, str], list[int]]) -> None:
+def _check_descriptions(body: Described, used: dict[tuple[str, str], list[int]]) -> None:
     for (kind, name), index in used.items():
         if kind == "anchor" and name not in body.anchors:
             raise BadRequest(
@@ -86,7 +98,7 @@ def _check_descriptions(body: CalibrationCreate, used: dict[tuple[str, str], lis
                 )
 
 
-def _reference(body: CalibrationCreate, kind: str, name: str) -> Anchor | FixedPoint | Plane | TrackerPositions:
+def _reference(body: Described, kind: str, name: str) -> Anchor | FixedPoint | Plane | TrackerPositions:
     """The reference with its description's guesses (the fit computes its start from the records)."""
     if kind == "anchor":
         anchor = body.anchors[name]

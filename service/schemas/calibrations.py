@@ -25,13 +25,10 @@ from service.schemas.common import (
 )
 from service.schemas.references import (
     RECORD_KIND_ERROR,
-    AnchorDescription,
     DistanceRecord,
-    PlaneDescription,
     PlaneRecord,
-    PointDescription,
     PointRecord,
-    ReferenceName,
+    ReferenceDescriptions,
     ReferencePublic,
     record_tag,
 )
@@ -101,20 +98,8 @@ class InstrumentPublic(Public):
     serial: str | None
 
 
-class CalibrationCreate(Strict):
+class CalibrationCreate(ReferenceDescriptions):
     measurements: list[CampaignRecord] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
-    anchors: dict[ReferenceName, AnchorDescription] = Field(
-        default_factory=dict,
-        max_length=100,
-        description="Every anchor a distance record names (a ballbar pivot, a sensor's origin), with an optional "
-        "guess of its position and whether the bar's length offset is unknown",
-    )
-    points: dict[ReferenceName, PointDescription] = Field(
-        default_factory=dict, max_length=100, description="Optional guesses of the fixed points' positions"
-    )
-    planes: dict[ReferenceName, PlaneDescription] = Field(
-        default_factory=dict, max_length=100, description="Optional: the side each plane is touched from"
-    )
     noise: Noise = Noise()
     apply: bool = True
     import_notes: list[str] = Field(

@@ -78,6 +78,23 @@ class PlaneDescription(Strict):
     )
 
 
+class ReferenceDescriptions(Strict):
+    """The references a campaign's records measure, described (a base of the bodies that carry records)."""
+
+    anchors: dict[ReferenceName, AnchorDescription] = Field(
+        default_factory=dict,
+        max_length=100,
+        description="Every anchor a distance record names (a ballbar pivot, a sensor's origin), with an optional "
+        "guess of its position and whether the bar's length offset is unknown",
+    )
+    points: dict[ReferenceName, PointDescription] = Field(
+        default_factory=dict, max_length=100, description="Optional guesses of the fixed points' positions"
+    )
+    planes: dict[ReferenceName, PlaneDescription] = Field(
+        default_factory=dict, max_length=100, description="Optional: the side each plane is touched from"
+    )
+
+
 def record_tag(value: Any) -> str:
     """Which record a value is: its `kind`, or a tracker's where it names none (the contract's rule)."""
     kind = value.get("kind", "tracker") if isinstance(value, dict) else getattr(value, "kind", "tracker")

@@ -8,11 +8,12 @@ from pydantic import ConfigDict, Field
 
 from service.schemas.calibrations import (
     MAX_MEASUREMENTS,
+    CampaignRecord,
     Instrument,
     InstrumentPublic,
-    Record,
 )
 from service.schemas.common import FreeText, Measurement, Public, Strict
+from service.schemas.references import ReferenceDescriptions
 
 
 def _absent_if_none(value: object) -> bool:
@@ -22,10 +23,14 @@ def _absent_if_none(value: object) -> bool:
 MAX_VERSIONS = 50
 
 
-class ValidationCreate(Strict):
+class ValidationCreate(ReferenceDescriptions):
+    """Records of any kind: a tracker's are compared with each version's forward kinematics; distance, point
+    and plane records with the version after their anchors, points and planes are placed where the records put
+    them (`registered` is then true: the references' unknowns are fitted, the robot is not)."""
+
     # `register` is the field's name on the wire; inside, it would shadow a class attribute of the model.
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
-    measurements: list[Record] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
+    measurements: list[CampaignRecord] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
     versions: list[int] | None = Field(
         default=None,
         min_length=1,

@@ -21,11 +21,11 @@ from service.conversions.calibrations import (
     options_in,
     report_out,
 )
-from service.conversions.references import has_references, reference_groups_in
+from service.conversions.references import Described, has_references, reference_groups_in
 from service.conversions.robots import description
 from service.conversions.terms import padded, requested_model
 from service.conversions.terms import start_values as start_values_for
-from service.errors import CalibrationFailed, Conflict
+from service.errors import BadRequest, CalibrationFailed, Conflict
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.repository import new_id
@@ -128,7 +128,13 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     candidates = desc.parameters.indices(options.estimate)
     everything = desc.parameters.indices(IdentificationOptions().estimate)
     if has_references(body.measurements):
-        groups, notes = reference_groups_in(desc, body)
+        if body.options.terms:
+            raise BadRequest(
+                f"options.terms {body.options.terms} need tracker records: distance, point and plane records "
+                "carry no temperature or load per record yet; calibrate the geometry from them without terms"
+            )
+        described = Described(body.anchors, body.points, body.planes)
+        groups, notes = reference_groups_in(desc, body.measurements, described, sigma_mm=body.noise.position_mm)
         result = identify_reference_campaign(
             desc, groups, noise=noise, nominal=start.values, options=options, runtime=runtime
         )

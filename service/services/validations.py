@@ -5,15 +5,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from models import Registry
-from models.accuracy import evaluate, iso_cube_poses
+from models import Registry, RobotDescription
+from models._types import Array
+from models.accuracy import AccuracyReport, evaluate, iso_cube_poses
 from models.errors import InvalidInput
+from models.identification.reference_fit import check_version
+from models.measurement import MeasurementKind
+from models.noise import NoiseModel
 from service.conversions.calibrations import records_in
+from service.conversions.references import Described, has_references, reference_groups_in
 from service.conversions.robots import description
 from service.conversions.terms import stored_model
 from service.conversions.validations import iso_poses_out, validation_public, version_result_out
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
+from service.schemas.calibrations import Record
 from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
 
 
@@ -38,24 +44,22 @@ def validate(*, db: Database, registry: Registry, robot_id: str, body: Validatio
         desc = description(repo.robot(robot_id))
         versions = _checked_versions(repo, robot_id, body.versions)
         values = {v: np.asarray(repo.version(robot_id, v).values, dtype=float) for v in versions}
-    campaign = records_in(desc, body.measurements)
-    if body.fit_frame and campaign.size < 3:
-        raise InvalidInput("register: fitting the instrument frame needs at least 3 records", field="register")
     # Each version on its own model: one calibrated with model terms evaluates them at the records' conditions.
     models = {v: stored_model(desc, values[v].size) for v in versions}
-    results = [
-        version_result_out(
-            models[v],
-            v,
-            evaluate(models[v], values[v], campaign, register=body.fit_frame, runtime=registry.runtime(models[v])),
-        ).model_dump(mode="json")
-        for v in versions
-    ]
-    document = {
-        "measurement": campaign.kind.value,
-        "measurements": campaign.size,
-        "results": results,
-    }
+    if has_references(body.measurements):
+        reports = _against_references(desc, body, models, values, registry)
+        measurement, size = MeasurementKind.POSITION, len(body.measurements)
+    else:
+        campaign = records_in(desc, [r for r in body.measurements if isinstance(r, Record)])
+        if body.fit_frame and campaign.size < 3:
+            raise InvalidInput("register: fitting the instrument frame needs at least 3 records", field="register")
+        reports = {
+            v: evaluate(models[v], values[v], campaign, register=body.fit_frame, runtime=registry.runtime(models[v]))
+            for v in versions
+        }
+        measurement, size = campaign.kind, campaign.size
+    results = [version_result_out(models[v], v, reports[v]).model_dump(mode="json") for v in versions]
+    document = {"measurement": measurement.value, "measurements": size, "results": results}
     records = [r.model_dump() for r in body.measurements]
     instrument = None if body.instrument is None else body.instrument.model_dump()
     with db.session() as s:
@@ -63,6 +67,30 @@ def validate(*, db: Database, registry: Registry, robot_id: str, body: Validatio
         repo.robot(robot_id, lock=True)  # still there
         stored = repo.add_campaign(robot_id, records)
         return validation_public(life.add_validation(robot_id, stored.id, document, body.notes, instrument))
+
+
+def _against_references(
+    desc: RobotDescription,
+    body: ValidationCreate,
+    models: dict[int, RobotDescription],
+    values: dict[int, Array],
+    registry: Registry,
+) -> dict[int, AccuracyReport]:
+    """Each version against distance, point and plane records (and tracker positions beside them): the
+    references placed under that version, the robot held (`models.identification.reference_fit.check_version`)."""
+    described = Described(body.anchors, body.points, body.planes)
+    groups, _ = reference_groups_in(desc, body.measurements, described, sigma_mm=NoiseModel().position_mm)
+    reports = {}
+    for v, model in models.items():
+        if model.terms.any:
+            raise InvalidInput(
+                f"version {v} was calibrated with model terms, which need tracker records (their temperatures and "
+                "loads) to be evaluated",
+                field="versions",
+            )
+        check = check_version(model, groups, values[v], runtime=registry.runtime(model))
+        reports[v] = AccuracyReport(check.errors_mm, None, registered=True, iso_poses=(), iso_distances=())
+    return reports
 
 
 def get_validation(*, db: Database, validation_id: str) -> ValidationPublic:

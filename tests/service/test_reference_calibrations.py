@@ -210,3 +210,28 @@ def test_a_ballbar_calibration_runs_as_a_job_and_reports_its_anchors(
         assert ", ".join(f"{v:.4f}" for v in ref["position_mm"]) in page.text
     pdf = client.get(f"/v1/calibrations/{calibration['id']}/report?format=pdf")
     assert pdf.status_code == 200 and pdf.content.startswith(b"%PDF")
+
+
+def test_a_ballbar_validation_tells_the_calibrated_version_from_the_nominal(
+    client: TestClient, arm: str, campaign: Campaign
+) -> None:
+    truth, groups = campaign
+    assert client.post(f"/v1/robots/{arm}/calibrations", json=_body(groups)).json()["parameter_version"] == 2
+    # A fresh ballbar run on the same robot: other poses, the first pivot, exact distances plus the bar's noise.
+    joints = sample_workspace(UR5, 30, seed=500)
+    rng = np.random.default_rng(500)
+    d = np.linalg.norm(forward_kinematics(UR5, joints, truth).positions - PIVOTS[0], axis=1)
+    d += rng.normal(0, SIGMA_MM, d.size)
+    records = [
+        {"kind": "distance", "joints": q.tolist(), "anchor": "check", "distance_mm": float(v)}
+        for q, v in zip(joints * UR5.joint_to_boundary, d, strict=True)
+    ]
+    body = {"measurements": records, "anchors": {"check": {}}, "versions": [1, 2]}
+    answer = client.post(f"/v1/robots/{arm}/validations", json=body)
+    assert answer.status_code == 201, answer.text
+    nominal, calibrated = answer.json()["results"]
+    assert calibrated["registered"] and len(calibrated["per_pose"]) == 30
+    # With the anchor placed, the calibrated version misses by the bar's noise, the nominal by tenths of a mm.
+    assert calibrated["position_mm"]["rms"] < 2 * SIGMA_MM < 0.05 < nominal["position_mm"]["rms"]
+    stored = client.get(f"/v1/campaigns/{answer.json()['campaign_id']}").json()["measurements"]
+    assert stored[0]["anchor"] == "check"
