@@ -14,6 +14,8 @@ starting) model in closed form: no iteration, milliseconds for hundreds of poses
 - `FAR_RECORDS`: single records far off the rest after a robust registration (this record, not the campaign).
 - `TEMPERATURE_TERM`, `LOAD_TERM` (after a fit, `models.identification.terms_check`): the geometric fit
   fails its variance-factor test and its residuals follow the records' temperatures (payloads).
+- `OTHER_PLANE` (after a fit against planes, `models.identification.reference_diagnosis`): the touches of a
+  plane that fail it lie on a plane of their own, another face touched under the same name.
 - `MISMATCH`: no placement of the robot, rigid or scaled or mirrored, comes near the measured positions: the
   joint rows and the measurements do not belong together (shuffled files, another robot's campaign).
 Internal units throughout (mm, rad); the messages state boundary units.
@@ -68,6 +70,8 @@ class Finding(StrEnum):
     """After a fit that fails its variance-factor test: the residuals follow the records' temperatures."""
     LOAD_TERM = "load_term"
     """After a fit that fails its variance-factor test: the residuals follow the records' payloads."""
+    OTHER_PLANE = "other_plane"
+    """After a fit against planes: some touches of a plane lie on another plane of their own (another face)."""
 
 
 @dataclass(frozen=True)

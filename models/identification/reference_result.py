@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from models._types import Array
 from models.identifiability import structural_identifiability
 from models.identification.accuracy import predicted_accuracy
 from models.identification.options import IdentificationOptions
+from models.identification.reference_diagnosis import plane_mixups
 from models.identification.reference_fit import (
     FRAME_GROUPS,
     ReferenceFit,
@@ -51,7 +53,9 @@ def identify_reference_campaign(
     started = time.perf_counter()
     rt, noise, options = runtime_for(desc, runtime), noise or NoiseModel(), options or IdentificationOptions()
     fit = identify_references(desc, groups, noise=noise, nominal=nominal, options=options, runtime=rt)
-    return as_result(desc, fit, nominal=nominal, options=options, runtime=rt, started=started)
+    result = as_result(desc, fit, nominal=nominal, options=options, runtime=rt, started=started)
+    found = plane_mixups(desc, fit, noise.position_mm, runtime=rt)
+    return replace(result, diagnoses=found, notes=(*result.notes, *(d.message for d in found))) if found else result
 
 
 def as_result(

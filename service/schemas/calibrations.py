@@ -211,7 +211,11 @@ class DiagnosisPublic(Public):
         "mismatch",
         "temperature_term",
         "load_term",
-    ] = Field(description="temperature_term / load_term: after a fit, the residuals follow the records' conditions")
+        "other_plane",
+    ] = Field(
+        description="temperature_term / load_term: after a fit, the residuals follow the records' conditions; "
+        "other_plane: some touches of a plane lie on another face"
+    )
     message: str
     records: list[int] = Field(description="The records concerned (0-based); empty: the whole campaign")
     blocking: bool = Field(description="No fit can succeed until it is fixed")

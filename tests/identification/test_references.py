@@ -6,6 +6,8 @@ reference in that base's frame; a truth in the same gauge can then be compared p
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -13,8 +15,10 @@ from harness.ballbar import PIVOTS, aligned_rms, ballbar_campaign, gauge_truth, 
 from models import forward_kinematics, iwr, sample_workspace
 from models.errors import InvalidInput, JointOutOfRange, NonFiniteValue, TooFewMeasurements, WrongShape
 from models.examples import ur5_like
+from models.identification.diagnosis import Finding
 from models.identification.options import IdentificationOptions
 from models.identification.reference_fit import identify_references
+from models.identification.reference_result import identify_reference_campaign
 from models.identification.registration import rigid_fit
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
@@ -284,3 +288,36 @@ def test_bad_records_are_refused_naming_the_reference_and_the_record() -> None:
     for bad, error, message in cases:
         with pytest.raises(error, match=message):
             identify_references(DESC, (bad, *groups[1:]))
+
+
+def test_touches_of_another_face_under_one_plane_name_are_named_as_such() -> None:
+    """Some forty touches of one plate, the first eight on a step 0.4 mm higher: those are left out as blunders
+    and the result says that they lie on a plane of their own (the step), not that they are random mistakes."""
+    seed = 8
+    truth = gauge_truth(DESC, seed)
+    rng = np.random.default_rng(seed)
+    on_plate = np.column_stack([rng.uniform(150, 450, 44), rng.uniform(-300, 300, 44), np.full(44, 60.0)])
+    on_plate[:8, 2] += 0.4  # the step
+    joints = reaching(DESC, truth, on_plate, seed)
+    reached = forward_kinematics(DESC, joints, truth).positions
+    step = np.flatnonzero(reached[:, 2] > 60.2)
+    assert step.size >= 5 and joints.shape[0] >= 30
+    bars = [sample_workspace(DESC, 30, seed=seed + k) for k in range(3)]
+    groups = [
+        ReferenceRecords(
+            Anchor(f"a{k + 1}", (0.0, 0.0, 0.0)),
+            bar,
+            np.linalg.norm(forward_kinematics(DESC, bar, truth).positions - PIVOTS[k], axis=1)
+            + rng.normal(0, SIGMA_MM, 30),
+        )
+        for k, bar in enumerate(bars)
+    ]
+    touches = ReferenceRecords(Plane("f1", (0.0, 0.0, 1.0), 60.0), joints, np.zeros(len(joints)))
+    offset = sum(g.size for g in groups)
+    touches = replace(touches, index=np.arange(offset, offset + touches.size))
+    result = identify_reference_campaign(DESC, (*groups, touches), noise=NoiseModel(SIGMA_MM, 1e-5))
+    assert result.succeeded
+    [found] = [d for d in result.diagnoses if d.finding is Finding.OTHER_PLANE]
+    assert set(found.records) == {offset + int(i) for i in step} and not found.blocking
+    assert "+0.4 mm" in found.message or "-0.4 mm" in found.message
+    assert {o.pose for o in result.outliers if o.excluded} == set(found.records)
