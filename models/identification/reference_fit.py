@@ -27,7 +27,8 @@ from models.identification.registration import registered_base, rigid_fit
 from models.identification.residuals import EvaluatedOnce, Evaluation
 from models.identification.solver import IpoptRun, solver_pool
 from models.identification.statistics import Covariance, covariance, outlier_threshold
-from models.kinematics import as_joint_array, check_joint_ranges, forward_kinematics
+from models.kinematics import ForwardJacobianResult, as_joint_array, check_joint_ranges, forward_kinematics
+from models.measurements.camera import Camera
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
@@ -86,9 +87,10 @@ class ReferenceProblem(EvaluatedOnce):
         for k, group in enumerate(self.groups):
             records = slice(self.records[k], self.records[k + 1])
             block = slice(self.blocks[k], self.blocks[k + 1])
-            r, d_theta, d_u = group.reference.residuals(
-                fk.positions[records], fk.jacobians[records, :3, :], u[block], group.values
+            tcp = ForwardJacobianResult(
+                fk.positions[records], fk.rotations[records], fk.platforms[records], fk.jacobians[records]
             )
+            r, d_theta, d_u = group.reference.residuals(tcp, u[block], group.values)
             w = self.weights[k][:, None]
             rows = r.shape[0] * r.shape[1]
             j = np.zeros((rows, self.n_free))
@@ -119,7 +121,7 @@ class ReferenceProblem(EvaluatedOnce):
 class ReferenceEstimate:
     """One reference's unknowns as identified (internal units: mm, rad) with their standard errors."""
 
-    reference: Anchor | FixedPoint | Plane | TrackerPositions
+    reference: Anchor | FixedPoint | Plane | TrackerPositions | Camera
     """As the fit started it (its closed-form start)."""
     values: Array
     """Its unknowns at the solution, in `reference.unknowns` order."""
@@ -422,8 +424,8 @@ def _registered(desc: RobotDescription, theta: Array, groups: tuple[ReferenceRec
 
 def _started(desc: RobotDescription, theta: Array, group: ReferenceRecords, rt: Runtime) -> ReferenceRecords:
     """The records with their reference's closed-form start under the start model (`Reference.started`)."""
-    p = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt).positions
-    return ReferenceRecords(group.reference.started(p, group.values), group.joints, group.values, group.sigma_mm)
+    tcp = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt)
+    return ReferenceRecords(group.reference.started(tcp, group.values), group.joints, group.values, group.sigma_mm)
 
 
 def _estimates(problem: ReferenceProblem, final: Evaluation, u: Array, std: Array) -> tuple[ReferenceEstimate, ...]:
