@@ -64,12 +64,26 @@ def _visible(cam: np.ndarray, pixels: np.ndarray, intrinsics: dict[str, Any]) ->
     return np.asarray((cam[..., 2] > 100) & (u > 0) & (u < width) & (v > 0) & (v < height))
 
 
+CAMERA_GAUGE = ("link1.theta", "link1.d")
+"""What a world camera's pose absorbs besides the base: turning every link about the first axis, or lifting them
+along it, is turning or lifting the camera the other way (exactly, as for a ballbar's pivots)."""
+
+
+def camera_gauge_truth(desc: RobotDescription, seed: int) -> np.ndarray:
+    """A perturbed robot in the gauge a world camera leaves free (its base and `CAMERA_GAUGE` nominal), so that
+    the fitted camera pose and TCP can be compared with the truth without an alignment."""
+    truth = gauge_truth(desc, seed)
+    for name in CAMERA_GAUGE:
+        truth[desc.parameters.index[name]] = desc.parameters.nominal[desc.parameters.index[name]]
+    return truth
+
+
 def world_camera_campaign(
     desc: RobotDescription, seed: int, *, images: int = 40, sigma_px: float = 0.1, pool: int = 600
 ) -> CameraCampaign:
     """`images` random poses (of `pool` sampled) at which the fixed camera sees all four markers."""
     rng = np.random.default_rng(seed)
-    truth = gauge_truth(desc, seed)
+    truth = camera_gauge_truth(desc, seed)
     joints = sample_workspace(desc, pool, seed=300 + seed)
     fk = forward_kinematics(desc, joints, truth)
     world = np.einsum("nij,mj->nmi", fk.rotations, MARKERS) + fk.positions[:, None, :]
@@ -94,6 +108,12 @@ def world_camera_campaign(
     return CameraCampaign(truth, WORLD_CAMERA_ROTATION, WORLD_CAMERA_POSITION, groups, records)
 
 
+HAND_EYE_GAUGE = ("link6.theta", "link6.d", "link6.a", "link6.alpha", "tool")
+"""What a camera on the tool cannot tell from its own pose in the tool frame: the constant transform after the
+last joint (the last link's constants and the tool's) reaches the pixels only through its product with the
+hand-eye."""
+
+
 def board(rows: int = 7, spacing_mm: float = 120.0, height_mm: float = -150.0) -> np.ndarray:
     """A flat grid of points in the cell (world frame), centred under the robot's reach."""
     k = (np.arange(rows) - (rows - 1) / 2) * spacing_mm
@@ -106,9 +126,12 @@ def tool_camera_campaign(
 ) -> CameraCampaign:
     """`images` random poses at which a camera on the tool sees at least eight points of the board. The board
     is the world frame's, so the truth's base is off its nominal too (these records see it), by what placing a
-    robot by hand leaves: millimetres and milliradians."""
+    robot by hand leaves: millimetres and milliradians. The truth is in the gauge a hand-eye camera leaves free
+    (`HAND_EYE_GAUGE` nominal), so that the fitted hand-eye can be compared with the true one."""
     rng = np.random.default_rng(seed)
     truth = gauge_truth(desc, seed)
+    held = list(desc.parameters.indices(HAND_EYE_GAUGE))
+    truth[held] = desc.parameters.nominal[held]
     truth[desc.slices["base"]] += np.r_[rng.normal(0, 3.0, 3), rng.normal(0, 3e-3, 3)]
     points = board()
     joints = sample_workspace(desc, pool, seed=700 + seed)
