@@ -5,6 +5,7 @@ file makes."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -123,9 +124,11 @@ def _jacobian(campaign: CameraCampaign) -> tuple[np.ndarray, ReferenceProblem]:
     """The weighted Jacobian at the truth over every robot parameter and the camera's six unknowns."""
     rt = runtime_for(DESC)
     group = campaign.groups[0]
-    rotation = tuple(float(v) for v in matrix_to_rotvec_np(campaign.rotation))
-    camera = type(group.reference)(group.reference.name, group.reference.intrinsics, tuple(campaign.position), rotation)
-    groups = (type(group)(camera, group.joints, group.values, group.sigma_mm),)
+    assert isinstance(group.reference, Camera)
+    rx, ry, rz = (float(v) for v in matrix_to_rotvec_np(campaign.rotation))
+    x, y, z = (float(v) for v in campaign.position)
+    camera = replace(group.reference, position=(x, y, z), rotation=(rx, ry, rz))
+    groups = (replace(group, reference=camera),)
     problem = reference_problem(
         DESC, groups, noise=NoiseModel(), theta=campaign.truth, estimate=("base", "links", "tool"), runtime=rt
     )
@@ -171,7 +174,7 @@ NOISE = NoiseModel(0.002, 1e-5)
 def _pose_error(fit_values: np.ndarray, start: Camera, rotation: np.ndarray, position: np.ndarray) -> np.ndarray:
     """(position error, rotation error as a left rotation vector) of a fitted camera against the truth."""
     found = start.orientation(fit_values[3:6])
-    return np.r_[fit_values[:3] - position, matrix_to_rotvec_np(found @ rotation.T)]
+    return np.concatenate([fit_values[:3] - position, matrix_to_rotvec_np(found @ rotation.T)])
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
