@@ -78,6 +78,30 @@ def camera_gauge_truth(desc: RobotDescription, seed: int) -> np.ndarray:
     return truth
 
 
+def world_images(
+    desc: RobotDescription, truth: np.ndarray, joints: np.ndarray, rng: np.random.Generator, *, sigma_px: float = 0.1
+) -> tuple[list[dict[str, Any]], np.ndarray]:
+    """(the records, (N, 4) which markers are seen): what the fixed camera sees of the four markers at each of
+    `joints` (only the markers in front of it and on its image), pixels with noise σ."""
+    fk = forward_kinematics(desc, joints, truth)
+    world = np.einsum("nij,mj->nmi", fk.rotations, MARKERS) + fk.positions[:, None, :]
+    cam = (world - WORLD_CAMERA_POSITION) @ WORLD_CAMERA_ROTATION
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pixels = project(cam.reshape(-1, 3), INTRINSICS).reshape(len(joints), len(MARKERS), 2)
+    visible = _visible(cam, pixels, INTRINSICS)
+    records = []
+    for i in np.flatnonzero(visible.any(axis=1)):
+        seen = np.flatnonzero(visible[i])
+        noisy = pixels[i, seen] + rng.normal(0, sigma_px, (seen.size, 2))
+        points = [{"target_mm": MARKERS[j].tolist(), "pixel": px.tolist()} for j, px in zip(seen, noisy, strict=True)]
+        records.append({"kind": "image", "joints": joints[i].tolist(), "camera": "c1", "points": points})
+        records[-1]["sigma_px"] = sigma_px
+    return records, visible
+
+
+WORLD_CAMERA = {"c1": {**INTRINSICS, "mount": "world"}}
+
+
 def world_camera_campaign(
     desc: RobotDescription, seed: int, *, images: int = 40, sigma_px: float = 0.1, pool: int = 600
 ) -> CameraCampaign:
@@ -85,26 +109,11 @@ def world_camera_campaign(
     rng = np.random.default_rng(seed)
     truth = camera_gauge_truth(desc, seed)
     joints = sample_workspace(desc, pool, seed=300 + seed)
-    fk = forward_kinematics(desc, joints, truth)
-    world = np.einsum("nij,mj->nmi", fk.rotations, MARKERS) + fk.positions[:, None, :]
-    cam = (world - WORLD_CAMERA_POSITION) @ WORLD_CAMERA_ROTATION
-    pixels = project(cam.reshape(-1, 3), INTRINSICS).reshape(pool, len(MARKERS), 2)
-    seen = np.flatnonzero(_visible(cam, pixels, INTRINSICS).all(axis=1))[:images]
-    assert seen.size == images, f"only {seen.size} of {pool} poses show every marker"
-    noisy = pixels[seen] + rng.normal(0, sigma_px, pixels[seen].shape)
-    records = [
-        {
-            "kind": "image",
-            "joints": joints[i].tolist(),
-            "camera": "c1",
-            "points": [
-                {"target_mm": m.tolist(), "pixel": px.tolist()} for m, px in zip(MARKERS, noisy[k], strict=True)
-            ],
-            "sigma_px": sigma_px,
-        }
-        for k, i in enumerate(seen)
-    ]
-    groups = read_images({"c1": {**INTRINSICS, "mount": "world"}}, records)
+    _, visible = world_images(desc, truth, joints, rng, sigma_px=sigma_px)
+    chosen = np.flatnonzero(visible.all(axis=1))[:images]
+    assert chosen.size == images, f"only {chosen.size} of {pool} poses show every marker"
+    records, _ = world_images(desc, truth, joints[chosen], rng, sigma_px=sigma_px)
+    groups = read_images(WORLD_CAMERA, records)
     return CameraCampaign(truth, WORLD_CAMERA_ROTATION, WORLD_CAMERA_POSITION, groups, records)
 
 
