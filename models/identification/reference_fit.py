@@ -127,7 +127,7 @@ class ReferenceEstimate:
     """Its unknowns at the solution, in `reference.unknowns` order."""
     std_errors: Array
     rms_residual_mm: float
-    """Of its records at the solution."""
+    """Of its records at the solution, in its `traits.sigma_unit` (mm; a camera's px)."""
     records: int
 
 
@@ -335,10 +335,10 @@ def _result(
         std_errors=robot_std,
         unidentifiable=tuple(table.names[i] for i in held),
         frame=(
-            "the robot's base held at its start values (distance, point and plane records fix no frame): the "
-            "parameters and the references are expressed in that base's frame"
+            "the robot's base held at its start values (distance, point and plane records and a camera in the "
+            "cell fix no frame): the parameters and the references are expressed in that base's frame"
             if frame_free
-            else "the tracker's frame (the robot's base, identified with the rest)"
+            else _fixed_frame(problem.groups)
         ),
         references=_estimates(problem, final, u_fit, std[problem.free.size :]),
         parameter_covariance=(cov.z * np.outer(scales, scales))[: problem.free.size, : problem.free.size],
@@ -347,6 +347,14 @@ def _result(
         outliers=outliers,
         seconds=time.perf_counter() - started,
     )
+
+
+def _fixed_frame(groups: tuple[ReferenceRecords, ...]) -> str:
+    """What the frame is when records fix one: a tracker's, or the world a tool camera's board is given in."""
+    fixing = ", ".join(
+        f"{g.reference.traits.kind} {g.reference.name!r}" for g in groups if g.reference.traits.fixes_frame
+    )
+    return f"the frame of the records of {fixing} (the tracker's, or a board's: the robot's base, identified)"
 
 
 def _identifiable(problem: ReferenceProblem, candidates: tuple[int, ...]) -> list[int]:

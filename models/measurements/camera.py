@@ -407,10 +407,13 @@ def _image_rows(i: int, image: Mapping[str, Any], default_sigma: float) -> tuple
     sigma = float(image.get("sigma_px", default_sigma))
     if not (np.isfinite(sigma) and sigma > 0):
         raise InvalidInput(f"image {i}: sigma_px must be a positive number", field=f"measurements[{i}].sigma_px")
-    values = np.array([[i, k, *point["target_mm"], *point["pixel"]] for k, point in enumerate(points)], dtype=float)
-    if values.shape[1] != 7:
+    try:
+        values = np.array([[i, k, *point["target_mm"], *point["pixel"]] for k, point in enumerate(points)], dtype=float)
+    except (KeyError, TypeError, ValueError):
+        values = np.zeros((0, 0))  # a point without both, or of other lengths: refused below
+    if values.ndim != 2 or values.shape[1] != 7 or not np.all(np.isfinite(values)):
         raise InvalidInput(
-            f"image {i}: each point is {{target_mm: [x, y, z], pixel: [u, v]}}",
+            f"image {i}: each point is {{target_mm: [x, y, z], pixel: [u, v]}}, finite numbers",
             field=f"measurements[{i}].points",
             reason="point_shape",
         )

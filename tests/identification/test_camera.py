@@ -275,6 +275,13 @@ def test_a_camera_that_sees_nothing_or_is_not_described_is_named() -> None:
     assert refused.value.reason == "unknown_camera" and refused.value.allowed == ["c1"]
     with pytest.raises(InvalidInput, match="mount"):
         read_images(_cameras(mount="ceiling"), images)
+    ragged = [{**p, "target_mm": p["target_mm"][:2]} for p in images[2]["points"]]
+    with pytest.raises(InvalidInput, match="each point is") as refused:
+        read_images(_cameras(), _with(images, 2, points=ragged))
+    assert refused.value.field == "measurements[2].points"
+    group = read_images(_cameras(), images)[0]
+    with pytest.raises(InvalidInput, match="give each record's σ in px"):
+        identify_references(DESC, (replace(group, sigma_mm=None),), noise=NOISE)
     short = read_images(_cameras(), images[:1])
     with pytest.raises(TooFewMeasurements, match="image 'c1' has 4 records"):
         identify_references(DESC, short, noise=NOISE)
