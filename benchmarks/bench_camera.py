@@ -24,7 +24,7 @@ import scipy.optimize
 
 from benchmarks.numpy_arm import VectorisedArm, _rodrigues
 from benchmarks.timing import target
-from harness.ballbar import aligned_rms, predicted_rms
+from harness.ballbar import aligned_rms, predicted_rms, seed_row
 from harness.camera import INTRINSICS, MARKERS, project, world_camera_campaign
 from models import NoiseModel, forward_kinematics, sample_workspace
 from models.examples import ur5_like
@@ -107,16 +107,7 @@ def run() -> dict[str, object]:
         improvement.append(after / before)
         agreement.append(after / reference)
         per_seed.append(
-            {
-                "seed": seed,
-                "tcp_after_um": 1e3 * after,
-                "bound_um": 1e3 * bound,
-                "nominal_um": 1e3 * before,
-                "reference_estimator_um": 1e3 * reference,
-                "variance_factor": fit.covariance.variance_factor,
-                "estimated": len(fit.estimated),
-                "unidentifiable": list(fit.unidentifiable),
-            }
+            seed_row(seed, fit, tcp_after=after, bound=bound, nominal=before, reference_estimator=reference)
         )
     design = _design()
     ratio, better = statistics.median(ratios), statistics.median(improvement)

@@ -22,7 +22,7 @@ import scipy.optimize
 
 from benchmarks.numpy_arm import VectorisedArm
 from benchmarks.timing import target
-from harness.ballbar import aligned_rms, ballbar_campaign, predicted_rms
+from harness.ballbar import aligned_rms, ballbar_campaign, predicted_rms, seed_row
 from models import NoiseModel, forward_kinematics, sample_workspace
 from models.examples import ur5_like
 from models.identification import identify
@@ -99,15 +99,7 @@ def run() -> dict[str, object]:
         improvement.append(after / before)
         agreement.append(after / reference)
         per_seed.append(
-            {
-                "seed": seed,
-                "tcp_after_um": 1e3 * after,
-                "bound_um": 1e3 * bound,
-                "nominal_um": 1e3 * before,
-                "reference_estimator_um": 1e3 * reference,
-                "variance_factor": fit.covariance.variance_factor,
-                "unidentifiable": list(fit.unidentifiable),
-            }
+            seed_row(seed, fit, tcp_after=after, bound=bound, nominal=before, reference_estimator=reference)
         )
         # The same number of position records from a tracker, through the tracker pipeline.
         robot, joints = perturbed_robot(DESC, seed=seed), sample_workspace(DESC, 3 * PER_ANCHOR, seed=seed)
