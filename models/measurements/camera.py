@@ -298,9 +298,10 @@ class ToolCamera(Camera):
         "image", rows=2, value_columns=7, fixes_frame=True, fixes_scale=True, sigma_unit="px"
     )
     """It fixes the frame: the board's points are given in the world frame, so its images see the robot's base
-    relative to them, and the base is identified. What it cannot see is the tool's own transform: only the
-    product tool · hand-eye reaches the pixels, and the identifiability analysis holds the tool's parameters,
-    keeping the camera's (the references' unknowns come first)."""
+    relative to them, and the base is identified. What it cannot see is the constant transform after the last
+    joint (the last link's constants and the tool's): only its product with the hand-eye reaches the pixels,
+    and the identifiability analysis holds those parameters, keeping the camera's (the references' unknowns
+    come first)."""
 
     def in_parent(self, positions: Array, rotations: Array, targets: Array) -> Array:
         """The board's points in the tool frame: y = Rᵀ (b − p)."""
