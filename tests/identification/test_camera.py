@@ -10,15 +10,18 @@ from typing import Any
 
 import numpy as np
 import pytest
+import scipy.stats
 
 from harness.ballbar import aligned_rms, predicted_rms
 from harness.camera import (
     INTRINSICS,
     MARKERS,
+    WORLD_CAMERA,
     CameraCampaign,
     project,
     tool_camera_campaign,
     world_camera_campaign,
+    world_images,
 )
 from models import forward_kinematics, sample_workspace
 from models.errors import InvalidInput, TooFewMeasurements
@@ -201,6 +204,28 @@ def test_a_world_camera_calibrates_the_robot_and_finds_itself(seed: int) -> None
     bound = predicted_rms(DESC, fit, fresh)
     before = aligned_rms(forward_kinematics(DESC, fresh).positions, true_p)
     assert after < 3.0 * bound and after < 0.15 * before, (after, bound, before)
+
+
+def test_a_world_camera_recovers_each_parameter_within_its_errors() -> None:
+    """Parameter by parameter: the truth in the full gauge of these records (every parameter the fit holds at
+    its nominal value, so that none is absorbed by another), the same poses imaged again; every estimated
+    parameter within its standard errors, and their joint Mahalanobis distance a χ² of as many degrees."""
+    campaign = world_camera_campaign(DESC, 5, sigma_px=SIGMA_PX)
+    held = identify_references(DESC, campaign.groups, noise=NOISE).unidentifiable
+    truth = campaign.truth.copy()
+    index = list(DESC.parameters.indices(held))
+    truth[index] = DESC.parameters.nominal[index]
+    joints = np.array([image["joints"] for image in campaign.images])
+    records, _ = world_images(DESC, truth, joints, np.random.default_rng(5), sigma_px=SIGMA_PX)
+    fit = identify_references(DESC, read_images(WORLD_CAMERA, records), noise=NOISE)
+    assert fit.unidentifiable == held and fit.covariance.noise_consistent
+    est = np.array(fit.estimated)
+    error = fit.parameters[est] - truth[est]
+    assert np.all(np.abs(error) < 4.5 * fit.std_errors[est]), dict(
+        zip([DESC.parameters.names[i] for i in est], (error / fit.std_errors[est]).round(1), strict=True)
+    )
+    distance = float(error @ np.linalg.solve(fit.parameter_covariance, error))
+    assert distance < scipy.stats.chi2.ppf(0.999, est.size), (distance, est.size)
 
 
 def test_a_camera_on_the_tool_finds_the_hand_eye_and_the_base() -> None:
