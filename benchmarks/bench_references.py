@@ -22,11 +22,12 @@ import scipy.optimize
 
 from benchmarks.numpy_arm import VectorisedArm
 from benchmarks.timing import target
-from harness.ballbar import aligned_rms, ballbar_campaign, predicted_rms
+from harness.ballbar import aligned_rms, ballbar_campaign, predicted_rms, seed_row
 from models import NoiseModel, forward_kinematics, sample_workspace
 from models.examples import ur5_like
 from models.identification import identify
 from models.identification.reference_fit import ReferenceFit, identify_references
+from models.kinematics import ForwardResult
 from models.measurements.references import Anchor, ReferenceRecords
 from models.simulation import measure, perturbed_robot
 from optimal_design.references import design_reference_records
@@ -44,6 +45,12 @@ def _campaign(seed: int) -> tuple[np.ndarray, tuple[ReferenceRecords, ...]]:
     return ballbar_campaign(DESC, seed, per_pivot=PER_ANCHOR, sigma_mm=SIGMA_MM, offset_mm=DELTA_MM, pivots=ANCHORS)
 
 
+def _positions_only(p: np.ndarray) -> ForwardResult:
+    """The numpy arm's TCP positions as the references' start reads them (an anchor reads no orientation)."""
+    n = p.shape[0]
+    return ForwardResult(p, np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 0)))
+
+
 def _reference_estimator(fit: ReferenceFit, groups: tuple[ReferenceRecords, ...]) -> np.ndarray:
     """scipy + numpy over the same unknowns (the fit's estimated parameters and the anchors), from the same
     start (the nominal robot and the anchors' closed-form spheres): the robot parameters it finds."""
@@ -51,7 +58,7 @@ def _reference_estimator(fit: ReferenceFit, groups: tuple[ReferenceRecords, ...]
     est = np.array(fit.estimated)
     start = DESC.parameters.nominal.copy()
     scales = DESC.parameters.scales[est]
-    anchors0 = [g.reference.started(arm.positions(g.joints, start), g.values) for g in groups]
+    anchors0 = [g.reference.started(_positions_only(arm.positions(g.joints, start)), g.values) for g in groups]
     u0 = np.concatenate([[s.nominal for s in a.unknowns] for a in anchors0])
 
     def residuals(x: np.ndarray) -> np.ndarray:
@@ -92,15 +99,7 @@ def run() -> dict[str, object]:
         improvement.append(after / before)
         agreement.append(after / reference)
         per_seed.append(
-            {
-                "seed": seed,
-                "tcp_after_um": 1e3 * after,
-                "bound_um": 1e3 * bound,
-                "nominal_um": 1e3 * before,
-                "reference_estimator_um": 1e3 * reference,
-                "variance_factor": fit.covariance.variance_factor,
-                "unidentifiable": list(fit.unidentifiable),
-            }
+            seed_row(seed, fit, tcp_after=after, bound=bound, nominal=before, reference_estimator=reference)
         )
         # The same number of position records from a tracker, through the tracker pipeline.
         robot, joints = perturbed_robot(DESC, seed=seed), sample_workspace(DESC, 3 * PER_ANCHOR, seed=seed)

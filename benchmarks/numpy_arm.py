@@ -118,6 +118,10 @@ class VectorisedArm:
         self.layout = _Layout.of(desc)
 
     def positions(self, joints: Array, theta: Array) -> Array:
+        return np.asarray(self.poses(joints, theta)[:, :3, 3])
+
+    def poses(self, joints: Array, theta: Array) -> Array:
+        """(N, 4, 4) TCP transforms."""
         lay = self.layout
         n = joints.shape[0]
         t = np.broadcast_to(_frame(theta[lay.base]), (n, 4, 4))
@@ -149,4 +153,4 @@ class VectorisedArm:
                 m[:, 1, 0], m[:, 1, 1], m[:, 1, 2], m[:, 1, 3] = st, ct * ca, -ct * sa, a * st
                 m[:, 2, 1], m[:, 2, 2], m[:, 2, 3] = sa, ca, d
             t = t @ m
-        return np.asarray((t @ _frame(theta[lay.tool]))[:, :3, 3])
+        return np.asarray(t @ _frame(theta[lay.tool]))

@@ -72,3 +72,15 @@ def predicted_rms(desc: RobotDescription, fit: ReferenceFit, joints: np.ndarray,
     jac = forward_kinematics(desc, joints, fit.parameters, jacobian=True).jacobians[:, :3, est]
     cov = fit.parameter_covariance / (fit.covariance.variance_factor if stated else 1.0)
     return float(np.sqrt(np.mean(np.einsum("nip,pq,niq->n", jac, cov, jac))))
+
+
+def seed_row(seed: int, fit: ReferenceFit, **errors_mm: float) -> dict[str, object]:
+    """A benchmark's row for one simulated campaign: its TCP errors (`name=mm`, reported as `name_um`) and what
+    the fit said of itself."""
+    return {
+        "seed": seed,
+        **{f"{name}_um": 1e3 * value for name, value in errors_mm.items()},
+        "variance_factor": fit.covariance.variance_factor,
+        "estimated": len(fit.estimated),
+        "unidentifiable": list(fit.unidentifiable),
+    }

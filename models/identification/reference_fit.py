@@ -28,7 +28,7 @@ from models.identification.residuals import EvaluatedOnce, Evaluation
 from models.identification.result import ReferenceEstimate
 from models.identification.solver import IpoptRun, solver_pool
 from models.identification.statistics import Covariance, covariance, outlier_threshold
-from models.kinematics import as_joint_array, check_joint_ranges, forward_kinematics
+from models.kinematics import ForwardJacobianResult, as_joint_array, check_joint_ranges, forward_kinematics
 from models.measurements.references import ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
@@ -88,9 +88,10 @@ class ReferenceProblem(EvaluatedOnce):
         for k, group in enumerate(self.groups):
             records = slice(self.records[k], self.records[k + 1])
             block = slice(self.blocks[k], self.blocks[k + 1])
-            r, d_theta, d_u = group.reference.residuals(
-                fk.positions[records], fk.jacobians[records, :3, :], u[block], group.values
+            tcp = ForwardJacobianResult(
+                fk.positions[records], fk.rotations[records], fk.platforms[records], fk.jacobians[records]
             )
+            r, d_theta, d_u = group.reference.residuals(tcp, u[block], group.values)
             w = self.weights[k][:, None]
             rows = r.shape[0] * r.shape[1]
             j = np.zeros((rows, self.n_free))
@@ -353,10 +354,10 @@ def _result(
         std_errors=robot_std,
         unidentifiable=tuple(table.names[i] for i in held),
         frame=(
-            "the robot's base held at its start values (distance, point and plane records fix no frame): the "
-            "parameters and the references are expressed in that base's frame"
+            "the robot's base held at its start values (distance, point and plane records and a camera in the "
+            "cell fix no frame): the parameters and the references are expressed in that base's frame"
             if frame_free
-            else "the tracker's frame (the robot's base, identified with the rest)"
+            else _fixed_frame(problem.groups)
         ),
         references=_estimates(problem, final, u_fit, std[problem.free.size :]),
         parameter_covariance=(cov.z * np.outer(scales, scales))[: problem.free.size, : problem.free.size],
@@ -365,6 +366,14 @@ def _result(
         outliers=outliers,
         seconds=time.perf_counter() - started,
     )
+
+
+def _fixed_frame(groups: tuple[ReferenceRecords, ...]) -> str:
+    """What the frame is when records fix one: a tracker's, or the world a tool camera's board is given in."""
+    fixing = ", ".join(
+        f"{g.reference.traits.kind} {g.reference.name!r}" for g in groups if g.reference.traits.fixes_frame
+    )
+    return f"the frame of the records of {fixing} (the tracker's, or a board's: the robot's base, identified)"
 
 
 def _identifiable(problem: ReferenceProblem, candidates: tuple[int, ...]) -> list[int]:
@@ -442,8 +451,8 @@ def _registered(desc: RobotDescription, theta: Array, groups: tuple[ReferenceRec
 
 def _started(desc: RobotDescription, theta: Array, group: ReferenceRecords, rt: Runtime) -> ReferenceRecords:
     """The records with their reference's closed-form start under the start model (`Reference.started`)."""
-    p = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt).positions
-    return group.with_reference(group.reference.started(p, group.values))
+    tcp = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt)
+    return group.with_reference(group.reference.started(tcp, group.values))
 
 
 def _estimates(problem: ReferenceProblem, final: Evaluation, u: Array, std: Array) -> tuple[ReferenceEstimate, ...]:
@@ -477,8 +486,10 @@ def record_errors(
     errors = np.empty(order.size)
     at = 0
     for group, u in zip(groups, unknowns, strict=True):
-        p = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt).positions
-        r, _, _ = group.reference.residuals(p, np.zeros((group.size, 3, 0)), u, group.values)
+        fk = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt)
+        # No derivatives are needed: an empty Jacobian keeps the residuals' own shapes.
+        tcp = ForwardJacobianResult(fk.positions, fk.rotations, fk.platforms, np.zeros((group.size, 6, 0)))
+        r, _, _ = group.reference.residuals(tcp, u, group.values)
         errors[at : at + group.size] = np.linalg.norm(r, axis=1)
         at += group.size
     out = np.empty_like(errors)

@@ -12,6 +12,7 @@ from models.identifiability import Confounding
 from models.identification.diagnosis import Diagnosis
 from models.identification.statistics import PoseErrors
 from models.measurement import MeasurementKind
+from models.measurements.camera import Camera
 from models.measurements.references import Anchor, FixedPoint, Plane, TrackerPositions
 from models.parameters import ParameterTable
 
@@ -110,13 +111,13 @@ class PredictedAccuracy:
 class ReferenceEstimate:
     """One reference's unknowns as identified (internal units: mm, rad) with their standard errors."""
 
-    reference: Anchor | FixedPoint | Plane | TrackerPositions
+    reference: Anchor | FixedPoint | Plane | TrackerPositions | Camera
     """As the fit started it (its closed-form start)."""
     values: Array
     """Its unknowns at the solution, in `reference.unknowns` order."""
     std_errors: Array
     rms_residual_mm: float
-    """Of its records at the solution."""
+    """Of its records at the solution, in its `traits.sigma_unit` (mm; a camera's px)."""
     records: int
 
 

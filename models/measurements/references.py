@@ -10,23 +10,29 @@ position to an unknown feature that the fit identifies with the robot's paramete
   normal n turned from its start n₀ by two small angles (α about e₁, β about e₂, both ⟂ n₀) so that three
   numbers describe it without a constraint. Unknowns: α, β (rad), h (mm).
 
-Each reference depends on the TCP position p(q, θ) alone, so its rows and their θ-derivatives come from the
+Each of these depends on the TCP position p(q, θ) alone, so its rows and their θ-derivatives come from the
 position rows of the forward kinematics and its Jacobian; the derivatives by its own unknowns are written out
 here (a test checks them against finite differences). None of them fixes a frame: the base transform moves
-every anchor, point and plane with it (`fixes_frame`).
+every anchor, point and plane with it (`fixes_frame`). A reference receives the whole TCP pose (positions,
+rotations and the 6-row Jacobian of `forward_kinematics(..., jacobian=True)`), because a camera
+(`models.measurements.camera`) sees the tool's orientation as well.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import ClassVar, Protocol
+from typing import TYPE_CHECKING, ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
 from models.errors import InvalidInput, TooFewMeasurements
+from models.kinematics import ForwardJacobianResult, ForwardResult
 from models.parameters import Kind, ParameterSpec
+
+if TYPE_CHECKING:
+    from models.measurements.camera import Camera
 
 POSITION_SCALE_MM = 1.0
 """The expected error of a reference's start position (mm), the scale of its columns (as a link length's)."""
@@ -52,6 +58,9 @@ class Traits:
     fixes_scale: bool
     """Whether its records carry a length (a distance does; coincidence with a point or a plane does not: the
     whole robot and its points and planes scaled together satisfy them as well)."""
+    sigma_unit: str = "mm"
+    """The unit of its residual and of a record's σ; a reference whose unit is not the noise model's (mm) needs
+    σ given with its records."""
 
 
 class Reference(Protocol):
@@ -70,14 +79,15 @@ class Reference(Protocol):
         """Records needed before it can be determined at all (its unknowns, counted in rows)."""
         ...
 
-    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
-        """At TCP positions p (n, 3) with ∂p/∂θ dp (n, 3, P), its unknowns u and the records' measured values:
+    def residuals(self, tcp: ForwardJacobianResult, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        """At the records' TCP poses `tcp` (positions p (n, 3), rotations (n, 3, 3), jacobians (n, 6, P): ∂p/∂θ
+        then the world-frame rotation per unit θ, dR = [dω]× R), its unknowns u and the records' measured values:
         (r (n, rows), ∂r/∂θ (n, rows, P), ∂r/∂u (n, rows, len(u))), model minus measurement, unweighted."""
         ...
 
-    def started(self, p: Array, values: Array) -> Reference:
-        """The same reference with its start computed in closed form from the records' TCP positions p (n, 3)
-        under the start model: what the fit iterates from (a user's rough guess is not needed)."""
+    def started(self, tcp: ForwardResult, values: Array) -> Reference:
+        """The same reference with its start computed in closed form from the records' TCP poses under the start
+        model: what the fit iterates from (a user's rough guess is not needed)."""
         ...
 
 
@@ -110,7 +120,8 @@ class Anchor:
     def minimum_records(self) -> int:
         return len(self.unknowns) + 1
 
-    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
+    def residuals(self, tcp: ForwardJacobianResult, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        p, dp = tcp.positions, tcp.jacobians[:, :3, :]
         offset = p - u[:3]
         length = np.linalg.norm(offset, axis=1)
         if np.any(length < 1e-9):
@@ -124,7 +135,8 @@ class Anchor:
             d_u = np.hstack([d_u, -np.ones((p.shape[0], 1))])
         return r, d_theta, d_u[:, None, :]
 
-    def started(self, p: Array, values: Array) -> Anchor:
+    def started(self, tcp: ForwardResult, values: Array) -> Anchor:
+        p = tcp.positions
         centre, misfit = _sphere(p, values)
         # A bar read in another unit fits no sphere around any point; scaled back it fits one, as a bar must.
         for unit, factor in DISTANCE_SLIPS.items():
@@ -178,12 +190,12 @@ class FixedPoint:
     def minimum_records(self) -> int:
         return 2
 
-    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
-        n = p.shape[0]
-        return p - u[None, :3], dp.copy(), np.broadcast_to(-np.eye(3), (n, 3, 3)).copy()
+    def residuals(self, tcp: ForwardJacobianResult, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        p, n = tcp.positions, tcp.positions.shape[0]
+        return p - u[None, :3], tcp.jacobians[:, :3, :].copy(), np.broadcast_to(-np.eye(3), (n, 3, 3)).copy()
 
-    def started(self, p: Array, values: Array) -> FixedPoint:
-        x, y, z = (float(v) for v in p.mean(axis=0))
+    def started(self, tcp: ForwardResult, values: Array) -> FixedPoint:
+        x, y, z = (float(v) for v in tcp.positions.mean(axis=0))
         return FixedPoint(self.name, (x, y, z))
 
 
@@ -228,14 +240,16 @@ class Plane:
         project = (np.eye(3) - np.outer(n, n)) / norm
         return n, project @ e1, project @ e2
 
-    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
+    def residuals(self, tcp: ForwardJacobianResult, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        p, dp = tcp.positions, tcp.jacobians[:, :3, :]
         n, dn_a, dn_b = self.normal_at(float(u[0]), float(u[1]))
         r = (p @ n - u[2])[:, None]
         d_theta = np.einsum("k,nkp->np", n, dp)[:, None, :]
         d_u = np.stack([p @ dn_a, p @ dn_b, -np.ones(p.shape[0])], axis=1)[:, None, :]
         return r, d_theta, d_u
 
-    def started(self, p: Array, values: Array) -> Plane:
+    def started(self, tcp: ForwardResult, values: Array) -> Plane:
+        p = tcp.positions
         centre = p.mean(axis=0)
         _, s, vt = np.linalg.svd(p - centre)
         across = float(s[1]) / np.sqrt(p.shape[0]) if s.size > 1 else 0.0
@@ -268,21 +282,24 @@ class TrackerPositions:
     def minimum_records(self) -> int:
         return 1
 
-    def residuals(self, p: Array, dp: Array, u: Array, values: Array) -> tuple[Array, Array, Array]:
-        return p - values, dp.copy(), np.zeros((p.shape[0], 3, 0))
+    def residuals(self, tcp: ForwardJacobianResult, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        p = tcp.positions
+        return p - values, tcp.jacobians[:, :3, :].copy(), np.zeros((p.shape[0], 3, 0))
 
-    def started(self, p: Array, values: Array) -> TrackerPositions:
+    def started(self, tcp: ForwardResult, values: Array) -> TrackerPositions:
         return self
 
 
 @dataclass(frozen=True)
 class ReferenceRecords:
     """The records measured against one reference: joints (n, n_joints, internal units), each record's
-    measured value (an anchor's distance, mm; a tracker's position (n, 3), mm; unused by points and planes) and
-    its σ (mm; None: the noise model's position σ); `index` where each record stands in the campaign as the user
-    gave it (None: 0, 1, … within this group), so that a record is named as the user knows it."""
+    measured value (an anchor's distance, mm; a tracker's position (n, 3), mm; a camera's point and pixel (n, 7),
+    `models.measurements.camera`; unused by points and planes) and its σ (in the reference's `sigma_unit`: mm,
+    a camera's px; None: the noise model's position σ, for references in mm); `index` where each record stands
+    in the campaign as the user gave it (None: 0, 1, … within this group), so that a record is named as the
+    user knows it."""
 
-    reference: Anchor | FixedPoint | Plane | TrackerPositions
+    reference: Anchor | FixedPoint | Plane | TrackerPositions | Camera
     joints: Array
     values: Array
     sigma_mm: Array | None = None
@@ -301,7 +318,7 @@ class ReferenceRecords:
         sigma = None if self.sigma_mm is None else self.sigma_mm[index]
         return ReferenceRecords(self.reference, self.joints[index], self.values[index], sigma, self.positions[index])
 
-    def with_reference(self, reference: Anchor | FixedPoint | Plane | TrackerPositions) -> ReferenceRecords:
+    def with_reference(self, reference: Anchor | FixedPoint | Plane | TrackerPositions | Camera) -> ReferenceRecords:
         return replace(self, reference=reference)
 
     def check(self) -> None:
@@ -322,4 +339,10 @@ class ReferenceRecords:
                 f"{ref.traits.kind} {ref.name!r}: expected measured values of shape {expected}, got "
                 f"{self.values.shape}",
                 field="measurements",
+            )
+        if self.sigma_mm is None and ref.traits.sigma_unit != "mm":
+            raise InvalidInput(
+                f"{ref.traits.kind} {ref.name!r}: give each record's σ in {ref.traits.sigma_unit} (the noise model's "
+                "σ is in mm)",
+                field="sigma_mm",
             )
