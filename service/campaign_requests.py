@@ -4,6 +4,7 @@ with what the query adds to a file (`CampaignQuery`). Large bodies parse off the
 from __future__ import annotations
 
 import functools
+import json
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -85,9 +86,11 @@ async def campaign_body(request: Request, query: CampaignQuery) -> CalibrationCr
                 measurements, notes = await request.app.state.compute.call(
                     functools.partial(parse_campaign, text, options=query.file_options)
                 )
+                described: dict[str, Any] = {}
             else:
-                measurements, notes = await _files(request, query.file_options)
+                measurements, notes, described = await _files(request, query.file_options)
             payload = _file_payload(measurements, notes, query)
+            payload.update({k: {**payload.get(k, {}), **v} for k, v in described.items()})
             return await anyio.to_thread.run_sync(CalibrationCreate.model_validate, payload)
         if content_type in ("application/json", ""):
             # A large body in the parse process (100 000 records validate in 2.2 s here, in a thread holding the
@@ -146,20 +149,51 @@ def _text(raw: bytes, what: str) -> str:
         raise BadRequest(f"{what} must be UTF-8 text") from exc
 
 
-async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[str, object]], list[str]]:
-    """A joint file and a point file (CSV, a Leica-style export, or SpatialAnalyzer's ASCII) joined by pose id."""
+async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[str, object]], list[str], dict[str, Any]]:
+    """A joint file and a point file (CSV, a Leica-style export, or SpatialAnalyzer's ASCII) joined by pose id;
+    or one `records` file in the layout of several kinds with its references' `descriptions` (JSON: anchors,
+    points, planes, cameras) beside it. The records, the reader's notes and the descriptions."""
     parts = {}
     try:
         async with request.form() as form:  # closes the spooled upload files when done
-            for name in ("joints", "points"):
+            names = ("records", "descriptions") if "records" in form else ("joints", "points")
+            for name in names:
                 part = form.get(name)
-                if part is None or isinstance(part, str):
-                    raise BadRequest(f"multipart campaigns need two files, 'joints' and 'points'; '{name}' is missing")
-                parts[name] = _text(await part.read(), f"the '{name}' file")
+                if part is None and name == "descriptions":
+                    continue
+                if part is None:
+                    raise BadRequest(
+                        f"multipart campaigns are two files, 'joints' and 'points', or a 'records' file with its "
+                        f"'descriptions'; '{name}' is missing"
+                    )
+                parts[name] = part if isinstance(part, str) else _text(await part.read(), f"the '{name}' file")
             points_format = str(form.get("points_format") or "csv")
     except MultipartParseError as exc:
         # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500).
         raise BadRequest(f"the multipart body is malformed: {exc}") from exc
+    if "records" in parts:
+        measurements, notes = parse_campaign(parts["records"], options=options)
+        return measurements, notes, _descriptions(parts.get("descriptions"))
     if points_format not in ("csv", "spatial-analyzer"):
         raise BadRequest(f"points_format must be 'csv' or 'spatial-analyzer', not {points_format!r}")
-    return joined_campaign(parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options)
+    joined = joined_campaign(parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options)
+    return (*joined, {})
+
+
+DESCRIBED = ("anchors", "points", "planes", "cameras")
+
+
+def _descriptions(text: str | None) -> dict[str, Any]:
+    """The `descriptions` part: a JSON object of the body's anchors, points, planes and cameras (validated with
+    the body)."""
+    if text is None:
+        return {}
+    try:
+        found = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise BadRequest(
+            f"the 'descriptions' part is not JSON: {exc.msg} at line {exc.lineno}", line=exc.lineno
+        ) from exc
+    if not isinstance(found, dict) or not set(found) <= set(DESCRIBED):
+        raise BadRequest(f"the 'descriptions' part is a JSON object of {', '.join(DESCRIBED)}")
+    return found

@@ -29,6 +29,7 @@ from models.identification.result import ReferenceEstimate
 from models.identification.solver import IpoptRun, solver_pool
 from models.identification.statistics import Covariance, covariance, outlier_threshold
 from models.kinematics import ForwardJacobianResult, as_joint_array, check_joint_ranges, forward_kinematics
+from models.measurements.camera import Camera
 from models.measurements.references import ReferenceRecords, TrackerPositions
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
@@ -181,7 +182,7 @@ def identify_references(
     started = time.perf_counter()
     rt, noise, options = runtime_for(desc, runtime), noise or NoiseModel(), options or IdentificationOptions()
     check_references(groups)
-    groups = tuple(_validated(desc, g) for g in groups)
+    groups = tuple(_validated(desc, g) for g in _numbered(groups))
     table = desc.parameters
     theta = _registered(desc, table.nominal if nominal is None else table.vector(nominal), groups, rt)
     groups = tuple(_started(desc, theta, g, rt) for g in groups)
@@ -192,11 +193,13 @@ def identify_references(
     fit = _result(problem, z, final, run, held=held, started=started, outliers=outliers)
     theta_fit, u_fit = problem.split(z)
     at_solution = replace(problem, theta_start=theta_fit, u_start=u_fit, _last=None, evaluations=0, polish_steps=0)
-    again = _identifiable(at_solution, _candidates(desc, problem.groups, options.estimate))
+    # The chosen parameters still determined at the solution (the linearisation held); that the solution's
+    # geometry would make more of them numerically visible is no news (`reference_problem`).
+    again = _identifiable(at_solution, tuple(int(i) for i in problem.free))
     return replace(
         fit,
         groups=groups,
-        rechecked=len(again) == problem.free.size,  # the rank, as the tracker pipeline re-checks it
+        rechecked=len(again) == problem.free.size,
         evaluations=problem.evaluations,
         polish_steps=problem.polish_steps,
         seconds=time.perf_counter() - started,
@@ -293,7 +296,15 @@ def reference_problem(
     u_scales = np.concatenate([[s.scale for s in g.reference.unknowns] for g in groups])
     candidates = _candidates(desc, groups, estimate)
     none = np.arange(0, dtype=np.intp)
-    free = _identifiable(ReferenceProblem(desc, runtime, groups, noise, theta, none, u_start, u_scales), candidates)
+    # Which parameters these records determine is decided on the nominal geometry at their poses (the base where
+    # the start has it), as the tracker's pipeline decides on the structure: a calibrated start has its parallel
+    # axes a few hundredths of a degree apart, which makes their offsets along the axes numerically
+    # "identifiable" from 2 µm data — and fitted to metres (measured: link2.d −1880 mm, link3.d 9391 mm from a
+    # camera campaign re-fitted from its own calibration).
+    structure = desc.parameters.nominal.copy()
+    structure[desc.slices["base"]] = theta[desc.slices["base"]]
+    at_structure = ReferenceProblem(desc, runtime, groups, noise, structure, none, u_start, u_scales)
+    free = _identifiable(at_structure, candidates)
     return ReferenceProblem(desc, runtime, groups, noise, theta, np.asarray(free, dtype=np.intp), u_start, u_scales)
 
 
@@ -414,6 +425,20 @@ def _identifiable(problem: ReferenceProblem, candidates: tuple[int, ...]) -> lis
     return list(analyse_identifiability(projected, problem.desc.parameters, candidates).identifiable)
 
 
+def _numbered(groups: tuple[ReferenceRecords, ...]) -> tuple[ReferenceRecords, ...]:
+    """Every record's place in the campaign: groups given without one (`index` None) are numbered on, in
+    their order, after the places already given."""
+    given = [g.index for g in groups if g.index is not None]
+    at = int(max(int(i.max()) for i in given if i.size) + 1) if any(i.size for i in given) else 0
+    numbered = []
+    for g in groups:
+        if g.index is None:
+            g = replace(g, index=np.arange(at, at + g.size, dtype=np.intp))
+            at += g.size
+        numbered.append(g)
+    return tuple(numbered)
+
+
 def _validated(desc: RobotDescription, group: ReferenceRecords) -> ReferenceRecords:
     """The records' joints in range and every number finite, σ positive: a 4xx naming the reference and the
     record otherwise (`models.errors`)."""
@@ -480,21 +505,27 @@ def _estimates(problem: ReferenceProblem, final: Evaluation, u: Array, std: Arra
 def record_errors(
     desc: RobotDescription, groups: tuple[ReferenceRecords, ...], theta: Array, unknowns: tuple[Array, ...], rt: Runtime
 ) -> Array:
-    """Each record's error (mm: a distance's or a touch's |r|, a point's or a position's ‖r‖) under the robot
-    `theta` and each group's reference unknowns, in the campaign's order (`ReferenceRecords.positions`)."""
+    """Each campaign record's error in mm under the robot `theta` and each group's reference unknowns, in the
+    campaign's order (`ReferenceRecords.positions`): a distance's or a touch's |r|, a point's or a position's
+    ‖r‖, an image's points' reprojection errors carried to their depth (RMS over the image's points)."""
     order = np.concatenate([g.positions for g in groups])
     errors = np.empty(order.size)
     at = 0
     for group, u in zip(groups, unknowns, strict=True):
+        ref = group.reference
         fk = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt)
-        # No derivatives are needed: an empty Jacobian keeps the residuals' own shapes.
-        tcp = ForwardJacobianResult(fk.positions, fk.rotations, fk.platforms, np.zeros((group.size, 6, 0)))
-        r, _, _ = group.reference.residuals(tcp, u, group.values)
-        errors[at : at + group.size] = np.linalg.norm(r, axis=1)
+        if isinstance(ref, Camera):
+            errors[at : at + group.size] = ref.object_errors_mm(fk, u, group.values)
+        else:
+            # No derivatives are needed: an empty Jacobian keeps the residuals' own shapes.
+            tcp = ForwardJacobianResult(fk.positions, fk.rotations, fk.platforms, np.zeros((group.size, 6, 0)))
+            r, _, _ = ref.residuals(tcp, u, group.values)
+            errors[at : at + group.size] = np.linalg.norm(r, axis=1)
         at += group.size
-    out = np.empty_like(errors)
-    out[np.argsort(order, kind="stable")] = errors
-    return out
+    # Several rows of one record (an image's points) make one error: their RMS.
+    records, where = np.unique(order, return_inverse=True)
+    squares = np.bincount(where, weights=errors**2, minlength=records.size)
+    return np.asarray(np.sqrt(squares / np.bincount(where, minlength=records.size)))
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,7 @@ from models.noise import NoiseModel
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
 
-RECORD_KINDS = {"anchor": "distance", "point": "point", "plane": "plane", "position": "position"}
+RECORD_KINDS = {"anchor": "distance", "point": "point", "plane": "plane", "position": "position", "image": "image"}
 """A reference's kind (as messages name it) → the kind of record that measures it (as the contract names it)."""
 
 
@@ -101,7 +101,7 @@ def as_result(
             desc, fit.parameters, free, fit.parameter_covariance, options.workspace_samples, runtime=runtime
         ),
         kind=MeasurementKind.POSITION,
-        measurements=sum(g.size for g in fit.groups),
+        measurements=int(np.unique(np.concatenate([g.positions for g in fit.groups])).size),
         seconds=time.perf_counter() - started,
         notes=_notes(fit),
         references=fit.references,
@@ -128,8 +128,8 @@ def _notes(fit: ReferenceFit) -> tuple[str, ...]:
     notes = [fit.frame] if fit.unidentifiable else []
     if not fit.rechecked:
         notes.append(
-            "at the solution these records determine a different number of parameters than at the start (a "
-            "structure near a singular one, e.g. parallel axes): the estimate used the subset chosen at the start"
+            "at the solution these records no longer determine every parameter chosen at the start (the "
+            "linearisation did not hold): measure more varied poses"
         )
     return tuple(notes)
 
@@ -162,7 +162,7 @@ def _kinds(groups: tuple[ReferenceRecords, ...]) -> tuple[tuple[str, int], ...]:
     counts: dict[str, int] = {}
     for g in groups:
         kind = RECORD_KINDS.get(g.reference.traits.kind, g.reference.traits.kind)
-        counts[kind] = counts.get(kind, 0) + g.size
+        counts[kind] = counts.get(kind, 0) + int(np.unique(g.positions).size)  # an image's points: one record
     return tuple(counts.items())
 
 

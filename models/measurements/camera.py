@@ -236,6 +236,15 @@ class Camera:
         d_rotation = to_camera @ skew(offset) @ left_jacobian(u[3:6])  # ∂X/∂ω = R_cᵀ [y − t]× J_l(ω)
         return projected - pixels, d_theta, np.concatenate([d_position, d_rotation], axis=2)
 
+    def object_errors_mm(self, tcp: ForwardResult, u: Array, values: Array) -> Array:
+        """Each point's reprojection error carried to its depth (px · Z / f, mm): what the pixels say the point
+        misses by, in the units every other record's error is stated in."""
+        targets, pixels = values[:, 2:5], values[:, 5:7]
+        x_cam = (self.in_parent(tcp.positions, tcp.rotations, targets) - u[:3]) @ self.orientation(u[3:6])
+        projected, _ = self.intrinsics.project(x_cam)
+        focal = np.array([self.intrinsics.fx, self.intrinsics.fy])
+        return np.asarray(np.linalg.norm((projected - pixels) * x_cam[:, 2:3] / focal, axis=1))
+
     def started(self, tcp: ForwardResult, values: Array) -> Camera:
         """Its pose from the records under the start model (a DLT on the undistorted pixels, see
         `pose_from_points`), after the slips a camera file makes are ruled out."""

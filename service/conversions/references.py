@@ -5,21 +5,25 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from models import RobotDescription
 from models.identification.result import ReferenceEstimate
+from models.measurements.camera import Camera, read_images
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
 from models.parameters import Kind
+from models.transforms import matrix_to_rotvec_np
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
 from service.schemas.calibrations import CampaignRecord, Record
 from service.schemas.references import (
     AnchorDescription,
+    CameraDescription,
     DistanceRecord,
+    ImageRecord,
     PlaneDescription,
     PlaneRecord,
     PointDescription,
@@ -42,6 +46,7 @@ class Described:
     anchors: Mapping[str, AnchorDescription]
     points: Mapping[str, PointDescription]
     planes: Mapping[str, PlaneDescription]
+    cameras: Mapping[str, CameraDescription] = field(default_factory=dict)
 
 
 def reference_groups_in(
@@ -58,6 +63,9 @@ def reference_groups_in(
     groups = []
     for (kind, name), index in by_reference.items():
         records = [measurements[i] for i in index]
+        if kind == "image":
+            groups.append(_images(desc, name, described.cameras[name], records, index))
+            continue
         joints = joints_in(desc, [r.joints for r in records])
         sigma = _sigmas(records, sigma_mm)
         positions = np.asarray(index, dtype=np.intp)
@@ -77,6 +85,8 @@ def _reference_of(record: CampaignRecord) -> tuple[str, str]:
         return "point", record.point
     if isinstance(record, PlaneRecord):
         return "plane", record.plane
+    if isinstance(record, ImageRecord):
+        return "image", record.camera
     return "tracker", "tracker"
 
 
@@ -89,7 +99,15 @@ def _check_descriptions(body: Described, used: dict[tuple[str, str], list[int]])
                 "not known)",
                 record=index[0],
             )
-    for kind, described in (("anchor", body.anchors), ("point", body.points), ("plane", body.planes)):
+        if kind == "image" and name not in body.cameras:
+            raise BadRequest(
+                f"record {index[0]} is an image of camera {name!r}, which the campaign does not describe: add "
+                f'"cameras": {{"{name}": {{"fx": …, "fy": …, "cx": …, "cy": …, "mount": "world"}}}} (its '
+                "intrinsics in px)",
+                record=index[0],
+            )
+    described_kinds = (("anchor", body.anchors), ("point", body.points), ("plane", body.planes))
+    for kind, described in (*described_kinds, ("image", body.cameras)):
         for name in described:
             if (kind, name) not in used:
                 raise BadRequest(
@@ -117,6 +135,34 @@ def _reference(body: Described, kind: str, name: str) -> Anchor | FixedPoint | P
     return TrackerPositions()
 
 
+def _images(
+    desc: RobotDescription,
+    name: str,
+    camera: CameraDescription,
+    records: Sequence[CampaignRecord],
+    index: Sequence[int],
+) -> ReferenceRecords:
+    """One camera's images as its records, one a seen point, each named by its image's place in the campaign."""
+    images = [
+        {
+            "camera": name,
+            "joints": q,
+            "points": [p.model_dump() for p in r.points],
+            **({"sigma_px": r.sigma_px} if r.sigma_px is not None else {}),
+        }
+        for r, q in zip(
+            (r for r in records if isinstance(r, ImageRecord)),
+            joints_in(desc, [r.joints for r in records]),
+            strict=True,
+        )
+    ]
+    [group] = read_images({name: camera.model_dump(exclude_none=True)}, images)
+    image = group.values[:, 0].astype(int)
+    values = group.values.copy()
+    values[:, 0] = np.asarray(index)[image]  # messages name the image as the campaign does
+    return ReferenceRecords(group.reference, group.joints, values, group.sigma_mm, np.asarray(index)[image])
+
+
 def _values(records: Sequence[CampaignRecord]) -> np.ndarray:
     """What each record measured: a distance (mm), a tracker position (mm), nothing for a touch."""
     first = records[0]
@@ -128,7 +174,7 @@ def _values(records: Sequence[CampaignRecord]) -> np.ndarray:
 
 
 def _sigmas(records: Sequence[CampaignRecord], default_mm: float) -> np.ndarray | None:
-    given = [r.sigma_mm for r in records]
+    given = [getattr(r, "sigma_mm", None) for r in records]  # an image's σ is in px: its own group (`_images`)
     if all(g is None for g in given):
         return None
     return np.array([default_mm if g is None else g for g in given], dtype=float)
@@ -164,6 +210,11 @@ def references_out(estimates: Sequence[ReferenceEstimate]) -> list[dict[str, Any
             normal, _, _ = ref.normal_at(float(estimate.values[0]), float(estimate.values[1]))
             entry["normal"] = [float(v) for v in normal]
             entry["offset_mm"] = float(estimate.values[2])
+        if isinstance(ref, Camera):
+            # The unknowns turn the start orientation; the report states the orientation itself.
+            entry["position_mm"] = [float(v) for v in estimate.values[:3]]
+            turned = matrix_to_rotvec_np(ref.orientation(estimate.values[3:6]))
+            entry["rotation_vector_deg"] = [float(v) * Kind.ANGLE.to_boundary for v in turned]
         out.append(entry)
     return out
 

@@ -13,7 +13,12 @@ from service.json_bodies import OffloopRoute
 from service.operations import operation
 from service.responses import model_json
 from service.schemas.campaigns import CampaignPublic, CampaignRecordPublic
-from service.schemas.references import DistanceRecordPublic, PlaneRecordPublic, PointRecordPublic
+from service.schemas.references import (
+    DistanceRecordPublic,
+    ImageRecordPublic,
+    PlaneRecordPublic,
+    PointRecordPublic,
+)
 from service.security import Scope
 from service.services import campaigns
 
@@ -43,9 +48,9 @@ def campaign_csv(campaign: CampaignPublic, joint_names: Sequence[str]) -> str:
     writer = csv.writer(out, lineterminator="\n")
     tracker = [r for r in campaign.measurements if isinstance(r, CampaignRecordPublic)]
     if len(tracker) < len(campaign.measurements):
-        writer.writerow(["kind", "reference", *joint_names, "distance_mm", "x", "y", "z", "sigma_mm"])
+        writer.writerow([*KIND_COLUMNS[:2], *joint_names, *KIND_COLUMNS[2:]])
         for r in campaign.measurements:
-            writer.writerow(_kind_row(r))
+            writer.writerows(_kind_rows(r))
         return out.getvalue()
     with_orientation = any(r.orientation is not None for r in tracker)
     writer.writerow([*joint_names, *(POSE_COLUMNS if with_orientation else POSE_COLUMNS[:3])])
@@ -57,15 +62,28 @@ def campaign_csv(campaign: CampaignPublic, joint_names: Sequence[str]) -> str:
     return out.getvalue()
 
 
-def _kind_row(r: CampaignRecordPublic | DistanceRecordPublic | PointRecordPublic | PlaneRecordPublic) -> list[str]:
+KIND_COLUMNS = ("kind", "reference", "distance_mm", "x", "y", "z", "u", "v", "sigma_mm", "sigma_px")
+"""The layout of several kinds (`service.campaign_io.reference_table`) around the joints: an image is a row per
+point it saw, x y z the point and u v its pixel."""
+
+
+def _kind_rows(
+    r: CampaignRecordPublic | DistanceRecordPublic | PointRecordPublic | PlaneRecordPublic | ImageRecordPublic,
+) -> list[list[str]]:
     joints = [repr(float(v)) for v in r.joints]
     if isinstance(r, CampaignRecordPublic):
-        return ["tracker", "", *joints, "", *(repr(float(v)) for v in r.position), ""]
+        return [["tracker", "", *joints, "", *(repr(float(v)) for v in r.position), "", "", "", ""]]
+    if isinstance(r, ImageRecordPublic):
+        sigma_px = "" if r.sigma_px is None else repr(float(r.sigma_px))
+        return [
+            ["image", r.camera, *joints, "", *(repr(float(v)) for v in (*p.target_mm, *p.pixel)), "", sigma_px]
+            for p in r.points
+        ]
     sigma = "" if r.sigma_mm is None else repr(float(r.sigma_mm))
     if isinstance(r, DistanceRecordPublic):
-        return ["distance", r.anchor, *joints, repr(float(r.distance_mm)), "", "", "", sigma]
+        return [["distance", r.anchor, *joints, repr(float(r.distance_mm)), "", "", "", "", "", sigma, ""]]
     name = r.point if isinstance(r, PointRecordPublic) else r.plane
-    return [r.kind, name, *joints, "", "", "", "", sigma]
+    return [[r.kind, name, *joints, "", "", "", "", "", "", sigma, ""]]
 
 
 @router.get("/v1/campaigns/{campaign_id}", response_model=CampaignPublic, responses=_CSV)

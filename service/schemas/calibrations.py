@@ -26,6 +26,7 @@ from service.schemas.common import (
 from service.schemas.references import (
     RECORD_KIND_ERROR,
     DistanceRecord,
+    ImageRecord,
     PlaneRecord,
     PointRecord,
     ReferenceDescriptions,
@@ -59,7 +60,8 @@ CampaignRecord = Annotated[
     Annotated[Record, Tag("tracker")]
     | Annotated[DistanceRecord, Tag("distance")]
     | Annotated[PointRecord, Tag("point")]
-    | Annotated[PlaneRecord, Tag("plane")],
+    | Annotated[PlaneRecord, Tag("plane")]
+    | Annotated[ImageRecord, Tag("image")],
     Discriminator(record_tag, **RECORD_KIND_ERROR),
 ]
 """A campaign's record: a tracker's (no `kind`) or one of the instruments a cell owns (`kind`)."""

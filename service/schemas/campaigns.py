@@ -7,7 +7,12 @@ from datetime import datetime
 from pydantic import Field
 
 from service.schemas.common import Public
-from service.schemas.references import DistanceRecordPublic, PlaneRecordPublic, PointRecordPublic
+from service.schemas.references import (
+    DistanceRecordPublic,
+    ImageRecordPublic,
+    PlaneRecordPublic,
+    PointRecordPublic,
+)
 
 
 class CampaignRecordPublic(Public):
@@ -20,6 +25,6 @@ class CampaignPublic(Public):
     id: str
     robot_id: str
     created_at: datetime
-    measurements: list[CampaignRecordPublic | DistanceRecordPublic | PointRecordPublic | PlaneRecordPublic] = Field(
-        description="As received: a tracker's records (no kind), or a distance, point or plane record"
-    )
+    measurements: list[
+        CampaignRecordPublic | DistanceRecordPublic | PointRecordPublic | PlaneRecordPublic | ImageRecordPublic
+    ] = Field(description="As received: a tracker's records (no kind), or a distance, point or plane record")

@@ -57,6 +57,45 @@ class PlaneRecord(Strict):
     sigma_mm: RecordSigma | None = None
 
 
+class SeenPoint(Strict):
+    target_mm: Position = Field(
+        description="The point in the frame the camera sees it in: the tool's (a world-mounted camera, markers on "
+        "the tool) or the world's (a tool-mounted camera, a board in the cell)"
+    )
+    pixel: Annotated[list[Annotated[float, Field(ge=-1e5, le=1e5)]], Field(min_length=2, max_length=2)] = Field(
+        description="[u, v] in px: u across the image, v down it (OpenCV's convention)"
+    )
+
+
+class ImageRecord(Strict):
+    """Where a calibrated camera saw known points at these joints."""
+
+    kind: Literal["image"]
+    joints: JointVector
+    camera: ReferenceName
+    points: list[SeenPoint] = Field(min_length=1, max_length=10_000)
+    sigma_px: float | None = Field(default=None, gt=0, le=100, description="Per pixel coordinate; default 0.1 px")
+
+
+class CameraDescription(Strict):
+    """A calibrated pinhole camera (OpenCV's model): its intrinsics are known, its pose is identified."""
+
+    fx: float = Field(gt=0, le=1e6, description="px")
+    fy: float = Field(gt=0, le=1e6, description="px")
+    cx: float = Field(ge=-1e5, le=1e5, description="px")
+    cy: float = Field(ge=-1e5, le=1e5, description="px")
+    distortion: Annotated[list[float], Field(min_length=5, max_length=5)] | None = Field(
+        default=None, description="[k1, k2, p1, p2, k3] as OpenCV gives them; default none"
+    )
+    width: float | None = Field(default=None, gt=0, le=1e5, description="px; used by pose design")
+    height: float | None = Field(default=None, gt=0, le=1e5, description="px; used by pose design")
+    mount: Literal["world", "tool"] = Field(
+        default="world",
+        description="world: fixed in the cell, seeing markers given in the tool frame; tool: on the tool "
+        "(hand-eye), seeing points given in the world frame",
+    )
+
+
 class AnchorDescription(Strict):
     position_mm: Position | None = Field(
         default=None, description="A guess of its position (robot base frame, mm); default: found from the records"
@@ -93,6 +132,9 @@ class ReferenceDescriptions(Strict):
     planes: dict[ReferenceName, PlaneDescription] = Field(
         default_factory=dict, max_length=100, description="Optional: the side each plane is touched from"
     )
+    cameras: dict[ReferenceName, CameraDescription] = Field(
+        default_factory=dict, max_length=20, description="Every camera an image record names, with its intrinsics"
+    )
 
 
 def record_tag(value: Any) -> str:
@@ -103,11 +145,11 @@ def record_tag(value: Any) -> str:
 
 RECORD_KIND_ERROR = {
     "custom_error_type": "record_kind",
-    "custom_error_message": "a record's kind is one of 'distance', 'point', 'plane', or absent (a tracker's)",
+    "custom_error_message": "a record's kind is one of 'distance', 'point', 'plane', 'image', or absent (a tracker's)",
 }
 
 
-ReferenceRecord = DistanceRecord | PointRecord | PlaneRecord
+ReferenceRecord = DistanceRecord | PointRecord | PlaneRecord | ImageRecord
 
 
 class ReferenceUnknownPublic(Public):
@@ -120,7 +162,7 @@ class ReferenceUnknownPublic(Public):
 class ReferencePublic(Public):
     """A reference as the calibration identified it, in the frame the report's `frame` names."""
 
-    kind: Literal["anchor", "point", "plane", "position"]
+    kind: Literal["anchor", "point", "plane", "position", "image"]
     name: str
     records: int
     rms_residual_mm: float
@@ -129,6 +171,9 @@ class ReferencePublic(Public):
     length_offset_mm: float | None = Field(default=None, description="An anchor with length_unknown: its offset")
     normal: list[float] | None = Field(default=None, description="A plane's unit normal")
     offset_mm: float | None = Field(default=None, description="A plane's distance from the origin along its normal")
+    rotation_vector_deg: list[float] | None = Field(
+        default=None, description="A camera's orientation (camera frame → its parent frame) as a rotation vector"
+    )
 
 
 class DistanceRecordPublic(Public):
@@ -151,3 +196,16 @@ class PlaneRecordPublic(Public):
     joints: list[float]
     plane: str
     sigma_mm: float | None = None
+
+
+class SeenPointPublic(Public):
+    target_mm: list[float]
+    pixel: list[float]
+
+
+class ImageRecordPublic(Public):
+    kind: Literal["image"]
+    joints: list[float]
+    camera: str
+    points: list[SeenPointPublic]
+    sigma_px: float | None = None

@@ -133,7 +133,7 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
                 f"options.terms {body.options.terms} need tracker records: distance, point and plane records "
                 "carry no temperature or load per record yet; calibrate the geometry from them without terms"
             )
-        described = Described(body.anchors, body.points, body.planes)
+        described = Described(body.anchors, body.points, body.planes, body.cameras)
         groups, notes = reference_groups_in(desc, body.measurements, described, sigma_mm=body.noise.position_mm)
         result = identify_reference_campaign(
             desc, groups, noise=noise, nominal=start.values, options=options, runtime=runtime

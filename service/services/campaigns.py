@@ -20,7 +20,12 @@ def get_campaign(*, db: Database, campaign_id: str) -> CampaignPublic:
         )
 
 
-REFERENCE_FIELDS = {"distance": ("anchor", "distance_mm"), "point": ("point",), "plane": ("plane",)}
+REFERENCE_FIELDS = {
+    "distance": ("anchor", "distance_mm", "sigma_mm"),
+    "point": ("point", "sigma_mm"),
+    "plane": ("plane", "sigma_mm"),
+    "image": ("camera", "points", "sigma_px"),
+}
 """What a stored record of each kind shows beside its joints and σ (a tracker's: position and orientation)."""
 
 
@@ -28,5 +33,5 @@ def _record(stored: dict[str, Any]) -> dict[str, Any]:
     kind = stored.get("kind")
     if kind is None:
         return {"joints": stored["joints"], "position": stored["position"], "orientation": stored.get("orientation")}
-    shown = ("kind", "joints", *REFERENCE_FIELDS[kind], "sigma_mm")
+    shown = ("kind", "joints", *REFERENCE_FIELDS[kind])
     return {key: stored.get(key) for key in shown}

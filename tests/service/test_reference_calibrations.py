@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 from typing import Any
 
 import numpy as np
@@ -13,6 +14,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from harness.ballbar import PIVOTS, aligned_rms, ballbar_campaign, reaching
+from harness.camera import WORLD_CAMERA, WORLD_CAMERA_POSITION, world_camera_campaign
 from models import forward_kinematics, sample_workspace
 from models.examples import ur5_like, ur5_like_document
 from models.identification.registration import rigid_fit
@@ -235,3 +237,65 @@ def test_a_ballbar_validation_tells_the_calibrated_version_from_the_nominal(
     assert calibrated["position_mm"]["rms"] < 2 * SIGMA_MM < 0.05 < nominal["position_mm"]["rms"]
     stored = client.get(f"/v1/campaigns/{answer.json()['campaign_id']}").json()["measurements"]
     assert stored[0]["anchor"] == "check"
+
+
+# ---------------------------------------------------------------------------------------------- camera
+
+
+def _images_body(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """The harness's image records (joints in internal units) as the API takes them (degrees)."""
+    out = []
+    for r in records:
+        q = (np.asarray(r["joints"]) * UR5.joint_to_boundary).tolist()
+        out.append({**r, "joints": q})
+    return {"measurements": out, "cameras": WORLD_CAMERA, "noise": {"position_mm": 0.05}}
+
+
+def test_a_world_camera_calibrates_the_arm_and_finds_its_own_pose(client: TestClient, arm: str) -> None:
+    seen = world_camera_campaign(UR5, 2, images=30)
+    answer = client.post(f"/v1/robots/{arm}/calibrations", json=_images_body(seen.images))
+    assert answer.status_code == 201, answer.text
+    report = answer.json()
+    assert report["status"] == "succeeded" and report["noise_consistent"], report["checks"]
+    assert report["record_kinds"] == {"image": 30} and report["measurements"] == 30
+    [camera] = report["references"]
+    assert camera["kind"] == "image" and camera["records"] == 30 * 4  # one per seen point
+    std = np.array([u["std_error"] for u in camera["unknowns"][:3]])
+    assert np.linalg.norm(np.array(camera["position_mm"]) - WORLD_CAMERA_POSITION) < 5 * np.linalg.norm(std)
+    # Each image's error is its points' reprojection error carried to their depth: tens of µm at 1.5 m for 0.1 px.
+    assert len(report["residuals"]["after"]["per_pose_mm"]) == 30
+    assert report["residuals"]["after"]["rms_mm"] < 0.2 < report["residuals"]["before"]["rms_mm"]
+    # The stored campaign and its CSV, and the CSV read back with the camera described beside it.
+    campaign_id = report["campaign_id"]
+    table = client.get(f"/v1/campaigns/{campaign_id}", params={"format": "csv"}).text
+    assert table.count("\nimage,c1,") == 30 * 4
+    again = client.post(
+        f"/v1/robots/{arm}/calibrations",
+        files={"records": ("images.csv", table), "descriptions": (None, json.dumps({"cameras": WORLD_CAMERA}))},
+        params={"apply": "false"},
+    )
+    assert again.status_code == 201, again.text
+    np.testing.assert_allclose(
+        [p["value"] for p in again.json()["parameters"]], [p["value"] for p in report["parameters"]], atol=1e-6
+    )
+
+
+@pytest.mark.parametrize(
+    ("change", "words"),
+    [
+        (lambda b: b.update({"cameras": {}}), "does not describe"),
+        (lambda b: b["measurements"][3].update({"points": []}), "at least 1"),
+        (lambda b: b["cameras"]["c1"].update({"fx": 12.0, "fy": 12.0}), "pixels"),
+        (lambda b: [p.update({"pixel": p["pixel"][::-1]}) for r in b["measurements"] for p in r["points"]], "(v, u)"),
+    ],
+)
+def test_bad_image_campaigns_are_refused_and_nothing_is_stored(
+    client: TestClient, arm: str, change: Any, words: str
+) -> None:
+    seen = world_camera_campaign(UR5, 3, images=12)
+    body = json.loads(json.dumps(_images_body(seen.images)))
+    change(body)
+    before = _count(client, arm)
+    answer = client.post(f"/v1/robots/{arm}/calibrations", json=body)
+    assert 400 <= answer.status_code < 500 and words in answer.text, answer.text
+    assert _count(client, arm) == before
