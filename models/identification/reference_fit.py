@@ -433,9 +433,10 @@ def _numbered(groups: tuple[ReferenceRecords, ...]) -> tuple[ReferenceRecords, .
     numbered = []
     for g in groups:
         if g.index is None:
-            g = replace(g, index=np.arange(at, at + g.size, dtype=np.intp))
+            numbered.append(replace(g, index=np.arange(at, at + g.size, dtype=np.intp)))
             at += g.size
-        numbered.append(g)
+        else:
+            numbered.append(g)
     return tuple(numbered)
 
 
