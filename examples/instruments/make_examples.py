@@ -48,9 +48,11 @@ def _probe_body() -> dict[str, object]:
     scale = desc.joint_to_boundary
     records: list[dict[str, object]] = []
     for k, socket in enumerate(([400.0, 100.0, 200.0], [-100.0, 420.0, 150.0])):
-        joints = reaching(desc, truth, np.tile(socket, (14, 1)), SEED + k)[:10]
+        # The sphere sits in its socket to within the σ of the campaign: where the TCP really was.
+        seated = np.tile(socket, (14, 1)) + rng.normal(0, SIGMA_MM, (14, 3))
+        joints = reaching(desc, truth, seated, SEED + k)[:10]
         records += [{"kind": "point", "joints": _row(q), "point": f"socket{k + 1}"} for q in joints * scale]
-    plate = np.column_stack([rng.uniform(150, 450, 40), rng.uniform(-300, 300, 40), np.full(40, 60.0)])
+    plate = np.column_stack([rng.uniform(150, 450, 40), rng.uniform(-300, 300, 40), 60.0 + rng.normal(0, SIGMA_MM, 40)])
     touches = reaching(desc, truth, plate, SEED + 10)[:30]
     records += [{"kind": "plane", "joints": _row(q), "plane": "table"} for q in touches * scale]
     bar = sample_workspace(desc, 30, seed=SEED)
@@ -70,7 +72,7 @@ def _probe_body() -> dict[str, object]:
 
 
 def _row(q: np.ndarray) -> list[float]:
-    return [round(float(v), 6) for v in q]
+    return [round(float(v), 7) for v in q]  # 1e-7 deg: 2 nm at a metre, far below the σ
 
 
 if __name__ == "__main__":

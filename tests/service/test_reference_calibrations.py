@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -299,3 +300,26 @@ def test_bad_image_campaigns_are_refused_and_nothing_is_stored(
     answer = client.post(f"/v1/robots/{arm}/calibrations", json=body)
     assert 400 <= answer.status_code < 500 and words in answer.text, answer.text
     assert _count(client, arm) == before
+
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "instruments"
+
+
+def test_the_example_files_calibrate_the_example_robot(client: TestClient) -> None:
+    robot = client.post("/v1/robots", json=json.loads((EXAMPLES / "ur5_robot.json").read_text())).json()["id"]
+    ballbar = client.post(
+        f"/v1/robots/{robot}/calibrations",
+        content=(EXAMPLES / "ballbar.csv").read_text(),
+        params={"length_unknown": "a3", "noise_position_mm": SIGMA_MM, "apply": "false"},
+        headers={"content-type": "text/csv"},
+    ).json()
+    assert ballbar["status"] == "succeeded" and all(c["passed"] for c in ballbar["checks"]), ballbar["checks"]
+    assert ballbar["record_kinds"] == {"distance": 108}
+    probe = client.post(
+        f"/v1/robots/{robot}/calibrations", json=json.loads((EXAMPLES / "probe_and_sockets.json").read_text())
+    )
+    report = probe.json()
+    assert probe.status_code == 201 and report["status"] == "succeeded", probe.text
+    assert all(c["passed"] for c in report["checks"]), report["checks"]
+    assert report["record_kinds"] == {"point": 20, "plane": 30, "distance": 30}
+    assert report["residuals"]["after"]["rms_mm"] < 3 * SIGMA_MM < report["residuals"]["before"]["rms_mm"]
