@@ -8,10 +8,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from models import RobotDescription
+from models import NoiseModel, RobotDescription
 from models._types import Array
+from models.errors import TargetUnreachable
 from models.runtime import Runtime
-from optimal_design import PoseDesign
+from optimal_design import PoseDesign, TargetDesign
 from optimal_design.references import design_reference_records, reference_records_for_target
 from service.conversions.designs import design_noise, report_out, target_report_out
 from service.conversions.reference_designs import ReferenceCandidates, reference_candidates_in, refuse_unsupported
@@ -27,17 +28,7 @@ def reference_report(
     given = body.candidates is not None
     noise = design_noise(body)
     if body.target is not None:
-        target = reference_records_for_target(
-            desc,
-            found.groups,
-            rms_tcp_mm=body.target.rms_tcp_mm,
-            max_tcp_mm=body.target.max_tcp_mm,
-            criterion=body.criterion,
-            seed=body.seed,
-            noise=noise,
-            params=theta,
-            runtime=runtime,
-        )
+        target = _for_target(desc, body, found, theta=theta, noise=noise, runtime=runtime)
         assert target.design is not None  # without records already measured, a target always needs some
         design, names = _as_offered(target.design, found)
         report = target_report_out(
@@ -54,6 +45,43 @@ def reference_report(
     return PoseDesignReportPublic.model_validate(
         {**report.model_dump(), "measurement": body.measurement, "references": names}
     )
+
+
+def _for_target(
+    desc: RobotDescription,
+    body: PoseDesignCreate,
+    found: ReferenceCandidates,
+    *,
+    theta: Array,
+    noise: NoiseModel | None,
+    runtime: Runtime,
+) -> TargetDesign:
+    """The target mode on the reference candidates; an unreachable target said in the records' words (the
+    core's advice to measure the full pose is a tracker's)."""
+    assert body.target is not None
+    try:
+        return reference_records_for_target(
+            desc,
+            found.groups,
+            rms_tcp_mm=body.target.rms_tcp_mm,
+            max_tcp_mm=body.target.max_tcp_mm,
+            criterion=body.criterion,
+            seed=body.seed,
+            noise=noise,
+            params=theta,
+            runtime=runtime,
+        )
+    except TargetUnreachable as exc:
+        raise TargetUnreachable(
+            f"no selection of the {exc.candidates} candidate records reaches a predicted TCP error of "
+            f"{exc.target_mm:g} mm: taking every one of them gives {exc.reachable_mm:.4g} mm, the best reachable; add "
+            "candidates (more poses, another anchor across the volume), give the instrument's σ (noise), or relax "
+            "the target",
+            field=str(exc.field),
+            target_mm=exc.target_mm,
+            reachable_mm=exc.reachable_mm,
+            candidates=exc.candidates,
+        ) from exc
 
 
 def _as_offered(design: PoseDesign, found: ReferenceCandidates) -> tuple[PoseDesign, list[str]]:

@@ -163,6 +163,28 @@ def test_sampled_poses_are_offered_against_every_anchor_within_its_range(client:
     assert min(reads) >= readable[0] and max(reads) <= readable[1]
 
 
+def test_joint_sub_ranges_filter_the_given_candidates_and_indices_stay_theirs(client: TestClient, arm: str) -> None:
+    body = _ballbar(criterion="I", noise=NOISE, joint_ranges={"q1": [-120, 120]})
+    q1 = np.array([c["joints"][0] for c in body["candidates"]])
+    report = _design(client, arm, body)
+    assert report["constraints"]["offered"] == q1.size
+    assert report["constraints"]["excluded"] == {"joint_ranges": int((np.abs(q1) > 120).sum())}
+    chosen = [body["candidates"][i] for i in report["indices"]]
+    assert all(abs(c["joints"][0]) <= 120 for c in chosen)
+    np.testing.assert_allclose([c["joints"] for c in chosen], report["poses"], atol=1e-9)
+    assert [c["anchor"] for c in chosen] == report["references"]
+
+
+def test_an_unreachable_target_is_said_in_the_records_words(client: TestClient, arm: str) -> None:
+    body = _ballbar(count=None, target={"rms_tcp_mm": 1e-5}, noise=NOISE)
+    answer = client.post(f"/v1/robots/{arm}/pose-designs", json=body)
+    assert answer.status_code == 422, answer.text
+    problem = answer.json()
+    assert "candidate records" in problem["detail"] and "full pose" not in problem["detail"]
+    assert problem["reachable_mm"] > 1e-5 and problem["candidates"] == 3 * PER_ANCHOR
+    assert client.get(f"/v1/robots/{arm}/pose-designs").json() == []
+
+
 def test_socket_and_plate_records_are_designed_beside_a_ballbar(client: TestClient, arm: str) -> None:
     nominal = UR5.parameters.nominal
     socket = reaching(UR5, nominal, np.tile([350.0, 100.0, 200.0], (14, 1)), seed=2)[:10]
