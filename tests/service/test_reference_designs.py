@@ -5,7 +5,10 @@ the API reach what the design predicted; bad input is refused naming what to fix
 
 from __future__ import annotations
 
+import json
 import math
+import re
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -18,6 +21,7 @@ from models.examples import ur5_like, ur5_like_document
 from models.measurements.references import Anchor, ReferenceRecords
 from models.noise import NoiseModel
 from optimal_design.references import design_reference_records
+from service.schemas.designs import PoseDesignCreate
 
 UR5 = ur5_like()
 SIGMA_MM = 0.002
@@ -273,3 +277,12 @@ def test_bad_reference_designs_are_refused_naming_the_fix_and_nothing_is_stored(
     assert answer.status_code == 422, answer.text
     assert words in answer.text, answer.text
     assert client.get(f"/v1/robots/{arm}/pose-designs").json() == []
+
+
+def test_the_documented_request_bodies_are_valid_designs() -> None:
+    text = (Path(__file__).resolve().parents[2] / "docs" / "instruments.md").read_text()
+    section = text[text.index("## Designing the records") :]
+    bodies = [json.loads(block) for block in re.findall(r"```json\n(.*?)```", section, re.DOTALL)]
+    assert [b["measurement"] for b in bodies] == ["distance", "point", "plane"]
+    for body in bodies:
+        PoseDesignCreate.model_validate(body)
