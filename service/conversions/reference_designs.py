@@ -30,6 +30,8 @@ from service.schemas.references import ReferenceCandidate
 Reference = Anchor | FixedPoint | Plane
 KIND_OF_MEASUREMENT = {"distance": "anchor", "point": "point", "plane": "plane"}
 """The reference kind a record kind measures (records say `anchor`, `point`, `plane`)."""
+PLURAL = {"anchor": "anchors", "point": "points", "plane": "planes"}
+"""Where the body describes each kind."""
 
 
 @dataclass(frozen=True)
@@ -72,11 +74,13 @@ def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
     found: dict[tuple[str, str], Reference] = {}
     for name, anchor in body.anchors.items():
         if anchor.position_mm is None:
-            raise InvalidInput(
-                f"anchor {name!r}: a design needs where it stands (the rows of its records depend on the direction "
-                f'to the TCP): give "anchors": {{"{name}": {{"position_mm": [x, y, z]}}}} (a tape\'s guess will do)',
-                field=f"anchors.{name}.position_mm",
-                value=name,
+            # A tape's guess will do: the rows' directions hardly turn over centimetres.
+            raise _lacking(
+                "anchor",
+                name,
+                "position_mm",
+                "where it stands (its records' rows depend on the direction to the TCP)",
+                "[x, y, z]",
             )
         x, y, z = anchor.position_mm
         found[("anchor", name)] = Anchor(name, (x, y, z), length_unknown=anchor.length_unknown)
@@ -85,11 +89,8 @@ def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
         found[("point", name)] = FixedPoint(name, (px, py, pz))
     for name, plane in body.planes.items():
         if plane.normal is None or math.hypot(*plane.normal) == 0.0:
-            raise InvalidInput(
-                f"plane {name!r}: a design needs its normal (a touch measures the TCP along it): give "
-                f'"planes": {{"{name}": {{"normal": [nx, ny, nz]}}}}, not zero',
-                field=f"planes.{name}.normal",
-                value=name,
+            raise _lacking(
+                "plane", name, "normal", "its normal, not zero (a touch measures the TCP along it)", "[nx, ny, nz]"
             )
         nx, ny, nz = plane.normal
         found[("plane", name)] = Plane(name, (nx, ny, nz), 0.0)
@@ -104,6 +105,27 @@ def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
     return found
 
 
+def _lacking(kind: str, name: str, key: str, what: str, example: str) -> InvalidInput:
+    """A described reference without what a design needs of it, and where to give it."""
+    plural = PLURAL[kind]
+    return InvalidInput(
+        f'{kind} {name!r}: a design needs {what}: give "{plural}": {{"{name}": {{"{key}": {example}}}}}',
+        field=f"{plural}.{name}.{key}",
+        value=name,
+    )
+
+
+@dataclass(frozen=True)
+class _Request:
+    """What the candidates are built from: the robot at its current parameters, the body and its references."""
+
+    desc: RobotDescription
+    theta: Array
+    body: PoseDesignCreate
+    references: dict[tuple[str, str], Reference]
+    runtime: Runtime
+
+
 def reference_candidates_in(
     desc: RobotDescription, theta: Array, body: PoseDesignCreate, runtime: Runtime
 ) -> ReferenceCandidates:
@@ -111,20 +133,17 @@ def reference_candidates_in(
     sampled in the workspace offered against every anchor (a distance design only); then the checks that every
     reference can be determined and that a length is among them."""
     references = references_in(body)
-    if body.candidates is not None:
-        found = _given(desc, theta, body, references, runtime)
-    else:
-        found = _sampled(desc, theta, body, references, runtime)
+    request = _Request(desc, theta, body, references, runtime)
+    found = _given(request) if body.candidates is not None else _sampled(request)
     _check_determined(found, references, given=body.candidates is not None)
     return found
 
 
-def _filters(
-    desc: RobotDescription, theta: Array, body: PoseDesignCreate, joints: Array, runtime: Runtime
-) -> tuple[NDArray[np.bool_], dict[str, int]]:
+def _filters(request: _Request, joints: Array) -> tuple[NDArray[np.bool_], dict[str, int]]:
     """Which poses pass the joint sub-ranges and the keep-out box, and how many each excluded (as the tracker
     design's filters count them: a pose once, by the first filter that removes it)."""
-    ranges, box = constraints_in(desc, body)
+    desc = request.desc
+    ranges, box = constraints_in(desc, request.body)
     ok = np.ones(joints.shape[0], dtype=bool)
     excluded: dict[str, int] = {}
     if ranges:
@@ -132,19 +151,14 @@ def _filters(
         excluded["joint_ranges"] = int((~inside).sum())
         ok &= inside
     if box is not None:
-        clear = keep_out_mask(desc, joints, KeepOut.of(box), theta, runtime=runtime)
+        clear = keep_out_mask(desc, joints, KeepOut.of(box), request.theta, runtime=request.runtime)
         excluded["keep_out"] = int((ok & ~clear).sum())
         ok &= clear
     return ok, excluded
 
 
-def _given(
-    desc: RobotDescription,
-    theta: Array,
-    body: PoseDesignCreate,
-    references: dict[tuple[str, str], Reference],
-    runtime: Runtime,
-) -> ReferenceCandidates:
+def _given(request: _Request) -> ReferenceCandidates:
+    desc, body, references = request.desc, request.body, request.references
     assert body.candidates is not None
     if not body.candidates:
         raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
@@ -152,8 +166,9 @@ def _given(
     rows = [c.joints if isinstance(c, ReferenceCandidate) else c for c in body.candidates]
     joints = joints_in(desc, rows)
     check_joint_ranges(desc, joints)
-    forward_kinematics(desc, joints, theta, runtime=runtime)  # UnreachablePose names the first one outside
-    ok, excluded = _filters(desc, theta, body, joints, runtime)
+    # UnreachablePose names the first one outside
+    forward_kinematics(desc, joints, request.theta, runtime=request.runtime)
+    ok, excluded = _filters(request, joints)
     by_reference: dict[tuple[str, str], list[int]] = {key: [] for key in references}
     for i, tag in enumerate(tags):
         if ok[i]:
@@ -182,7 +197,7 @@ def _reference_of(
     if isinstance(candidate, ReferenceCandidate):
         kind, name = candidate.reference
         if (kind, name) not in references:
-            plural = {"anchor": "anchors", "point": "points", "plane": "planes"}[kind]
+            plural = PLURAL[kind]
             needs = {"anchor": '{"position_mm": [x, y, z]}', "point": "{}", "plane": '{"normal": [nx, ny, nz]}'}[kind]
             raise InvalidInput(
                 f'candidate {index} names {kind} {name!r}, which the body does not describe: add "{plural}": '
@@ -205,16 +220,17 @@ def _reference_of(
     return mine[0]
 
 
-def _sampled(
-    desc: RobotDescription,
-    theta: Array,
-    body: PoseDesignCreate,
-    references: dict[tuple[str, str], Reference],
-    runtime: Runtime,
-) -> ReferenceCandidates:
+def _sampled(request: _Request) -> ReferenceCandidates:
     """`candidate_count` workspace poses, each offered against every anchor where the nominal TCP's distance
     to it lies in the anchor's `range_mm`. Sampling cannot put the TCP on a point or a plane: those need
     candidates."""
+    desc, theta, body, references, runtime = (
+        request.desc,
+        request.theta,
+        request.body,
+        request.references,
+        request.runtime,
+    )
     if body.measurement != "distance" or any(kind != "anchor" for kind, _ in references):
         raise InvalidInput(
             f"measurement {body.measurement!r}: sampled poses do not put the TCP on a point or a plane; give "
@@ -237,7 +253,7 @@ def _sampled(
             max=MAX_CANDIDATES // len(references),
         )
     joints = sample_workspace(desc, body.candidate_count, seed=body.seed, params=theta, runtime=runtime)
-    ok, per_pose = _filters(desc, theta, body, joints, runtime)
+    ok, per_pose = _filters(request, joints)
     tcp = forward_kinematics(desc, joints, theta, runtime=runtime).positions
     by_reference: dict[tuple[str, str], list[int]] = {}
     out_of_range = 0
