@@ -22,6 +22,7 @@ from models.measurements.references import Anchor, ReferenceRecords
 from models.noise import NoiseModel
 from optimal_design.references import design_reference_records
 from service.schemas.designs import PoseDesignCreate
+from tests.service.helpers import finished_job
 
 UR5 = ur5_like()
 SIGMA_MM = 0.002
@@ -114,6 +115,8 @@ def test_a_d_design_of_30_ballbar_records_is_the_librarys_and_reaches_its_predic
     assert report["constraints"]["offered"] == 3 * PER_ANCHOR and report["constraints"]["excluded"] == {}
     stored = client.get(f"/v1/pose-designs/{report['id']}").json()
     assert stored["references"] == report["references"] and stored["measurement"] == "distance"
+    listed = client.get(f"/v1/robots/{arm}/pose-designs").json()
+    assert [(d["id"], d["measurement"]) for d in listed] == [(report["id"], "distance")]
     # Close the loop: what the design predicts is what a calibration of those records reaches.
     reached = _calibrated_error(client, arm, report, seed=5)
     predicted = metrics["predicted_rms_tcp_mm"]
@@ -177,6 +180,17 @@ def test_joint_sub_ranges_filter_the_given_candidates_and_indices_stay_theirs(cl
     assert all(abs(c["joints"][0]) <= 120 for c in chosen)
     np.testing.assert_allclose([c["joints"] for c in chosen], report["poses"], atol=1e-9)
     assert [c["anchor"] for c in chosen] == report["references"]
+
+
+def test_a_reference_design_runs_as_a_job_and_is_the_synchronous_one(client: TestClient, arm: str) -> None:
+    body = _ballbar(criterion="D", noise=NOISE)
+    accepted = client.post(f"/v1/robots/{arm}/pose-designs?async=true", json=body)
+    assert accepted.status_code == 202, accepted.text
+    job = finished_job(client, f"/v1/jobs/{accepted.json()['job_id']}")
+    assert job["status"] == "succeeded", job
+    direct = _design(client, arm, body)
+    for key in ("indices", "references", "measurement", "value"):
+        assert job["result"][key] == direct[key], key
 
 
 def test_an_unreachable_target_is_said_in_the_records_words(client: TestClient, arm: str) -> None:
@@ -243,6 +257,8 @@ def _few(body: dict[str, Any]) -> None:
         (lambda b: b.update({"terms": ["thermal"]}), "terms:"),
         (lambda b: b.update({"fixed": [b["candidates"][0]["joints"]]}), "fixed:"),
         (lambda b: b.update({"min_spread": 0.1}), "min_spread:"),
+        (lambda b: b.update({"d_efficiency_floor": 0.5, "criterion": "E"}), "d_efficiency_floor:"),
+        (lambda b: b.update({"count": None, "target": {"rms_tcp_mm": 0.01}, "criterion": "E"}), "not E"),
         (lambda b: b.update({"candidates": None, "measurement": "point", "points": {"s1": {}}}), "give candidates"),
         (lambda b: b["anchors"]["a1"].update({"range_mm": [500, 100]}), "min < max"),
         (lambda b: b.update({"measurement": "position"}), "is a tracker's"),
