@@ -43,7 +43,7 @@ def _plate_points(normal: np.ndarray, offset: float, rng: np.random.Generator, n
     e2 = np.cross(normal, e1)
     centre = normal * offset + (np.array([250.0, 0.0, 0.0]) if normal[0] == 0 else np.array([0.0, 0.0, 300.0]))
     a, b = rng.uniform(-250, 250, (2, n))
-    return centre + a[:, None] * e1 + b[:, None] * e2 + rng.normal(0, SIGMA_MM, n)[:, None] * normal
+    return np.asarray(centre + a[:, None] * e1 + b[:, None] * e2 + rng.normal(0, SIGMA_MM, n)[:, None] * normal)
 
 
 def campaign(seed: int) -> tuple[np.ndarray, tuple[ReferenceRecords, ...]]:

@@ -52,6 +52,9 @@ EXTRA_MODELS: tuple[type[BaseModel], ...] = (
 )
 """Referenced from `openapi_extra` (the calibration and kinematics routes read their bodies themselves) or from
 the error responses added below, so FastAPI does not see them all."""
+PUBLISHED_BY_EXTRA = ("AnchorDescription", "Noise", "PlaneDescription", "PointDescription")
+"""Components the calibration body published before a route's body (the pose design's) shared them: they stay
+as published (FastAPI words the same model a little otherwise: no `"default": null`, bounds as floats)."""
 DECLARED_PROBLEMS = {
     "409": "Conflict with the resource's state (e.g. a job that already ended)",
     "429": "The job queue is full: retry after the Retry-After header's seconds",
@@ -65,7 +68,10 @@ def build(app: FastAPI) -> dict[str, Any]:
     for model in EXTRA_MODELS:
         extra = model.model_json_schema(ref_template="#/components/schemas/{model}")
         for name, sub in extra.pop("$defs", {}).items():
-            components.setdefault(name, sub)
+            if name in PUBLISHED_BY_EXTRA:
+                components[name] = sub
+            else:
+                components.setdefault(name, sub)
         components[model.__name__] = extra
     components.pop("HTTPValidationError", None)
     components.pop("ValidationError", None)

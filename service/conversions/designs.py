@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
-from models import RobotDescription
+from models import NoiseModel, RobotDescription
 from models.errors import InvalidInput
 from models.measurement import MeasurementKind
 from optimal_design import PoseDesign, TargetDesign
@@ -96,6 +97,13 @@ def target_report_out(
             **extra,
         }
     )
+
+
+def design_noise(body: PoseDesignCreate) -> NoiseModel | None:
+    """The instrument's σ the predictions are for, internal units; None: the models' default."""
+    if body.noise is None:
+        return None
+    return NoiseModel(body.noise.position_mm, math.radians(body.noise.orientation_deg))
 
 
 def constraints_in(

@@ -68,7 +68,7 @@ async def create_design(
     settings: SettingsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
 ) -> Response:
-    candidates = len(body.candidates) if body.candidates is not None else body.candidate_count
+    candidates = body.offered()
     fixed = len(body.fixed) if body.fixed is not None else 0
     cost = (
         limits.target_design(candidates, fixed)

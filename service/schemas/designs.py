@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import AfterValidator, Field, model_validator
 
 from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from optimal_design.design import MAX_CANDIDATES
+from service.schemas.calibrations import Noise
 from service.schemas.common import (
     JointVector,
-    Measurement,
     OptionalFloat,
     Payload,
     Position,
@@ -20,10 +20,37 @@ from service.schemas.common import (
     Strict,
     TemperatureC,
 )
+from service.schemas.references import (
+    AnchorDescription,
+    PlaneDescription,
+    PointDescription,
+    ReferenceCandidate,
+    ReferenceName,
+)
 
 MAX_FIXED = 10_000
 BOUND_SECONDS_MAX = 60.0
 """Branch and bound past a minute buys little here (K = 30 of 2 000, D: 0.9851 at 3 s, 0.9878 at 20 s)."""
+
+
+ReferenceMeasurement = Literal["distance", "point", "plane"]
+REFERENCE_MEASUREMENTS: tuple[ReferenceMeasurement, ...] = ("distance", "point", "plane")
+"""The records of the instruments a cell owns that a design can plan (service/schemas/references.py)."""
+
+
+def _kind(value: str) -> MeasurementKind | str:
+    """A tracker's kind as the enum the design pipeline takes; a reference kind as its name."""
+    return value if value in REFERENCE_MEASUREMENTS else MeasurementKind(value)
+
+
+if TYPE_CHECKING:
+    DesignMeasurement = MeasurementKind | ReferenceMeasurement
+else:
+    # The tracker's kinds first, as the contract published them, then the reference kinds it gained.
+    DesignMeasurement = Annotated[
+        Literal[(*(k.value for k in MeasurementKind), *REFERENCE_MEASUREMENTS)], AfterValidator(_kind)
+    ]
+DesignCandidate = JointVector | ReferenceCandidate
 
 
 class DesignTarget(Strict):
@@ -56,8 +83,34 @@ class PoseDesignCreate(Strict):
         default=None, description="Instead of count: the smallest K whose design reaches this predicted accuracy"
     )
     criterion: Criterion = Field(default=Criterion.D, description="With a target: D or I (default there: I)")
-    measurement: Measurement = MeasurementKind.POSE
-    candidates: list[JointVector] | None = Field(default=None, max_length=MAX_CANDIDATES)
+    measurement: DesignMeasurement = Field(
+        default=MeasurementKind.POSE,
+        description="pose or position: a tracker's records; distance, point or plane: records against the anchors, "
+        "points or planes the body describes (the kind of bare joint vectors among the candidates, and of "
+        "sampled ones: distance only)",
+    )
+    candidates: list[DesignCandidate] | None = Field(
+        default=None,
+        max_length=MAX_CANDIDATES,
+        description="Joint vectors; against references, each may name the one its record measures: "
+        '{"joints": [...], "anchor": "a1"} (or "point", "plane"), which a design of several references needs',
+    )
+    anchors: dict[ReferenceName, AnchorDescription] = Field(
+        default_factory=dict,
+        max_length=100,
+        description="distance: the anchors records would measure; each needs position_mm, optionally range_mm",
+    )
+    points: dict[ReferenceName, PointDescription] = Field(
+        default_factory=dict, max_length=100, description="point: the fixed points records would be on"
+    )
+    planes: dict[ReferenceName, PlaneDescription] = Field(
+        default_factory=dict, max_length=100, description="plane: the plates records would touch; each needs normal"
+    )
+    noise: Noise | None = Field(
+        default=None,
+        description="The instrument's σ the predicted errors are for (a ballbar's is a few µm); default: "
+        "position 0.025 mm, orientation 0.01°",
+    )
     candidate_count: int = Field(default=2000, ge=1, le=MAX_CANDIDATES)
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
     fixed: list[JointVector] | None = Field(default=None, max_length=MAX_FIXED, description="Poses already measured")
@@ -114,7 +167,32 @@ class PoseDesignCreate(Strict):
             raise ValueError("bound_seconds applies to a design of count poses, not to a target")
         if self.target is not None and "criterion" not in self.model_fields_set:
             self.criterion = Criterion.I  # the criterion that minimises the predicted RMS TCP error
+        if isinstance(self.measurement, MeasurementKind) and (
+            self.anchors or self.points or self.planes or any(self._tied())
+        ):
+            raise ValueError(
+                f"measurement {self.measurement.value!r} is a tracker's: anchors, points, planes and candidates that "
+                "name one belong to measurement distance, point or plane"
+            )
         return self
+
+    def _tied(self) -> list[ReferenceCandidate]:
+        return [c for c in self.candidates or [] if isinstance(c, ReferenceCandidate)]
+
+    def joint_candidates(self) -> list[list[float]] | None:
+        """The candidates of a tracker's design: bare joint vectors (the validator refuses the others there)."""
+        if self.candidates is None:
+            return None
+        return [c for c in self.candidates if not isinstance(c, ReferenceCandidate)]
+
+    def offered(self) -> int:
+        """How many candidates the design weighs (the request's cost): those given, or those sampled, each
+        offered against every anchor in a distance design."""
+        if self.candidates is not None:
+            return len(self.candidates)
+        if self.measurement == "distance":
+            return self.candidate_count * max(1, len(self.anchors))
+        return self.candidate_count
 
 
 class DesignMetricsPublic(Public):
@@ -211,7 +289,7 @@ class PoseDesignReportPublic(Public):
     """What a pose design computed: stored once, as validated here, and served as stored."""
 
     criterion: Criterion
-    measurement: Measurement
+    measurement: DesignMeasurement
     count: int
     poses: list[list[float]] = Field(description="K joint vectors, mm and deg")
     indices: list[int] | None = Field(description="Into the given candidates; null when they were sampled")
@@ -240,6 +318,9 @@ class PoseDesignReportPublic(Public):
         default=None, description="With terms and levels: each chosen pose's payload"
     )
     fixed_mm: OptionalFloat = Field(default=None, description="Target mode: with the fixed poses alone")
+    references: list[str] | None = Field(
+        default=None, description="Against references: the anchor, point or plane each chosen pose's record measures"
+    )
 
 
 class PoseDesignPublic(PoseDesignReportPublic):
@@ -255,6 +336,6 @@ class PoseDesignSummaryPublic(Public):
     robot_id: str
     created_at: datetime
     criterion: Criterion
-    measurement: Measurement
+    measurement: DesignMeasurement
     count: int
     value: OptionalFloat

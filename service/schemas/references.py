@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from service.schemas.common import JointVector, Position, Public, Strict
 
@@ -97,19 +97,41 @@ class CameraDescription(Strict):
 
 
 class AnchorDescription(Strict):
+    """An anchor a campaign measures, or a pose design plans records against (a design needs `position_mm`:
+    the rows a record adds depend on the direction from the anchor to the TCP)."""
+
     position_mm: Position | None = Field(
         default=None, description="A guess of its position (robot base frame, mm); default: found from the records"
     )
     length_unknown: bool = Field(
         default=False, description="The bar's length offset is not known: it is identified (anchor.<name>.length)"
     )
+    range_mm: tuple[Annotated[float, Field(ge=0, le=1e5)], Annotated[float, Field(gt=0, le=1e5)]] | None = Field(
+        default=None,
+        description="Used by pose design: the distances the instrument can read, [min, max] mm (a ballbar reads only "
+        "near its length). Sampled candidates are kept against this anchor only where the TCP's distance to "
+        "position_mm lies in it; calibrations do not use it",
+        examples=[[140.0, 160.0]],
+    )
+
+    @model_validator(mode="after")
+    def _ordered(self) -> AnchorDescription:
+        if self.range_mm is not None and self.range_mm[0] >= self.range_mm[1]:
+            raise ValueError(f"range_mm {list(self.range_mm)}: give [min, max] with min < max")
+        return self
 
 
 class PointDescription(Strict):
+    """A fixed point (a socket) a campaign measures, or a pose design plans records against (a design does not
+    need its position: the rows of a record on it do not depend on where it is)."""
+
     position_mm: Position | None = Field(default=None, description="A guess; default: found from the records")
 
 
 class PlaneDescription(Strict):
+    """A plane a campaign's touches measure, or a pose design plans touches of (a design needs `normal`: a
+    touch's row is the TCP's motion along it; its offset does not enter)."""
+
     normal: Annotated[list[float], Field(min_length=3, max_length=3)] | None = Field(
         default=None,
         description="The side the probe touches from (any length, not zero); default: found from the records, "
@@ -135,6 +157,31 @@ class ReferenceDescriptions(Strict):
     cameras: dict[ReferenceName, CameraDescription] = Field(
         default_factory=dict, max_length=20, description="Every camera an image record names, with its intrinsics"
     )
+
+
+class ReferenceCandidate(Strict):
+    """A candidate pose of a pose design, tied to the reference its record would measure (name one)."""
+
+    joints: JointVector
+    anchor: ReferenceName | None = None
+    point: ReferenceName | None = None
+    plane: ReferenceName | None = None
+
+    @model_validator(mode="after")
+    def _one(self) -> ReferenceCandidate:
+        named = [k for k in ("anchor", "point", "plane") if getattr(self, k) is not None]
+        if len(named) != 1:
+            raise ValueError(f"a candidate names exactly one of anchor, point or plane, not {named or 'none'}")
+        return self
+
+    @property
+    def reference(self) -> tuple[str, str]:
+        """(kind as the models name it: anchor, point, plane; its name)."""
+        for kind in ("anchor", "point", "plane"):
+            name = getattr(self, kind)
+            if name is not None:
+                return kind, str(name)
+        raise AssertionError("validated: one is named")
 
 
 def record_tag(value: Any) -> str:

@@ -2,9 +2,11 @@ from __future__ import annotations
 
 from models import Registry, RobotDescription
 from models.errors import InvalidInput
+from models.measurement import MeasurementKind
 from optimal_design import DesignOptions, design_for_target, design_poses
 from service.conversions.designs import (
     constraints_in,
+    design_noise,
     design_public,
     design_summary,
     report_out,
@@ -15,8 +17,15 @@ from service.conversions.terms import design_levels, requested_model, start_valu
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
-from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
+from service.schemas.designs import (
+    REFERENCE_MEASUREMENTS,
+    PoseDesignCreate,
+    PoseDesignPublic,
+    PoseDesignReportPublic,
+    PoseDesignSummaryPublic,
+)
 from service.services.hooks import JobHooks
+from service.services.reference_designs import reference_report
 
 
 def create_design(
@@ -32,33 +41,13 @@ def create_design(
     the job's own `succeeded` when run as one)."""
     if job is not None:
         job.progress("reading", 0.0)
-    desc, common = _problem(models, registry, robot_id, body)
-    if job is not None:
-        job.progress("designing", 0.05)
-    if body.target is not None:
-        found = design_for_target(
-            desc,
-            rms_tcp_mm=body.target.rms_tcp_mm,
-            max_tcp_mm=body.target.max_tcp_mm,
-            criterion=body.criterion,
-            measurement=body.measurement,
-            **common,
-        )
-        report_model = target_report_out(
-            desc, found, candidates_given=body.candidates is not None, criterion=body.criterion
-        )
+    if body.measurement in REFERENCE_MEASUREMENTS:
+        desc, theta = models.current(robot_id)
+        if job is not None:
+            job.progress("designing", 0.05)
+        report_model = reference_report(desc, theta, body, registry.runtime(desc))
     else:
-        assert body.count is not None  # the schema asks for count or target
-        design = design_poses(
-            desc,
-            body.count,
-            body.criterion,
-            body.measurement,
-            d_efficiency_floor=body.d_efficiency_floor,
-            bound_seconds=body.bound_seconds,
-            **common,
-        )
-        report_model = report_out(desc, design, candidates_given=body.candidates is not None)
+        report_model = _tracker_report(models, registry, robot_id, body, job)
     report = report_model.model_dump(mode="json")
     if job is not None:
         job.progress("storing", 0.95)
@@ -69,6 +58,37 @@ def create_design(
         if job is not None:
             job.commit(s, record.id)
         return design_public(record)
+
+
+def _tracker_report(
+    models: ModelCache, registry: Registry, robot_id: str, body: PoseDesignCreate, job: JobHooks | None
+) -> PoseDesignReportPublic:
+    """A design of a tracker's poses (pose or position), count or target."""
+    desc, common = _problem(models, registry, robot_id, body)
+    if job is not None:
+        job.progress("designing", 0.05)
+    assert isinstance(body.measurement, MeasurementKind)  # the reference kinds are designed apart
+    if body.target is not None:
+        found = design_for_target(
+            desc,
+            rms_tcp_mm=body.target.rms_tcp_mm,
+            max_tcp_mm=body.target.max_tcp_mm,
+            criterion=body.criterion,
+            measurement=body.measurement,
+            **common,
+        )
+        return target_report_out(desc, found, candidates_given=body.candidates is not None, criterion=body.criterion)
+    assert body.count is not None  # the schema asks for count or target
+    design = design_poses(
+        desc,
+        body.count,
+        body.criterion,
+        body.measurement,
+        d_efficiency_floor=body.d_efficiency_floor,
+        bound_seconds=body.bound_seconds,
+        **common,
+    )
+    return report_out(desc, design, candidates_given=body.candidates is not None)
 
 
 def _problem(
@@ -87,8 +107,9 @@ def _problem(
     if body.candidates is not None and not body.candidates:
         raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
     joint_ranges, keep_out = constraints_in(desc, body)
+    tracker = body.joint_candidates()
     options = DesignOptions(
-        candidates=joints_in(desc, body.candidates) if body.candidates is not None else None,
+        candidates=joints_in(desc, tracker) if tracker is not None else None,
         candidate_count=body.candidate_count,
         seed=body.seed,
         fixed=joints_in(desc, body.fixed) if body.fixed is not None else None,
@@ -96,6 +117,7 @@ def _problem(
         joint_ranges=joint_ranges,
         keep_out=keep_out,
         min_spread=body.min_spread,
+        noise=design_noise(body),
         runtime=registry.runtime(desc),
         levels=levels,  # None without model terms, which the target mode refuses above
     )

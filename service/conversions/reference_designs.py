@@ -1,0 +1,333 @@
+"""A pose design's request against references (anchors, points, planes) as the candidate record groups of
+`optimal_design.references`: which reference each candidate measures, the filters the service applies before
+the design (joint sub-ranges, the keep-out box, an anchor's readable range), and the options it refuses.
+
+The design core weighs candidate records alone: it takes no records already measured, no minimum spread, no
+D-efficiency floor and no branch and bound, so those options are refused here with the reason, never ignored.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from models import RobotDescription, forward_kinematics, sample_workspace
+from models._types import Array
+from models.errors import InvalidInput, TooFewMeasurements
+from models.kinematics import check_joint_ranges
+from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords
+from models.runtime import Runtime
+from optimal_design.constraints import KeepOut, joint_range_mask, keep_out_mask
+from optimal_design.problem import MAX_CANDIDATES
+from service.conversions.designs import constraints_in
+from service.conversions.kinematics import joints_in
+from service.schemas.designs import PoseDesignCreate
+from service.schemas.references import ReferenceCandidate
+
+Reference = Anchor | FixedPoint | Plane
+KIND_OF_MEASUREMENT = {"distance": "anchor", "point": "point", "plane": "plane"}
+"""The reference kind a record kind measures (records say `anchor`, `point`, `plane`)."""
+PLURAL = {"anchor": "anchors", "point": "points", "plane": "planes"}
+"""Where the body describes each kind."""
+
+
+@dataclass(frozen=True)
+class ReferenceCandidates:
+    """The admissible candidates grouped by reference (the core's order: one group after the other), with,
+    for each in that order, its index among the candidates given or sampled and its reference's name."""
+
+    groups: tuple[ReferenceRecords, ...]
+    origin: NDArray[np.intp]
+    names: tuple[str, ...]
+    offered: int
+    """Candidates before the filters (a sampled pose counts once per anchor it is offered against)."""
+    excluded: dict[str, int]
+
+
+def refuse_unsupported(body: PoseDesignCreate) -> None:
+    """The options the reference design does not take: a 422 naming each, with why."""
+    refused = {
+        "fixed": body.fixed is not None
+        and "records already measured are not taken yet (each would need its reference); design the new ones alone",
+        "min_spread": body.min_spread is not None
+        and "the reference design keeps no spread between chosen poses yet; omit it",
+        "bound_seconds": body.bound_seconds > 0
+        and "branch and bound is not run on reference designs yet; the report's efficiency is the relaxation's",
+        "d_efficiency_floor": body.d_efficiency_floor is not None
+        and "a D-efficiency floor is not kept by the reference design yet (condition keeps its default floor)",
+        "terms": bool(body.terms)
+        and "distance, point and plane records carry no temperature or load per record: no model terms",
+        "temperature_levels_c": body.temperature_levels_c is not None and "levels belong to a design with terms",
+        "payload_levels": body.payload_levels is not None and "levels belong to a design with terms",
+    }
+    for name, why in refused.items():
+        if why:
+            raise InvalidInput(f"{name}: {why} (measurement {body.measurement!r})", field=name, reason="unsupported")
+
+
+def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
+    """Every described reference by (kind, name), as the design needs it: an anchor where it stands, a plane's
+    normal. A 422 naming the one that lacks what the design needs."""
+    found: dict[tuple[str, str], Reference] = {}
+    for name, anchor in body.anchors.items():
+        if anchor.position_mm is None:
+            # A tape's guess will do: the rows' directions hardly turn over centimetres.
+            raise _lacking(
+                "anchor",
+                name,
+                "position_mm",
+                "where it stands (its records' rows depend on the direction to the TCP)",
+                "[x, y, z]",
+            )
+        x, y, z = anchor.position_mm
+        found[("anchor", name)] = Anchor(name, (x, y, z), length_unknown=anchor.length_unknown)
+    for name, point in body.points.items():
+        px, py, pz = point.position_mm or (0.0, 0.0, 0.0)  # its rows do not depend on where it is
+        found[("point", name)] = FixedPoint(name, (px, py, pz))
+    for name, plane in body.planes.items():
+        if plane.normal is None or math.hypot(*plane.normal) == 0.0:
+            raise _lacking(
+                "plane", name, "normal", "its normal, not zero (a touch measures the TCP along it)", "[nx, ny, nz]"
+            )
+        nx, ny, nz = plane.normal
+        found[("plane", name)] = Plane(name, (nx, ny, nz), 0.0)
+    names = [name for _, name in found]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise InvalidInput(
+            f"reference names repeat across anchors, points and planes: {repeated}; name each once",
+            field="anchors",
+            value=repeated[0],
+        )
+    return found
+
+
+def _lacking(kind: str, name: str, key: str, what: str, example: str) -> InvalidInput:
+    """A described reference without what a design needs of it, and where to give it."""
+    plural = PLURAL[kind]
+    return InvalidInput(
+        f'{kind} {name!r}: a design needs {what}: give "{plural}": {{"{name}": {{"{key}": {example}}}}}',
+        field=f"{plural}.{name}.{key}",
+        value=name,
+    )
+
+
+@dataclass(frozen=True)
+class _Request:
+    """What the candidates are built from: the robot at its current parameters, the body and its references."""
+
+    desc: RobotDescription
+    theta: Array
+    body: PoseDesignCreate
+    references: dict[tuple[str, str], Reference]
+    runtime: Runtime
+
+
+def reference_candidates_in(
+    desc: RobotDescription, theta: Array, body: PoseDesignCreate, runtime: Runtime
+) -> ReferenceCandidates:
+    """The candidate groups of a reference design: the given candidates by the reference each names, or poses
+    sampled in the workspace offered against every anchor (a distance design only); then the checks that every
+    reference can be determined and that a length is among them."""
+    references = references_in(body)
+    request = _Request(desc, theta, body, references, runtime)
+    found = _given(request) if body.candidates is not None else _sampled(request)
+    _check_determined(found, references, given=body.candidates is not None)
+    return found
+
+
+def _filters(request: _Request, joints: Array) -> tuple[NDArray[np.bool_], dict[str, int]]:
+    """Which poses pass the joint sub-ranges and the keep-out box, and how many each excluded (as the tracker
+    design's filters count them: a pose once, by the first filter that removes it)."""
+    desc = request.desc
+    ranges, box = constraints_in(desc, request.body)
+    ok = np.ones(joints.shape[0], dtype=bool)
+    excluded: dict[str, int] = {}
+    if ranges:
+        inside = joint_range_mask(desc, joints, ranges)
+        excluded["joint_ranges"] = int((~inside).sum())
+        ok &= inside
+    if box is not None:
+        clear = keep_out_mask(desc, joints, KeepOut.of(box), request.theta, runtime=request.runtime)
+        excluded["keep_out"] = int((ok & ~clear).sum())
+        ok &= clear
+    return ok, excluded
+
+
+def _given(request: _Request) -> ReferenceCandidates:
+    desc, body, references = request.desc, request.body, request.references
+    assert body.candidates is not None
+    if not body.candidates:
+        raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
+    tags = [_reference_of(body, references, i, c) for i, c in enumerate(body.candidates)]
+    rows = [c.joints if isinstance(c, ReferenceCandidate) else c for c in body.candidates]
+    joints = joints_in(desc, rows)
+    check_joint_ranges(desc, joints)
+    # UnreachablePose names the first one outside
+    forward_kinematics(desc, joints, request.theta, runtime=request.runtime)
+    ok, excluded = _filters(request, joints)
+    by_reference: dict[tuple[str, str], list[int]] = {key: [] for key in references}
+    for i, tag in enumerate(tags):
+        if ok[i]:
+            by_reference[tag].append(i)
+    named = set(tags)
+    missing = [key for key in references if key not in named]
+    if missing:
+        kind, name = missing[0]
+        raise InvalidInput(
+            f"{kind} {name!r} is described but no candidate names it: remove it, or give its candidates "
+            f'({{"joints": [...], "{kind}": "{name}"}})',
+            field="candidates",
+            value=name,
+            reason="unused_reference",
+        )
+    return _grouped(references, by_reference, joints, offered=len(rows), excluded=excluded)
+
+
+def _reference_of(
+    body: PoseDesignCreate,
+    references: dict[tuple[str, str], Reference],
+    index: int,
+    candidate: list[float] | ReferenceCandidate,
+) -> tuple[str, str]:
+    """The (kind, name) of the reference a given candidate's record would measure."""
+    if isinstance(candidate, ReferenceCandidate):
+        kind, name = candidate.reference
+        if (kind, name) not in references:
+            plural = PLURAL[kind]
+            needs = {"anchor": '{"position_mm": [x, y, z]}', "point": "{}", "plane": '{"normal": [nx, ny, nz]}'}[kind]
+            raise InvalidInput(
+                f'candidate {index} names {kind} {name!r}, which the body does not describe: add "{plural}": '
+                f'{{"{name}": {needs}}}',
+                field="candidates",
+                value=name,
+                reason="undescribed_reference",
+            )
+        return kind, name
+    kind = KIND_OF_MEASUREMENT[str(body.measurement)]
+    mine = [key for key in references if key[0] == kind]
+    if len(mine) != 1:
+        raise InvalidInput(
+            f"candidate {index} is a bare joint vector, which belongs to the one {kind} of measurement "
+            f"{body.measurement!r}; the body describes {len(mine)}: say which, "
+            f'{{"joints": [...], "{kind}": "<name>"}}',
+            field="candidates",
+            reason="ambiguous_reference",
+        )
+    return mine[0]
+
+
+def _sampled(request: _Request) -> ReferenceCandidates:
+    """`candidate_count` workspace poses, each offered against every anchor where the nominal TCP's distance
+    to it lies in the anchor's `range_mm`. Sampling cannot put the TCP on a point or a plane: those need
+    candidates."""
+    desc, theta, body, references, runtime = (
+        request.desc,
+        request.theta,
+        request.body,
+        request.references,
+        request.runtime,
+    )
+    if body.measurement != "distance" or any(kind != "anchor" for kind, _ in references):
+        raise InvalidInput(
+            f"measurement {body.measurement!r}: sampled poses do not put the TCP on a point or a plane; give "
+            'candidates, joint vectors that put the TCP on it ({"joints": [...], "point": "<name>"} or "plane")'
+            + (", or design distance records alone" if body.measurement == "distance" else ""),
+            field="candidates",
+            reason="candidates_needed",
+        )
+    if not references:
+        raise InvalidInput(
+            "measurement 'distance': describe the anchors the records would measure: \"anchors\": "
+            '{"a1": {"position_mm": [x, y, z]}}',
+            field="anchors",
+        )
+    if body.candidate_count * len(references) > MAX_CANDIDATES:
+        raise InvalidInput(
+            f"candidate_count {body.candidate_count} offered against {len(references)} anchors is "
+            f"{body.candidate_count * len(references)} candidates: at most {MAX_CANDIDATES}; lower candidate_count",
+            field="candidate_count",
+            max=MAX_CANDIDATES // len(references),
+        )
+    joints = sample_workspace(desc, body.candidate_count, seed=body.seed, params=theta, runtime=runtime)
+    ok, per_pose = _filters(request, joints)
+    tcp = forward_kinematics(desc, joints, theta, runtime=runtime).positions
+    by_reference: dict[tuple[str, str], list[int]] = {}
+    out_of_range = 0
+    for key, anchor in references.items():
+        assert isinstance(anchor, Anchor)  # checked above: a sampled design is against anchors only
+        readable = body.anchors[anchor.name].range_mm
+        keep = ok.copy()
+        if readable is not None:
+            distance = np.linalg.norm(tcp - np.asarray(anchor.start), axis=1)
+            inside = (distance >= readable[0]) & (distance <= readable[1])
+            out_of_range += int((keep & ~inside).sum())
+            keep &= inside
+        by_reference[key] = [int(i) for i in np.flatnonzero(keep)]
+    excluded = {why: n * len(references) for why, n in per_pose.items()}
+    if any(body.anchors[name].range_mm is not None for _, name in references):
+        excluded["range_mm"] = out_of_range
+    offered = joints.shape[0] * len(references)
+    return _grouped(references, by_reference, joints, offered=offered, excluded=excluded)
+
+
+def _grouped(
+    references: dict[tuple[str, str], Reference],
+    by_reference: dict[tuple[str, str], list[int]],
+    joints: Array,
+    *,
+    offered: int,
+    excluded: dict[str, int],
+) -> ReferenceCandidates:
+    """The groups in the references' order (anchors, points, planes as described), the empty ones left out."""
+    groups, origin, names = [], [], []
+    for key, reference in references.items():
+        index = np.asarray(by_reference.get(key, []), dtype=np.intp)
+        if index.size == 0:
+            continue
+        groups.append(ReferenceRecords(reference, joints[index], np.zeros(index.size)))
+        origin.append(index)
+        names.extend([reference.name] * index.size)
+    if not groups:
+        raise InvalidInput(
+            f"no candidate passes the filters (of {offered} offered: "
+            f"{', '.join(f'{n} {why}' for why, n in excluded.items())})",
+            field="candidates",
+            reason="all_filtered",
+        )
+    return ReferenceCandidates(
+        groups=tuple(groups),
+        origin=np.concatenate(origin),
+        names=tuple(names),
+        offered=offered,
+        excluded=excluded,
+    )
+
+
+def _check_determined(found: ReferenceCandidates, references: dict[tuple[str, str], Reference], *, given: bool) -> None:
+    """Enough admissible candidates for each reference to be determined, and a length among them: a 4xx in a
+    design's words (the core would speak of records measured)."""
+    sizes = {g.reference.name: g.size for g in found.groups}
+    for (kind, name), reference in references.items():
+        have, needed = sizes.get(name, 0), reference.minimum_records
+        if have < needed:
+            fix = "give more candidates naming it" if given else "widen its range_mm or raise candidate_count"
+            raise TooFewMeasurements(
+                f"{kind} {name!r} has {have} admissible candidates: a design needs at least {needed} to determine its "
+                f"{len(reference.unknowns)} unknowns; {fix}",
+                got=have,
+                needed=needed,
+                missing=needed - have,
+                kind=kind,
+            )
+    if not any(g.reference.traits.fixes_scale for g in found.groups):
+        raise InvalidInput(
+            "fixed points and planes fix no length (the robot and its points and planes scaled together fit them "
+            "as well): describe an anchor (a ballbar pivot) and add candidates naming it, "
+            '{"joints": [...], "anchor": "a1"}, so that the design mixes distance records in',
+            field="candidates",
+            reason="no_length_scale",
+        )
