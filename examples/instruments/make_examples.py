@@ -6,6 +6,8 @@ a known truth, so the files calibrate to a known answer): `python examples/instr
   offset is unknown (`?length_unknown=a3`), σ 2 µm (`?noise_position_mm=0.002`).
 - `probe_and_sockets.json`: a calibration body with two sockets touched in ten orientations each, a plate
   probed at 30 places and one ballbar pivot for the length.
+- `camera.json`: a calibration body with 30 images of a camera 1.5 m away seeing four markers on the tool
+  (σ 0.1 px), its intrinsics under `cameras`.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.ballbar import PIVOTS, ballbar_campaign, gauge_truth, reaching
+from harness.camera import WORLD_CAMERA, world_camera_campaign
 from models import forward_kinematics, sample_workspace
 from models.examples import ur5_like, ur5_like_document
 
@@ -38,6 +41,7 @@ def main() -> None:
             for q, d in zip(group.joints * robot.joint_to_boundary, group.values, strict=True):
                 writer.writerow(["distance", group.reference.name, *(f"{v:.6f}" for v in q), f"{d:.5f}"])
     (HERE / "probe_and_sockets.json").write_text(json.dumps(_probe_body(), indent=1) + "\n")
+    (HERE / "camera.json").write_text(json.dumps(_camera_body(), indent=1) + "\n")
     print(f"wrote the examples in {HERE}")
 
 
@@ -69,6 +73,22 @@ def _probe_body() -> dict[str, object]:
         "noise": {"position_mm": SIGMA_MM},
         "instrument": {"name": "touch probe, sockets and a ballbar"},
     }
+
+
+def _camera_body() -> dict[str, object]:
+    desc = ur5_like()
+    seen = world_camera_campaign(desc, SEED, images=30)
+    images = [
+        {
+            **image,
+            "joints": _row(np.asarray(image["joints"]) * desc.joint_to_boundary),
+            "points": [
+                {"target_mm": p["target_mm"], "pixel": [round(v, 4) for v in p["pixel"]]} for p in image["points"]
+            ],
+        }
+        for image in seen.images
+    ]
+    return {"measurements": images, "cameras": WORLD_CAMERA, "instrument": {"name": "a 3-Mpx camera, 12 mm lens"}}
 
 
 def _row(q: np.ndarray) -> list[float]:

@@ -20,6 +20,9 @@ from models import forward_kinematics, sample_workspace
 from models.examples import ur5_like, ur5_like_document
 from models.identification.registration import rigid_fit
 from models.measurements.references import ReferenceRecords
+from models.structure import description_from_document
+from models.urdf import document_from_urdf
+from tests.models.test_urdf import UR5_URDF
 from tests.service.helpers import finished_job
 
 UR5 = ur5_like()
@@ -323,3 +326,30 @@ def test_the_example_files_calibrate_the_example_robot(client: TestClient) -> No
     assert all(c["passed"] for c in report["checks"]), report["checks"]
     assert report["record_kinds"] == {"point": 20, "plane": 30, "distance": 30}
     assert report["residuals"]["after"]["rms_mm"] < 3 * SIGMA_MM < report["residuals"]["before"]["rms_mm"]
+    images = client.post(f"/v1/robots/{robot}/calibrations", json=json.loads((EXAMPLES / "camera.json").read_text()))
+    assert images.status_code == 201 and images.json()["record_kinds"] == {"image": 30}, images.text
+    assert all(c["passed"] for c in images.json()["checks"]), images.json()["checks"]
+
+
+def test_a_urdf_imported_arm_calibrates_from_a_ballbar(client: TestClient) -> None:
+    """Any structure: the arm imported from a URDF (its chain re-described from the joint axes) takes the
+    same records; the calibrated model predicts the true TCP at fresh poses to micrometres after alignment."""
+    made = client.post(
+        "/v1/robots", json={"name": "ur5-urdf", "urdf": UR5_URDF, "base_link": "world", "tip_link": "tool0"}
+    )
+    assert made.status_code == 201, made.text
+    desc = description_from_document(document_from_urdf(UR5_URDF, "world", "tool0"))
+    truth, groups = ballbar_campaign(desc, 7, per_pivot=36, sigma_mm=SIGMA_MM)
+    body = _body(groups)
+    for record, q in zip(
+        body["measurements"], np.vstack([g.joints for g in groups]) * desc.joint_to_boundary, strict=True
+    ):
+        record["joints"] = q.tolist()
+    answer = client.post(f"/v1/robots/{made.json()['id']}/calibrations", json=body)
+    assert answer.status_code == 201, answer.text
+    report = answer.json()
+    assert report["status"] == "succeeded" and all(c["passed"] for c in report["checks"]), report["checks"]
+    fresh = sample_workspace(desc, 200, seed=70)
+    fitted = desc.parameters.from_boundary([float(p["value"]) for p in report["parameters"]])
+    true = forward_kinematics(desc, fresh, truth).positions
+    assert aligned_rms(forward_kinematics(desc, fresh, fitted).positions, true) < 0.01
