@@ -318,9 +318,9 @@ def test_the_example_files_calibrate_the_example_robot(client: TestClient) -> No
     ).json()
     assert ballbar["status"] == "succeeded" and all(c["passed"] for c in ballbar["checks"]), ballbar["checks"]
     assert ballbar["record_kinds"] == {"distance": 108}
-    probe = client.post(
-        f"/v1/robots/{robot}/calibrations", json=json.loads((EXAMPLES / "probe_and_sockets.json").read_text())
-    )
+    # Not applied: the camera's campaign below is judged against the nominal version, not against this one's.
+    probed = {**json.loads((EXAMPLES / "probe_and_sockets.json").read_text()), "apply": False}
+    probe = client.post(f"/v1/robots/{robot}/calibrations", json=probed)
     report = probe.json()
     assert probe.status_code == 201 and report["status"] == "succeeded", probe.text
     assert all(c["passed"] for c in report["checks"]), report["checks"]
