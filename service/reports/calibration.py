@@ -24,6 +24,9 @@ from service.reports import figures
 from service.reports.figures import Array
 
 PARAMETER_ROWS_PER_PDF_PAGE = 38
+OUTLIER_HEADER = ["pose", "position error (mm)", "orientation error (°)", "statistic", "threshold", "excluded"]
+NO_OUTLIERS = "No pose failed the outlier test."
+ISO_HEADER = ["ISO 9283 pose", "cycles", "AP (mm)", "RP (mm)"]
 REFERENCE_HEADER = [
     "kind",
     "name",
@@ -121,6 +124,14 @@ class CalibrationReport:
             )
         return rows
 
+    def outlier_rows(self) -> list[list[Any]]:
+        """The records that failed the outlier test, worst first (`OUTLIER_HEADER`)."""
+        outliers = self.calibration.get("outliers") or []
+        return [
+            [o["pose"], o["position_mm"], o.get("orientation_deg"), o["statistic"], o["threshold"], o["excluded"]]
+            for o in sorted(outliers, key=lambda o: -float(o["statistic"]))
+        ]
+
     def reference_rows(self) -> list[list[Any]]:
         """One row per identified anchor, point or plane: what it is, where, its records' RMS residual."""
         rows = []
@@ -202,24 +213,36 @@ def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]], *, css: str = 
     return f'<table class="{css}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
 
 
+def validation_sections(
+    validations: Sequence[Mapping[str, Any]],
+) -> list[tuple[Mapping[str, Any], str, list[list[Any]]]]:
+    """Per validation result of the produced version: (the result, its one-line summary, its ISO 9283 rows)."""
+    sections = []
+    for v in validations:
+        for r in v.get("results", []):
+            pos = r["position_mm"]
+            line = (
+                f"Validation {v.get('id')}, version {r['version']}: RMS {_cell(pos['rms'])} mm, max "
+                f"{_cell(pos['max'])} mm over {len(r.get('per_pose', []))} poses."
+            )
+            iso = (r.get("iso9283") or {}).get("poses") or []
+            rows = [[k + 1, p["cycles"], p["AP_mm"], p["RP_mm"]] for k, p in enumerate(iso)]
+            sections.append((r, line, rows))
+    return sections
+
+
 def _validation_html(validations: Sequence[Mapping[str, Any]]) -> str:
     parts = ["<h2>Validation</h2>"]
     for v in validations:
-        for r in v.get("results", []):
+        for r, _, rows in validation_sections([v]):
             pos = r["position_mm"]
             parts.append(
                 f"<p>Validation <code>{html.escape(str(v.get('id')))}</code>, version {r['version']}: "
                 f'RMS <span data-key="validation.rms">{_cell(pos["rms"])}</span> mm, max {_cell(pos["max"])} mm'
                 f" over {len(r.get('per_pose', []))} poses.</p>"
             )
-            iso = (r.get("iso9283") or {}).get("poses") or []
-            if iso:
-                parts.append(
-                    _table(
-                        ["ISO 9283 pose", "cycles", "AP (mm)", "RP (mm)"],
-                        [[k + 1, p["cycles"], p["AP_mm"], p["RP_mm"]] for k, p in enumerate(iso)],
-                    )
-                )
+            if rows:
+                parts.append(_table(ISO_HEADER, rows))
     return "".join(parts)
 
 
@@ -233,18 +256,7 @@ def render_html(report: CalibrationReport) -> str:
         for key, label, value in report.summary()
     )
     figures_html = "".join(f'<figure id="fig-{name}">{figures.svg(fig)}</figure>' for name, fig in report.figures())
-    outliers = c.get("outliers") or []
-    outlier_html = (
-        _table(
-            ["pose", "position error (mm)", "orientation error (°)", "statistic", "threshold", "excluded"],
-            [
-                [o["pose"], o["position_mm"], o.get("orientation_deg"), o["statistic"], o["threshold"], o["excluded"]]
-                for o in sorted(outliers, key=lambda o: -float(o["statistic"]))
-            ],
-        )
-        if outliers
-        else "<p>No pose failed the outlier test.</p>"
-    )
+    outlier_html = _table(OUTLIER_HEADER, report.outlier_rows()) if report.outlier_rows() else f"<p>{NO_OUTLIERS}</p>"
     params = _table(
         ["parameter", "unit", "value", "nominal", "change", "std error", "identifiable", "confounded with"],
         [
@@ -290,6 +302,11 @@ def _text_page(title: str, lines: Sequence[str]) -> Figure:
     return fig
 
 
+def _lines(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:
+    """A table as monospace text lines for a PDF page (html entities of `_cell` undone)."""
+    return [" | ".join(header), *(" | ".join(html.unescape(_cell(v)) for v in row) for row in rows)]
+
+
 def render_pdf(report: CalibrationReport) -> bytes:
     c = report.calibration
     summary = [f"{label:<36} {_cell(value)}" for _, label, value in report.summary()]
@@ -310,7 +327,15 @@ def render_pdf(report: CalibrationReport) -> bytes:
         for start in range(0, len(rows), PARAMETER_ROWS_PER_PDF_PAGE):
             page = [header, *rows[start : start + PARAMETER_ROWS_PER_PDF_PAGE]]
             pdf.savefig(_text_page("Parameters", page))
+        # Every section of the HTML report, as text pages: outliers, references, validations with ISO 9283.
+        outliers = report.outlier_rows()
+        pdf.savefig(_text_page("Outliers", _lines(OUTLIER_HEADER, outliers) if outliers else [NO_OUTLIERS]))
         if report.reference_rows():
-            lines = [" | ".join(REFERENCE_HEADER), *(" | ".join(_cell(v) for v in r) for r in report.reference_rows())]
+            lines = _lines(REFERENCE_HEADER, report.reference_rows())
             pdf.savefig(_text_page("References", [*lines, "", str(c.get("frame") or "")]))
+        if report.validations:
+            lines = []
+            for _, line, iso in validation_sections(report.validations):
+                lines += [line, *(_lines(ISO_HEADER, iso) if iso else []), ""]
+            pdf.savefig(_text_page("Validation", lines))
     return out.getvalue()

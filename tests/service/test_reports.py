@@ -72,6 +72,14 @@ def test_html_report_shows_the_api_numbers_and_real_figures(client: TestClient, 
 
 
 @pytest.mark.slow  # a PDF of every figure: ~7 s here
+def _validation(calibration: dict[str, object]) -> dict[str, object]:
+    """A validation document of the calibration's version with one ISO 9283 pose (the report's input shape)."""
+    per_pose = [{"position_mm": 0.01}, {"position_mm": 0.012}]
+    iso = {"poses": [{"joints": [0.0] * 10, "cycles": 2, "AP_mm": 0.011, "RP_mm": 0.004}], "distances": []}
+    result = {"version": 2, "position_mm": {"rms": 0.011, "max": 0.012}, "per_pose": per_pose, "iso9283": iso}
+    return {"id": "v-1", "results": [result]}
+
+
 def test_pdf_report_has_every_figure_and_the_parameter_table(client: TestClient, robot_id: str) -> None:
     body, positions = _calibration(client, robot_id)
     report = CalibrationReport(body, "cell-3", positions)
@@ -79,4 +87,7 @@ def test_pdf_report_has_every_figure_and_the_parameter_table(client: TestClient,
     assert pdf.startswith(b"%PDF")
     pages = len(re.findall(rb"/Type\s*/Page[^s]", pdf))
     parameter_pages = -(-len(body["parameters"]) // 38)  # type: ignore[arg-type]
-    assert pages == 1 + len(report.figures()) + parameter_pages
+    assert pages == 1 + len(report.figures()) + parameter_pages + 1  # + the outliers' page, as the HTML has
+    with_validation = CalibrationReport(body, "cell-3", positions, validations=[_validation(body)])
+    pages = len(re.findall(rb"/Type\s*/Page[^s]", render_pdf(with_validation)))
+    assert pages == 1 + len(report.figures()) + parameter_pages + 2  # and the validation's, with its ISO 9283
