@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -88,6 +89,8 @@ class _Start:
     std_errors: list[float | None]
     identifiable: list[float | None]
     accuracy_mm: float | None
+    dof: int | None
+    """The degrees of freedom of the calibration that made the start version (None: uncalibrated)."""
 
 
 def _read_start(db: Database, robot_id: str, body: CalibrationCreate, if_match: str | None) -> _Start:
@@ -107,6 +110,7 @@ def _read_start(db: Database, robot_id: str, body: CalibrationCreate, if_match: 
             std_errors=padded(list(row.std_errors or []) if same else [], desc.n_params, None),
             identifiable=padded(list(row.identifiable or []) if same else [], desc.n_params, False),
             accuracy_mm=_predicted_accuracy(repo, row),
+            dof=_made_by(repo, row).get("degrees_of_freedom"),
         )
 
 
@@ -154,6 +158,7 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
         start_accuracy_mm=start.accuracy_mm,
         sigma_mm=body.noise.position_mm,
         held_accuracy_mm=start.accuracy_mm if partial else None,
+        start_dof=start.dof,
     )
     decision = decide(checks, succeeded=result.succeeded, requested=body.apply, force=body.force_apply)
     report = report_out(
@@ -248,12 +253,16 @@ def _lost_race(calibration_id: str, start_version: int, won_by: int) -> str:
     )
 
 
+def _made_by(repo: Repository, version: ParameterVersion) -> dict[str, Any]:
+    """The document of the calibration that made `version` ({} for one no calibration made)."""
+    if version.calibration_id is None:
+        return {}
+    return dict(repo.calibration(version.calibration_id).result)
+
+
 def _predicted_accuracy(repo: Repository, version: ParameterVersion) -> float | None:
     """The start version's predicted RMS TCP accuracy, from the calibration that made it (None: uncalibrated)."""
-    if version.calibration_id is None:
-        return None
-    made_by = repo.calibration(version.calibration_id).result.get("predicted_accuracy") or {}
-    value = made_by.get("rms_position_mm")
+    value = (_made_by(repo, version).get("predicted_accuracy") or {}).get("rms_position_mm")
     return float(value) if isinstance(value, int | float) else None
 
 

@@ -53,15 +53,19 @@ def test_noise_stated_five_times_too_small_is_stored_not_applied(client: TestCli
     assert status == 201 and forced["applied"] and forced["forced"] and forced["parameter_version"] == 2
     trail = client.get("/v1/audit", params={"robot_id": robot_id, "action": "version.calibrated"}).json()
     assert [e["details"].get("forced") for e in trail] == [True]  # the override is on the record
-    # Stating the real σ passes every check (from the nominal version: the forced one claims an accuracy its
-    # understated σ made up, so against it an honest result looks worse, and the accuracy check says so).
+    # Stating the real σ passes every check, from the nominal version and from the forced one: the forced
+    # version's a-posteriori covariance already carried the real noise (its variance factor scales it), so the
+    # honest re-fit predicts the same accuracy within the predictions' own uncertainty (measured: 0.0951 against
+    # 0.0915 mm, 4 %, inside the 13 % their 2 σ allow) and is applied.
     # (apply: false — applying a fit from a version that is no longer current is refused with a 409 anyway)
     honest_body = {"measurements": recs, "noise": {"position_mm": 0.125}, "start_version": 1, "apply": False}
     status, honest = _calibrate(client, robot_id, honest_body)
     assert status == 201 and all(c["passed"] for c in honest["checks"]), honest["checks"]
     status, against_forced = _calibrate(client, robot_id, {**honest_body, "start_version": 2, "apply": True})
     failed = [c["name"] for c in against_forced["checks"] if not c["passed"]]
-    assert status == 201 and failed == ["accuracy"] and not against_forced["applied"]
+    assert status == 201 and failed == [] and against_forced["applied"], against_forced["checks"]
+    ratio = honest["predicted_accuracy"]["rms_position_mm"] / forced["predicted_accuracy"]["rms_position_mm"]
+    assert 1.0 < ratio < 1.1
 
 
 @pytest.mark.parametrize(
@@ -223,3 +227,16 @@ def test_a_malformed_multipart_body_is_a_400_not_a_500(client: TestClient, robot
     assert r.status_code == 400, r.text
     assert r.headers["content-type"].startswith("application/problem+json")
     assert client.get(f"/v1/robots/{robot_id}/calibrations").json() == []  # nothing stored
+
+
+@pytest.mark.slow  # two IWR calibrations: over a second here
+def test_a_campaign_that_would_make_the_robot_less_accurate_is_not_applied(client: TestClient, robot_id: str) -> None:
+    """The accuracy check still refuses what is really worse: after a 60-pose calibration, 14 poses of the same
+    robot predict several times its error, far beyond the predictions' own uncertainty."""
+    status, good = _calibrate(client, robot_id, {"measurements": _campaign(4, n=60)})
+    assert status == 201 and good["applied"], good["checks"]
+    status, few = _calibrate(client, robot_id, {"measurements": _campaign(4, n=14)})
+    failed = {c["name"]: c["detail"] for c in few["checks"] if not c["passed"]}
+    assert status == 201 and not few["applied"] and "accuracy" in failed, few["checks"]
+    assert "less accurate" in failed["accuracy"]
+    assert client.get(f"/v1/robots/{robot_id}/parameters").json()["version"] == good["parameter_version"]
