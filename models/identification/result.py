@@ -37,6 +37,8 @@ class ResidualSummary:
     max_rad: float | None
     per_pose_mm: Array
     per_pose_rad: Array | None
+    per_pose_xyz_mm: Array | None = None
+    """(N, 3) measured minus model along x, y, z (the records' frame); None where records have no direction."""
 
     @staticmethod
     def of(errors: PoseErrors) -> ResidualSummary:
@@ -48,6 +50,7 @@ class ResidualSummary:
             max_rad=None if rot is None else float(rot.max()),
             per_pose_mm=pos,
             per_pose_rad=rot,
+            per_pose_xyz_mm=errors.position_xyz_mm,
         )
 
     @staticmethod

@@ -97,12 +97,14 @@ class PoseErrors:
     """(N,) norm of the position error per pose."""
     orientation_rad: Array | None
     """(N,) rotation angle of the orientation error per pose; None for position-only data."""
+    position_xyz_mm: Array | None = None
+    """(N, 3) the error itself, measured minus model, in the frame the records are in (None where unknown)."""
 
     @staticmethod
     def from_raw(raw: Array) -> PoseErrors:
-        """From unweighted residual rows (N, 3 or 6): position mm, rotation vector rad."""
+        """From unweighted residual rows (N, 3 or 6), model minus measurement: position mm, rotation vector rad."""
         orientation = np.linalg.norm(raw[:, 3:6], axis=1) if raw.shape[1] == 6 else None
-        return PoseErrors(np.linalg.norm(raw[:, :3], axis=1), orientation)
+        return PoseErrors(np.linalg.norm(raw[:, :3], axis=1), orientation, -raw[:, :3])
 
 
 def tcp_accuracy(jacobians: Array, cov_theta: Array) -> tuple[Array, Array]:

@@ -86,6 +86,7 @@ def _accuracy_orientation_deg(accuracy: PredictedAccuracy) -> tuple[float, float
 
 def _residuals(summary: ResidualSummary) -> dict[str, Any]:
     rms_deg, max_deg, per_pose_deg = _residual_orientation_deg(summary)
+    xyz = summary.per_pose_xyz_mm
     return {
         "rms_mm": summary.rms_mm,
         "max_mm": summary.max_mm,
@@ -93,6 +94,8 @@ def _residuals(summary: ResidualSummary) -> dict[str, Any]:
         "max_deg": max_deg,
         "per_pose_mm": summary.per_pose_mm.tolist(),
         "per_pose_deg": None if per_pose_deg is None else per_pose_deg.tolist(),
+        "rms_xyz_mm": None if xyz is None else np.sqrt(np.mean(xyz**2, axis=0)).tolist(),
+        "per_pose_xyz_mm": None if xyz is None else xyz.tolist(),
     }
 
 

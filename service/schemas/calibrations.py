@@ -166,6 +166,14 @@ class ResidualsPublic(Public):
     max_deg: float | None = Field(default=None, exclude_if=_absent_if_none)
     per_pose_mm: list[float]
     per_pose_deg: list[float] | None = Field(default=None, exclude_if=_absent_if_none)
+    rms_xyz_mm: list[OptionalFloat] | None = Field(
+        default=None,
+        exclude_if=_absent_if_none,
+        description="RMS of the error along x, y, z (measured minus model, the records' frame); tracker records",
+    )
+    per_pose_xyz_mm: list[list[OptionalFloat]] | None = Field(
+        default=None, exclude_if=_absent_if_none, description="Each record's error along x, y, z (measured minus model)"
+    )
 
 
 class ResidualsBeforeAfterPublic(Public):

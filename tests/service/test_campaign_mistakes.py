@@ -240,3 +240,17 @@ def test_a_campaign_that_would_make_the_robot_less_accurate_is_not_applied(clien
     assert status == 201 and not few["applied"] and "accuracy" in failed, few["checks"]
     assert "less accurate" in failed["accuracy"]
     assert client.get(f"/v1/robots/{robot_id}/parameters").json()["version"] == good["parameter_version"]
+
+
+def test_residuals_come_per_axis_measured_minus_model(client: TestClient, robot_id: str) -> None:
+    """dx, dy, dz beside the norms: a record read 0.4 mm too far along +x shows +0.4 mm in x (measured minus
+    model) and nothing in y and z, once the fit has left it out."""
+    records = _campaign(6, n=50)
+    records[7]["position"][0] += 0.4
+    status, body = _calibrate(client, robot_id, {"measurements": records})
+    assert status == 201 and [o["pose"] for o in body["outliers"] if o["excluded"]] == [7], body["outliers"]
+    after = body["residuals"]["after"]
+    xyz = np.array(after["per_pose_xyz_mm"])
+    np.testing.assert_allclose(np.linalg.norm(xyz, axis=1), after["per_pose_mm"], rtol=1e-12)
+    np.testing.assert_allclose(after["rms_xyz_mm"], np.sqrt(np.mean(xyz**2, axis=0)), rtol=1e-12)
+    assert xyz[7, 0] == pytest.approx(0.4, abs=0.05) and np.all(np.abs(xyz[7, 1:]) < 0.05)
