@@ -48,6 +48,11 @@ def diff_out(desc: RobotDescription, robot_id: str, a: ParameterVersion, b: Para
     sa, sb = _std(a, len(table)), _std(b, len(table))
     rows: list[dict[str, Any]] = []
     sigmas: list[float] = []
+    geometry: list[float] = []
+    # The base is where the instrument stood (registration), not the robot: a tracker moved between two
+    # campaigns changes it by thousands of σ while the geometry is unchanged (max_abs_sigma 126 720 was the
+    # base's). The diff says which rows it is and ranks the geometry apart.
+    registration = set(range(len(table))[desc.slices["base"]])
     for i, name in enumerate(table.names):
         std_a = None if sa[i] is None else sa[i] * scale[i]
         std_b = None if sb[i] is None else sb[i] * scale[i]
@@ -58,6 +63,8 @@ def diff_out(desc: RobotDescription, robot_id: str, a: ParameterVersion, b: Para
         sigma = difference / combined if combined else None
         if sigma is not None:
             sigmas.append(abs(sigma))
+            if i not in registration:
+                geometry.append(abs(sigma))
         rows.append(
             {
                 "name": name,
@@ -69,6 +76,7 @@ def diff_out(desc: RobotDescription, robot_id: str, a: ParameterVersion, b: Para
                 "std_error_b": std_b,
                 "std_error": combined,
                 "difference_sigma": sigma,
+                "registration": i in registration,
             }
         )
     changed = [name for i, name in enumerate(table.names) if raw_a[i] != raw_b[i]]
@@ -80,6 +88,7 @@ def diff_out(desc: RobotDescription, robot_id: str, a: ParameterVersion, b: Para
             "parameters": rows,
             "changed": changed,
             "max_abs_sigma": max(sigmas) if sigmas else None,
+            "geometry_max_abs_sigma": max(geometry) if geometry else None,
         }
     )
 

@@ -38,6 +38,10 @@ class ParameterDiffPublic(Public):
         "(the two estimates come from different campaigns, so they are taken as independent); null when neither did"
     )
     difference_sigma: OptionalFloat = Field(description="difference / std_error; null without a std error")
+    registration: bool = Field(
+        default=False,
+        description="The base: where the instrument stood relative to the robot (registration), not its geometry",
+    )
 
 
 class VersionDiffPublic(Public):
@@ -47,6 +51,11 @@ class VersionDiffPublic(Public):
     parameters: list[ParameterDiffPublic]
     changed: list[str] = Field(description="Names whose values differ")
     max_abs_sigma: OptionalFloat = Field(description="Largest |difference_sigma|; null when no std error is known")
+    geometry_max_abs_sigma: OptionalFloat = Field(
+        default=None,
+        description="Largest |difference_sigma| of the robot's geometry, the registration (base) left out: what "
+        "changed in the robot rather than where the instrument stood",
+    )
 
 
 class ParameterValueIn(Strict):

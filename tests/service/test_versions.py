@@ -105,9 +105,10 @@ def test_versions_restore_and_diff(client: TestClient, robot_id: str) -> None:
     diff = client.get(f"/v1/robots/{robot_id}/parameter-versions/2/diff/3").json()
     a = {p["name"]: p for p in client.get(f"/v1/robots/{robot_id}/parameters?version=2").json()["parameters"]}
     b = {p["name"]: p for p in client.get(f"/v1/robots/{robot_id}/parameters?version=3").json()["parameters"]}
-    sigmas = []
+    sigmas, geometry = [], []
     for row in diff["parameters"]:
         pa, pb = a[row["name"]], b[row["name"]]
+        assert row["registration"] == row["name"].startswith("base.")  # where the tracker stood
         assert (row["a"], row["b"]) == (pa["value"], pb["value"])
         assert row["difference"] == pytest.approx(pb["value"] - pa["value"], abs=1e-12)
         known = [s for s in (pa["std_error"], pb["std_error"]) if s is not None]
@@ -116,9 +117,12 @@ def test_versions_restore_and_diff(client: TestClient, robot_id: str) -> None:
             assert row["std_error"] == pytest.approx(combined, rel=1e-12)
             assert row["difference_sigma"] == pytest.approx(row["difference"] / combined, rel=1e-9)
             sigmas.append(abs(row["difference_sigma"]))
+            if not row["registration"]:
+                geometry.append(abs(row["difference_sigma"]))
         else:
             assert row["std_error"] is None and row["difference_sigma"] is None
     assert diff["max_abs_sigma"] == pytest.approx(max(sigmas))
+    assert diff["geometry_max_abs_sigma"] == pytest.approx(max(geometry))
     # Two calibrations of two different (simulated) robots differ by many σ on the geometry they both estimate.
     assert diff["max_abs_sigma"] > 10
     same = client.get(f"/v1/robots/{robot_id}/parameter-versions/2/diff/4").json()
