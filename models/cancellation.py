@@ -16,6 +16,7 @@ import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
+from dataclasses import dataclass
 
 
 class Cancelled(Exception):
@@ -32,10 +33,12 @@ class CancellationToken:
     """Set once (`cancel()`, or the `probe` answering True), read cheaply and often (`cancelled`, `check()`).
     `reason` is the first `cancel`'s."""
 
-    def __init__(self, probe: Callable[[], bool] | None = None) -> None:
+    def __init__(self, probe: Callable[[], bool] | None = None, on_step: Callable[[Step], None] | None = None) -> None:
         self._event = threading.Event()
         self._probe = probe
         self.reason: str | None = None
+        self.on_step = on_step
+        """Told of every solver iteration (`step`): what a job reports as its progress. It must not raise."""
 
     def cancel(self, reason: str = "stop") -> None:
         if self.reason is None:
@@ -49,6 +52,34 @@ class CancellationToken:
     def check(self) -> None:
         if self.cancelled:
             raise Cancelled("the computation was cancelled")
+
+
+@dataclass(frozen=True)
+class Step:
+    """One iteration of a solve: its number, how many such solves have taken (None: none seen yet), and the
+    time the solve has run."""
+
+    iteration: int
+    expected: int | None
+    seconds: float
+
+    @property
+    def eta_seconds(self) -> float | None:
+        """The time left if this solve takes as many iterations as such solves have (at least one more)."""
+        if self.expected is None or self.iteration <= 0:
+            return None
+        remaining = max(self.expected - self.iteration, 1)
+        return remaining * self.seconds / self.iteration
+
+
+def step(progress: Step) -> bool:
+    """A solver iteration passed: tell the current token's `on_step`; whether the computation was cancelled."""
+    token = _current.get()
+    if token is None:
+        return False
+    if token.on_step is not None:
+        token.on_step(progress)
+    return token.cancelled
 
 
 _builds = [0]

@@ -58,6 +58,10 @@ IPOPT_OPTIONS: dict[str, Any] = {
 }
 
 
+PAST_SOLVES = 20
+"""Solves a solver remembers the iteration counts of, for the ETA of the next."""
+
+
 class _Callback(ca.Callback):  # type: ignore[misc]  # CasADi is untyped (pyproject: follow_imports skip)
     """A CasADi Function whose value comes from Python (the current campaign's problem)."""
 
@@ -123,7 +127,15 @@ class _StopWhenCancelled(ca.Callback):  # type: ignore[misc]
     def __init__(self, n: int) -> None:
         ca.Callback.__init__(self)
         self.n = n
+        self.iteration = 0
+        self.started = time.perf_counter()
+        self.expected: int | None = None
+        """The median iteration count of this solver's past solves: what a job's ETA assumes."""
         self.construct(f"stop_{n}", {})
+
+    def begin(self, past: list[int]) -> None:
+        self.iteration, self.started = 0, time.perf_counter()
+        self.expected = int(np.median(past)) if past else None
 
     def get_n_in(self) -> int:
         return int(ca.nlpsol_n_out())
@@ -143,7 +155,9 @@ class _StopWhenCancelled(ca.Callback):  # type: ignore[misc]
         return ca.Sparsity(0, 0) if name == "lam_p" else ca.Sparsity.dense(0, 1)
 
     def eval(self, args: list[ca.DM]) -> list[Any]:
-        return [1 if cancellation.cancelled() else 0]
+        self.iteration += 1
+        step = cancellation.Step(self.iteration, self.expected, time.perf_counter() - self.started)
+        return [1 if cancellation.step(step) else 0]
 
 
 class _Solver:
@@ -156,7 +170,10 @@ class _Solver:
         ]
         jac = _Callback("lsq_jac", self, "jac", n)
         f = _Callback("lsq_f", self, "f", n, jacobian=jac)
-        self._callbacks += [jac, f, _StopWhenCancelled(n)]
+        self._iterations = _StopWhenCancelled(n)
+        self._callbacks += [jac, f, self._iterations]
+        self._past: list[int] = []
+        """Iteration counts of the last solves (a job's ETA)."""
         z = ca.MX.sym("z", n)
         options = {
             **IPOPT_OPTIONS,
@@ -175,12 +192,14 @@ class _Solver:
     def solve(self, problem: FitProblem, z0: Array, lower: Array, upper: Array) -> IpoptRun:
         self._problem = problem
         started = time.perf_counter()
+        self._iterations.begin(self._past)
         try:
             out = self.nlp(x0=z0, lbx=lower, ubx=upper)
         finally:
             self._problem = None
         cancellation.check()  # stopped by the iteration callback (or cancelled just after): no result
         stats = self.nlp.stats()
+        self._past = [*self._past[-(PAST_SOLVES - 1) :], int(stats.get("iter_count", 0))]
         return IpoptRun(
             z=np.asarray(out["x"], dtype=float).reshape(-1),
             status=str(stats.get("return_status", "unknown")),

@@ -26,7 +26,7 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from models import Registry
-from models.cancellation import CancellationToken, Cancelled, cancellable
+from models.cancellation import CancellationToken, Cancelled, Step, cancellable
 from service.faults import crash_point
 from service.model_cache import ModelCache
 from service.persistence import Database
@@ -38,6 +38,10 @@ from service.settings import Settings
 
 log = logging.getLogger("service.jobs")
 
+STAGE_SHARE = {"identifying": 0.9}
+"""Of the whole job, the share of the stage a solver's iterations advance (calibrate: identifying 0.05 → 0.95)."""
+SOLVE_FRACTION_CAP = 0.95
+"""A solve past the iterations such solves take is not done: its share stops short of the next stage."""
 PROGRESS_WRITE_SECONDS = 0.25
 """A progress point writes to the database at most this often (the heartbeat stores the latest anyway): a
 60-pose calibration takes ~30 ms, and three extra transactions would cost it ~10 % of its latency."""
@@ -82,6 +86,7 @@ class Lease:
         self.lost = False
         self.cancel = False
         self._latest: dict[str, Any] | None = None
+        self._stage: tuple[str, float] = ("queued", 0.0)
         self._last_write = time.monotonic()
         self._stop = threading.Event()
         self._lock = threading.Lock()
@@ -116,6 +121,7 @@ class Lease:
     def progress(self, stage: str, fraction: float) -> None:
         with self._lock:
             self._latest = {"stage": stage, "fraction": round(float(fraction), 4)}
+            self._stage = (stage, float(fraction))
             due = time.monotonic() - self._last_write >= PROGRESS_WRITE_SECONDS
         if due:
             self._renew()
@@ -123,6 +129,23 @@ class Lease:
             raise LeaseLost(f"job {self.job_id}: lease lost")
         if self.cancel:
             raise Cancelled(f"job {self.job_id} cancelled")
+
+    def iterated(self, step: Step) -> None:
+        """A solver iteration inside the current stage (the token's `on_step`): the stage's share of the job
+        advanced by the iterations such solves take, with the time left. Never raises (it runs inside IPOPT's
+        callback); the heartbeat writes it, or the next progress point."""
+        with self._lock:
+            stage, start = self._stage
+            share = STAGE_SHARE.get(stage, 0.0)
+            done = step.iteration / step.expected if step.expected else 1 - 1 / (1 + step.iteration / 10)
+            fraction = start + share * min(done, SOLVE_FRACTION_CAP)
+            eta = step.eta_seconds
+            self._latest = {
+                "stage": stage,
+                "fraction": round(fraction, 4),
+                "iteration": step.iteration,
+                **({"eta_seconds": round(eta, 3)} if eta is not None else {}),
+            }
 
     def commit(self, session: Session, result_id: str) -> None:
         JobStore(session).succeed(self.job_id, self.worker, result_id)
@@ -147,7 +170,7 @@ def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
     with Lease(ctx, claim.job_id, worker) as lease:
         # Between progress points too: the solvers and design loops check this token at each step
         # (models.cancellation), and the heartbeat sets `cancel` or `lost` within a third of the lease.
-        token = CancellationToken(probe=lambda: lease.cancel or lease.lost)
+        token = CancellationToken(probe=lambda: lease.cancel or lease.lost, on_step=lease.iterated)
         try:
             with cancellable(token):
                 run_job(

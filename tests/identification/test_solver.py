@@ -5,10 +5,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import NoiseModel, RobotDescription, default_registry, forward_kinematics, sample_workspace
+from models import (
+    NoiseModel,
+    RobotDescription,
+    cancellation,
+    default_registry,
+    forward_kinematics,
+    iwr,
+    sample_workspace,
+)
 from models.campaign import Campaign
 from models.identification import identify, rigid_fit, validate
 from models.identification.residuals import CampaignProblem
+from models.runtime import runtime_for
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
 
@@ -65,3 +74,24 @@ def test_validation_on_a_second_campaign_and_after_moving_the_instrument(desc: R
     assert again.registered
     assert again.errors.rms_mm == pytest.approx(report.errors.rms_mm, rel=0.05)
     assert rigid_fit(second.positions, moved.positions).rms_mm < 1e-9
+
+
+def test_each_ipopt_iteration_is_told_with_an_eta_from_the_solver_s_past_solves() -> None:
+    """A job's progress: the current token hears of every iteration (its number, the median iteration count
+    of the solver's past solves, the time so far), and the ETA is the remaining iterations at this pace."""
+    desc = iwr()
+    campaign = measure(perturbed_robot(desc, seed=3), sample_workspace(desc, 30, seed=3), seed=4)
+    heard: list[cancellation.Step] = []
+    runtime = runtime_for(desc)
+    for _ in range(2):
+        with cancellation.cancellable(cancellation.CancellationToken(on_step=heard.append)):
+            result = identify(desc, campaign, runtime=runtime)
+    first = [s for s in heard if s.iteration == 1]
+    assert len(first) >= 2 and [s.iteration for s in heard[: result.solver.iterations]] == list(
+        range(1, result.solver.iterations + 1)
+    )
+    later = heard[-1]
+    assert later.expected is not None and later.expected >= 1 and later.seconds > 0
+    assert cancellation.Step(2, 10, 1.0).eta_seconds == pytest.approx(4.0)  # 8 left at 0.5 s each
+    assert cancellation.Step(12, 10, 1.2).eta_seconds == pytest.approx(0.1)  # past the typical: one more
+    assert cancellation.Step(3, None, 1.0).eta_seconds is None
