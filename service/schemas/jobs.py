@@ -22,9 +22,12 @@ class JobAccepted(Public):
 class JobProgress(Public):
     stage: str = Field(description="reading, identifying, designing, storing, done, …")
     fraction: float = Field(ge=0, le=1)
-    iteration: int | None = Field(default=None, description="The solver's iteration within the stage")
+    iteration: int | None = Field(
+        default=None, exclude_if=lambda v: v is None, description="The solver's iteration within the stage"
+    )
     eta_seconds: float | None = Field(
         default=None,
+        exclude_if=lambda v: v is None,
         description="The stage's time left if its solve takes as many iterations as this robot's solves have "
         "taken in this worker (absent before the first)",
     )
