@@ -1,0 +1,154 @@
+"""Compensated Cartesian targets: the pose to give a controller that runs the nominal model so that the calibrated
+robot's TCP lands where the nominal robot's would have.
+
+For a target T (robot-base frame, mm) the nominal controller would drive the joints q_nom = IK_nominal(T). The
+calibrated robot reaches T at q* = IK_calibrated(T), seeded at q_nom (the same configuration, the nearest
+solution). Commanding T' = FK_nominal(q*) makes the nominal controller drive q*, which the real robot turns into
+T. The robot-base frame is the calibrated model's base frame, as in `correct_program`: the nominal promise is
+the nominal geometry placed where the calibrated model puts the robot's base.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from models._types import Array
+from models.compensation.compensate import compensate
+from models.inverse import inverse_kinematics
+from models.kinematics import forward_kinematics
+from models.robot import RobotDescription
+from models.runtime import Runtime, runtime_for
+from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np
+
+MAX_BRANCH_STEP_RAD = float(np.radians(2.0))
+"""A compensation moves joints by hundredths of a degree; a joint of q* more than this away from q_nom means
+the calibrated solution lies on another branch (a wrist flip, a turn), which the controller would not follow."""
+
+
+@dataclass(frozen=True)
+class PoseCompensation:
+    """Corrected targets, with the joints behind them and a reason for every target left as it was."""
+
+    poses: Array
+    """(N, 4, 4) corrected targets in the robot-base frame (mm); the original where not reached."""
+    reached: NDArray[np.bool_]
+    reasons: tuple[str | None, ...]
+    nominal_joints: Array
+    """(N, n_joints) the nominal controller's joints for the original target (NaN where it has none)."""
+    joints: Array
+    """(N, n_joints) the calibrated robot's joints reaching the original target (NaN where none)."""
+
+
+def pose_matrices(positions: ArrayLike, rotations: ArrayLike) -> Array:
+    """(N, 4, 4) homogeneous transforms from (N, 3) positions and (N, 3, 3) rotations."""
+    p = np.asarray(positions, dtype=float)
+    out = np.tile(np.eye(4), (p.shape[0], 1, 1))
+    out[:, :3, :3] = np.asarray(rotations, dtype=float)
+    out[:, :3, 3] = p
+    return out
+
+
+def pose6_matrix(pose6: ArrayLike) -> Array:
+    """4x4 of a (translation mm, rotation vector rad) 6-vector, the parameters' convention for base and tool."""
+    v = np.asarray(pose6, dtype=float)
+    return pose_matrices(v[None, :3], rotvec_to_matrix_np(v[None, 3:6]))[0]
+
+
+def matrix_pose6(t: Array) -> Array:
+    return np.r_[t[:3, 3], matrix_to_rotvec_np(t[:3, :3])]
+
+
+def compensate_poses(
+    desc: RobotDescription,
+    calibrated: ArrayLike,
+    nominal: ArrayLike,
+    targets: ArrayLike,
+    *,
+    tools: ArrayLike | None = None,
+    seeds: ArrayLike | None = None,
+    runtime: Runtime | None = None,
+) -> PoseCompensation:
+    """Targets (N, 4, 4, robot-base frame, mm) corrected for the calibrated robot, run by a nominal controller.
+
+    `tools` (N, 4, 4): the flange -> TCP transform each target is taught with (a program's tool), replacing the
+    models' own tool in both models; None: each model keeps its tool (the calibrated one measured, the nominal
+    one as designed). `seeds`: joints near which the nominal controller's solution is sought (one vector or one
+    per target; default the model's default seed). Targets are solved in one batch per distinct tool.
+    """
+    rt = runtime_for(desc, runtime)
+    theta_cal = desc.parameters.vector(calibrated)
+    theta_nom = desc.parameters.vector(nominal).copy()
+    theta_nom[desc.slices["base"]] = theta_cal[desc.slices["base"]]
+    t = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    n = t.shape[0]
+    seed_rows = None if seeds is None else np.broadcast_to(np.asarray(seeds, dtype=float), (n, desc.n_joints))
+    base = pose6_matrix(theta_cal[desc.slices["base"]])
+    world = base @ t
+    out = PoseCompensation(
+        poses=t.copy(),
+        reached=np.zeros(n, dtype=bool),
+        reasons=tuple([None] * n),
+        nominal_joints=np.full((n, desc.n_joints), np.nan),
+        joints=np.full((n, desc.n_joints), np.nan),
+    )
+    reasons: list[str | None] = list(out.reasons)
+    for tool, idx in _tool_groups(tools, n):
+        cal, nom = theta_cal.copy(), theta_nom.copy()
+        if tool is not None:
+            cal[desc.slices["tool"]] = nom[desc.slices["tool"]] = tool
+        seed = None if seed_rows is None else seed_rows[idx]
+        corrected, q_nom, q_cal, why = _compensate_group(desc, cal, nom, world[idx], seed, rt)
+        out.poses[idx] = np.linalg.inv(base) @ corrected
+        out.nominal_joints[idx], out.joints[idx] = q_nom, q_cal
+        out.reached[idx] = [w is None for w in why]
+        for k, i in enumerate(idx):
+            reasons[i] = why[k]
+    return PoseCompensation(out.poses, out.reached, tuple(reasons), out.nominal_joints, out.joints)
+
+
+def _tool_groups(tools: ArrayLike | None, n: int) -> list[tuple[Array | None, NDArray[np.intp]]]:
+    """The distinct tools (as parameter 6-vectors) and the targets taught with each."""
+    if tools is None:
+        return [(None, np.arange(n))]
+    mats = np.asarray(tools, dtype=float).reshape(n, 4, 4)
+    keys = np.round(mats.reshape(n, 16), 12)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    return [(matrix_pose6(mats[first[g]]), np.flatnonzero(inverse.ravel() == g)) for g in range(first.size)]
+
+
+def _compensate_group(
+    desc: RobotDescription, cal: Array, nom: Array, world: Array, seed: Array | None, rt: Runtime
+) -> tuple[Array, Array, Array, list[str | None]]:
+    """World-frame corrected targets, nominal and calibrated joints, and why each miss (None: reached)."""
+    n = world.shape[0]
+    positions, quats = world[:, :3, 3], matrix_to_quaternion(world[:, :3, :3])
+    ik_nom = inverse_kinematics(desc, positions, quats, nom, seed=seed, runtime=rt)
+    why: list[str | None] = [None] * n
+    for i in np.flatnonzero(~ik_nom.reachable):
+        why[i] = f"the nominal robot cannot reach it ({ik_nom.reasons[i]})"
+    q_nom = np.where(ik_nom.reachable[:, None], ik_nom.joints, np.nan)
+    corrected = world.copy()
+    q_cal = np.full_like(q_nom, np.nan)
+    ok = np.flatnonzero(ik_nom.reachable)
+    if ok.size == 0:
+        return corrected, q_nom, q_cal, why
+    ik_cal = compensate(desc, cal, positions[ok], quats[ok], seed=q_nom[ok], runtime=rt)
+    step = np.max(np.abs(ik_cal.joints - q_nom[ok]), axis=1)
+    good = ik_cal.reachable & (step <= MAX_BRANCH_STEP_RAD)
+    for k, i in enumerate(ok):
+        if not ik_cal.reachable[k]:
+            why[i] = f"the calibrated robot cannot reach it ({ik_cal.reasons[k]})"
+        elif not good[k]:
+            why[i] = (
+                f"the calibrated robot reaches it only on another configuration (a joint moves "
+                f"{np.degrees(step[k]):.3g}° from the nominal solution): the controller would not follow"
+            )
+    keep = ok[good]
+    q_cal[keep] = ik_cal.joints[good]
+    if keep.size:
+        fk = forward_kinematics(desc, q_cal[keep], nom, runtime=rt)
+        corrected[keep] = pose_matrices(fk.positions, fk.rotations)
+    return corrected, q_nom, q_cal, why
