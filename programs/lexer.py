@@ -1,0 +1,108 @@
+"""A tokenizer shared by the dialects: each gives its token kinds as regular expressions, tried in order at
+each position; every character of the text belongs to exactly one token, so the tokens' spans cover the text
+and a rewrite can replace a number's characters and keep every other byte."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from programs.errors import ProgramSyntaxError
+
+
+@dataclass(frozen=True)
+class Token:
+    kind: str
+    text: str
+    start: int
+    """Character offset in the text (the text is the decoded program: offsets count characters)."""
+    line: int
+    column: int
+    """1-based line and column."""
+
+    @property
+    def end(self) -> int:
+        return self.start + len(self.text)
+
+    def is_(self, kind: str, text: str | None = None, *, fold: bool = True) -> bool:
+        if self.kind != kind:
+            return False
+        if text is None:
+            return True
+        return self.text.lower() == text.lower() if fold else self.text == text
+
+
+class Lexer:
+    """Tokens of a dialect: `spec` is (kind, pattern) in the order they are tried; kinds in `skip` (blanks,
+    comments) are dropped from the stream the parsers read, `newline` tokens are kept where lines matter."""
+
+    def __init__(self, spec: Sequence[tuple[str, str]], *, skip: frozenset[str], flags: int = 0) -> None:
+        self.pattern = re.compile("|".join(f"(?P<{kind}>{pat})" for kind, pat in spec), flags)
+        self.skip = skip
+
+    def tokens(self, text: str, file: str | None = None) -> list[Token]:
+        out: list[Token] = []
+        pos, line, line_start = 0, 1, 0
+        while pos < len(text):
+            m = self.pattern.match(text, pos)
+            if m is None or m.end() == pos:
+                raise ProgramSyntaxError(
+                    f"unexpected character {text[pos]!r}",
+                    file=file,
+                    line=line,
+                    column=pos - line_start + 1,
+                    reason="unexpected-character",
+                )
+            kind = m.lastgroup or ""
+            piece = m.group()
+            if kind not in self.skip:
+                out.append(Token(kind, piece, pos, line, pos - line_start + 1))
+            breaks = piece.count("\n")
+            if breaks:
+                line += breaks
+                line_start = pos + piece.rindex("\n") + 1
+            pos = m.end()
+        return out
+
+
+class Cursor:
+    """A parser's position in a token list, with the errors that name the token where the grammar broke."""
+
+    def __init__(self, tokens: list[Token], file: str | None, what: str) -> None:
+        self.tokens, self.file, self.what, self.i = tokens, file, what, 0
+
+    def peek(self, ahead: int = 0) -> Token | None:
+        k = self.i + ahead
+        return self.tokens[k] if k < len(self.tokens) else None
+
+    def next(self) -> Token:
+        tok = self.peek()
+        if tok is None:
+            last = self.tokens[-1] if self.tokens else None
+            raise self.error(f"{self.what} ends early", last)
+        self.i += 1
+        return tok
+
+    def expect(self, kind: str, text: str | None = None) -> Token:
+        tok = self.next()
+        if not tok.is_(kind, text):
+            want = repr(text) if text is not None else kind
+            raise self.error(f"expected {want} in {self.what}, found {tok.text!r}", tok)
+        return tok
+
+    def accept(self, kind: str, text: str | None = None) -> Token | None:
+        tok = self.peek()
+        if tok is not None and tok.is_(kind, text):
+            self.i += 1
+            return tok
+        return None
+
+    def error(self, detail: str, tok: Token | None) -> ProgramSyntaxError:
+        return ProgramSyntaxError(
+            detail,
+            file=self.file,
+            line=tok.line if tok else None,
+            column=tok.column if tok else None,
+            reason="syntax",
+        )
