@@ -49,8 +49,8 @@ RELATIVE = frozenset({"ptp_rel", "lin_rel", "circ_rel", "sptp_rel", "slin_rel", 
 POSE_MEMBERS = ("x", "y", "z", "a", "b", "c")
 JOINT_MEMBERS = frozenset({f"a{k}" for k in range(1, 7)})
 FRAME_TABLES = {"base_data": "base", "tool_data": "tool"}
-MIN_DECIMALS = (4, 4, 4, 5, 5, 5)
-"""mm to 0.1 µm and degrees to 1e-5° (0.02 µm at a metre): the correction survives its printing."""
+MIN_DECIMALS = (3, 3, 3, 4, 4, 4)
+"""mm to 1 µm and degrees to 1e-4° (2 µm at a metre): the correction survives its printing."""
 
 
 @dataclass(frozen=True)
@@ -299,15 +299,21 @@ def _pose(aggregate: Aggregate) -> tuple[Array | None, str | None]:
 
 def _frame(sym: Symbols, value: Aggregate | Ref | None, st: Statement, file: str | None) -> tuple[Array, str]:
     """A base or tool frame named by `$BASE = ...` or found in a table; UndeclaredFrame where it is not."""
-    where = {"file": file, "line": st.first.line, "column": st.first.column}
+    line, column = st.first.line, st.first.column
     if value is None:
         raise ProgramError(
-            "the frame is an expression this reader does not evaluate", reason="frame-expression", **where
+            "the frame is an expression this reader does not evaluate",
+            reason="frame-expression",
+            file=file,
+            line=line,
+            column=column,
         )
     if isinstance(value, Aggregate):
         pose, why = _pose(value)
         if pose is None:
-            raise ProgramError(f"the frame cannot be read: {why}", reason="frame-partial", **where)
+            raise ProgramError(
+                f"the frame cannot be read: {why}", reason="frame-partial", file=file, line=line, column=column
+            )
         return pose, "{...}"
     name = value.name.text.lower()
     if name == "$nullframe":
@@ -470,7 +476,8 @@ def read(program: str, files: Mapping[str, str]) -> Program:
     for file, agg, frames, why in walk.inline:
         if _is_cartesian(sym, "", agg):
             targets.append(_target(file, None, agg, frames, why))
-    texts: dict[str | None, str] = {PROGRAM: program, **files}
+    texts: dict[str | None, str] = {PROGRAM: program}
+    texts.update(files)
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))
 
 

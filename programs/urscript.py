@@ -38,8 +38,8 @@ LEXER = Lexer(
 )
 MOTIONS = {"movel": (0,), "movej": (0,), "movep": (0,), "servoc": (0,), "movec": (0, 1)}
 """Each motion's pose arguments (0-based)."""
-METRE_DECIMALS = (7, 7, 7, 7, 7, 7)
-"""0.1 µm and 1e-7 rad: the correction survives its printing."""
+METRE_DECIMALS = (6, 6, 6, 6, 6, 6)
+"""1 µm and 1e-6 rad (1 µm at a metre): the correction survives its printing."""
 
 
 @dataclass(frozen=True)

@@ -54,11 +54,13 @@ def pose_matrices(positions: ArrayLike, rotations: ArrayLike) -> Array:
 def pose6_matrix(pose6: ArrayLike) -> Array:
     """4x4 of a (translation mm, rotation vector rad) 6-vector, the parameters' convention for base and tool."""
     v = np.asarray(pose6, dtype=float)
-    return pose_matrices(v[None, :3], rotvec_to_matrix_np(v[None, 3:6]))[0]
+    out: Array = pose_matrices(v[None, :3], rotvec_to_matrix_np(v[None, 3:6]))[0]
+    return out
 
 
 def matrix_pose6(t: Array) -> Array:
-    return np.r_[t[:3, 3], matrix_to_rotvec_np(t[:3, :3])]
+    out: Array = np.r_[t[:3, 3], matrix_to_rotvec_np(t[:3, :3])]
+    return out
 
 
 def compensate_poses(
@@ -100,7 +102,7 @@ def compensate_poses(
         if tool is not None:
             cal[desc.slices["tool"]] = nom[desc.slices["tool"]] = tool
         seed = None if seed_rows is None else seed_rows[idx]
-        corrected, q_nom, q_cal, why = _compensate_group(desc, cal, nom, world[idx], seed, rt)
+        corrected, q_nom, q_cal, why = _compensate_group(desc, cal, nom, world[idx], seed=seed, rt=rt)
         out.poses[idx] = np.linalg.inv(base) @ corrected
         out.nominal_joints[idx], out.joints[idx] = q_nom, q_cal
         out.reached[idx] = [w is None for w in why]
@@ -120,7 +122,7 @@ def _tool_groups(tools: ArrayLike | None, n: int) -> list[tuple[Array | None, ND
 
 
 def _compensate_group(
-    desc: RobotDescription, cal: Array, nom: Array, world: Array, seed: Array | None, rt: Runtime
+    desc: RobotDescription, cal: Array, nom: Array, world: Array, *, seed: Array | None, rt: Runtime
 ) -> tuple[Array, Array, Array, list[str | None]]:
     """World-frame corrected targets, nominal and calibrated joints, and why each miss (None: reached)."""
     n = world.shape[0]
