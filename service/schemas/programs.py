@@ -43,6 +43,13 @@ class CompensatedTarget(Public):
     line: int
     column: int
     name: str | None = Field(description="The variable holding the target (null: written inside a motion)")
+    base_frame: str | None = Field(
+        description="The base it is taught in, as the program names it (BASE_DATA[2], a wobjdata, a feature); "
+        "null: the robot's base"
+    )
+    tool_frame: str | None = Field(
+        description="The tool it is taught with, as the program names it; null: the robot model's own tool"
+    )
     reached: bool = Field(description="Corrected; false: kept as written, `reason` says why")
     correction_mm: list[float] | None = Field(
         description="New minus old position in the target's base frame (mm); null where kept"

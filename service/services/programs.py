@@ -87,6 +87,8 @@ def _target_out(o: TargetOutcome) -> CompensatedTarget:
         line=t.line,
         column=t.column,
         name=t.name,
+        base_frame=t.frames.base_name,
+        tool_frame=t.frames.tool_name,
         reached=o.pose is not None,
         correction_mm=delta_mm,
         correction_deg=delta_deg,
