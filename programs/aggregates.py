@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from programs.lexer import Token
+from programs.lexer import Cursor, Token
 from programs.numbers import parse_number
 
 
@@ -46,3 +46,24 @@ def signed_number(sign: Token | None, tok: Token) -> Number:
     if sign is not None and sign.text == "-":
         value = -value
     return Number(value, sign if sign is not None else tok, tok)
+
+
+def literal_or_expression(cur: Cursor, close: str, what: str) -> Value:
+    """One item of a bracketed literal, up to its `,` or its closing bracket `close`: a (signed) number, or
+    anything else read to the item's end and kept as written (an expression, a name, a string, an enumeration).
+    Nothing at all is a syntax error naming what is missing."""
+    sign = cur.accept("op", "-") or cur.accept("op", "+")
+    first = cur.next()
+    nxt = cur.peek()
+    if first.kind == "number" and (nxt is None or nxt.is_("op", ",") or nxt.is_("op", close)):
+        return signed_number(sign, first)
+    if first.is_("op", ",") or first.is_("op", close):
+        raise cur.error(f"{what} is missing before {first.text!r}", first)
+    depth, text = int(first.kind == "op" and first.text in "([{"), first.text
+    while (nxt := cur.peek()) is not None and not (depth == 0 and (nxt.is_("op", ",") or nxt.is_("op", close))):
+        if nxt.is_("op", ";") and close == "]":
+            raise cur.error("the statement ends inside an aggregate", nxt)
+        depth += nxt.kind == "op" and nxt.text in "([{"
+        depth -= nxt.kind == "op" and nxt.text in ")]}"
+        text += cur.next().text
+    return Opaque(sign or first, (sign.text if sign else "") + text)

@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models._types import Array
-from programs.aggregates import Number, Opaque, Value, signed_number
-from programs.errors import ProgramError, UndeclaredFrame
+from programs.aggregates import Number, Opaque, Value, literal_or_expression
+from programs.errors import ProgramError
 from programs.frames import abc_matrix, matrix_abc, transform
-from programs.lexer import Cursor, Lexer, Token
+from programs.lexer import Cursor, Lexer, Token, undeclared
 from programs.targets import PROGRAM, Configuration, Frames, Program, Slot, Target, written
 
 NAME = "krl"
@@ -126,20 +126,7 @@ def _member_value(cur: Cursor) -> Value:
     if tok is not None and tok.is_("op", "{"):
         inner = parse_aggregate(cur)
         return Opaque(inner.open, "{...}")
-    sign = cur.accept("op", "-") or cur.accept("op", "+")
-    first = cur.next()
-    nxt = cur.peek()
-    if first.kind == "number" and (nxt is None or nxt.is_("op", ",") or nxt.is_("op", "}")):
-        return signed_number(sign, first)
-    if first.is_("op", "}") or first.is_("op", ","):
-        raise cur.error(f"a member has no value before {first.text!r}", first)
-    # An expression, a name, a bit pattern, an enumeration: read to the member's end, kept as written.
-    depth, text = 0, first.text
-    while (nxt := cur.peek()) is not None and not (depth == 0 and (nxt.is_("op", ",") or nxt.is_("op", "}"))):
-        depth += nxt.text in "([{" and nxt.kind == "op"
-        depth -= nxt.text in ")]}" and nxt.kind == "op"
-        text += cur.next().text
-    return Opaque(sign or first, (sign.text if sign else "") + text)
+    return literal_or_expression(cur, "}", "a member's value")
 
 
 @dataclass(frozen=True)
@@ -322,12 +309,8 @@ def _frame(sym: Symbols, value: Aggregate | Ref | None, st: Statement, file: str
         return _table(sym, FRAME_TABLES[name], int(value.index), st, file)
     found = sym.value(name, value.index)
     if found is None:
-        raise UndeclaredFrame(
-            f"{value.name.text} is not declared with a value in the program or its files",
-            reason="undeclared-frame",
-            file=file,
-            line=value.name.line,
-            column=value.name.column,
+        raise undeclared(
+            f"{value.name.text} is not declared with a value in the program or its files", file, value.name
         )
     return _frame(sym, found, st, file)
 
@@ -338,12 +321,8 @@ def _table(sym: Symbols, kind: str, n: int, st: Statement, file: str | None) -> 
         return np.eye(4), label  # number 0: the robot's base, the flange
     agg = sym.tables.get((kind, n))
     if agg is None:
-        raise UndeclaredFrame(
-            f"{label} is used but neither the program nor its files ($config.dat) assign it",
-            reason="undeclared-frame",
-            file=file,
-            line=st.first.line,
-            column=st.first.column,
+        raise undeclared(
+            f"{label} is used but neither the program nor its files ($config.dat) assign it", file, st.first
         )
     pose, why = _pose(agg)
     if pose is None:

@@ -8,7 +8,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from programs.errors import ProgramSyntaxError
+from programs.errors import ProgramSyntaxError, UndeclaredFrame
 
 
 @dataclass(frozen=True)
@@ -106,3 +106,8 @@ class Cursor:
             column=tok.column if tok else None,
             reason="syntax",
         )
+
+
+def undeclared(detail: str, file: str | None, tok: Token) -> UndeclaredFrame:
+    """A base or tool named at `tok` that the program and its files do not declare."""
+    return UndeclaredFrame(detail, file=file, line=tok.line, column=tok.column, reason="undeclared-frame")

@@ -19,10 +19,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models._types import Array
-from programs.aggregates import Number, Opaque, Value, signed_number
-from programs.errors import UndeclaredFrame
+from programs.aggregates import Number, Opaque, Value, literal_or_expression
 from programs.frames import matrix_quaternion, quaternion_matrix, transform
-from programs.lexer import Cursor, Lexer, Token
+from programs.lexer import Cursor, Lexer, Token, undeclared
 from programs.targets import PROGRAM, Configuration, Frames, Program, Slot, Target, written
 
 NAME = "rapid"
@@ -74,21 +73,7 @@ def _item(cur: Cursor) -> Agg | Value:
     tok = cur.peek()
     if tok is not None and tok.is_("op", "["):
         return parse_aggregate(cur)
-    sign = cur.accept("op", "-") or cur.accept("op", "+")
-    first = cur.next()
-    nxt = cur.peek()
-    if first.kind == "number" and (nxt is None or nxt.is_("op", ",") or nxt.is_("op", "]")):
-        return signed_number(sign, first)
-    if first.kind == "op" and first.text in ",];":
-        raise cur.error(f"an aggregate item is missing before {first.text!r}", first)
-    depth, text = int(first.kind == "op" and first.text in "([{"), first.text
-    while (nxt := cur.peek()) is not None and not (depth == 0 and (nxt.is_("op", ",") or nxt.is_("op", "]"))):
-        if nxt.is_("op", ";"):
-            raise cur.error("the statement ends inside an aggregate", nxt)
-        depth += nxt.kind == "op" and nxt.text in "([{"
-        depth -= nxt.kind == "op" and nxt.text in ")]}"
-        text += cur.next().text
-    return Opaque(sign or first, text)
+    return literal_or_expression(cur, "]", "an aggregate item")
 
 
 def statements(tokens: list[Token]) -> list[list[Token]]:
@@ -285,13 +270,8 @@ def _frame(sym: Symbols, tokens: list[Token], default: str, file: str | None) ->
         return np.eye(4), name.text, None
     found = sym.frames.get(word) if len(tokens) == 1 else None
     if found is None:
-        raise UndeclaredFrame(
-            f"{''.join(t.text for t in tokens)} is not a tooldata or wobjdata the program or its files declare",
-            reason="undeclared-frame",
-            file=file,
-            line=name.line,
-            column=name.column,
-        )
+        what = "".join(t.text for t in tokens)
+        raise undeclared(f"{what} is not a tooldata or wobjdata the program or its files declare", file, name)
     return found.matrix if found.matrix is not None else np.eye(4), name.text, found.kept
 
 

@@ -17,10 +17,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from models._types import Array
-from programs.aggregates import Number, Opaque, Value, signed_number
-from programs.errors import UndeclaredFrame
+from programs.aggregates import Number, Value, literal_or_expression
 from programs.frames import matrix_rotvec, rotvec_matrix, transform
-from programs.lexer import Cursor, Lexer, Token
+from programs.lexer import Cursor, Lexer, Token, undeclared
 from programs.targets import PROGRAM, Frames, Program, Slot, Target, written
 
 NAME = "urscript"
@@ -76,20 +75,7 @@ def parse_pose(cur: Cursor) -> Pose:
 
 
 def _element(cur: Cursor) -> Value:
-    sign = cur.accept("op", "-") or cur.accept("op", "+")
-    first = cur.next()
-    nxt = cur.peek()
-    if first.kind == "number" and (nxt is None or nxt.is_("op", ",") or nxt.is_("op", "]")):
-        return signed_number(sign, first)
-    if first.is_("op", ",") or first.is_("op", "]"):
-        raise cur.error(f"a pose element is missing before {first.text!r}", first)
-    depth, text = 0, first.text
-    depth += first.text in "([" and first.kind == "op"
-    while (nxt := cur.peek()) is not None and not (depth == 0 and (nxt.is_("op", ",") or nxt.is_("op", "]"))):
-        depth += nxt.kind == "op" and nxt.text in "(["
-        depth -= nxt.kind == "op" and nxt.text in ")]"
-        text += cur.next().text
-    return Opaque(sign or first, text)
+    return literal_or_expression(cur, "]", "a pose element")
 
 
 def pose_matrix(pose: Pose) -> Array | None:
@@ -187,12 +173,8 @@ def _frame(reading: Reading, name: Token, at: int, file: str | None) -> Array:
     pose = reading.latest(name.text, at)
     matrix = pose_matrix(pose) if pose is not None else None
     if matrix is None:
-        raise UndeclaredFrame(
-            f"{name.text} is used as a frame but no literal pose is given to it in the program",
-            reason="undeclared-frame",
-            file=file,
-            line=name.line,
-            column=name.column,
+        raise undeclared(
+            f"{name.text} is used as a frame but no literal pose is given to it in the program", file, name
         )
     return matrix
 

@@ -67,7 +67,7 @@ def test_krl_an_undeclared_base_is_refused_where_it_is_used() -> None:
     ("line", "column", "what"),
     [
         ("DECL E6POS XP9={X 1,Y 2,,Z 3}", 25, "expected name"),
-        ("DECL E6POS XP9={X 1,Y 2,Z}", 26, "no value"),
+        ("DECL E6POS XP9={X 1,Y 2,Z}", 26, "value is missing"),
         ("DECL E6POS XP9={X 1,X 2}", 21, "twice"),
         ("DECL POS XP9={X 1,Y 2", 21, "ends early"),
     ],
