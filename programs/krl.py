@@ -23,7 +23,7 @@ from programs.aggregates import Number, Opaque, Value, literal_or_expression
 from programs.errors import ProgramError
 from programs.frames import abc_matrix, matrix_abc, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Configuration, Frames, Program, Slot, Target, written
+from programs.targets import PROGRAM, Configuration, Frames, Program, Target, target_at, written
 
 NAME = "krl"
 LEXER = Lexer(
@@ -410,19 +410,8 @@ def _frames_of(walk: Walk, key: tuple[str, str | None]) -> tuple[Frames, str | N
 def _target(file: str | None, name: str | None, agg: Aggregate, frames: Frames, why: str | None) -> Target:
     pose, partial = _pose(agg)
     members = [agg.members.get(m) for m in POSE_MEMBERS]
-    slots = tuple(Slot(file, v.start, v.end, v.text) for v in members if isinstance(v, Number))
-    like = tuple(v.value if isinstance(v, Number) else 0.0 for v in members[3:])
-    return Target(
-        file=file,
-        line=agg.open.line,
-        column=agg.open.column,
-        name=name,
-        pose=pose if pose is not None else np.full((4, 4), np.nan),
-        slots=slots,
-        frames=frames,
-        configuration=_turn(agg),
-        kept=partial or why,
-        style={"abc": like},
+    return target_at(
+        file, name, agg.open, members, pose, frames=frames, kept=partial or why, configuration=_turn(agg), style="abc"
     )
 
 

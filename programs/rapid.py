@@ -22,7 +22,7 @@ from models._types import Array
 from programs.aggregates import Number, Opaque, Value, literal_or_expression
 from programs.frames import matrix_quaternion, quaternion_matrix, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Configuration, Frames, Program, Slot, Target, written
+from programs.targets import PROGRAM, Configuration, Frames, Program, Target, target_at, written
 
 NAME = "rapid"
 LEXER = Lexer(
@@ -345,19 +345,17 @@ def _frames_of(sym: Symbols, key: tuple[str, str | None]) -> tuple[Frames, str |
 
 
 def _target(file: str | None, name: str | None, rt: Robtarget, frames: Frames, why: str | None) -> Target:
-    slots = tuple(Slot(file, v.start, v.end, v.text) for v in rt.numbers if isinstance(v, Number))
-    like = [v.value if isinstance(v, Number) else 0.0 for v in rt.numbers[3:]]
-    return Target(
-        file=file,
-        line=rt.open.line,
-        column=rt.open.column,
-        name=name,
-        pose=rt.pose if rt.pose is not None else np.full((4, 4), np.nan),
-        slots=slots,
+    literal = None if rt.pose is not None else "not literal numbers: the target is known only at run time"
+    return target_at(
+        file,
+        name,
+        rt.open,
+        rt.numbers,
+        rt.pose,
         frames=frames,
+        kept=why or literal,
         configuration=rt.configuration,
-        kept=why or (None if rt.pose is not None else "not literal numbers: the target is known only at run time"),
-        style={"quaternion": like},
+        style="quaternion",
     )
 
 

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models._types import Array
+from programs.aggregates import Number, Value
 from programs.lexer import Token
 from programs.numbers import styled
 
@@ -96,3 +97,33 @@ def rewrite(texts: Mapping[str | None, str], edits: Sequence[tuple[Slot, str]]) 
         pieces.append(text[at:])
         out[name] = "".join(pieces)
     return out
+
+
+def target_at(
+    file: str | None,
+    name: str | None,
+    opening: Token,
+    values: Sequence[Value | None],
+    pose: Array | None,
+    *,
+    frames: Frames,
+    kept: str | None,
+    configuration: Configuration | None = None,
+    style: str,
+) -> Target:
+    """A target from its literal: `values` are its position then its rotation's numbers as written (None or
+    Opaque where not a number: no slot), the rotation's also kept as `style` for writing it back nearby."""
+    slots = tuple(Slot(file, v.start, v.end, v.text) for v in values if isinstance(v, Number))
+    like = tuple(v.value if isinstance(v, Number) else 0.0 for v in values[3:])
+    return Target(
+        file=file,
+        line=opening.line,
+        column=opening.column,
+        name=name,
+        pose=pose if pose is not None else np.full((4, 4), np.nan),
+        slots=slots,
+        frames=frames,
+        configuration=configuration,
+        kept=kept,
+        style={style: like},
+    )

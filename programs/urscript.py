@@ -20,7 +20,7 @@ from models._types import Array
 from programs.aggregates import Number, Value, literal_or_expression
 from programs.frames import matrix_rotvec, rotvec_matrix, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Frames, Program, Slot, Target, written
+from programs.targets import PROGRAM, Frames, Program, Target, target_at, written
 
 NAME = "urscript"
 LEXER = Lexer(
@@ -211,19 +211,8 @@ def _read_events(events: list[Event], file: str | None) -> Reading:
 
 def _target(file: str | None, pose: Pose, name: str | None, frames: Frames, why: str | None) -> Target:
     matrix = pose_matrix(pose)
-    slots = tuple(Slot(file, v.start, v.end, v.text) for v in pose.values if isinstance(v, Number))
-    like = [v.value if isinstance(v, Number) else 0.0 for v in pose.values[3:]]
-    return Target(
-        file=file,
-        line=pose.open.line,
-        column=pose.open.column,
-        name=name,
-        pose=matrix if matrix is not None else np.full((4, 4), np.nan),
-        slots=slots,
-        frames=frames,
-        kept=why or (None if matrix is not None else "not literal numbers: the pose is known only at run time"),
-        style={"rotvec": like},
-    )
+    literal = None if matrix is not None else "not literal numbers: the pose is known only at run time"
+    return target_at(file, name, pose.open, pose.values, matrix, frames=frames, kept=why or literal, style="rotvec")
 
 
 def read(program: str, files: Mapping[str, str]) -> Program:
