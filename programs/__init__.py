@@ -12,6 +12,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from models._types import Array
 from programs import csv_poses, krl, rapid, urscript
 from programs.errors import ProgramError, ProgramSyntaxError, UndeclaredFrame
@@ -23,8 +25,8 @@ class Dialect:
     name: str
     read: Callable[[str, Mapping[str, str]], Program]
     """The program's text and its companion files by name -> its targets."""
-    numbers: Callable[[Target, Array], list[str]]
-    """A target and its new pose (4x4 in its base frame, mm) -> the texts of its slots."""
+    numbers: Callable[[Sequence[Target], Array], list[list[str]]]
+    """Targets and their new poses ((N, 4, 4) in their base frames, mm) -> the texts of each one's slots."""
     extensions: tuple[str, ...]
 
 
@@ -57,9 +59,14 @@ def read_program(name: str, program: str, files: Mapping[str, str] | None = None
 
 def rewritten(program: Program, changes: Sequence[tuple[Target, Array]]) -> dict[str | None, str]:
     """The program's texts with each changed target's numbers written for its new pose (4x4, its base frame)."""
-    numbers = dialect(program.format).numbers
+    if not changes:
+        return rewrite(program.texts, [])
+    targets = [target for target, _ in changes]
+    texts = dialect(program.format).numbers(targets, np.array([pose for _, pose in changes]))
     edits = [
-        (slot, text) for target, pose in changes for slot, text in zip(target.slots, numbers(target, pose), strict=True)
+        (slot, text)
+        for target, new in zip(targets, texts, strict=True)
+        for slot, text in zip(target.slots, new, strict=True)
     ]
     return rewrite(program.texts, edits)
 

@@ -9,7 +9,7 @@ tab or `,`. Fields may be quoted (`"1.5"`, `""` inside quotes is a quote); line 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,11 +18,11 @@ from models._types import Array
 from programs.errors import ProgramSyntaxError
 from programs.frames import (
     abc_matrix,
-    matrix_abc,
-    matrix_quaternion,
-    matrix_rotvec,
+    abcs_like,
     quaternion_matrix,
+    quaternions_like,
     rotvec_matrix,
+    rotvecs_like,
     transform,
 )
 from programs.numbers import parse_number
@@ -169,14 +169,21 @@ def read(program: str, files: Mapping[str, str]) -> Program:
     return Program(NAME, {PROGRAM: program}, tuple(targets))
 
 
-def numbers(target: Target, pose: Array) -> list[str]:
-    kind = str(target.style["kind"])
-    like = target.style["like"]
-    r = pose[:3, :3]
-    if kind == "abc":
-        rotation = list(matrix_abc(r, like))  # type: ignore[arg-type]
-    elif kind == "quaternion":
-        rotation = list(matrix_quaternion(r, like))  # type: ignore[arg-type]
-    else:
-        rotation = list(np.degrees(matrix_rotvec(r, np.radians(like))))  # type: ignore[call-overload]
-    return written([*pose[:3, 3], *rotation], target.slots, MIN_DECIMALS[kind])
+def numbers(targets: Sequence[Target], poses: Array) -> list[list[str]]:
+    """Each row's numbers in its table's orientation convention (one table has one)."""
+    out = []
+    for kind, cols in ORIENTATIONS.items():
+        idx = [k for k, t in enumerate(targets) if t.style["kind"] == kind]
+        if not idx:
+            continue
+        like = np.array([targets[k].style["like"] for k in idx], dtype=float).reshape(-1, len(cols))
+        r = poses[idx, :3, :3]
+        if kind == "abc":
+            rotation = abcs_like(r, like)
+        elif kind == "quaternion":
+            rotation = quaternions_like(r, like)
+        else:
+            rotation = np.degrees(rotvecs_like(r, np.radians(like)))
+        values = np.hstack([poses[idx, :3, 3], rotation])
+        out += [(k, written(v, targets[k].slots, MIN_DECIMALS[kind])) for k, v in zip(idx, values, strict=True)]
+    return [texts for _, texts in sorted(out)]

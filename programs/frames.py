@@ -89,3 +89,64 @@ def matrix_rotvec(r: Array, like: ArrayLike = (0.0, 0.0, 0.0)) -> Array:
     axis = v / angle
     candidates = [v, axis * (angle - 2 * np.pi), axis * (angle + 2 * np.pi)]
     return min(candidates, key=lambda c: float(np.linalg.norm(c - ref)))
+
+
+# ---------------------------------------------------------------- whole batches (a program's targets at once)
+
+
+def quaternions(r: Array) -> Array:
+    """(N, 4) [w, x, y, z] of (N, 3, 3) rotations, w >= 0: Shepperd's choice of the largest component to divide
+    by, for every rotation at once (`models.transforms.matrix_to_quaternion` loops over them)."""
+    m = np.asarray(r, dtype=float).reshape(-1, 3, 3)
+    t = np.trace(m, axis1=1, axis2=2)
+    d = np.stack([t, m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
+    pick = np.argmax(d, axis=1)
+    s = 2.0 * np.sqrt(np.maximum(1.0 + 2.0 * d[np.arange(len(m)), pick] - t, 1e-300))
+    a21, a12 = m[:, 2, 1], m[:, 1, 2]
+    a02, a20 = m[:, 0, 2], m[:, 2, 0]
+    a10, a01 = m[:, 1, 0], m[:, 0, 1]
+    cases = np.stack(
+        [
+            np.stack([0.25 * s, (a21 - a12) / s, (a02 - a20) / s, (a10 - a01) / s], axis=1),
+            np.stack([(a21 - a12) / s, 0.25 * s, (a01 + a10) / s, (a02 + a20) / s], axis=1),
+            np.stack([(a02 - a20) / s, (a01 + a10) / s, 0.25 * s, (a12 + a21) / s], axis=1),
+            np.stack([(a10 - a01) / s, (a02 + a20) / s, (a12 + a21) / s, 0.25 * s], axis=1),
+        ],
+        axis=1,
+    )
+    q = cases[np.arange(len(m)), pick]
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    out: Array = q / np.linalg.norm(q, axis=1, keepdims=True)
+    return out
+
+
+def quaternions_like(r: Array, like: Array) -> Array:
+    """Quaternions with the signs of `like` (N, 4)."""
+    q = quaternions(r)
+    return np.where(np.sum(q * like, axis=1, keepdims=True) < 0, -q, q)
+
+
+def rotvecs_like(r: Array, like: Array) -> Array:
+    """(N, 3) rotation vectors (radians), each the spelling nearest its `like` (v, or v a turn shorter/longer)."""
+    q = quaternions(r)
+    sin_half = np.linalg.norm(q[:, 1:], axis=1)
+    angle = 2.0 * np.arctan2(sin_half, q[:, 0])
+    axis = np.where(sin_half[:, None] > 1e-12, q[:, 1:] / np.where(sin_half > 1e-12, sin_half, 1.0)[:, None], 0.0)
+    candidates = np.stack([axis * (angle + k * 2 * np.pi)[:, None] for k in (0, -1, 1)], axis=1)
+    best = np.argmin(np.linalg.norm(candidates - like[:, None, :], axis=2), axis=1)
+    out: Array = candidates[np.arange(len(q)), best]
+    return out
+
+
+def abcs_like(r: Array, like: Array) -> Array:
+    """(N, 3) KUKA A, B, C (degrees), of the two solutions the one nearest `like`, each angle a whole number of
+    turns from where it is computed to lie nearest its `like`."""
+    b = np.degrees(np.arctan2(-r[:, 2, 0], np.hypot(r[:, 0, 0], r[:, 1, 0])))
+    a = np.degrees(np.arctan2(r[:, 1, 0], r[:, 0, 0]))
+    c = np.degrees(np.arctan2(r[:, 2, 1], r[:, 2, 2]))
+    first = np.stack([a, b, c], axis=1)
+    second = np.stack([a + 180.0, 180.0 - b, c + 180.0], axis=1)
+    near = [x + 360.0 * np.round((like - x) / 360.0) for x in (first, second)]
+    pick = np.sum((near[1] - like) ** 2, axis=1) < np.sum((near[0] - like) ** 2, axis=1)
+    out: Array = np.where(pick[:, None], near[1], near[0])
+    return out

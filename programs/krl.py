@@ -13,7 +13,7 @@ files ($config.dat) assign them; `$BASE` is taken relative to the robot's base (
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,7 +21,7 @@ import numpy as np
 from models._types import Array
 from programs.aggregates import Number, Opaque, Value, literal_or_expression
 from programs.errors import ProgramError
-from programs.frames import abc_matrix, matrix_abc, transform
+from programs.frames import abc_matrix, abcs_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
 from programs.targets import PROGRAM, Configuration, Frames, Program, Target, target_at, written
 
@@ -449,10 +449,10 @@ def read(program: str, files: Mapping[str, str]) -> Program:
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))
 
 
-def numbers(target: Target, pose: Array) -> list[str]:
-    like = target.style.get("abc", (0.0, 0.0, 0.0))
-    a, b, c = matrix_abc(pose[:3, :3], like)  # type: ignore[arg-type]
-    return written([*pose[:3, 3], a, b, c], target.slots, MIN_DECIMALS)
+def numbers(targets: Sequence[Target], poses: Array) -> list[list[str]]:
+    like = np.array([t.style.get("abc", (0.0, 0.0, 0.0)) for t in targets], dtype=float).reshape(-1, 3)
+    values = np.hstack([poses[:, :3, 3], abcs_like(poses[:, :3, :3], like)])
+    return [written(v, t.slots, MIN_DECIMALS) for v, t in zip(values, targets, strict=True)]
 
 
 __all__ = ["NAME", "numbers", "read"]

@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from programs.errors import ProgramSyntaxError, UndeclaredFrame
 
 
-@dataclass(frozen=True)
-class Token:
+class Token(NamedTuple):
+    """A tuple (~3x cheaper to make than a frozen dataclass: a 10 000-target program has 450 000 tokens)."""
+
     kind: str
     text: str
     start: int
@@ -44,25 +45,26 @@ class Lexer:
     def tokens(self, text: str, file: str | None = None) -> list[Token]:
         out: list[Token] = []
         pos, line, line_start = 0, 1, 0
-        while pos < len(text):
-            m = self.pattern.match(text, pos)
-            if m is None or m.end() == pos:
-                raise ProgramSyntaxError(
-                    f"unexpected character {text[pos]!r}",
-                    file=file,
-                    line=line,
-                    column=pos - line_start + 1,
-                    reason="unexpected-character",
-                )
+        skip = self.skip
+        for m in self.pattern.finditer(text):
+            if m.start() != pos or m.end() == pos:
+                break  # a character no token starts with (an empty match would loop)
             kind = m.lastgroup or ""
             piece = m.group()
-            if kind not in self.skip:
+            if kind not in skip:
                 out.append(Token(kind, piece, pos, line, pos - line_start + 1))
-            breaks = piece.count("\n")
-            if breaks:
-                line += breaks
+            if "\n" in piece:
+                line += piece.count("\n")
                 line_start = pos + piece.rindex("\n") + 1
             pos = m.end()
+        if pos < len(text):
+            raise ProgramSyntaxError(
+                f"unexpected character {text[pos]!r}",
+                file=file,
+                line=line,
+                column=pos - line_start + 1,
+                reason="unexpected-character",
+            )
         return out
 
 

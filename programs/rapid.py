@@ -13,14 +13,14 @@ with `;` and may span lines.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from models._types import Array
 from programs.aggregates import Number, Opaque, Value, literal_or_expression
-from programs.frames import matrix_quaternion, quaternion_matrix, transform
+from programs.frames import quaternion_matrix, quaternions_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
 from programs.targets import PROGRAM, Configuration, Frames, Program, Target, target_at, written
 
@@ -376,7 +376,7 @@ def read(program: str, files: Mapping[str, str]) -> Program:
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))
 
 
-def numbers(target: Target, pose: Array) -> list[str]:
-    like = target.style.get("quaternion", (1.0, 0.0, 0.0, 0.0))
-    q = matrix_quaternion(pose[:3, :3], like)  # type: ignore[arg-type]
-    return written([*pose[:3, 3], *q], target.slots, MIN_DECIMALS)
+def numbers(targets: Sequence[Target], poses: Array) -> list[list[str]]:
+    like = np.array([t.style.get("quaternion", (1.0, 0.0, 0.0, 0.0)) for t in targets], dtype=float).reshape(-1, 4)
+    values = np.hstack([poses[:, :3, 3], quaternions_like(poses[:, :3, :3], like)])
+    return [written(v, t.slots, MIN_DECIMALS) for v, t in zip(values, targets, strict=True)]

@@ -11,14 +11,14 @@ kept as written. `#` starts a comment.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from models._types import Array
 from programs.aggregates import Number, Value, literal_or_expression
-from programs.frames import matrix_rotvec, rotvec_matrix, transform
+from programs.frames import rotvec_matrix, rotvecs_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
 from programs.targets import PROGRAM, Frames, Program, Target, target_at, written
 
@@ -241,7 +241,7 @@ def _same(a: Frames, b: Frames) -> bool:
     return tools and bool(np.allclose(a.base, b.base))
 
 
-def numbers(target: Target, pose: Array) -> list[str]:
-    like = target.style.get("rotvec", (0.0, 0.0, 0.0))
-    rv = matrix_rotvec(pose[:3, :3], like)  # type: ignore[arg-type]
-    return written([*(pose[:3, 3] / 1e3), *rv], target.slots, METRE_DECIMALS)
+def numbers(targets: Sequence[Target], poses: Array) -> list[list[str]]:
+    like = np.array([t.style.get("rotvec", (0.0, 0.0, 0.0)) for t in targets], dtype=float).reshape(-1, 3)
+    values = np.hstack([poses[:, :3, 3] / 1e3, rotvecs_like(poses[:, :3, :3], like)])
+    return [written(v, t.slots, METRE_DECIMALS) for v, t in zip(values, targets, strict=True)]

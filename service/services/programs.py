@@ -55,21 +55,22 @@ def compensate_program(
     outcomes = {id(t): TargetOutcome(t, None, t.kept) for t in program.targets}
     if active:
         start = default_seed(desc) if seed is None else seed
+        bases = np.array([t.frames.base for t in active])
         result = compensate_poses(
             desc,
             calibrated,
             desc.parameters.nominal if nominal is None else nominal,
-            np.array([t.frames.base @ t.pose for t in active]),
+            bases @ np.array([t.pose for t in active]),
             tools=[t.frames.tool for t in active],
             seeds=np.array([configuration_seed(t.configuration, start, desc.n_joints) for t in active]),
             runtime=runtime,
         )
+        in_base = np.linalg.solve(bases, result.poses)  # back into each target's own base frame
         for k, t in enumerate(active):
             why = result.reasons[k] or kept(
                 t.configuration, result.nominal_joints[k], result.joints[k], desc.joint_names
             )
-            pose = None if why is not None else np.linalg.solve(t.frames.base, result.poses[k])
-            outcomes[id(t)] = TargetOutcome(t, pose, why)
+            outcomes[id(t)] = TargetOutcome(t, None if why is not None else in_base[k], why)
     ordered = tuple(outcomes[id(t)] for t in program.targets)
     changes = [(o.target, o.pose) for o in ordered if o.pose is not None]
     return CompensatedProgram(rewritten(program, changes), ordered)
