@@ -103,6 +103,7 @@ def lines(tokens: list[Token]) -> list[list[Token]]:
 def parse_aggregate(cur: Cursor) -> Aggregate:
     """`{ [TYPE:] name value, ... }` (values may be aggregates); a value that is not one literal is Opaque."""
     opening = cur.expect("op", "{")
+    cur.enter(opening)
     type_name = None
     if cur.peek(1) is not None and cur.peek(1).is_("op", ":"):  # type: ignore[union-attr]
         type_name = cur.expect("name").text.lower()
@@ -118,6 +119,7 @@ def parse_aggregate(cur: Cursor) -> Aggregate:
         if key in members:
             raise cur.error(f"member {member.text} is given twice", member)
         members[key] = _member_value(cur)
+    cur.leave()
     return Aggregate(opening, members, type_name)
 
 

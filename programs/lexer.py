@@ -68,11 +68,26 @@ class Lexer:
         return out
 
 
+MAX_NESTING = 16
+
+
 class Cursor:
     """A parser's position in a token list, with the errors that name the token where the grammar broke."""
 
     def __init__(self, tokens: list[Token], file: str | None, what: str) -> None:
         self.tokens, self.file, self.what, self.i = tokens, file, what, 0
+        self.depth = 0
+        """Aggregates open around the position: the readers recurse into nested ones."""
+
+    def enter(self, tok: Token) -> None:
+        """One aggregate deeper; refused past `MAX_NESTING` (a robtarget nests 3 deep, a KRL FDAT 2), before
+        Python's recursion limit would turn a hostile program into an internal error."""
+        self.depth += 1
+        if self.depth > MAX_NESTING:
+            raise self.error(f"aggregates nested more than {MAX_NESTING} deep", tok)
+
+    def leave(self) -> None:
+        self.depth -= 1
 
     def peek(self, ahead: int = 0) -> Token | None:
         k = self.i + ahead

@@ -38,6 +38,8 @@ LEXER = Lexer(
     skip=frozenset({"blank", "comment", "newline"}),
 )
 STORAGE = frozenset({"const", "pers", "var"})
+FRAME_TYPES = frozenset({"robtarget", "tooldata", "wobjdata"})
+"""The data this reader reads the values of: the targets and the frames they are taught in."""
 MOTIONS = {
     name: points
     for points, names in (
@@ -61,10 +63,12 @@ class Agg:
 
 def parse_aggregate(cur: Cursor) -> Agg:
     opening = cur.expect("op", "[")
+    cur.enter(opening)
     items: list[Agg | Value] = []
     while True:
         items.append(_item(cur))
         if cur.accept("op", "]"):
+            cur.leave()
             return Agg(opening, tuple(items))
         cur.expect("op", ",")
 
@@ -213,6 +217,8 @@ def _declaration(cur: Cursor, sym: Symbols, file: str | None) -> None:
     sym.types[name.text.lower()] = type_name
     if index is not None:
         sym.arrays.add(name.text.lower())
+    if type_name not in FRAME_TYPES:
+        return  # a num, a speeddata, a loaddata...: not read (its syntax is the controller's business)
     if cur.accept("op", ":="):
         value = _item(cur)
         _given(sym, file, cur, type_name, name, array=index is not None, value=value)

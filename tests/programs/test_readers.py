@@ -133,3 +133,15 @@ def test_csv_rows_are_targets_and_a_bad_number_names_its_place() -> None:
     assert (info.value.line, info.value.column) == (6, 4)
     with pytest.raises(ProgramSyntaxError, match="lacks x, y, z"):
         read_program("csv", "name,x,y\r\nP,1,2\r\n", {})
+
+
+@pytest.mark.parametrize(
+    ("format_name", "text"),
+    [
+        ("krl", "DEFDAT a\r\nDECL E6POS P={X " + "{X " * 5000 + "1" + "}" * 5001 + "\r\nENDDAT\r\n"),
+        ("rapid", "MODULE m\r\nCONST robtarget p:=" + "[" * 5000 + "1" + "]" * 5000 + ";\r\nENDMODULE\r\n"),
+    ],
+)
+def test_hostile_nesting_is_a_syntax_error_not_a_crash(format_name: str, text: str) -> None:
+    with pytest.raises(ProgramSyntaxError, match="nested more than"):
+        read_program(format_name, text, {})
