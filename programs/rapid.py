@@ -324,7 +324,7 @@ def _assignment(cur: Cursor, sym: Symbols, file: str | None) -> None:
     name = cur.next()
     index = _index(cur)
     type_name = sym.types.get(name.text.lower())
-    if type_name is None or not cur.accept("op", ":="):
+    if type_name not in FRAME_TYPES or not cur.accept("op", ":="):
         return
     nxt = cur.peek()
     if nxt is None or not nxt.is_("op", "["):
