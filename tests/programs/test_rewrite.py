@@ -41,11 +41,16 @@ def _slot_spans(program: Program, file: str | None) -> list[tuple[int, int]]:
     return [(s.start, s.end) for t in program.targets if t.kept is None for s in t.slots if s.file == file]
 
 
-@pytest.mark.parametrize("format_name", sorted(SAMPLES))
-def test_only_the_numbers_of_the_corrected_targets_change(format_name: str) -> None:
+def _rewritten_sample(format_name: str) -> tuple[Program, dict[str | None, str]]:
+    """A sample program and its texts with every target it can correct moved."""
     text, files = SAMPLES[format_name]
     program = read_program(format_name, text, files)
-    out = rewritten(program, _changes(program))
+    return program, rewritten(program, _changes(program))
+
+
+@pytest.mark.parametrize("format_name", sorted(SAMPLES))
+def test_only_the_numbers_of_the_corrected_targets_change(format_name: str) -> None:
+    program, out = _rewritten_sample(format_name)
     for name, before in program.texts.items():
         after = out[name]
         old_parts, new_parts = NUMBER.split(before), NUMBER.split(after)
@@ -60,9 +65,7 @@ def test_only_the_numbers_of_the_corrected_targets_change(format_name: str) -> N
 
 @pytest.mark.parametrize("format_name", sorted(SAMPLES))
 def test_outside_the_slots_every_character_is_kept(format_name: str) -> None:
-    text, files = SAMPLES[format_name]
-    program = read_program(format_name, text, files)
-    out = rewritten(program, _changes(program))
+    program, out = _rewritten_sample(format_name)
     for name, before in program.texts.items():
         spans = sorted(_slot_spans(program, name))
         kept_before, at = [], 0
