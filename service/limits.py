@@ -137,9 +137,9 @@ def inverse_kinematics(targets: int) -> Estimate:
     return Estimate(f"inverse kinematics of {targets} targets", seconds, memory)
 
 
-PROGRAM_S_PER_TARGET = 2.5e-3
-"""Measured: a program's targets on the UR5-like arm, 2 000 in 4.2-5.1 s (the nominal solution of each target
-from the model's table, then the calibrated one from it), on the loaded 2-core machine."""
+PROGRAM_S_PER_TARGET = 1.0e-3
+"""Measured: a 10 000-target URScript program on the UR5-like arm read, compensated and rewritten in 7.7 s
+(benchmarks/bench_programs.py, the loaded 2-core machine), rounded up."""
 PROGRAM_BYTES_PER_TARGET = 2 * IK_BYTES_PER_TARGET  # two inverse-kinematics batches
 
 

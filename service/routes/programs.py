@@ -7,12 +7,11 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Query, Request, Response
 
-from programs import dialect_of_file
 from service import limits
 from service.deps import DatabaseDep, MetricsDep, ModelCacheDep, RegistryDep, compute
 from service.dispatch import BodyComputation, computed
 from service.json_bodies import OffloopRoute, request_body
-from service.operations import Runs, operation
+from service.operations import PROGRAM_COMPENSATION, Runs, operation, program_targets
 from service.schemas.programs import ProgramFormat, ProgramRequest, ProgramResponse
 from service.security import Scope
 from service.services import programs
@@ -23,7 +22,7 @@ COMPENSATE = BodyComputation(
     "program_compensation",
     ProgramRequest,
     programs.compensate,
-    estimate=lambda body: programs.estimate(body.format, body.program.encode()),
+    estimate=lambda body: limits.program_compensation(program_targets(body.program.encode())),
 )
 TEXT_TYPES = ("text/", "application/octet-stream")
 
@@ -41,7 +40,7 @@ TEXT_TYPES = ("text/", "application/octet-stream")
         }
     },
 )
-@operation(Scope.read, runs=Runs.COMPUTE)
+@operation(Scope.read, runs=Runs.COMPUTE, precount=PROGRAM_COMPENSATION)
 async def compensate(
     robot_id: str,
     *,
@@ -61,9 +60,10 @@ async def compensate(
         out = await computed(m, COMPENSATE, request, db=db, models=models, registry=registry, robot_id=robot_id)
         return Response(out, media_type="application/json")
     raw = await request.body()
-    name = format or _format_of(filename)
+    # The guard counts JSON bodies (the operation's precount); a text body is counted here, before it is parsed.
     budget = request.app.state.settings.sync_budget_seconds
-    limits.admit(programs.estimate(name or "", raw), run_async=False, can_run_async=False, budget_s=budget)
+    estimate = limits.program_compensation(program_targets(raw))
+    limits.admit(estimate, run_async=False, can_run_async=False, budget_s=budget)
     answer = await compute(
         m,
         COMPENSATE.kind,
@@ -78,8 +78,3 @@ async def compensate(
         robot_id=robot_id,
     )
     return Response(answer.model_dump_json(), media_type="application/json")
-
-
-def _format_of(filename: str | None) -> str | None:
-    found = dialect_of_file(filename) if filename else None
-    return found.name if found is not None else None

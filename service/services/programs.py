@@ -17,7 +17,6 @@ from models.transforms import matrix_to_rotvec_np
 from programs import DIALECTS, PROGRAM, Program, ProgramError, Target, dialect, dialect_of_file, read_program, rewritten
 from programs.configuration import kept
 from programs.configuration import seed as configuration_seed
-from service import limits
 from service.conversions.kinematics import joints_in
 from service.conversions.robots import description
 from service.conversions.terms import stored_model
@@ -124,16 +123,6 @@ def compensate(
         files={name: text for name, text in done.texts.items() if name is not None and name in changed},
         targets=[_target_out(o) for o in done.outcomes],
     )
-
-
-_MARKERS = {"krl": b"{", "rapid": b"[[", "urscript": b"p[", "csv": b"\n"}
-"""A cheap upper count of a program's targets in its bytes (every KRL aggregate, every RAPID nested aggregate,
-every URScript pose literal, every CSV line), for admission before anything is parsed."""
-
-
-def estimate(format_name: str, raw: bytes) -> limits.Estimate:
-    marker = _MARKERS.get(format_name, b"\n")
-    return limits.program_compensation(raw.count(marker) + 1)
 
 
 def request_from_text(

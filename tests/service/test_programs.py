@@ -154,3 +154,13 @@ def test_a_program_over_the_body_limit_is_refused(tmp_path: Path, registry: Regi
         )
         assert big.status_code == 413
         assert big.json()["type"].endswith("payload-too-large")
+
+
+def test_a_program_over_the_work_budget_is_refused_from_its_bytes(client: TestClient, ur5: str) -> None:
+    rows = "x,y,z,a,b,c\n" + "400,0,300,0,180,0\n" * 3_000  # 3 000 targets: ~3 s, over the 2 s budget
+    answer = _post(client, ur5, format="csv", program=rows)
+    assert answer.status_code == 422 and answer.json()["type"].endswith("work-too-large"), answer.text
+    text = client.post(
+        f"/v1/robots/{ur5}/programs/compensate?format=csv", content=rows.encode(), headers={"Content-Type": "text/csv"}
+    )
+    assert text.status_code == 422 and text.json()["type"].endswith("work-too-large")
