@@ -164,3 +164,10 @@ def test_a_program_over_the_work_budget_is_refused_from_its_bytes(client: TestCl
         f"/v1/robots/{ur5}/programs/compensate?format=csv", content=rows.encode(), headers={"Content-Type": "text/csv"}
     )
     assert text.status_code == 422 and text.json()["type"].endswith("work-too-large")
+
+
+def test_an_unknown_version_or_robot_is_not_found(client: TestClient, ur5: str) -> None:
+    body = {"format": "csv", "program": "x,y,z,a,b,c\n400,0,300,0,180,0\n"}
+    missing_version = _post(client, ur5, version=99, **body)
+    assert missing_version.status_code == 404 and "no parameter version 99" in missing_version.json()["detail"]
+    assert _post(client, "00000000-0000-0000-0000-000000000000", **body).status_code == 404
