@@ -34,6 +34,7 @@ from service.routes import (
     health,
     jobs,
     kinematics,
+    programs,
     reports,
     robots,
     validations,
@@ -212,6 +213,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         audit,
         validations,
         reports,
+        programs,
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)

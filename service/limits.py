@@ -137,6 +137,18 @@ def inverse_kinematics(targets: int) -> Estimate:
     return Estimate(f"inverse kinematics of {targets} targets", seconds, memory)
 
 
+PROGRAM_S_PER_TARGET = 1.0e-3
+"""Measured: a 10 000-target URScript program on the UR5-like arm read, compensated and rewritten in 7.7 s
+(benchmarks/bench_programs.py, the loaded 2-core machine), rounded up."""
+PROGRAM_BYTES_PER_TARGET = 2 * IK_BYTES_PER_TARGET  # two inverse-kinematics batches
+
+
+def program_compensation(targets: int) -> Estimate:
+    return Estimate(
+        f"a program of up to {targets} targets", targets * PROGRAM_S_PER_TARGET, targets * PROGRAM_BYTES_PER_TARGET
+    )
+
+
 def pose_design(candidates: int, count: int, fixed: int, criterion: str, *, bound_seconds: float = 0.0) -> Estimate:
     """`bound_seconds` of branch and bound come on top (D, A and I spend them all unless the tree closes)."""
     m = candidates + fixed

@@ -75,6 +75,16 @@ def _records(body: bytes) -> int:
     return len(_JOINTS_KEY.findall(body))
 
 
+def program_targets(body: bytes) -> int:
+    """An upper count of a robot program's targets in its bytes, JSON or the text itself, whatever its format:
+    KRL aggregates that open with X (`{X`, `{E6POS: X`), RAPID's nested aggregates (`[[`: every robtarget, and
+    the few tool and work object data), URScript pose literals (`p[`); a CSV's lines where none of those is
+    found (a newline, or `\\n` inside a JSON string)."""
+    marked = len(_KRL_POSE.findall(body)) + body.count(b"[[") + body.count(b"p[")
+    return marked if marked else max(body.count(b"\n"), body.count(b"\\n"))
+
+
+_KRL_POSE = re.compile(rb"\{\s*(?:[A-Za-z0-9_]+\s*:\s*)?[Xx]\s")
 _POSITION_KEY = re.compile(rb'"position"\s*:')
 _JOINTS_KEY = re.compile(rb'"joints"\s*:')
 
@@ -84,6 +94,7 @@ _JOINTS_KEY = re.compile(rb'"joints"\s*:')
 FORWARD_KINEMATICS = Precount(_joint_vectors, limits.forward_kinematics)
 INVERSE_KINEMATICS = Precount(_targets, limits.inverse_kinematics)
 CALIBRATION = Precount(_records, limits.calibration)
+PROGRAM_COMPENSATION = Precount(program_targets, limits.program_compensation)
 
 
 def operation(

@@ -17,6 +17,7 @@ from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from models import errors as domain
+from programs import errors as program_errors
 from service import errors as service
 from service.schemas.structure import STAGE_KINDS
 
@@ -35,6 +36,9 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     domain.TooFewMeasurements: (422, "too-few-measurements", "Too few measurements"),
     domain.TargetUnreachable: (422, "target-unreachable", "Target accuracy unreachable"),
     domain.UnknownParameter: (422, "unknown-parameter", "Unknown parameter or group"),
+    program_errors.ProgramSyntaxError: (422, "program-syntax", "Syntax error in the program"),
+    program_errors.UndeclaredFrame: (422, "undeclared-frame", "Base or tool not declared"),
+    program_errors.ProgramError: (422, "program-error", "Program not understood"),
     domain.InvalidInput: (422, "invalid-input", "Invalid input"),
     domain.NotIdentifiable: (422, "not-identifiable", "Nothing identifiable"),
     domain.InconsistentData: (422, "inconsistent-data", "Data inconsistent with the robot"),

@@ -1,0 +1,247 @@
+"""Universal Robots URScript: the Cartesian targets of a .script program.
+
+A pose is `p[x, y, z, rx, ry, rz]`: metres and a rotation vector (axis times angle, radians), in the robot's
+base frame. The targets are the pose literals a motion goes to (movel, movej, movep, servoc; movec's via and
+end poses), written as the motion's argument or given to a variable (`global Waypoint_1_p = p[...]`) that a
+motion names, and those placed in a feature by `pose_trans(feature, p[...])`, where the feature's own literal
+is the base. `set_tcp(p[...])` sets the tool of the motions after it (in the text's order); without one the
+robot model's tool applies. Joint lists (`movej([...])`) and every other pose (offsets, features, the TCP) are
+kept as written. `#` starts a comment.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from models._types import Array
+from programs.aggregates import Number, Value, literal_or_expression
+from programs.frames import rotvec_matrix, rotvecs_like, transform
+from programs.lexer import Cursor, Lexer, Token, undeclared
+from programs.targets import PROGRAM, Frames, Program, Target, target_at, written
+
+NAME = "urscript"
+LEXER = Lexer(
+    [
+        ("newline", r"\r?\n"),
+        ("blank", r"[ \t\f\v\r]+|\\\r?\n"),
+        ("comment", r"#[^\r\n]*"),
+        ("string", r'"(?:[^"\\\r\n]|\\.)*"' + r"|'(?:[^'\\\r\n]|\\.)*'"),
+        ("number", r"(?:\d+\.\d*|\.\d+|\d+)(?:[eE][+-]?\d+)?"),
+        ("name", r"[A-Za-z_]\w*"),
+        ("op", r"==|!=|<=|>=|[-+*/%=<>()\[\],:.{}$]"),
+    ],
+    skip=frozenset({"blank", "comment", "newline"}),
+)
+MOTIONS = {"movel": (0,), "movej": (0,), "movep": (0,), "servoc": (0,), "movec": (0, 1)}
+"""Each motion's pose arguments (0-based)."""
+METRE_DECIMALS = (6, 6, 6, 6, 6, 6)
+"""1 µm and 1e-6 rad (1 µm at a metre): the correction survives its printing."""
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A `p[...]` literal: its six values (metres, radians) and its tokens."""
+
+    open: Token
+    values: tuple[Value, ...]
+    end: int
+    """Index of the token after its `]`."""
+
+
+@dataclass(eq=False)
+class Context:
+    """The call (or bracket) a token stands in: its name, which argument, and for `pose_trans` its feature."""
+
+    name: str
+    argument: int = 0
+    feature: str | None = None
+
+
+def parse_pose(cur: Cursor) -> Pose:
+    opening = cur.expect("name", "p")
+    cur.expect("op", "[")
+    values: list[Value] = []
+    while True:
+        values.append(_element(cur))
+        if cur.accept("op", "]"):
+            break
+        cur.expect("op", ",")
+    if len(values) != 6:
+        raise cur.error(f"a pose has 6 numbers (x, y, z, rx, ry, rz), this one has {len(values)}", opening)
+    return Pose(opening, tuple(values), cur.i)
+
+
+def _element(cur: Cursor) -> Value:
+    return literal_or_expression(cur, "]", "a pose element")
+
+
+def pose_matrix(pose: Pose) -> Array | None:
+    if not all(isinstance(v, Number) for v in pose.values):
+        return None
+    x, y, z, rx, ry, rz = (v.value for v in pose.values if isinstance(v, Number))
+    return transform([1e3 * x, 1e3 * y, 1e3 * z], rotvec_matrix([rx, ry, rz]))
+
+
+@dataclass
+class Event:
+    at: int
+    stack: list[Context]
+    pose: Pose | None = None
+    name: Token | None = None
+    assigned: str | None = None
+
+
+def _scan(tokens: list[Token], file: str | None) -> list[Event]:
+    """The pose literals and the names standing as whole arguments, with the calls around them, in order."""
+    stack: list[Context] = []
+    events: list[Event] = []
+    i = 0
+    while i < len(tokens):
+        tok = tokens[i]
+        nxt = tokens[i + 1] if i + 1 < len(tokens) else None
+        prev = tokens[i - 1] if i else None
+        if tok.is_("name", "p", fold=False) and nxt is not None and nxt.is_("op", "["):
+            cur = Cursor(tokens, file, "the pose")
+            cur.i = i
+            pose = parse_pose(cur)
+            assigned = None
+            if prev is not None and prev.is_("op", "=") and i >= 2 and tokens[i - 2].kind == "name":
+                assigned = tokens[i - 2].text
+            events.append(Event(i, _snapshot(stack), pose=pose, assigned=assigned))
+            i = pose.end
+            continue
+        if tok.kind == "op" and tok.text in "([":
+            stack.append(Context(prev.text if tok.text == "(" and prev is not None and prev.kind == "name" else ""))
+        elif tok.kind == "op" and tok.text in ")]":
+            if not stack:
+                raise Cursor(tokens, file, "the program").error(f"unbalanced {tok.text!r}", tok)
+            stack.pop()
+        elif tok.is_("op", ",") and stack:
+            stack[-1].argument += 1
+        elif tok.kind == "name" and _whole_argument(prev, nxt) and stack:
+            if stack[-1].name == "pose_trans" and stack[-1].argument == 0:
+                stack[-1].feature = tok.text
+            events.append(Event(i, _snapshot(stack), name=tok))
+        i += 1
+    return events
+
+
+def _snapshot(stack: list[Context]) -> list[Context]:
+    return [replace(c) for c in stack]
+
+
+def _whole_argument(prev: Token | None, nxt: Token | None) -> bool:
+    return (
+        prev is not None
+        and (prev.is_("op", "(") or prev.is_("op", ","))
+        and nxt is not None
+        and (nxt.is_("op", ",") or nxt.is_("op", ")"))
+    )
+
+
+def _motion_base(stack: list[Context]) -> tuple[bool, str | None]:
+    """Whether a value in this place is a motion's pose, and the feature it is placed in (pose_trans)."""
+    if stack and stack[-1].name in MOTIONS and stack[-1].argument in MOTIONS[stack[-1].name]:
+        return True, None
+    if (
+        len(stack) >= 2
+        and stack[-1].name == "pose_trans"
+        and stack[-1].argument == 1
+        and stack[-2].name in MOTIONS
+        and stack[-2].argument in MOTIONS[stack[-2].name]
+    ):
+        return True, stack[-1].feature
+    return False, None
+
+
+@dataclass
+class Reading:
+    variables: dict[str, list[tuple[int, Pose]]] = field(default_factory=dict)
+    targets: list[tuple[Pose, Frames, str | None]] = field(default_factory=list)
+    uses: dict[int, list[tuple[Frames, int]]] = field(default_factory=dict)
+    """By the token index of a variable's literal: the frames of each motion naming it, and the line."""
+
+    def latest(self, name: str, before: int) -> Pose | None:
+        found = [pose for at, pose in self.variables.get(name, []) if at < before]
+        return found[-1] if found else (self.variables[name][-1][1] if name in self.variables else None)
+
+
+def _frame(reading: Reading, name: Token, at: int, file: str | None) -> Array:
+    pose = reading.latest(name.text, at)
+    matrix = pose_matrix(pose) if pose is not None else None
+    if matrix is None:
+        raise undeclared(
+            f"{name.text} is used as a frame but no literal pose is given to it in the program", file, name
+        )
+    return matrix
+
+
+def _read_events(events: list[Event], file: str | None) -> Reading:
+    reading = Reading()
+    for e in events:
+        if e.pose is not None and e.assigned is not None:
+            reading.variables.setdefault(e.assigned, []).append((e.at, e.pose))
+    tool: Array | None = None
+    tool_name: str | None = None
+    for e in events:
+        in_tcp = bool(e.stack) and e.stack[-1].name == "set_tcp" and e.stack[-1].argument == 0
+        motion, feature = _motion_base(e.stack)
+        if in_tcp:
+            if e.pose is not None:
+                tool, tool_name = pose_matrix(e.pose), "set_tcp(p[...])"
+            elif e.name is not None:
+                tool, tool_name = _frame(reading, e.name, e.at, file), e.name.text
+            continue
+        if not motion:
+            continue
+        base = np.eye(4)
+        if feature is not None:
+            token = next(x.name for x in events if x.name is not None and x.name.text == feature and x.at < e.at)
+            base = _frame(reading, token, e.at, file)
+        frames = Frames(base, tool, feature, tool_name)
+        if e.pose is not None:
+            reading.targets.append((e.pose, frames, None))
+        elif e.name is not None and (pose := reading.latest(e.name.text, e.at)) is not None:
+            reading.uses.setdefault(pose.open.start, []).append((frames, e.name.line))
+    return reading
+
+
+def _target(file: str | None, pose: Pose, name: str | None, frames: Frames, why: str | None) -> Target:
+    matrix = pose_matrix(pose)
+    literal = None if matrix is not None else "not literal numbers: the pose is known only at run time"
+    return target_at(file, name, pose.open, pose.values, matrix, frames=frames, kept=why or literal, style="rotvec")
+
+
+def read(program: str, files: Mapping[str, str]) -> Program:
+    """The Cartesian targets of a URScript program (a script is one text: `files` are not read)."""
+    del files
+    events = _scan(LEXER.tokens(program, PROGRAM), PROGRAM)
+    reading = _read_events(events, PROGRAM)
+    targets = [_target(PROGRAM, pose, None, frames, why) for pose, frames, why in reading.targets]
+    for name, assigned in reading.variables.items():
+        for _, pose in assigned:
+            uses = reading.uses.get(pose.open.start, [])
+            if not uses:
+                continue  # a pose no motion goes to: an offset, a feature, a TCP
+            frames, why = uses[0][0], None
+            for other, line in uses[1:]:
+                if not _same(other, frames):
+                    why = f"used with different features or tools (lines {uses[0][1]} and {line})"
+            targets.append(_target(PROGRAM, pose, name, frames, why))
+    return Program(NAME, {PROGRAM: program}, tuple(sorted(targets, key=lambda t: (t.line, t.column))))
+
+
+def _same(a: Frames, b: Frames) -> bool:
+    tools = (a.tool is None and b.tool is None) or (
+        a.tool is not None and b.tool is not None and np.allclose(a.tool, b.tool)
+    )
+    return tools and bool(np.allclose(a.base, b.base))
+
+
+def numbers(targets: Sequence[Target], poses: Array) -> list[list[str]]:
+    like = np.array([t.style.get("rotvec", (0.0, 0.0, 0.0)) for t in targets], dtype=float).reshape(-1, 3)
+    values = np.hstack([poses[:, :3, 3] / 1e3, rotvecs_like(poses[:, :3, :3], like)])
+    return [written(v, t.slots, METRE_DECIMALS) for v, t in zip(values, targets, strict=True)]

@@ -1,0 +1,70 @@
+"""Program compensation: a robot program in, the same program with its Cartesian targets corrected out."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from service.schemas.common import JointVector, Public, Strict
+
+ProgramFormat = Literal["krl", "rapid", "urscript", "csv"]
+PROGRAM_CHARS = 20_000_000
+"""The body limit (IWR_MAX_BODY_BYTES, 20 MB) is the real bound; the schema says the same of the text."""
+BASE_CONVENTION = (
+    "Targets are in the controller's frames: the robot base (the calibrated model's base frame: the nominal "
+    "geometry is placed where the calibrated model puts the robot's base), through the program's base or work "
+    "object and its tool."
+)
+
+
+class ProgramRequest(Strict):
+    format: ProgramFormat = Field(description="The program's language: KUKA KRL, ABB RAPID, URScript, CSV of poses")
+    program: str = Field(
+        max_length=PROGRAM_CHARS,
+        description="The program's text (a .src, .dat, .mod, .script or .csv file), line ends kept",
+    )
+    version: int | None = Field(default=None, ge=1, description="The parameter version (default: the current one)")
+    files: dict[str, str] = Field(
+        default_factory=dict,
+        max_length=32,
+        description="Companion files by name: a KRL .dat and $config.dat (BASE_DATA, TOOL_DATA), RAPID modules "
+        "with the tooldata and wobjdata; those holding targets come back corrected",
+    )
+    seed: JointVector | None = Field(
+        default=None,
+        description="Joints (deg, mm) near which the nominal controller's solution of each target is sought "
+        "(default: mid-range), moved into each target's declared configuration (KRL T, RAPID cf1/cf4/cf6)",
+    )
+
+
+class CompensatedTarget(Public):
+    file: str | None = Field(description="The companion file holding the target (null: the program)")
+    line: int
+    column: int
+    name: str | None = Field(description="The variable holding the target (null: written inside a motion)")
+    base_frame: str | None = Field(
+        description="The base it is taught in, as the program names it (BASE_DATA[2], a wobjdata, a feature); "
+        "null: the robot's base"
+    )
+    tool_frame: str | None = Field(
+        description="The tool it is taught with, as the program names it; null: the robot model's own tool"
+    )
+    reached: bool = Field(description="Corrected; false: kept as written, `reason` says why")
+    correction_mm: list[float] | None = Field(
+        description="New minus old position in the target's base frame (mm); null where kept"
+    )
+    correction_deg: list[float] | None = Field(
+        description="The rotation from the old orientation to the new one, as a rotation vector in the target's "
+        "base frame (deg); null where kept"
+    )
+    reason: str | None = None
+
+
+class ProgramResponse(Public):
+    format: ProgramFormat
+    version: int = Field(description="The parameter version the program was compensated for")
+    program: str = Field(description="The program, its corrected targets' numbers changed, every other byte kept")
+    files: dict[str, str] = Field(description="The companion files that hold corrected targets, rewritten")
+    targets: list[CompensatedTarget]
+    base: str = Field(default=BASE_CONVENTION, description="How the robot-base frame is defined")

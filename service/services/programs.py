@@ -1,0 +1,171 @@
+"""Program compensation: read a program's targets (`programs`), correct them for a parameter version
+(`models.compensation.compensate_poses`) and write them back into the program's own text."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from models import Registry, RobotDescription
+from models._types import Array
+from models.compensation.poses import compensate_poses
+from models.inverse import default_seed
+from models.runtime import Runtime
+from models.transforms import matrix_to_rotvec_np
+from programs import DIALECTS, PROGRAM, Program, ProgramError, Target, dialect, dialect_of_file, read_program, rewritten
+from programs.configuration import kept
+from programs.configuration import seed as configuration_seed
+from service.conversions.kinematics import joints_in
+from service.conversions.robots import description
+from service.conversions.terms import stored_model
+from service.model_cache import ModelCache
+from service.persistence import Database, Repository
+from service.schemas.programs import CompensatedTarget, ProgramRequest, ProgramResponse
+
+
+@dataclass(frozen=True)
+class TargetOutcome:
+    target: Target
+    pose: Array | None
+    """The corrected pose in the target's base frame (None: kept as written)."""
+    reason: str | None
+
+
+@dataclass(frozen=True)
+class CompensatedProgram:
+    texts: dict[str | None, str]
+    outcomes: tuple[TargetOutcome, ...]
+
+
+def compensate_program(
+    desc: RobotDescription,
+    calibrated: ArrayLike,
+    program: Program,
+    *,
+    nominal: ArrayLike | None = None,
+    seed: Array | None = None,
+    runtime: Runtime | None = None,
+) -> CompensatedProgram:
+    """Every target of `program` corrected so that the calibrated robot's TCP lands where the nominal one's would
+    (`nominal`: default the description's nominal parameters); the ones that cannot be keep their text."""
+    active = [t for t in program.targets if t.kept is None]
+    outcomes = {id(t): TargetOutcome(t, None, t.kept) for t in program.targets}
+    if active:
+        start = default_seed(desc) if seed is None else seed
+        bases = np.array([t.frames.base for t in active])
+        result = compensate_poses(
+            desc,
+            calibrated,
+            desc.parameters.nominal if nominal is None else nominal,
+            bases @ np.array([t.pose for t in active]),
+            tools=[t.frames.tool for t in active],
+            seeds=np.array([configuration_seed(t.configuration, start, desc.n_joints) for t in active]),
+            runtime=runtime,
+        )
+        in_base = np.linalg.solve(bases, result.poses)  # back into each target's own base frame
+        for k, t in enumerate(active):
+            why = result.reasons[k] or kept(
+                t.configuration, result.nominal_joints[k], result.joints[k], desc.joint_names
+            )
+            outcomes[id(t)] = TargetOutcome(t, None if why is not None else in_base[k], why)
+    ordered = tuple(outcomes[id(t)] for t in program.targets)
+    changes = [(o.target, o.pose) for o in ordered if o.pose is not None]
+    return CompensatedProgram(rewritten(program, changes), ordered)
+
+
+def _target_out(o: TargetOutcome) -> CompensatedTarget:
+    t = o.target
+    delta_mm = delta_deg = None
+    if o.pose is not None:
+        delta_mm = (o.pose[:3, 3] - t.pose[:3, 3]).tolist()
+        turn = o.pose[:3, :3] @ t.pose[:3, :3].T
+        delta_deg = np.degrees(matrix_to_rotvec_np(turn)).tolist()
+    return CompensatedTarget(
+        file=t.file,
+        line=t.line,
+        column=t.column,
+        name=t.name,
+        base_frame=t.frames.base_name,
+        tool_frame=t.frames.tool_name,
+        reached=o.pose is not None,
+        correction_mm=delta_mm,
+        correction_deg=delta_deg,
+        reason=o.reason,
+    )
+
+
+def _model(db: Database, models: ModelCache, robot_id: str, version: int | None) -> tuple[RobotDescription, Array, int]:
+    """The robot's model and the parameters of `version` (the current one by default)."""
+    if version is None:
+        desc, theta = models.current(robot_id)
+        return desc, theta, db.current_version(robot_id) or 1
+    with db.reader() as s:
+        repo = Repository(s)
+        robot = repo.robot(robot_id)  # NotFound for an unknown robot
+        values = np.asarray(repo.version(robot_id, version).values, dtype=float)
+        return stored_model(description(robot), values.size), values, version
+
+
+def compensate(
+    *, db: Database, models: ModelCache, registry: Registry, robot_id: str, body: ProgramRequest
+) -> ProgramResponse:
+    desc, theta, version = _model(db, models, robot_id, body.version)
+    program = read_program(body.format, body.program, body.files)
+    seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
+    done = compensate_program(desc, theta, program, seed=seed, runtime=registry.runtime(desc))
+    changed = {o.target.file for o in done.outcomes if o.pose is not None}
+    return ProgramResponse(
+        format=body.format,
+        version=version,
+        program=done.texts[PROGRAM],
+        files={name: text for name, text in done.texts.items() if name is not None and name in changed},
+        targets=[_target_out(o) for o in done.outcomes],
+    )
+
+
+def request_from_text(
+    raw: bytes, *, format_name: str | None, filename: str | None, version: int | None
+) -> ProgramRequest:
+    """A program sent as the body itself (text/plain): its format from `?format=` or the file name's extension;
+    bytes that are not UTF-8 are refused with where they are."""
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise ProgramError(
+            f"the program is not UTF-8 text: byte 0x{raw[exc.start]:02x} at offset {exc.start}; "
+            "convert it (e.g. from Windows-1252) first",
+            line=line,
+            column=column,
+            reason="not-utf8",
+        ) from None
+    name = format_name
+    if name is None and filename:
+        found = dialect_of_file(filename)
+        name = found.name if found is not None else None
+    if name is None:
+        raise ProgramError(
+            "say the program's format: ?format=krl|rapid|urscript|csv, or ?filename= with its extension",
+            reason="unknown-format",
+        )
+    if name not in DIALECTS:
+        dialect(name)  # the error naming the formats
+    return ProgramRequest.model_validate({"format": name, "program": text, "version": version})
+
+
+def compensate_text(
+    *,
+    db: Database,
+    models: ModelCache,
+    registry: Registry,
+    robot_id: str,
+    raw: bytes,
+    format_name: str | None,
+    filename: str | None,
+    version: int | None,
+) -> ProgramResponse:
+    body = request_from_text(raw, format_name=format_name, filename=filename, version=version)
+    return compensate(db=db, models=models, registry=registry, robot_id=robot_id, body=body)

@@ -1,0 +1,173 @@
+"""POST /v1/robots/{id}/programs/compensate: a program in, the same program with its targets corrected out.
+
+A UR5-like robot whose second parameter version is a perturbed truth (imported as an export would be): the
+answer's program, re-read and run by the nominal controller on that truth, lands on the targets; version 1
+(the nominal) changes nothing but the numbers' decimals. Mistakes are 4xx problems saying what and where, and
+nothing stored changes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from harness.programs import HOME_DEG, Cell, csv_table, executed, joints, taught, ur5_cell, urscript_program
+from models import Registry
+from models.examples import ur5_like_document
+from programs import read_program
+from tests.programs.samples import KRL_CONFIG, KRL_DAT, KRL_SRC
+from tests.service.conftest import make_client
+
+N_TARGETS = 12
+
+
+@pytest.fixture(scope="module")
+def cell() -> Cell:
+    return ur5_cell()
+
+
+@pytest.fixture
+def ur5(client: TestClient, cell: Cell) -> str:
+    """A UR5-like robot with the truth as its version 2 (mm and degrees, as the parameters export states them)."""
+    robot = client.post("/v1/robots", json={"name": "ur5-cell", "structure": ur5_like_document()})
+    assert robot.status_code == 201, robot.text
+    robot_id = str(robot.json()["id"])
+    export = client.get(f"/v1/robots/{robot_id}/parameters").json()
+    table = cell.desc.parameters
+    boundary = dict(zip(table.names, table.as_boundary(cell.truth), strict=True))
+    for row in export["parameters"]:
+        row["value"] = float(boundary[row["name"]])
+    imported = client.post(f"/v1/robots/{robot_id}/parameter-versions", json=export)
+    assert imported.status_code == 201, imported.text
+    return robot_id
+
+
+def _post(client: TestClient, robot_id: str, **body: Any) -> Any:
+    return client.post(f"/v1/robots/{robot_id}/programs/compensate", json=body)
+
+
+def test_a_urscript_program_is_corrected_for_the_current_version(client: TestClient, ur5: str, cell: Cell) -> None:
+    q = joints(N_TARGETS, seed=11)
+    poses = taught(cell, q)
+    answer = _post(client, ur5, format="urscript", program=urscript_program(list(poses)), seed=list(HOME_DEG))
+    assert answer.status_code == 200, answer.text
+    out = answer.json()
+    assert out["version"] == 2 and out["format"] == "urscript" and "calibrated model's base frame" in out["base"]
+    assert [t["reached"] for t in out["targets"]] == [True] * N_TARGETS
+    assert all(np.linalg.norm(t["correction_mm"]) > 0.05 for t in out["targets"])
+    again = read_program("urscript", out["program"])
+    landed = executed(cell, np.array([t.pose for t in again.targets]), q)
+    wanted = (cell.base @ poses)[:, :3, 3]
+    assert np.linalg.norm(landed - wanted, axis=1).max() < 0.05
+
+
+def test_the_nominal_version_changes_no_target(client: TestClient, ur5: str, cell: Cell) -> None:
+    poses = taught(cell, joints(5, seed=12))
+    text = csv_table(list(poses))
+    out = _post(client, ur5, format="csv", program=text, version=1, seed=list(HOME_DEG)).json()
+    assert out["version"] == 1
+    for t in out["targets"]:
+        assert t["reached"] and np.abs(t["correction_mm"]).max() < 1e-6 and np.abs(t["correction_deg"]).max() < 1e-6
+    again = read_program("csv", out["program"])
+    assert np.allclose([t.pose for t in again.targets], [t.pose for t in read_program("csv", text).targets], atol=1e-5)
+
+
+def test_krl_with_its_dat_and_config_dat_comes_back_as_files(client: TestClient, ur5: str) -> None:
+    files = {"Weld_Seam.dat": KRL_DAT, "$config.dat": KRL_CONFIG}
+    out = _post(client, ur5, format="krl", program=KRL_SRC, files=files).json()
+    assert set(out["files"]) <= {"Weld_Seam.dat", "$config.dat"}
+    by_name = {t["name"]: t for t in out["targets"] if t["name"]}
+    assert by_name["XP1"]["file"] == "Weld_Seam.dat" and by_name["XP1"]["base_frame"] == "BASE_DATA[2]"
+    partial = next(t for t in out["targets"] if t["line"] == 25)
+    assert not partial["reached"] and "omitted" in partial["reason"] and partial["correction_mm"] is None
+    # targets the arm cannot reach keep their value and say why
+    for t in out["targets"]:
+        assert t["reached"] or t["reason"]
+
+
+def test_the_program_may_be_the_body_itself(client: TestClient, ur5: str, cell: Cell) -> None:
+    text = urscript_program(list(taught(cell, joints(3, seed=13))))
+    url = f"/v1/robots/{ur5}/programs/compensate"
+    for query in ("?format=urscript", "?filename=weld.script"):
+        answer = client.post(url + query, content=text.encode(), headers={"Content-Type": "text/plain"})
+        assert answer.status_code == 200, answer.text
+        assert answer.json()["format"] == "urscript" and len(answer.json()["targets"]) == 3
+
+
+def _versions(client: TestClient, robot_id: str) -> int:
+    return len(client.get(f"/v1/robots/{robot_id}/parameter-versions").json())
+
+
+@pytest.mark.parametrize(
+    ("body", "slug", "where"),
+    [
+        ({"format": "fanuc", "program": "x"}, "validation-error", {"field": "format"}),
+        (
+            {"format": "krl", "program": "DEF a( )\r\nLIN {X 1, Y 2,, Z 3}\r\nEND\r\n"},
+            "program-syntax",
+            {"line": 2, "column": 15},
+        ),
+        (
+            {
+                "format": "rapid",
+                "program": "MODULE m\n PROC p()\n  MoveL [[1,2,3],[1,0,0,0],[0,0,0,0],[9E9,9E9,9E9,"
+                "9E9,9E9,9E9]],v100,fine,tWeld;\n ENDPROC\nENDMODULE\n",
+            },
+            "undeclared-frame",
+            {"line": 3, "reason": "undeclared-frame"},
+        ),
+        ({"format": "krl", "program": KRL_SRC}, "undeclared-frame", {"line": 21}),  # $TOOL = TOOL_DATA[1]
+        ({"format": "csv", "program": "x,y,z,a,b,c\n1,2,3,4,5,six\n"}, "program-syntax", {"line": 2, "column": 11}),
+    ],
+)
+def test_mistakes_are_problems_that_say_where(
+    client: TestClient, ur5: str, body: dict[str, Any], slug: str, where: dict[str, Any]
+) -> None:
+    before = _versions(client, ur5)
+    answer = _post(client, ur5, **body)
+    assert answer.status_code == 422, answer.text
+    problem = answer.json()
+    assert problem["type"].endswith(slug)
+    assert {k: problem.get(k) for k in where} == where
+    assert _versions(client, ur5) == before
+
+
+def test_bytes_that_are_not_utf8_and_unknown_formats_are_refused(client: TestClient, ur5: str) -> None:
+    url = f"/v1/robots/{ur5}/programs/compensate"
+    latin = "DEF a( )\r\n; Schweißnaht\r\nEND\r\n".encode("cp1252")
+    answer = client.post(url + "?format=krl", content=latin, headers={"Content-Type": "text/plain"})
+    assert answer.status_code == 422 and answer.json()["reason"] == "not-utf8"
+    assert (answer.json()["line"], answer.json()["column"]) == (2, 9)  # the ß
+    unnamed = client.post(url + "?filename=weld.txt", content=b"x", headers={"Content-Type": "text/plain"})
+    assert unnamed.status_code == 422 and unnamed.json()["reason"] == "unknown-format"
+    assert client.post(url + "?format=fanuc", content=b"x", headers={"Content-Type": "text/plain"}).status_code == 422
+
+
+def test_a_program_over_the_body_limit_is_refused(tmp_path: Path, registry: Registry) -> None:
+    with make_client(f"sqlite:///{tmp_path}/small.db", registry, max_body_bytes=2_000) as small:
+        robot = small.post("/v1/robots", json={"name": "ur5", "structure": ur5_like_document()}).json()["id"]
+        big = small.post(
+            f"/v1/robots/{robot}/programs/compensate", json={"format": "csv", "program": "x,y,z\n" + "1,2,3\n" * 1000}
+        )
+        assert big.status_code == 413
+        assert big.json()["type"].endswith("payload-too-large")
+
+
+def test_a_program_over_the_work_budget_is_refused_from_its_bytes(client: TestClient, ur5: str) -> None:
+    rows = "x,y,z,a,b,c\n" + "400,0,300,0,180,0\n" * 3_000  # 3 000 targets: ~3 s, over the 2 s budget
+    answer = _post(client, ur5, format="csv", program=rows)
+    assert answer.status_code == 422 and answer.json()["type"].endswith("work-too-large"), answer.text
+    text = client.post(
+        f"/v1/robots/{ur5}/programs/compensate?format=csv", content=rows.encode(), headers={"Content-Type": "text/csv"}
+    )
+    assert text.status_code == 422 and text.json()["type"].endswith("work-too-large")
+
+
+def test_an_unknown_version_or_robot_is_not_found(client: TestClient, ur5: str) -> None:
+    body = {"format": "csv", "program": "x,y,z,a,b,c\n400,0,300,0,180,0\n"}
+    missing_version = _post(client, ur5, version=99, **body)
+    assert missing_version.status_code == 404 and "no parameter version 99" in missing_version.json()["detail"]
+    assert _post(client, "00000000-0000-0000-0000-000000000000", **body).status_code == 404
