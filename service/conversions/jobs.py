@@ -9,7 +9,7 @@ from service.schemas.jobs import JobAccepted, JobPublic
 
 
 def accepted_out(job: Job) -> JobAccepted:
-    return JobAccepted(job_id=job.id, status_url=f"/v1/jobs/{job.id}")
+    return JobAccepted(job_id=job.id, status_url=f"/v1/jobs/{job.id}", id=job.id)
 
 
 def job_out(job: Job, result: CalibrationPublic | PoseDesignPublic | None) -> JobPublic:

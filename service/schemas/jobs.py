@@ -17,6 +17,7 @@ JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 class JobAccepted(Public):
     job_id: str
     status_url: str
+    id: str | None = Field(default=None, description="The job's id again, as GET /v1/jobs/{id} names it (= job_id)")
 
 
 class JobProgress(Public):
