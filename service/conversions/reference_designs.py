@@ -352,7 +352,8 @@ def _grouped(
         _, first = np.unique(group.joints, axis=0, return_index=True)
         stops = record_origin[np.sort(first)]
         if isinstance(reference, Camera):
-            excluded["not_seen"] = excluded.get("not_seen", 0) + index.size - stops.size
+            unseen = int(np.isin(index, record_origin, invert=True).sum())  # a repeated pose is not unseen
+            excluded["not_seen"] = excluded.get("not_seen", 0) + unseen
         groups.append(group)
         origin.append(stops)
         names.extend([reference.name] * stops.size)

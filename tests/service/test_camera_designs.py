@@ -7,7 +7,10 @@ reach what the design predicted; bad input is refused naming what to fix, and no
 from __future__ import annotations
 
 import copy
+import json
 import math
+import re
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -15,11 +18,13 @@ import pytest
 from fastapi.testclient import TestClient
 
 from harness.camera import (
+    HAND_EYE_POSITION,
     INTRINSICS,
     MARKERS,
     WORLD_CAMERA,
     WORLD_CAMERA_POSITION,
     WORLD_CAMERA_ROTATION,
+    board,
     camera_gauge_truth,
     project,
     world_images,
@@ -28,7 +33,7 @@ from models import forward_kinematics, sample_workspace
 from models.examples import ur5_like, ur5_like_document
 from models.measurements.camera import Camera, Intrinsics
 from models.noise import NoiseModel
-from models.transforms import matrix_to_rotvec_np
+from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 from optimal_design.references import camera_candidates, design_reference_records
 
 UR5 = ur5_like()
@@ -170,6 +175,32 @@ def test_sampled_poses_are_kept_where_the_camera_sees_a_marker(client: TestClien
     assert _seen(chosen).any(axis=1).all()
 
 
+def test_a_repeated_pose_is_one_candidate_image_named_by_its_first_place(client: TestClient, arm: str) -> None:
+    joints = _joints(60, seed=7)
+    seen = np.flatnonzero(_seen(joints).any(axis=1))
+    repeated = np.vstack([joints, joints[seen[:5]]])  # five poses that see a marker, offered twice
+    report = _design(client, arm, _body(repeated, count=12))
+    assert report["candidates"] == seen.size
+    assert report["constraints"]["excluded"] == {"not_seen": joints.shape[0] - seen.size}
+    assert max(report["indices"]) < joints.shape[0] and len(set(report["indices"])) == 12
+    np.testing.assert_allclose(report["poses"], joints[report["indices"]] * UR5.joint_to_boundary, atol=1e-9)
+
+
+def test_a_camera_on_the_tool_is_designed_against_a_board(client: TestClient, arm: str) -> None:
+    hand = {
+        **INTRINSICS,
+        "mount": "tool",
+        "position_mm": HAND_EYE_POSITION.tolist(),
+        "rotation_vector_deg": [0.0, 0.0, 0.0],  # looking along the tool's z axis
+        "targets_mm": board().tolist(),
+    }
+    body = {"measurement": "image", "count": 15, "candidate_count": 300, "seed": 2, "cameras": {"hand": hand}}
+    report = _design(client, arm, body)
+    assert report["references"] == ["hand"] * 15
+    assert 15 < report["candidates"] < 300 and report["constraints"]["excluded"]["not_seen"] > 0
+    assert report["metrics"]["predicted_rms_tcp_mm"] < report["random_baseline"]["predicted_rms_tcp_mm"]
+
+
 def test_images_are_designed_beside_a_ballbar(client: TestClient, arm: str) -> None:
     joints = _joints(60, seed=11)
     ballbar = sample_workspace(UR5, 30, seed=12) * UR5.joint_to_boundary
@@ -213,3 +244,18 @@ def test_bad_camera_designs_are_refused_naming_the_fix_and_nothing_is_stored(
     assert 400 <= answer.status_code < 500, answer.text
     assert words in answer.text, answer.text
     assert client.get(f"/v1/robots/{arm}/pose-designs").json() == []
+
+
+def test_the_documented_image_design_is_the_harness_camera_and_designs(client: TestClient, arm: str) -> None:
+    text = (Path(__file__).resolve().parents[2] / "docs" / "instruments.md").read_text()
+    section = text[text.index("### Images (image)") :]
+    body = json.loads(re.findall(r"```json\n(.*?)```", section, re.DOTALL)[0])
+    camera = body["cameras"]["c1"]
+    # The documented guess is the harness's camera: its pose to the example's rounding, its markers.
+    turned = rotvec_to_matrix_np(np.radians(camera["rotation_vector_deg"]))
+    np.testing.assert_allclose(turned, WORLD_CAMERA_ROTATION, atol=1e-4)
+    np.testing.assert_allclose(camera["position_mm"], WORLD_CAMERA_POSITION)
+    np.testing.assert_allclose(camera["targets_mm"], MARKERS)
+    report = _design(client, arm, {**body, "candidate_count": 150})  # fewer than documented: a fast test
+    assert report["count"] == 20 and report["references"] == ["c1"] * 20
+    assert report["metrics"]["predicted_rms_tcp_mm"] < report["random_baseline"]["predicted_rms_tcp_mm"]
