@@ -309,14 +309,16 @@ def _check_samplable(body: PoseDesignCreate, references: dict[tuple[str, str], R
             field="candidates",
             reason="candidates_needed",
         )
-    if not references:
+    measured = KIND_OF_MEASUREMENT[str(body.measurement)]
+    if not any(kind == measured for kind, _ in references):
+        # Sampled poses offered to none of the measured kind would design records of another kind under its name.
         describe = (
             '"anchors": {"a1": {"position_mm": [x, y, z]}}'
             if body.measurement == "distance"
             else '"cameras": {"c1": {"fx": …, "fy": …, "cx": …, "cy": …, "position_mm": [x, y, z], '
             '"rotation_vector_deg": [rx, ry, rz], "targets_mm": [[x, y, z], …]}}'
         )
-        plural = PLURAL[KIND_OF_MEASUREMENT[str(body.measurement)]]
+        plural = PLURAL[measured]
         raise InvalidInput(
             f"measurement {body.measurement!r}: describe the {plural} the records would measure: {describe}",
             field=plural,

@@ -131,6 +131,10 @@ def test_an_i_design_of_20_images_is_the_librarys_and_calibrates_to_its_predicti
     assert report["value"] == pytest.approx(library.value, abs=1e-9)
     assert metrics["predicted_rms_tcp_mm"] == pytest.approx(library.metrics["predicted_rms_tcp_mm"], abs=1e-9)
     np.testing.assert_allclose(report["poses"], joints[report["indices"]] * UR5.joint_to_boundary, atol=1e-9)
+    stored = client.get(f"/v1/pose-designs/{report['id']}").json()
+    assert stored["references"] == report["references"] and stored["measurement"] == "image"
+    listed = client.get(f"/v1/robots/{arm}/pose-designs").json()
+    assert [(d["id"], d["measurement"]) for d in listed] == [(report["id"], "image")]
     # Close the loop: a calibration of those images reaches what the design predicts.
     reached = _calibrated_error(client, arm, report, seed=3)
     predicted = metrics["predicted_rms_tcp_mm"]
@@ -230,7 +234,10 @@ def _facing_away(body: dict[str, Any]) -> None:
         (lambda b: b["cameras"]["c1"].pop("targets_mm"), "camera 'c1': a design needs the points it would see"),
         (_facing_away, "camera 'c1' sees none of its 4 targets"),
         (lambda b: b.update({"candidates": [{"joints": b["candidates"][0], "camera": "c2"}]}), "camera 'c2'"),
-        (lambda b: b.update({"cameras": {}, "candidates": None}), "describe the cameras"),
+        (
+            lambda b: b.update({"cameras": {}, "candidates": None, "anchors": {"a1": {"position_mm": [450, 150, 50]}}}),
+            "describe the cameras",
+        ),
         (lambda b: b.update({"measurement": "pose"}), "is a tracker's"),
         (lambda b: b["cameras"]["c1"].update({"fx": 12.0, "fy": 12.0}), "pixels"),
     ],
