@@ -362,7 +362,7 @@ def read_images(
     "pixel"}, ...], "sigma_px"?}`, joints in internal units) against `cameras` (`{"fx", "fy", "cx", "cy",
     "distortion"?, "mount"}` by name): one group per camera that is seen, one record per point (see the module
     docstring); `sigma_px` where an image states none. An InvalidInput names the field of every slip."""
-    described = {name: _camera(name, spec) for name, spec in cameras.items()}
+    described = {name: described_camera(name, spec) for name, spec in cameras.items()}
     seen: dict[str, list[tuple[Array, Array, Array]]] = {}
     for i, image in enumerate(images):
         name = image.get("camera")
@@ -383,7 +383,9 @@ def read_images(
     return tuple(groups)
 
 
-def _camera(name: str, spec: Mapping[str, Any]) -> Camera:
+def described_camera(name: str, spec: Mapping[str, Any]) -> Camera:
+    """The camera of the contract's description (`{"fx", "fy", "cx", "cy", "distortion"?, "width"?, "height"?,
+    "mount"}`; other keys are not read), at the start pose (0, 0, 0): a fit finds its pose, a design places it."""
     mount = spec.get("mount", "world")
     if mount not in MOUNTS:
         raise InvalidInput(

@@ -1,6 +1,7 @@
-"""A pose design's request against references (anchors, points, planes) as the candidate record groups of
-`optimal_design.references`: which reference each candidate measures, the filters the service applies before
-the design (joint sub-ranges, the keep-out box, an anchor's readable range), and the options it refuses.
+"""A pose design's request against references (anchors, points, planes, cameras) as the candidate record
+groups of `optimal_design.references`: which reference each candidate measures, the filters the service applies
+before the design (joint sub-ranges, the keep-out box, an anchor's readable range, what a camera would see), and
+the options it refuses.
 
 The design core weighs candidate records alone: it takes no records already measured, no minimum spread, no
 D-efficiency floor and no branch and bound, so those options are refused here with the reason, never ignored.
@@ -9,7 +10,7 @@ D-efficiency floor and no branch and bound, so those options are refused here wi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,20 +19,27 @@ from models import RobotDescription, forward_kinematics, sample_workspace
 from models._types import Array
 from models.errors import InvalidInput, TooFewMeasurements
 from models.kinematics import check_joint_ranges
+from models.measurements.camera import Camera, described_camera
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords
 from models.runtime import Runtime
 from optimal_design.constraints import KeepOut, joint_range_mask, keep_out_mask
 from optimal_design.problem import MAX_CANDIDATES
+from optimal_design.references import camera_candidates
 from service.conversions.designs import constraints_in
 from service.conversions.kinematics import joints_in
 from service.schemas.designs import PoseDesignCreate
-from service.schemas.references import ReferenceCandidate
+from service.schemas.references import CameraDescription, ReferenceCandidate
 
-Reference = Anchor | FixedPoint | Plane
-KIND_OF_MEASUREMENT = {"distance": "anchor", "point": "point", "plane": "plane"}
-"""The reference kind a record kind measures (records say `anchor`, `point`, `plane`)."""
-PLURAL = {"anchor": "anchors", "point": "points", "plane": "planes"}
+Reference = Anchor | FixedPoint | Plane | Camera
+KIND_OF_MEASUREMENT = {"distance": "anchor", "point": "point", "plane": "plane", "image": "camera"}
+"""The reference kind a record kind measures (records say `anchor`, `point`, `plane`, `camera`)."""
+PLURAL = {"anchor": "anchors", "point": "points", "plane": "planes", "camera": "cameras"}
 """Where the body describes each kind."""
+SAMPLED_KINDS = ("anchor", "camera")
+"""What sampled poses are offered against: a ballbar reads wherever its range allows, a camera sees wherever its
+targets come into view; no sampled pose puts the TCP on a point or a plane."""
+DEFAULT_SIGMA_PX = 0.1
+"""A camera's σ where its description gives none: what a calibration assumes for an image that states none."""
 
 
 @dataclass(frozen=True)
@@ -59,7 +67,7 @@ def refuse_unsupported(body: PoseDesignCreate) -> None:
         "d_efficiency_floor": body.d_efficiency_floor is not None
         and "a D-efficiency floor is not kept by the reference design yet (condition keeps its default floor)",
         "terms": bool(body.terms)
-        and "distance, point and plane records carry no temperature or load per record: no model terms",
+        and "distance, point, plane and image records carry no temperature or load per record: no model terms",
         "temperature_levels_c": body.temperature_levels_c is not None and "levels belong to a design with terms",
         "payload_levels": body.payload_levels is not None and "levels belong to a design with terms",
     }
@@ -70,7 +78,7 @@ def refuse_unsupported(body: PoseDesignCreate) -> None:
 
 def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
     """Every described reference by (kind, name), as the design needs it: an anchor where it stands, a plane's
-    normal. A 422 naming the one that lacks what the design needs."""
+    normal, a camera's pose. A 422 naming the one that lacks what the design needs."""
     found: dict[tuple[str, str], Reference] = {}
     for name, anchor in body.anchors.items():
         if anchor.position_mm is None:
@@ -94,15 +102,53 @@ def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
             )
         nx, ny, nz = plane.normal
         found[("plane", name)] = Plane(name, (nx, ny, nz), 0.0)
+    for name, camera in body.cameras.items():
+        found[("camera", name)] = _placed_camera(name, camera)
     names = [name for _, name in found]
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
         raise InvalidInput(
-            f"reference names repeat across anchors, points and planes: {repeated}; name each once",
+            f"reference names repeat across anchors, points, planes and cameras: {repeated}; name each once",
             field="anchors",
             value=repeated[0],
         )
     return found
+
+
+CAMERA_NEEDS = (
+    (
+        "position_mm",
+        "a guess of where it is, mm, in its parent frame (the world; the tool for mount tool)",
+        "[x, y, z]",
+    ),
+    (
+        "rotation_vector_deg",
+        "a guess of which way it looks: its frame's orientation in its parent frame as a rotation vector, deg "
+        "(OpenCV's camera frame: z forward, x right, y down)",
+        "[rx, ry, rz]",
+    ),
+    (
+        "targets_mm",
+        "the points it would see (markers in the tool frame for mount world, board points in the world frame for "
+        "mount tool)",
+        "[[x, y, z], ...]",
+    ),
+)
+"""What a design needs of a camera that a calibration does not: which targets a pose shows, and where on the
+image, depend on where the camera is."""
+
+
+def _placed_camera(name: str, camera: CameraDescription) -> Camera:
+    """A described camera at the pose the body guesses for it; a 422 naming the field a design lacks."""
+    for key, what, example in CAMERA_NEEDS:
+        if getattr(camera, key) is None:
+            raise _lacking("camera", name, key, what, example)
+    assert camera.position_mm is not None and camera.rotation_vector_deg is not None
+    x, y, z = camera.position_mm
+    rx, ry, rz = (math.radians(v) for v in camera.rotation_vector_deg)
+    return replace(
+        described_camera(name, camera.model_dump(exclude_none=True)), position=(x, y, z), rotation=(rx, ry, rz)
+    )
 
 
 def _lacking(kind: str, name: str, key: str, what: str, example: str) -> InvalidInput:
@@ -184,7 +230,7 @@ def _given(request: _Request) -> ReferenceCandidates:
             value=name,
             reason="unused_reference",
         )
-    return _grouped(references, by_reference, joints, offered=len(rows), excluded=excluded)
+    return _grouped(request, by_reference, joints, offered=len(rows), excluded=excluded)
 
 
 def _reference_of(
@@ -198,7 +244,13 @@ def _reference_of(
         kind, name = candidate.reference
         if (kind, name) not in references:
             plural = PLURAL[kind]
-            needs = {"anchor": '{"position_mm": [x, y, z]}', "point": "{}", "plane": '{"normal": [nx, ny, nz]}'}[kind]
+            needs = {
+                "anchor": '{"position_mm": [x, y, z]}',
+                "point": "{}",
+                "plane": '{"normal": [nx, ny, nz]}',
+                "camera": '{"fx": …, "fy": …, "cx": …, "cy": …, "position_mm": [x, y, z], "rotation_vector_deg": '
+                '[rx, ry, rz], "targets_mm": [[x, y, z], …]}',
+            }[kind]
             raise InvalidInput(
                 f'candidate {index} names {kind} {name!r}, which the body does not describe: add "{plural}": '
                 f'{{"{name}": {needs}}}',
@@ -222,75 +274,91 @@ def _reference_of(
 
 def _sampled(request: _Request) -> ReferenceCandidates:
     """`candidate_count` workspace poses, each offered against every anchor where the nominal TCP's distance
-    to it lies in the anchor's `range_mm`. Sampling cannot put the TCP on a point or a plane: those need
-    candidates."""
-    desc, theta, body, references, runtime = (
-        request.desc,
-        request.theta,
-        request.body,
-        request.references,
-        request.runtime,
-    )
-    if body.measurement != "distance" or any(kind != "anchor" for kind, _ in references):
-        raise InvalidInput(
-            f"measurement {body.measurement!r}: sampled poses do not put the TCP on a point or a plane; give "
-            'candidates, joint vectors that put the TCP on it ({"joints": [...], "point": "<name>"} or "plane")'
-            + (", or design distance records alone" if body.measurement == "distance" else ""),
-            field="candidates",
-            reason="candidates_needed",
-        )
-    if not references:
-        raise InvalidInput(
-            "measurement 'distance': describe the anchors the records would measure: \"anchors\": "
-            '{"a1": {"position_mm": [x, y, z]}}',
-            field="anchors",
-        )
-    if body.candidate_count * len(references) > MAX_CANDIDATES:
-        raise InvalidInput(
-            f"candidate_count {body.candidate_count} offered against {len(references)} anchors is "
-            f"{body.candidate_count * len(references)} candidates: at most {MAX_CANDIDATES}; lower candidate_count",
-            field="candidate_count",
-            max=MAX_CANDIDATES // len(references),
-        )
-    joints = sample_workspace(desc, body.candidate_count, seed=body.seed, params=theta, runtime=runtime)
+    to it lies in the anchor's `range_mm`, and against every camera (kept where it sees a target, `_grouped`).
+    Sampling cannot put the TCP on a point or a plane: those need candidates."""
+    desc, theta, body, references = request.desc, request.theta, request.body, request.references
+    _check_samplable(body, references)
+    joints = sample_workspace(desc, body.candidate_count, seed=body.seed, params=theta, runtime=request.runtime)
     ok, per_pose = _filters(request, joints)
-    tcp = forward_kinematics(desc, joints, theta, runtime=runtime).positions
+    tcp = forward_kinematics(desc, joints, theta, runtime=request.runtime).positions
     by_reference: dict[tuple[str, str], list[int]] = {}
     out_of_range = 0
-    for key, anchor in references.items():
-        assert isinstance(anchor, Anchor)  # checked above: a sampled design is against anchors only
-        readable = body.anchors[anchor.name].range_mm
+    for key, reference in references.items():
         keep = ok.copy()
-        if readable is not None:
-            distance = np.linalg.norm(tcp - np.asarray(anchor.start), axis=1)
+        readable = body.anchors[reference.name].range_mm if isinstance(reference, Anchor) else None
+        if isinstance(reference, Anchor) and readable is not None:
+            distance = np.linalg.norm(tcp - np.asarray(reference.start), axis=1)
             inside = (distance >= readable[0]) & (distance <= readable[1])
             out_of_range += int((keep & ~inside).sum())
             keep &= inside
         by_reference[key] = [int(i) for i in np.flatnonzero(keep)]
     excluded = {why: n * len(references) for why, n in per_pose.items()}
-    if any(body.anchors[name].range_mm is not None for _, name in references):
+    if any(a.range_mm is not None for a in body.anchors.values()):
         excluded["range_mm"] = out_of_range
     offered = joints.shape[0] * len(references)
-    return _grouped(references, by_reference, joints, offered=offered, excluded=excluded)
+    return _grouped(request, by_reference, joints, offered=offered, excluded=excluded)
+
+
+def _check_samplable(body: PoseDesignCreate, references: dict[tuple[str, str], Reference]) -> None:
+    """Sampled candidates need references they can be offered against, and at most MAX_CANDIDATES of them."""
+    if body.measurement not in ("distance", "image") or any(kind not in SAMPLED_KINDS for kind, _ in references):
+        raise InvalidInput(
+            f"measurement {body.measurement!r}: sampled poses do not put the TCP on a point or a plane; give "
+            'candidates, joint vectors that put the TCP on it ({"joints": [...], "point": "<name>"} or "plane")'
+            + (", or design distance and image records alone" if body.measurement in ("distance", "image") else ""),
+            field="candidates",
+            reason="candidates_needed",
+        )
+    measured = KIND_OF_MEASUREMENT[str(body.measurement)]
+    if not any(kind == measured for kind, _ in references):
+        # Sampled poses offered to none of the measured kind would design records of another kind under its name.
+        describe = (
+            '"anchors": {"a1": {"position_mm": [x, y, z]}}'
+            if body.measurement == "distance"
+            else '"cameras": {"c1": {"fx": …, "fy": …, "cx": …, "cy": …, "position_mm": [x, y, z], '
+            '"rotation_vector_deg": [rx, ry, rz], "targets_mm": [[x, y, z], …]}}'
+        )
+        plural = PLURAL[measured]
+        raise InvalidInput(
+            f"measurement {body.measurement!r}: describe the {plural} the records would measure: {describe}",
+            field=plural,
+        )
+    if body.candidate_count * len(references) > MAX_CANDIDATES:
+        raise InvalidInput(
+            f"candidate_count {body.candidate_count} offered against {len(references)} anchors and cameras is "
+            f"{body.candidate_count * len(references)} candidates: at most {MAX_CANDIDATES}; lower candidate_count",
+            field="candidate_count",
+            max=MAX_CANDIDATES // len(references),
+        )
 
 
 def _grouped(
-    references: dict[tuple[str, str], Reference],
+    request: _Request,
     by_reference: dict[tuple[str, str], list[int]],
     joints: Array,
     *,
     offered: int,
     excluded: dict[str, int],
 ) -> ReferenceCandidates:
-    """The groups in the references' order (anchors, points, planes as described), the empty ones left out."""
+    """The groups in the references' order (anchors, points, planes, cameras as described), the empty ones left
+    out; a camera's poses that see none of its targets counted in `excluded.not_seen`."""
     groups, origin, names = [], [], []
-    for key, reference in references.items():
+    excluded = dict(excluded)
+    for key, reference in request.references.items():
         index = np.asarray(by_reference.get(key, []), dtype=np.intp)
         if index.size == 0:
             continue
-        groups.append(ReferenceRecords(reference, joints[index], np.zeros(index.size)))
-        origin.append(index)
-        names.extend([reference.name] * index.size)
+        group, record_origin = _group(request, reference, joints, index)
+        # The core weighs one candidate per distinct joint vector of a group, in the order they first appear
+        # (`optimal_design.references`: an image's points are one stop); each is named by its first record's.
+        _, first = np.unique(group.joints, axis=0, return_index=True)
+        stops = record_origin[np.sort(first)]
+        if isinstance(reference, Camera):
+            unseen = int(np.isin(index, record_origin, invert=True).sum())  # a repeated pose is not unseen
+            excluded["not_seen"] = excluded.get("not_seen", 0) + unseen
+        groups.append(group)
+        origin.append(stops)
+        names.extend([reference.name] * stops.size)
     if not groups:
         raise InvalidInput(
             f"no candidate passes the filters (of {offered} offered: "
@@ -307,6 +375,38 @@ def _grouped(
     )
 
 
+def _group(
+    request: _Request, reference: Reference, joints: Array, index: NDArray[np.intp]
+) -> tuple[ReferenceRecords, NDArray[np.intp]]:
+    """One reference's candidate records at the poses `index` (of `joints`), and each record's candidate: an
+    anchor's, point's or plane's one per pose; a camera's one per target it would see there (its images)."""
+    if not isinstance(reference, Camera):
+        return ReferenceRecords(reference, joints[index], np.zeros(index.size)), index
+    described = request.body.cameras[reference.name]
+    assert described.targets_mm is not None  # `references_in` refused a camera without them
+    targets = np.asarray(described.targets_mm, dtype=float)
+    images = camera_candidates(
+        request.desc,
+        reference,
+        joints[index],
+        targets,
+        sigma_px=described.sigma_px or DEFAULT_SIGMA_PX,
+        params=request.theta,
+        runtime=request.runtime,
+    )
+    if images.size == 0:
+        raise InvalidInput(
+            f"camera {reference.name!r} sees none of its {len(targets)} targets from any of its {index.size} "
+            "candidate poses (none in front of it and on its image): its pose guess (position_mm, "
+            "rotation_vector_deg: where it is and which way it looks, OpenCV's z forward) or its targets_mm (mm, "
+            f"in the {'tool' if reference.mount == 'world' else 'world'} frame) are likely wrong",
+            field=f"cameras.{reference.name}",
+            value=reference.name,
+            reason="camera_sees_nothing",
+        )
+    return images, index[images.values[:, 0].astype(np.intp)]
+
+
 def _check_determined(found: ReferenceCandidates, references: dict[tuple[str, str], Reference], *, given: bool) -> None:
     """Enough admissible candidates for each reference to be determined, and a length among them: a 4xx in a
     design's words (the core would speak of records measured)."""
@@ -314,9 +414,21 @@ def _check_determined(found: ReferenceCandidates, references: dict[tuple[str, st
     for (kind, name), reference in references.items():
         have, needed = sizes.get(name, 0), reference.minimum_records
         if have < needed:
-            fix = "give more candidates naming it" if given else "widen its range_mm or raise candidate_count"
+            fix = (
+                "give more candidates naming it"
+                if given
+                else "raise candidate_count"
+                if kind == "camera"
+                else "widen its range_mm or raise candidate_count"
+            )
+            # A camera's records are the points its images would show, not its poses.
+            has = (
+                f"would see {have} targets over its candidate images"
+                if kind == "camera"
+                else f"has {have} admissible candidates"
+            )
             raise TooFewMeasurements(
-                f"{kind} {name!r} has {have} admissible candidates: a design needs at least {needed} to determine its "
+                f"{kind} {name!r} {has}: a design needs at least {needed} to determine its "
                 f"{len(reference.unknowns)} unknowns; {fix}",
                 got=have,
                 needed=needed,

@@ -22,6 +22,7 @@ from service.schemas.common import (
 )
 from service.schemas.references import (
     AnchorDescription,
+    CameraDescription,
     PlaneDescription,
     PointDescription,
     ReferenceCandidate,
@@ -33,8 +34,8 @@ BOUND_SECONDS_MAX = 60.0
 """Branch and bound past a minute buys little here (K = 30 of 2 000, D: 0.9851 at 3 s, 0.9878 at 20 s)."""
 
 
-ReferenceMeasurement = Literal["distance", "point", "plane"]
-REFERENCE_MEASUREMENTS: tuple[ReferenceMeasurement, ...] = ("distance", "point", "plane")
+ReferenceMeasurement = Literal["distance", "point", "plane", "image"]
+REFERENCE_MEASUREMENTS: tuple[ReferenceMeasurement, ...] = ("distance", "point", "plane", "image")
 """The records of the instruments a cell owns that a design can plan (service/schemas/references.py)."""
 
 
@@ -85,15 +86,16 @@ class PoseDesignCreate(Strict):
     criterion: Criterion = Field(default=Criterion.D, description="With a target: D or I (default there: I)")
     measurement: DesignMeasurement = Field(
         default=MeasurementKind.POSE,
-        description="pose or position: a tracker's records; distance, point or plane: records against the anchors, "
-        "points or planes the body describes (the kind of bare joint vectors among the candidates, and of "
-        "sampled ones: distance only)",
+        description="pose or position: a tracker's records; distance, point, plane or image: records against the "
+        "anchors, points, planes or cameras the body describes (the kind of bare joint vectors among the "
+        "candidates; sampled ones: distance and image only)",
     )
     candidates: list[DesignCandidate] | None = Field(
         default=None,
         max_length=MAX_CANDIDATES,
         description="Joint vectors; against references, each may name the one its record measures: "
-        '{"joints": [...], "anchor": "a1"} (or "point", "plane"), which a design of several references needs',
+        '{"joints": [...], "anchor": "a1"} (or "point", "plane", "camera"), which a design of several references '
+        "needs",
     )
     anchors: dict[ReferenceName, AnchorDescription] = Field(
         default_factory=dict,
@@ -105,6 +107,13 @@ class PoseDesignCreate(Strict):
     )
     planes: dict[ReferenceName, PlaneDescription] = Field(
         default_factory=dict, max_length=100, description="plane: the plates records would touch; each needs normal"
+    )
+    cameras: dict[ReferenceName, CameraDescription] = Field(
+        default_factory=dict,
+        max_length=20,
+        description="image: the cameras whose images records would be, described as for a calibration; each needs "
+        "position_mm, rotation_vector_deg (a guess of its pose) and targets_mm (what it would see), optionally "
+        "sigma_px",
     )
     noise: Noise | None = Field(
         default=None,
@@ -168,11 +177,11 @@ class PoseDesignCreate(Strict):
         if self.target is not None and "criterion" not in self.model_fields_set:
             self.criterion = Criterion.I  # the criterion that minimises the predicted RMS TCP error
         if isinstance(self.measurement, MeasurementKind) and (
-            self.anchors or self.points or self.planes or any(self._tied())
+            self.anchors or self.points or self.planes or self.cameras or any(self._tied())
         ):
             raise ValueError(
-                f"measurement {self.measurement.value!r} is a tracker's: anchors, points, planes and candidates that "
-                "name one belong to measurement distance, point or plane"
+                f"measurement {self.measurement.value!r} is a tracker's: anchors, points, planes, cameras and "
+                "candidates that name one belong to measurement distance, point, plane or image"
             )
         return self
 
@@ -187,11 +196,11 @@ class PoseDesignCreate(Strict):
 
     def offered(self) -> int:
         """How many candidates the design weighs (the request's cost): those given, or those sampled, each
-        offered against every anchor in a distance design."""
+        offered against every anchor and camera in a distance or image design."""
         if self.candidates is not None:
             return len(self.candidates)
-        if self.measurement == "distance":
-            return self.candidate_count * max(1, len(self.anchors))
+        if self.measurement in ("distance", "image"):
+            return self.candidate_count * max(1, len(self.anchors) + len(self.cameras))
         return self.candidate_count
 
 
@@ -319,7 +328,8 @@ class PoseDesignReportPublic(Public):
     )
     fixed_mm: OptionalFloat = Field(default=None, description="Target mode: with the fixed poses alone")
     references: list[str] | None = Field(
-        default=None, description="Against references: the anchor, point or plane each chosen pose's record measures"
+        default=None,
+        description="Against references: the anchor, point, plane or camera each chosen pose's record measures",
     )
 
 

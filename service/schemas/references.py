@@ -27,6 +27,11 @@ RecordSigma = Annotated[
     float, Field(gt=0, le=100, description="This record's uncertainty (1 σ, mm); default: noise.position_mm")
 ]
 
+RotationVectorDeg = Annotated[
+    list[Annotated[float, Field(ge=-360, le=360)]],
+    Field(min_length=3, max_length=3, description="A rotation vector: its axis times its angle, deg"),
+]
+
 
 class DistanceRecord(Strict):
     """The TCP's distance to a fixed anchor: a ballbar's centre pivot, a wire or laser sensor's origin."""
@@ -94,6 +99,33 @@ class CameraDescription(Strict):
         description="world: fixed in the cell, seeing markers given in the tool frame; tool: on the tool "
         "(hand-eye), seeing points given in the world frame",
     )
+    # What pose design needs of a camera that a calibration finds from the records itself: where it is (a
+    # candidate image holds only the targets in front of it and on its image) and what it would see.
+    position_mm: Position | None = Field(
+        default=None,
+        description="Used by pose design (a calibration finds it from the records): a guess of where the camera "
+        "is, mm, in its parent frame: the world for mount world, the tool (TCP) frame for mount tool",
+    )
+    rotation_vector_deg: RotationVectorDeg | None = Field(
+        default=None,
+        description="Used by pose design: a guess of the camera frame's orientation in its parent frame (camera "
+        "frame → parent) as a rotation vector, deg; OpenCV's camera frame: z forward along the line of sight, x "
+        "right across the image, y down it. A rough guess is enough",
+    )
+    targets_mm: list[Position] | None = Field(
+        default=None,
+        min_length=1,
+        max_length=1000,
+        description="Used by pose design: the points the camera would see, mm: markers in the tool frame for mount "
+        "world, board points in the world frame for mount tool",
+    )
+    sigma_px: float | None = Field(
+        default=None,
+        gt=0,
+        le=100,
+        description="Used by pose design: the σ of its pixel coordinates the predictions are for; default 0.1 px "
+        "(a calibration takes each image's sigma_px)",
+    )
 
 
 class AnchorDescription(Strict):
@@ -159,25 +191,31 @@ class ReferenceDescriptions(Strict):
     )
 
 
+CANDIDATE_KINDS = ("anchor", "point", "plane", "camera")
+"""What a design's candidate may name: the reference its record would measure."""
+
+
 class ReferenceCandidate(Strict):
-    """A candidate pose of a pose design, tied to the reference its record would measure (name one)."""
+    """A candidate pose of a pose design, tied to the reference its record would measure (name one): a camera's
+    is the image it would take there."""
 
     joints: JointVector
     anchor: ReferenceName | None = None
     point: ReferenceName | None = None
     plane: ReferenceName | None = None
+    camera: ReferenceName | None = None
 
     @model_validator(mode="after")
     def _one(self) -> ReferenceCandidate:
-        named = [k for k in ("anchor", "point", "plane") if getattr(self, k) is not None]
+        named = [k for k in CANDIDATE_KINDS if getattr(self, k) is not None]
         if len(named) != 1:
-            raise ValueError(f"a candidate names exactly one of anchor, point or plane, not {named or 'none'}")
+            raise ValueError(f"a candidate names exactly one of anchor, point, plane or camera, not {named or 'none'}")
         return self
 
     @property
     def reference(self) -> tuple[str, str]:
-        """(kind as the models name it: anchor, point, plane; its name)."""
-        for kind in ("anchor", "point", "plane"):
+        """(kind as the models name it: anchor, point, plane, camera; its name)."""
+        for kind in CANDIDATE_KINDS:
             name = getattr(self, kind)
             if name is not None:
                 return kind, str(name)

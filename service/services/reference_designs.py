@@ -1,4 +1,4 @@
-"""Pose design against references (a ballbar's anchors, sockets, plates): the records to take, designed with
+"""Pose design against references (a ballbar's anchors, sockets, plates, cameras): the records to take, designed with
 the robot's current parameters by `optimal_design.references`, reported as a tracker's design is, with the
 reference each chosen record measures."""
 
@@ -22,7 +22,7 @@ from service.schemas.designs import PoseDesignCreate, PoseDesignReportPublic
 def reference_report(
     desc: RobotDescription, theta: Array, body: PoseDesignCreate, runtime: Runtime
 ) -> PoseDesignReportPublic:
-    """The report of a design of distance, point or plane records (count or target), as stored."""
+    """The report of a design of distance, point, plane or image records (count or target), as stored."""
     refuse_unsupported(body)
     found = reference_candidates_in(desc, theta, body, runtime)
     given = body.candidates is not None
@@ -75,8 +75,8 @@ def _for_target(
         raise TargetUnreachable(
             f"no selection of the {exc.candidates} candidate records reaches a predicted TCP error of "
             f"{exc.target_mm:g} mm: taking every one of them gives {exc.reachable_mm:.4g} mm, the best reachable; add "
-            "candidates (more poses, another anchor across the volume), give the instrument's σ (noise), or relax "
-            "the target",
+            "candidates (more poses, another anchor or camera across the volume), give the instrument's σ (noise, a "
+            "camera's sigma_px), or relax the target",
             field=str(exc.field),
             target_mm=exc.target_mm,
             reachable_mm=exc.reachable_mm,

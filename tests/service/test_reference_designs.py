@@ -299,6 +299,6 @@ def test_the_documented_request_bodies_are_valid_designs() -> None:
     text = (Path(__file__).resolve().parents[2] / "docs" / "instruments.md").read_text()
     section = text[text.index("## Designing the records") :]
     bodies = [json.loads(block) for block in re.findall(r"```json\n(.*?)```", section, re.DOTALL)]
-    assert [b["measurement"] for b in bodies] == ["distance", "point", "plane"]
+    assert [b["measurement"] for b in bodies] == ["distance", "point", "plane", "image"]
     for body in bodies:
         PoseDesignCreate.model_validate(body)
