@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from service.schemas.common import JointVector, Public, Strict
+from service.schemas.common import JointVector, Position, Public, Quaternion, Strict
 
 ProgramFormat = Literal["krl", "rapid", "urscript", "csv"]
 PROGRAM_CHARS = 20_000_000
@@ -16,6 +16,20 @@ BASE_CONVENTION = (
     "geometry is placed where the calibrated model puts the robot's base), through the program's base or work "
     "object and its tool."
 )
+
+
+class PendantReading(Strict):
+    """What the controller's pendant displays at some joints: the TCP in the robot-base frame, its active tool."""
+
+    joints: JointVector
+    position: Position
+    orientation: Quaternion | None = None
+
+
+class PendantCheckPublic(Public):
+    readings: int
+    max_position_mm: float = Field(description="Largest |displayed − nominal model| position")
+    max_orientation_deg: float | None = Field(default=None, description="Where readings gave orientations")
 
 
 class ProgramRequest(Strict):
@@ -31,6 +45,14 @@ class ProgramRequest(Strict):
         description="Companion files by name: a KRL .dat and $config.dat (BASE_DATA, TOOL_DATA), RAPID modules "
         "with the tooldata and wobjdata; those holding targets come back corrected",
     )
+    pendant: list[PendantReading] = Field(
+        default_factory=list,
+        max_length=50,
+        description="A few pendant readings (joints and the displayed pose): the program is compensated only if "
+        "the nominal model reproduces them (same convention, tool and units as the controller); otherwise a 422 "
+        "says what differs",
+    )
+    pendant_tolerance_mm: float = Field(default=0.5, gt=0, le=100, description="How closely they must agree")
     seed: JointVector | None = Field(
         default=None,
         description="Joints (deg, mm) near which the nominal controller's solution of each target is sought "
@@ -68,3 +90,6 @@ class ProgramResponse(Public):
     files: dict[str, str] = Field(description="The companion files that hold corrected targets, rewritten")
     targets: list[CompensatedTarget]
     base: str = Field(default=BASE_CONVENTION, description="How the robot-base frame is defined")
+    pendant: PendantCheckPublic | None = Field(
+        default=None, description="How the nominal model reproduced the pendant readings, when given"
+    )

@@ -10,10 +10,12 @@ from numpy.typing import ArrayLike
 
 from models import Registry, RobotDescription
 from models._types import Array
+from models.compensation.pendant import check_pendant
 from models.compensation.poses import compensate_poses
+from models.errors import InvalidInput
 from models.inverse import default_seed
 from models.runtime import Runtime
-from models.transforms import matrix_to_rotvec_np
+from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
 from programs import DIALECTS, PROGRAM, Program, ProgramError, Target, dialect, dialect_of_file, read_program, rewritten
 from programs.configuration import kept
 from programs.configuration import seed as configuration_seed
@@ -22,7 +24,7 @@ from service.conversions.robots import description
 from service.conversions.terms import stored_model
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
-from service.schemas.programs import CompensatedTarget, ProgramRequest, ProgramResponse
+from service.schemas.programs import CompensatedTarget, PendantCheckPublic, ProgramRequest, ProgramResponse
 
 
 @dataclass(frozen=True)
@@ -112,6 +114,7 @@ def compensate(
     *, db: Database, models: ModelCache, registry: Registry, robot_id: str, body: ProgramRequest
 ) -> ProgramResponse:
     desc, theta, version = _model(db, models, robot_id, body.version)
+    pendant = _pendant(desc, body, registry.runtime(desc)) if body.pendant else None
     program = read_program(body.format, body.program, body.files)
     seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
     done = compensate_program(desc, theta, program, seed=seed, runtime=registry.runtime(desc))
@@ -122,6 +125,34 @@ def compensate(
         program=done.texts[PROGRAM],
         files={name: text for name, text in done.texts.items() if name is not None and name in changed},
         targets=[_target_out(o) for o in done.outcomes],
+        pendant=pendant,
+    )
+
+
+def _pendant(desc: RobotDescription, body: ProgramRequest, runtime: Runtime) -> PendantCheckPublic:
+    """The pendant readings against the nominal model (what the controller runs): a 422 naming what differs,
+    before anything is compensated."""
+    readings = body.pendant
+    joints = joints_in(desc, [r.joints for r in readings])
+    positions = np.array([r.position for r in readings], dtype=float)
+    with_orientation = all(r.orientation is not None for r in readings)
+    rotations = quaternion_to_matrix(np.array([r.orientation for r in readings])) if with_orientation else None
+    found = check_pendant(
+        desc,
+        desc.parameters.nominal,
+        joints,
+        positions,
+        rotations,
+        tolerance_mm=body.pendant_tolerance_mm,
+        runtime=runtime,
+    )
+    if not found.agrees:
+        raise InvalidInput(str(found.finding), field="pendant", reason="pendant_mismatch")
+    turned = found.orientation_errors_rad
+    return PendantCheckPublic(
+        readings=len(readings),
+        max_position_mm=float(found.position_errors_mm.max()),
+        max_orientation_deg=None if turned is None else float(np.degrees(turned.max())),
     )
 
 

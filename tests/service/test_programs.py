@@ -15,8 +15,9 @@ import pytest
 from fastapi.testclient import TestClient
 
 from harness.programs import HOME_DEG, Cell, csv_table, executed, joints, taught, ur5_cell, urscript_program
-from models import Registry
+from models import Registry, forward_kinematics
 from models.examples import ur5_like_document
+from models.transforms import matrix_to_quaternion
 from programs import read_program
 from tests.programs.samples import KRL_CONFIG, KRL_DAT, KRL_SRC
 from tests.service.conftest import make_client
@@ -171,3 +172,29 @@ def test_an_unknown_version_or_robot_is_not_found(client: TestClient, ur5: str) 
     missing_version = _post(client, ur5, version=99, **body)
     assert missing_version.status_code == 404 and "no parameter version 99" in missing_version.json()["detail"]
     assert _post(client, "00000000-0000-0000-0000-000000000000", **body).status_code == 404
+
+
+def test_pendant_readings_the_nominal_model_does_not_reproduce_stop_the_compensation(
+    client: TestClient, ur5: str, cell: Cell
+) -> None:
+    """A few readings of what the controller displays: the nominal model's own pass (the answer says how
+    closely); the same readings from a controller whose tool is 80 mm longer are refused, naming the tool."""
+    q = joints(4, seed=21)
+    nominal = cell.desc.parameters.nominal.copy()
+    nominal[cell.desc.slices["base"]] = 0.0  # the pendant shows the robot-base frame
+    shown = forward_kinematics(cell.desc, q, nominal)
+    readings = [
+        {"joints": (row * cell.desc.joint_to_boundary).tolist(), "position": p.tolist(), "orientation": o.tolist()}
+        for row, p, o in zip(q, shown.positions, matrix_to_quaternion(shown.rotations), strict=True)
+    ]
+    program = urscript_program(list(taught(cell, joints(3, seed=22))))
+    answer = _post(client, ur5, format="urscript", program=program, seed=list(HOME_DEG), pendant=readings)
+    assert answer.status_code == 200, answer.text
+    assert answer.json()["pendant"]["readings"] == 4 and answer.json()["pendant"]["max_position_mm"] < 1e-6
+    nominal[cell.desc.parameters.index["tool.z"]] += 80.0
+    longer = forward_kinematics(cell.desc, q, nominal).positions
+    for reading, p in zip(readings, longer, strict=True):
+        reading["position"] = p.tolist()
+    refused = _post(client, ur5, format="urscript", program=program, seed=list(HOME_DEG), pendant=readings)
+    assert refused.status_code == 422 and refused.json()["field"] == "pendant", refused.text
+    assert "tool is not the model's" in refused.json()["detail"]
