@@ -11,9 +11,15 @@ ROOT = Path(__file__).resolve().parent.parent
 DOCS = sorted((ROOT / "docs").glob("*.md"))
 BLOCK = re.compile(r"```python\n(.*?)```", re.DOTALL)
 SNIPPETS = [(doc, k, code) for doc in DOCS for k, code in enumerate(BLOCK.findall(doc.read_text()))]
+SLOW_DOCS = {"pose-design.md", "compensation.md", "controller.md"}
+"""Pages whose snippets take over a second (a design, inverse kinematics): outside `make test-fast`."""
+CASES = [
+    pytest.param(doc, k, code, id=f"{doc.name}#{k}", marks=[pytest.mark.slow] if doc.name in SLOW_DOCS else [])
+    for doc, k, code in SNIPPETS
+]
 
 
-@pytest.mark.parametrize(("doc", "k", "code"), SNIPPETS, ids=[f"{d.name}#{k}" for d, k, _ in SNIPPETS])
+@pytest.mark.parametrize(("doc", "k", "code"), CASES)
 def test_the_snippet_runs(doc: Path, k: int, code: str, capsys: pytest.CaptureFixture[str]) -> None:
     exec(compile(code, f"{doc.name} snippet {k}", "exec"), {"__name__": f"snippet_{k}"})
     assert capsys.readouterr().out or "print(" not in code
