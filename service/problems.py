@@ -96,6 +96,18 @@ UNION_TAG_ERRORS = ("union_tag_invalid", "union_tag_not_found")
 """Pydantic places a wrong or missing discriminator at the union's location; the field at fault is the tag."""
 
 
+RECORD_TAGS = frozenset({"tracker", "distance", "point", "plane", "image"})
+"""The member tags of a campaign's record union (`service.schemas.calibrations.CampaignRecord`)."""
+
+
+def _union_member(part: object) -> bool:
+    """Whether a location part names the union member pydantic tried rather than a field: a record's tag, or
+    pydantic's own label of an untagged member (`list[constrained-float]`, `ReferenceCandidate`)."""
+    if not isinstance(part, str):
+        return False
+    return part in RECORD_TAGS or "[" in part or part[:1].isupper()
+
+
 def field_name(loc: list[Any], error_type: str = "") -> str:
     """A validation error's location as the specs name fields: `measurements[4].temperature_c` in a body, and in
     a robot's description document the document's own path (`stages[0].links[0].joint`, as robots.md and the
@@ -109,6 +121,8 @@ def field_name(loc: list[Any], error_type: str = "") -> str:
             out += f"[{part}]"
         elif k > 0 and isinstance(parts[k - 1], int) and part in STAGE_KINDS and parts[:1] == ["stages"]:
             continue
+        elif k > 0 and isinstance(parts[k - 1], int) and _union_member(part):
+            continue  # which member of a union pydantic tried: not a field the user wrote
         else:
             out += f".{part}" if out else str(part)
     if error_type in UNION_TAG_ERRORS and parts[:1] == ["stages"]:
