@@ -37,7 +37,13 @@ export function errorBox(error, id = "error") {
   const fields = fieldErrors(error.problem);
   return h("div", { class: "error", id, role: "alert" },
     h("p", {}, String(error.message || error)),
-    fields.length > 1 ? h("ul", {}, fields.map((f) => h("li", {}, f))) : null);
+    fields.length ? h("ul", {}, fields.map((f) => h("li", {}, f))) : null);
+}
+
+// replaceChildren that skips the null of an absent optional section (replaceChildren would print "null").
+export function fill(node, ...children) {
+  node.replaceChildren(...children.flat().filter((c) => c !== null && c !== undefined && c !== false));
+  return node;
 }
 
 export function link(href, text, attrs = {}) { return h("a", { href, ...attrs }, text); }

@@ -2,7 +2,7 @@
 // the result, validations, versions and jobs. Every number comes from the public /v1 API, so the page shows
 // exactly what a client sees. Routing is the URL fragment (#/robots/…), one view module per page.
 import { apiKey, setApiKey } from "./api.js";
-import { errorBox } from "./dom.js";
+import { errorBox, fill } from "./dom.js";
 import { calibrationView } from "./views/calibration.js";
 import { campaignView } from "./views/campaign.js";
 import { designView } from "./views/design.js";
@@ -44,7 +44,7 @@ async function route() {
     await pick(parts, params)();
     document.body.dataset.ready = location.hash || "#/";
   } catch (error) {
-    view.replaceChildren(errorBox(error));
+    fill(view, errorBox(error));
     document.body.dataset.ready = "error";
   }
   document.title = `${(view.querySelector("h1") || {}).textContent || "Robot calibration"} — robot calibration`;

@@ -2,7 +2,7 @@
 // the numbers, the residuals before and after, the parameters with σ and what moved, outliers, the acceptance
 // checks, the not-applied reason and how to apply anyway, and the reports and parameter exports.
 import { api } from "../api.js";
-import { download, errorBox, h, link, muted, num, numCell, statusBadge, table, when } from "../dom.js";
+import { download, errorBox, fill, h, link, muted, num, numCell, statusBadge, table, when } from "../dom.js";
 
 // A change larger than twice its standard error is unlikely to be the noise of this campaign: call it moved.
 const MOVED_SIGMAS = 2;
@@ -10,18 +10,20 @@ const MOVED_SIGMAS = 2;
 export async function calibrationView(view, id) {
   const calibration = await api(`/v1/calibrations/${id}`);
   const robot = await api(`/v1/robots/${calibration.robot_id}`);
-  view.replaceChildren(
+  const fitted = calibration.status !== "failed";  // a failed one ran no fit: no "after", no estimates
+  const sections = [
     h("p", {}, link(`#/robots/${robot.id}`, `← ${robot.name}`)),
     h("h1", {}, "Calibration ", statusBadge(calibration.status)),
     muted(`${when(calibration.created_at)} · ${calibration.measurements} ${calibration.measurement} records · ${calibration.id}`),
     verdict(calibration, robot),
-    summary(calibration),
-    residualSection(calibration),
+    fitted ? summary(calibration) : null,
+    residualSection(calibration, fitted),
     checksSection(calibration),
-    parametersSection(calibration),
-    outliersSection(calibration),
+    fitted ? parametersSection(calibration) : null,
+    fitted ? outliersSection(calibration) : null,
     notesSection(calibration),
-    exportsSection(calibration, robot));
+    exportsSection(calibration, robot)];
+  fill(view, ...sections);
 }
 
 // ---------------------------------------------------------------- the verdict
@@ -71,7 +73,7 @@ function applyControls(c) {
       const again = await api(`/v1/robots/${c.robot_id}/calibrations`, { method: "POST", json: body });
       location.hash = `#/calibrations/${again.id}`;
     } catch (error) {
-      message.replaceChildren(errorBox(error, "apply-error"));
+      fill(message, errorBox(error, "apply-error"));
       button.disabled = false;
     }
   });
@@ -87,7 +89,7 @@ function restoreButton(robot, version) {
     try {
       await api(`/v1/robots/${robot.id}/parameter-versions/${version}/restore`, { method: "POST" });
       location.hash = `#/robots/${robot.id}`;
-    } catch (error) { message.replaceChildren(errorBox(error)); }
+    } catch (error) { fill(message, errorBox(error)); }
   });
   return h("div", {}, muted(`The robot's current version is ${robot.parameter_version} now.`), button, message);
 }
@@ -117,13 +119,14 @@ function summary(c) {
     figure("seconds", "time", c.seconds, "s")));
 }
 
-function residualSection(c) {
+function residualSection(c, fitted) {
   const before = (c.residuals && c.residuals.before.per_pose_mm) || [];
   const after = (c.residuals && c.residuals.after.per_pose_mm) || [];
-  const section = h("section", {}, h("h2", {}, "Residuals per record, before and after"));
-  if (before.length === 0 && after.length === 0) { section.append(muted("No residuals: no fit was run.")); return section; }
-  Plot.bars(section, { id: "residual-plot", title: "TCP position error per record (mm)", xlabel: "record", ylabel: "mm",
-    series: [{ name: "before (start version)", values: before }, { name: "after", values: after }] });
+  const series = [{ name: "before (start version)", values: before }];
+  if (fitted) series.push({ name: "after", values: after });
+  const section = h("section", {}, h("h2", {}, fitted ? "Residuals per record, before and after" : "Errors per record at the start version"));
+  if (before.length === 0) { section.append(muted("No residuals recorded.")); return section; }
+  Plot.bars(section, { id: "residual-plot", title: "TCP position error per record (mm)", xlabel: "record", ylabel: "mm", series });
   return section;
 }
 
@@ -151,7 +154,7 @@ function parametersSection(c) {
     return row;
   });
   const holder = h("div", { class: "scroll" }, table(["parameter", "start", "value", "change", "σ", "unit", "identifiable", ""], rows(), "parameters"));
-  onlyMoved.addEventListener("change", () => holder.replaceChildren(table(["parameter", "start", "value", "change", "σ", "unit", "identifiable", ""], rows(), "parameters")));
+  onlyMoved.addEventListener("change", () => fill(holder, table(["parameter", "start", "value", "change", "σ", "unit", "identifiable", ""], rows(), "parameters")));
   return h("section", {}, h("h2", {}, "Parameters"),
     h("p", {}, `${count} of ${params.length} moved by more than ${MOVED_SIGMAS} σ from the start version. `,
       h("label", {}, onlyMoved, " show only those")), holder,
@@ -182,7 +185,7 @@ async function save(path, accept, name) {
 function exportsSection(c, robot) {
   const message = h("div");
   const saving = (text, path, accept, name, id) => h("button", { type: "button", class: "link", id, onclick: () =>
-    save(path, accept, name).catch((error) => message.replaceChildren(errorBox(error))) }, text);
+    save(path, accept, name).catch((error) => fill(message, errorBox(error))) }, text);
   const serial = robot.structure.stages.every((s) => s.kind === "serial");
   const version = c.parameter_version;
   return h("section", {}, h("h2", {}, "Report and exports"), h("ul", { id: "exports" },

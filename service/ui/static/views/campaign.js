@@ -3,7 +3,7 @@
 // The file itself is sent (text/csv): the service's tolerant reader is the one that decides.
 import { api, query } from "../api.js";
 import { readCsv } from "../csv.js";
-import { errorBox, field, h, link, muted, table } from "../dom.js";
+import { errorBox, field, fill, h, link, muted, table } from "../dom.js";
 import { watchJob } from "./jobs.js";
 import { diagnosesList } from "./calibration.js";
 
@@ -24,11 +24,11 @@ export async function campaignView(view, robotId) {
   const form = h("form", { id: "campaign-form" }, picker, preview, options.node, h("p", {}, run), outcome);
   form.addEventListener("submit", async (event) => {
     event.preventDefault();
-    if (!state.text) { outcome.replaceChildren(errorBox(new Error("choose or drop a campaign CSV first"))); return; }
+    if (!state.text) { fill(outcome, errorBox(new Error("choose or drop a campaign CSV first"))); return; }
     run.disabled = true;
     try { await calibrate(robotId, state.text, options.values(), outcome); } finally { run.disabled = false; }
   });
-  view.replaceChildren(h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)),
+  fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)),
     h("h1", {}, `Calibrate ${robot.name}`),
     muted(`Joint columns this robot reads, in order: ${robot.joint_names.join(", ")} (${robot.joint_units.join(", ")}), `
       + "then x, y, z in mm and, for a full pose, qw, qx, qy, qz; optional sigma_mm or u95, temperature_c."),
@@ -53,7 +53,7 @@ export function filePicker(id, label, onFile) {
 // The first rows as the service will read them: each header cell says what its column is read as.
 export function showPreview(container, state, robot) {
   let csv;
-  try { csv = readCsv(state.text); } catch (error) { container.replaceChildren(errorBox(error, "preview-error")); return null; }
+  try { csv = readCsv(state.text); } catch (error) { fill(container, errorBox(error, "preview-error")); return null; }
   const described = (c) => h("span", {}, c, csv.units[c] ? ` [${csv.units[c]}]` : "", h("br"), h("small", { class: `role role-${csv.roles[c] === "ignored" ? "ignored" : "read"}` }, csv.roles[c]));
   const ignored = csv.columns.filter((c) => csv.roles[c] === "ignored");
   const notes = [`${csv.rows.length} records in ${state.name}; delimiter ${JSON.stringify(csv.delimiter)}${csv.decimalComma ? ", decimal commas" : ""}.`];
@@ -61,7 +61,7 @@ export function showPreview(container, state, robot) {
     notes.push(`The file has ${csv.joints.length} joint columns (${csv.joints.join(", ")}); ${robot.name} has ${robot.joint_names.length}: the service will refuse it.`);
   }
   if (ignored.length) notes.push(`Not read: ${ignored.join(", ")}.`);
-  container.replaceChildren(h("h2", {}, "Preview"), h("ul", { id: "preview-notes" }, notes.map((n) => h("li", {}, n))),
+  fill(container, h("h2", {}, "Preview"), h("ul", { id: "preview-notes" }, notes.map((n) => h("li", {}, n))),
     h("div", { class: "scroll" }, table(csv.columns.map(described), csv.rows.slice(0, PREVIEW_ROWS).map((r) => r.cells), "preview-table",
       `The first ${Math.min(PREVIEW_ROWS, csv.rows.length)} of ${csv.rows.length} rows`)));
   return csv;
@@ -87,13 +87,13 @@ function optionsForm() {
 
 // Submits the CSV as a job, follows it, and opens the stored result; a refusal before any fit stays here.
 async function calibrate(robotId, text, options, outcome) {
-  outcome.replaceChildren(muted("Sending the campaign…"));
+  fill(outcome, muted("Sending the campaign…"));
   let accepted;
   try {
     accepted = await api(`/v1/robots/${robotId}/calibrations${query({ async: true, ...options })}`,
       { method: "POST", body: text, type: "text/csv" });
   } catch (error) {
-    outcome.replaceChildren(refusal(error.message, error.problem));
+    fill(outcome, refusal(error.message, error.problem));
     return;
   }
   const job = await watchJob(accepted.job_id, outcome);

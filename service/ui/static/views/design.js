@@ -3,7 +3,7 @@
 // and their TCP positions, and a CSV for the pendant (the robot's joint names as header).
 import { api, query } from "../api.js";
 import { jointsCsv } from "../csv.js";
-import { download, errorBox, field, h, link, muted, num, numCell, table, when } from "../dom.js";
+import { download, errorBox, field, fill, h, link, muted, num, numCell, table, when } from "../dom.js";
 import { watchJob } from "./jobs.js";
 
 const CRITERIA = [["D", "D: the identified parameters' joint uncertainty"], ["A", "A: their mean variance"],
@@ -12,7 +12,7 @@ const CRITERIA = [["D", "D: the identified parameters' joint uncertainty"], ["A"
 export async function designView(view, robotId, params) {
   const [robot, designs] = await Promise.all([api(`/v1/robots/${robotId}`), api(`/v1/robots/${robotId}/pose-designs`)]);
   const result = h("div", { id: "design-result" });
-  view.replaceChildren(h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)), h("h1", {}, `Pose design for ${robot.name}`),
+  fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)), h("h1", {}, `Pose design for ${robot.name}`),
     designForm(robot, result),
     designs.length === 0 ? null : h("section", {}, h("h2", {}, "Earlier designs"),
       table(["when", "criterion", "poses", "measurement", ""], designs.map((d) => [when(d.created_at), d.criterion, numCell(d.count, 3), d.measurement,
@@ -48,7 +48,7 @@ function designForm(robot, result) {
       if (job.status === "succeeded") await showDesign(robot, job.result, result);
       else message.append(job.error ? errorBox({ message: `${job.error.status}: ${job.error.detail}`, problem: job.error }) : h("p", {}, `The job ended ${job.status}.`));
     } catch (error) {
-      message.replaceChildren(errorBox(error, "design-error"));
+      fill(message, errorBox(error, "design-error"));
     }
   });
   return form;
@@ -66,7 +66,7 @@ function jointRanges(robot) {
 export async function showDesign(robot, design, container) {
   const names = robot.joint_names;
   const m = design.metrics || {};
-  container.replaceChildren(h("h2", { id: "design-heading" }, `${design.count} poses, ${design.criterion}-optimal, ${design.measurement} records`),
+  fill(container, h("h2", { id: "design-heading" }, `${design.count} poses, ${design.criterion}-optimal, ${design.measurement} records`),
     h("dl", { class: "figures" },
       h("div", { class: "figure" }, h("dt", {}, "predicted TCP error, RMS"), h("dd", { id: "design-rms" }, `${num(m.predicted_rms_tcp_mm)} mm`)),
       h("div", { class: "figure" }, h("dt", {}, "predicted TCP error, max"), h("dd", {}, `${num(m.predicted_max_tcp_mm)} mm`)),

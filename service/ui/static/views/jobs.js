@@ -1,7 +1,7 @@
 // Jobs: the list (GET /v1/jobs) with progress, cancel and a link to what each created, and the live progress of
 // one job (GET /v1/jobs/{id}) that the campaign and pose-design views show while their work runs.
 import { api } from "../api.js";
-import { errorBox, h, link, muted, statusBadge, table, when } from "../dom.js";
+import { errorBox, fill, h, link, muted, statusBadge, table, when } from "../dom.js";
 
 const POLL_MS = 400;
 const LIST_POLL_MS = 2000;
@@ -36,16 +36,16 @@ export function watchJob(jobId, container) {
     const status = h("p", { id: "job-status", "aria-live": "polite" });
     const cancelButton = h("button", { type: "button", id: "job-cancel" }, "Cancel");
     const message = h("div");
-    container.replaceChildren(h("div", { class: "job", id: "job" }, h("h3", {}, "Job"), status, cancelButton, message));
+    fill(container, h("div", { class: "job", id: "job" }, h("h3", {}, "Job"), status, cancelButton, message));
     cancelButton.addEventListener("click", async () => {
       cancelButton.disabled = true;
-      try { await cancel(jobId); } catch (error) { message.replaceChildren(errorBox(error, "cancel-error")); }
+      try { await cancel(jobId); } catch (error) { fill(message, errorBox(error, "cancel-error")); }
     });
     const poll = async () => {
       if (!container.isConnected) return;  // the user went to another page: stop asking
       let job;
       try { job = await api(`/v1/jobs/${jobId}`); } catch (error) { reject(error); return; }
-      status.replaceChildren(statusBadge(job.status), " ", progressBar(job), job.cancel_requested ? " (cancel requested)" : "");
+      fill(status, statusBadge(job.status), " ", progressBar(job), job.cancel_requested ? " (cancel requested)" : "");
       if (ACTIVE.has(job.status)) { setTimeout(poll, POLL_MS); return; }
       cancelButton.remove();
       resolve(job);
@@ -68,7 +68,7 @@ async function jobListAvailable() {
 
 export async function jobsView(view) {
   if (!(await jobListAvailable())) {
-    view.replaceChildren(h("h1", {}, "Jobs"), muted(
+    fill(view, h("h1", {}, "Jobs"), muted(
       "This service does not list jobs (GET /v1/jobs); each job is still at the status_url its submission returned.", "no-job-list"));
     return;
   }
@@ -76,9 +76,9 @@ export async function jobsView(view) {
   const message = h("div", { id: "jobs-message" });
   const cancelCell = (j) => (ACTIVE.has(j.status) && !j.cancel_requested
     ? h("button", { type: "button", class: "link", onclick: async () => {
-      try { await cancel(j.id); await jobsView(view); } catch (error) { message.replaceChildren(errorBox(error)); }
+      try { await cancel(j.id); await jobsView(view); } catch (error) { fill(message, errorBox(error)); }
     } }, "cancel") : "");
-  view.replaceChildren(h("h1", {}, "Jobs"), message,
+  fill(view, h("h1", {}, "Jobs"), message,
     jobs.length === 0 ? muted("No job yet.") :
       table(["submitted", "kind", "robot", "status", "progress", "outcome", ""], jobs.map((j) => [
         when(j.created_at), j.kind, link(`#/robots/${j.robot_id}`, "robot"), statusBadge(j.status), progressBar(j),

@@ -1,7 +1,7 @@
 // One robot: what to do next (design poses, calibrate, validate), its calibrations, parameter versions (restore,
 // export), validations, a parameter's drift over the versions, and its pose designs.
 import { api } from "../api.js";
-import { download, errorBox, h, link, muted, numCell, statusBadge, table, when } from "../dom.js";
+import { download, errorBox, fill, h, link, muted, numCell, statusBadge, table, when } from "../dom.js";
 import { validationsTable } from "./validation.js";
 
 export async function robotView(view, id) {
@@ -13,7 +13,7 @@ export async function robotView(view, id) {
   const first = await api(`/v1/robots/${id}/parameters?version=1`);
   for (const p of first.parameters) choose.append(h("option", { value: p.name }, p.name));
   choose.addEventListener("change", () => drawDrift(id, versions, choose.value, drift));
-  view.replaceChildren(
+  fill(view, 
     h("h1", {}, robot.name), muted(`${robot.model} · version ${robot.parameter_version} · ${robot.joint_names.length} joints · ${robot.id}`),
     h("nav", { class: "actions", "aria-label": "workflow" },
       link(`#/robots/${id}/design`, "1. Design poses", { id: "go-design" }),
@@ -47,13 +47,13 @@ function versionsTable(robot, versions) {
     try {
       await api(`/v1/robots/${robot.id}/parameter-versions/${v.version}/restore`, { method: "POST" });
       window.dispatchEvent(new HashChangeEvent("hashchange"));  // redraw this page with the new version
-    } catch (error) { message.replaceChildren(errorBox(error, "restore-error")); }
+    } catch (error) { fill(message, errorBox(error, "restore-error")); }
   } }, `restore ${v.version}`);
   const exportCsv = (v) => h("button", { type: "button", class: "link", onclick: async () => {
     try {
       const response = await api(`/v1/robots/${robot.id}/parameters?version=${v.version}&format=csv`, { raw: true, accept: "text/csv" });
       download(`${robot.name}-v${v.version}.csv`, await response.text());
-    } catch (error) { message.replaceChildren(errorBox(error)); }
+    } catch (error) { fill(message, errorBox(error)); }
   } }, "CSV");
   return h("div", {}, message, table(["version", "provenance", "from", "by", "when", "", "parameters"], versions.map((v) => [numCell(v.version, 3), v.provenance,
     v.calibration_id ? link(`#/calibrations/${v.calibration_id}`, "calibration") : (v.restored_from ? `version ${v.restored_from}` : "—"),

@@ -1,13 +1,13 @@
 // Robots: the list, and a form that creates one: the IWR (the service's built-in structure), a DH/MDH table
 // typed or pasted from a spreadsheet, or a URDF file whose chain runs from a chosen base link to a tip link.
 import { api } from "../api.js";
-import { errorBox, field, h, link, muted, numCell, table, when } from "../dom.js";
+import { errorBox, field, fill, h, link, muted, numCell, table, when } from "../dom.js";
 
 const LINK_KEYS = ["theta", "d", "a", "alpha"];
 
 export async function robotsView(view) {
   const robots = await api("/v1/robots");
-  view.replaceChildren(h("h1", {}, "Robots"),
+  fill(view, h("h1", {}, "Robots"),
     robots.length === 0 ? muted("No robot yet: add one below.", "no-robots") :
       table(["name", "model", "current version", "created"], robots.map((r) => [
         link(`#/robots/${r.id}`, r.name), r.model, numCell(r.parameter_version, 3), when(r.created_at)]), "robots"),
@@ -22,7 +22,7 @@ function createForm() {
   const dh = dhEditor(), urdf = urdfPicker();
   const panes = { iwr: muted("The intersector welding robot of the service's model: four serial joints and a hexapod."), dh: dh.node, urdf: urdf.node };
   const pane = h("div", { id: "structure-pane" }, panes.iwr);
-  kind.addEventListener("change", (e) => pane.replaceChildren(panes[e.target.value]));
+  kind.addEventListener("change", (e) => fill(pane, panes[e.target.value]));
   const message = h("div", { id: "create-message" });
   const form = h("form", { id: "create-robot", "aria-labelledby": "create-heading" },
     h("h2", { id: "create-heading" }, "Add a robot"), field("Name", name), kind, pane,
@@ -38,7 +38,7 @@ function createForm() {
       const robot = await api("/v1/robots", { method: "POST", json: body });
       location.hash = `#/robots/${robot.id}`;
     } catch (error) {
-      message.replaceChildren(errorBox(error, "create-error"));
+      fill(message, errorBox(error, "create-error"));
     }
   });
   return form;
@@ -55,17 +55,17 @@ function dhEditor() {
     body);
   const paste = h("textarea", { id: "dh-paste", rows: 4, cols: 60,
     placeholder: "revolute\t0\t400\t25\t-90\t-170\t170\n(one link a line: joint θ d a α from to; tabs, commas, ; or spaces)" });
-  const fill = () => { const rows = parseRows(paste.value); if (rows.length) { body.replaceChildren(...rows.map(linkRow)); paste.value = ""; } };
+  const fillFromPaste = () => { const rows = parseRows(paste.value); if (rows.length) { fill(body, ...rows.map(linkRow)); paste.value = ""; } };
   // A paste of several cells into any cell of the table fills the table from there, as in a spreadsheet.
   grid.addEventListener("paste", (e) => {
     const text = e.clipboardData.getData("text");
-    if (/[\t\n;,]/.test(text.trim())) { e.preventDefault(); paste.value = text; fill(); }
+    if (/[\t\n;,]/.test(text.trim())) { e.preventDefault(); paste.value = text; fillFromPaste(); }
   });
   for (let i = 0; i < 3; i++) body.append(linkRow({ joint: "revolute", theta: 0, d: 0, a: 0, alpha: 0, range: [-170, 170] }));
   const node = h("div", { id: "dh-editor" }, field("Convention", convention), grid,
     h("p", {}, h("button", { type: "button", id: "dh-add", onclick: () => body.append(linkRow({ joint: "revolute", range: [-170, 170] })) }, "Add a link")),
     field("Or paste rows from a spreadsheet", paste),
-    h("p", {}, h("button", { type: "button", id: "dh-fill", onclick: fill }, "Fill the table from the pasted rows")));
+    h("p", {}, h("button", { type: "button", id: "dh-fill", onclick: fillFromPaste }, "Fill the table from the pasted rows")));
   const document = () => ({ stages: [{ kind: "serial", convention: convention.value, links: [...body.rows].map(readRow) }] });
   return { node, document };
 }
@@ -120,8 +120,8 @@ function urdfPicker() {
     const { links, root, leaves } = urdfLinks(text);
     if (links.length === 0) { info.textContent = "This file names no <link>: is it a URDF?"; return; }
     const options = (selected) => links.map((l) => h("option", { value: l, selected: l === selected }, l));
-    base.replaceChildren(...options(root));
-    tip.replaceChildren(...options(leaves[leaves.length - 1] || links[links.length - 1]));
+    fill(base, ...options(root));
+    fill(tip, ...options(leaves[leaves.length - 1] || links[links.length - 1]));
     info.textContent = `${links.length} links; the chain from the base link to the tip link is the robot.`;
   });
   const node = h("div", { id: "urdf-picker" }, field("URDF file", file), info, h("div", { class: "row" }, field("Base link", base), field("Tip link", tip)));

@@ -3,7 +3,7 @@
 // answer per version is shown with ISO 9283 AP/RP where the campaign repeats joint commands.
 import { api } from "../api.js";
 import { trackerRecords } from "../csv.js";
-import { errorBox, h, link, muted, num, numCell, table, when } from "../dom.js";
+import { errorBox, fill, h, link, muted, num, numCell, table, when } from "../dom.js";
 import { filePicker, showPreview } from "./campaign.js";
 
 export async function validationView(view, robotId) {
@@ -31,12 +31,12 @@ export async function validationView(view, robotId) {
       const chosen = [...choices.querySelectorAll("input:checked")].map((i) => Number(i.value));
       const answer = await api(`/v1/robots/${robotId}/validations`, { method: "POST",
         json: { measurements: trackerRecords(state.csv), versions: chosen, register: register.checked, notes: `from the browser: ${state.name}` } });
-      result.replaceChildren(validationResult(answer));
+      fill(result, validationResult(answer));
     } catch (error) {
-      result.replaceChildren(errorBox(error, "validation-error"));
+      fill(result, errorBox(error, "validation-error"));
     }
   });
-  view.replaceChildren(h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)), h("h1", {}, `Validate ${robot.name}`), form,
+  fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)), h("h1", {}, `Validate ${robot.name}`), form,
     h("h2", {}, "Earlier validations"), validationsTable(validations));
 }
 
