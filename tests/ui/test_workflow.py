@@ -17,6 +17,7 @@ from urllib.parse import urlparse
 import httpx
 import pytest
 
+from tests.models.test_urdf_hostile import joint, urdf
 from tests.ui.conftest import PageProblems, screenshot
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui: ~10 s here once it runs
@@ -40,9 +41,7 @@ def page(browser: Any, server: str) -> Iterator[Any]:
 
 def _ready(page: Any, pattern: str) -> str:
     """Waits until the page drawn is one whose fragment matches `pattern`; returns the fragment."""
-    page.wait_for_function(
-        "p => new RegExp(p).test(document.body.dataset.ready || '')", arg=pattern, timeout=20_000
-    )
+    page.wait_for_function("p => new RegExp(p).test(document.body.dataset.ready || '')", arg=pattern, timeout=20_000)
     fragment: str = page.evaluate("document.body.dataset.ready")
     return fragment
 
@@ -103,11 +102,16 @@ def test_a_whole_calibration_by_clicks(page: Any, server: str) -> None:
     with page.expect_download() as download:
         page.locator("#export-csv").click()
     exported = Path(download.value.path()).read_text()
-    assert exported == httpx.get(
-        f"{server}/v1/robots/{robot_id}/parameters", params={"version": stored["parameter_version"], "format": "csv"}
-    ).text
+    assert (
+        exported
+        == httpx.get(
+            f"{server}/v1/robots/{robot_id}/parameters",
+            params={"version": stored["parameter_version"], "format": "csv"},
+        ).text
+    )
     # The report itself (its numbers are the API's) is test_pages' subject: rendering it costs seconds.
-    assert page.get_by_role("link", name="Report (HTML)").get_attribute("href") == f"#/calibrations/{calibration_id}/report"
+    report = page.get_by_role("link", name="Report (HTML)")
+    assert report.get_attribute("href") == f"#/calibrations/{calibration_id}/report"
 
 
 def _in_radians(tmp_path: Path) -> Path:
@@ -155,9 +159,19 @@ def test_a_refused_calibration_says_why_and_can_be_forced(page: Any, server: str
     forced = httpx.get(f"{server}/v1/calibrations/{forced_id}").json()
     assert forced["applied"] and forced["forced"] and forced["noise"] == refused["noise"]
     assert httpx.get(f"{server}/v1/robots/{robot_id}").json()["parameter_version"] == forced["parameter_version"]
+    # And back: the nominal version restored from the robot's version list.
+    page.get_by_role("link", name="← cell-noise").click()
+    _ready(page, "^#/robots/[0-9a-f-]+$")
+    page.get_by_role("button", name="restore 1").click()
+    page.wait_for_function("() => document.querySelector('#versions tbody tr:last-child b')?.textContent === 'current'")
+    versions = httpx.get(f"{server}/v1/robots/{robot_id}/parameter-versions").json()
+    assert (versions[-1]["provenance"], versions[-1]["restored_from"], versions[-1]["current"]) == ("restore", 1, True)
 
 
-DH_ROWS = "revolute\t0\t400\t25\t-90\t-170\t170\nrevolute\t-90\t0\t455\t0\t-100\t150\nrevolute\t0\t0\t35\t-90\t-210\t66\n"
+# A spreadsheet's copy: joint, θ, d, a, α, range from, range to; tabs between cells.
+DH_ROWS = (
+    "revolute\t0\t400\t25\t-90\t-170\t170\nrevolute\t-90\t0\t455\t0\t-100\t150\nrevolute\t0\t0\t35\t-90\t-210\t66\n"
+)
 
 
 def test_a_robot_from_a_pasted_dh_table(page: Any, server: str) -> None:
@@ -177,6 +191,26 @@ def test_a_robot_from_a_pasted_dh_table(page: Any, server: str) -> None:
     stored = [[k["theta"], k["d"], k["a"], k["alpha"], *k["range"]] for k in links]
     typed = [[float(v) for v in line.split("\t")[1:]] for line in DH_ROWS.splitlines()]
     assert [v for row in stored for v in row] == pytest.approx([v for row in typed for v in row], abs=1e-9)
+
+
+def test_a_robot_from_a_urdf_file(page: Any, server: str, tmp_path: Path) -> None:
+    # Three revolute joints from l0 to l3, and a camera link hanging off l1 that is not part of the arm.
+    links = ["l0", "l1", "l2", "l3", "camera"]
+    joints = [joint(f"j{i}", f"l{i}", f"l{i + 1}") for i in range(3)] + [joint("mount", "l1", "camera", "fixed")]
+    path = tmp_path / "arm.urdf"
+    path.write_text(urdf(links, joints))
+    page.goto(f"{server}/ui#/")
+    _ready(page, "^#/$")
+    page.get_by_label("Name").fill("arm-urdf")
+    page.get_by_label("A URDF file").check()
+    page.set_input_files("#urdf-file", str(path))
+    page.wait_for_function("document.querySelectorAll('#urdf-tip option').length === 5")
+    assert page.locator("#urdf-base").input_value() == "l0"  # the root, offered first
+    page.select_option("#urdf-tip", "l3")
+    page.get_by_role("button", name="Create the robot").click()
+    robot_id = _ready(page, "^#/robots/[0-9a-f-]+$").split("/")[-1]
+    robot = httpx.get(f"{server}/v1/robots/{robot_id}").json()
+    assert robot["model"] == "custom" and robot["joint_names"] == ["q1", "q2", "q3"]
 
 
 def test_a_wrong_table_is_refused_in_words(page: Any, server: str) -> None:
@@ -222,7 +256,12 @@ def test_validation_of_the_current_version(page: Any, server: str) -> None:
     robot_id = _create_iwr(page, server, "cell-validate")
     page.get_by_role("link", name="3. Validate").click()
     _ready(page, "/validate$")
-    page.set_input_files("#validation-file", str(CAMPAIGN))
+    # Dropped on the zone this time (the campaign test uses the file picker).
+    transfer = page.evaluate_handle(
+        """text => { const t = new DataTransfer(); t.items.add(new File([text], "validation.csv")); return t; }""",
+        CAMPAIGN.read_text(),
+    )
+    page.dispatch_event("#validation-file-zone", "drop", {"dataTransfer": transfer})
     page.wait_for_selector("#validation-preview table")
     page.get_by_role("button", name="Validate").click()
     page.wait_for_selector("#validation-results")
@@ -245,3 +284,23 @@ def test_a_401_is_said_in_words(page: Any, server: str) -> None:
     _ready(page, "^error$")
     text = page.locator("#error").inner_text()
     assert "401" in text and "API key" in text
+
+
+def test_a_running_job_is_cancelled_and_listed(page: Any, server: str) -> None:
+    robot_id = _create_iwr(page, server, "cell-cancel")
+    page.get_by_role("link", name="1. Design poses").click()
+    _ready(page, "/design$")
+    page.get_by_label("Poses", exact=True).fill("40")
+    page.get_by_label("Candidate poses sampled").fill("20000")  # seconds of work: time to cancel it
+    page.get_by_role("button", name="Design the poses").click()
+    page.wait_for_selector("#job-status .status-running", timeout=20_000)
+    page.get_by_role("button", name="Cancel").click()
+    page.wait_for_selector("#job-cancelled", timeout=30_000)
+    jobs = httpx.get(f"{server}/v1/jobs", params={"robot_id": robot_id}).json()
+    assert [(j["kind"], j["status"]) for j in jobs] == [("pose_design", "cancelled")]
+    assert httpx.get(f"{server}/v1/robots/{robot_id}/pose-designs").json() == []
+    page.get_by_role("link", name="Jobs").click()
+    _ready(page, "^#/jobs$")
+    row = page.locator("#jobs tbody tr", has=page.locator(f'a[href="#/robots/{robot_id}"]'))
+    assert row.locator(".status-cancelled").inner_text() == "cancelled"
+    screenshot(page, "jobs-cancelled")

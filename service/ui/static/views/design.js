@@ -46,7 +46,8 @@ function designForm(robot, result) {
       const accepted = await api(`/v1/robots/${robot.id}/pose-designs${query({ async: true })}`, { method: "POST", json: body });
       const job = await watchJob(accepted.job_id, message);
       if (job.status === "succeeded") await showDesign(robot, job.result, result);
-      else message.append(job.error ? errorBox({ message: `${job.error.status}: ${job.error.detail}`, problem: job.error }) : h("p", {}, `The job ended ${job.status}.`));
+      else if (job.status === "cancelled") message.append(h("p", { id: "job-cancelled" }, "The design was cancelled: nothing was stored."));
+      else message.append(errorBox({ message: `${job.error.status}: ${job.error.detail}`, problem: job.error }, "design-error"));
     } catch (error) {
       fill(message, errorBox(error, "design-error"));
     }

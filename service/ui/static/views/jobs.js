@@ -60,7 +60,7 @@ export function watchJob(jobId, container) {
 let hasJobList = null;
 async function jobListAvailable() {
   if (hasJobList === null) {
-    const contract = await (await fetch("/openapi.json")).json();
+    const contract = await api("/openapi.json");  // with the key: a service may guard its contract too
     hasJobList = Boolean(contract.paths && contract.paths["/v1/jobs"] && contract.paths["/v1/jobs"].get);
   }
   return hasJobList;
