@@ -139,6 +139,25 @@ def test_a_failed_calibration_shows_its_reason(page: Any, server: str, tmp_path:
     assert page.locator("#parameters").count() == 0  # no fit was run: no estimates to show
 
 
+def test_a_campaign_refused_before_any_fit_says_why(page: Any, server: str, tmp_path: Path) -> None:
+    robot_id = _create_iwr(page, server, "cell-short-leg")
+    lines = CAMPAIGN.read_text().splitlines()
+    cells = lines[1].split(",")
+    cells[4] = "5"  # leg l1 at 5 mm: outside its stroke, so the job fails before fitting and stores nothing
+    path = tmp_path / "campaign-short-leg.csv"
+    path.write_text("\n".join([lines[0], ",".join(cells), *lines[2:]]) + "\n")
+    page.get_by_role("link", name="2. Calibrate from a campaign").click()
+    _ready(page, "/calibrate$")
+    page.set_input_files("#campaign-file", str(path))
+    page.get_by_role("button", name="Calibrate").click()
+    refusal = page.locator("#calibration-refused")
+    refusal.wait_for(timeout=20_000)
+    jobs = httpx.get(f"{server}/v1/jobs", params={"robot_id": robot_id}).json()
+    assert jobs[0]["status"] == "failed"
+    assert jobs[0]["error"]["detail"] in refusal.inner_text() and "l1" in refusal.inner_text()
+    assert httpx.get(f"{server}/v1/robots/{robot_id}/calibrations").json() == []
+
+
 def test_a_refused_calibration_says_why_and_can_be_forced(page: Any, server: str) -> None:
     robot_id = _create_iwr(page, server, "cell-noise")
     # σ stated ten times too small: the variance-factor check fails, the result is stored and not applied.

@@ -13,6 +13,9 @@ const ALIASES = {
   sigma_mm: ["sigma_mm", "sigma", "uncertainty", "std", "rms"], u95: ["u95", "u95_mm"],
   temperature_c: ["temperature_c", "temperature", "temp"],
 };
+const ROLE_WORDS = { x: "position x", y: "position y", z: "position z", qw: "orientation qw", qx: "orientation qx",
+  qy: "orientation qy", qz: "orientation qz", sigma_mm: "σ of the record", u95: "U95 (σ = U95 / 2)",
+  temperature_c: "temperature (°C)", pose_id: "pose id" };
 const IGNORED_KNOWN = ["timestamp", "time", "datetime", "date_time", "date", "collection", "group"];
 const JOINT_STYLES = ["q", "a", "j", "axis", "joint"];
 const LEGS = ["l1", "l2", "l3", "l4", "l5", "l6"];
@@ -64,17 +67,25 @@ export function readCsv(text) {
   return { columns, units, rows, delimiter, decimalComma, roles: roles(columns), joints: jointColumns(columns) };
 }
 
-function roles(columns) {
-  const joints = new Set(jointColumns(columns));
+// Column → the canonical name it is read as (x, qw, sigma_mm, …), by the service reader's aliases.
+function canonical(columns) {
   const found = {};
-  for (const [canonical, aliases] of Object.entries(ALIASES)) {
+  for (const [name, aliases] of Object.entries(ALIASES)) {
     const alias = aliases.find((a) => columns.includes(a));
-    if (alias) found[alias] = canonical;
+    if (alias) found[alias] = name;
   }
   if (columns.includes("q0")) for (const [i, q] of ["qw", "qx", "qy", "qz"].entries()) found[`q${i}`] = q;
+  return found;
+}
+
+// Column → what the preview says it is read as.
+function roles(columns) {
+  const joints = new Set(jointColumns(columns));
+  const found = canonical(columns);
+  const order = [...joints];
   return Object.fromEntries(columns.map((c) => {
-    if (joints.has(c)) return [c, "joint"];
-    if (found[c]) return [c, found[c]];
+    if (joints.has(c)) return [c, `joint ${order.indexOf(c) + 1}`];
+    if (found[c]) return [c, ROLE_WORDS[found[c]] || found[c]];
     if (c === "kind") return [c, "record kind (distance, point, plane rows: the service reads them)"];
     if (IGNORED_KNOWN.includes(c)) return [c, "known, not used"];
     return [c, "ignored"];
@@ -96,7 +107,7 @@ const lengthFactor = (table, column) => MM_PER[table.units[column] || "mm"] ?? 1
 // The API's tracker records (joints, position, orientation, sigma_mm, temperature_c) from a table; the joints in
 // the robot's units, where a header states degrees or radians for a revolute joint.
 export function trackerRecords(table) {
-  const byRole = Object.fromEntries(Object.entries(table.roles).map(([c, r]) => [r, c]));
+  const byRole = Object.fromEntries(Object.entries(canonical(table.columns)).map(([c, r]) => [r, c]));
   for (const needed of ["x", "y", "z"]) {
     if (!byRole[needed]) throw new Error(`the header has no column ${needed} (found: ${table.columns.join(", ")})`);
   }

@@ -26,7 +26,13 @@ export async function campaignView(view, robotId) {
     event.preventDefault();
     if (!state.text) { fill(outcome, errorBox(new Error("choose or drop a campaign CSV first"))); return; }
     run.disabled = true;
-    try { await calibrate(robotId, state.text, options.values(), outcome); } finally { run.disabled = false; }
+    try {
+      await calibrate(robotId, state.text, options.values(), outcome);
+    } catch (error) {
+      fill(outcome, errorBox(error, "calibration-error"));  // the job could not be followed (the API stopped answering)
+    } finally {
+      run.disabled = false;
+    }
   });
   fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)),
     h("h1", {}, `Calibrate ${robot.name}`),
