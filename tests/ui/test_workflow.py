@@ -109,6 +109,12 @@ def test_a_whole_calibration_by_clicks(page: Any, server: str) -> None:
             params={"version": stored["parameter_version"], "format": "csv"},
         ).text
     )
+    # The job is listed, and its link leads back to this result.
+    page.get_by_role("link", name="Jobs").click()
+    _ready(page, "^#/jobs$")
+    row = page.locator("#jobs tbody tr", has=page.locator(f'a[href="#/robots/{robot_id}"]'))
+    row.get_by_role("button", name="result").click()
+    _ready(page, f"^#/calibrations/{calibration_id}$")
     # The report itself (its numbers are the API's) is test_pages' subject: rendering it costs seconds.
     report = page.get_by_role("link", name="Report (HTML)")
     assert report.get_attribute("href") == f"#/calibrations/{calibration_id}/report"

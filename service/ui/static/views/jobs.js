@@ -19,12 +19,24 @@ function progressBar(job) {
       h("span", { style: `width:${percent}%` })), ` ${percent} % · ${stage}`);
 }
 
-// Where a job's outcome is: a calibration's result page (also for a failed one, which is stored), a design.
-export function resultLink(job) {
+// Where a finished job's outcome is: a calibration's result page (also for a failed one, which is stored), a
+// design; null when it produced nothing.
+function outcomeHash(job) {
   const id = job.result ? job.result.id : job.error && job.error.calibration_id;
   if (!id) return null;
-  if (job.kind === "calibration") return link(`#/calibrations/${id}`, "result");
-  return link(`#/robots/${job.robot_id}/design?design=${id}`, "design");
+  return job.kind === "calibration" ? `#/calibrations/${id}` : `#/robots/${job.robot_id}/design?design=${id}`;
+}
+
+// The list leaves results out (GET the job for its result), so a succeeded job's link asks for the job first.
+function outcomeLink(job, message) {
+  const text = job.kind === "calibration" ? "result" : "design";
+  if (job.status === "succeeded") {
+    return h("button", { type: "button", class: "link", onclick: async () => {
+      try { location.hash = outcomeHash(await api(`/v1/jobs/${job.id}`)); } catch (error) { fill(message, errorBox(error)); }
+    } }, text);
+  }
+  const hash = outcomeHash(job);
+  return hash ? link(hash, text) : null;
 }
 
 async function cancel(jobId) { return api(`/v1/jobs/${jobId}`, { method: "DELETE" }); }
@@ -82,7 +94,7 @@ export async function jobsView(view) {
     jobs.length === 0 ? muted("No job yet.") :
       table(["submitted", "kind", "robot", "status", "progress", "outcome", ""], jobs.map((j) => [
         when(j.created_at), j.kind, link(`#/robots/${j.robot_id}`, "robot"), statusBadge(j.status), progressBar(j),
-        h("span", {}, resultLink(j), j.error ? h("span", { class: "error" }, ` ${j.error.detail || ""}`) : ""),
+        h("span", {}, outcomeLink(j, message), j.error ? h("span", { class: "error" }, ` ${j.error.detail || ""}`) : ""),
         cancelCell(j)]), "jobs"));
   // Refresh while anything runs, only as long as this page is the one shown.
   if (jobs.some((j) => ACTIVE.has(j.status))) listTimer = setTimeout(() => { if (location.hash === "#/jobs") jobsView(view); }, LIST_POLL_MS);

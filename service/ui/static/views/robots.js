@@ -33,7 +33,7 @@ function createForm() {
     try {
       const choice = form.querySelector("input[name=structure-kind]:checked").value;
       const body = { name: name.value.trim() };
-      if (choice === "dh") body.structure = dh.document();
+      if (choice === "dh") body.structure = dh.structure();
       if (choice === "urdf") Object.assign(body, urdf.fields());
       const robot = await api("/v1/robots", { method: "POST", json: body });
       location.hash = `#/robots/${robot.id}`;
@@ -66,8 +66,8 @@ function dhEditor() {
     h("p", {}, h("button", { type: "button", id: "dh-add", onclick: () => body.append(linkRow({ joint: "revolute", range: [-170, 170] })) }, "Add a link")),
     field("Or paste rows from a spreadsheet", paste),
     h("p", {}, h("button", { type: "button", id: "dh-fill", onclick: fillFromPaste }, "Fill the table from the pasted rows")));
-  const document = () => ({ stages: [{ kind: "serial", convention: convention.value, links: [...body.rows].map(readRow) }] });
-  return { node, document };
+  const structure = () => ({ stages: [{ kind: "serial", convention: convention.value, links: [...body.rows].map(readRow) }] });
+  return { node, structure };
 }
 
 function linkRow(linkData) {
