@@ -17,6 +17,9 @@ export class ApiError extends Error {
 
 // A problem document as one paragraph; `errors` (a validation error's list) adds "field: message" items.
 export function problemText(status, problem) {
+  if (status === 401 && apiKey()) {
+    return "401: the service refused the API key given in the field at the top of the page: check it.";
+  }
   if (status === 401) {
     return "401: the service asks for an API key. Enter a key in the API key field at the top of the page "
       + "(make run starts the service without keys; this one was started with IWR_API_KEYS or a key file).";

@@ -15,7 +15,12 @@ import { validationView } from "./views/validation.js";
 const view = document.getElementById("view");
 const keyInput = document.getElementById("api-key");
 keyInput.value = apiKey();
-keyInput.addEventListener("change", () => { setApiKey(keyInput.value); route(); });
+// A new key redraws the page with it; an unchanged one (a second change event) must not wipe a half-filled form.
+keyInput.addEventListener("change", () => {
+  if (keyInput.value === apiKey()) return;
+  setApiKey(keyInput.value);
+  route();
+});
 
 // "#/robots/ID/design?design=X" → ["robots", "ID", "design"] and its parameters.
 function parse(hash) {

@@ -1,7 +1,7 @@
 // A campaign to calibrate from: a CSV dropped or picked, a preview of its first rows with the columns the
 // service will read, the noise and apply options, then the calibration as a job with live progress and cancel.
 // The file itself is sent (text/csv): the service's tolerant reader is the one that decides.
-import { api, query } from "../api.js";
+import { api, fieldErrors, query } from "../api.js";
 import { readCsv } from "../csv.js";
 import { errorBox, field, fill, h, link, muted, table } from "../dom.js";
 import { watchJob } from "./jobs.js";
@@ -109,7 +109,10 @@ async function calibrate(robotId, text, options, outcome) {
     : refusal(`${job.error ? job.error.status : ""}: ${job.error ? job.error.detail : "the job failed"}`, job.error));
 }
 
+// A refusal in words: the problem's detail, each invalid field, and the diagnoses the service found.
 function refusal(text, problem) {
+  const fields = fieldErrors(problem);
   return h("div", { class: "error refusal", id: "calibration-refused", role: "alert" },
-    h("h3", {}, "The service refused the campaign"), h("p", {}, text), diagnosesList(problem && problem.diagnoses));
+    h("h3", {}, "The service refused the campaign"), h("p", {}, text),
+    fields.length ? h("ul", {}, fields.map((f) => h("li", {}, f))) : null, diagnosesList(problem && problem.diagnoses));
 }
