@@ -38,7 +38,8 @@ def browser() -> Iterator[object]:
         launched.close()
 
 
-@pytest.fixture(scope="module")
+# One server for every UI test: its start (compute processes, migrations) is most of these tests' time.
+@pytest.fixture(scope="session")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     database = tmp_path_factory.mktemp("ui") / "iwr.db"
     with running_server(f"sqlite:///{database}", IWR_JOB_WORKERS="1", IWR_COMPUTE_PROCESSES="1") as url:

@@ -1,4 +1,4 @@
-// Small SVG plots for the UI: a line with error bars and a scatter. Written for this page (nothing fetched:
+// Small SVG plots for the UI: a line with error bars, a scatter and grouped bars. Written for this page (nothing fetched:
 // plant networks are offline), axes with "nice" ticks, every mark a real SVG element the browser test can count.
 "use strict";
 
@@ -69,5 +69,25 @@ const Plot = (() => {
     return svg;
   }
 
-  return { line, scatter };
+  // Grouped bars from zero, one group per index and one bar per series (class s0, s1, …), with a legend: a
+  // calibration's per-pose residuals before and after, side by side.
+  function bars(container, opts) {
+    const n = Math.max(...opts.series.map((s) => s.values.length));
+    const all = opts.series.flatMap((s) => s.values);
+    const { svg, sx, sy } = frame(container, opts, [0.5, n + 0.5], [0, ...all]);
+    const group = (sx(1) - sx(0)) * 0.8, width = group / opts.series.length;
+    opts.series.forEach((series, k) => {
+      series.values.forEach((v, i) => {
+        const left = sx(i + 1) - group / 2 + k * width;
+        const bar = el("rect", { x: left, y: sy(v), width: Math.max(width, 0.5), height: sy(0) - sy(v), class: `bar s${k}` }, svg);
+        el("title", {}, bar).textContent = `${series.name}, ${i + 1}: ${fmt(v)}`;
+      });
+      const key = el("g", { class: "legend" }, svg);
+      el("rect", { x: W - M.right - 150, y: M.top + k * 16, width: 10, height: 10, class: `bar s${k}` }, key);
+      el("text", { x: W - M.right - 135, y: M.top + k * 16 + 9 }, key).textContent = series.name;
+    });
+    return svg;
+  }
+
+  return { line, scatter, bars };
 })();

@@ -1,0 +1,135 @@
+// Reading a campaign CSV in the browser, by the rules of the service's tolerant reader (service/campaign_io):
+// a BOM, `#` comments and blank lines dropped; `,` `;` or tab, whichever the header uses most; decimal commas
+// with `;` or tab; names lowered, spaces to `_`, a trailing unit `X [m]` read. The preview shows which columns the
+// service will read; validations (a JSON-only route) send the records built here. Calibrations send the file
+// itself: there the service's reader is the one that counts.
+
+const DELIMITERS = [",", ";", "\t"];
+const MM_PER = { mm: 1, m: 1000, cm: 10, um: 1e-3, "µm": 1e-3, in: 25.4, inch: 25.4 };
+const DEG_PER = { deg: 1, "°": 1, degree: 1, degrees: 1, rad: 180 / Math.PI };
+const ALIASES = {
+  pose_id: ["pose_id", "pose", "id", "point_id", "point", "name", "point_name", "target"],
+  x: ["x"], y: ["y"], z: ["z"], qw: ["qw", "w"], qx: ["qx"], qy: ["qy"], qz: ["qz"],
+  sigma_mm: ["sigma_mm", "sigma", "uncertainty", "std", "rms"], u95: ["u95", "u95_mm"],
+  temperature_c: ["temperature_c", "temperature", "temp"],
+};
+const ROLE_WORDS = { x: "position x", y: "position y", z: "position z", qw: "orientation qw", qx: "orientation qx",
+  qy: "orientation qy", qz: "orientation qz", sigma_mm: "σ of the record", u95: "U95 (σ = U95 / 2)",
+  temperature_c: "temperature (°C)", pose_id: "pose id" };
+const IGNORED_KNOWN = ["timestamp", "time", "datetime", "date_time", "date", "collection", "group"];
+const JOINT_STYLES = ["q", "a", "j", "axis", "joint"];
+const LEGS = ["l1", "l2", "l3", "l4", "l5", "l6"];
+
+function nameAndUnit(raw) {
+  const match = raw.trim().match(/^(.*?)\s*[[(]([^\])]*)[\])]$/);
+  return match ? [match[1], match[2].trim().toLowerCase()] : [raw, null];
+}
+const normalise = (raw) => nameAndUnit(raw)[0].trim().toLowerCase().replace(/[\s-]+/g, "_");
+
+// One line into cells, with "quoted, cells" as csv writers make them.
+function splitLine(line, delimiter) {
+  const cells = [];
+  let cell = "", quoted = false;
+  for (let i = 0; i < line.length; i++) {
+    const c = line[i];
+    if (quoted && c === '"' && line[i + 1] === '"') { cell += '"'; i++; }
+    else if (c === '"') quoted = !quoted;
+    else if (c === delimiter && !quoted) { cells.push(cell); cell = ""; }
+    else cell += c;
+  }
+  cells.push(cell);
+  return cells;
+}
+
+// The joint columns in the robot's order: serial joints 1 … m in one numbering style, then a hexapod's legs.
+function jointColumns(columns) {
+  if (columns.includes("q0")) return [];  // a Leica q0…q3 quaternion: the service names the clash
+  for (const style of JOINT_STYLES) {
+    const serial = columns.filter((c) => new RegExp(`^${style}[1-9][0-9]*$`).test(c))
+      .sort((a, b) => Number(a.slice(style.length)) - Number(b.slice(style.length)));
+    if (serial.length) return [...serial, ...LEGS.filter((l) => columns.includes(l))];
+  }
+  return LEGS.filter((l) => columns.includes(l));
+}
+
+// columns: normalised names; units: name → unit; rows: arrays of strings; roles: name → what it is read as.
+export function readCsv(text) {
+  const lines = text.replace(/^\ufeff/, "").split(/\r\n|\r|\n/)
+    .map((t, k) => ({ line: k + 1, text: t })).filter((l) => l.text.trim() && !l.text.trim().startsWith("#"));
+  if (lines.length === 0) throw new Error("the file has no header and no data (only blank or comment lines)");
+  const header = lines[0].text;
+  const delimiter = DELIMITERS.reduce((best, d) => (header.split(d).length > header.split(best).length ? d : best), ",");
+  const raw = splitLine(header, delimiter);
+  const columns = raw.map(normalise);
+  const units = Object.fromEntries(raw.map((r, i) => [columns[i], nameAndUnit(r)[1]]).filter(([, u]) => u));
+  const rows = lines.slice(1).map((l) => ({ line: l.line, cells: splitLine(l.text, delimiter) }));
+  const decimalComma = delimiter !== "," && rows.slice(0, 50).some((r) => r.cells.some((c) => /^[+-]?\d+,\d+([eE][+-]?\d+)?$/.test(c.trim())));
+  return { columns, units, rows, delimiter, decimalComma, roles: roles(columns), joints: jointColumns(columns) };
+}
+
+// Column → the canonical name it is read as (x, qw, sigma_mm, …), by the service reader's aliases.
+function canonical(columns) {
+  const found = {};
+  for (const [name, aliases] of Object.entries(ALIASES)) {
+    const alias = aliases.find((a) => columns.includes(a));
+    if (alias) found[alias] = name;
+  }
+  if (columns.includes("q0")) for (const [i, q] of ["qw", "qx", "qy", "qz"].entries()) found[`q${i}`] = q;
+  return found;
+}
+
+// Column → what the preview says it is read as.
+function roles(columns) {
+  const joints = new Set(jointColumns(columns));
+  const found = canonical(columns);
+  const order = [...joints];
+  return Object.fromEntries(columns.map((c) => {
+    if (joints.has(c)) return [c, `joint ${order.indexOf(c) + 1}`];
+    if (found[c]) return [c, ROLE_WORDS[found[c]] || found[c]];
+    if (c === "kind") return [c, "record kind (distance, point, plane rows: the service reads them)"];
+    if (IGNORED_KNOWN.includes(c)) return [c, "known, not used"];
+    return [c, "ignored"];
+  }));
+}
+
+function numberOf(table, row, column) {
+  let text = (row.cells[table.columns.indexOf(column)] || "").trim();
+  if (table.decimalComma) text = text.replace(",", ".");
+  const value = Number(text);
+  if (text === "" || !Number.isFinite(value)) {
+    throw new Error(`line ${row.line}, column ${table.columns.indexOf(column) + 1} (${column}): '${text}' is not a number`);
+  }
+  return value;
+}
+
+const lengthFactor = (table, column) => MM_PER[table.units[column] || "mm"] ?? 1;
+
+// The API's tracker records (joints, position, orientation, sigma_mm, temperature_c) from a table; the joints in
+// the robot's units, where a header states degrees or radians for a revolute joint.
+export function trackerRecords(table) {
+  const byRole = Object.fromEntries(Object.entries(canonical(table.columns)).map(([c, r]) => [r, c]));
+  for (const needed of ["x", "y", "z"]) {
+    if (!byRole[needed]) throw new Error(`the header has no column ${needed} (found: ${table.columns.join(", ")})`);
+  }
+  if (table.joints.length === 0) throw new Error(`the header names no joint column (found: ${table.columns.join(", ")})`);
+  const hasOrientation = ["qw", "qx", "qy", "qz"].every((q) => byRole[q]);
+  return table.rows.map((row) => {
+    if (row.cells.length !== table.columns.length) {
+      throw new Error(`line ${row.line}: ${row.cells.length} cells for the ${table.columns.length} columns of the header`);
+    }
+    const record = {
+      joints: table.joints.map((j) => numberOf(table, row, j) * (DEG_PER[table.units[j]] ?? MM_PER[table.units[j]] ?? 1)),
+      position: ["x", "y", "z"].map((k) => numberOf(table, row, byRole[k]) * lengthFactor(table, byRole[k])),
+    };
+    if (hasOrientation) record.orientation = ["qw", "qx", "qy", "qz"].map((k) => numberOf(table, row, byRole[k]));
+    if (byRole.u95) record.sigma_mm = numberOf(table, row, byRole.u95) * lengthFactor(table, byRole.u95) / 2;
+    else if (byRole.sigma_mm) record.sigma_mm = numberOf(table, row, byRole.sigma_mm) * lengthFactor(table, byRole.sigma_mm);
+    if (byRole.temperature_c) record.temperature_c = numberOf(table, row, byRole.temperature_c);
+    return record;
+  });
+}
+
+// Joint vectors as CSV, the robot's joint names as header (what a pendant program or the campaign file starts from).
+export function jointsCsv(names, poses) {
+  return [names.join(","), ...poses.map((q) => q.map((v) => Number(v).toFixed(6)).join(","))].join("\n") + "\n";
+}

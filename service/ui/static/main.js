@@ -1,0 +1,59 @@
+// The calibration workbench in the browser: robots, pose design, campaign upload and calibration as a job,
+// the result, validations, versions and jobs. Every number comes from the public /v1 API, so the page shows
+// exactly what a client sees. Routing is the URL fragment (#/robots/…), one view module per page.
+import { apiKey, setApiKey } from "./api.js";
+import { errorBox, fill } from "./dom.js";
+import { calibrationView } from "./views/calibration.js";
+import { campaignView } from "./views/campaign.js";
+import { designView } from "./views/design.js";
+import { jobsView, stopJobTimers } from "./views/jobs.js";
+import { reportView } from "./views/report.js";
+import { robotView } from "./views/robot.js";
+import { robotsView } from "./views/robots.js";
+import { validationView } from "./views/validation.js";
+
+const view = document.getElementById("view");
+const keyInput = document.getElementById("api-key");
+keyInput.value = apiKey();
+// A new key redraws the page with it; an unchanged one (a second change event) must not wipe a half-filled form.
+keyInput.addEventListener("change", () => {
+  if (keyInput.value === apiKey()) return;
+  setApiKey(keyInput.value);
+  route();
+});
+
+// "#/robots/ID/design?design=X" → ["robots", "ID", "design"] and its parameters.
+function parse(hash) {
+  const [path, search] = hash.replace(/^#\/?/, "").split("?");
+  return { parts: path.split("/").filter(Boolean), params: new URLSearchParams(search || "") };
+}
+
+function pick(parts, params) {
+  const [first, id, sub] = parts;
+  if (first === "robots" && id && sub === "design") return () => designView(view, id, params);
+  if (first === "robots" && id && sub === "calibrate") return () => campaignView(view, id);
+  if (first === "robots" && id && sub === "validate") return () => validationView(view, id);
+  if (first === "robots" && id) return () => robotView(view, id);
+  if (first === "calibrations" && id && sub === "report") return () => reportView(view, id);
+  if (first === "calibrations" && id) return () => calibrationView(view, id);
+  if (first === "jobs") return () => jobsView(view);
+  return () => robotsView(view);
+}
+
+// body.dataset.ready names the page once drawn (the browser tests wait for it), "error" when it failed.
+async function route() {
+  stopJobTimers();
+  const { parts, params } = parse(location.hash);
+  delete document.body.dataset.ready;
+  try {
+    await pick(parts, params)();
+    document.body.dataset.ready = location.hash || "#/";
+  } catch (error) {
+    fill(view, errorBox(error));
+    document.body.dataset.ready = "error";
+  }
+  document.title = `${(view.querySelector("h1") || {}).textContent || "Robot calibration"} — robot calibration`;
+}
+
+window.addEventListener("hashchange", route);
+route();

@@ -1,0 +1,118 @@
+// A campaign to calibrate from: a CSV dropped or picked, a preview of its first rows with the columns the
+// service will read, the noise and apply options, then the calibration as a job with live progress and cancel.
+// The file itself is sent (text/csv): the service's tolerant reader is the one that decides.
+import { api, fieldErrors, query } from "../api.js";
+import { readCsv } from "../csv.js";
+import { errorBox, field, fill, h, link, muted, table } from "../dom.js";
+import { watchJob } from "./jobs.js";
+import { diagnosesList } from "./calibration.js";
+
+const PREVIEW_ROWS = 8;
+
+export async function campaignView(view, robotId) {
+  const robot = await api(`/v1/robots/${robotId}`);
+  const state = { text: null, name: null };
+  const preview = h("div", { id: "campaign-preview" });
+  const picker = filePicker("campaign-file", "Campaign CSV", async (file) => {
+    state.text = await file.text();
+    state.name = file.name;
+    showPreview(preview, state, robot);
+  });
+  const options = optionsForm();
+  const outcome = h("div", { id: "calibration-outcome" });
+  const run = h("button", { type: "submit", id: "calibrate" }, "Calibrate");
+  const form = h("form", { id: "campaign-form" }, picker, preview, options.node, h("p", {}, run), outcome);
+  form.addEventListener("submit", async (event) => {
+    event.preventDefault();
+    if (!state.text) { fill(outcome, errorBox(new Error("choose or drop a campaign CSV first"))); return; }
+    run.disabled = true;
+    try {
+      await calibrate(robotId, state.text, options.values(), outcome);
+    } catch (error) {
+      fill(outcome, errorBox(error, "calibration-error"));  // the job could not be followed (the API stopped answering)
+    } finally {
+      run.disabled = false;
+    }
+  });
+  fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)),
+    h("h1", {}, `Calibrate ${robot.name}`),
+    muted(`Joint columns this robot reads, in order: ${robot.joint_names.join(", ")} (${robot.joint_units.join(", ")}), `
+      + "then x, y, z in mm and, for a full pose, qw, qx, qy, qz; optional sigma_mm or u95, temperature_c."),
+    form);
+}
+
+// A drop zone around a file input: a file dropped on it is handled as one picked.
+export function filePicker(id, label, onFile) {
+  const input = h("input", { type: "file", id, accept: ".csv,.txt,text/csv" });
+  const zone = h("div", { class: "drop-zone", id: `${id}-zone` }, field(label, input), h("span", { class: "muted" }, "or drop the file here"));
+  input.addEventListener("change", () => input.files[0] && onFile(input.files[0]));
+  zone.addEventListener("dragover", (e) => { e.preventDefault(); zone.classList.add("over"); });
+  zone.addEventListener("dragleave", () => zone.classList.remove("over"));
+  zone.addEventListener("drop", (e) => {
+    e.preventDefault();
+    zone.classList.remove("over");
+    if (e.dataTransfer.files[0]) onFile(e.dataTransfer.files[0]);
+  });
+  return zone;
+}
+
+// The first rows as the service will read them: each header cell says what its column is read as.
+export function showPreview(container, state, robot) {
+  let csv;
+  try { csv = readCsv(state.text); } catch (error) { fill(container, errorBox(error, "preview-error")); return null; }
+  const described = (c) => h("span", {}, c, csv.units[c] ? ` [${csv.units[c]}]` : "", h("br"), h("small", { class: `role role-${csv.roles[c] === "ignored" ? "ignored" : "read"}` }, csv.roles[c]));
+  const ignored = csv.columns.filter((c) => csv.roles[c] === "ignored");
+  const notes = [`${csv.rows.length} records in ${state.name}; delimiter ${JSON.stringify(csv.delimiter)}${csv.decimalComma ? ", decimal commas" : ""}.`];
+  if (csv.joints.length && csv.joints.length !== robot.joint_names.length) {
+    notes.push(`The file has ${csv.joints.length} joint columns (${csv.joints.join(", ")}); ${robot.name} has ${robot.joint_names.length}: the service will refuse it.`);
+  }
+  if (ignored.length) notes.push(`Not read: ${ignored.join(", ")}.`);
+  fill(container, h("h2", {}, "Preview"), h("ul", { id: "preview-notes" }, notes.map((n) => h("li", {}, n))),
+    h("div", { class: "scroll" }, table(csv.columns.map(described), csv.rows.slice(0, PREVIEW_ROWS).map((r) => r.cells), "preview-table",
+      `The first ${Math.min(PREVIEW_ROWS, csv.rows.length)} of ${csv.rows.length} rows`)));
+  return csv;
+}
+
+function optionsForm() {
+  const position = h("input", { id: "noise-position", type: "number", step: "any", min: 0, value: 0.025 });
+  const orientation = h("input", { id: "noise-orientation", type: "number", step: "any", min: 0, value: 0.01 });
+  const unit = h("select", { id: "length-unit" }, ["mm", "m", "cm", "um", "in"].map((u) => h("option", { value: u }, u)));
+  const order = h("select", { id: "quaternion-order" }, ["wxyz", "xyzw"].map((u) => h("option", { value: u }, u)));
+  const apply = h("input", { type: "checkbox", id: "apply", checked: true });
+  const node = h("fieldset", { id: "calibration-options" }, h("legend", {}, "Options"),
+    h("div", { class: "row" },
+      field("Instrument σ, position (mm)", position), field("σ, orientation (deg)", orientation),
+      field("Length unit where the header states none", unit), field("Order of q0…q3 columns", order)),
+    h("label", {}, apply, " Apply the result as the robot's new version when its checks pass"));
+  const values = () => ({
+    noise_position_mm: position.value, noise_orientation_deg: orientation.value,
+    length_unit: unit.value, quaternion_order: order.value, apply: apply.checked,
+  });
+  return { node, values };
+}
+
+// Submits the CSV as a job, follows it, and opens the stored result; a refusal before any fit stays here.
+async function calibrate(robotId, text, options, outcome) {
+  fill(outcome, muted("Sending the campaign…"));
+  let accepted;
+  try {
+    accepted = await api(`/v1/robots/${robotId}/calibrations${query({ async: true, ...options })}`,
+      { method: "POST", body: text, type: "text/csv" });
+  } catch (error) {
+    fill(outcome, refusal(error.message, error.problem));
+    return;
+  }
+  const job = await watchJob(accepted.job_id, outcome);
+  if (job.status === "succeeded") { location.hash = `#/calibrations/${job.result.id}`; return; }
+  if (job.status === "failed" && job.error && job.error.calibration_id) { location.hash = `#/calibrations/${job.error.calibration_id}`; return; }
+  outcome.append(job.status === "cancelled" ? h("p", { id: "job-cancelled" }, "The calibration was cancelled: nothing was stored.")
+    : refusal(`${job.error ? job.error.status : ""}: ${job.error ? job.error.detail : "the job failed"}`, job.error));
+}
+
+// A refusal in words: the problem's detail, each invalid field, and the diagnoses the service found.
+function refusal(text, problem) {
+  const fields = fieldErrors(problem);
+  return h("div", { class: "error refusal", id: "calibration-refused", role: "alert" },
+    h("h3", {}, "The service refused the campaign"), h("p", {}, text),
+    fields.length ? h("ul", {}, fields.map((f) => h("li", {}, f))) : null, diagnosesList(problem && problem.diagnoses));
+}

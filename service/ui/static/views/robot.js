@@ -1,0 +1,71 @@
+// One robot: what to do next (design poses, calibrate, validate), its calibrations, parameter versions (restore,
+// export), validations, a parameter's drift over the versions, and its pose designs.
+import { api } from "../api.js";
+import { download, errorBox, fill, h, link, muted, numCell, statusBadge, table, when } from "../dom.js";
+import { validationsTable } from "./validation.js";
+
+export async function robotView(view, id) {
+  const [robot, calibrations, versions, designs, validations] = await Promise.all([
+    api(`/v1/robots/${id}`), api(`/v1/robots/${id}/calibrations`), api(`/v1/robots/${id}/parameter-versions`),
+    api(`/v1/robots/${id}/pose-designs`), api(`/v1/robots/${id}/validations`)]);
+  const drift = h("div", { id: "drift" });
+  const choose = h("select", { id: "drift-parameter", "aria-label": "parameter" });
+  const first = await api(`/v1/robots/${id}/parameters?version=1`);
+  for (const p of first.parameters) choose.append(h("option", { value: p.name }, p.name));
+  choose.addEventListener("change", () => drawDrift(id, versions, choose.value, drift));
+  fill(view, 
+    h("h1", {}, robot.name), muted(`${robot.model} · version ${robot.parameter_version} · ${robot.joint_names.length} joints · ${robot.id}`),
+    h("nav", { class: "actions", "aria-label": "workflow" },
+      link(`#/robots/${id}/design`, "1. Design poses", { id: "go-design" }),
+      link(`#/robots/${id}/calibrate`, "2. Calibrate from a campaign", { id: "go-calibrate" }),
+      link(`#/robots/${id}/validate`, "3. Validate", { id: "go-validate" })),
+    h("h2", {}, "Calibrations"), calibrationsTable(calibrations),
+    h("h2", {}, "Parameter versions"), versionsTable(robot, versions),
+    h("h2", {}, "Validations"), validationsTable(validations),
+    h("h2", {}, "Parameter drift over versions"), h("div", { class: "row" }, choose), drift,
+    h("h2", {}, "Pose designs"),
+    designs.length === 0 ? muted("No pose design yet.") :
+      table(["when", "criterion", "poses", "measurement", ""], designs.map((d) => [when(d.created_at), d.criterion,
+        numCell(d.count, 3), d.measurement, link(`#/robots/${id}/design?design=${d.id}`, "draw")]), "designs"));
+  const estimated = first.parameters.find((p) => p.name === "leg1.offset") || first.parameters[0];
+  choose.value = estimated.name;
+  await drawDrift(id, versions, choose.value, drift);
+}
+
+function calibrationsTable(calibrations) {
+  if (calibrations.length === 0) return muted("No calibration yet.");
+  return table(["when", "status", "applied", "from → to", "RMS before (mm)", "RMS after (mm)", ""],
+    calibrations.map((c) => [when(c.created_at), statusBadge(c.status), c.applied ? (c.forced ? "forced" : "yes") : "no",
+      `${c.start_version ?? "—"} → ${c.parameter_version ?? "—"}`,
+      numCell(c.residuals.before.rms_mm), numCell(c.residuals.after.rms_mm),
+      h("span", {}, link(`#/calibrations/${c.id}`, "result"), " · ", link(`#/calibrations/${c.id}/report`, "report"))]), "calibrations");
+}
+
+function versionsTable(robot, versions) {
+  const message = h("div", { id: "versions-message" });
+  const restore = (v) => h("button", { type: "button", class: "link", "data-version": v.version, onclick: async () => {
+    try {
+      await api(`/v1/robots/${robot.id}/parameter-versions/${v.version}/restore`, { method: "POST" });
+      window.dispatchEvent(new HashChangeEvent("hashchange"));  // redraw this page with the new version
+    } catch (error) { fill(message, errorBox(error, "restore-error")); }
+  } }, `restore ${v.version}`);
+  const exportCsv = (v) => h("button", { type: "button", class: "link", onclick: async () => {
+    try {
+      const response = await api(`/v1/robots/${robot.id}/parameters?version=${v.version}&format=csv`, { raw: true, accept: "text/csv" });
+      download(`${robot.name}-v${v.version}.csv`, await response.text());
+    } catch (error) { fill(message, errorBox(error)); }
+  } }, "CSV");
+  return h("div", {}, message, table(["version", "provenance", "from", "by", "when", "", "parameters"], versions.map((v) => [numCell(v.version, 3), v.provenance,
+    v.calibration_id ? link(`#/calibrations/${v.calibration_id}`, "calibration") : (v.restored_from ? `version ${v.restored_from}` : "—"),
+    v.actor || "—", when(v.created_at), v.current ? h("b", {}, "current") : restore(v), exportCsv(v)]), "versions"));
+}
+
+async function drawDrift(id, versions, name, container) {
+  const values = await Promise.all(versions.map((v) => api(`/v1/robots/${id}/parameters?version=${v.version}`)));
+  const rows = values.map((v) => v.parameters.find((p) => p.name === name));
+  container.replaceChildren();
+  Plot.line(container, {
+    id: "drift-plot", title: `${name} (${rows[0].unit}) by version, ± std error`, xlabel: "version", ylabel: rows[0].unit,
+    x: versions.map((v) => v.version), y: rows.map((p) => p.value), err: rows.map((p) => p.std_error || 0),
+  });
+}
