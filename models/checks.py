@@ -1,0 +1,361 @@
+"""The quick check: a few records against the current version, and whether the robot is still the one calibrated.
+
+The records' residuals against the version's forward kinematics (after the instrument frame is registered in
+closed form, or not when the check is measured from the calibration's own tracker setup) are whitened by their
+predicted covariance
+
+    V = diag(σ²) + J Σ Jᵀ
+
+— the instrument's noise plus the version's parameter covariance `Σ` propagated to these poses by the
+identification Jacobian `J` — and the registration's six rigid-motion columns `G` are projected out in that
+metric (generalised least squares). For an unchanged robot the statistic χ² = r̃ᵀ(I − Q Qᵀ)r̃ follows χ² with
+rows − rank(G) degrees of freedom, so `fine` below its 1 − α quantile is wrong (a false alarm) in a fraction α
+of checks.
+
+Above it, each candidate explanation — every single parameter and every group (the table's groups and each
+link, leg, base or tool by its name's prefix) — is fitted in the same metric: its least-squares change Δ, the
+reduction of χ² it gives (a likelihood-ratio statistic, χ²(k) under no change) and the χ² left (χ² with k fewer
+degrees of freedom). A candidate *explains* the check when (1) its reduction is significant at α, (2) what is
+left is below its own 1 − α quantile, (3) it leaves at least one degree of freedom and (4) the change is large:
+some |Δᵢ| at least `change_sigmas` times that parameter's prior σ (its estimate's standard error from the check
+where the version holds the parameter without one). The verdict is then
+
+- `changed` with the explanation of fewest parameters (ties: the smallest χ² left): re-fit those parameters;
+- `drifted` when none explains it and χ²/dof ≤ `drift_ratio` (the misfit is spread and moderate): calibrate;
+- `changed` without an explanation above that ratio (a crash, several things at once): calibrate.
+
+Internal units (mm, rad).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+import scipy.linalg
+import scipy.stats
+
+from models._types import Array
+from models.campaign import Campaign
+from models.errors import InvalidInput, WrongShape
+from models.identification.registration import rigid_fit
+from models.kinematics import forward_kinematics
+from models.noise import NoiseModel
+from models.parameters import ParameterTable
+from models.robot import RobotDescription
+from models.runtime import Runtime, runtime_for
+from models.transforms import matrix_to_rotvec_np
+
+MIN_RECORDS = 3
+"""Fewer records fix no instrument frame, and leave a test without power."""
+RANK_RTOL = 1e-7
+"""A candidate's projected column below this fraction of its whitened norm is absorbed by the registration."""
+MIN_REFIT_POSES = 8
+CALIBRATION_POSES = 60
+
+
+class Verdict(StrEnum):
+    FINE = "fine"
+    DRIFTED = "drifted"
+    CHANGED = "changed"
+
+
+class Action(StrEnum):
+    NONE = "none"
+    REFIT = "refit"
+    CALIBRATE = "calibrate"
+
+
+@dataclass(frozen=True)
+class CheckOptions:
+    alpha: float = 0.01
+    """The false-alarm rate: the probability that an unchanged robot is not called `fine`."""
+    register: bool = True
+    """Fit the instrument frame first; False for a check from the calibration's tracker setup (its base holds
+    the instrument frame, with its uncertainty in the covariance)."""
+    change_sigmas: float = 5.0
+    drift_ratio: float = 4.0
+    """χ²/dof up to which an unexplained misfit is drift: residuals up to twice their predicted σ on average."""
+    calibration_poses: int = CALIBRATION_POSES
+    """The poses a full calibration is recommended with (the robot's last campaign's, where the caller knows)."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.alpha < 0.5:
+            raise InvalidInput(f"alpha must lie in (0, 0.5), got {self.alpha}", field="alpha", value=self.alpha)
+        if self.change_sigmas <= 0 or self.drift_ratio <= 1:
+            raise InvalidInput("change_sigmas must be > 0 and drift_ratio > 1", field="change_sigmas")
+
+
+@dataclass(frozen=True)
+class Explanation:
+    name: str
+    """A parameter's name or a group's."""
+    parameters: tuple[int, ...]
+    """Table indices of the parameters whose change it fits."""
+    change: Array
+    """The fitted change of each, internal units."""
+    std_error: Array
+    """Of each change, from the check's records."""
+    prior_sigma: Array
+    """Each parameter's σ in the version (0 where the version holds it without one)."""
+    chi2: float
+    """χ² left after the change."""
+    dof: int
+    reduction: float
+    p_value: float
+    """Of the reduction, were nothing changed (χ² with `rank` degrees of freedom)."""
+    rank: int
+    explains: bool
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    action: Action
+    parameters: tuple[str, ...]
+    """What to re-fit (REFIT); empty otherwise."""
+    poses: int
+    """Designed poses to measure: for the re-fit, or the full calibration; 0 for nothing."""
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    verdict: Verdict
+    chi2: float
+    dof: int
+    threshold: float
+    """The χ²(dof) quantile at 1 − α."""
+    p_value: float
+    alpha: float
+    registered: bool
+    position_mm: Array
+    """(N,) |measured − predicted| per record after the registration."""
+    predicted_mm: Array
+    """(N,) the predicted 1-σ size of each record's position error, √trace of its 3 × 3 block of V."""
+    explanation: Explanation | None
+    alternatives: tuple[Explanation, ...]
+    """The next candidates by χ² left (at most 3), whether or not they explain it."""
+    recommendation: Recommendation
+    seconds: float
+
+
+def version_covariance(
+    table: ParameterTable, std_errors: Array | None, names: list[str] | None = None, correlation: Array | None = None
+) -> Array:
+    """(P, P) the version's parameter covariance in table order: std errors (NaN or None: 0, a parameter held),
+    with the calibration's correlation matrix over `names` where it exists."""
+    p = len(table)
+    sd = np.zeros(p) if std_errors is None else np.nan_to_num(np.asarray(std_errors, dtype=float), nan=0.0)
+    if sd.shape != (p,):
+        raise WrongShape(
+            f"expected {p} std errors, got {sd.shape}", field="std_errors", expected=[p], got=list(sd.shape)
+        )
+    cov = np.diag(sd**2)
+    if names is not None and correlation is not None:
+        idx = np.array([table.index[n] for n in names], dtype=int)
+        r = np.asarray(correlation, dtype=float)
+        cov[np.ix_(idx, idx)] = r * np.outer(sd[idx], sd[idx])
+    return cov
+
+
+def candidate_groups(table: ParameterTable) -> dict[str, tuple[int, ...]]:
+    """The explanations tried beside single parameters: the table's groups and each name prefix (link3, tool)."""
+    groups = dict(table.groups)
+    for i, name in enumerate(table.names):
+        prefix = name.split(".", 1)[0]
+        if prefix != name:
+            groups.setdefault(prefix, ())
+            groups[prefix] = (*groups[prefix], i)
+    return {g: ix for g, ix in groups.items() if ix}
+
+
+@dataclass(frozen=True)
+class _Whitened:
+    r: Array
+    """Whitened residual with the registration projected out."""
+    jac: Array
+    """Whitened, projected parameter Jacobian (rows, P)."""
+    norms: Array
+    """Column norms of the whitened Jacobian before the projection."""
+    dof: int
+
+
+def check_version(
+    desc: RobotDescription,
+    params: Array,
+    covariance: Array,
+    campaign: Campaign,
+    *,
+    noise: NoiseModel | None = None,
+    options: CheckOptions | None = None,
+    runtime: Runtime | None = None,
+) -> CheckResult:
+    """The check of `campaign` (tracker records) against the version `params` with parameter covariance
+    `covariance` (P × P, table order; `version_covariance`)."""
+    started = time.perf_counter()
+    options, noise = options or CheckOptions(), noise or NoiseModel()
+    p = desc.n_params
+    if covariance.shape != (p, p):
+        raise WrongShape(
+            f"expected a ({p}, {p}) covariance", field="covariance", expected=[p, p], got=list(covariance.shape)
+        )
+    if campaign.size < MIN_RECORDS:
+        raise InvalidInput(
+            f"a check needs at least {MIN_RECORDS} records, got {campaign.size}", field="measurements", min=MIN_RECORDS
+        )
+    residual, jac, nuisance, sigma, position_mm = _linearised(
+        desc, params, campaign, noise, register=options.register, runtime=runtime
+    )
+    v = np.diag(sigma**2) + jac @ covariance @ jac.T
+    rows = 3 if campaign.quaternions is None else 6
+    predicted = np.sqrt(np.einsum("nii->n", _blocks(v, rows)[:, :3, :3]))
+    w = _whiten(v, residual, jac, nuisance)
+    chi2 = float(w.r @ w.r)
+    threshold = float(scipy.stats.chi2.ppf(1 - options.alpha, w.dof))
+    explanations = _explanations(desc.parameters, w, covariance, options)
+    verdict, best = _verdict(chi2, w.dof, threshold, explanations, options)
+    others = sorted((e for e in explanations if e is not best), key=lambda e: e.chi2)[:3]
+    return CheckResult(
+        verdict=verdict,
+        chi2=chi2,
+        dof=w.dof,
+        threshold=threshold,
+        p_value=float(scipy.stats.chi2.sf(chi2, w.dof)),
+        alpha=options.alpha,
+        registered=options.register,
+        position_mm=position_mm,
+        predicted_mm=predicted,
+        explanation=best,
+        alternatives=tuple(others) if verdict is not Verdict.FINE else (),
+        recommendation=_recommendation(desc, verdict, best, rows, options),
+        seconds=time.perf_counter() - started,
+    )
+
+
+def _blocks(v: Array, rows: int) -> Array:
+    n = v.shape[0] // rows
+    return np.stack([v[k * rows : (k + 1) * rows, k * rows : (k + 1) * rows] for k in range(n)])
+
+
+def _linearised(
+    desc: RobotDescription,
+    params: Array,
+    campaign: Campaign,
+    noise: NoiseModel,
+    *,
+    register: bool,
+    runtime: Runtime | None,
+) -> tuple[Array, Array, Array, Array, Array]:
+    """Residual rows, their parameter Jacobian, the registration's columns (none without it), each row's σ and
+    the per-record position errors, all in the instrument frame."""
+    campaign.condition_inputs(desc)
+    fk = forward_kinematics(
+        desc, campaign.joints, params, jacobian=True, conditions=campaign.conditions, runtime=runtime_for(desc, runtime)
+    )
+    positions, rotations, jac = fk.positions, fk.rotations, fk.jacobians
+    if register:
+        fit = rigid_fit(positions, campaign.positions)
+        positions = fit.apply(positions)
+        rotations = np.einsum("ij,njk->nik", fit.rotation, rotations)
+        jac = np.concatenate(
+            [np.einsum("ij,njp->nip", fit.rotation, jac[:, :3]), np.einsum("ij,njp->nip", fit.rotation, jac[:, 3:])],
+            axis=1,
+        )
+    n = campaign.size
+    error = campaign.positions - positions
+    sigma_p = np.full(n, noise.position_mm) if campaign.sigma_mm is None else campaign.sigma_mm
+    # A small rotation φ and shift τ of the instrument frame move a predicted point by τ + φ × p, an orientation by φ.
+    frame = np.zeros((n, 6, 6))
+    frame[:, :3, :3] = np.eye(3)
+    frame[:, :3, 3:] = -_skew(positions)
+    frame[:, 3:, 3:] = np.eye(3)
+    if campaign.quaternions is None:
+        res, jrows, grows = error, jac[:, :3], frame[:, :3]
+        sigma = np.repeat(sigma_p, 3)
+    else:
+        angle = matrix_to_rotvec_np(campaign.rotations @ np.transpose(rotations, (0, 2, 1)))
+        res, jrows, grows = np.concatenate([error, angle], axis=1), jac, frame
+        sigma = np.concatenate([np.repeat(sigma_p[:, None], 3, axis=1), np.full((n, 3), noise.orientation_rad)], axis=1)
+    k = res.shape[1]
+    nuisance = grows.reshape(n * k, 6) if register else np.zeros((n * k, 0))
+    return res.reshape(-1), jrows.reshape(n * k, -1), nuisance, sigma.reshape(-1), np.linalg.norm(error, axis=1)
+
+
+def _skew(p: Array) -> Array:
+    out = np.zeros((p.shape[0], 3, 3))
+    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -p[:, 2], p[:, 1], -p[:, 0]
+    return out - np.transpose(out, (0, 2, 1))
+
+
+def _whiten(v: Array, residual: Array, jac: Array, nuisance: Array) -> _Whitened:
+    chol = np.linalg.cholesky(v)
+
+    def solve(x: Array) -> Array:
+        return np.asarray(scipy.linalg.solve_triangular(chol, x, lower=True), dtype=float)
+
+    r, j = solve(residual), solve(jac)
+    norms = np.linalg.norm(j, axis=0)
+    dof = residual.size
+    if nuisance.shape[1]:
+        q, s, _ = np.linalg.svd(solve(nuisance), full_matrices=False)
+        q = q[:, s > RANK_RTOL * s[0]]
+        r, j, dof = r - q @ (q.T @ r), j - q @ (q.T @ j), dof - q.shape[1]
+    return _Whitened(r, j, norms, dof)
+
+
+def _explanations(table: ParameterTable, w: _Whitened, covariance: Array, options: CheckOptions) -> list[Explanation]:
+    chi2 = float(w.r @ w.r)
+    prior = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    candidates: list[tuple[str, tuple[int, ...]]] = [(name, (i,)) for i, name in enumerate(table.names)]
+    candidates += [(g, ix) for g, ix in candidate_groups(table).items() if len(ix) > 1]
+    out = []
+    for name, index in candidates:
+        a = w.jac[:, list(index)]
+        u, s, vt = np.linalg.svd(a, full_matrices=False)
+        keep = s > RANK_RTOL * max(float(w.norms[list(index)].max()), 1e-300)
+        rank = int(keep.sum())
+        if rank == 0 or rank >= w.dof:
+            continue
+        u, s, vt = u[:, keep], s[keep], vt[keep]
+        coef = u.T @ w.r
+        change = vt.T @ (coef / s)
+        std = np.sqrt(np.einsum("ki,k->i", vt**2, 1.0 / s**2))
+        reduction = float(coef @ coef)
+        dof = w.dof - rank
+        p_value = float(scipy.stats.chi2.sf(reduction, rank))
+        ref = np.where(prior[list(index)] > 0, prior[list(index)], std)
+        # A column of the group with no effect here has neither a change nor an uncertainty: no evidence.
+        ratio = np.divide(np.abs(change), ref, out=np.zeros_like(ref), where=ref > 0)
+        large = bool(ratio.max() >= options.change_sigmas)
+        left = max(chi2 - reduction, 0.0)
+        explains = p_value < options.alpha and left <= scipy.stats.chi2.ppf(1 - options.alpha, dof) and large
+        out.append(
+            Explanation(name, index, change, std, prior[list(index)], left, dof, reduction, p_value, rank, explains)
+        )
+    return out
+
+
+def _verdict(
+    chi2: float, dof: int, threshold: float, explanations: list[Explanation], options: CheckOptions
+) -> tuple[Verdict, Explanation | None]:
+    if chi2 <= threshold:
+        return Verdict.FINE, None
+    explaining = [e for e in explanations if e.explains]
+    if explaining:
+        return Verdict.CHANGED, min(explaining, key=lambda e: (e.rank, e.chi2))
+    return (Verdict.DRIFTED if chi2 / dof <= options.drift_ratio else Verdict.CHANGED), None
+
+
+def _recommendation(
+    desc: RobotDescription, verdict: Verdict, best: Explanation | None, rows: int, options: CheckOptions
+) -> Recommendation:
+    if verdict is Verdict.FINE:
+        return Recommendation(Action.NONE, (), 0)
+    if best is None:
+        return Recommendation(Action.CALIBRATE, (), options.calibration_poses)
+    # Twice the poses that determine the changed parameters with the instrument frame, and at least 8.
+    unknowns = best.rank + (6 if options.register else 0)
+    poses = max(MIN_REFIT_POSES, 2 * math.ceil(unknowns / rows))
+    return Recommendation(Action.REFIT, tuple(desc.parameters.names[i] for i in best.parameters), poses)
