@@ -36,6 +36,7 @@ from enum import StrEnum
 
 import numpy as np
 import scipy.linalg
+import scipy.optimize
 import scipy.stats
 
 from models._types import Array
@@ -47,7 +48,7 @@ from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
-from models.transforms import matrix_to_rotvec_np
+from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np
 
 MIN_RECORDS = 3
 """Fewer records fix no instrument frame, and leave a test without power."""
@@ -266,11 +267,7 @@ def _linearised(
     n = campaign.size
     error = campaign.positions - positions
     sigma_p = np.full(n, noise.position_mm) if campaign.sigma_mm is None else campaign.sigma_mm
-    # A small rotation φ and shift τ of the instrument frame move a predicted point by τ + φ × p, an orientation by φ.
-    frame = np.zeros((n, 6, 6))
-    frame[:, :3, :3] = np.eye(3)
-    frame[:, :3, 3:] = -_skew(positions)
-    frame[:, 3:, 3:] = np.eye(3)
+    frame = frame_columns(positions)
     if campaign.quaternions is None:
         res, jrows, grows = error, jac[:, :3], frame[:, :3]
         sigma = np.repeat(sigma_p, 3)
@@ -281,6 +278,17 @@ def _linearised(
     k = res.shape[1]
     nuisance = grows.reshape(n * k, 6) if register else np.zeros((n * k, 0))
     return res.reshape(-1), jrows.reshape(n * k, -1), nuisance, sigma.reshape(-1), np.linalg.norm(error, axis=1)
+
+
+def frame_columns(positions: Array) -> Array:
+    """(N, 6, 6) the registration's columns at each predicted pose: a small shift τ and rotation φ of the
+    instrument frame move a point by τ + φ × p (rows 0-2) and an orientation by φ (rows 3-5)."""
+    n = positions.shape[0]
+    frame = np.zeros((n, 6, 6))
+    frame[:, :3, :3] = np.eye(3)
+    frame[:, :3, 3:] = -_skew(positions)
+    frame[:, 3:, 3:] = np.eye(3)
+    return frame
 
 
 def _skew(p: Array) -> Array:
@@ -359,3 +367,40 @@ def _recommendation(
     unknowns = best.rank + (6 if options.register else 0)
     poses = max(MIN_REFIT_POSES, 2 * math.ceil(unknowns / rows))
     return Recommendation(Action.REFIT, tuple(desc.parameters.names[i] for i in best.parameters), poses)
+
+
+POWER = 0.95
+"""The detection probability `detectable_changes` sizes changes for."""
+
+
+def detectable_changes(
+    desc: RobotDescription,
+    params: Array,
+    covariance: Array,
+    joints: Array,
+    parameters: tuple[int, ...],
+    *,
+    position_only: bool = True,
+    noise: NoiseModel | None = None,
+    options: CheckOptions | None = None,
+    runtime: Runtime | None = None,
+) -> Array:
+    """For each of `parameters`, the change of it alone that a check at `joints` flags with probability POWER
+    (internal units; inf where the check cannot see it): under that change the statistic is non-central χ²
+    with non-centrality Δ² ‖ĵᵢ‖², ĵᵢ the parameter's whitened column with the registration projected out."""
+    options, noise = options or CheckOptions(), noise or NoiseModel()
+    rt = runtime_for(desc, runtime)
+    fk = forward_kinematics(desc, joints, params, runtime=rt)
+    quaternions = None if position_only else matrix_to_quaternion(fk.rotations)
+    exact = Campaign(np.asarray(joints, dtype=float), fk.positions, quaternions)
+    _, jac, nuisance, sigma, _ = _linearised(desc, params, exact, noise, register=options.register, runtime=rt)
+    w = _whiten(np.diag(sigma**2) + jac @ covariance @ jac.T, np.zeros(jac.shape[0]), jac, nuisance)
+    threshold = scipy.stats.chi2.ppf(1 - options.alpha, w.dof)
+
+    def power(lam: float) -> float:
+        return float(scipy.stats.ncx2.sf(threshold, w.dof, lam)) - POWER
+
+    lam = float(scipy.optimize.brentq(power, 1e-9, 1e4))
+    seen = np.linalg.norm(w.jac[:, list(parameters)], axis=0)
+    visible = seen > RANK_RTOL * np.maximum(w.norms[list(parameters)], 1e-300)
+    return np.where(visible, np.sqrt(lam) / np.where(visible, seen, 1.0), np.inf)
