@@ -37,9 +37,10 @@ from enum import StrEnum
 import numpy as np
 import scipy.linalg
 import scipy.optimize
-import scipy.stats
+import scipy.special
 
 from models._types import Array
+from models.blas import single_threaded_blas
 from models.campaign import Campaign
 from models.errors import InvalidInput, WrongShape
 from models.identification.registration import rigid_fit
@@ -78,8 +79,9 @@ class CheckOptions:
     """Fit the instrument frame first; False for a check from the calibration's tracker setup (its base holds
     the instrument frame, with its uncertainty in the covariance)."""
     change_sigmas: float = 5.0
-    drift_ratio: float = 4.0
-    """χ²/dof up to which an unexplained misfit is drift: residuals up to twice their predicted σ on average."""
+    drift_ratio: float = 25.0
+    """χ²/dof up to which an unexplained misfit is drift: residuals up to five times their predicted σ (RMS);
+    beyond, something broke."""
     calibration_poses: int = CALIBRATION_POSES
     """The poses a full calibration is recommended with (the robot's last campaign's, where the caller knows)."""
 
@@ -183,6 +185,7 @@ class _Whitened:
     dof: int
 
 
+@single_threaded_blas
 def check_version(
     desc: RobotDescription,
     params: Array,
@@ -214,7 +217,7 @@ def check_version(
     predicted = np.sqrt(np.einsum("nii->n", _blocks(v, rows)[:, :3, :3]))
     w = _whiten(v, residual, jac, nuisance)
     chi2 = float(w.r @ w.r)
-    threshold = float(scipy.stats.chi2.ppf(1 - options.alpha, w.dof))
+    threshold = float(scipy.special.chdtri(w.dof, options.alpha))
     explanations = _explanations(desc.parameters, w, covariance, options)
     verdict, best = _verdict(chi2, w.dof, threshold, explanations, options)
     others = sorted((e for e in explanations if e is not best), key=lambda e: e.chi2)[:3]
@@ -223,7 +226,7 @@ def check_version(
         chi2=chi2,
         dof=w.dof,
         threshold=threshold,
-        p_value=float(scipy.stats.chi2.sf(chi2, w.dof)),
+        p_value=float(scipy.special.chdtrc(w.dof, chi2)),
         alpha=options.alpha,
         registered=options.register,
         position_mm=position_mm,
@@ -316,7 +319,10 @@ def _whiten(v: Array, residual: Array, jac: Array, nuisance: Array) -> _Whitened
 def _explanations(table: ParameterTable, w: _Whitened, covariance: Array, options: CheckOptions) -> list[Explanation]:
     chi2 = float(w.r @ w.r)
     prior = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
-    candidates: list[tuple[str, tuple[int, ...]]] = [(name, (i,)) for i, name in enumerate(table.names)]
+    # A parameter the version holds without an uncertainty (not identifiable from its campaign) is confounded
+    # with those it estimated: alone it is no explanation of its own, though its group may be.
+    singles = np.flatnonzero(prior > 0) if np.any(prior > 0) else np.arange(len(table))
+    candidates: list[tuple[str, tuple[int, ...]]] = [(table.names[i], (int(i),)) for i in singles]
     candidates += [(g, ix) for g, ix in candidate_groups(table).items() if len(ix) > 1]
     out = []
     for name, index in candidates:
@@ -332,13 +338,13 @@ def _explanations(table: ParameterTable, w: _Whitened, covariance: Array, option
         std = np.sqrt(np.einsum("ki,k->i", vt**2, 1.0 / s**2))
         reduction = float(coef @ coef)
         dof = w.dof - rank
-        p_value = float(scipy.stats.chi2.sf(reduction, rank))
+        p_value = float(scipy.special.chdtrc(rank, reduction))
         ref = np.where(prior[list(index)] > 0, prior[list(index)], std)
         # A column of the group with no effect here has neither a change nor an uncertainty: no evidence.
         ratio = np.divide(np.abs(change), ref, out=np.zeros_like(ref), where=ref > 0)
         large = bool(ratio.max() >= options.change_sigmas)
         left = max(chi2 - reduction, 0.0)
-        explains = p_value < options.alpha and left <= scipy.stats.chi2.ppf(1 - options.alpha, dof) and large
+        explains = bool(p_value < options.alpha and left <= scipy.special.chdtri(dof, options.alpha) and large)
         out.append(
             Explanation(name, index, change, std, prior[list(index)], left, dof, reduction, p_value, rank, explains)
         )
@@ -373,6 +379,7 @@ POWER = 0.95
 """The detection probability `detectable_changes` sizes changes for."""
 
 
+@single_threaded_blas
 def detectable_changes(
     desc: RobotDescription,
     params: Array,
@@ -395,10 +402,10 @@ def detectable_changes(
     exact = Campaign(np.asarray(joints, dtype=float), fk.positions, quaternions)
     _, jac, nuisance, sigma, _ = _linearised(desc, params, exact, noise, register=options.register, runtime=rt)
     w = _whiten(np.diag(sigma**2) + jac @ covariance @ jac.T, np.zeros(jac.shape[0]), jac, nuisance)
-    threshold = scipy.stats.chi2.ppf(1 - options.alpha, w.dof)
+    threshold = scipy.special.chdtri(w.dof, options.alpha)
 
     def power(lam: float) -> float:
-        return float(scipy.stats.ncx2.sf(threshold, w.dof, lam)) - POWER
+        return 1.0 - float(scipy.special.chndtr(threshold, w.dof, lam)) - POWER
 
     lam = float(scipy.optimize.brentq(power, 1e-9, 1e4))
     seen = np.linalg.norm(w.jac[:, list(parameters)], axis=0)

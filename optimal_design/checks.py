@@ -20,6 +20,7 @@ import numpy as np
 
 from models import NoiseModel, RobotDescription, forward_kinematics
 from models._types import Array
+from models.blas import single_threaded_blas
 from models.checks import CheckOptions, detectable_changes, frame_columns
 from models.errors import InvalidInput
 from models.runtime import Runtime, runtime_for
@@ -53,6 +54,7 @@ def watched_parameters(desc: RobotDescription, *, register: bool) -> tuple[int, 
     return tuple(sorted(set(offsets) | set(table.indices(groups))))
 
 
+@single_threaded_blas
 def design_check(
     desc: RobotDescription,
     params: Array,
