@@ -17,8 +17,8 @@ link, leg, base or tool by its name's prefix) — is fitted in the same metric: 
 reduction of χ² it gives (a likelihood-ratio statistic, χ²(k) under no change) and the χ² left (χ² with k fewer
 degrees of freedom). A candidate *explains* the check when (1) its reduction is significant at α, (2) what is
 left is below its own 1 − α quantile, (3) it leaves at least one degree of freedom and (4) the change is large:
-some |Δᵢ| at least `change_sigmas` times that parameter's prior σ (its estimate's standard error from the check
-where the version holds the parameter without one). The verdict is then
+some |Δᵢ| at least `change_sigmas` times its standard error — in the metric V, so that error holds the version's
+own uncertainty of the parameter (and of those correlated with it) beside the noise. The verdict is then
 
 - `changed` with the explanation of fewest parameters (ties: the smallest χ² left): re-fit those parameters;
 - `drifted` when none explains it and χ²/dof ≤ `drift_ratio` (the misfit is spread and moderate): calibrate;
@@ -65,7 +65,7 @@ class Verdict(StrEnum):
     CHANGED = "changed"
 
 
-class Action(StrEnum):
+class CheckAction(StrEnum):
     NONE = "none"
     REFIT = "refit"
     CALIBRATE = "calibrate"
@@ -116,7 +116,7 @@ class Explanation:
 
 @dataclass(frozen=True)
 class Recommendation:
-    action: Action
+    action: CheckAction
     parameters: tuple[str, ...]
     """What to re-fit (REFIT); empty otherwise."""
     poses: int
@@ -165,12 +165,14 @@ def version_covariance(
 
 def candidate_groups(table: ParameterTable) -> dict[str, tuple[int, ...]]:
     """The explanations tried beside single parameters: the table's groups and each name prefix (link3, tool)."""
-    groups = dict(table.groups)
+    prefixes: dict[str, list[int]] = {}
     for i, name in enumerate(table.names):
         prefix = name.split(".", 1)[0]
         if prefix != name:
-            groups.setdefault(prefix, ())
-            groups[prefix] = (*groups[prefix], i)
+            prefixes.setdefault(prefix, []).append(i)
+    groups = dict(table.groups)
+    for prefix, index in prefixes.items():
+        groups.setdefault(prefix, tuple(index))  # `tool`, `base`: a table group already
     return {g: ix for g, ix in groups.items() if ix}
 
 
@@ -339,9 +341,10 @@ def _explanations(table: ParameterTable, w: _Whitened, covariance: Array, option
         reduction = float(coef @ coef)
         dof = w.dof - rank
         p_value = float(scipy.special.chdtrc(rank, reduction))
-        ref = np.where(prior[list(index)] > 0, prior[list(index)], std)
-        # A column of the group with no effect here has neither a change nor an uncertainty: no evidence.
-        ratio = np.divide(np.abs(change), ref, out=np.zeros_like(ref), where=ref > 0)
+        # Large: some change at least `change_sigmas` of its standard error. That error is the check's, in the
+        # metric V, so it holds the version's own uncertainty of the parameter and of everything correlated with
+        # it: a parameter's marginal σ alone would ask too much of one strongly correlated (a leg's offset).
+        ratio = np.divide(np.abs(change), std, out=np.zeros_like(std), where=std > 0)
         large = bool(ratio.max() >= options.change_sigmas)
         left = max(chi2 - reduction, 0.0)
         explains = bool(p_value < options.alpha and left <= scipy.special.chdtri(dof, options.alpha) and large)
@@ -366,13 +369,13 @@ def _recommendation(
     desc: RobotDescription, verdict: Verdict, best: Explanation | None, rows: int, options: CheckOptions
 ) -> Recommendation:
     if verdict is Verdict.FINE:
-        return Recommendation(Action.NONE, (), 0)
+        return Recommendation(CheckAction.NONE, (), 0)
     if best is None:
-        return Recommendation(Action.CALIBRATE, (), options.calibration_poses)
+        return Recommendation(CheckAction.CALIBRATE, (), options.calibration_poses)
     # Twice the poses that determine the changed parameters with the instrument frame, and at least 8.
     unknowns = best.rank + (6 if options.register else 0)
     poses = max(MIN_REFIT_POSES, 2 * math.ceil(unknowns / rows))
-    return Recommendation(Action.REFIT, tuple(desc.parameters.names[i] for i in best.parameters), poses)
+    return Recommendation(CheckAction.REFIT, tuple(desc.parameters.names[i] for i in best.parameters), poses)
 
 
 POWER = 0.95

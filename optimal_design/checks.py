@@ -23,6 +23,7 @@ from models._types import Array
 from models.blas import single_threaded_blas
 from models.checks import CheckOptions, detectable_changes, frame_columns
 from models.errors import InvalidInput
+from models.parameters import Kind
 from models.runtime import Runtime, runtime_for
 from models.workspace import sample_workspace
 
@@ -47,9 +48,14 @@ class CheckDesign:
 
 
 def watched_parameters(desc: RobotDescription, *, register: bool) -> tuple[int, ...]:
-    """The joint offsets, the tool, and the base where the check fixes no frame of its own."""
+    """The joint offsets, the tool, and the base where the check fixes no frame of its own.
+
+    A joint offset is `link{k}.d` for a prismatic k-th joint, `link{k}.theta` for a revolute one (robots.md's
+    link numbering), and each leg's `…offset`."""
     table = desc.parameters
-    offsets = [i for i, n in enumerate(table.names) if n.endswith((".theta", ".offset"))]
+    serial = [f"link{k + 1}.{'d' if kind is Kind.LENGTH else 'theta'}" for k, kind in enumerate(desc.joint_kinds)]
+    offsets = [table.index[n] for n in serial if n in table.index]
+    offsets += [i for i, n in enumerate(table.names) if n.endswith(".offset")]
     groups = ("tool",) if register else ("tool", "base")
     return tuple(sorted(set(offsets) | set(table.indices(groups))))
 

@@ -19,7 +19,7 @@ from harness.checks import Calibrated, calibrated, changed, tcp_equivalent
 from models import NoiseModel, forward_kinematics, sample_workspace
 from models.campaign import Campaign
 from models.checks import (
-    Action,
+    CheckAction,
     CheckOptions,
     Verdict,
     check_version,
@@ -105,7 +105,7 @@ def test_a_known_joint_offset_change_comes_back_with_its_size() -> None:
     assert result.verdict is Verdict.CHANGED
     assert result.explanation is not None and result.explanation.name == "link3.theta"
     np.testing.assert_allclose(result.explanation.change, [delta], rtol=2e-3)  # linearised: second order left
-    assert result.recommendation.action is Action.REFIT
+    assert result.recommendation.action is CheckAction.REFIT
     assert result.recommendation.parameters == ("link3.theta",)
 
 
@@ -136,7 +136,7 @@ def test_a_crash_is_changed_and_asks_for_a_calibration(version: Calibrated, desi
     crashed = SimulatedRobot(DESC, version.robot.nominal, truth)
     result = check_version(DESC, version.params, version.covariance, _records(crashed, design, 1))
     assert result.verdict is Verdict.CHANGED and result.explanation is None
-    assert result.recommendation.action is Action.CALIBRATE
+    assert result.recommendation.action is CheckAction.CALIBRATE
 
 
 def test_spread_moderate_changes_are_drift(version: Calibrated, design: np.ndarray) -> None:
@@ -151,7 +151,7 @@ def test_spread_moderate_changes_are_drift(version: Calibrated, design: np.ndarr
         verdicts.append(result.verdict)
         if result.verdict is Verdict.DRIFTED:
             assert result.chi2 / result.dof <= CheckOptions().drift_ratio
-            assert result.recommendation.action is Action.CALIBRATE
+            assert result.recommendation.action is CheckAction.CALIBRATE
     assert verdicts.count(Verdict.DRIFTED) >= 6
 
 
