@@ -139,7 +139,7 @@ class CheckResult:
     """(N,) the predicted 1-σ size of each record's position error, √trace of its 3 × 3 block of V."""
     explanation: Explanation | None
     alternatives: tuple[Explanation, ...]
-    """The next candidates by χ² left (at most 3), whether or not they explain it."""
+    """The next candidates (at most 3): those that explain it as the rule ranks them, then the rest by χ² left."""
     recommendation: Recommendation
     seconds: float
 
@@ -222,7 +222,9 @@ def check_version(
     threshold = float(scipy.special.chdtri(w.dof, options.alpha))
     explanations = _explanations(desc.parameters, w, covariance, options)
     verdict, best = _verdict(chi2, w.dof, threshold, explanations, options)
-    others = sorted((e for e in explanations if e is not best), key=lambda e: e.chi2)[:3]
+    # As the rule ranks them: those that explain it, fewest parameters first (a near twin of the best: a leg's
+    # offset beside its joint along the leg), then the rest by the χ² they leave.
+    others = sorted((e for e in explanations if e is not best), key=lambda e: (not e.explains, e.rank, e.chi2))[:3]
     return CheckResult(
         verdict=verdict,
         chi2=chi2,

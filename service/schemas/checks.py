@@ -111,7 +111,10 @@ class QuickCheckPublic(Public):
     measurements: int
     per_record: list[CheckRecordErrorPublic]
     explanation: CheckExplanationPublic | None = Field(description="What best explains a change (verdict changed)")
-    alternatives: list[CheckExplanationPublic] = Field(description="The next candidates by the χ² they leave")
+    alternatives: list[CheckExplanationPublic] = Field(
+        description="The next candidates: those that also explain it, fewest parameters first, then the rest by "
+        "the χ² they leave"
+    )
     recommendation: CheckRecommendationPublic
     seconds: float
     notes: str | None
