@@ -79,6 +79,7 @@ class CheckOptions:
     """Fit the instrument frame first; False for a check from the calibration's tracker setup (its base holds
     the instrument frame, with its uncertainty in the covariance)."""
     change_sigmas: float = 5.0
+    """How many of its standard errors (in the metric V) a change must be to explain the check."""
     drift_ratio: float = 25.0
     """χ²/dof up to which an unexplained misfit is drift: residuals up to five times their predicted σ (RMS);
     beyond, something broke."""

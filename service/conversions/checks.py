@@ -12,6 +12,7 @@ from models.campaign import Campaign
 from models.checks import CheckAction, CheckResult, Explanation, Recommendation
 from optimal_design.checks import CheckDesign
 from service.conversions.kinematics import joints_out
+from service.conversions.validations import measured_document
 from service.persistence.tables import CalibrationRecord, CheckRecord
 from service.schemas.checks import Against, HistoryEventPublic, QuickCheckDesignPublic, QuickCheckPublic
 from service.schemas.common import timestamp
@@ -88,17 +89,7 @@ def check_document(
 
 
 def check_public(record: CheckRecord) -> QuickCheckPublic:
-    return QuickCheckPublic.model_validate(
-        {
-            **record.result,
-            "id": record.id,
-            "robot_id": record.robot_id,
-            "campaign_id": record.campaign_id,
-            "created_at": timestamp(record.created_at),
-            "notes": record.notes,
-            "instrument": record.instrument,
-        }
-    )
+    return QuickCheckPublic.model_validate(measured_document(record))
 
 
 def check_design_out(
