@@ -43,8 +43,11 @@ from models._types import Array
 from models.blas import single_threaded_blas
 from models.campaign import Campaign
 from models.errors import InvalidInput, WrongShape
+from models.identification.reference_fit import ReferenceProblem
+from models.identification.reference_fit import check_version as reference_check
 from models.identification.registration import rigid_fit
 from models.kinematics import forward_kinematics
+from models.measurements.references import ReferenceRecords
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
@@ -203,15 +206,7 @@ def check_version(
     `covariance` (P × P, table order; `version_covariance`)."""
     started = time.perf_counter()
     options, noise = options or CheckOptions(), noise or NoiseModel()
-    p = desc.n_params
-    if covariance.shape != (p, p):
-        raise WrongShape(
-            f"expected a ({p}, {p}) covariance", field="covariance", expected=[p, p], got=list(covariance.shape)
-        )
-    if campaign.size < MIN_RECORDS:
-        raise InvalidInput(
-            f"a check needs at least {MIN_RECORDS} records, got {campaign.size}", field="measurements", min=MIN_RECORDS
-        )
+    _checked(desc, covariance, campaign.size)
     residual, jac, nuisance, sigma, position_mm = _linearised(
         desc, params, campaign, noise, register=options.register, runtime=runtime
     )
@@ -219,6 +214,32 @@ def check_version(
     rows = 3 if campaign.quaternions is None else 6
     predicted = np.sqrt(np.einsum("nii->n", _blocks(v, rows)[:, :3, :3]))
     w = _whiten(v, residual, jac, nuisance)
+    return _result(
+        desc,
+        w,
+        covariance,
+        options,
+        position_mm=position_mm,
+        predicted_mm=predicted,
+        rows=rows,
+        started=started,
+        registered=options.register,
+    )
+
+
+def _result(
+    desc: RobotDescription,
+    w: _Whitened,
+    covariance: Array,
+    options: CheckOptions,
+    *,
+    position_mm: Array,
+    predicted_mm: Array,
+    rows: int,
+    started: float,
+    registered: bool = True,
+) -> CheckResult:
+    """The test, the explanations, the verdict and the recommendation of whitened, projected residuals."""
     chi2 = float(w.r @ w.r)
     threshold = float(scipy.special.chdtri(w.dof, options.alpha))
     explanations = _explanations(desc.parameters, w, covariance, options)
@@ -233,14 +254,26 @@ def check_version(
         threshold=threshold,
         p_value=float(scipy.special.chdtrc(w.dof, chi2)),
         alpha=options.alpha,
-        registered=options.register,
+        registered=registered,
         position_mm=position_mm,
-        predicted_mm=predicted,
+        predicted_mm=predicted_mm,
         explanation=best,
         alternatives=tuple(others) if verdict is not Verdict.FINE else (),
         recommendation=_recommendation(desc, verdict, best, rows, options),
         seconds=time.perf_counter() - started,
     )
+
+
+def _checked(desc: RobotDescription, covariance: Array, records: int) -> None:
+    p = desc.n_params
+    if covariance.shape != (p, p):
+        raise WrongShape(
+            f"expected a ({p}, {p}) covariance", field="covariance", expected=[p, p], got=list(covariance.shape)
+        )
+    if records < MIN_RECORDS:
+        raise InvalidInput(
+            f"a check needs at least {MIN_RECORDS} records, got {records}", field="measurements", min=MIN_RECORDS
+        )
 
 
 def _blocks(v: Array, rows: int) -> Array:
@@ -417,3 +450,52 @@ def detectable_changes(
     seen = np.linalg.norm(w.jac[:, list(parameters)], axis=0)
     visible = seen > RANK_RTOL * np.maximum(w.norms[list(parameters)], 1e-300)
     return np.where(visible, np.sqrt(lam) / np.where(visible, seen, 1.0), np.inf)
+
+
+@single_threaded_blas
+def check_references(
+    desc: RobotDescription,
+    params: Array,
+    covariance: Array,
+    groups: tuple[ReferenceRecords, ...],
+    *,
+    noise: NoiseModel | None = None,
+    options: CheckOptions | None = None,
+    runtime: Runtime | None = None,
+) -> CheckResult:
+    """The check of reference records (distance, point, plane: `models.measurements.references`) against the
+    version: the references' own unknowns (an anchor's place, a bar's length where unknown, a plane) take the
+    registration's part, fitted with the robot held and projected out in the metric V like the frame's
+    columns; `options.register` does not apply (the references fix their own frame, or none)."""
+    started = time.perf_counter()
+    options, noise = options or CheckOptions(), noise or NoiseModel()
+    p, records = desc.n_params, sum(g.size for g in groups)
+    _checked(desc, covariance, records)
+    rt = runtime_for(desc, runtime)
+    placed = reference_check(desc, groups, params, noise=noise, runtime=rt)
+    u = np.concatenate([np.asarray(x, dtype=float) for x in placed.unknowns])
+    every = np.arange(p, dtype=np.intp)
+    problem = ReferenceProblem(desc, rt, placed.references, noise, params, every, u, np.ones(u.size))
+    evaluation = problem.evaluate(np.zeros(problem.n_free))
+    if evaluation is None:
+        raise InvalidInput("the version cannot evaluate these records (a non-finite residual)", field="measurements")
+    # The problem's rows are already divided by each record's σ, its robot columns scaled by the tolerances.
+    residual = evaluation.residuals[:, 0]
+    jac = evaluation.jacobian[:, :p] / desc.parameters.scales
+    v = np.eye(residual.size) + jac @ covariance @ jac.T
+    w = _whiten(v, residual, jac, evaluation.jacobian[:, p:])
+    rows = [g.reference.traits.rows for g in placed.references for _ in range(g.size)]
+    sigma = np.concatenate([1.0 / np.asarray(x) for x in problem.weights])
+    edges = np.cumsum([0, *rows])
+    diagonal = np.diag(v)
+    predicted = np.array([sigma[k] * np.sqrt(diagonal[edges[k] : edges[k + 1]].sum()) for k in range(records)])
+    return _result(
+        desc,
+        w,
+        covariance,
+        options,
+        position_mm=placed.errors_mm,
+        predicted_mm=predicted,
+        rows=max(rows),
+        started=started,
+    )

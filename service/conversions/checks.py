@@ -8,8 +8,8 @@ from typing import Any
 import numpy as np
 
 from models import RobotDescription
-from models.campaign import Campaign
 from models.checks import CheckAction, CheckResult, Explanation, Recommendation
+from models.measurement import MeasurementKind
 from optimal_design.checks import CheckDesign
 from service.conversions.kinematics import joints_out
 from service.conversions.validations import measured_document
@@ -54,7 +54,7 @@ def _message(recommendation: Recommendation) -> str:
 
 
 def check_document(
-    desc: RobotDescription, version: int, against: Against, result: CheckResult, campaign: Campaign
+    desc: RobotDescription, version: int, against: Against, result: CheckResult, *, kind: MeasurementKind, size: int
 ) -> dict[str, Any]:
     """What is stored of a check: the response's fields but the row's own columns."""
     rec = result.recommendation
@@ -70,8 +70,8 @@ def check_document(
             "alpha": result.alpha,
         },
         "registered": result.registered,
-        "measurement": campaign.kind.value,
-        "measurements": campaign.size,
+        "measurement": kind.value,
+        "measurements": size,
         "per_record": [
             {"position_mm": float(e), "predicted_mm": float(p)}
             for e, p in zip(result.position_mm, result.predicted_mm, strict=True)

@@ -10,20 +10,23 @@ from pydantic import ConfigDict, Field
 
 from models.checks import CheckAction, CheckOptions, Verdict
 from optimal_design.checks import MAX_CHECK_POSES, MIN_CHECK_POSES
-from service.schemas.calibrations import Instrument, InstrumentPublic, Noise, Record
+from service.schemas.calibrations import CampaignRecord, Instrument, InstrumentPublic, Noise
 from service.schemas.common import FreeText, JointVector, Measurement, Public, Strict
+from service.schemas.references import ReferenceDescriptions
 
 _OPTIONS = CheckOptions()
 MAX_CHECK_RECORDS = 200
 Against = Literal["version", "tolerances"]
 
 
-class QuickCheckCreate(Strict):
-    """Tracker records (5-10 are typical; at least 3) measured now, against the robot's current version."""
+class QuickCheckCreate(ReferenceDescriptions):
+    """Records measured now (5-10 are typical; at least 3), against the robot's current version: a tracker's, or
+    distance, point and plane records with their references described (their unknowns are fitted with the robot
+    held, in place of the instrument frame; `register` does not apply to them)."""
 
     # `register` is the field's name on the wire; inside, it would shadow a class attribute of the model.
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
-    measurements: list[Record] = Field(min_length=1, max_length=MAX_CHECK_RECORDS)
+    measurements: list[CampaignRecord] = Field(min_length=1, max_length=MAX_CHECK_RECORDS)
     noise: Noise = Field(default_factory=Noise, description="The instrument's σ (each record's own sigma_mm wins)")
     alpha: float = Field(
         default=_OPTIONS.alpha,

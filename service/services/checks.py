@@ -10,16 +10,18 @@ import numpy as np
 
 from models import NoiseModel, Registry, RobotDescription
 from models._types import Array
-from models.checks import CALIBRATION_POSES, CheckOptions, check_version, version_covariance
+from models.checks import CALIBRATION_POSES, CheckOptions, check_references, check_version, version_covariance
 from models.errors import InvalidInput
+from models.measurement import MeasurementKind
 from optimal_design.checks import design_check
 from service.conversions.calibrations import records_in
 from service.conversions.checks import check_design_out, check_document, check_public, history_out
+from service.conversions.references import Described, has_references, reference_groups_in
 from service.conversions.robots import description
 from service.conversions.terms import stored_model
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
-from service.schemas.calibrations import Noise
+from service.schemas.calibrations import Noise, Record
 from service.schemas.checks import (
     Against,
     HistoryEventPublic,
@@ -80,7 +82,6 @@ def create_check(*, db: Database, registry: Registry, robot_id: str, body: Quick
     with db.reader() as s:
         current = _current(Repository(s), robot_id, body.against)
     desc = current.desc
-    campaign = records_in(desc, body.measurements, default_sigma_mm=body.noise.position_mm)
     options = CheckOptions(
         alpha=body.alpha,
         register=body.fit_frame,
@@ -88,16 +89,22 @@ def create_check(*, db: Database, registry: Registry, robot_id: str, body: Quick
         drift_ratio=body.drift_ratio,
         calibration_poses=current.calibration_poses,
     )
-    result = check_version(
-        desc,
-        current.values,
-        current.covariance,
-        campaign,
-        noise=_noise(body.noise),
-        options=options,
-        runtime=registry.runtime(desc),
-    )
-    document = check_document(desc, current.number, body.against, result, campaign)
+    noise, runtime = _noise(body.noise), registry.runtime(desc)
+    if has_references(body.measurements):
+        described = Described(body.anchors, body.points, body.planes, body.cameras)
+        groups, _ = reference_groups_in(desc, body.measurements, described, sigma_mm=body.noise.position_mm)
+        result = check_references(
+            desc, current.values, current.covariance, groups, noise=noise, options=options, runtime=runtime
+        )
+        kind, size = MeasurementKind.POSITION, len(body.measurements)
+    else:
+        tracker = [r for r in body.measurements if isinstance(r, Record)]
+        campaign = records_in(desc, tracker, default_sigma_mm=body.noise.position_mm)
+        result = check_version(
+            desc, current.values, current.covariance, campaign, noise=noise, options=options, runtime=runtime
+        )
+        kind, size = campaign.kind, campaign.size
+    document = check_document(desc, current.number, body.against, result, kind=kind, size=size)
     with db.session() as s:
         repo, life = Repository(s), Lifecycle(s)
         repo.robot(robot_id, lock=True)  # still there

@@ -22,12 +22,14 @@ from models.checks import (
     CheckAction,
     CheckOptions,
     Verdict,
+    check_references,
     check_version,
     detectable_changes,
     version_covariance,
 )
 from models.errors import InvalidInput, WrongShape
 from models.examples import ur5_like
+from models.measurements.references import Anchor, ReferenceRecords
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from optimal_design.checks import design_check, watched_parameters
 
@@ -233,3 +235,34 @@ def test_fk_predictions_are_what_the_check_compares(version: Calibrated) -> None
     result = check_version(DESC, version.params, version.covariance, Campaign(joints, fk.positions))
     assert result.chi2 < 1e-12 and result.verdict is Verdict.FINE
     np.testing.assert_allclose(result.position_mm, 0.0, atol=1e-9)
+
+
+def _ballbar(robot: SimulatedRobot, seed: int, n: int = 10, sigma: float = 0.002) -> tuple[ReferenceRecords, ...]:
+    """`n` distances (σ `sigma`) from the TCP to a pivot 300 mm beside the poses, its place guessed within 5 mm."""
+    rng = np.random.default_rng(seed)
+    joints = sample_workspace(DESC, n, seed=seed)
+    tcp = forward_kinematics(DESC, joints, robot.truth).positions
+    pivot = tcp.mean(axis=0) + np.array([300.0, 0.0, 0.0])
+    distances = np.linalg.norm(tcp - pivot, axis=1) + rng.normal(0, sigma, n)
+    guess = tuple(float(v) for v in pivot + rng.normal(0, 5, 3))
+    return (ReferenceRecords(Anchor("a1", guess), joints, distances, np.full(n, sigma)),)  # type: ignore[arg-type]
+
+
+def test_ballbar_checks_keep_alpha_and_see_a_change(version: Calibrated) -> None:
+    """Exact version (zero covariance): the false-alarm rate is α with the anchor's 3 unknowns projected out;
+    the calibrated version then sees axis 3's 0.1 mm in ten distances."""
+    robot, zero = _exact(9)
+    alpha, n = 0.1, 100
+    options = CheckOptions(alpha=alpha)
+    flagged = 0
+    for seed in range(n):
+        result = check_references(DESC, robot.truth, zero, _ballbar(robot, seed), noise=NOISE, options=options)
+        flagged += result.verdict is not Verdict.FINE
+    assert result.dof == 10 - 3 and result.position_mm.shape == (10,)
+    assert flagged <= _binomial_max(n, alpha) and flagged >= n - _binomial_max(n, 1 - alpha)
+    moved = changed(version.robot, AXIS3, tcp_equivalent(DESC, version.params, AXIS3, 0.1))
+    found = sum(
+        check_references(DESC, version.params, version.covariance, _ballbar(moved, s)).verdict is Verdict.CHANGED
+        for s in range(10)
+    )
+    assert found >= 9

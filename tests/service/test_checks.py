@@ -11,7 +11,7 @@ from fastapi.testclient import TestClient
 
 from harness.checks import changed
 from harness.records import records
-from models import iwr, sample_workspace
+from models import forward_kinematics, iwr, sample_workspace
 from models.simulation import SimulatedRobot, perturbed_robot
 
 DESC = iwr()
@@ -109,3 +109,22 @@ def test_bad_checks_are_refused_and_store_nothing(client: TestClient, robot_id: 
     assert design.status_code == 422
     unknown = client.post(f"{url}/design", json={"watch": ["elbow"], **against})
     assert unknown.status_code == 422 and "elbow" in unknown.json()["detail"]
+
+
+def test_a_ballbar_check_fits_its_anchor_in_place_of_the_frame(client: TestClient, robot_id: str) -> None:
+    sim = perturbed_robot(DESC, seed=8)
+    joints = sample_workspace(DESC, 8, seed=9)
+    tcp = forward_kinematics(DESC, joints, sim.truth).positions
+    pivot = tcp.mean(axis=0) + np.array([300.0, 0.0, 0.0])
+    measurements = [
+        {"kind": "distance", "joints": (q * DESC.joint_to_boundary).tolist(), "anchor": "a1", "distance_mm": float(d)}
+        for q, d in zip(joints, np.linalg.norm(tcp - pivot, axis=1), strict=True)
+    ]
+    body = {"measurements": measurements, "anchors": {"a1": {}}, "against": "tolerances"}
+    answer = client.post(f"/v1/robots/{robot_id}/checks", json=body)
+    assert answer.status_code == 201, answer.text
+    check = answer.json()
+    assert check["statistic"]["dof"] == 8 - 3 and check["measurements"] == 8 and len(check["per_record"]) == 8
+    undescribed = client.post(f"/v1/robots/{robot_id}/checks", json={**body, "anchors": {}})
+    assert undescribed.status_code == 400 and "a1" in undescribed.json()["detail"]
+    assert len(client.get(f"/v1/robots/{robot_id}/checks").json()) == 1
