@@ -29,6 +29,7 @@ from service.routes import (
     audit,
     calibrations,
     campaigns,
+    checks,
     designs,
     error_analysis,
     health,
@@ -214,6 +215,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         validations,
         reports,
         programs,
+        checks,
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)

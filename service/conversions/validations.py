@@ -9,7 +9,7 @@ import numpy as np
 
 from models import RobotDescription
 from models.accuracy import AccuracyReport, CubePoses
-from service.persistence.tables import ValidationRecord
+from service.persistence.tables import CheckRecord, ValidationRecord
 from service.schemas.common import timestamp
 from service.schemas.validations import IsoPosesPublic, ValidationPublic, VersionResultPublic
 
@@ -72,18 +72,22 @@ def version_result_out(desc: RobotDescription, version: int, report: AccuracyRep
     return VersionResultPublic.model_validate(result)
 
 
+def measured_document(record: ValidationRecord | CheckRecord) -> dict[str, Any]:
+    """A stored validation's or check's document with the row's own columns: measurements of a campaign
+    evaluated, never fitted, stored alike."""
+    return {
+        **record.result,
+        "id": record.id,
+        "robot_id": record.robot_id,
+        "campaign_id": record.campaign_id,
+        "created_at": timestamp(record.created_at),
+        "notes": record.notes,
+        "instrument": record.instrument,
+    }
+
+
 def validation_public(record: ValidationRecord) -> ValidationPublic:
-    return ValidationPublic.model_validate(
-        {
-            **record.result,
-            "id": record.id,
-            "robot_id": record.robot_id,
-            "campaign_id": record.campaign_id,
-            "created_at": timestamp(record.created_at),
-            "notes": record.notes,
-            "instrument": record.instrument,
-        }
-    )
+    return ValidationPublic.model_validate(measured_document(record))
 
 
 def iso_poses_out(desc: RobotDescription, robot_id: str, version: int, cube: CubePoses) -> IsoPosesPublic:

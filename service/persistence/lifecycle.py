@@ -1,5 +1,5 @@
 """Reads and writes of the calibration lifecycle: parameter versions made by hand (restore, import, edited guesses),
-the audit trail, revisions (ETags), campaigns, validations and the list of pose designs.
+the audit trail, revisions (ETags), campaigns, validations, checks and the list of pose designs.
 
 Every method works inside the caller's transaction, like `Repository`. A change of a robot or of its current
 version always goes through `changed`, which bumps the robot's revision and writes the audit event in the same
@@ -21,6 +21,7 @@ from service.persistence.store import Store
 from service.persistence.tables import (
     AuditEvent,
     CampaignRecord,
+    CheckRecord,
     ParameterVersion,
     PoseDesignRecord,
     Robot,
@@ -174,10 +175,25 @@ class Lifecycle(Store):
         return self._of_robot(ValidationRecord, robot_id, limit, offset)
 
     def delete_validations(self, robot_id: str) -> None:
-        # Before the campaigns they point at (Repository.delete_robot deletes those row by row).
-        for row in self.validations(robot_id, limit=1_000_000_000):
+        # Before the campaigns they point at (Repository.delete_robot deletes those row by row); the checks too.
+        for row in [*self.validations(robot_id, limit=1_000_000_000), *self.checks(robot_id, limit=1_000_000_000)]:
             self.s.delete(row)
         self.s.flush()
+
+    def add_check(
+        self, robot_id: str, campaign_id: str, version: int, verdict: str, result: dict[str, Any]
+    ) -> CheckRecord:
+        return self._insert(
+            CheckRecord(
+                id=new_id(), robot_id=robot_id, campaign_id=campaign_id, version=version, verdict=verdict, result=result
+            )
+        )
+
+    def check(self, check_id: str) -> CheckRecord:
+        return self._by_id(CheckRecord, check_id, "check")
+
+    def checks(self, robot_id: str, limit: int = 1000, offset: int = 0) -> list[CheckRecord]:
+        return self._of_robot(CheckRecord, robot_id, limit, offset)
 
     def designs(self, robot_id: str, limit: int, offset: int) -> list[PoseDesignRecord]:
         return self._of_robot(PoseDesignRecord, robot_id, limit, offset)

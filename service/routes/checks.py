@@ -1,0 +1,67 @@
+from __future__ import annotations
+
+from fastapi import APIRouter, Response
+from pydantic import TypeAdapter
+
+from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, compute
+from service.json_bodies import OffloopRoute
+from service.operations import Runs, operation
+from service.responses import model_json, models_json
+from service.schemas.checks import (
+    HistoryEventPublic,
+    QuickCheckCreate,
+    QuickCheckDesignCreate,
+    QuickCheckDesignPublic,
+    QuickCheckPublic,
+)
+from service.security import Scope
+from service.services import checks
+
+router = APIRouter(tags=["checks"], route_class=OffloopRoute)
+_CHECKS = TypeAdapter(list[QuickCheckPublic])
+_HISTORY = TypeAdapter(list[HistoryEventPublic])
+
+
+@router.post("/v1/robots/{robot_id}/checks", status_code=201, response_model=QuickCheckPublic)
+@operation(Scope.write, runs=Runs.COMPUTE)
+async def create_check(
+    robot_id: str, body: QuickCheckCreate, db: DatabaseDep, registry: RegistryDep, m: MetricsDep
+) -> Response:
+    """A quick check (docs/checks.md): a few tracker records against the current version, tested against its
+    predicted uncertainty at the false-alarm rate `alpha`; the verdict (fine, drifted, changed), what best
+    explains a change, and what to do."""
+    result = await compute(m, "check", checks.create_check, db=db, registry=registry, robot_id=robot_id, body=body)
+    return model_json(result, status_code=201)
+
+
+@router.post("/v1/robots/{robot_id}/checks/design", response_model=QuickCheckDesignPublic)
+@operation(Scope.read, runs=Runs.COMPUTE)  # computes the poses, stores nothing
+async def design_check(
+    robot_id: str, db: DatabaseDep, registry: RegistryDep, m: MetricsDep, body: QuickCheckDesignCreate | None = None
+) -> Response:
+    """The poses of a check that see the likely changes best (the joint offsets, the tool), and the change of
+    each the check would flag with 95 % probability."""
+    chosen = body or QuickCheckDesignCreate()
+    result = await compute(
+        m, "check_design", checks.design_check_poses, db=db, registry=registry, robot_id=robot_id, body=chosen
+    )
+    return model_json(result)
+
+
+@router.get("/v1/robots/{robot_id}/checks", response_model=list[QuickCheckPublic])
+@operation(Scope.read)
+def list_checks(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
+    return models_json(checks.list_checks(db=db, robot_id=robot_id, limit=limit, offset=offset), _CHECKS)
+
+
+@router.get("/v1/checks/{check_id}", response_model=QuickCheckPublic)
+@operation(Scope.read)
+def get_check(check_id: str, db: DatabaseDep) -> Response:
+    return model_json(checks.get_check(db=db, check_id=check_id))
+
+
+@router.get("/v1/robots/{robot_id}/history", response_model=list[HistoryEventPublic])
+@operation(Scope.read)
+def history(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
+    """The robot's calibrations and checks on one timeline, oldest first."""
+    return models_json(checks.history(db=db, robot_id=robot_id, limit=limit, offset=offset), _HISTORY)

@@ -1,0 +1,162 @@
+"""Quick checks: a few tracker records against the current version (models.checks), their design, and a robot's
+history of calibrations and checks. Read, compute outside any transaction, write in one."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from models import NoiseModel, Registry, RobotDescription
+from models._types import Array
+from models.checks import CALIBRATION_POSES, CheckOptions, check_references, check_version, version_covariance
+from models.errors import InvalidInput
+from models.measurement import MeasurementKind
+from optimal_design.checks import design_check
+from service.conversions.calibrations import records_in
+from service.conversions.checks import check_design_out, check_document, check_public, history_out
+from service.conversions.references import Described, has_references, reference_groups_in
+from service.conversions.robots import description
+from service.conversions.terms import stored_model
+from service.persistence import Database, Repository
+from service.persistence.lifecycle import Lifecycle
+from service.schemas.calibrations import Noise, Record
+from service.schemas.checks import (
+    Against,
+    HistoryEventPublic,
+    QuickCheckCreate,
+    QuickCheckDesignCreate,
+    QuickCheckDesignPublic,
+    QuickCheckPublic,
+)
+
+HISTORY_MAX = 10_000
+
+
+@dataclass(frozen=True)
+class _Version:
+    """The current version as a check needs it: its model, values and parameter covariance."""
+
+    desc: RobotDescription
+    number: int
+    values: Array
+    covariance: Array
+    calibration_poses: int
+
+
+def _current(repo: Repository, robot_id: str, against: Against) -> _Version:
+    desc = description(repo.robot(robot_id))
+    row = repo.version(robot_id)
+    values = np.asarray(row.values, dtype=float)
+    model = stored_model(desc, values.size)
+    table = model.parameters
+    if against == "tolerances":
+        # The nominal tolerances (each parameter's expected error) as the version's uncertainty.
+        return _Version(model, row.version, values, np.diag(table.scales**2), CALIBRATION_POSES)
+    stored = list(row.std_errors or [])
+    std = np.array([math.nan if v is None else float(v) for v in stored] + [math.nan] * (len(table) - len(stored)))
+    if not np.any(np.isfinite(std) & (std > 0)):
+        raise InvalidInput(
+            f"version {row.version} of robot {robot_id!r} carries no calibrated uncertainty (it is the nominal or an "
+            "imported version): calibrate the robot first, or check against its nominal tolerances "
+            '("against": "tolerances")',
+            field="against",
+            reason="not_calibrated",
+        )
+    names, correlation, poses = None, None, CALIBRATION_POSES
+    if row.calibration_id is not None:
+        document = repo.calibration(row.calibration_id).result
+        stored_correlation = document.get("correlation")
+        if stored_correlation:
+            names, correlation = stored_correlation["names"], np.asarray(stored_correlation["matrix"], dtype=float)
+        poses = int(document.get("measurements") or CALIBRATION_POSES)
+    return _Version(model, row.version, values, version_covariance(table, std[: len(table)], names, correlation), poses)
+
+
+def _noise(noise: Noise) -> NoiseModel:
+    return NoiseModel(noise.position_mm, math.radians(noise.orientation_deg))
+
+
+def create_check(*, db: Database, registry: Registry, robot_id: str, body: QuickCheckCreate) -> QuickCheckPublic:
+    with db.reader() as s:
+        current = _current(Repository(s), robot_id, body.against)
+    desc = current.desc
+    options = CheckOptions(
+        alpha=body.alpha,
+        register=body.fit_frame,
+        change_sigmas=body.change_sigmas,
+        drift_ratio=body.drift_ratio,
+        calibration_poses=current.calibration_poses,
+    )
+    noise, runtime = _noise(body.noise), registry.runtime(desc)
+    if has_references(body.measurements):
+        described = Described(body.anchors, body.points, body.planes, body.cameras)
+        groups, _ = reference_groups_in(desc, body.measurements, described, sigma_mm=body.noise.position_mm)
+        result = check_references(
+            desc, current.values, current.covariance, groups, noise=noise, options=options, runtime=runtime
+        )
+        kind, size = MeasurementKind.POSITION, len(body.measurements)
+    else:
+        tracker = [r for r in body.measurements if isinstance(r, Record)]
+        campaign = records_in(desc, tracker, default_sigma_mm=body.noise.position_mm)
+        result = check_version(
+            desc, current.values, current.covariance, campaign, noise=noise, options=options, runtime=runtime
+        )
+        kind, size = campaign.kind, campaign.size
+    document = check_document(desc, current.number, body.against, result, kind=kind, size=size)
+    with db.session() as s:
+        repo, life = Repository(s), Lifecycle(s)
+        repo.robot(robot_id, lock=True)  # still there
+        stored = repo.add_campaign(robot_id, [r.model_dump() for r in body.measurements])
+        record = life.add_check(robot_id, stored.id, current.number, result.verdict.value, document)
+        record.notes = body.notes
+        record.instrument = None if body.instrument is None else body.instrument.model_dump()
+        return check_public(record)
+
+
+def design_check_poses(
+    *, db: Database, registry: Registry, robot_id: str, body: QuickCheckDesignCreate
+) -> QuickCheckDesignPublic:
+    """Poses for a check of the current version; stores nothing (the seed repeats it)."""
+    with db.reader() as s:
+        current = _current(Repository(s), robot_id, body.against)
+    desc = current.desc
+    position_only = body.measurement == "position"
+    options = CheckOptions(alpha=body.alpha, register=body.fit_frame)
+    design = design_check(
+        desc,
+        current.values,
+        body.count,
+        covariance=current.covariance,
+        watched=None if body.watch is None else desc.parameters.indices(body.watch),
+        position_only=position_only,
+        candidate_count=body.candidate_count,
+        seed=body.seed,
+        noise=_noise(body.noise),
+        options=options,
+        runtime=registry.runtime(desc),
+    )
+    return check_design_out(
+        desc, robot_id, current.number, design, position_only=position_only, registered=body.fit_frame
+    )
+
+
+def get_check(*, db: Database, check_id: str) -> QuickCheckPublic:
+    with db.reader() as s:
+        return check_public(Lifecycle(s).check(check_id))
+
+
+def list_checks(*, db: Database, robot_id: str, limit: int, offset: int) -> list[QuickCheckPublic]:
+    with db.reader() as s:
+        Repository(s).robot(robot_id)
+        return [check_public(r) for r in Lifecycle(s).checks(robot_id, limit, offset)]
+
+
+def history(*, db: Database, robot_id: str, limit: int, offset: int) -> list[HistoryEventPublic]:
+    """The first `offset + limit` of each kind are enough for that page of the merged timeline."""
+    with db.reader() as s:
+        repo = Repository(s)
+        wanted = min(offset + limit, HISTORY_MAX)
+        events = history_out(repo.calibrations(robot_id, wanted, 0), Lifecycle(s).checks(robot_id, wanted, 0))
+    return events[offset : offset + limit]
