@@ -1,18 +1,16 @@
 """A serial robot as a controller reads it: fixed joint origins, each followed by its joint's motion about z.
 
 Every serial structure (DH or MDH links, fixed links) has this form. Link k's transform is `P_k · M(q_k) · S_k`
-(DH: nothing before the motion, `Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β)` after it; MDH: `Rx(α)·Ry(β)·Tx(a)·Rz(θ)·Tz(d)`
-before it, nothing after), so
+with M a rotation about (revolute) or a translation along (prismatic) z, the identity for a fixed link:
 
-    world <- TCP = base · Π_k (origin_k · M(q_k)) · flange · tool,   origin_k = S_{k-1} · P_k,  flange = S_n,
+- DH: `Rz(θ+q)·Tz(d)·Tx(a)·Rx(α)·Ry(β)`; its `Rz(θ)·Tz(d)` commutes with M, so P = Rz(θ)·Tz(d) and
+  S = Tx(a)·Rx(α)·Ry(β);
+- MDH: `Rx(α)·Ry(β)·Tx(a)·Rz(θ+q)·Tz(d)`: P is all of it, S the identity.
 
-with M a rotation about (revolute) or a translation along (prismatic) z, the identity for a fixed link. URDF,
-UR's kinematics file and any controller that chains joint origins read a robot this way (`models.urdf`,
-`models.ur_kinematics`, `models.urdf_calibrated`).
-
-The flange is kept in two factors: `flange_along`, the part of S_n that commutes with the last motion
-(Rz(θ)·Tz(d) of a DH link), and `flange_rest` (Tx(a)·Rx(α)·Ry(β)). A format with no fixed tail after its last
-joint (UR's) moves `flange_along` into the last origin, as UR's own calibration tool does with d6 and θ6.
+So world <- TCP = base · Π_k (origin_k · M(q_k)) · flange · tool, with origin_k = S_{k-1} · P_k and flange = S_n.
+URDF, UR's kinematics file and any controller that chains joint origins read a robot this way (`models.urdf`,
+`models.ur_kinematics`, `models.urdf_calibrated`). Putting a DH link's θ and d before its motion is what UR's
+`ur_calibration` does (its `shoulder` holds d1): the joint frame then sits where the link's z offset ends.
 """
 
 from __future__ import annotations
@@ -73,18 +71,13 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> Array:
 
 @dataclass(frozen=True)
 class JointChain:
-    """world <- TCP = base · Π_k (origins[k] · M(q_k)) · flange_along · flange_rest · tool (mm, 4x4 each)."""
+    """world <- TCP = base · Π_k (origins[k] · M(q_k)) · flange · tool (mm, 4x4 each)."""
 
     base: Array
     origins: tuple[Array, ...]
     joints: tuple[JointType, ...]
-    flange_along: Array
-    flange_rest: Array
+    flange: Array
     tool: Array
-
-    @property
-    def flange(self) -> Array:
-        return self.flange_along @ self.flange_rest
 
 
 def serial_only(desc: RobotDescription, what: str) -> None:
@@ -107,23 +100,21 @@ def joint_chain(desc: RobotDescription, params: Array | None = None, *, what: st
     theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
     index = desc.parameters.index
     origins: list[Array] = []
-    carry_along, carry_rest = np.eye(4), np.eye(4)  # S_{k-1}: what the previous link leaves after its motion
+    carry = np.eye(4)  # S_{k-1}: what the previous link leaves after its motion
     for k, link in enumerate(desc.links, start=1):
         th, d, a, al = (float(theta[index[f"link{k}.{f}"]]) for f in ("theta", "d", "a", "alpha"))
         beta = float(theta[index[f"link{k}.beta"]]) if link.has_beta else 0.0
-        carry = carry_along @ carry_rest
         if link.convention is Convention.DH:
-            origins.append(carry)
-            carry_along, carry_rest = rz(th) @ translation(0, 0, d), translation(a, 0, 0) @ rx(al) @ ry(beta)
+            origins.append(carry @ rz(th) @ translation(0, 0, d))
+            carry = translation(a, 0, 0) @ rx(al) @ ry(beta)
         else:
             origins.append(carry @ rx(al) @ ry(beta) @ translation(a, 0, 0) @ rz(th) @ translation(0, 0, d))
-            carry_along, carry_rest = np.eye(4), np.eye(4)
+            carry = np.eye(4)
     return JointChain(
         base=pose_matrix(theta[desc.slices["base"]]),
         origins=tuple(origins),
         joints=tuple(link.joint for link in desc.links),
-        flange_along=carry_along,
-        flange_rest=carry_rest,
+        flange=carry,
         tool=pose_matrix(theta[desc.slices["tool"]]),
     )
 

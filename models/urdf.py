@@ -221,17 +221,18 @@ def document_from_urdf(urdf: str, base_link: str, tip_link: str) -> Document:
 
 
 # ---------------------------------------------------------------------------------------------- export
-def _num(v: float) -> str:
-    return repr(float(v))
+def urdf_number(v: float) -> str:
+    """Shortest text that reads back to the same double (no \"-0.0\")."""
+    return repr(float(v) + 0.0)
 
 
-def _joint(root: ET.Element, name: str, kind: str, *, parent: str, child: str, origin: Array) -> ET.Element:
+def urdf_joint(root: ET.Element, name: str, kind: str, *, parent: str, child: str, origin: Array) -> ET.Element:
     joint = ET.SubElement(root, "joint", name=name, type=kind)
     ET.SubElement(joint, "parent", link=parent)
     ET.SubElement(joint, "child", link=child)
     roll, pitch, yaw = rpy_of(origin[:3, :3])
-    xyz = " ".join(_num(v / MM_PER_M) for v in origin[:3, 3])
-    ET.SubElement(joint, "origin", xyz=xyz, rpy=f"{_num(roll)} {_num(pitch)} {_num(yaw)}")
+    xyz = " ".join(urdf_number(v / MM_PER_M) for v in origin[:3, 3])
+    ET.SubElement(joint, "origin", xyz=xyz, rpy=f"{urdf_number(roll)} {urdf_number(pitch)} {urdf_number(yaw)}")
     return joint
 
 
@@ -245,24 +246,24 @@ def urdf_from_description(desc: RobotDescription, params: Array | None = None, *
     root = ET.Element("robot", name=name)
     for link_name in ("world", "base", *(f"link{k}" for k in range(1, len(desc.links) + 1)), "flange", "tcp"):
         ET.SubElement(root, "link", name=link_name)
-    _joint(root, "base_joint", "fixed", parent="world", child="base", origin=chain.base)
+    urdf_joint(root, "base_joint", "fixed", parent="world", child="base", origin=chain.base)
     parent = "base"
     for k, (link, origin) in enumerate(zip(desc.links, chain.origins, strict=True), start=1):
         kind = {JointType.REVOLUTE: "revolute", JointType.PRISMATIC: "prismatic", JointType.FIXED: "fixed"}[link.joint]
-        joint = _joint(root, f"joint{k}", kind, parent=parent, child=f"link{k}", origin=origin)
+        joint = urdf_joint(root, f"joint{k}", kind, parent=parent, child=f"link{k}", origin=origin)
         if link.joint.moves:
             ET.SubElement(joint, "axis", xyz="0 0 1")
             scale = MM_PER_M if link.joint is JointType.PRISMATIC else 1.0
             ET.SubElement(
                 joint,
                 "limit",
-                lower=_num(link.joint_min / scale),
-                upper=_num(link.joint_max / scale),
+                lower=urdf_number(link.joint_min / scale),
+                upper=urdf_number(link.joint_max / scale),
                 effort="0",
                 velocity="0",
             )
         parent = f"link{k}"
-    _joint(root, "flange_joint", "fixed", parent=parent, child="flange", origin=chain.flange)
-    _joint(root, "tool_joint", "fixed", parent="flange", child="tcp", origin=chain.tool)
+    urdf_joint(root, "flange_joint", "fixed", parent=parent, child="flange", origin=chain.flange)
+    urdf_joint(root, "tool_joint", "fixed", parent="flange", child="tcp", origin=chain.tool)
     ET.indent(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True)
