@@ -57,17 +57,23 @@ class UrChain:
     tail: Array
 
 
-def ur_chain(chain: JointChain) -> UrChain:
-    """The file's six origins of a serial robot (fixed links folded into the next origin); InvalidInput
-    (field `format`) unless it has exactly six joints, all revolute."""
-    moving = [j for j in chain.joints if j.moves]
+def require_6r(joints: Sequence[JointType]) -> None:
+    """InvalidInput (field `format`) unless the moving joints are six, all revolute."""
+    moving = [j for j in joints if j.moves]
     if len(moving) != 6 or any(j is not JointType.REVOLUTE for j in moving):
         kinds = ", ".join(j.value for j in moving)
         raise InvalidInput(
-            f"UR's kinematics file describes six revolute joints; this robot's are {len(moving)} ({kinds})",
+            f"UR's kinematics file describes a 6R arm (six revolute joints); this robot's joints are "
+            f"{len(moving)} ({kinds})",
             field="format",
             reason="not_6r",
         )
+
+
+def ur_chain(chain: JointChain) -> UrChain:
+    """The file's six origins of a serial robot (fixed links folded into the next origin); InvalidInput
+    (field `format`) unless it is a 6R arm."""
+    require_6r(chain.joints)
     origins: list[Array] = []
     pending = np.eye(4)  # the fixed links since the last joint
     for origin, joint in zip(chain.origins, chain.joints, strict=True):

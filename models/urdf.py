@@ -26,6 +26,7 @@ from __future__ import annotations
 import io
 import math
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,15 @@ bounds and the workspace sampling (revolute kinematics are periodic, so the widt
 
 
 # ---------------------------------------------------------------------------------------------- import
+@dataclass(frozen=True)
+class UrdfSource:
+    """A URDF and the chain of it a robot is: what its calibrated export edits (`models.urdf_calibrated`)."""
+
+    urdf: str
+    base_link: str
+    tip_link: str
+
+
 def urdf_chain(urdf: str, base_link: str, tip_link: str) -> list[Any]:
     """The URDF's joints (yourdfpy's) from `base_link` to `tip_link`, checked (`models.urdf_tree`)."""
     import yourdfpy  # a heavy import (trimesh), needed only by URDF requests

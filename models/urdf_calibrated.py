@@ -31,6 +31,7 @@ from models.joint_chain import joint_chain, rpy_of
 from models.robot import RobotDescription
 from models.structure import description_from_document
 from models.transforms import rotvec_to_matrix_np
+from models.ur_kinematics import UrChain
 from models.urdf import MM_PER_M, document_from_urdf, origin_mm, urdf_chain, urdf_number
 
 
@@ -44,8 +45,26 @@ class UrdfCalibration:
     axes: tuple[Array, ...]
     world_from_base_link: Array
     """The measurement frame (world) <- base_link: the calibrated base with the URDF's base_link <- frame 0."""
+    tip: Array
+    """base_link <- tip_link, calibrated, at zero."""
     tip_to_tcp: Array
     """tip_link -> the calibrated TCP."""
+
+    def ur_chain(self) -> UrChain:
+        """UR's six origins from base_link: between the joint frames turned so that z is each joint's axis (the
+        identity turn where the URDF's axis is z already, as ur_description's are), then the last frame -> TCP."""
+        previous, origins = np.eye(4), []
+        for frame, axis in zip(self.frames, self.axes, strict=True):
+            turned = frame @ z_onto(axis)
+            origins.append(_solve(previous, turned))
+            previous = turned
+        tail = _solve(previous, self.tip @ self.tip_to_tcp)
+        return UrChain(world_from_root=self.world_from_base_link, origins=tuple(origins), tail=tail)
+
+
+def _solve(a: Array, b: Array) -> Array:
+    """a⁻¹ · b."""
+    return np.asarray(np.linalg.solve(a, b), dtype=np.float64)
 
 
 def _products(base: Array, origins: tuple[Array, ...]) -> list[Array]:
@@ -76,8 +95,8 @@ def calibrate_urdf(urdf: str, base_link: str, tip_link: str, desc: RobotDescript
             frame = np.asarray(frame @ origin_mm(joint), dtype=np.float64)
             continue
         k = next(moving)
-        f_cal = j_cal[k] @ np.linalg.solve(j_nom[k], frame_nom)  # J_k calibrated · C_k
-        origins[joint.name] = np.asarray(np.linalg.solve(frame, f_cal), dtype=np.float64)
+        f_cal = j_cal[k] @ _solve(j_nom[k], frame_nom)  # J_k calibrated · C_k
+        origins[joint.name] = _solve(frame, f_cal)
         frame = np.asarray(f_cal, dtype=np.float64)
         frames.append(f_cal)
         axes.append(np.array([1.0, 0, 0]) if joint.axis is None else np.asarray(joint.axis, dtype=float))
@@ -87,7 +106,8 @@ def calibrate_urdf(urdf: str, base_link: str, tip_link: str, desc: RobotDescript
         frames=tuple(frames),
         axes=tuple(axes),
         world_from_base_link=chain_cal.base @ np.linalg.inv(b_u),
-        tip_to_tcp=np.asarray(np.linalg.solve(frame, tcp), dtype=np.float64),
+        tip=frame,
+        tip_to_tcp=_solve(frame, tcp),
     )
 
 
