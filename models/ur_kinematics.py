@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import reprlib
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -125,20 +126,24 @@ def _load(text: str, field: str) -> Any:
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise InvalidInput(f"{field}: not readable YAML: {exc}", field=field, reason="not_yaml") from exc
+    except RecursionError as exc:  # PyYAML composes nesting recursively: 30 000 "[" overflow its stack
+        raise InvalidInput(
+            f"{field}: nested too deeply to be a kinematics file", field=field, reason="not_yaml"
+        ) from exc
 
 
 def _segment(raw: Any, where: str) -> Array:
     if not isinstance(raw, dict):
         raise InvalidInput(f"{where}: expected a mapping of {', '.join(KEYS)}", field=where)
-    unknown = sorted(str(k) for k in raw if k not in KEYS)
+    unknown = sorted(reprlib.repr(k) for k in raw if k not in KEYS)
     if unknown:
-        raise InvalidInput(f"{where}: unknown key {unknown[0]!r}; the keys are {', '.join(KEYS)}", field=where)
+        raise InvalidInput(f"{where}: unknown key {unknown[0]}; the keys are {', '.join(KEYS)}", field=where)
     numbers = []
     for key in KEYS:
         v = raw.get(key)
         # YAML reads `yes` as a boolean, which is an int to Python: refused like any non-number.
         if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(float(v)):
-            shown = "missing" if key not in raw else repr(v)
+            shown = "missing" if key not in raw else reprlib.repr(v)  # bounded: YAML aliases can nest a huge value
             raise InvalidInput(f"{where}.{key}: expected a finite number, got {shown}", field=f"{where}.{key}")
         numbers.append(float(v))
     x, y, z, roll, pitch, yaw = numbers
@@ -151,11 +156,11 @@ def read_kinematics(text: str, field: str = "document") -> tuple[Array, ...]:
     if not isinstance(doc, dict) or not isinstance(doc.get("kinematics"), dict):
         raise InvalidInput(f"{field}: expected a mapping with the key 'kinematics'", field=f"{field}.kinematics")
     kin = doc["kinematics"]
-    unknown = sorted(str(k) for k in kin if k not in (*SEGMENTS, "hash"))
-    if unknown:
+    unknown = sorted((k for k in kin if k not in (*SEGMENTS, "hash")), key=str)
+    if unknown:  # YAML keys are scalars (a sequence key is unhashable, a YAMLError): str() is short
         raise InvalidInput(
-            f"{field}.kinematics: unknown key {unknown[0]!r}; the keys are {', '.join(SEGMENTS)} and hash",
-            field=f"{field}.kinematics.{unknown[0]}",
+            f"{field}.kinematics: unknown key {reprlib.repr(unknown[0])}; the keys are {', '.join(SEGMENTS)} and hash",
+            field=f"{field}.kinematics.{str(unknown[0])[:100]}",
         )
     missing = [name for name in SEGMENTS if name not in kin]
     if missing:

@@ -14,6 +14,7 @@ from service.schemas.robots import MAX_VERSION, ParametersPublic, RobotCreate, R
 from service.schemas.structure import StructureDocument
 from service.security import Scope
 from service.services import exports, robots
+from service.services.exports import DH_MEDIA_TYPE
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"], route_class=OffloopRoute)
 _ROBOTS = TypeAdapter(list[RobotPublic])
@@ -27,6 +28,10 @@ _PARAMETERS_CSV: dict[int | str, dict[str, Any]] = {
     406: {"description": "Accept allows neither JSON nor CSV"},
 }
 _CONTROLLER_FORMATS = {
+    DH_MEDIA_TYPE: {
+        "schema": {"$ref": "#/components/schemas/DhTablePublic"},
+        "description": "The DH/MDH table (?format=dh)",
+    },
     "application/xml": {"schema": {"type": "string"}, "description": "URDF (?format=urdf)"},
     "application/yaml": {"schema": {"type": "string"}, "description": "UR's kinematics file (?format=ur-calibration)"},
 }
@@ -109,7 +114,7 @@ def get_parameters(
         None,
         description="Instead of Accept: 'csv'; or the calibrated arm as a controller reads it (docs/exports.md): "
         "'urdf' (an imported URDF comes back with its calibrated joint origins), 'dh' (the DH/MDH table with "
-        "base and tool, JSON: #/components/schemas/DhTablePublic), 'ur-calibration' (UR's kinematics YAML, a "
+        "base and tool, JSON as DhTablePublic), 'ur-calibration' (UR's kinematics YAML, a "
         "6R arm). "
         "Each states its frame; a 422 names why a robot or version cannot be exported exactly (a parallel "
         "stage, model terms, not a 6R arm)",

@@ -16,7 +16,7 @@ import numpy as np
 from models import RobotDescription
 from models._types import Array
 from models.dh_table import LINK_TRANSFORMS, dh_table, geometric_only
-from models.joint_chain import joint_chain
+from models.joint_chain import joint_chain, serial_only
 from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
 from models.ur_kinematics import UrChain, kinematics_yaml, require_6r, ur_chain
 from models.urdf import UrdfSource, urdf_from_description
@@ -27,6 +27,8 @@ from service.persistence import Database, Repository
 from service.schemas.exports import ROTATION, DhTablePublic
 
 WORLD = "world: the frame the calibration's measurements were given in (the tracker's, for a tracker campaign)"
+DH_MEDIA_TYPE = "application/vnd.iwr.dh-table+json"
+"""JSON of its own schema (DhTablePublic): a type of its own, so that application/json stays the parameters'."""
 FRAME_KEYS = "[x y z mm, roll pitch yaw deg, R = Rz(yaw)·Ry(pitch)·Rx(roll)]"
 
 
@@ -71,7 +73,7 @@ def export(*, db: Database, robot_id: str, version: int | None, format: str) -> 
     version the format cannot hold exactly."""
     stored = _stored(db, robot_id, version)
     if format == "dh":
-        return Export(_dh(stored).model_dump_json(), "application/json")
+        return Export(_dh(stored).model_dump_json(), DH_MEDIA_TYPE)
     if format == "ur-calibration":
         return Export(_ur(stored), "application/yaml")
     return Export(_urdf(stored), "application/xml")
@@ -95,6 +97,7 @@ def _dh(stored: _Stored) -> DhTablePublic:
 
 
 def _ur(stored: _Stored) -> str:
+    serial_only(stored.desc, "UR's kinematics file")
     geometric_only(stored.desc, "UR's kinematics file")
     require_6r(tuple(link.joint for link in stored.desc.links))
     geometry = stored.values[: stored.desc.geometric.n_params]

@@ -45,7 +45,7 @@ def _rot(axis: int, a: float) -> np.ndarray:
 
 def _origin(seg: dict[str, float]) -> np.ndarray:
     """Trans(xyz) · Rz(yaw) · Ry(pitch) · Rx(roll), mm: URDF's reading of an origin, written out here."""
-    t = _rot(2, seg["yaw"]) @ _rot(1, seg["pitch"]) @ _rot(0, seg["roll"])
+    t: np.ndarray = _rot(2, seg["yaw"]) @ _rot(1, seg["pitch"]) @ _rot(0, seg["roll"])
     t[:3, 3] = [seg["x"] * 1000.0, seg["y"] * 1000.0, seg["z"] * 1000.0]
     return t
 
