@@ -72,7 +72,8 @@ def geometric_only(desc: RobotDescription, what: str) -> None:
 def frame_row(p6: Array) -> FrameRow:
     t = pose_matrix(p6)
     roll, pitch, yaw = (math.degrees(v) for v in rpy_of(t[:3, :3]))
-    return FrameRow(float(t[0, 3]), float(t[1, 3]), float(t[2, 3]), roll, pitch, yaw)
+    x, y, z = (float(v) + 0.0 for v in t[:3, 3])  # + 0.0: no "-0.0" in a table a person reads
+    return FrameRow(x, y, z, roll + 0.0, pitch + 0.0, yaw + 0.0)
 
 
 def dh_table(desc: RobotDescription, params: Array) -> DhTable:

@@ -3,11 +3,13 @@ in numpy from the exported numbers alone, and the readers' refusals naming the k
 
 from __future__ import annotations
 
+import io
 import math
 
 import numpy as np
 import pytest
 import yaml
+import yourdfpy
 
 from models import forward_kinematics, sample_workspace
 from models.errors import InvalidInput
@@ -17,8 +19,8 @@ from models.simulation import perturbed_robot
 from models.structure import description_from_document
 from models.ur_kinematics import SEGMENTS, kinematics_yaml, read_kinematics, ur_chain
 from models.urdf import CONTINUOUS_RANGE_DEG, document_from_urdf
-from models.urdf_calibrated import z_onto
-from tests.models.test_urdf import UR5_URDF
+from models.urdf_calibrated import calibrate_urdf, splice_origins, z_onto
+from tests.models.test_urdf import MOVING, UR5_URDF
 
 # ur_description's config/ur5/default_kinematics.yaml (Universal_Robots_ROS2_Description 2.4.5): the nominal UR5
 # as the vendor's package writes it, the truth the DH table's export must reproduce.
@@ -126,3 +128,25 @@ def test_z_onto_takes_z_onto_the_axis(axis: list[float]) -> None:
     np.testing.assert_allclose(r @ [0, 0, 1], a, atol=1e-15)
     np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-15)
     assert np.linalg.det(r) == pytest.approx(1.0)
+
+
+def test_the_splice_inserts_a_missing_origin_and_keeps_an_end_tag() -> None:
+    # wrist_2 with no <origin> (the identity), elbow's written with an end tag: both shapes a URDF may have.
+    text = UR5_URDF.replace('<origin xyz="0 0.093 0" rpy="0 0 0"/>', "").replace(
+        '<origin xyz="0 -0.1197 0.425" rpy="0 0 0"/>', '<origin xyz="0 -0.1197 0.425" rpy="0 0 0"></origin>'
+    )
+    desc = description_from_document(document_from_urdf(text, "world", "tool0"))
+    truth = perturbed_robot(desc, seed=71).truth
+    calibrated = calibrate_urdf(text, "world", "tool0", desc, truth)
+    out = splice_origins(text, calibrated.origins, "a note")
+    assert "<!-- a note -->\n<robot" in out and "></origin>" in out
+    model = yourdfpy.URDF.load(io.BytesIO(out.encode()), load_meshes=False, build_collision_scene_graph=False)
+    q = sample_workspace(desc, 10, seed=72)
+    fk = forward_kinematics(desc, q, truth)
+    for i, qi in enumerate(q):
+        model.update_cfg(dict(zip(MOVING, qi, strict=True)))
+        t = np.array(model.get_transform(frame_to="tool0", frame_from="world"))
+        t[:3, 3] *= 1000.0
+        t = calibrated.world_from_base_link @ t @ calibrated.tip_to_tcp
+        np.testing.assert_allclose(t[:3, 3], fk.positions[i], atol=1e-9)
+        np.testing.assert_allclose(t[:3, :3], fk.rotations[i], atol=1e-12)
