@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 import reprlib
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
@@ -87,7 +88,17 @@ def ur_chain(chain: JointChain) -> UrChain:
     return UrChain(world_from_root=chain.base, origins=tuple(origins), tail=pending @ chain.flange @ chain.tool)
 
 
-_number = urdf_number  # round-trip digits, as yaml-cpp writes them too
+def _number(v: float) -> str:
+    """Round-trip digits (as yaml-cpp writes them), and a YAML 1.1 float: PyYAML, which xacro reads the file
+    with, takes `1e-05` for a string; `1.0e-05` is a number to every YAML reader."""
+    text = urdf_number(v)
+    mantissa, e, exponent = text.partition("e")
+    return f"{mantissa}.0e{exponent}" if e and "." not in mantissa else text
+
+
+YAML12_NUMBER = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+"""A number to YAML 1.2 (yaml-cpp, which ur_calibration writes with) that YAML 1.1 (PyYAML) reads as a string:
+`1e-05`, `2E3`."""
 
 
 def kinematics_hash(values: Sequence[float]) -> str:
@@ -124,12 +135,19 @@ def _load(text: str, field: str) -> Any:
         )
     try:
         return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
+    except (yaml.YAMLError, ValueError) as exc:  # PyYAML's constructors raise ValueError (a 13th month, !!int x)
         raise InvalidInput(f"{field}: not readable YAML: {exc}", field=field, reason="not_yaml") from exc
     except RecursionError as exc:  # PyYAML composes nesting recursively: 30 000 "[" overflow its stack
         raise InvalidInput(
             f"{field}: nested too deeply to be a kinematics file", field=field, reason="not_yaml"
         ) from exc
+
+
+def _finite(v: float) -> bool:
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:  # an integer of 400 digits
+        return False
 
 
 def _segment(raw: Any, where: str) -> Array:
@@ -141,8 +159,10 @@ def _segment(raw: Any, where: str) -> Array:
     numbers = []
     for key in KEYS:
         v = raw.get(key)
+        if isinstance(v, str) and YAML12_NUMBER.fullmatch(v):
+            v = float(v)
         # YAML reads `yes` as a boolean, which is an int to Python: refused like any non-number.
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(float(v)):
+        if isinstance(v, bool) or not isinstance(v, int | float) or not _finite(v):
             shown = "missing" if key not in raw else reprlib.repr(v)  # bounded: YAML aliases can nest a huge value
             raise InvalidInput(f"{where}.{key}: expected a finite number, got {shown}", field=f"{where}.{key}")
         numbers.append(float(v))

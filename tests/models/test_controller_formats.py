@@ -20,6 +20,7 @@ from models.structure import description_from_document
 from models.ur_kinematics import SEGMENTS, kinematics_yaml, read_kinematics, ur_chain
 from models.urdf import CONTINUOUS_RANGE_DEG, document_from_urdf
 from models.urdf_calibrated import calibrate_urdf, splice_origins, z_onto
+from tests.frames import rot, xyz_rpy
 from tests.models.test_urdf import MOVING, UR5_URDF
 
 # ur_description's config/ur5/default_kinematics.yaml (Universal_Robots_ROS2_Description 2.4.5): the nominal UR5
@@ -37,19 +38,9 @@ kinematics:
 """
 
 
-def _rot(axis: int, a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    t = np.eye(4)
-    t[i, i], t[i, j], t[j, i], t[j, j] = c, -s, s, c
-    return t
-
-
 def _origin(seg: dict[str, float]) -> np.ndarray:
     """Trans(xyz) · Rz(yaw) · Ry(pitch) · Rx(roll), mm: URDF's reading of an origin, written out here."""
-    t: np.ndarray = _rot(2, seg["yaw"]) @ _rot(1, seg["pitch"]) @ _rot(0, seg["roll"])
-    t[:3, 3] = [seg["x"] * 1000.0, seg["y"] * 1000.0, seg["z"] * 1000.0]
-    return t
+    return xyz_rpy(seg["x"] * 1000.0, seg["y"] * 1000.0, seg["z"] * 1000.0, seg["roll"], seg["pitch"], seg["yaw"])
 
 
 def test_the_nominal_ur5_exports_as_urs_own_file() -> None:
@@ -73,7 +64,7 @@ def test_a_perturbed_arms_file_multiplies_out_to_its_fk() -> None:
     for i, qi in enumerate(q):
         t = chain.world_from_root.copy()
         for name, angle in zip(SEGMENTS, qi, strict=True):
-            t = t @ _origin(kin[name]) @ _rot(2, angle)
+            t = t @ _origin(kin[name]) @ rot(2, angle)
         t = t @ chain.tail
         np.testing.assert_allclose(t[:3, 3], fk.positions[i], atol=1e-9)
         np.testing.assert_allclose(t[:3, :3], fk.rotations[i], atol=1e-12)
@@ -104,6 +95,9 @@ def test_only_a_6r_serial_arm_has_a_ur_file() -> None:
         ),
         (UR5_DEFAULT_KINEMATICS.replace("x: -0.425", "x: .nan"), "document.kinematics.forearm.x"),
         (UR5_DEFAULT_KINEMATICS.replace("x: -0.425", "x: yes"), "document.kinematics.forearm.x"),
+        (UR5_DEFAULT_KINEMATICS.replace("x: -0.425", "x: " + "9" * 400), "document.kinematics.forearm.x"),
+        (UR5_DEFAULT_KINEMATICS.replace("x: -0.425", "x: 2001-13-45"), "document"),
+        ("[" * 30_000, "document"),
         (UR5_DEFAULT_KINEMATICS.replace("x: -0.425, ", ""), "document.kinematics.forearm.x"),
         (UR5_DEFAULT_KINEMATICS.replace("shoulder: {x: 0,", "shoulder: {w: 0, x: 0,"), "document.kinematics.shoulder"),
     ],
@@ -112,6 +106,17 @@ def test_a_bad_file_names_its_key(text: str, field: str) -> None:
     with pytest.raises(InvalidInput) as caught:
         read_kinematics(text)
     assert caught.value.field == field, caught.value
+
+
+def test_numbers_read_as_yaml_1_2_writes_them_and_are_written_as_yaml_1_1_reads_them() -> None:
+    # yaml-cpp (ur_calibration) may write 1e-05; PyYAML (xacro, and this reader) takes it for a string.
+    text = UR5_DEFAULT_KINEMATICS.replace("x: -0.425", "x: -4.25e-1").replace("z: 0.089159", "z: 8.9159E-2")
+    assert read_kinematics(text)[0][2, 3] == pytest.approx(89.159)
+    assert read_kinematics(text)[2][0, 3] == pytest.approx(-425.0)
+    origins = [o.copy() for o in ur_chain(joint_chain(ur5_like())).origins]
+    origins[0][0, 3] = 1e-2  # mm: 1e-05 m
+    written = kinematics_yaml(origins, [])
+    assert "x: 1.0e-05" in written and yaml.safe_load(written)["kinematics"]["shoulder"]["x"] == 1e-05
 
 
 def test_a_continuous_joint_has_ten_turns_either_way() -> None:

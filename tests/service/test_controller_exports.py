@@ -23,6 +23,7 @@ from models.structure import description_from_document
 from models.terms import ModelTerms
 from models.transforms import matrix_to_quaternion, quaternion_to_matrix
 from models.urdf import document_from_urdf
+from tests.frames import rot, shift, xyz_rpy
 from tests.models.test_urdf import UR5_URDF
 from tests.service.ur5_full_urdf import MOVING, ur5_full_urdf
 
@@ -30,31 +31,11 @@ SEGMENTS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
 HEADER = re.compile(r"(world_from_root|tip_to_tcp) \[[^\]]*\]: ([-0-9.e+ ]+)")
 
 
-def _rot(axis: int, a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    t = np.eye(4)
-    t[i, i], t[i, j], t[j, i], t[j, j] = c, -s, s, c
-    return t
-
-
-def _shift(x: float, y: float, z: float) -> np.ndarray:
-    t = np.eye(4)
-    t[:3, 3] = (x, y, z)
-    return t
-
-
-def _xyz_rpy(x: float, y: float, z: float, roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """Trans(x, y, z) · Rz(yaw) · Ry(pitch) · Rx(roll) (radians)."""
-    t: np.ndarray = _shift(x, y, z) @ _rot(2, yaw) @ _rot(1, pitch) @ _rot(0, roll)
-    return t
-
-
 def _header_frames(text: str) -> dict[str, np.ndarray]:
     found = {}
     for key, numbers in HEADER.findall(text):
         x, y, z, roll, pitch, yaw = (float(v) for v in numbers.split())
-        found[key] = _xyz_rpy(x, y, z, *np.radians([roll, pitch, yaw]))
+        found[key] = xyz_rpy(x, y, z, *np.radians([roll, pitch, yaw]))
     assert set(found) == {"world_from_root", "tip_to_tcp"}, text[:2000]
     return found
 
@@ -105,7 +86,7 @@ def _ur_file_fk(text: str, q: np.ndarray) -> list[np.ndarray]:
         t = frames["world_from_root"].copy()
         for name, angle in zip(SEGMENTS, qi, strict=True):
             s = kin[name]
-            t = t @ _xyz_rpy(s["x"] * 1e3, s["y"] * 1e3, s["z"] * 1e3, s["roll"], s["pitch"], s["yaw"]) @ _rot(2, angle)
+            t = t @ xyz_rpy(s["x"] * 1e3, s["y"] * 1e3, s["z"] * 1e3, s["roll"], s["pitch"], s["yaw"]) @ rot(2, angle)
         out.append(t @ frames["tip_to_tcp"])
     return out
 
@@ -147,7 +128,7 @@ def test_a_calibrated_ur5s_file_has_its_fk_and_imports_as_a_robot_with_it(client
 def _dh_fk(table: dict[str, Any], q: np.ndarray) -> list[np.ndarray]:
     def frame(f: dict[str, float]) -> np.ndarray:
         angles = np.radians([f["roll_deg"], f["pitch_deg"], f["yaw_deg"]])
-        return _xyz_rpy(f["x_mm"], f["y_mm"], f["z_mm"], *angles)
+        return xyz_rpy(f["x_mm"], f["y_mm"], f["z_mm"], *angles)
 
     out = []
     for qi in q:
@@ -158,9 +139,9 @@ def _dh_fk(table: dict[str, Any], q: np.ndarray) -> list[np.ndarray]:
             d = link["d_mm"] + (reading if link["type"] == "prismatic" else 0.0)
             al, beta = math.radians(link["alpha_deg"]), math.radians(link["beta_deg"] or 0.0)
             if link["convention"] == "dh":
-                t = t @ _rot(2, th) @ _shift(0, 0, d) @ _shift(link["a_mm"], 0, 0) @ _rot(0, al) @ _rot(1, beta)
+                t = t @ rot(2, th) @ shift(0, 0, d) @ shift(link["a_mm"], 0, 0) @ rot(0, al) @ rot(1, beta)
             else:
-                t = t @ _rot(0, al) @ _rot(1, beta) @ _shift(link["a_mm"], 0, 0) @ _rot(2, th) @ _shift(0, 0, d)
+                t = t @ rot(0, al) @ rot(1, beta) @ shift(link["a_mm"], 0, 0) @ rot(2, th) @ shift(0, 0, d)
         out.append(t @ frame(table["tool"]))
     return out
 
@@ -284,11 +265,11 @@ def test_a_tool_given_with_a_urdf_goes_after_its_tip(client: TestClient) -> None
     q_deg = np.degrees(sample_workspace(description_from_document(document_from_urdf(UR5_URDF, "world", "tool0")), 10))
     p, r = _fk(client, plain, q_deg)
     p2, r2 = _fk(client, tooled, q_deg)
-    b = _shift(1000.0, 0, 0) @ _rot(2, 0.5)  # world <- the URDF's world link
+    b = shift(1000.0, 0, 0) @ rot(2, 0.5)  # world <- the URDF's world link
     for i in range(len(q_deg)):
         t = np.eye(4)
         t[:3, :3], t[:3, 3] = r[i], p[i]
-        expected = b @ t @ _shift(0, 0, 100.0)
+        expected = b @ t @ shift(0, 0, 100.0)
         np.testing.assert_allclose(p2[i], expected[:3, 3], atol=1e-9)
         np.testing.assert_allclose(r2[i], expected[:3, :3], atol=1e-12)
 
