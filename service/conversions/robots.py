@@ -75,6 +75,22 @@ def _compose(a: Pose6, b: Pose6) -> Pose6:
     return _pose6([*t[:3, 3], *matrix_to_rotvec_np(t[:3, :3])])
 
 
+def around_urdf(urdf_chain: RobotDescription, base: Pose6 | None, tool: Pose6 | None) -> tuple[Pose6 | None, ...]:
+    """world <- base_link and tip_link -> TCP given for a URDF robot as its base and tool: composed with the
+    URDF's own frames, the base and tool of `urdf_chain` (the chain as imported)."""
+    return (
+        _compose(base, urdf_chain.base) if base is not None else None,
+        _compose(urdf_chain.tool, tool) if tool is not None else None,
+    )
+
+
+def urdf_source(robot: Robot) -> UrdfSource | None:
+    """The URDF a robot was imported from, if it was kept."""
+    if robot.urdf is None or robot.base_link is None or robot.tip_link is None:
+        return None
+    return UrdfSource(robot.urdf, robot.base_link, robot.tip_link)
+
+
 def new_description(body: RobotCreate) -> NewRobot:
     """The description a creation request asks for, the document to store and the URDF to keep.
 
@@ -95,8 +111,7 @@ def new_description(body: RobotCreate) -> NewRobot:
     base = frame_in(body.base, "base") if body.base is not None else None
     tool = frame_in(body.tool, "tool") if body.tool is not None else None
     if source is not None:
-        base = _compose(base, desc.base) if base is not None else None
-        tool = _compose(desc.tool, tool) if tool is not None else None
+        base, tool = around_urdf(desc, base, tool)
     desc = desc.with_base_tool(base, tool)
     return NewRobot(desc, description_document(desc), source)
 

@@ -67,8 +67,14 @@ class RobotPatch(Strict):
     with those six values set to the guess and the rest kept from the current version."""
 
     name: PrintableName | None = None  # POST's rule: a NUL or a newline got past PATCH (issue 31)
-    base: Pose | None = Field(default=None, description="New nominal guess of world <- robot base")
-    tool: Pose | None = Field(default=None, description="New nominal guess of platform -> TCP")
+    base: Pose | None = Field(
+        default=None,
+        description="New nominal guess of world <- robot base (a URDF robot's: world <- base_link, as at creation)",
+    )
+    tool: Pose | None = Field(
+        default=None,
+        description="New nominal guess of platform -> TCP (a URDF robot's: tip_link -> TCP, as at creation)",
+    )
     notes: FreeText | None = Field(default=None, description='Free text; "" clears it')
 
 

@@ -21,7 +21,7 @@ from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
 from models.ur_kinematics import UrChain, kinematics_yaml, require_6r, ur_chain
 from models.urdf import UrdfSource, urdf_from_description
 from models.urdf_calibrated import calibrate_urdf, frame_text, splice_origins
-from service.conversions.robots import description
+from service.conversions.robots import description, urdf_source
 from service.conversions.terms import stored_model
 from service.persistence import Database, Repository
 from service.schemas.exports import ROTATION, DhTablePublic
@@ -61,11 +61,8 @@ def _stored(db: Database, robot_id: str, version: int | None) -> _Stored:
         robot = repo.robot(robot_id)
         row = repo.version(robot_id, version)
         values = np.asarray(row.values, dtype=float)
-        source = None
-        if robot.urdf is not None and robot.base_link is not None and robot.tip_link is not None:
-            source = UrdfSource(robot.urdf, robot.base_link, robot.tip_link)
         desc = stored_model(description(robot), values.size)
-        return _Stored(robot.id, robot.name, row.version, row.provenance, desc, values, source)
+        return _Stored(robot.id, robot.name, row.version, row.provenance, desc, values, urdf_source(robot))
 
 
 def export(*, db: Database, robot_id: str, version: int | None, format: str) -> Export:

@@ -2,8 +2,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from models.structure import description_from_document
+from models.urdf import document_from_urdf
 from service.audit_actions import AuditAction
-from service.conversions.robots import description, frame_in, new_description, parameters_out, robot_out, structure_out
+from service.conversions.robots import (
+    around_urdf,
+    description,
+    frame_in,
+    new_description,
+    parameters_out,
+    robot_out,
+    structure_out,
+    urdf_source,
+)
 from service.conversions.terms import stored_model
 from service.errors import Conflict
 from service.persistence import Database, Repository
@@ -62,6 +73,11 @@ def patch_robot(
         repo, life = Repository(s), Lifecycle(s)
         robot = repo.robot(robot_id, lock=True)
         check_revision(robot, if_match)
+        source = urdf_source(robot)
+        if source is not None and (base is not None or tool is not None):
+            # As at creation: world <- base_link and tip_link -> TCP, around the URDF's own frames.
+            imported = description_from_document(document_from_urdf(source.urdf, source.base_link, source.tip_link))
+            base, tool = around_urdf(imported, base, tool)
         changed: list[str] = []
         if "name" in given and body.name is not None and body.name != robot.name:
             _name_is_free(repo, body.name)

@@ -272,6 +272,11 @@ def test_a_tool_given_with_a_urdf_goes_after_its_tip(client: TestClient) -> None
         expected = b @ t @ shift(0, 0, 100.0)
         np.testing.assert_allclose(p2[i], expected[:3, 3], atol=1e-9)
         np.testing.assert_allclose(r2[i], expected[:3, :3], atol=1e-12)
+    # PATCH means the same frames as POST.
+    assert client.patch(f"/v1/robots/{plain}", json={"tool": tool, "base": base}).status_code == 200
+    p3, r3 = _fk(client, plain, q_deg)
+    np.testing.assert_allclose(p3, p2, atol=1e-9)
+    np.testing.assert_allclose(r3, r2, atol=1e-12)
 
 
 def test_a_continuous_joint_turns_past_half_a_turn(client: TestClient) -> None:
