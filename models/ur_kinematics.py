@@ -46,6 +46,9 @@ TIP_LINK = "tool0"
 RANGES_DEG = ((-360.0, 360.0), (-360.0, 360.0), (-180.0, 180.0), (-360.0, 360.0), (-360.0, 360.0), (-360.0, 360.0))
 """ur_description's joint limits (the elbow is held to half a turn there, its physical range)."""
 KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
+MAX_OFFSET_M = 100.0
+"""A joint origin's offset (m): UR arms' are under 1.3 m; beyond 100 m a file is wrong (mm for m), and 1e300 m
+would overflow the import's geometry."""
 MAX_CHARS = 64_000
 """A kinematics file is about 600 characters; the bound keeps a hostile YAML's parsing short."""
 
@@ -165,6 +168,14 @@ def _segment(raw: Any, where: str) -> Array:
         if isinstance(v, bool) or not isinstance(v, int | float) or not _finite(v):
             shown = "missing" if key not in raw else reprlib.repr(v)  # bounded: YAML aliases can nest a huge value
             raise InvalidInput(f"{where}.{key}: expected a finite number, got {shown}", field=f"{where}.{key}")
+        if key in "xyz" and abs(float(v)) > MAX_OFFSET_M:
+            raise InvalidInput(
+                f"{where}.{key}: {float(v)} m; a joint's offset on an arm is under {MAX_OFFSET_M:g} m (metres?)",
+                field=f"{where}.{key}",
+                reason="out_of_range",
+                min=-MAX_OFFSET_M,
+                max=MAX_OFFSET_M,
+            )
         numbers.append(float(v))
     x, y, z, roll, pitch, yaw = numbers
     return translation(x * MM_PER_M, y * MM_PER_M, z * MM_PER_M) @ rpy_matrix(roll, pitch, yaw)

@@ -98,6 +98,7 @@ def test_only_a_6r_serial_arm_has_a_ur_file() -> None:
         (UR5_DEFAULT_KINEMATICS.replace("x: -0.425", "x: " + "9" * 400), "document.kinematics.forearm.x"),
         (UR5_DEFAULT_KINEMATICS.replace("x: -0.425", "x: 2001-13-45"), "document"),
         ("[" * 30_000, "document"),
+        (UR5_DEFAULT_KINEMATICS.replace("z: 0.089159", "z: 89.159e+3"), "document.kinematics.shoulder.z"),
         (UR5_DEFAULT_KINEMATICS.replace("x: -0.425, ", ""), "document.kinematics.forearm.x"),
         (UR5_DEFAULT_KINEMATICS.replace("shoulder: {x: 0,", "shoulder: {w: 0, x: 0,"), "document.kinematics.shoulder"),
     ],
