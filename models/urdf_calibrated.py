@@ -194,6 +194,8 @@ def splice_origins(urdf: str, origins: dict[str, Array], comment: str) -> str:
         parser.Parse(data, True)
     except xml.parsers.expat.ExpatError as exc:
         raise InvalidInput(f"the stored URDF does not parse: {exc}", field="urdf") from exc
+    while "--" in comment:  # XML forbids "--" in a comment (a robot named "cell--3")
+        comment = comment.replace("--", "- -")
     edits = [*splice.edits, (splice.root_at, splice.root_at, f"<!-- {comment} -->\n".encode())]
     out = data
     for begin, stop, new in sorted(edits, key=lambda e: e[0], reverse=True):

@@ -196,7 +196,7 @@ def _without(tree: ET.Element, moving: set[str]) -> list[tuple[str, dict[str, st
 
 def test_an_imported_urdf_comes_back_with_only_its_joint_origins_calibrated(client: TestClient) -> None:
     text = ur5_full_urdf()
-    robot = _robot(client, {"name": "ur5-urdf", "urdf": text, "base_link": "base_link", "tip_link": "tool0"})
+    robot = _robot(client, {"name": "ur5--urdf", "urdf": text, "base_link": "base_link", "tip_link": "tool0"})
     desc = description_from_document(document_from_urdf(text, "base_link", "tool0"))
     _calibrated(client, robot, desc, seed=61)
     answer = client.get(f"/v1/robots/{robot}/parameters", params={"format": "urdf"})
