@@ -125,6 +125,7 @@ def _ur_header(stored: _Stored, chain: UrChain, root: str) -> list[str]:
 
 
 def _urdf(stored: _Stored) -> str:
+    serial_only(stored.desc, "a URDF")
     geometric_only(stored.desc, "a URDF")
     geometry = stored.values[: stored.desc.geometric.n_params]
     if stored.urdf is None:
