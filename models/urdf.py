@@ -15,11 +15,10 @@ complete and minimal set: the structural identifiability is Everett–Hsu–Roth
 rank-deficient 6 per joint whose redundant columns the fit would have to find and drop. What the URDF's
 frames added goes into the base (base_link -> frame 0) and the tool (last frame -> tip_link).
 
-Export (`urdf_from_description`). Any serial structure (DH or MDH links, fixed links): each link
-`A_k = P_k · M(q_k) · S_k` (DH: P = I, M·S = Rz(θ+q)·Tz(d)·Tx(a)·Rx(α) with the joint motion first; MDH: the
-fixed part first, the motion last) becomes one URDF joint whose origin is `S_{k-1} · P_k`, with the motion
-about (or along) its z axis; the base, the last `S` and the tool become fixed joints. Numbers are written with
-17 significant digits, metres and radians as URDF wants: its FK equals the model's to round-off (tested).
+Export (`urdf_from_description`). Any serial structure (DH or MDH links, fixed links) in its joint-origin form
+(`models.joint_chain`): each link becomes one URDF joint whose origin is the link's, with the motion about (or
+along) its z axis; the base, the flange and the tool become fixed joints. Numbers are written with 17
+significant digits, metres and radians as URDF wants: its FK equals the model's to round-off (tested).
 """
 
 from __future__ import annotations
@@ -27,27 +26,59 @@ from __future__ import annotations
 import io
 import math
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from models._types import Array
 from models.errors import InvalidInput
+from models.joint_chain import joint_chain, rpy_of
 from models.robot import RobotDescription
-from models.serial_chain import Convention, JointType
+from models.serial_chain import JointType
 from models.structure import Document
-from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
+from models.transforms import matrix_to_quaternion
 from models.urdf_tree import check_serial, check_size, tree_parents
 
 MM_PER_M = 1000.0
 PARALLEL_SIN = 1e-9
 """|z_k × z_k+1| below this: parallel axes (the common normal is then taken through the previous origin)."""
 INTERSECT_MM = 1e-9
-CONTINUOUS_RANGE_DEG = (-180.0, 180.0)
-"""A URDF `continuous` joint has no limits; its range in the document (one turn)."""
+CONTINUOUS_TURNS = 10
+CONTINUOUS_RANGE_DEG = (-360.0 * CONTINUOUS_TURNS, 360.0 * CONTINUOUS_TURNS)
+"""A URDF `continuous` joint has no limits. A serial stage needs a range, so it gets ±10 turns: wide enough that
+no reading a controller reports is refused (one turn refused a UR's wrist at 270°), finite for the solvers'
+bounds and the workspace sampling (revolute kinematics are periodic, so the width costs nothing there)."""
 
 
 # ---------------------------------------------------------------------------------------------- import
+@dataclass(frozen=True)
+class UrdfSource:
+    """A URDF and the chain of it a robot is: what its calibrated export edits (`models.urdf_calibrated`)."""
+
+    urdf: str
+    base_link: str
+    tip_link: str
+
+
+def urdf_chain(urdf: str, base_link: str, tip_link: str) -> list[Any]:
+    """The URDF's joints (yourdfpy's) from `base_link` to `tip_link`, checked (`models.urdf_tree`)."""
+    import yourdfpy  # a heavy import (trimesh), needed only by URDF requests
+
+    check_size(urdf)
+    try:
+        model = yourdfpy.URDF.load(
+            io.BytesIO(urdf.encode()),
+            build_scene_graph=False,
+            build_collision_scene_graph=False,
+            load_meshes=False,
+            load_collision_meshes=False,
+        )
+    except Exception as exc:  # yourdfpy raises lxml's and its own errors alike: all mean "not a URDF"
+        raise InvalidInput(f"not a readable URDF: {exc}", field="urdf") from exc
+    return _chain(model.robot, base_link, tip_link)
+
+
 def _chain(robot: Any, base_link: str, tip_link: str) -> list[Any]:
     links = {link.name for link in robot.links}
     for field, name in (("base_link", base_link), ("tip_link", tip_link)):
@@ -75,7 +106,8 @@ def _chain(robot: Any, base_link: str, tip_link: str) -> list[Any]:
     return path
 
 
-def _origin_mm(joint: Any) -> Array:
+def origin_mm(joint: Any) -> Array:
+    """A yourdfpy joint's origin (parent link <- joint frame at zero), in mm."""
     t = np.eye(4) if joint.origin is None else np.array(joint.origin, dtype=float)
     t[:3, 3] *= MM_PER_M
     return t
@@ -150,25 +182,12 @@ def document_from_urdf(urdf: str, base_link: str, tip_link: str) -> Document:
     """The robots.md document of the URDF chain from `base_link` to `tip_link` (see the module docstring)."""
     # Long on purpose: one pass down the chain, link by link: each joint's conversion needs the frame the
     # previous one left.
-    import yourdfpy  # a heavy import (trimesh), needed only by URDF requests
-
-    check_size(urdf)
-    try:
-        model = yourdfpy.URDF.load(
-            io.BytesIO(urdf.encode()),
-            build_scene_graph=False,
-            build_collision_scene_graph=False,
-            load_meshes=False,
-            load_collision_meshes=False,
-        )
-    except Exception as exc:  # yourdfpy raises lxml's and its own errors alike: all mean "not a URDF"
-        raise InvalidInput(f"not a readable URDF: {exc}", field="urdf") from exc
-    path = _chain(model.robot, base_link, tip_link)
+    path = urdf_chain(urdf, base_link, tip_link)
     # Joint frames in base_link at q = 0; the moving joints' axis lines.
     world = np.eye(4)
     axes: list[tuple[Array, Array, Any]] = []
     for joint in path:
-        world = world @ _origin_mm(joint)
+        world = world @ origin_mm(joint)
         if joint.type != "fixed":
             axis = np.array([1.0, 0, 0]) if joint.axis is None else np.asarray(joint.axis, dtype=float)
             axes.append((world[:3, 3].copy(), _unit(world[:3, :3] @ axis), joint))
@@ -212,53 +231,18 @@ def document_from_urdf(urdf: str, base_link: str, tip_link: str) -> Document:
 
 
 # ---------------------------------------------------------------------------------------------- export
-def _rx(a: float) -> Array:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1.0]])
+def urdf_number(v: float) -> str:
+    """Shortest text that reads back to the same double (no \"-0.0\")."""
+    return repr(float(v) + 0.0)
 
 
-def _ry(a: float) -> Array:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1.0]])
-
-
-def _rz(a: float) -> Array:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
-
-
-def _tr(x: float, y: float, z: float) -> Array:
-    t = np.eye(4)
-    t[:3, 3] = (x, y, z)
-    return t
-
-
-def _pose_matrix(p6: Array) -> Array:
-    t = np.eye(4)
-    t[:3, :3] = rotvec_to_matrix_np(p6[3:6])
-    t[:3, 3] = p6[:3]
-    return t
-
-
-def _rpy(r: Array) -> tuple[float, float, float]:
-    """URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    pitch = math.atan2(-r[2, 0], math.hypot(r[0, 0], r[1, 0]))
-    if math.cos(pitch) > 1e-12:
-        return math.atan2(r[2, 1], r[2, 2]), pitch, math.atan2(r[1, 0], r[0, 0])
-    return math.atan2(-r[1, 2], r[1, 1]), pitch, 0.0  # gimbal lock: roll takes it all
-
-
-def _num(v: float) -> str:
-    return repr(float(v))
-
-
-def _joint(root: ET.Element, name: str, kind: str, *, parent: str, child: str, origin: Array) -> ET.Element:
+def urdf_joint(root: ET.Element, name: str, kind: str, *, parent: str, child: str, origin: Array) -> ET.Element:
     joint = ET.SubElement(root, "joint", name=name, type=kind)
     ET.SubElement(joint, "parent", link=parent)
     ET.SubElement(joint, "child", link=child)
-    roll, pitch, yaw = _rpy(origin[:3, :3])
-    xyz = " ".join(_num(v / MM_PER_M) for v in origin[:3, 3])
-    ET.SubElement(joint, "origin", xyz=xyz, rpy=f"{_num(roll)} {_num(pitch)} {_num(yaw)}")
+    roll, pitch, yaw = rpy_of(origin[:3, :3])
+    xyz = " ".join(urdf_number(v / MM_PER_M) for v in origin[:3, 3])
+    ET.SubElement(joint, "origin", xyz=xyz, rpy=f"{urdf_number(roll)} {urdf_number(pitch)} {urdf_number(yaw)}")
     return joint
 
 
@@ -268,38 +252,28 @@ def urdf_from_description(desc: RobotDescription, params: Array | None = None, *
     Links are `world`, `base`, `link1` … `link{n}`, `tcp`; joints `base_joint`, `joint1` … `joint{n}`
     (moving or fixed as the links), `flange_joint` and `tool_joint`. `name` is escaped by the XML writer.
     """
-    if desc.hexapod is not None:
-        raise InvalidInput("a URDF describes serial structures; this one has a hexapod", field="format")
-    theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
-    index = desc.parameters.index
+    chain = joint_chain(desc, params, what="a URDF")
     root = ET.Element("robot", name=name)
     for link_name in ("world", "base", *(f"link{k}" for k in range(1, len(desc.links) + 1)), "flange", "tcp"):
         ET.SubElement(root, "link", name=link_name)
-    _joint(root, "base_joint", "fixed", parent="world", child="base", origin=_pose_matrix(theta[desc.slices["base"]]))
-    carry = np.eye(4)  # S_{k-1}: what the previous link leaves after its motion
+    urdf_joint(root, "base_joint", "fixed", parent="world", child="base", origin=chain.base)
     parent = "base"
-    for k, link in enumerate(desc.links, start=1):
-        th, d, a, al = (float(theta[index[f"link{k}.{f}"]]) for f in ("theta", "d", "a", "alpha"))
-        beta = float(theta[index[f"link{k}.beta"]]) if link.has_beta else 0.0
-        if link.convention is Convention.DH:
-            before, after = np.eye(4), _rz(th) @ _tr(0, 0, d) @ _tr(a, 0, 0) @ _rx(al) @ _ry(beta)
-        else:
-            before, after = _rx(al) @ _ry(beta) @ _tr(a, 0, 0) @ _rz(th) @ _tr(0, 0, d), np.eye(4)
+    for k, (link, origin) in enumerate(zip(desc.links, chain.origins, strict=True), start=1):
         kind = {JointType.REVOLUTE: "revolute", JointType.PRISMATIC: "prismatic", JointType.FIXED: "fixed"}[link.joint]
-        joint = _joint(root, f"joint{k}", kind, parent=parent, child=f"link{k}", origin=carry @ before)
+        joint = urdf_joint(root, f"joint{k}", kind, parent=parent, child=f"link{k}", origin=origin)
         if link.joint.moves:
             ET.SubElement(joint, "axis", xyz="0 0 1")
             scale = MM_PER_M if link.joint is JointType.PRISMATIC else 1.0
             ET.SubElement(
                 joint,
                 "limit",
-                lower=_num(link.joint_min / scale),
-                upper=_num(link.joint_max / scale),
+                lower=urdf_number(link.joint_min / scale),
+                upper=urdf_number(link.joint_max / scale),
                 effort="0",
                 velocity="0",
             )
-        carry, parent = after, f"link{k}"
-    _joint(root, "flange_joint", "fixed", parent=parent, child="flange", origin=carry)
-    _joint(root, "tool_joint", "fixed", parent="flange", child="tcp", origin=_pose_matrix(theta[desc.slices["tool"]]))
+        parent = f"link{k}"
+    urdf_joint(root, "flange_joint", "fixed", parent=parent, child="flange", origin=chain.flange)
+    urdf_joint(root, "tool_joint", "fixed", parent="flange", child="tcp", origin=chain.tool)
     ET.indent(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True)

@@ -15,6 +15,7 @@ from pydantic import BaseModel
 from service.operations import table as operation_table
 from service.problems import PROBLEM_JSON
 from service.schemas.calibrations import CalibrationCreate
+from service.schemas.exports import DhTablePublic
 from service.schemas.jobs import JobAccepted
 from service.schemas.kinematics import ForwardRequest, InverseRequest
 from service.schemas.problems import Problem
@@ -49,6 +50,7 @@ EXTRA_MODELS: tuple[type[BaseModel], ...] = (
     JobAccepted,
     Problem,
     ParameterVersionImport,
+    DhTablePublic,
 )
 """Referenced from `openapi_extra` (the calibration and kinematics routes read their bodies themselves) or from
 the error responses added below, so FastAPI does not see them all."""

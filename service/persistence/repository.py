@@ -8,6 +8,7 @@ from typing import Any
 
 from sqlalchemy import func, select
 
+from models.urdf import UrdfSource
 from service.errors import NotFound
 from service.persistence.store import Store
 from service.persistence.tables import CalibrationRecord, CampaignRecord, Job, ParameterVersion, PoseDesignRecord, Robot
@@ -28,10 +29,13 @@ class Repository(Store):
         nominal: list[float],
         *,
         structure: dict[str, Any] | None = None,
+        urdf: UrdfSource | None = None,
     ) -> Robot:
         robot = self._insert(
             Robot(id=new_id(), name=name, model=model, base=base, tool=tool, current_version=1, structure=structure)
         )
+        if urdf is not None:
+            robot.urdf, robot.base_link, robot.tip_link = urdf.urdf, urdf.base_link, urdf.tip_link
         self._insert(ParameterVersion(robot_id=robot.id, version=1, values=nominal, provenance="nominal"))
         return robot
 

@@ -55,6 +55,11 @@ class Robot(Base):
     """Bumped by every change of the robot or of its current version: the robot's ETag."""
     structure: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
     """The description document (shared/spec/robots.md) of a custom robot; None for the built-in IWR."""
+    urdf: Mapped[str | None] = mapped_column(Text, nullable=True)
+    """The URDF a robot was imported from, as sent (or built from UR's kinematics file): its calibrated export
+    is this document with only the chain's joint origins changed. None for a robot of another origin."""
+    base_link: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    tip_link: Mapped[str | None] = mapped_column(String(200), nullable=True)
 
 
 class ParameterVersion(Base):

@@ -13,7 +13,8 @@ from service.responses import model_json, models_json
 from service.schemas.robots import MAX_VERSION, ParametersPublic, RobotCreate, RobotPatch, RobotPublic
 from service.schemas.structure import StructureDocument
 from service.security import Scope
-from service.services import robots
+from service.services import exports, robots
+from service.services.exports import DH_MEDIA_TYPE
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"], route_class=OffloopRoute)
 _ROBOTS = TypeAdapter(list[RobotPublic])
@@ -25,6 +26,14 @@ _PARAMETERS_CSV: dict[int | str, dict[str, Any]] = {
         "content": {"text/csv": {"schema": {"type": "string", "description": "header " + ",".join(PARAMETER_HEADER)}}}
     },
     406: {"description": "Accept allows neither JSON nor CSV"},
+}
+_CONTROLLER_FORMATS = {
+    DH_MEDIA_TYPE: {
+        "schema": {"$ref": "#/components/schemas/DhTablePublic"},
+        "description": "The DH/MDH table (?format=dh)",
+    },
+    "application/xml": {"schema": {"type": "string"}, "description": "URDF (?format=urdf)"},
+    "application/yaml": {"schema": {"type": "string"}, "description": "UR's kinematics file (?format=ur-calibration)"},
 }
 
 
@@ -89,7 +98,7 @@ def delete_robot(robot_id: str, db: DatabaseDep, actor: ActorDep, if_match: IfMa
         200: {
             "content": {
                 **_PARAMETERS_CSV[200]["content"],
-                "application/xml": {"schema": {"type": "string"}, "description": "URDF (?format=urdf)"},
+                **_CONTROLLER_FORMATS,
             }
         },
         **{k: v for k, v in _PARAMETERS_CSV.items() if k != 200},
@@ -101,16 +110,21 @@ def get_parameters(
     request: Request,
     db: DatabaseDep,
     version: int | None = Query(None, ge=1, le=MAX_VERSION, description="A past version (default: current)"),
-    format: Literal["json", "csv", "urdf"] | None = Query(
+    format: Literal["json", "csv", "urdf", "dh", "ur-calibration"] | None = Query(
         None,
-        description="Instead of Accept: 'csv', or 'urdf' (the calibrated serial model; its FK equals the service's)",
+        description="Instead of Accept: 'csv'; or the calibrated arm as a controller reads it (docs/exports.md): "
+        "'urdf' (an imported URDF comes back with its calibrated joint origins), 'dh' (the DH/MDH table with "
+        "base and tool, JSON as DhTablePublic), 'ur-calibration' (UR's kinematics YAML, a "
+        "6R arm). "
+        "Each states its frame; a 422 names why a robot or version cannot be exported exactly (a parallel "
+        "stage, model terms, not a 6R arm)",
     ),
 ) -> Response:
     """JSON or CSV by Accept (406 for anything else) or ?format=; either re-imports through POST
-    …/parameter-versions. URDF for serial structures."""
-    if format == "urdf":
-        text = robots.get_parameters_urdf(db=db, robot_id=robot_id, version=version)
-        return Response(content=text, media_type="application/xml")
+    …/parameter-versions. URDF, DH and UR's kinematics file for serial structures."""
+    if format in ("urdf", "dh", "ur-calibration"):
+        out = exports.export(db=db, robot_id=robot_id, version=version, format=format)
+        return Response(content=out.content, media_type=out.media_type)
     media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(request, _PARAMETER_FORMATS)
     parameters, etag = robots.get_parameters(db=db, robot_id=robot_id, version=version)
     if media == "text/csv":

@@ -3,7 +3,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import ConfigDict, Field
 
 from service.schemas.common import PARAMETER_UNITS, FreeText, OptionalFloat, Pose, PosePublic, Public, Strict
 from service.schemas.structure import StructureDocument
@@ -18,10 +18,20 @@ PrintableName = Annotated[
 """No control characters: PostgreSQL text cannot hold NUL, and a name with a newline would forge log lines."""
 
 
+class RobotImport(Strict):
+    """A robot's description in a vendor's format: `ur-calibration`, UR's kinematics file (`calibration.yaml` of
+    ur_calibration, `default_kinematics.yaml` of ur_description) as its text."""
+
+    format: Literal["ur-calibration"]
+    document: str = Field(max_length=64_000, description="The file's text (YAML: `kinematics:` with six joints)")
+
+
 class RobotCreate(Strict):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+
     name: PrintableName
     model: Literal["iwr", "custom"] = Field(
-        default="iwr", description="'iwr' (built in), or 'custom' with `structure` or `urdf`"
+        default="iwr", description="'iwr' (built in), or 'custom' with `structure`, `urdf` or `import`"
     )
     structure: StructureDocument | None = Field(
         default=None,
@@ -34,8 +44,22 @@ class RobotCreate(Strict):
     )
     base_link: str | None = Field(default=None, max_length=200)
     tip_link: str | None = Field(default=None, max_length=200)
-    base: Pose | None = Field(default=None, description="Nominal guess of world <- robot base (default identity)")
-    tool: Pose | None = Field(default=None, description="Nominal guess of platform -> TCP (default identity)")
+    import_: RobotImport | None = Field(
+        default=None,
+        alias="import",
+        description="A 6R arm from a UR's kinematics file, its nominal the file's (factory) calibration; the "
+        "chain runs from the controller's base frame to tool0, as ur_description builds it",
+    )
+    base: Pose | None = Field(
+        default=None,
+        description="Nominal guess of world <- robot base (default identity). With a URDF or an import it is "
+        "world <- base_link and composes with the URDF's own base_link <- first joint",
+    )
+    tool: Pose | None = Field(
+        default=None,
+        description="Nominal guess of platform -> TCP (default identity). With a URDF or an import it is "
+        "tip_link -> TCP and composes after the URDF's own last joint -> tip_link",
+    )
 
 
 class RobotPatch(Strict):
@@ -43,8 +67,14 @@ class RobotPatch(Strict):
     with those six values set to the guess and the rest kept from the current version."""
 
     name: PrintableName | None = None  # POST's rule: a NUL or a newline got past PATCH (issue 31)
-    base: Pose | None = Field(default=None, description="New nominal guess of world <- robot base")
-    tool: Pose | None = Field(default=None, description="New nominal guess of platform -> TCP")
+    base: Pose | None = Field(
+        default=None,
+        description="New nominal guess of world <- robot base (a URDF robot's: world <- base_link, as at creation)",
+    )
+    tool: Pose | None = Field(
+        default=None,
+        description="New nominal guess of platform -> TCP (a URDF robot's: tip_link -> TCP, as at creation)",
+    )
     notes: FreeText | None = Field(default=None, description='Free text; "" clears it')
 
 

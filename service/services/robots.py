@@ -2,9 +2,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.urdf import urdf_from_description
+from models.structure import description_from_document
+from models.urdf import document_from_urdf
 from service.audit_actions import AuditAction
-from service.conversions.robots import description, frame_in, new_description, parameters_out, robot_out, structure_out
+from service.conversions.robots import (
+    around_urdf,
+    description,
+    frame_in,
+    new_description,
+    parameters_out,
+    robot_out,
+    structure_out,
+    urdf_source,
+)
 from service.conversions.terms import stored_model
 from service.errors import Conflict
 from service.persistence import Database, Repository
@@ -16,13 +26,16 @@ NO_ACTOR = Actor()
 
 
 def create_robot(*, db: Database, body: RobotCreate, actor: Actor = NO_ACTOR) -> RobotPublic:
-    desc, document = new_description(body)  # InvalidInput (a 422 naming the field) for a bad document
+    new = new_description(body)  # InvalidInput (a 422 naming the field) for a bad document
+    desc = new.desc
     nominal = desc.parameters.nominal.tolist()
-    model = "iwr" if document is None else "custom"
+    model = "iwr" if new.document is None else "custom"
     with db.session() as s:
         repo = Repository(s)
         _name_is_free(repo, body.name)
-        robot = repo.add_robot(body.name, model, list(desc.base), list(desc.tool), nominal, structure=document)
+        robot = repo.add_robot(
+            body.name, model, list(desc.base), list(desc.tool), nominal, structure=new.document, urdf=new.urdf
+        )
         repo.version(robot.id, 1).actor = actor.name
         Lifecycle(s).changed(
             robot, AuditAction.ROBOT_CREATED, actor, version=1, details={"name": robot.name}, bump=False
@@ -60,6 +73,11 @@ def patch_robot(
         repo, life = Repository(s), Lifecycle(s)
         robot = repo.robot(robot_id, lock=True)
         check_revision(robot, if_match)
+        source = urdf_source(robot)
+        if source is not None and (base is not None or tool is not None):
+            # As at creation: world <- base_link and tip_link -> TCP, around the URDF's own frames.
+            imported = description_from_document(document_from_urdf(source.urdf, source.base_link, source.tip_link))
+            base, tool = around_urdf(imported, base, tool)
         changed: list[str] = []
         if "name" in given and body.name is not None and body.name != robot.name:
             _name_is_free(repo, body.name)
@@ -113,16 +131,6 @@ def get_parameters(*, db: Database, robot_id: str, version: int | None) -> tuple
         robot = repo.robot(robot_id)
         row = repo.version(robot_id, version)
         return parameters_out(stored_model(description(robot), len(row.values)), row), etag(robot)
-
-
-def get_parameters_urdf(*, db: Database, robot_id: str, version: int | None) -> str:
-    """The URDF of a serial robot with the values of a parameter version (InvalidInput for a hexapod)."""
-    with db.reader() as s:
-        repo = Repository(s)
-        desc = description(repo.robot(robot_id))
-        values = np.asarray(repo.version(robot_id, version).values, dtype=float)
-    # The geometry: URDF has no place for the model terms' values.
-    return urdf_from_description(desc, values[: desc.n_params], name="robot")
 
 
 def get_structure(*, db: Database, robot_id: str, version: int | None) -> StructureDocument:
