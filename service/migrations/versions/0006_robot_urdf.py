@@ -3,8 +3,8 @@
 - robots.urdf: the URDF as imported (text; null for a robot not imported from one);
 - robots.base_link, robots.tip_link: the chain it was imported between.
 
-Revision ID: 0005_robot_urdf
-Revises: 0004_structures
+Revision ID: 0006_robot_urdf
+Revises: 0005_checks
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from __future__ import annotations
 import sqlalchemy as sa
 from alembic import op
 
-revision = "0005_robot_urdf"
-down_revision = "0004_structures"
+revision = "0006_robot_urdf"
+down_revision = "0005_checks"
 branch_labels = None
 depends_on = None
 
