@@ -246,6 +246,32 @@ def _validation_html(validations: Sequence[Mapping[str, Any]]) -> str:
     return "".join(parts)
 
 
+EXPORT_FORMATS = (
+    ("json", "parameters (JSON)"),
+    ("csv", "parameters (CSV)"),
+    ("urdf", "URDF"),
+    ("dh", "DH table"),
+    ("ur-calibration", "UR calibration YAML"),
+)
+"""What the web page offers for a version, the report too (a hexapod's URDF or DH table is refused, saying why)."""
+
+
+def _downloads_html(c: Mapping[str, Any]) -> str:
+    """Links to the produced version's exports and to the campaign, relative to the service (no host)."""
+    version, robot = c.get("parameter_version"), c.get("robot_id")
+    items = []
+    if version is not None and robot is not None:
+        base = f"/v1/robots/{html.escape(str(robot))}/parameters?version={int(version)}&amp;format="
+        items += [
+            f'<li><a href="{base}{fmt}">{label}</a> of version {int(version)}</li>' for fmt, label in EXPORT_FORMATS
+        ]
+    if c.get("campaign_id"):
+        items.append(
+            f'<li><a href="/v1/campaigns/{html.escape(str(c["campaign_id"]))}?format=csv">the campaign (CSV)</a></li>'
+        )
+    return f'<h2>Downloads</h2><ul class="downloads">{"".join(items)}</ul>' if items else ""
+
+
 def render_html(report: CalibrationReport) -> str:
     c = report.calibration
     title = f"Calibration of {report.robot_name}"
@@ -291,7 +317,7 @@ def render_html(report: CalibrationReport) -> str:
         f'{notes}<h2>Summary</h2><table class="summary">{summary}</table>'
         f"<h2>Figures</h2>{figures_html}"
         f"<h2>Outliers</h2>{outlier_html}{references}{validation}"
-        f"<h2>Parameters</h2>{params}</body></html>"
+        f"<h2>Parameters</h2>{params}{_downloads_html(c)}</body></html>"
     )
 
 

@@ -51,6 +51,11 @@ def test_report_html_and_pdf(client: TestClient, robot_id: str) -> None:
     assert "fig-correlation" in parsed.figures and "fig-measured-poses" in parsed.figures
     assert validation["id"] in page.text and "ISO 9283 pose" in page.text
     assert not re.search(r'(src|href)="(https?:)?//', page.text)
+    # The downloads the web page offers, for the version this calibration produced; each one answers.
+    for fmt in ("json", "csv", "urdf", "dh", "ur-calibration"):
+        href = f"/v1/robots/{robot_id}/parameters?version=2&amp;format={fmt}"
+        assert href in page.text, fmt
+    assert client.get(f"/v1/robots/{robot_id}/parameters?version=2&format=csv").status_code == 200
 
     pdf = client.get(url + "?format=pdf", headers={"Accept": "text/html"})  # the query wins
     assert pdf.status_code == 200 and pdf.content.startswith(b"%PDF")

@@ -194,7 +194,9 @@ function exportsSection(c, robot) {
     version ? h("li", {}, `Parameters of version ${version}: `,
       saving("JSON", `/v1/robots/${robot.id}/parameters?version=${version}&format=json`, "application/json", `${robot.name}-v${version}.json`, "export-json"), " · ",
       saving("CSV", `/v1/robots/${robot.id}/parameters?version=${version}&format=csv`, "text/csv", `${robot.name}-v${version}.csv`, "export-csv"),
-      serial ? [" · ", saving("URDF", `/v1/robots/${robot.id}/parameters?version=${version}&format=urdf`, "application/xml", `${robot.name}-v${version}.urdf`, "export-urdf")] : "")
+      serial ? [" · ", saving("URDF", `/v1/robots/${robot.id}/parameters?version=${version}&format=urdf`, "application/xml", `${robot.name}-v${version}.urdf`, "export-urdf"),
+        " · ", saving("DH table", `/v1/robots/${robot.id}/parameters?version=${version}&format=dh`, "application/vnd.iwr.dh-table+json", `${robot.name}-v${version}-dh.json`, "export-dh"),
+        " · ", saving("UR calibration", `/v1/robots/${robot.id}/parameters?version=${version}&format=ur-calibration`, "application/yaml", `${robot.name}-v${version}-calibration.yaml`, "export-ur")] : "")
       : h("li", {}, muted("No parameter version was created, so there is no export of it.")),
     h("li", {}, saving("Campaign (CSV)", `/v1/campaigns/${c.campaign_id}?format=csv`, "text/csv", `campaign-${c.campaign_id}.csv`, "campaign-csv"))),
   message);
