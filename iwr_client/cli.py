@@ -194,7 +194,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         code: int = args.run(client, args, console)
     except KeyboardInterrupt:
-        sys.stderr.write("\niwr: interrupted (a submitted job runs on: DELETE /v1/jobs/{id} stops it)\n")
+        sys.stderr.write("\niwr: interrupted (a job it was waiting for is cancelled)\n")
         return INTERRUPTED
     except (ApiError, ServiceUnreachable, JobCancelled, UsageError, CampaignFileError) as error:
         sys.stderr.write(describe(error) + "\n")

@@ -7,6 +7,7 @@ service/openapi.json's). An error answer raises `ApiError` with the problem; no 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
 import urllib.error
@@ -175,8 +176,15 @@ class Client:
 
     def result(self, job_id: str, on_progress: Callable[[Progress], None] | None = None) -> Json:
         """What a job created, once it ends: `JobFailed` (with the synchronous request's problem) or
-        `JobCancelled` otherwise."""
-        job = self.wait(job_id, on_progress)
+        `JobCancelled` otherwise. Interrupted (Ctrl-C) while waiting, it cancels the job before the interrupt goes
+        on: `design` and `calibrate` never handed its id back, so nothing else could stop it."""
+        try:
+            job = self.wait(job_id, on_progress)
+        except KeyboardInterrupt:
+            # It ended meanwhile (409), or the service went: nothing left to stop.
+            with contextlib.suppress(ApiError, ServiceUnreachable):
+                self.cancel(job_id)
+            raise
         if job["status"] == "failed":
             raise JobFailed(job)
         if job["status"] == "cancelled":

@@ -175,13 +175,22 @@ def test_a_malformed_records_file_names_what_is_wrong(text: str, message: str) -
 # -- answers no service gives, from a stand-in server -------------------------------------------------------------
 
 
+RUNNING = {"id": "j2", "status": "running", "progress": {"stage": "identifying", "fraction": 0.3}}
+
+
 class _Canned(BaseHTTPRequestHandler):
     """Answers each path with a canned status and body: a proxy's HTML 502, a service's 500 problem."""
 
     ANSWERS: ClassVar[dict[str, tuple[int, str, bytes]]] = {
         "/v1/robots": (502, "text/html", b"<html><body>Bad Gateway</body></html>"),
         "/v1/jobs/j1": (500, "application/problem+json", json.dumps(_problem(500)).encode()),
+        "/v1/jobs/j2": (200, "application/json", json.dumps(RUNNING).encode()),
     }
+    DELETED: ClassVar[list[str]] = []
+
+    def do_DELETE(self) -> None:
+        self.DELETED.append(self.path)
+        self.do_GET()
 
     def do_GET(self) -> None:
         status, content_type, body = self.ANSWERS.get(self.path.split("?")[0], (404, "text/plain", b"no"))
@@ -218,6 +227,18 @@ def test_a_5xx_problem_exits_4_and_prints_its_detail(stand_in: str, capsys: pyte
     with pytest.raises(ApiError) as caught:
         Client(stand_in).wait("j1")
     assert caught.value.status == 500
+
+
+def test_interrupted_while_waiting_the_client_cancels_the_job(stand_in: str) -> None:
+    """A workflow method never hands its job's id back: Ctrl-C during the wait cancels the job, then goes on."""
+
+    def interrupt(progress: Progress) -> None:
+        assert progress == Progress("identifying", 0.3)
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        Client(stand_in).result("j2", interrupt)
+    assert _Canned.DELETED == ["/v1/jobs/j2"]
 
 
 def test_options_go_before_or_after_the_command(stand_in: str, capsys: pytest.CaptureFixture[str]) -> None:
