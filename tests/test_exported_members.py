@@ -9,7 +9,7 @@ import pytest
 
 import models
 
-PACKAGES = ["models", "models.identification", "models.compensation", "models.inverse", "optimal_design"]
+PACKAGES = ["models", "models.identification", "models.compensation", "models.inverse", "optimal_design", "iwr_client"]
 
 
 @pytest.mark.parametrize("name", PACKAGES)

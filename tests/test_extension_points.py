@@ -95,7 +95,7 @@ LONGEST_LINES = 60
 def test_a_function_over_sixty_lines_says_why() -> None:
     """A long function is a step that was not split: it must say why in a comment ("Long on purpose: …")."""
     unexplained = []
-    for package in ("models", "optimal_design", "programs", "service", "harness"):
+    for package in ("models", "optimal_design", "programs", "service", "iwr_client", "harness"):
         for path in sorted((ROOT / package).rglob("*.py")):
             if "migrations" in path.parts:
                 continue

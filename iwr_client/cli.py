@@ -1,0 +1,294 @@
+"""`iwr`: the service's main workflow from a shell (robots, pose designs, calibrations, reports, parameters,
+validations), on `iwr_client.Client`.
+
+Exit codes: 0 success; 1 a calibration that failed or was not applied (or a cancelled job); 2 a usage error
+(including a file that cannot be read); 3 the API refused the request (4xx: the problem's detail printed); 4 the
+service unreachable or a 5xx. `--json` prints the API's JSON documents on stdout and nothing else there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+from iwr_client import summary
+from iwr_client.client import Client, Json
+from iwr_client.errors import ApiError, CampaignFileError, JobCancelled, ServiceUnreachable
+from iwr_client.progress import ProgressBar
+
+DEFAULT_URL = "http://127.0.0.1:8000"
+OK, NOT_APPLIED, USAGE, REFUSED, UNAVAILABLE = 0, 1, 2, 3, 4
+INTERRUPTED = 130  # the shell's convention for SIGINT
+
+
+class UsageError(Exception):
+    """A command line argparse accepts that still cannot run (an unreadable file): exit 2."""
+
+
+def exit_code(error: BaseException) -> int:
+    """The exit code an error ends the command with: a problem by its status (4xx: the request was refused, 3;
+    5xx, or none, the service's fault, 4), no answer 4, a cancelled job 1, a local input error 2."""
+    if isinstance(error, ApiError):
+        return REFUSED if 400 <= error.status < 500 else UNAVAILABLE
+    if isinstance(error, ServiceUnreachable):
+        return UNAVAILABLE
+    if isinstance(error, JobCancelled):
+        return NOT_APPLIED
+    if isinstance(error, UsageError | CampaignFileError):
+        return USAGE
+    raise error
+
+
+def describe(error: BaseException) -> str:
+    """The error line(s) for stderr: a problem's status, title, detail and what its `errors` name."""
+    if not isinstance(error, ApiError):
+        return f"iwr: error: {error}"
+    lines = [f"iwr: error: {error.status} {error.title}: {error.detail}".rstrip(": ")]
+    if error.type not in {"", "about:blank"}:
+        lines.append(f"  ({error.type})")
+    for issue in (error.problem.get("errors") or [])[:10]:
+        lines.append(f"  {issue.get('field') or issue.get('loc')}: {issue.get('msg')}")
+    return "\n".join(lines)
+
+
+class Console:
+    """Where output goes: documents (`--json`) and summaries on stdout, progress and errors on stderr."""
+
+    def __init__(self, as_json: bool, out: TextIO, err: TextIO) -> None:
+        self.as_json, self.out, self.err = as_json, out, err
+
+    def document(self, document: object, human: Callable[[], str]) -> None:
+        self.out.write((json.dumps(document, indent=2) if self.as_json else human()) + "\n")
+
+    def say(self, text: str) -> None:
+        """A human line: left out under --json, where stdout holds the documents alone."""
+        if not self.as_json:
+            self.out.write(text + "\n")
+
+    def progress(self) -> ProgressBar:
+        return ProgressBar(self.err)
+
+
+def _readable(path: str) -> Path:
+    """An argparse `type`: a missing or unreadable input file is a usage error before any request."""
+    file = Path(path)
+    if not file.is_file() or not os.access(file, os.R_OK):
+        raise argparse.ArgumentTypeError(f"cannot read {path}")
+    return file
+
+
+def _write(path: str | None, data: bytes, console: Console, what: str) -> None:
+    if path is None or path == "-":
+        # Bytes as they came (a PDF is binary); a replaced stdout without a buffer (a test's) takes text.
+        console.out.flush()
+        buffer = getattr(console.out, "buffer", None)
+        if buffer is not None:
+            buffer.write(data)
+            buffer.flush()
+        else:
+            console.out.write(data.decode("utf-8", "replace"))
+        return
+    Path(path).write_bytes(data)
+    console.say(f"{what} written to {path} ({len(data)} bytes)")
+
+
+# -- the commands: each takes the client, its arguments and the console, and answers an exit code ------------
+
+
+def robots_list(client: Client, args: argparse.Namespace, console: Console) -> int:
+    robots = client.robots(limit=args.limit)
+    console.document(robots, lambda: summary.robots_table(robots))
+    return OK
+
+
+def robots_create(client: Client, args: argparse.Namespace, console: Console) -> int:
+    structure = json.loads(args.structure.read_text()) if args.structure else None
+    urdf = args.urdf.read_text() if args.urdf else None
+    robot = client.create_robot(args.name, structure, urdf=urdf, base_link=args.base_link, tip_link=args.tip_link)
+    console.document(robot, lambda: summary.robot_summary(robot))
+    return OK
+
+
+def design(client: Client, args: argparse.Namespace, console: Console) -> int:
+    bar = None if args.sync else console.progress()
+    try:
+        found = client.design(
+            args.robot,
+            args.count,
+            target_rms_mm=args.target_rms_mm,
+            criterion=args.criterion,
+            measurement=args.measurement,
+            candidate_count=args.candidates,
+            seed=args.seed,
+            async_=not args.sync,
+            on_progress=bar,
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    if args.csv:
+        Path(args.csv).write_text(client.design_csv(found["id"]))
+    console.document(found, lambda: summary.design_summary(found, args.csv))
+    return OK
+
+
+def calibrate(client: Client, args: argparse.Namespace, console: Console) -> int:
+    bar = None if args.sync else console.progress()
+    try:
+        calibration = client.calibrate(
+            args.robot, args.campaign, noise_mm=args.noise_mm, apply=args.apply, async_=not args.sync, on_progress=bar
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    console.document(calibration, lambda: summary.calibration_summary(calibration))
+    return calibration_exit(calibration, asked_to_apply=args.apply)
+
+
+def calibration_exit(calibration: Json, *, asked_to_apply: bool) -> int:
+    """1 for a failed fit, or one asked to apply that was not (a check failed, or another calibration won)."""
+    if calibration["status"] != "succeeded" or (asked_to_apply and not calibration.get("applied")):
+        return NOT_APPLIED
+    return OK
+
+
+def report(client: Client, args: argparse.Namespace, console: Console) -> int:
+    if args.pdf and args.output in {None, "-"} and console.out.isatty():
+        raise UsageError("a PDF on a terminal: give -o FILE (or redirect stdout)")
+    data = client.report(args.calibration, "pdf" if args.pdf else "html")
+    _write(args.output, data, console, "PDF report" if args.pdf else "HTML report")
+    return OK
+
+
+def parameters(client: Client, args: argparse.Namespace, console: Console) -> int:
+    fmt = "json" if console.as_json else args.format
+    if fmt == "json":
+        document = client.parameters(args.robot, "json", version=args.version)
+        text = json.dumps(document, indent=2) + "\n"
+    else:
+        text = client.parameters(args.robot, "urdf" if fmt == "urdf" else "csv", version=args.version)
+    _write(args.output, text.encode(), console, f"parameters ({fmt})")
+    return OK
+
+
+def validate(client: Client, args: argparse.Namespace, console: Console) -> int:
+    found = client.validate(args.robot, args.records, versions=args.version, register=args.register)
+    console.document(found, lambda: summary.validation_summary(found))
+    return OK
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The console script `iwr` (and `python -m iwr_client`)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as stop:  # argparse's own exit: 2 for a usage error, 0 for --help
+        return int(stop.code or 0)
+    console = Console(args.json, sys.stdout, sys.stderr)
+    client = Client(args.url, api_key=args.api_key or None, timeout=args.timeout)
+    try:
+        code: int = args.run(client, args, console)
+    except KeyboardInterrupt:
+        sys.stderr.write("\niwr: interrupted (a job it was waiting for is cancelled)\n")
+        return INTERRUPTED
+    except (ApiError, ServiceUnreachable, JobCancelled, UsageError, CampaignFileError) as error:
+        sys.stderr.write(describe(error) + "\n")
+        return exit_code(error)
+    return code
+
+
+# -- the parser ------------------------------------------------------------------------------------------------
+
+
+def _globals(parser: argparse.ArgumentParser, defaults: dict[str, Any] | None) -> None:
+    """The global options, on the top parser (with `defaults`) and again on each subcommand (with none, so that
+    `iwr robots list --json` and `iwr --json robots list` mean the same and neither overrides the other)."""
+
+    def default(name: str) -> Any:
+        return argparse.SUPPRESS if defaults is None else defaults[name]
+
+    parser.add_argument("--url", default=default("url"), help=f"the service (default: $IWR_URL or {DEFAULT_URL})")
+    parser.add_argument("--api-key", default=default("api_key"), help="X-API-Key (default: $IWR_API_KEY)")
+    parser.add_argument("--json", action="store_true", default=default("json"), help="the API's JSON on stdout only")
+    parser.add_argument("--timeout", type=float, default=default("timeout"), help="seconds per request (default 120)")
+
+
+def _command(
+    group: Any, name: str, run: Callable[[Client, argparse.Namespace, Console], int], text: str
+) -> argparse.ArgumentParser:
+    parser: argparse.ArgumentParser = group.add_parser(name, help=text, description=text)
+    _globals(parser, None)
+    parser.set_defaults(run=run)
+    return parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="iwr", description=__doc__.split("\n\n")[0] if __doc__ else None)
+    environment = {"url": os.environ.get("IWR_URL") or DEFAULT_URL, "api_key": os.environ.get("IWR_API_KEY")}
+    _globals(parser, {**environment, "json": False, "timeout": 120.0})
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _robot_commands(commands)
+    _design_command(commands)
+    _calibration_commands(commands)
+    _export_commands(commands)
+    return parser
+
+
+def _robot_commands(commands: Any) -> None:
+    robots = commands.add_parser("robots", help="list or create robots").add_subparsers(
+        dest="robots_command", required=True, metavar="ACTION"
+    )
+    listing = _command(robots, "list", robots_list, "the service's robots")
+    listing.add_argument("--limit", type=int, default=100)
+    create = _command(robots, "create", robots_create, "a new robot: the IWR, or a structure document or a URDF")
+    create.add_argument("name")
+    source = create.add_mutually_exclusive_group()
+    source.add_argument("--structure", type=_readable, metavar="FILE.json", help="the structure document")
+    source.add_argument("--urdf", type=_readable, metavar="FILE", help="a URDF (with --base-link, --tip-link)")
+    create.add_argument("--base-link", metavar="LINK")
+    create.add_argument("--tip-link", metavar="LINK")
+
+
+def _design_command(commands: Any) -> None:
+    design_parser = _command(commands, "design", design, "the poses worth measuring")
+    design_parser.add_argument("robot", metavar="ROBOT")
+    size = design_parser.add_mutually_exclusive_group(required=True)
+    size.add_argument("--count", type=int, help="the number of poses")
+    size.add_argument("--target-rms-mm", type=float, help="instead: the fewest poses reaching this TCP RMS")
+    design_parser.add_argument("--criterion", choices=["D", "A", "I", "E", "condition"], help="default D")
+    design_parser.add_argument("--measurement", default="pose", choices=["pose", "position"])
+    design_parser.add_argument("--candidates", type=int, help="sampled candidates (default 2000)")
+    design_parser.add_argument("--seed", type=int)
+    design_parser.add_argument("--csv", metavar="OUT", help="write the poses as CSV (the robot's joint names)")
+    design_parser.add_argument("--sync", action="store_true", help="one request, not a job with progress")
+
+
+def _calibration_commands(commands: Any) -> None:
+    parser = _command(commands, "calibrate", calibrate, "identify the robot's parameters from a campaign")
+    parser.add_argument("robot", metavar="ROBOT")
+    parser.add_argument("campaign", type=_readable, metavar="CAMPAIGN.csv")
+    parser.add_argument("--noise-mm", type=float, help="the instrument's position σ (default 0.025)")
+    parser.add_argument("--no-apply", dest="apply", action="store_false", help="fit and store, keep the parameters")
+    parser.add_argument("--sync", action="store_true", help="one request, not a job with progress")
+    check = _command(commands, "validate", validate, "versions against records they were not fitted to")
+    check.add_argument("robot", metavar="ROBOT")
+    check.add_argument("records", type=_readable, metavar="RECORDS.csv")
+    check.add_argument("--version", type=int, action="append", help="a version to evaluate (repeatable)")
+    check.add_argument("--register", action="store_true", help="fit the instrument frame first")
+
+
+def _export_commands(commands: Any) -> None:
+    parser = _command(commands, "report", report, "a calibration's report (HTML, or PDF)")
+    parser.add_argument("calibration", metavar="CALIBRATION")
+    parser.add_argument("--pdf", action="store_true")
+    parser.add_argument("-o", "--output", metavar="FILE", help="default: stdout")
+    export = _command(commands, "parameters", parameters, "a robot's parameters (current or --version)")
+    export.add_argument("robot", metavar="ROBOT")
+    export.add_argument("--format", default="csv", choices=["csv", "urdf", "json"])
+    export.add_argument("--version", type=int)
+    export.add_argument("-o", "--output", metavar="FILE", help="default: stdout")

@@ -1,0 +1,310 @@
+"""A typed client of the service's main workflow over urllib: robots, pose designs, calibrations (as jobs with
+progress), reports, parameter exports and validations. Standard library only, so any Python ≥ 3.11 runs it.
+
+Millimetres and degrees, as the API takes them; answers are the API's JSON documents as dicts (their keys are
+service/openapi.json's). An error answer raises `ApiError` with the problem; no answer, `ServiceUnreachable`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal, overload
+
+from iwr_client.errors import ApiError, JobCancelled, JobFailed, ServiceUnreachable
+from iwr_client.records import records_from_csv
+
+Json = dict[str, Any]
+Records = Sequence[Mapping[str, Any]]
+Campaign = str | Path | Records
+"""A campaign file's path (sent as it is, `text/csv`) or records as the API's JSON takes them."""
+TERMINAL = frozenset({"succeeded", "failed", "cancelled"})
+
+
+@dataclass(frozen=True)
+class Progress:
+    """A job's latest progress point: its stage (reading, identifying, designing, storing, done, …), the fraction
+    done in [0, 1], the solver's iteration within the stage and the stage's time left, when the worker knows them."""
+
+    stage: str
+    fraction: float
+    iteration: int | None = None
+    eta_seconds: float | None = None
+
+    @classmethod
+    def of(cls, job: Mapping[str, Any]) -> Progress | None:
+        point = job.get("progress")
+        if not point:
+            return None
+        return cls(str(point["stage"]), float(point["fraction"]), point.get("iteration"), point.get("eta_seconds"))
+
+
+@dataclass(frozen=True)
+class Answer:
+    status: int
+    content_type: str
+    body: bytes
+
+    def json(self) -> Any:
+        return json.loads(self.body)
+
+
+def _problem(status: int, reason: str, content_type: str, body: bytes) -> Json:
+    """The problem document of an error answer; anything else (a proxy's page) wrapped as one."""
+    if "json" in content_type:
+        try:
+            document = json.loads(body)
+        except ValueError:
+            document = None
+        if isinstance(document, dict):
+            return {"status": status, "title": reason, "detail": "", **document}
+    text = body.decode("utf-8", "replace").strip()[:300]
+    return {"type": "about:blank", "title": reason, "status": status, "detail": text or reason}
+
+
+class Client:
+    """`Client("http://127.0.0.1:8000", api_key=...)`; `timeout` bounds each request, in seconds."""
+
+    def __init__(self, base_url: str = "http://127.0.0.1:8000", api_key: str | None = None, timeout: float = 60.0):
+        self.base_url = base_url.rstrip("/")
+        self.api_key = api_key
+        self.timeout = timeout
+
+    # -- the HTTP exchange ------------------------------------------------------------------------------------
+
+    def request(
+        self,
+        method: str,
+        path: str,
+        *,
+        query: Mapping[str, object] | None = None,
+        json_body: object = None,
+        data: bytes | None = None,
+        content_type: str | None = None,
+        accept: str = "application/json",
+    ) -> Answer:
+        """One request; an error status raises `ApiError`, no answer `ServiceUnreachable`."""
+        url = self.base_url + path
+        if query:
+            pairs = {k: str(v).lower() if isinstance(v, bool) else str(v) for k, v in query.items() if v is not None}
+            url += "?" + urllib.parse.urlencode(pairs)
+        headers = {"Accept": accept + ", application/problem+json"}
+        if self.api_key:
+            headers["X-API-Key"] = self.api_key
+        if json_body is not None:
+            data, content_type = json.dumps(json_body).encode(), "application/json"
+        if content_type:
+            headers["Content-Type"] = content_type
+        request = urllib.request.Request(url, data=data, headers=headers, method=method)
+        try:
+            with urllib.request.urlopen(request, timeout=self.timeout) as response:
+                return Answer(response.status, response.headers.get("Content-Type", ""), response.read())
+        except urllib.error.HTTPError as exc:
+            body = exc.read()
+            raise ApiError(_problem(exc.code, str(exc.reason), exc.headers.get("Content-Type", ""), body)) from None
+        except (urllib.error.URLError, OSError) as exc:  # refused, reset, timed out, unresolved
+            raise ServiceUnreachable(self.base_url, getattr(exc, "reason", exc)) from None
+
+    def _get(self, path: str, **query: object) -> Any:
+        return self.request("GET", path, query=query).json()
+
+    def _post(self, path: str, body: object, **query: object) -> Any:
+        return self.request("POST", path, query=query, json_body=body).json()
+
+    # -- robots -----------------------------------------------------------------------------------------------
+
+    def robots(self, limit: int = 100, offset: int = 0) -> list[Json]:
+        return list(self._get("/v1/robots", limit=limit, offset=offset))
+
+    def robot(self, robot_id: str) -> Json:
+        return dict(self._get(f"/v1/robots/{_segment(robot_id)}"))
+
+    def create_robot(
+        self,
+        name: str,
+        structure: Mapping[str, Any] | None = None,
+        *,
+        urdf: str | None = None,
+        base_link: str | None = None,
+        tip_link: str | None = None,
+        notes: str | None = None,
+    ) -> Json:
+        """The IWR by default; another robot from its structure document or a URDF's chain base_link → tip_link."""
+        body: Json = {"name": name, "model": "iwr" if structure is None and urdf is None else "custom"}
+        extra = {"structure": structure, "urdf": urdf, "base_link": base_link, "tip_link": tip_link, "notes": notes}
+        body.update({k: v for k, v in extra.items() if v is not None})
+        return dict(self._post("/v1/robots", body))
+
+    # -- jobs -------------------------------------------------------------------------------------------------
+
+    def job(self, job_id: str) -> Json:
+        return dict(self._get(f"/v1/jobs/{_segment(job_id)}"))
+
+    def cancel(self, job_id: str) -> Json:
+        return dict(self.request("DELETE", f"/v1/jobs/{_segment(job_id)}").json())
+
+    def wait(
+        self,
+        job_id: str,
+        on_progress: Callable[[Progress], None] | None = None,
+        *,
+        interval: float = 0.25,
+        timeout: float | None = None,
+    ) -> Json:
+        """Polls the job until it ends and answers it; `on_progress` hears each new progress point. Over `timeout`
+        seconds it raises TimeoutError (the job runs on: `cancel` stops it)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        last: Progress | None = None
+        while True:
+            job = self.job(job_id)
+            progress = Progress.of(job)
+            if on_progress is not None and progress is not None and progress != last:
+                on_progress(progress)
+                last = progress
+            if job["status"] in TERMINAL:
+                return job
+            if deadline is not None and time.monotonic() > deadline:
+                raise TimeoutError(f"job {job_id} still {job['status']} after {timeout} s")
+            time.sleep(interval)
+
+    def result(self, job_id: str, on_progress: Callable[[Progress], None] | None = None) -> Json:
+        """What a job created, once it ends: `JobFailed` (with the synchronous request's problem) or
+        `JobCancelled` otherwise. Interrupted (Ctrl-C) while waiting, it cancels the job before the interrupt goes
+        on: `design` and `calibrate` never handed its id back, so nothing else could stop it."""
+        try:
+            job = self.wait(job_id, on_progress)
+        except KeyboardInterrupt:
+            # It ended meanwhile (409), or the service went: nothing left to stop.
+            with contextlib.suppress(ApiError, ServiceUnreachable):
+                self.cancel(job_id)
+            raise
+        if job["status"] == "failed":
+            raise JobFailed(job)
+        if job["status"] == "cancelled":
+            raise JobCancelled(job)
+        return dict(job["result"])
+
+    # -- pose designs -----------------------------------------------------------------------------------------
+
+    def design(
+        self,
+        robot_id: str,
+        count: int | None = None,
+        *,
+        target_rms_mm: float | None = None,
+        criterion: str | None = None,
+        measurement: str = "pose",
+        candidate_count: int | None = None,
+        seed: int | None = None,
+        async_: bool = False,
+        on_progress: Callable[[Progress], None] | None = None,
+    ) -> Json:
+        """The `count` poses worth measuring, or the fewest that reach `target_rms_mm` (give one). `async_` runs it
+        as a job (what designs over the synchronous budget need) and waits for it."""
+        if (count is None) == (target_rms_mm is None):
+            raise ValueError("give count or target_rms_mm, not both")
+        body: Json = {"measurement": measurement}
+        extra = {"count": count, "criterion": criterion, "candidate_count": candidate_count, "seed": seed}
+        body.update({k: v for k, v in extra.items() if v is not None})
+        if target_rms_mm is not None:
+            body["target"] = {"rms_tcp_mm": target_rms_mm}
+        path = f"/v1/robots/{_segment(robot_id)}/pose-designs"
+        if async_:
+            return self.result(self._post(path, body, **{"async": True})["job_id"], on_progress)
+        return dict(self._post(path, body))
+
+    def design_csv(self, design_id: str) -> str:
+        """A design's poses as CSV, the robot's joint names as header (what a pendant or a controller takes)."""
+        return self.request("GET", f"/v1/pose-designs/{_segment(design_id)}", accept="text/csv").body.decode()
+
+    # -- calibrations -----------------------------------------------------------------------------------------
+
+    def calibrate(
+        self,
+        robot_id: str,
+        campaign: Campaign,
+        *,
+        noise_mm: float | None = None,
+        apply: bool = True,
+        async_: bool = False,
+        on_progress: Callable[[Progress], None] | None = None,
+    ) -> Json:
+        """Identifies the robot's parameters from a campaign and answers the calibration (status, residuals,
+        predicted accuracy, whether it was applied and if not why). `async_` runs it as a job and waits for it."""
+        path = f"/v1/robots/{_segment(robot_id)}/calibrations"
+        query: dict[str, object] = {"apply": apply}
+        if async_:
+            query["async"] = True
+        if isinstance(campaign, str | Path):
+            # The file goes as it is: the service's reader knows the instruments' column and unit variants.
+            query["noise_position_mm"] = noise_mm
+            data = Path(campaign).read_bytes()
+            answer = self.request("POST", path, query=query, data=data, content_type="text/csv").json()
+        else:
+            body: Json = {"measurements": list(campaign), "apply": apply}
+            if noise_mm is not None:
+                body["noise"] = {"position_mm": noise_mm}
+            answer = self._post(path, body, **query)
+        if async_:
+            return self.result(answer["job_id"], on_progress)
+        return dict(answer)
+
+    def calibration(self, calibration_id: str) -> Json:
+        return dict(self._get(f"/v1/calibrations/{_segment(calibration_id)}"))
+
+    def report(self, calibration_id: str, fmt: Literal["html", "pdf"] = "html") -> bytes:
+        """The calibration report: self-contained HTML (inline SVG figures) or PDF."""
+        accept = "application/pdf" if fmt == "pdf" else "text/html"
+        path = f"/v1/calibrations/{_segment(calibration_id)}/report"
+        return self.request("GET", path, query={"format": fmt}, accept=accept).body
+
+    # -- parameters and validations ---------------------------------------------------------------------------
+
+    @overload
+    def parameters(self, robot_id: str, fmt: Literal["json"] = "json", *, version: int | None = None) -> Json: ...
+
+    @overload
+    def parameters(self, robot_id: str, fmt: Literal["csv", "urdf"], *, version: int | None = None) -> str: ...
+
+    def parameters(
+        self, robot_id: str, fmt: Literal["json", "csv", "urdf"] = "json", *, version: int | None = None
+    ) -> Json | str:
+        """The current (or `version`'s) parameters: the JSON document, the CSV that re-imports, or the calibrated
+        serial model as URDF."""
+        accept = {"json": "application/json", "csv": "text/csv", "urdf": "application/xml"}[fmt]
+        path = f"/v1/robots/{_segment(robot_id)}/parameters"
+        answer = self.request("GET", path, query={"format": fmt, "version": version}, accept=accept)
+        return dict(answer.json()) if fmt == "json" else answer.body.decode()
+
+    def validate(
+        self,
+        robot_id: str,
+        records: Campaign,
+        *,
+        versions: Sequence[int] | None = None,
+        register: bool = False,
+    ) -> Json:
+        """Each version (default: the current one) against records it was not fitted to: errors, percentiles and
+        ISO 9283 characteristics. A file is read here (a validation takes JSON), its joint columns named as the
+        robot's joints (GET of the robot first)."""
+        if isinstance(records, str | Path):
+            joint_names = self.robot(robot_id)["joint_names"]
+            records = records_from_csv(Path(records).read_text(), joint_names)
+        body: Json = {"measurements": list(records)}
+        if versions is not None:
+            body["versions"] = list(versions)
+        if register:
+            body["register"] = True
+        return dict(self._post(f"/v1/robots/{_segment(robot_id)}/validations", body))
+
+
+def _segment(value: str) -> str:
+    """An id as one path segment: a '/' or '?' in it cannot reach another route."""
+    return urllib.parse.quote(value, safe="")

@@ -1,0 +1,202 @@
+"""`iwr` against a live server, run as a user runs it (a subprocess, `python -m iwr_client`): the IWR created,
+10 poses designed to a CSV, examples/campaign.csv calibrated as a job with progress, its report written as HTML
+and PDF, the parameters exported and validated; exit codes 0, 1, 3 and 4; `--json` is the API's document."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import pty
+import subprocess
+import sys
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from harness.live import ROOT, free_port, running_server
+
+# One live server for the module, then a few seconds of calibrations and a design.
+pytestmark = pytest.mark.slow
+
+CAMPAIGN = ROOT / "examples" / "campaign.csv"
+JOINTS = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
+
+
+def _environment() -> dict[str, str]:
+    """The user's shell without IWR_URL or IWR_API_KEY: each run names its service with --url."""
+    return {k: v for k, v in os.environ.items() if not k.startswith("IWR_")}
+
+
+def iwr(url: str, *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "iwr_client", "--url", url, *args],
+        cwd=ROOT,
+        env=_environment(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+
+
+def api(url: str, path: str) -> Any:
+    """The API's own answer, read without the client under test."""
+    with urllib.request.urlopen(url + path, timeout=30) as answer:
+        return json.load(answer)
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    database = tmp_path_factory.mktemp("cli") / "cli.db"
+    with running_server(f"sqlite:///{database}", IWR_JOB_WORKERS="0", IWR_COMPUTE_PROCESSES="1") as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def robot(server: str) -> dict[str, Any]:
+    run = iwr(server, "robots", "create", "cell-cli", "--json")
+    assert run.returncode == 0, run.stderr
+    document: dict[str, Any] = json.loads(run.stdout)
+    assert document == api(server, f"/v1/robots/{document['id']}")
+    return document
+
+
+@pytest.fixture(scope="module")
+def calibration(server: str, robot: dict[str, Any]) -> tuple[subprocess.CompletedProcess[str], dict[str, Any]]:
+    """The campaign calibrated as a job (the CLI's default), --json: (the run, its document)."""
+    run = iwr(server, "calibrate", robot["id"], str(CAMPAIGN), "--noise-mm", "0.025", "--json")
+    assert run.returncode == 0, run.stderr
+    return run, json.loads(run.stdout)
+
+
+def test_robots_are_listed_by_name_and_as_json(server: str, robot: dict[str, Any]) -> None:
+    human = iwr(server, "robots", "list")
+    assert human.returncode == 0, human.stderr
+    assert robot["id"] in human.stdout and "cell-cli" in human.stdout
+    machine = iwr(server, "robots", "list", "--json")
+    assert json.loads(machine.stdout) == api(server, "/v1/robots")
+
+
+def test_ten_poses_are_designed_into_a_csv_a_pendant_takes(server: str, robot: dict[str, Any], tmp_path: Path) -> None:
+    out = tmp_path / "poses.csv"
+    run = iwr(server, "design", robot["id"], "--count", "10", "--criterion", "D", "--csv", str(out))
+    assert run.returncode == 0, run.stderr
+    assert "10 poses of 2000 candidates" in run.stdout and f"poses written to {out}" in run.stdout
+    rows = list(csv.reader(io.StringIO(out.read_text())))
+    assert rows[0] == JOINTS and len(rows) == 11
+    assert all(len(row) == 10 and all(float(v) == float(v) for v in row) for row in rows[1:])
+    assert "done" in run.stderr and "100%" in run.stderr and "\r" not in run.stderr  # not a terminal: lines
+
+
+def test_the_calibration_json_is_the_apis_document(server: str, calibration: tuple[Any, dict[str, Any]]) -> None:
+    run, document = calibration
+    assert document == api(server, f"/v1/calibrations/{document['id']}")
+    assert document["status"] == "succeeded" and document["applied"] and document["parameter_version"] == 2
+    assert "done" in run.stderr and "\r" not in run.stderr  # the progress went to stderr as plain lines
+
+
+def test_on_a_terminal_the_progress_is_one_bar_redrawn(server: str, robot: dict[str, Any]) -> None:
+    """stderr on a pseudo-terminal: the bar is redrawn with carriage returns; stdout keeps the summary."""
+    primary, secondary = pty.openpty()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "iwr_client", "--url", server, "calibrate", robot["id"], str(CAMPAIGN), "--no-apply"],
+        cwd=ROOT,
+        env=_environment(),
+        stdout=subprocess.PIPE,
+        stderr=secondary,
+        text=True,
+    )
+    os.close(secondary)
+    out, _ = process.communicate(timeout=300)
+    drawn = b""
+    while True:
+        try:
+            chunk = os.read(primary, 4096)
+        except OSError:  # EIO: the terminal's other side closed and everything was read
+            break
+        if not chunk:
+            break
+        drawn += chunk
+    os.close(primary)
+    assert process.returncode == 0, drawn
+    assert b"\rdone" in drawn and b"100%" in drawn
+    assert "succeeded, not applied" in out and "→" in out and "predicted TCP accuracy" in out
+
+
+def test_the_human_summary_names_status_residuals_and_accuracy(
+    server: str, robot: dict[str, Any], calibration: tuple[Any, dict[str, Any]]
+) -> None:
+    run = iwr(server, "calibrate", robot["id"], str(CAMPAIGN), "--sync", "--no-apply")
+    assert run.returncode == 0, run.stderr
+    assert run.stderr == ""  # --sync: one request, no progress
+    lines = run.stdout.splitlines()
+    assert lines[0].startswith("calibration ") and lines[0].endswith(": succeeded, not applied")
+    assert "residuals RMS:" in lines[1] and " → " in lines[1]
+    assert "predicted TCP accuracy:" in lines[2]
+
+
+def test_a_calibration_not_applied_exits_1_with_its_reason(server: str, robot: dict[str, Any]) -> None:
+    """σ 2 µm for a tracker's 25 µm: the variance-factor check fails, so the result is stored and not applied."""
+    run = iwr(server, "calibrate", robot["id"], str(CAMPAIGN), "--noise-mm", "0.002")
+    assert run.returncode == 1, run.stderr
+    assert "not applied:" in run.stdout and "variance factor" in run.stdout
+
+
+def test_the_report_is_written_as_html_and_as_pdf(
+    server: str, calibration: tuple[Any, dict[str, Any]], tmp_path: Path
+) -> None:
+    calibration_id = calibration[1]["id"]
+    html, pdf = tmp_path / "report.html", tmp_path / "report.pdf"
+    run = iwr(server, "report", calibration_id, "-o", str(html))
+    assert run.returncode == 0, run.stderr
+    assert "Calibration of cell-cli" in html.read_text()
+    run = iwr(server, "report", calibration_id, "--pdf", "-o", str(pdf))
+    assert run.returncode == 0, run.stderr
+    assert pdf.read_bytes().startswith(b"%PDF")
+
+
+def test_the_parameters_are_exported_as_the_api_answers_them(
+    server: str, robot: dict[str, Any], calibration: tuple[Any, dict[str, Any]], tmp_path: Path
+) -> None:
+    out = tmp_path / "cell.csv"
+    run = iwr(server, "parameters", robot["id"], "--format", "csv", "-o", str(out), "--version", "2")
+    assert run.returncode == 0, run.stderr
+    rows = list(csv.DictReader(io.StringIO(out.read_text())))
+    assert len(rows) == robot["parameter_count"] == 70
+    document = api(server, f"/v1/robots/{robot['id']}/parameters?version=2")
+    assert [float(r["value"]) for r in rows] == [p["value"] for p in document["parameters"]]
+    machine = iwr(server, "parameters", robot["id"], "--json", "--version", "2")
+    assert json.loads(machine.stdout) == document
+
+
+def test_the_campaign_validates_the_calibrated_version(
+    server: str, robot: dict[str, Any], calibration: tuple[Any, dict[str, Any]]
+) -> None:
+    run = iwr(server, "validate", robot["id"], str(CAMPAIGN), "--version", "1", "--version", "2", "--json")
+    assert run.returncode == 0, run.stderr
+    document = json.loads(run.stdout)
+    assert document == api(server, f"/v1/validations/{document['id']}")
+    nominal, calibrated = (r["position_mm"]["rms"] for r in document["results"])
+    assert calibrated < 0.05 < nominal
+
+
+def test_a_refused_request_exits_3_with_the_problems_detail(server: str, robot: dict[str, Any], tmp_path: Path) -> None:
+    unknown = iwr(server, "calibrate", "no-such-robot", str(CAMPAIGN))
+    assert unknown.returncode == 3 and "404" in unknown.stderr and "no-such-robot" in unknown.stderr
+    assert unknown.stdout == ""
+    malformed = tmp_path / "malformed.csv"
+    malformed.write_text("q1,q2\n1,2\n")
+    refused = iwr(server, "calibrate", robot["id"], str(malformed), "--json")
+    assert refused.returncode == 3 and "x, y, z" in refused.stderr and refused.stdout == ""
+    design = iwr(server, "design", "no-such-robot", "--count", "10")
+    assert design.returncode == 3 and "404" in design.stderr
+
+
+def test_an_unreachable_service_exits_4() -> None:
+    run = iwr(f"http://127.0.0.1:{free_port()}", "robots", "list", "--json")
+    assert run.returncode == 4 and "unreachable" in run.stderr and run.stdout == ""
