@@ -248,6 +248,7 @@ def _ballbar(robot: SimulatedRobot, seed: int, n: int = 10, sigma: float = 0.002
     return (ReferenceRecords(Anchor("a1", guess), joints, distances, np.full(n, sigma)),)  # type: ignore[arg-type]
 
 
+@pytest.mark.slow  # many simulated checks: over a second
 def test_ballbar_checks_keep_alpha_and_see_a_change(version: Calibrated) -> None:
     """Exact version (zero covariance): the false-alarm rate is α with the anchor's 3 unknowns projected out;
     the calibrated version then sees axis 3's 0.1 mm in ten distances."""

@@ -233,7 +233,9 @@ def test_the_synchronous_budget_is_a_setting(tmp_path: Path, registry: Registry)
 
 
 @pytest.mark.parametrize(
-    "processes", [0, pytest.param(1, marks=pytest.mark.slow)], ids=["threads", "compute-process"]
+    "processes",
+    [pytest.param(0, marks=pytest.mark.slow), pytest.param(1, marks=pytest.mark.slow)],  # a cold build: seconds
+    ids=["threads", "compute-process"],
 )  # in a compute process, the deadline crosses as a byte of shared memory (service.compute)
 def test_a_structures_first_build_does_not_count_against_the_deadline(tmp_path: Path, processes: int) -> None:
     """Issue 29/30: the first design on a new structure answered 503 "overloaded" because it was compiling. The

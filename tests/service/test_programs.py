@@ -76,6 +76,7 @@ def test_the_nominal_version_changes_no_target(client: TestClient, ur5: str, cel
     assert np.allclose([t.pose for t in again.targets], [t.pose for t in read_program("csv", text).targets], atol=1e-5)
 
 
+@pytest.mark.slow  # over two seconds here
 def test_krl_with_its_dat_and_config_dat_comes_back_as_files(client: TestClient, ur5: str) -> None:
     files = {"Weld_Seam.dat": KRL_DAT, "$config.dat": KRL_CONFIG}
     out = _post(client, ur5, format="krl", program=KRL_SRC, files=files).json()

@@ -199,6 +199,7 @@ def test_a_plane_touched_along_a_line_is_refused_naming_it(client: TestClient, a
     assert answer.status_code == 422 and "plane 'f1'" in answer.text, answer.text
 
 
+@pytest.mark.slow  # a job, its report in HTML and PDF: about three seconds
 def test_a_ballbar_calibration_runs_as_a_job_and_reports_its_anchors(
     client: TestClient, arm: str, campaign: Campaign
 ) -> None:

@@ -80,6 +80,7 @@ def _validation(calibration: dict[str, object]) -> dict[str, object]:
     return {"id": "v-1", "results": [result]}
 
 
+@pytest.mark.slow  # three PDF renderings: about four seconds
 def test_pdf_report_has_every_figure_and_the_parameter_table(client: TestClient, robot_id: str) -> None:
     body, positions = _calibration(client, robot_id)
     report = CalibrationReport(body, "cell-3", positions)
