@@ -15,6 +15,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from models import Registry
 from service import limits, logs, openapi, problems, security, ui
+from service.builds import StructureBuilds
 from service.compute import ComputePool
 from service.deps import ApiKeyDep
 from service.errors import PayloadTooLarge
@@ -173,6 +174,12 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         compute = ComputePool(db, models, runtimes, settings, slots=limits.SYNC_COMPUTE_SLOTS)
         await compute.start()
         app.state.compute = compute
+        # New structures build in the background (service.builds): in the app's registry when requests compute
+        # in its threads, else in a process of their own that fills the disk cache the compute processes load.
+        builds = StructureBuilds(
+            runtimes, in_process=settings.compute_processes <= 0, enabled=settings.background_builds
+        )
+        app.state.builds = builds
         # No sweep of running jobs: those of a stopped process come back when their leases expire.
         resubmitted = runner.recover()
         log.info("ready", extra={"path": settings.database_url.split("@")[-1]})
@@ -181,6 +188,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         try:
             yield
         finally:
+            builds.shutdown()
             compute.shutdown()
             runner.shutdown()
             db.dispose()

@@ -13,6 +13,7 @@ from fastapi import Depends, Query, Request
 
 from models import Registry
 from service import limits, logs, operations, security
+from service.builds import StructureBuilds
 from service.compute import Task
 from service.errors import NotAcceptable
 from service.jobs import Requeuing
@@ -58,6 +59,8 @@ MetricsDep = Annotated[Metrics, Depends(_state("metrics", Metrics))]
 ModelCacheDep = Annotated[ModelCache, Depends(_state("models", ModelCache))]
 RegistryDep = Annotated[Registry, Depends(_state("registry", Registry))]
 """The application's robot runtimes (made by its lifespan: `service.registry.build_registry`)."""
+BuildsDep = Annotated[StructureBuilds, Depends(_state("builds", StructureBuilds))]
+"""The background builds of new structures (service.builds)."""
 JobsDep = Annotated[Requeuing, Depends(_state("jobs", Requeuing))]
 SettingsDep = Annotated[Settings, Depends(_state("settings", Settings))]
 """The application's settings (`sync_budget_seconds` for `service.limits.admit`)."""

@@ -58,6 +58,11 @@ class Settings(BaseSettings):
     )
     log_level: str = "INFO"
     warm_up: bool = Field(default=True, description="Build the CasADi Functions and solvers at start-up.")
+    background_builds: bool = Field(
+        default=True,
+        description="Build a new robot's structure (native code, solvers, tables) in the background when the "
+        "robot is created (service.builds); off, its first request builds it.",
+    )
 
     # ---- jobs (service/jobs): the engine, leases, retries, the queue's bound, time limits
     broker_url: str = Field(

@@ -18,10 +18,11 @@ from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
 from models.ur_kinematics import TIP_LINK as UR_TIP_LINK
 from models.ur_kinematics import read_kinematics, urdf_of_kinematics
 from models.urdf import UrdfSource, document_from_urdf
+from service.builds import BuildStatus
 from service.conversions.kinematics import pose6_in, pose6_out
 from service.persistence.tables import ParameterVersion, Robot
 from service.schemas.common import Pose
-from service.schemas.robots import ParametersPublic, RobotCreate, RobotPublic
+from service.schemas.robots import ParametersPublic, RobotCreate, RobotPublic, StructureBuildPublic
 from service.schemas.structure import StructureDocument
 
 
@@ -141,6 +142,16 @@ def robot_out(robot: Robot) -> RobotPublic:
         joint_names=list(desc.joint_names),
         joint_units=["mm" if k.boundary_unit == "mm" else "deg" for k in desc.joint_kinds],
         parameter_count=desc.n_params,
+    )
+
+
+def build_out(status: BuildStatus) -> StructureBuildPublic:
+    return StructureBuildPublic(
+        state=status.state.value,
+        started_at=status.started_at,
+        seconds=status.seconds,
+        native=status.native,
+        detail=status.detail,
     )
 
 

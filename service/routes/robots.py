@@ -5,7 +5,7 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Header, Query, Request, Response
 from pydantic import TypeAdapter
 
-from service.deps import ActorDep, DatabaseDep, Limit, Offset, negotiate
+from service.deps import ActorDep, BuildsDep, DatabaseDep, Limit, Offset, negotiate
 from service.json_bodies import OffloopRoute
 from service.operations import operation
 from service.parameters_csv import PARAMETER_HEADER, parameters_csv
@@ -43,8 +43,8 @@ def _etag(revision: int) -> dict[str, str]:
 
 @router.post("", status_code=201, response_model=RobotPublic)
 @operation(Scope.write)
-def create_robot(body: RobotCreate, db: DatabaseDep, actor: ActorDep) -> Response:
-    robot = robots.create_robot(db=db, body=body, actor=actor)
+def create_robot(body: RobotCreate, db: DatabaseDep, actor: ActorDep, builds: BuildsDep) -> Response:
+    robot = robots.create_robot(db=db, body=body, actor=actor, builds=builds)
     response = model_json(robot, status_code=201)
     response.headers.update(_etag(robot.revision))
     return response
@@ -62,8 +62,8 @@ def list_robots(
 
 @router.get("/{robot_id}", response_model=RobotPublic)
 @operation(Scope.read)
-def get_robot(robot_id: str, db: DatabaseDep) -> Response:
-    robot = robots.get_robot(db=db, robot_id=robot_id)
+def get_robot(robot_id: str, db: DatabaseDep, builds: BuildsDep) -> Response:
+    robot = robots.get_robot(db=db, robot_id=robot_id, builds=builds)
     response = model_json(robot)
     response.headers.update(_etag(robot.revision))
     return response
@@ -76,9 +76,15 @@ def get_robot(robot_id: str, db: DatabaseDep) -> Response:
 )
 @operation(Scope.write)
 def patch_robot(
-    robot_id: str, body: RobotPatch, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None
+    robot_id: str,
+    body: RobotPatch,
+    db: DatabaseDep,
+    actor: ActorDep,
+    builds: BuildsDep,
+    *,
+    if_match: IfMatch = None,
 ) -> Response:
-    robot = robots.patch_robot(db=db, robot_id=robot_id, body=body, actor=actor, if_match=if_match)
+    robot = robots.patch_robot(db=db, robot_id=robot_id, body=body, actor=actor, if_match=if_match, builds=builds)
     response = model_json(robot)
     response.headers.update(_etag(robot.revision))
     return response

@@ -78,6 +78,23 @@ class RobotPatch(Strict):
     notes: FreeText | None = Field(default=None, description='Free text; "" clears it')
 
 
+class StructureBuildPublic(Public):
+    """The state of the robot's structure's native code in this server (service.builds)."""
+
+    state: Literal["building", "ready", "failed"] = Field(
+        description="building: started when the robot was created; a request meanwhile waits for it (slower "
+        "once, never refused for it). ready: every later request runs on the built code. failed: see detail "
+        "(requests still work, on CasADi's virtual machine)"
+    )
+    started_at: datetime | None = Field(description="null for a structure the server built at start-up")
+    seconds: OptionalFloat = Field(description="Wall time of the build; null while building")
+    native: bool | None = Field(
+        description="true: compiled to native code; false: runs on CasADi's virtual machine, 5-10x slower (no C "
+        "compiler where the server runs and no prebuilt library: see detail); null while building"
+    )
+    detail: str | None = None
+
+
 class RobotPublic(Public):
     id: str
     name: str
@@ -92,6 +109,11 @@ class RobotPublic(Public):
     joint_names: list[str] = Field(description="The joint vector's order: q1 … q_m, then l1 … l6 for a hexapod")
     joint_units: list[Literal["mm", "deg"]]
     parameter_count: int
+    build: StructureBuildPublic | None = Field(
+        default=None,
+        description="The structure's build in this server, started when the robot is created (or first read "
+        "after a restart); on a single robot's responses (create, read, update), null in lists",
+    )
 
 
 class ParameterPublic(Public):

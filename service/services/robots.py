@@ -2,11 +2,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from models import RobotDescription
 from models.structure import description_from_document
 from models.urdf import document_from_urdf
 from service.audit_actions import AuditAction
+from service.builds import StructureBuilds
 from service.conversions.robots import (
     around_urdf,
+    build_out,
     description,
     frame_in,
     new_description,
@@ -19,13 +22,17 @@ from service.conversions.terms import stored_model
 from service.errors import Conflict
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision, etag
+from service.persistence.tables import Robot
 from service.schemas.robots import ParametersPublic, RobotCreate, RobotPatch, RobotPublic
 from service.schemas.structure import StructureDocument
 
 NO_ACTOR = Actor()
 
 
-def create_robot(*, db: Database, body: RobotCreate, actor: Actor = NO_ACTOR) -> RobotPublic:
+def create_robot(
+    *, db: Database, body: RobotCreate, actor: Actor = NO_ACTOR, builds: StructureBuilds | None = None
+) -> RobotPublic:
+    """The new robot, stored; its structure's build starts in the background (`build` on the answer)."""
     new = new_description(body)  # InvalidInput (a 422 naming the field) for a bad document
     desc = new.desc
     nominal = desc.parameters.nominal.tolist()
@@ -40,7 +47,23 @@ def create_robot(*, db: Database, body: RobotCreate, actor: Actor = NO_ACTOR) ->
         Lifecycle(s).changed(
             robot, AuditAction.ROBOT_CREATED, actor, version=1, details={"name": robot.name}, bump=False
         )
-        return robot_out(robot)
+        created = robot_out(robot)
+    # After the commit: a build is never started for a robot that was not stored.
+    return _with_build(created, desc, builds, start=True)
+
+
+def _with_build(
+    out: RobotPublic, desc: RobotDescription, builds: StructureBuilds | None, *, start: bool
+) -> RobotPublic:
+    """`out` with its structure's build state (`start`: the build started if this process has none)."""
+    if builds is None:
+        return out
+    status = builds.ensure(desc) if start else builds.status(desc)
+    return out if status is None else out.model_copy(update={"build": build_out(status)})
+
+
+def _robot_out(robot: Robot, builds: StructureBuilds | None, *, start: bool) -> RobotPublic:
+    return _with_build(robot_out(robot), description(robot), builds, start=start)
 
 
 def _name_is_free(repo: Repository, name: str) -> None:
@@ -56,13 +79,21 @@ def list_robots(*, db: Database, limit: int, offset: int) -> list[RobotPublic]:
         return [robot_out(r) for r in Repository(s).robots(limit, offset)]
 
 
-def get_robot(*, db: Database, robot_id: str) -> RobotPublic:
+def get_robot(*, db: Database, robot_id: str, builds: StructureBuilds | None = None) -> RobotPublic:
+    """The robot; after a restart, reading it starts its structure's build (cheap when the libraries are
+    cached on disk)."""
     with db.reader() as s:
-        return robot_out(Repository(s).robot(robot_id))
+        return _robot_out(Repository(s).robot(robot_id), builds, start=True)
 
 
 def patch_robot(
-    *, db: Database, robot_id: str, body: RobotPatch, actor: Actor = NO_ACTOR, if_match: str | None = None
+    *,
+    db: Database,
+    robot_id: str,
+    body: RobotPatch,
+    actor: Actor = NO_ACTOR,
+    if_match: str | None = None,
+    builds: StructureBuilds | None = None,
 ) -> RobotPublic:
     """Name and notes change in place; new base or tool guesses also make a new current version (provenance
     `edit`) where those parameters take the guess and every other parameter keeps the current version's value."""
@@ -110,7 +141,7 @@ def patch_robot(
             life.changed(
                 robot, AuditAction.ROBOT_UPDATED, actor, version=robot.current_version, details={"changed": changed}
             )
-        return robot_out(robot)
+        return _robot_out(robot, builds, start=False)
 
 
 def delete_robot(*, db: Database, robot_id: str, actor: Actor = NO_ACTOR, if_match: str | None = None) -> None:

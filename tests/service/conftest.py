@@ -96,7 +96,14 @@ def db(database_url: str) -> Iterator[Database]:
 def make_client(url: str, registry: Registry | None = None, **settings: object) -> ContractClient:
     """Every response it receives is checked against the committed OpenAPI document (`contract_check`). With
     `registry` (the session's), the app uses it; without, it builds its own, empty (warm_up is off)."""
-    options: dict[str, object] = {"database_url": url, "job_workers": 0, "warm_up": False, "log_level": "WARNING"}
+    # No background builds (service.builds): a test's robot builds what its own requests use, as before.
+    options: dict[str, object] = {
+        "database_url": url,
+        "job_workers": 0,
+        "warm_up": False,
+        "background_builds": False,
+        "log_level": "WARNING",
+    }
     options.update(settings)
     app = create_app(Settings(**options), registry=registry)  # type: ignore[arg-type]
     return ContractClient(app, committed_contract())

@@ -24,7 +24,9 @@ pytestmark = pytest.mark.slow
 
 
 _DB = Path(__import__("tempfile").mkdtemp()) / "contract.db"
-APP = create_app(Settings(database_url=f"sqlite:///{_DB}", warm_up=False, job_workers=0, log_level="ERROR"))
+APP = create_app(
+    Settings(database_url=f"sqlite:///{_DB}", warm_up=False, background_builds=False, job_workers=0, log_level="ERROR")
+)
 schema = schemathesis.openapi.from_asgi("/openapi.json", APP)
 
 

@@ -37,11 +37,16 @@ SETTINGS = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=
 
 _PG_NAME = f"iwr_fuzz_{uuid.uuid4().hex[:12]}"
 _SQLITE = Path(tempfile.mkdtemp()) / "fuzz.db"
-SQLITE_APP = create_app(Settings(database_url=f"sqlite:///{_SQLITE}", warm_up=False, job_workers=0, log_level="ERROR"))
+SQLITE_APP = create_app(
+    Settings(
+        database_url=f"sqlite:///{_SQLITE}", warm_up=False, background_builds=False, job_workers=0, log_level="ERROR"
+    )
+)
 PG_APP = create_app(
     Settings(
         database_url=f"postgresql+psycopg://postgres@127.0.0.1:5432/{_PG_NAME}",
         warm_up=False,
+        background_builds=False,
         job_workers=0,
         log_level="ERROR",
     )

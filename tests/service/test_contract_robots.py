@@ -32,7 +32,9 @@ from service.settings import Settings
 Document = dict[str, Any]
 CHECKS = [not_a_server_error, response_schema_conformance, content_type_conformance]
 _DB = Path(tempfile.mkdtemp()) / "robots-contract.db"
-APP = create_app(Settings(database_url=f"sqlite:///{_DB}", warm_up=False, job_workers=0, log_level="ERROR"))
+APP = create_app(
+    Settings(database_url=f"sqlite:///{_DB}", warm_up=False, background_builds=False, job_workers=0, log_level="ERROR")
+)
 # Outside the inner loop: schemathesis loads the schema at import (~1.7 s a process) and the cases take seconds.
 pytestmark = pytest.mark.slow
 schema = schemathesis.openapi.from_asgi("/openapi.json", APP)

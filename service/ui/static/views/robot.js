@@ -15,6 +15,7 @@ export async function robotView(view, id) {
   choose.addEventListener("change", () => drawDrift(id, versions, choose.value, drift));
   fill(view, 
     h("h1", {}, robot.name), muted(`${robot.model} · version ${robot.parameter_version} · ${robot.joint_names.length} joints · ${robot.id}`),
+    buildNote(robot),
     h("nav", { class: "actions", "aria-label": "workflow" },
       link(`#/robots/${id}/design`, "1. Design poses", { id: "go-design" }),
       link(`#/robots/${id}/calibrate`, "2. Calibrate from a campaign", { id: "go-calibrate" }),
@@ -68,4 +69,15 @@ async function drawDrift(id, versions, name, container) {
     id: "drift-plot", title: `${name} (${rows[0].unit}) by version, ± std error`, xlabel: "version", ylabel: rows[0].unit,
     x: versions.map((v) => v.version), y: rows.map((p) => p.value), err: rows.map((p) => p.std_error || 0),
   });
+}
+
+// The structure's background build (service/builds.py): a first request during it is slower once; code on
+// CasADi's virtual machine is slower always, which the engineer should know before timing a cell.
+function buildNote(robot) {
+  const b = robot.build;
+  if (!b) return muted("");
+  if (b.state === "building") return muted("Preparing this structure's compiled code in the background…", "build-state");
+  if (b.state === "failed") return h("p", { class: "error", id: "build-state" }, `Build failed: ${b.detail}`);
+  const took = b.seconds == null ? "at start-up" : `in ${b.seconds.toFixed(1)} s`;
+  return muted(b.native === false ? `Runs on CasADi's virtual machine (slower): ${b.detail}` : `Compiled code ready (${took}).`, "build-state");
 }

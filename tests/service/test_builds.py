@@ -1,0 +1,134 @@
+"""A new robot's structure is built in the background when the robot is created (service.builds), and the robot
+says how far that build is: the answer to POST does not wait for it, and the first request afterwards finds it
+done instead of compiling."""
+
+from __future__ import annotations
+
+import time
+import uuid
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from models import Registry, iwr
+from models.native import compiler_available
+from models.runtime import structure_tag
+from models.structure import description_from_document
+from service.builds import BuildState, StructureBuilds
+from tests.service.conftest import make_client
+
+
+def _unique_arm() -> dict[str, Any]:
+    """A 3R arm no other test (and no earlier run's cache) has: its lengths carry a random fraction."""
+    a = 100.0 + uuid.uuid4().int % 10_000 / 1e4
+    links = [
+        {"joint": "revolute", "range": [-170.0, 170.0], "d": 300.0, "alpha": 90.0},
+        {"joint": "revolute", "range": [-170.0, 170.0], "a": a},
+        {"joint": "revolute", "range": [-170.0, 170.0], "a": 250.0},
+    ]
+    return {"stages": [{"kind": "serial", "convention": "dh", "links": links}]}
+
+
+def _poll_ready(client: Any, robot_id: str, timeout: float = 180.0) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout
+    while True:
+        build = client.get(f"/v1/robots/{robot_id}").json()["build"]
+        if build["state"] != "building" or time.monotonic() > deadline:
+            return dict(build)
+        time.sleep(0.05)
+
+
+def test_a_new_robot_answers_at_once_and_its_first_request_finds_the_structure_built(tmp_path: Path) -> None:
+    registry = Registry()
+    document = _unique_arm()
+    desc = description_from_document(document)
+    with make_client(f"sqlite:///{tmp_path}/b.db", registry, background_builds=True) as client:
+        started = time.perf_counter()
+        made = client.post("/v1/robots", json={"name": "arm", "structure": document})
+        answered = time.perf_counter() - started
+        assert made.status_code == 201, made.text
+        assert made.json()["build"]["state"] == "building"
+        assert made.json()["build"]["started_at"] is not None
+
+        build = _poll_ready(client, made.json()["id"])
+        assert build["state"] == "ready", build
+        assert build["native"] is compiler_available()
+        # The answer did not wait for the build: it took less than the build itself.
+        assert build["seconds"] > answered, (build, answered)
+
+        runtime = registry.runtime(desc)
+        before = sum(runtime.builds.values())
+        assert runtime.builds["kinematics"] == 1
+        fk = client.post(f"/v1/robots/{made.json()['id']}/forward-kinematics", json={"joints": [[10.0, 20.0, 30.0]]})
+        assert fk.status_code == 200, fk.text
+        assert sum(runtime.builds.values()) == before, "the first request built something the build had not"
+
+
+def test_the_build_is_off_by_setting_and_the_robot_says_nothing_of_it(tmp_path: Path) -> None:
+    registry = Registry()
+    document = _unique_arm()
+    with make_client(f"sqlite:///{tmp_path}/b.db", registry, background_builds=False) as client:
+        made = client.post("/v1/robots", json={"name": "arm", "structure": document})
+        assert made.status_code == 201
+        assert made.json()["build"] is None
+        assert client.get(f"/v1/robots/{made.json()['id']}").json()["build"] is None
+    assert description_from_document(document) not in registry
+
+
+def test_the_iwr_warmed_at_start_up_is_ready_without_a_build(tmp_path: Path, registry: Registry) -> None:
+    registry.warm(iwr())  # what `build_registry` does at start-up with warm_up on
+    with make_client(f"sqlite:///{tmp_path}/b.db", registry, background_builds=True) as client:
+        robot_id = client.post("/v1/robots", json={"name": "cell"}).json()["id"]
+        build = client.get(f"/v1/robots/{robot_id}").json()["build"]
+    assert build["state"] == "ready" and build["started_at"] is None and build["seconds"] is None
+
+
+@pytest.mark.slow  # a spawned process that imports the models and compiles (~5 s)
+@pytest.mark.skipif(not compiler_available(), reason="no C compiler: nothing is compiled, so no cache to fill")
+def test_in_its_own_process_the_build_fills_the_cache_that_a_compute_process_loads(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("IWR_CACHE_DIR", str(tmp_path / "cache"))  # inherited by the spawned build process
+    desc = description_from_document(_unique_arm())
+    builds = StructureBuilds(Registry(), in_process=False)
+    try:
+        assert builds.ensure(desc) is not None
+        done = builds.wait(desc, timeout=180.0)
+    finally:
+        builds.shutdown()
+    assert done is not None and done.state == BuildState.READY and done.native and done.seconds, done
+    tag = structure_tag(desc.structure)
+    assert list((tmp_path / "cache").glob(f"robot_{tag}-*.so")), "the build process left no library"
+
+    # A compute process (here: a new registry of this process) now loads instead of compiling.
+    started = time.perf_counter()
+    kinematics = Registry().runtime(desc).kinematics
+    loaded = time.perf_counter() - started
+    assert all(f.class_name() == "External" for f in kinematics.native.values())
+    assert loaded < done.seconds / 2, (loaded, done.seconds)
+    # and what it loaded computes what the structure's own graph does, at a random point of every input
+    rng = np.random.default_rng(5)
+    for name, native in kinematics.native.items():
+        original = kinematics.functions[name]
+        inputs = [rng.uniform(-1.0, 1.0, native.size_in(i)) for i in range(native.n_in())]
+        for ours, theirs in zip(native.call(inputs), original.call(inputs), strict=True):
+            assert np.allclose(ca.DM(ours).full(), ca.DM(theirs).full(), atol=1e-9), name
+
+
+def test_without_native_code_the_robot_says_it_runs_on_the_virtual_machine(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("IWR_NATIVE", "0")
+    desc = description_from_document(_unique_arm())
+    builds = StructureBuilds(Registry(), in_process=True)
+    try:
+        builds.ensure(desc)
+        done = builds.wait(desc, timeout=120.0)
+    finally:
+        builds.shutdown()
+    assert done is not None and done.state == BuildState.READY
+    assert done.native is False
+    assert done.detail is not None and "virtual machine" in done.detail and "disabled" in done.detail
