@@ -13,7 +13,7 @@ LOCK_FLAGS := --quiet --no-emit-index-url --no-emit-find-links --no-emit-trusted
 	--annotation-style=line
 
 .PHONY: install install-runtime lock test test-fast lint typecheck pytest bench run clean error-analysis browser fuzz \
-	audit
+	audit soak
 
 # The installer is uv, itself pinned: `make install` on a clean clone takes ~11 s where pip took ~69 s
 # (downloads in parallel, no bytecode compiled up front; measured here, 2026-12-02), a tenth of `make test`'s
@@ -110,6 +110,13 @@ test: lint typecheck pytest
 fuzz: $(STAMP)
 	IWR_FUZZ_EXAMPLES=150 IWR_FUZZ_STEPS=10 $(BIN)/pytest -p no:cacheprovider tests/service/test_contract_fuzz.py
 	IWR_URDF_FUZZ_EXAMPLES=2000 $(BIN)/pytest -p no:cacheprovider tests/models/test_urdf_fuzz.py
+
+# The load and fleet tests at their full length (IWR_SOAK=1, tests/service/helpers.py): 50 clients for 10 s, 12 s
+# of mixed load with oversized requests, 200 jobs through two APIs and two workers (~3 min here). `make test`
+# runs the same assertions shorter (5 s, 7 s, 60 jobs): what they add by running longer is only waiting.
+soak: $(STAMP)
+	IWR_SOAK=1 $(BIN)/pytest -p no:cacheprovider tests/service/test_concurrency.py tests/service/test_load_hardening.py \
+	  tests/service/test_jobs_distributed.py::test_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_kill
 
 # The dependency audit: pip-audit, in a venv of its own (requirements/audit.lock: the tool never imports the
 # project), looks up every pinned package of both lock files in an advisory database, PyPI's by default

@@ -92,6 +92,7 @@ def test_no_module_outside_the_stages_asks_for_a_hexapod_by_flag() -> None:
 LONGEST_LINES = 60
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_function_over_sixty_lines_says_why() -> None:
     """A long function is a step that was not split: it must say why in a comment ("Long on purpose: …")."""
     unexplained = []

@@ -74,6 +74,7 @@ def test_round_trip_on_the_model(desc: RobotDescription, sim: SimulatedRobot, ca
     assert np.all(answer.condition < desc.hexapod.max_condition)
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_batch_newton_finds_the_ipopt_optimum(desc: RobotDescription, calibrated: IdentificationResult) -> None:
     theta = calibrated.parameters
     fk = forward_kinematics(desc, sample_workspace(desc, 120, seed=33), theta)

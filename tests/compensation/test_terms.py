@@ -33,6 +33,7 @@ def test_compensation_reaches_the_targets_under_their_conditions() -> None:
     assert np.linalg.norm(missed - target.positions, axis=1).max() > 0.02
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_corrected_program_holds_at_its_temperature() -> None:
     program = sample_workspace(iwr(), 5, seed=4)
     hot = make_conditions(5, 27.0, 10.0, [0.0, 0.0, 100.0])

@@ -121,6 +121,7 @@ def test_ik_of_fk_round_trip(name: str) -> None:
     assert inverse_kinematics(desc, fk.positions, quats).reachable.all()
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("name", ["ur5-dh", "iiwa-mdh", "track"])
 def test_ik_from_the_default_seed_reaches_every_target_of_the_truth(name: str) -> None:
     # 50 full poses where a perturbed "true" robot puts its TCP: the IK on that robot's parameters, from the

@@ -149,6 +149,7 @@ def _rank(matrix: np.ndarray) -> int:
     return int(np.sum(s > s[0] * 1e-8))
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_what_a_camera_can_identify() -> None:
     """A world camera's pose and the robot's base are one and the same unknown (moving both changes no pixel):
     the twelve columns have rank 6, so the base is held. A tool camera's pose and the tool transform are (only
@@ -180,6 +181,7 @@ def _pose_error(fit_values: np.ndarray, start: Camera, rotation: np.ndarray, pos
     return np.concatenate([fit_values[:3] - position, matrix_to_rotvec_np(found @ rotation.T)])
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_a_world_camera_calibrates_the_robot_and_finds_itself(seed: int) -> None:
     campaign = world_camera_campaign(DESC, seed, sigma_px=SIGMA_PX)

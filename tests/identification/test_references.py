@@ -154,6 +154,7 @@ def test_fixed_points_and_a_plane_identify_the_robot_and_the_features() -> None:
     assert max(r.rms_residual_mm for r in fit.references) < 1e-6
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_plane_touched_along_a_line_is_refused() -> None:
     truth = gauge_truth(DESC, 5)
     line = np.column_stack([np.linspace(200, 400, 12), np.full(12, 50.0), np.full(12, 80.0)])
@@ -214,6 +215,7 @@ def test_a_bar_read_in_another_unit_is_named_not_fitted(unit: str, factor: float
     assert refused.value.reason == "distance_unit" and refused.value.value == unit
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_the_iwr_from_ballbar_data_alone_says_what_it_identifies_and_reaches_its_bound() -> None:
     """The hybrid robot (a hexapod on a carriage) from four pivots × 50 records: what distances can identify of
     it is estimated, the rest (the frame, what turns with the first axis, the tool's orientation, the leg
@@ -291,6 +293,7 @@ def test_bad_records_are_refused_naming_the_reference_and_the_record() -> None:
             identify_references(DESC, (bad, *groups[1:]))
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_touches_of_another_face_under_one_plane_name_are_named_as_such() -> None:
     """Some forty touches of one plate, the first eight on a step 0.4 mm higher: those are left out as blunders
     and the result says that they lie on a plane of their own (the step), not that they are random mistakes."""

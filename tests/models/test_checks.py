@@ -64,6 +64,7 @@ def _exact(seed: int) -> tuple[SimulatedRobot, np.ndarray]:
     return robot, np.zeros((len(TABLE), len(TABLE)))
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("position_only", [True, False])
 def test_against_the_truth_itself_the_false_alarm_rate_is_alpha(position_only: bool) -> None:
     robot, zero = _exact(5)
@@ -84,6 +85,7 @@ def test_against_the_truth_itself_the_false_alarm_rate_is_alpha(position_only: b
     assert abs(np.mean(statistics) - 1.0) < 0.15  # E χ²/dof = 1, sd of the mean ≈ 0.03
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_alpha_is_the_false_alarm_rate_of_a_calibrated_version() -> None:
     """A fresh calibration per seed: the version's own error is one draw of its covariance, as in service."""
     alpha, n = 0.2, 40
@@ -168,6 +170,7 @@ def test_without_registration_the_base_is_a_candidate(version: Calibrated, desig
     assert TABLE.index["base.z"] in result.explanation.parameters
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_the_detectable_change_is_detected_with_95_percent() -> None:
     """The power formula (non-central χ²) against simulation, exact version."""
     robot, zero = _exact(8)

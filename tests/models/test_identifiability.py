@@ -15,6 +15,7 @@ from models import NoiseModel, RobotDescription, analyse_identifiability, forwar
 from models.identifiability import scaled_jacobian
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(("position_only", "expected"), [(False, 54), (True, 51)])
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_identifiable_count(desc: RobotDescription, position_only: bool, expected: int, seed: int) -> None:
@@ -35,6 +36,7 @@ def test_identifiable_count(desc: RobotDescription, position_only: bool, expecte
     assert np.linalg.matrix_rank(sub, tol=s[0] * 1e-9) == expected
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_confounding_names_the_redundant_partner(desc: RobotDescription) -> None:
     """link1.theta (a rotation about the first z axis) is exactly a base rotation about z."""
     joints = sample_workspace(desc, 40, seed=5)

@@ -135,6 +135,7 @@ def test_a_built_library_loads_without_a_compiler(tmp_path: Path, monkeypatch: p
     assert fallback.class_name() == "SXFunction"
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_concurrent_builders_of_one_library_compile_it_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Two test workers (or job workers) meeting a new structure on a cold cache: one compiles, the other waits
     for the lock and loads what it built. The compiler is a wrapper that counts its runs."""

@@ -61,6 +61,7 @@ def test_the_dh_beta_example_is_the_arm_with_both_betas() -> None:
     assert ur5_like("dh-beta").structure == _dh_with_beta((1, 2)).structure
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("kind", [MeasurementKind.POSE, MeasurementKind.POSITION])
 def test_standard_dh_with_hayatis_beta_on_its_parallel_links_has_the_closed_form_count(kind: MeasurementKind) -> None:
     # The addition to robots.md: beta on the dh links whose alpha is 0 (link 2: axes 2 ∥ 3, link 3: axes 3 ∥ 4)

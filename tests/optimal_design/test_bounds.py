@@ -51,6 +51,7 @@ def test_low_rank_swap_values_match_direct_evaluation(desc: RobotDescription) ->
             assert fast[a, b] == pytest.approx(direct, rel=1e-5)  # M is ill-conditioned with 12 poses
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_exchange_leaves_no_improving_swap(desc: RobotDescription) -> None:
     joints = sample_workspace(desc, 80, seed=63)
     design = design_poses(desc, 15, "D", candidates=joints)
@@ -64,6 +65,7 @@ def test_exchange_leaves_no_improving_swap(desc: RobotDescription) -> None:
             assert utility(Criterion.D, info.subset_information(trial), info.task) <= current + 1e-9
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_augmentation_keeps_what_was_measured(desc: RobotDescription) -> None:
     measured = sample_workspace(desc, 12, seed=64)
     joints = sample_workspace(desc, 300, seed=65)

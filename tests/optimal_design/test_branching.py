@@ -106,6 +106,7 @@ def test_newton_leaf_bounds_hold_for_every_subset_of_the_leaf(desc: RobotDescrip
     assert newton_used >= 6  # the leaves' bounds are Newton's, not the fallback's
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_branching_picks_a_fractional_candidate_whose_children_both_fall(desc: RobotDescription) -> None:
     """The quadratic model's choice is fractional, and both of its children's bounds (solved) are below the
     parent's; its children fall at least as far as those of the most fractional candidate on this problem

@@ -32,6 +32,7 @@ def test_platform_centre_is_the_carriage_frame_applied_to_the_platform(desc: Rob
     np.testing.assert_allclose(tcp, fk.positions, atol=1e-12)
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_joint_sub_ranges_filter_given_candidates(desc: RobotDescription) -> None:
     joints = sample_workspace(desc, 300, seed=81)
     lo, hi = float(np.quantile(joints[:, 0], 0.2)), float(np.quantile(joints[:, 0], 0.8))

@@ -54,6 +54,7 @@ def _fit_error(indices: np.ndarray, candidates: tuple[ReferenceRecords, ...], se
     return float(np.sqrt(np.mean(np.sum((aligned - true_p) ** 2, axis=1))))
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_the_candidates_blocks_are_the_fits_rows() -> None:
     candidates = _candidates()
     info = reference_information(DESC, candidates, noise=NOISE)

@@ -40,6 +40,7 @@ def test_a_design_over_temperature_levels_spreads_them_and_informs_kappa() -> No
     assert designed < min(randoms)
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_without_levels_the_terms_have_no_information() -> None:
     design = design_poses(THERMAL, 30, "D", candidate_count=300, seed=3)
     assert design.conditions is None

@@ -13,7 +13,11 @@ from fastapi.testclient import TestClient
 # The harness builds its campaigns from the same records; the service tests keep importing them from here.
 from harness.records import records
 
-__all__ = ["broker", "finished_job", "records"]
+__all__ = ["SOAK", "broker", "finished_job", "records"]
+
+SOAK = os.environ.get("IWR_SOAK") == "1"
+"""`make soak`: the load and fleet tests at their full length (50 clients for 10 s, 12 s of mixed load, 200 jobs
+through the fleet). `make test` runs them shorter: the same assertions, on what only took longer by waiting."""
 
 
 def finished_job(client: TestClient, url: str, *, seconds: float = 30.0) -> dict[str, Any]:

@@ -103,6 +103,7 @@ def test_body_limit_gives_413(tmp_path: object) -> None:
         assert c.get(f"/v1/robots/{rid}").status_code == 200
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_api_keys(tmp_path: object) -> None:
     with make_client(f"sqlite:///{tmp_path}/keys.db", api_keys="k1,k2") as c:
         assert c.get("/healthz").status_code == 200
@@ -175,6 +176,7 @@ def test_rejected_or_failed_calibrations_change_nothing(client: TestClient, robo
     assert xml.status_code == 415
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_async_jobs(client: TestClient, robot_id: str) -> None:
     sim = perturbed_robot(DESC, seed=4)
     recs = records(DESC, sim, sample_workspace(DESC, 30, seed=9), seed=10)

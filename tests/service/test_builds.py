@@ -41,6 +41,7 @@ def _poll_ready(client: Any, robot_id: str, timeout: float = 180.0) -> dict[str,
         time.sleep(0.05)
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_new_robot_answers_at_once_and_its_first_request_finds_the_structure_built(tmp_path: Path) -> None:
     registry = Registry()
     document = _unique_arm()

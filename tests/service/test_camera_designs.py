@@ -104,6 +104,7 @@ def _calibrated_error(client: TestClient, arm: str, design: dict[str, Any], seed
     return float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_an_i_design_of_20_images_is_the_librarys_and_calibrates_to_its_prediction(
     client: TestClient, arm: str
 ) -> None:
@@ -153,6 +154,7 @@ def test_the_prediction_scales_with_the_cameras_sigma(client: TestClient, arm: s
     assert ratio == pytest.approx(3.0, rel=1e-6)
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_target_design_says_how_many_images(client: TestClient, arm: str) -> None:
     joints = _joints(80, seed=7)
     twelve = _design(client, arm, _body(joints, count=12))["metrics"]["predicted_rms_tcp_mm"]
@@ -190,6 +192,7 @@ def test_a_repeated_pose_is_one_candidate_image_named_by_its_first_place(client:
     np.testing.assert_allclose(report["poses"], joints[report["indices"]] * UR5.joint_to_boundary, atol=1e-9)
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_camera_on_the_tool_is_designed_against_a_board(client: TestClient, arm: str) -> None:
     hand = {
         **INTRINSICS,

@@ -189,6 +189,7 @@ def test_joint_and_point_files_from_the_controller_and_spatial_analyzer(client: 
     assert r.status_code == 400 and "no measured point: P000, P001" in r.json()["detail"]
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_csv_only_client_gets_406_not_json(client: TestClient, robot_id: str) -> None:
     recs = _campaign(11, n=40)
     url = f"/v1/robots/{robot_id}/calibrations"
@@ -242,6 +243,7 @@ def test_a_campaign_that_would_make_the_robot_less_accurate_is_not_applied(clien
     assert client.get(f"/v1/robots/{robot_id}/parameters").json()["version"] == good["parameter_version"]
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_residuals_come_per_axis_measured_minus_model(client: TestClient, robot_id: str) -> None:
     """dx, dy, dz beside the norms: a record read 0.4 mm too far along +x shows +0.4 mm in x (measured minus
     model) and nothing in y and z, once the fit has left it out."""

@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import pytest
 from fastapi.testclient import TestClient
 
 from models.error_analysis import ErrorMagnitudes, error_analysis
@@ -62,6 +63,7 @@ def test_a_7r_arm_from_its_description(client: TestClient) -> None:
     np.testing.assert_allclose(_rms(second), 2 * _rms(first), rtol=1e-2)
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_hexapod_alone_and_an_unknown_robot(client: TestClient) -> None:
     hexapod = client.post("/v1/robots", json={"name": "hex-tolerances", "structure": hexapod_alone_document()}).json()
     answer = _study(client, robot_id=hexapod["id"])

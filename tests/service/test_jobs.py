@@ -143,6 +143,7 @@ def test_expired_leases_are_requeued_up_to_the_retry_limit(db: Database) -> None
         assert live is not None and live.status == "running" and live.worker == "alive"  # never touched
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_cancel_a_queued_job_at_once_and_a_running_one_at_its_next_progress_point(
     db: Database, registry: Registry
 ) -> None:

@@ -21,7 +21,7 @@ from service.model_cache import ModelCache
 from service.persistence import Database
 from service.settings import Settings
 from tests.service.conftest import postgres_url
-from tests.service.helpers import broker
+from tests.service.helpers import SOAK, broker
 
 LEASE = "2"
 """Seconds: a killed worker's job is taken over ~2 s later (the default, 10 s, would only make this slower)."""
@@ -113,8 +113,13 @@ def test_a_worker_killed_after_the_job_committed_leaves_one_result(pg: str, tmp_
         assert _rows(pg, robot["id"]) == (1, 2), "one calibration row, one new parameter version"
 
 
-@pytest.mark.slow  # 2 APIs, 2 workers, 200 jobs, a restart and a kill: ~90 s here
-def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_kill(pg: str, tmp_path: Path) -> None:
+MIXED_JOBS = 200 if SOAK else 60
+"""Jobs through the fleet: 60 in `make test` (the restart and the kill land mid-run either way), 200 in
+`make soak`."""
+
+
+@pytest.mark.slow  # 2 APIs, 2 workers, 60 jobs, a restart and a kill: ~25 s here (200 jobs: ~60 s)
+def test_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_kill(pg: str, tmp_path: Path) -> None:
     with fleet(pg, broker(RABBITMQ), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
         a, b = f.start_api("a"), f.start_api("b")
         for name in ("w1", "w2"):
@@ -123,7 +128,7 @@ def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_ki
         small = campaign(60)
         design = {"count": 12, "criterion": "D", "candidate_count": 200, "seed": 1}
         submitted: list[str] = []
-        for i in range(200):
+        for i in range(MIXED_JOBS):
             base = (a, b)[i % 2] if "b" in f.apis else a
             robot = robots[i % 4]
             if i % 4 == 3:
@@ -132,11 +137,11 @@ def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_ki
                 status, accepted = call(base, "POST", f"/v1/robots/{robot}/calibrations?async=true", small)
             assert status == 202, accepted
             submitted.append(accepted["job_id"])
-            if i == 60:
+            if i == MIXED_JOBS * 3 // 10:
                 f.kill_api("b")  # restart of one API process mid-run ...
-            if i == 80:
+            if i == MIXED_JOBS * 4 // 10:
                 b = f.start_api("b")  # ... its start-up touches no job of the others
-            if i == 100:
+            if i == MIXED_JOBS // 2:
                 f.wait_ready("w1")
                 f.kill_worker("w1")  # and one worker killed mid-run (-9)
         jobs = wait_for(a, submitted, timeout=400)
@@ -152,7 +157,7 @@ def test_200_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_ki
             results = c.execute(text("SELECT count(DISTINCT result_id) FROM jobs")).scalar_one()
             applied = c.execute(text("SELECT count(*) FROM calibrations WHERE applied")).scalar_one()
         engine.dispose()
-        assert (calibrations, designs, results) == (150, 50, 200)
+        assert (calibrations, designs, results) == (MIXED_JOBS * 3 // 4, MIXED_JOBS // 4, MIXED_JOBS)
         # One new version per applied calibration, none twice. (The same campaign again predicts no better than
         # the version it made, so the acceptance checks leave most of them stored and not applied.)
         assert applied >= 4 and versions == 4 + applied

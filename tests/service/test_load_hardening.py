@@ -7,6 +7,7 @@ from typing import Any
 import pytest
 
 from benchmarks import bench_hardening
+from tests.service.helpers import SOAK
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]  # throughput and latency under load: alone on the cores
 
@@ -20,7 +21,8 @@ machine ran everything ~1.5x slower. (The assertion had drifted to the bare 1 s;
 
 
 def test_mixed_load_with_oversized_requests() -> None:
-    result: dict[str, Any] = bench_hardening.run(duration_s=12.0)  # the numbers this test bounds
+    # the numbers this test bounds; 7 s is 140 probes (the p99 is then the second slowest), 12 s in `make soak`
+    result: dict[str, Any] = bench_hardening.run(duration_s=12.0 if SOAK else 7.0)
     assert result["unexpected"] == {}, result  # no 500, no reset, 503 only as `overloaded`
     assert result["rss_peak_mb"] * 1e6 <= bench_hardening.MEMORY_CEILING_BYTES, result
     for kind in ("calibration", "fk", "fk_large", "ik_at_budget"):  # each within its wait, deadline and stop

@@ -256,6 +256,7 @@ def _images_body(records: list[dict[str, Any]]) -> dict[str, Any]:
     return {"measurements": out, "cameras": WORLD_CAMERA, "noise": {"position_mm": 0.05}}
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_world_camera_calibrates_the_arm_and_finds_its_own_pose(client: TestClient, arm: str) -> None:
     seen = world_camera_campaign(UR5, 2, images=30)
     answer = client.post(f"/v1/robots/{arm}/calibrations", json=_images_body(seen.images))

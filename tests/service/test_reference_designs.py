@@ -123,6 +123,7 @@ def test_a_d_design_of_30_ballbar_records_is_the_librarys_and_reaches_its_predic
     assert predicted / 2 <= reached <= 2 * predicted, (reached, predicted)
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_target_design_says_how_many_ballbar_records(client: TestClient, arm: str) -> None:
     goal = 0.0035  # 3.5 µm RMS at σ 2 µm: the minimum of records (28) predicts 4.7 µm
     body = {

@@ -196,6 +196,7 @@ def test_every_robots_md_rule_is_a_422_naming_the_field(client: TestClient) -> N
     assert client.get("/v1/robots").json() == []  # nothing was stored
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_the_structure_is_typed_in_the_contract(client: TestClient) -> None:
     schemas = client.get("/openapi.json").json()["components"]["schemas"]
     robot = schemas["RobotPublic"]["properties"]["structure"]

@@ -141,6 +141,7 @@ def test_csv_keeps_the_temperature_column(client: TestClient, robot_id: str) -> 
     assert "thermal.legs" in r.json()["identifiable"]
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_bad_term_requests_are_422_naming_the_field(client: TestClient, robot_id: str) -> None:
     _, recs, _ = _campaign()
     url = f"/v1/robots/{robot_id}/calibrations"

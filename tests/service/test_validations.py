@@ -17,6 +17,7 @@ from tests.service.helpers import records
 DESC = iwr()
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_hand_computed_small_campaign(client: TestClient, robot_id: str) -> None:
     """Two commands, three cycles each, measured at the nominal TCP plus offsets chosen by hand."""
     joints = sample_workspace(DESC, 2, seed=3)
@@ -81,6 +82,7 @@ def test_hand_computed_small_campaign(client: TestClient, robot_id: str) -> None
     assert [r["position"] for r in stored] == [r["position"] for r in recs]
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_bad_validations_are_refused_and_store_nothing(client: TestClient, robot_id: str) -> None:
     joints = (sample_workspace(DESC, 3, seed=4) * DESC.joint_to_boundary).tolist()
     recs = [{"joints": q, "position": [0.0, 0.0, 0.0]} for q in joints]

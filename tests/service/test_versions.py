@@ -61,6 +61,7 @@ def _values(client: TestClient, robot_id: str, version: int | None = None) -> li
     return [p["value"] for p in client.get(f"/v1/robots/{robot_id}/parameters{query}").json()["parameters"]]
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_versions_restore_and_diff(client: TestClient, robot_id: str) -> None:
     first = _calibrate(client, robot_id, 51, notes="after the crash", instrument={"name": "AT960", "serial": "X1"})
     assert first["user_notes"] == "after the crash" and first["instrument"] == {"name": "AT960", "serial": "X1"}
@@ -129,6 +130,7 @@ def test_versions_restore_and_diff(client: TestClient, robot_id: str) -> None:
     assert same["changed"] == [] and same["max_abs_sigma"] == 0.0
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_patch_etag_delete_and_the_audit_trail(client: TestClient) -> None:
     created = client.post("/v1/robots", json={"name": "cell-7"}, headers={"X-Test-Actor": "alice"})
     robot_id, etag = created.json()["id"], created.headers["etag"]
@@ -188,6 +190,7 @@ def test_patch_etag_delete_and_the_audit_trail(client: TestClient) -> None:
     assert client.get("/v1/audit", params={"action": "robot.exploded"}).status_code == 422
 
 
+@pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_calibrations_and_restores_are_in_the_trail(client: TestClient, robot_id: str) -> None:
     calibration = _calibrate(client, robot_id, 71)
     client.post(f"/v1/robots/{robot_id}/parameter-versions/1/restore", headers={"X-Test-Actor": "ops"})
