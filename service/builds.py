@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 import threading
 import time
 from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
@@ -37,6 +38,7 @@ from models.native import vm_only_libraries
 from models.robot import RobotDescription
 from models.runtime import structure_tag
 from models.warm import warm_everything
+from service.parent_watch import watch_parent
 
 log = logging.getLogger("service.builds")
 
@@ -163,7 +165,10 @@ class StructureBuilds:
 
     def _in_own_process(self, desc: RobotDescription) -> _Built:
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=1, mp_context=context) as process:
+        # With a parent watch, like the compute processes: a build never outlives its server (kill -9 included).
+        with ProcessPoolExecutor(
+            max_workers=1, mp_context=context, initializer=watch_parent, initargs=(os.getpid(),)
+        ) as process:
             future: Future[_Built] = process.submit(build_structure, desc)
             return future.result()
 

@@ -44,6 +44,7 @@ from models.cancellation import DEADLINE, CancellationToken, cancellable, exempt
 from service import logs
 from service.errors import Overloaded, ParseTimeout
 from service.model_cache import ModelCache
+from service.parent_watch import watch_parent
 from service.persistence import Database
 from service.registry import build_registry
 from service.settings import Settings
@@ -110,7 +111,7 @@ _process: _Process | None = None
 
 def start_process(settings: Settings, flags: Any, parent: int) -> None:
     global _process  # noqa: PLW0603  (an initializer can leave its state only in the process's module)
-    threading.Thread(target=_exit_with, args=(parent,), name="parent-watch", daemon=True).start()
+    watch_parent(parent)
     _lower_priority()
     started = time.perf_counter()
     registry = build_registry(settings)  # the API's own factory: the same structures warmed, once per process
@@ -121,7 +122,7 @@ def start_process(settings: Settings, flags: Any, parent: int) -> None:
 
 def start_parser(parent: int) -> None:
     # At the API's own priority: its work is bounded by the body limit, and a refusal is due within a second.
-    threading.Thread(target=_exit_with, args=(parent,), name="parent-watch", daemon=True).start()
+    watch_parent(parent)
 
 
 def _lower_priority() -> None:
@@ -129,12 +130,6 @@ def _lower_priority() -> None:
     # computation waits a few milliseconds; the other way round, the loop waits a whole scheduler slice.
     with contextlib.suppress(OSError):  # not allowed here: equal priority, as before
         os.nice(NICE)
-
-
-def _exit_with(parent: int) -> None:
-    while os.getppid() == parent:  # re-parented when the server dies, even by kill -9
-        time.sleep(0.2)
-    os._exit(0)
 
 
 def _ready() -> int:

@@ -29,6 +29,7 @@ from models import Registry
 from models.cancellation import CancellationToken, Cancelled, Step, cancellable
 from service.faults import crash_point
 from service.model_cache import ModelCache
+from service.parent_watch import watch_parent
 from service.persistence import Database
 from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed
 from service.problems import lookup, to_problem
@@ -222,7 +223,7 @@ def start_worker(settings: Settings, parent: int | None = None) -> WorkerContext
     with -9 cannot stop its pool itself)."""
     global _worker  # noqa: PLW0603  (an initializer can leave its state only in the worker's module)
     if parent is not None:
-        threading.Thread(target=_exit_with, args=(parent,), name="parent-watch", daemon=True).start()
+        watch_parent(parent)
     started = time.perf_counter()
     registry = build_registry(settings)
     if settings.warm_up:
@@ -237,13 +238,6 @@ def start_worker(settings: Settings, parent: int | None = None) -> WorkerContext
         db, ModelCache(db), registry, lease=settings.job_lease_seconds, max_attempts=settings.job_max_attempts
     )
     return _worker
-
-
-def _exit_with(parent: int) -> None:
-    # getppid() changes when the parent dies (the orphan is re-parented); 0.2 s polling costs nothing.
-    while os.getppid() == parent:
-        time.sleep(0.2)
-    os._exit(0)
 
 
 class Requeuing:
