@@ -63,12 +63,16 @@ browser:
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium >/dev/null; } || \
 	  echo "note: $(CHROMIUM) is missing (apt-get install chromium): the browser tests will be skipped"
 
-# pytest-xdist: one worker per core (-n auto), then the tests marked `serial` (wall times, deadlines, load:
+# pytest-xdist: two workers per core (below), then the tests marked `serial` (wall times, deadlines, load:
 # pyproject.toml's markers) in a second pytest alone on the cores. Both parts run even if the first fails, so
 # one run shows every failure. `make pytest XDIST=0` (or test-fast) is one plain serial pytest, for debugging;
 # XDIST=N sets the workers. Each worker builds its own session fixtures (registry, apps); what they share on
 # disk (the native-library cache, PostgreSQL databases, broker queues) is named or written so they cannot mix.
-XDIST ?= auto
+# Two workers per core, not one: many tests wait more than they compute (a live server or a fleet starting, a job
+# lease expiring, a browser page loading), and a second worker per core fills those waits (measured on this
+# 2-core machine: docs/development.md, "Test suite time").
+NPROC := $(shell nproc 2>/dev/null || echo 2)
+XDIST ?= $(shell echo $$(( $(NPROC) * 2 )))
 PYTEST_PARALLEL := $(BIN)/pytest -n $(XDIST) --dist worksteal
 # --cov-fail-under=0 on the parts: the floor ([tool.coverage.report] fail_under) is checked once, on the
 # combined data, by `coverage report`.
@@ -91,18 +95,26 @@ endif
 # assertion-rewritten plugins, ~11 s of CPU each (measured with the collection alone: 23 s against 12 s).
 pytest test-fast: export PYTHONDONTWRITEBYTECODE :=
 
-# The inner loop: no tests marked slow, no coverage.
+# The inner loop: no tests marked slow, no coverage; one worker per core (its tests compute, none waits, and each
+# worker pays the collection).
 test-fast: $(STAMP)
 ifeq ($(XDIST),0)
 	$(BIN)/pytest -m "not slow"
 else
 	rc=0; \
-	$(PYTEST_PARALLEL) -m "not slow and not serial" || rc=$$?; \
+	$(BIN)/pytest -n $(NPROC) --dist worksteal -m "not slow and not serial" || rc=$$?; \
 	$(BIN)/pytest -m "serial and not slow" || rc=$$?; \
 	exit $$rc
 endif
 
-test: lint typecheck pytest
+# mypy (one process, ~35 s of CPU on a clean clone) runs beside the tests rather than before them, its report
+# printed at the end; any failure of either fails the target.
+test: lint
+	@log=$$(mktemp); rc=0; \
+	$(MAKE) --no-print-directory typecheck >"$$log" 2>&1 & typecheck=$$!; \
+	$(MAKE) --no-print-directory pytest || rc=$$?; \
+	wait $$typecheck || rc=1; \
+	cat "$$log"; rm -f "$$log"; exit $$rc
 
 # Schemathesis longer than `make test` does (SQLite and PostgreSQL, stateless and stateful): ~10 min here;
 # then hypothesis on the URDF and structure readers, 2 000 random documents per property, not the fixed seed
