@@ -25,6 +25,7 @@ def test_mixed_load_with_oversized_requests() -> None:
     result: dict[str, Any] = bench_hardening.run(duration_s=12.0 if SOAK else 7.0)
     assert result["unexpected"] == {}, result  # no 500, no reset, 503 only as `overloaded`
     assert result["rss_peak_mb"] * 1e6 <= bench_hardening.MEMORY_CEILING_BYTES, result
+    assert result["pss_peak_mb"] * 1e6 <= bench_hardening.MEMORY_TARGET_BYTES, result
     for kind in ("calibration", "fk", "fk_large", "ik_at_budget"):  # each within its wait, deadline and stop
         assert result[f"{kind}_max_s"] <= bench_hardening.COMPUTE_BUDGET_S, (kind, result)
     for kind in bench_hardening.REFUSALS:  # twice the 1 s (REFUSAL_S), as their own processes see them
