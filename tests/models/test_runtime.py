@@ -12,7 +12,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from models import Registry, RobotDescription, default_registry, forward_kinematics, iwr, sample_workspace
+from models import Registry, RobotDescription, default_registry, forward_kinematics, iwr, native, sample_workspace
 from models.compensation import inverse_kinematics
 from models.identification import identify
 from models.native import compile_functions
@@ -162,6 +162,50 @@ def test_concurrent_builders_of_one_library_compile_it_once(tmp_path: Path, monk
     assert [r.class_name() for r in results] == ["External"] * 3
     for loaded in results:
         np.testing.assert_allclose(np.asarray(loaded([1.0, 2.0, 3.0])).ravel(), [1.0, 8.0, 27.0])
+
+
+@pytest.mark.slow  # two compilers of 0.5 s each: outside the inner loop (make test-fast)
+def test_a_library_of_several_functions_compiles_its_parts_at_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The Functions are dealt to `PARTS` libraries by size, their compilers run side by side (the wrapper logs
+    each run's start and end), and every Function computes what CasADi's VM computes."""
+    real = shutil.which(os.environ.get("CC", "cc"))
+    if real is None:
+        pytest.skip("needs a compiler")
+    log = tmp_path / "runs"
+    wrapper = tmp_path / "logging-cc"
+    wrapper.write_text(
+        f'#!/bin/sh\necho "start $(date +%s.%N)" >> "{log}"\nsleep 0.5\n"{real}" "$@"\nrc=$?\n'
+        f'echo "end $(date +%s.%N)" >> "{log}"\nexit $rc\n'
+    )
+    wrapper.chmod(0o755)
+    monkeypatch.setenv("IWR_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("CC", str(wrapper))
+    x = ca.SX.sym("x", 3)
+    functions = [
+        ca.Function("big", [x], [ca.sin(x) * ca.cos(x) + x**3 - ca.exp(-x) * x]),
+        ca.Function("small", [x], [2 * x]),
+        ca.Function("middle", [x], [ca.sin(x) + x * x]),
+    ]
+    built = compile_functions("split", functions)
+    libraries = sorted((tmp_path / "cache").glob("*.so"))
+    assert [p.name.split("-")[0] for p in libraries] == [f"split.{i}" for i in range(native.PARTS)]
+    # The largest Function alone in one library, the two others in the other.
+    assert {built[name].class_name() for name in ("big", "small", "middle")} == {"External"}
+    events = [line.split() for line in log.read_text().splitlines()]
+    starts = sorted(float(t) for kind, t in events if kind == "start")
+    ends = sorted(float(t) for kind, t in events if kind == "end")
+    assert len(starts) == native.PARTS and starts[-1] < ends[0], "the compilers ran one after the other"
+    point = [0.3, -1.2, 2.0]
+    for f in functions:
+        np.testing.assert_allclose(np.asarray(built[f.name()](point)).ravel(), np.asarray(f(point)).ravel())
+    # A failing compiler sends every Function of the library to the VM, and leaves no part behind.
+    monkeypatch.setenv("IWR_CACHE_DIR", str(tmp_path / "cache2"))
+    monkeypatch.setenv("CC", "false")
+    fallback = compile_functions("split", functions)
+    assert {f.class_name() for f in fallback.values()} == {"SXFunction"}
+    assert not list((tmp_path / "cache2").glob("*.so"))
 
 
 def test_a_runtime_without_a_compiler_uses_the_built_robot_library(
