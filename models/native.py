@@ -27,7 +27,6 @@ import fcntl
 import hashlib
 import logging
 import os
-import re
 import shutil
 import subprocess
 import tempfile
@@ -140,8 +139,9 @@ def _parts(name: str, functions: list[ca.Function]) -> list[tuple[Path, list[ca.
     ]
 
 
-def _c_source(name: str, functions: list[ca.Function]) -> str:
-    gen = ca.CodeGenerator(f"{name}.c", {"with_header": False, "casadi_real": "double"})
+def _c_source(functions: list[ca.Function]) -> str:
+    # The generator's name only names its file (the library's exported symbols are the Functions' names).
+    gen = ca.CodeGenerator("functions.c", {"with_header": False, "casadi_real": "double"})
     for f in functions:
         gen.add(f)
     return str(gen.dump())
@@ -172,7 +172,7 @@ def compile_functions(name: str, functions: list[ca.Function]) -> dict[str, ca.F
                 # Another process (a test worker, a second job worker on a cold cache) may have built them while
                 # this one waited: a minute of compiler for the largest structures, not to be spent twice.
                 missing = [(library, part) for library, part in parts if not library.exists()]
-                _build([(_c_source(re.sub(r"\W", "_", library.stem), part), library) for library, part in missing])
+                _build([(_c_source(part), library) for library, part in missing])
         except (OSError, subprocess.CalledProcessError, subprocess.TimeoutExpired) as exc:
             log.warning("native compilation of %s failed (%s); using the CasADi VM", name, exc)
             return _on_vm(name, VmReason.COMPILE_FAILED, functions)
