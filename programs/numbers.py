@@ -19,14 +19,15 @@ def styled(value: float, like: str, min_decimals: int) -> str:
 
     A value that rounds to zero is written without a sign ("-0.000" would read as a change)."""
     m = _NUMBER.match(like.strip())
-    places = max(decimals(like), min_decimals)
+    written_places = len(m.group("frac") or "") if m else 0  # decimals(like), without matching it twice
+    places = max(written_places, min_decimals)
     if m is not None and m.group("exp"):
         exp = m.group("exp")
         upper = exp[0] == "E"
         # `min_decimals` counts places of the value, the mantissa's count from its first digit: 1000.05 needs
         # 1.00005E3, five of them.
         magnitude = math.floor(math.log10(abs(value))) if value != 0 else 0
-        places = max(decimals(like), min_decimals + magnitude, 0)
+        places = max(written_places, min_decimals + magnitude, 0)
         text = f"{value:.{places}{'E' if upper else 'e'}}"
         mantissa, _, power = text.partition("E" if upper else "e")
         # Keep the source's exponent spelling (E+09, E9, e-3): sign and digits as wide as it wrote them.

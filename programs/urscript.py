@@ -12,7 +12,7 @@ kept as written. `#` starts a comment.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -99,29 +99,33 @@ def _scan(tokens: list[Token], file: str | None) -> list[Event]:
     stack: list[Context] = []
     events: list[Event] = []
     i = 0
-    while i < len(tokens):
+    n = len(tokens)
+    while i < n:
+        # The kinds and texts compared directly: this loop visits every token of the program.
         tok = tokens[i]
-        nxt = tokens[i + 1] if i + 1 < len(tokens) else None
+        nxt = tokens[i + 1] if i + 1 < n else None
         prev = tokens[i - 1] if i else None
-        if tok.is_("name", "p", fold=False) and nxt is not None and nxt.is_("op", "["):
+        kind, text = tok.kind, tok.text
+        if kind == "name" and text == "p" and nxt is not None and nxt.kind == "op" and nxt.text == "[":
             cur = Cursor(tokens, file, "the pose")
             cur.i = i
             pose = parse_pose(cur)
             assigned = None
-            if prev is not None and prev.is_("op", "=") and i >= 2 and tokens[i - 2].kind == "name":
+            if prev is not None and prev.kind == "op" and prev.text == "=" and i >= 2 and tokens[i - 2].kind == "name":
                 assigned = tokens[i - 2].text
             events.append(Event(i, _snapshot(stack), pose=pose, assigned=assigned))
             i = pose.end
             continue
-        if tok.kind == "op" and tok.text in "([":
-            stack.append(Context(prev.text if tok.text == "(" and prev is not None and prev.kind == "name" else ""))
-        elif tok.kind == "op" and tok.text in ")]":
-            if not stack:
-                raise Cursor(tokens, file, "the program").error(f"unbalanced {tok.text!r}", tok)
-            stack.pop()
-        elif tok.is_("op", ",") and stack:
-            stack[-1].argument += 1
-        elif tok.kind == "name" and _whole_argument(prev, nxt) and stack:
+        if kind == "op":
+            if text in "([":
+                stack.append(Context(prev.text if text == "(" and prev is not None and prev.kind == "name" else ""))
+            elif text in ")]":
+                if not stack:
+                    raise Cursor(tokens, file, "the program").error(f"unbalanced {text!r}", tok)
+                stack.pop()
+            elif text == "," and stack:
+                stack[-1].argument += 1
+        elif kind == "name" and stack and _whole_argument(prev, nxt):
             if stack[-1].name == "pose_trans" and stack[-1].argument == 0:
                 stack[-1].feature = tok.text
             events.append(Event(i, _snapshot(stack), name=tok))
@@ -130,15 +134,17 @@ def _scan(tokens: list[Token], file: str | None) -> list[Event]:
 
 
 def _snapshot(stack: list[Context]) -> list[Context]:
-    return [replace(c) for c in stack]
+    return [Context(c.name, c.argument, c.feature) for c in stack]
 
 
 def _whole_argument(prev: Token | None, nxt: Token | None) -> bool:
     return (
         prev is not None
-        and (prev.is_("op", "(") or prev.is_("op", ","))
+        and prev.kind == "op"
+        and prev.text in ("(", ",")
         and nxt is not None
-        and (nxt.is_("op", ",") or nxt.is_("op", ")"))
+        and nxt.kind == "op"
+        and nxt.text in (",", ")")
     )
 
 
