@@ -50,7 +50,7 @@ def signed_number(sign: Token | None, tok: Token) -> Number:
     return Number(value, sign if sign is not None else tok, tok)
 
 
-def _plain_number(cur: Cursor, close: str) -> Number | None:
+def plain_number(cur: Cursor, close: str) -> Number | None:
     """The common item, a (signed) number then `,` or `close`, read straight off the token list (the general
     reading costs a dozen method calls an item; a 10 000-target program has 60 000 items); None otherwise,
     the cursor unmoved."""
@@ -73,7 +73,7 @@ def literal_or_expression(cur: Cursor, close: str, what: str) -> Value:
     """One item of a bracketed literal, up to its `,` or its closing bracket `close`: a (signed) number, or
     anything else read to the item's end and kept as written (an expression, a name, a string, an enumeration).
     Nothing at all is a syntax error naming what is missing."""
-    plain = _plain_number(cur, close)
+    plain = plain_number(cur, close)
     if plain is not None:
         return plain
     sign = cur.accept("op", "-") or cur.accept("op", "+")
