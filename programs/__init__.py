@@ -16,6 +16,7 @@ import numpy as np
 
 from models._types import Array
 from programs import csv_poses, krl, rapid, urscript
+from programs.collection import collector_paused
 from programs.errors import ProgramError, ProgramSyntaxError, UndeclaredFrame
 from programs.targets import PROGRAM, Configuration, Frames, Program, Slot, Target, rewrite
 
@@ -54,7 +55,9 @@ def dialect_of_file(filename: str) -> Dialect | None:
 
 
 def read_program(name: str, program: str, files: Mapping[str, str] | None = None) -> Program:
-    return dialect(name).read(program, dict(files or {}))
+    reader = dialect(name).read
+    with collector_paused():
+        return reader(program, dict(files or {}))
 
 
 def rewritten(program: Program, changes: Sequence[tuple[Target, Array]]) -> dict[str | None, str]:
@@ -62,13 +65,15 @@ def rewritten(program: Program, changes: Sequence[tuple[Target, Array]]) -> dict
     if not changes:
         return rewrite(program.texts, [])
     targets = [target for target, _ in changes]
-    texts = dialect(program.format).numbers(targets, np.array([pose for _, pose in changes]))
-    edits = [
-        (slot, text)
-        for target, new in zip(targets, texts, strict=True)
-        for slot, text in zip(target.slots, new, strict=True)
-    ]
-    return rewrite(program.texts, edits)
+    numbers = dialect(program.format).numbers
+    with collector_paused():
+        texts = numbers(targets, np.array([pose for _, pose in changes]))
+        edits = [
+            (slot, text)
+            for target, new in zip(targets, texts, strict=True)
+            for slot, text in zip(target.slots, new, strict=True)
+        ]
+        return rewrite(program.texts, edits)
 
 
 __all__ = [

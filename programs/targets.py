@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -17,9 +18,9 @@ PROGRAM: str | None = None
 """The file key of the program text itself (the others are the names in the request's `files`)."""
 
 
-@dataclass(frozen=True)
-class Slot:
-    """One number of a target in its file's text: replaced by the rewrite, character for character."""
+class Slot(NamedTuple):
+    """One number of a target in its file's text: replaced by the rewrite, character for character (a tuple:
+    cheap to make, six or seven a target)."""
 
     file: str | None
     start: int

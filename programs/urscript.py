@@ -12,12 +12,12 @@ kept as written. `#` starts a comment.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from models._types import Array
-from programs.aggregates import Number, Value, literal_or_expression
+from programs.aggregates import Number, Value, literal_or_expression, plain_number
 from programs.frames import rotvec_matrix, rotvecs_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
 from programs.targets import PROGRAM, Frames, Program, Target, target_at, written
@@ -64,9 +64,12 @@ def parse_pose(cur: Cursor) -> Pose:
     opening = cur.expect("name", "p")
     cur.expect("op", "[")
     values: list[Value] = []
+    tokens = cur.tokens
     while True:
-        values.append(_element(cur))
-        if cur.accept("op", "]"):
+        values.append(plain_number(cur, "]") or _element(cur))
+        closing = tokens[cur.i] if cur.i < len(tokens) else None
+        if closing is not None and closing.kind == "op" and closing.text == "]":
+            cur.i += 1
             break
         cur.expect("op", ",")
     if len(values) != 6:
@@ -99,46 +102,62 @@ def _scan(tokens: list[Token], file: str | None) -> list[Event]:
     stack: list[Context] = []
     events: list[Event] = []
     i = 0
-    while i < len(tokens):
+    n = len(tokens)
+    while i < n:
+        # Kinds and texts compared directly, neighbours fetched only where needed: this loop visits every token
+        # of the program.
         tok = tokens[i]
-        nxt = tokens[i + 1] if i + 1 < len(tokens) else None
-        prev = tokens[i - 1] if i else None
-        if tok.is_("name", "p", fold=False) and nxt is not None and nxt.is_("op", "["):
-            cur = Cursor(tokens, file, "the pose")
-            cur.i = i
-            pose = parse_pose(cur)
-            assigned = None
-            if prev is not None and prev.is_("op", "=") and i >= 2 and tokens[i - 2].kind == "name":
-                assigned = tokens[i - 2].text
-            events.append(Event(i, _snapshot(stack), pose=pose, assigned=assigned))
-            i = pose.end
-            continue
-        if tok.kind == "op" and tok.text in "([":
-            stack.append(Context(prev.text if tok.text == "(" and prev is not None and prev.kind == "name" else ""))
-        elif tok.kind == "op" and tok.text in ")]":
-            if not stack:
-                raise Cursor(tokens, file, "the program").error(f"unbalanced {tok.text!r}", tok)
-            stack.pop()
-        elif tok.is_("op", ",") and stack:
-            stack[-1].argument += 1
-        elif tok.kind == "name" and _whole_argument(prev, nxt) and stack:
-            if stack[-1].name == "pose_trans" and stack[-1].argument == 0:
-                stack[-1].feature = tok.text
-            events.append(Event(i, _snapshot(stack), name=tok))
+        kind = tok.kind
+        if kind == "op":
+            text = tok.text
+            if text in {"(", "["}:
+                prev = tokens[i - 1] if i else None
+                stack.append(Context(prev.text if text == "(" and prev is not None and prev.kind == "name" else ""))
+            elif text in {")", "]"}:
+                if not stack:
+                    raise Cursor(tokens, file, "the program").error(f"unbalanced {text!r}", tok)
+                stack.pop()
+            elif text == "," and stack:
+                stack[-1].argument += 1
+        elif kind == "name":
+            nxt = tokens[i + 1] if i + 1 < n else None
+            prev = tokens[i - 1] if i else None
+            if tok.text == "p" and nxt is not None and nxt.kind == "op" and nxt.text == "[":
+                cur = Cursor(tokens, file, "the pose")
+                cur.i = i
+                pose = parse_pose(cur)
+                assigned = None
+                if (
+                    prev is not None
+                    and prev.kind == "op"
+                    and prev.text == "="
+                    and i >= 2
+                    and tokens[i - 2].kind == "name"
+                ):
+                    assigned = tokens[i - 2].text
+                events.append(Event(i, _snapshot(stack), pose=pose, assigned=assigned))
+                i = pose.end
+                continue
+            if stack and _whole_argument(prev, nxt):
+                if stack[-1].name == "pose_trans" and stack[-1].argument == 0:
+                    stack[-1].feature = tok.text
+                events.append(Event(i, _snapshot(stack), name=tok))
         i += 1
     return events
 
 
 def _snapshot(stack: list[Context]) -> list[Context]:
-    return [replace(c) for c in stack]
+    return [Context(c.name, c.argument, c.feature) for c in stack]
 
 
 def _whole_argument(prev: Token | None, nxt: Token | None) -> bool:
     return (
         prev is not None
-        and (prev.is_("op", "(") or prev.is_("op", ","))
+        and prev.kind == "op"
+        and prev.text in ("(", ",")
         and nxt is not None
-        and (nxt.is_("op", ",") or nxt.is_("op", ")"))
+        and nxt.kind == "op"
+        and nxt.text in (",", ")")
     )
 
 

@@ -32,6 +32,8 @@ IPOPT_CHUNK = 8
 at its deadline stops within one chunk rather than after the whole batch (measured: 200 unreachable targets, 33 ms each,
 were one uninterruptible 6.6 s call per IPOPT stage); chunking costs nothing measurable (a map loops anyway)."""
 BOUND_SLACK = 1e-9
+NEWTON_ITERATIONS = 15
+"""Newton iterations per active set (a path's waypoints take fewer: `models.compensation.poses`)."""
 
 
 def joints_of(desc: RobotDescription, theta: Array, v: Array) -> Array:
@@ -84,8 +86,11 @@ class IkBatch:
         """These targets (an index may repeat: one row per start tried)."""
         return replace(self, target=self.target[idx], seeds=self.seeds[idx])
 
-    def newton(self, start: Array, goal: Array | None = None) -> tuple[Array, NDArray[np.bool_]]:
-        """KKT Newton from `start` towards `goal` (default: the targets); (v, converged)."""
+    def newton(
+        self, start: Array, goal: Array | None = None, *, iterations: int = NEWTON_ITERATIONS
+    ) -> tuple[Array, NDArray[np.bool_]]:
+        """KKT Newton from `start` towards `goal` (default: the targets), at most `iterations` per active set;
+        (v, converged)."""
         lbx, ubx, _, _ = bounds(self.desc)
         return newton_kkt(
             kkt_functions(self.desc, self.runtime),
@@ -98,6 +103,7 @@ class IkBatch:
             upper=ubx,
             position_only=self.position_only,
             periodic=periodic_variables(self.desc),
+            iterations=iterations,
         )
 
     def accepted(self, v: Array, converged: NDArray[np.bool_]) -> NDArray[np.bool_]:

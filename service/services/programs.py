@@ -17,6 +17,7 @@ from models.inverse import default_seed
 from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
 from programs import DIALECTS, PROGRAM, Program, ProgramError, Target, dialect, dialect_of_file, read_program, rewritten
+from programs.collection import collector_paused
 from programs.configuration import kept
 from programs.configuration import seed as configuration_seed
 from service.conversions.kinematics import joints_in
@@ -52,29 +53,32 @@ def compensate_program(
 ) -> CompensatedProgram:
     """Every target of `program` corrected so that the calibrated robot's TCP lands where the nominal one's would
     (`nominal`: default the description's nominal parameters); the ones that cannot be keep their text."""
-    active = [t for t in program.targets if t.kept is None]
-    outcomes = {id(t): TargetOutcome(t, None, t.kept) for t in program.targets}
-    if active:
-        start = default_seed(desc) if seed is None else seed
-        bases = np.array([t.frames.base for t in active])
-        result = compensate_poses(
-            desc,
-            calibrated,
-            desc.parameters.nominal if nominal is None else nominal,
-            bases @ np.array([t.pose for t in active]),
-            tools=[t.frames.tool for t in active],
-            seeds=np.array([configuration_seed(t.configuration, start, desc.n_joints) for t in active]),
-            runtime=runtime,
-        )
-        in_base = np.linalg.solve(bases, result.poses)  # back into each target's own base frame
-        for k, t in enumerate(active):
-            why = result.reasons[k] or kept(
-                t.configuration, result.nominal_joints[k], result.joints[k], desc.joint_names
+    # Objects per target (outcomes, arrays, rewritten numbers): without the cycle collector's passes over
+    # them, as in reading (`programs.collection`).
+    with collector_paused():
+        active = [t for t in program.targets if t.kept is None]
+        outcomes = {id(t): TargetOutcome(t, None, t.kept) for t in program.targets}
+        if active:
+            start = default_seed(desc) if seed is None else seed
+            bases = np.array([t.frames.base for t in active])
+            result = compensate_poses(
+                desc,
+                calibrated,
+                desc.parameters.nominal if nominal is None else nominal,
+                bases @ np.array([t.pose for t in active]),
+                tools=[t.frames.tool for t in active],
+                seeds=np.array([configuration_seed(t.configuration, start, desc.n_joints) for t in active]),
+                runtime=runtime,
             )
-            outcomes[id(t)] = TargetOutcome(t, None if why is not None else in_base[k], why)
-    ordered = tuple(outcomes[id(t)] for t in program.targets)
-    changes = [(o.target, o.pose) for o in ordered if o.pose is not None]
-    return CompensatedProgram(rewritten(program, changes), ordered)
+            in_base = np.linalg.solve(bases, result.poses)  # back into each target's own base frame
+            for k, t in enumerate(active):
+                why = result.reasons[k] or kept(
+                    t.configuration, result.nominal_joints[k], result.joints[k], desc.joint_names
+                )
+                outcomes[id(t)] = TargetOutcome(t, None if why is not None else in_base[k], why)
+        ordered = tuple(outcomes[id(t)] for t in program.targets)
+        changes = [(o.target, o.pose) for o in ordered if o.pose is not None]
+        return CompensatedProgram(rewritten(program, changes), ordered)
 
 
 def _target_out(o: TargetOutcome) -> CompensatedTarget:

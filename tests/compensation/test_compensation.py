@@ -100,7 +100,8 @@ def test_batch_newton_finds_the_ipopt_optimum(desc: RobotDescription, calibrated
     ok &= routing.within_bounds(desc, theta, v)
     batch = routing.IkBatch(desc, theta, target, seeds, w, position_only=False, runtime=runtime_for(desc))
     reference, met = routing.ipopt_solutions(batch, start=start, exact=True)
-    assert ok.mean() > 0.8 and met.all()
+    # Newton's active set (one variable fixed a round) takes 119 of the 120; the rest are IPOPT's.
+    assert ok.mean() > 0.95 and met.all()
     assert np.abs(v[ok] - reference[ok]).max() < 1e-5  # mm and rad: IPOPT's own tolerance
 
 

@@ -8,6 +8,7 @@ import pytest
 
 from programs import ProgramSyntaxError, Target, UndeclaredFrame, read_program
 from programs.frames import abc_matrix, quaternion_matrix, rotvec_matrix
+from programs.urscript import LEXER as URSCRIPT_LEXER
 from tests.programs.samples import CSV, KRL_CONFIG, KRL_DAT, KRL_SRC, RAPID_MOD, URSCRIPT
 
 KRL_FILES = {"Weld_Seam.dat": KRL_DAT, "$config.dat": KRL_CONFIG}
@@ -145,3 +146,34 @@ def test_csv_rows_are_targets_and_a_bad_number_names_its_place() -> None:
 def test_hostile_nesting_is_a_syntax_error_not_a_crash(format_name: str, text: str) -> None:
     with pytest.raises(ProgramSyntaxError, match="nested more than"):
         read_program(format_name, text, {})
+
+
+def test_token_lines_and_columns_count_characters_after_every_kind_of_line_end() -> None:
+    # Hand-counted: a CRLF line, a string with an escaped quote, a backslash continuation, then the tokens.
+    text = 'a = 1\r\nb = "x\\"y" c\n  d \\\n  e\n'
+    found = [(t.text, t.line, t.column) for t in URSCRIPT_LEXER.tokens(text)]
+    assert found == [
+        ("a", 1, 1),
+        ("=", 1, 3),
+        ("1", 1, 5),
+        ("b", 2, 1),
+        ("=", 2, 3),
+        ('"x\\"y"', 2, 5),
+        ("c", 2, 12),
+        ("d", 3, 3),
+        ("e", 4, 3),
+    ]
+    assert all(text[t.start : t.end] == t.text for t in URSCRIPT_LEXER.tokens(text))
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "column", "char"),
+    [("@", 1, 1, "@"), ("movel(p)\n  x = 1 ` 2", 2, 9, "`"), ("a\r\n\r\n\t?", 3, 2, "?")],
+)
+def test_an_unexpected_character_is_named_with_its_line_and_column(
+    text: str, line: int, column: int, char: str
+) -> None:
+    with pytest.raises(ProgramSyntaxError) as raised:
+        URSCRIPT_LEXER.tokens(text, "prog.script")
+    assert (raised.value.line, raised.value.column, raised.value.file) == (line, column, "prog.script")
+    assert repr(char) in str(raised.value)
