@@ -22,6 +22,7 @@ the legs, the drift moves every point alike).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from enum import StrEnum
 
@@ -227,29 +228,15 @@ def identify_with_drift(
     centre, half = 0.5 * (low + high), 0.5 * (high - low)
     u = (driver - centre) / half
     basis = np.stack([u**k for k in range(1, drift.degree + 1)], axis=1)  # (N, degree)
-    coefficients = np.zeros((3, drift.degree))
 
     def fit(c: Array) -> tuple[Campaign, IdentificationResult]:
         corrected = _corrected(campaign, basis @ c.T)
         return corrected, identify(desc, corrected, noise=noise, nominal=nominal, options=options, runtime=rt)
 
-    rounds = 0
-    while True:
-        rounds += 1
-        corrected, result = fit(coefficients)
-        if not result.succeeded:
-            break
-        step, cov = _drift_step(desc, corrected, result, basis=basis, noise=noise, rt=rt)
-        coefficients = coefficients + step
-        moved = float(np.max(np.abs(step) / np.sqrt(np.clip(np.diag(cov), 1e-30, None)).reshape(3, -1)))
-        if moved <= STEP_TOLERANCE:
-            break
-        if rounds >= MAX_ROUNDS:
-            # The last step still moved the drift: fit once more with it, so the parameters match the drift.
-            _, result = fit(coefficients)
-            break
-    if not result.succeeded:
-        cov = np.full((3 * drift.degree, 3 * drift.degree), np.nan)
+    def step_of(corrected: Campaign, result: IdentificationResult) -> tuple[Array, Array]:
+        return _drift_step(desc, corrected, result, basis=basis, noise=noise, rt=rt)
+
+    result, coefficients, cov, rounds = _rounds(fit, step_of, drift.degree)
     ref = timeline.reference
     estimate = DriftEstimate(
         driver=drift.driver,
@@ -266,6 +253,27 @@ def identify_with_drift(
         timed=timeline.timed,
     )
     return DriftResult(result, estimate)
+
+
+def _rounds(
+    fit: Callable[[Array], tuple[Campaign, IdentificationResult]],
+    step_of: Callable[[Campaign, IdentificationResult], tuple[Array, Array]],
+    degree: int,
+) -> tuple[IdentificationResult, Array, Array, int]:
+    """Fit with the drift so far removed, step the drift from that fit's residuals, until the step is negligible:
+    (the last fit, the drift's coefficients, their covariance, the number of fits)."""
+    coefficients = np.zeros((3, degree))
+    cov = np.full((3 * degree, 3 * degree), np.nan)
+    for rounds in range(1, MAX_ROUNDS + 1):
+        corrected, result = fit(coefficients)
+        if not result.succeeded:
+            return result, coefficients, np.full_like(cov, np.nan), rounds
+        step, cov = step_of(corrected, result)
+        coefficients = coefficients + step
+        if float(np.max(np.abs(step).ravel() / np.sqrt(np.clip(np.diag(cov), 1e-30, None)))) <= STEP_TOLERANCE:
+            return result, coefficients, cov, rounds
+    # The last step still moved the drift: fit once more with it, so the parameters match the drift.
+    return fit(coefficients)[1], coefficients, cov, MAX_ROUNDS + 1
 
 
 def _driver(campaign: Campaign, timeline: Timeline, driver: DriftDriver) -> Array:
