@@ -101,8 +101,23 @@ class CalibrationReport:
             ("condition_number", "Condition number", c.get("condition_number")),
             ("solver.status", "Solver", (c.get("solver") or {}).get("status")),
             ("solver.iterations", "Solver iterations", (c.get("solver") or {}).get("iterations")),
+            *self._drift_and_conditions(),
         ]
         return [r for r in rows if r[2] is not None]
+
+    def _drift_and_conditions(self) -> list[tuple[str, str, Any]]:
+        """A drift-aware calibration's drift, and the conditions the produced version is calibrated for."""
+        rows = [
+            ("drift.magnitude_mm", "Instrument drift over the campaign, removed (mm)"),
+            ("drift.reference_scatter.before_mm", "Reference pose scatter as measured (mm)"),
+            ("drift.reference_scatter.after_mm", "Reference pose scatter, drift removed (mm)"),
+            ("conditions.temperature_c.min", "Calibrated from temperature (°C)"),
+            ("conditions.temperature_c.max", "Calibrated up to temperature (°C)"),
+            ("conditions.payload_kg.min", "Calibrated from payload (kg)"),
+            ("conditions.payload_kg.max", "Calibrated up to payload (kg)"),
+            ("conditions.duration_s", "Campaign duration (s)"),
+        ]
+        return [(key, label, _dotted(self.calibration, key)) for key, label in rows]
 
     def parameter_rows(self) -> list[dict[str, Any]]:
         confounding = self.calibration.get("confounding") or {}
@@ -174,6 +189,14 @@ class CalibrationReport:
             names, matrix = self.correlation
             out.append(("correlation", figures.correlation_heatmap(names, np.asarray(matrix, dtype=float))))
         return out
+
+
+def _dotted(document: Mapping[str, Any], key: str) -> Any:
+    """The value at a dotted key of the document (None where any part is missing or null)."""
+    value: Any = document
+    for part in key.split("."):
+        value = value.get(part) if isinstance(value, Mapping) else None
+    return value
 
 
 def _cell(value: Any) -> str:

@@ -5,6 +5,7 @@ naming what to fix, nothing stored."""
 
 from __future__ import annotations
 
+import re
 from datetime import UTC, datetime, timedelta
 from typing import Any
 
@@ -75,6 +76,11 @@ def test_a_drift_aware_calibration_then_checks_and_commands_outside_its_conditio
     assert conditions["payload_kg"] == {"min": 12.0, "max": 12.0}
     assert conditions["duration_s"] == 59 * 60.0 and conditions["records"] == 60
     assert conditions["time"] == [START.isoformat(), (START + timedelta(minutes=59)).isoformat()]
+    report = client.get(f"/v1/calibrations/{body['id']}/report", headers={"accept": "text/html"}).text
+    shown = dict(re.findall(r'data-key="([^"]+)" data-value="([^"]*)"', report))
+    assert float(shown["drift.magnitude_mm"]) == drift["magnitude_mm"]
+    assert float(shown["drift.reference_scatter.after_mm"]) == drift["reference_scatter"]["after_mm"]
+    assert float(shown["conditions.temperature_c.max"]) == 22.0 and float(shown["conditions.payload_kg.min"]) == 12
     versions = client.get(f"/v1/robots/{robot_id}/parameter-versions").json()
     assert [v["conditions"] for v in versions if v["current"]] == [conditions]
 
