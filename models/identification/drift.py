@@ -12,8 +12,8 @@ and estimated jointly with the robot's parameters by variable projection: at a f
 coefficients are the least-squares solution of the residuals with the parameters' Jacobian projected out
 (`Tᵀ P⊥ T c = Tᵀ P⊥ r`, every row in σ), which is the joint least-squares problem's own step, and whose
 inverse normal matrix is the drift's marginal covariance. The records are corrected by `d` and fitted again
-until the step is a negligible fraction of its σ (two fits when the drift is small against the geometry's
-errors, as it is). The drift is a translation of the instrument's frame; orientations are left as measured.
+until the step is a negligible fraction of its σ: two fits, since the drift enters the residuals linearly (the
+second step is ~1e-4 σ). The drift is a translation of the instrument's frame; orientations are left as measured.
 
 The robot's own thermal terms (`ModelTerms.thermal`) stay in the fit where the description has them, so a
 temperature-driven instrument drift and the robot's expansion are told apart by the geometry (κ lengthens
@@ -339,8 +339,11 @@ def _drift_step(
     target[:, :3] = residual / sigma[:, None]
     j, t, r = jac.reshape(sub.size * rows, -1), design.reshape(sub.size * rows, -1), target.reshape(-1)
     q, _ = np.linalg.qr(j)
-    t_perp, r_perp = t - q @ (q.T @ t), r - q @ (q.T @ r)
+    t_perp = t - q @ (q.T @ t)
     normal = t_perp.T @ t_perp
-    step = np.linalg.solve(normal, t_perp.T @ r_perp)
+    # At the fit's solution the whole residual (orientation rows too) is orthogonal to the parameters' columns,
+    # so Tᵀ P⊥ r = Tᵀ r, and T has no orientation rows: the position residuals alone give the step exactly
+    # (the orientation residuals, which this Jacobian's rows express in another frame, are never needed).
+    step = np.linalg.solve(normal, t.T @ r)
     factor = result.variance_factor if np.isfinite(result.variance_factor) else 1.0
     return step.reshape(3, degree), factor * np.linalg.inv(normal)
