@@ -74,6 +74,6 @@ def run() -> dict[str, object]:
             target("TCP error, drift removed / drift-free campaign (median)", med_removed, 1.2),
             target("TCP error, drift ignored / drift-free campaign (median): the drift matters", med_kept, 1.2, ">="),
             target("fitted drift over the campaign off the simulated one, RMS in its σ", rms_z, 1.5),
-            target("identification time, with the drift fit / without (same records)", best[1] / best[0], 6.0),
+            target("identification time, with the drift fit / without (same records)", best[1] / best[0], 3.5),
         ],
     }
