@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from harness.drift import drift_campaign, tcp_error_mm
-from models import NoiseModel, RobotDescription, sample_workspace
+from models import NoiseModel, RobotDescription, iwr, sample_workspace
 from models.errors import InvalidInput
 from models.identification import identify
 from models.identification.drift import (
@@ -27,6 +27,8 @@ from models.identification.drift import (
     find_reference,
     identify_with_drift,
 )
+from models.simulation import SimulatedRobot, measure, perturbed_robot
+from models.terms import ModelTerms, make_conditions
 
 NOISE = NoiseModel(0.010, float(np.radians(0.002)))
 SEEDS = range(5)
@@ -130,3 +132,28 @@ def test_a_timeline_of_the_wrong_length_is_refused(desc: RobotDescription) -> No
     sim = drift_campaign(desc, 0, noise=NOISE, records=12, every=3)
     with pytest.raises(InvalidInput, match="expected 12 finite record times"):
         identify_with_drift(desc, sim.drifted, Timeline(np.arange(11.0), sim.timeline.reference))
+
+
+@pytest.mark.slow  # two thermal fits of 60 records: about a second
+def test_a_temperature_driven_drift_beside_the_robots_thermal_term() -> None:
+    """The hall warms 18 → 26 °C over the campaign: the robot expands (κ = 20 ppm/K on legs and axes) and the
+    tracker's frame moves 6 µm/K. With `driver: temperature` and the thermal term on, both are recovered within
+    their σ: the geometry tells the robot's expansion from the frame's translation."""
+    desc = iwr().with_terms(ModelTerms(thermal=True))
+    sim = perturbed_robot(desc, seed=8)
+    truth = desc.parameters.with_values(sim.truth, {"thermal.legs": 20e-6, "thermal.axes": 20e-6})
+    sim = SimulatedRobot(desc, sim.nominal, truth)
+    n, every = 60, 5
+    poses = sample_workspace(desc, n, seed=81)
+    poses[::every] = poses[0]
+    temperature = np.linspace(18.0, 26.0, n) + np.random.default_rng(82).normal(0, 0.2, n)
+    campaign = measure(sim, poses, NOISE, seed=83, conditions=make_conditions(n, temperature))
+    rate = 0.006 * np.array([0.6, -0.8, 0.0])  # mm/K
+    drifted = replace(campaign, positions=campaign.positions + np.outer(temperature - temperature.mean(), rate))
+    timeline = Timeline(np.arange(n, dtype=np.float64), np.arange(0, n, every).astype(np.intp))
+    fit = identify_with_drift(desc, drifted, timeline, drift=DriftOptions(driver=DriftDriver.TEMPERATURE), noise=NOISE)
+    assert fit.result.succeeded and fit.result.noise_consistent
+    span = float(temperature.max() - temperature.min())
+    assert np.all(np.abs(fit.drift.total_mm - rate * span) < 3.5 * fit.drift.total_sigma_mm)
+    kappa = desc.parameters.index["thermal.legs"]
+    assert abs(fit.result.parameters[kappa] - 20e-6) <= 3 * fit.result.std_errors[kappa]
