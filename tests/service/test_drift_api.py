@@ -16,6 +16,9 @@ from fastapi.testclient import TestClient
 from harness.drift import DriftCampaign, drift_campaign
 from models import NoiseModel, forward_kinematics, iwr, sample_workspace
 from models.transforms import matrix_to_quaternion
+from service.campaign_io import ImportOptions
+from service.campaign_io.records import campaign_records
+from service.campaign_io.tabular import read_table
 from service.conversions.drift import condition_warnings
 
 DESC = iwr()
@@ -243,3 +246,54 @@ def test_the_history_carries_the_accuracy_and_exports_as_csv(client: TestClient,
         assert cells[1:5] == ["check", event["id"], "1", event["outcome"]]
         assert float(cells[5]) == event["rms_mm"] and float(cells[6]) == event["predicted_mm"] and cells[7] == ""
     assert client.get(f"/v1/robots/{robot_id}/history", headers={"accept": "image/png"}).status_code == 406
+
+
+def _csv(sim: DriftCampaign, *, time: list[str], reference: list[str]) -> str:
+    c = sim.drifted
+    assert c.quaternions is not None
+    names = ",".join(DESC.joint_names)
+    lines = [f"{names},x,y,z,qw,qx,qy,qz,time,reference"]
+    for k in range(c.size):
+        cells = [*(c.joints[k] * DESC.joint_to_boundary).tolist(), *c.positions[k].tolist(), *c.quaternions[k].tolist()]
+        lines.append(",".join([*map(repr, cells), time[k], reference[k]]))
+    return "\n".join(lines)
+
+
+@pytest.mark.slow  # a 40-record calibration fitted twice over HTTP
+def test_a_csv_campaign_with_time_and_reference_columns(client: TestClient, robot_id: str) -> None:
+    sim = drift_campaign(DESC, 3, noise=NOISE, records=40, every=5)
+    marks = ["x" if k in sim.timeline.reference else "" for k in range(40)]
+    seconds = [repr(float(t)) for t in sim.timeline.times_s]
+    r = client.post(
+        f"/v1/robots/{robot_id}/calibrations?drift=time&noise_position_mm=0.01&noise_orientation_deg=0.002",
+        content=_csv(sim, time=seconds, reference=marks),
+        headers={"content-type": "text/csv"},
+    )
+    assert r.status_code == 201, r.text
+    drift = r.json()["drift"]
+    assert drift["over"] == "seconds" and drift["reference_records"] == sim.timeline.reference.tolist()
+    truth = sim.drift_mm[-1] - sim.drift_mm[0]
+    assert np.all(np.abs(np.array(drift["over_campaign_mm"]) - truth) < 3.5 * np.array(drift["over_campaign_sigma_mm"]))
+
+
+def test_a_csv_time_column_of_another_format_is_not_read_and_a_bad_mark_is_a_400(
+    client: TestClient, robot_id: str, small: DriftCampaign
+) -> None:
+    marks = ["1" if k in small.timeline.reference else "0" for k in range(small.drifted.size)]
+    instrument_format = [f"05.12.2026 08:{k:02d}" for k in range(small.drifted.size)]
+    url = f"/v1/robots/{robot_id}/calibrations?drift=time&apply=false"
+    marks[3] = "maybe"
+    bad = client.post(
+        url, content=_csv(small, time=instrument_format, reference=marks), headers={"content-type": "text/csv"}
+    )
+    assert bad.status_code == 400 and "mark a reference pose's row 1, true, yes or x" in bad.json()["detail"]
+    assert client.get(f"/v1/robots/{robot_id}/calibrations").json() == []
+    marks[3] = "0"
+    records, notes = campaign_records(
+        read_table(_csv(small, time=instrument_format, reference=marks)), DESC.joint_names, ImportOptions()
+    )
+    assert all("time" not in r for r in records) and any("time: every row needs seconds or an ISO" in n for n in notes)
+    assert [k for k, r in enumerate(records) if r.get("reference")] == small.timeline.reference.tolist()
+    iso = [f"2026-12-05T08:{k:02d}:00" for k in range(small.drifted.size)]
+    records, _ = campaign_records(read_table(_csv(small, time=iso, reference=marks)), DESC.joint_names, ImportOptions())
+    assert [r["time"] for r in records] == iso
