@@ -46,6 +46,8 @@ MAX_DEGREE = 3
 MAX_ROUNDS = 4
 STEP_TOLERANCE = 0.01
 """The fit stops when no coefficient moved by more than this fraction of its σ."""
+MAX_CONDITION = 1e10
+"""Of the drift's projected normal matrix: beyond, the parameters explain what the drift would (no estimate)."""
 PRISMATIC_TOLERANCE_MM = 0.005
 REVOLUTE_TOLERANCE_RAD = 1e-4
 """Joints this close read as the same pose (a controller's read-back of one commanded pose)."""
@@ -225,6 +227,15 @@ def identify_with_drift(
             field=drift.driver.value,
             reason="constant",
         )
+    distinct = int(np.unique(driver).size)
+    if distinct <= drift.degree:
+        raise InvalidInput(
+            f"drift: a drift of degree {drift.degree} needs the records at {drift.degree + 1} or more different "
+            f"{drift.driver.value} values; they have {distinct} (lower the degree, or give each record its own time)",
+            field="degree",
+            reason="too_few_values",
+            value=float(drift.degree),
+        )
     centre, half = 0.5 * (low + high), 0.5 * (high - low)
     u = (driver - centre) / half
     basis = np.stack([u**k for k in range(1, drift.degree + 1)], axis=1)  # (N, degree)
@@ -341,6 +352,14 @@ def _drift_step(
     q, _ = np.linalg.qr(j)
     t_perp = t - q @ (q.T @ t)
     normal = t_perp.T @ t_perp
+    if np.linalg.cond(normal) > MAX_CONDITION:
+        raise InvalidInput(
+            "drift: the drift cannot be told apart from the robot's parameters in this campaign (what it does to the "
+            "records, the instrument frame or a term does as well): measure the reference pose at more times, or "
+            "lower the degree",
+            field="drift",
+            reason="not_identifiable",
+        )
     # At the fit's solution the whole residual (orientation rows too) is orthogonal to the parameters' columns,
     # so Tᵀ P⊥ r = Tᵀ r, and T has no orientation rows: the position residuals alone give the step exactly
     # (the orientation residuals, which this Jacobian's rows express in another frame, are never needed).

@@ -105,6 +105,11 @@ def test_the_temperature_driver_needs_temperatures(desc: RobotDescription) -> No
     same = replace(sim.timeline, times_s=np.zeros(12))
     with pytest.raises(InvalidInput, match="same time"):
         identify_with_drift(desc, sim.drifted, same)
+    two = replace(sim.timeline, times_s=np.repeat([0.0, 60.0], 6))  # u² would be the base's constant
+    with pytest.raises(
+        InvalidInput, match="degree 2 needs the records at 3 or more different time values; they have 2"
+    ):
+        identify_with_drift(desc, sim.drifted, two, drift=DriftOptions(degree=2))
 
 
 def test_the_drift_over_the_campaign_and_its_sigma_in_closed_form() -> None:
