@@ -210,32 +210,9 @@ def identify_with_drift(
     drift = drift or DriftOptions()
     noise = noise or NoiseModel()
     rt = runtime_for(desc, runtime)
-    if not 1 <= drift.degree <= MAX_DEGREE:
-        raise InvalidInput(
-            f"drift: degree must be 1 to {MAX_DEGREE}, got {drift.degree}",
-            field="degree",
-            min=1.0,
-            max=float(MAX_DEGREE),
-            value=float(drift.degree),
-        )
-    driver = _driver(campaign, timeline, drift.driver)
+    driver = _checked_driver(campaign, timeline, drift)
     check_reference(desc, campaign.joints, timeline.reference, drift.degree)
     low, high = float(np.min(driver)), float(np.max(driver))
-    if not high > low:
-        raise InvalidInput(
-            f"drift: every record has the same {drift.driver.value}, so nothing can change over the campaign",
-            field=drift.driver.value,
-            reason="constant",
-        )
-    distinct = int(np.unique(driver).size)
-    if distinct <= drift.degree:
-        raise InvalidInput(
-            f"drift: a drift of degree {drift.degree} needs the records at {drift.degree + 1} or more different "
-            f"{drift.driver.value} values; they have {distinct} (lower the degree, or give each record its own time)",
-            field="degree",
-            reason="too_few_values",
-            value=float(drift.degree),
-        )
     centre, half = 0.5 * (low + high), 0.5 * (high - low)
     u = (driver - centre) / half
     basis = np.stack([u**k for k in range(1, drift.degree + 1)], axis=1)  # (N, degree)
@@ -264,6 +241,36 @@ def identify_with_drift(
         timed=timeline.timed,
     )
     return DriftResult(result, estimate)
+
+
+def _checked_driver(campaign: Campaign, timeline: Timeline, drift: DriftOptions) -> Array:
+    """The driver's value per record, once the options and the records can determine a drift (InvalidInput)."""
+    if not 1 <= drift.degree <= MAX_DEGREE:
+        raise InvalidInput(
+            f"drift: degree must be 1 to {MAX_DEGREE}, got {drift.degree}",
+            field="degree",
+            min=1.0,
+            max=float(MAX_DEGREE),
+            value=float(drift.degree),
+        )
+    driver = _driver(campaign, timeline, drift.driver)
+    low, high = float(np.min(driver)), float(np.max(driver))
+    if not high > low:
+        raise InvalidInput(
+            f"drift: every record has the same {drift.driver.value}, so nothing can change over the campaign",
+            field=drift.driver.value,
+            reason="constant",
+        )
+    distinct = int(np.unique(driver).size)
+    if distinct <= drift.degree:
+        raise InvalidInput(
+            f"drift: a drift of degree {drift.degree} needs the records at {drift.degree + 1} or more different "
+            f"{drift.driver.value} values; they have {distinct} (lower the degree, or give each record its own time)",
+            field="degree",
+            reason="too_few_values",
+            value=float(drift.degree),
+        )
+    return driver
 
 
 def _rounds(
