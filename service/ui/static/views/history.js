@@ -3,8 +3,8 @@
 import { api } from "../api.js";
 import { download, errorBox, fill, h, link, muted, numCell, table, when } from "../dom.js";
 
-// The x axis in the unit that suits the timeline's span: minutes for a session, hours for a shift, days after.
-const UNITS = [["minutes", 60_000, 7_200_000], ["hours", 3_600_000, 172_800_000], ["days", 86_400_000, Infinity]];
+// The x axis in the unit that suits the timeline's span: seconds or minutes for a session, hours for a shift, days after.
+const UNITS = [["seconds", 1_000, 120_000], ["minutes", 60_000, 7_200_000], ["hours", 3_600_000, 172_800_000], ["days", 86_400_000, Infinity]];
 
 export async function historySection(robot) {
   const events = await api(`/v1/robots/${robot.id}/history?limit=1000`);
