@@ -127,6 +127,17 @@ def test_a_drift_aware_calibration_then_checks_and_commands_outside_its_conditio
     assert all(ik.json()["reachable"])
     assert [(w["condition"], w["outside_by"]) for w in ik.json()["warnings"]] == [("payload_kg", 18.0)]
 
+    # a program to run at 19 °C: compensated, and warned 1.5 K below the calibrated range
+    x, y, z = targets.positions[0]
+    program = client.post(
+        f"/v1/robots/{robot_id}/programs/compensate",
+        json={"format": "csv", "program": f"x,y,z,a,b,c\n{x},{y},{z},0,0,0\n", "temperature_c": 19.0},
+    )
+    assert program.status_code == 200, program.text
+    assert [(w["condition"], w["value"], w["outside_by"]) for w in program.json()["warnings"]] == [
+        ("temperature_c", 19.0, 1.5)
+    ]
+
     # the timeline: the calibration (its residual, predicted accuracy and drift), then the check
     calibration, checked = client.get(f"/v1/robots/{robot_id}/history").json()
     assert calibration["rms_mm"] == body["residuals"]["after"]["rms_mm"]
