@@ -137,8 +137,8 @@ def _iso_time(text: str) -> str:
 
 
 RecordTime = Annotated[
-    float | Annotated[str, Field(max_length=64), AfterValidator(_iso_time)],
-    Field(description="Seconds from any origin, or an ISO 8601 time"),
+    Annotated[float, Field(ge=-1e12, le=1e12)] | Annotated[str, Field(max_length=64), AfterValidator(_iso_time)],
+    Field(description="Seconds from any origin (within ±1e12 s), or an ISO 8601 time"),
 ]
 
 
