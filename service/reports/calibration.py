@@ -13,6 +13,7 @@ import io
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from datetime import datetime
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,8 @@ class CalibrationReport:
     noise_position_mm: float | None = None
     validations: Sequence[Mapping[str, Any]] = field(default=())
     """Validation documents of this robot (api.md, validations) to show after the calibration."""
+    history: Sequence[Mapping[str, Any]] = field(default=())
+    """The robot's history events (`GET /v1/robots/{id}/history`, as JSON): its accuracy over time."""
 
     # ------------------------------------------------------------------ numbers, as the API states them
     @property
@@ -173,6 +176,13 @@ class CalibrationReport:
         if interval is not None and vf is not None and math.isfinite(vf):
             dof = int(self.calibration["degrees_of_freedom"])
             out.append(("variance-factor", figures.variance_factor_test(vf, interval, dof, NOISE_CONSISTENCY_LEVEL)))
+        if len(self.history) >= 2:
+            at = [datetime.fromisoformat(str(e["at"])) for e in self.history]
+            ids = [e["id"] for e in self.history]
+            marked = ids.index(self.calibration.get("id")) if self.calibration.get("id") in ids else -1
+            measured = [e.get("rms_mm") for e in self.history]
+            predicted = [e.get("predicted_mm") for e in self.history]
+            out.append(("accuracy-history", figures.accuracy_history(at, measured, predicted, marked)))
         estimated = [r for r in self.parameter_rows() if r["identifiable"] and r["std_error"]]
         if estimated:
             out.append(

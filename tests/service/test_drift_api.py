@@ -80,6 +80,7 @@ def test_a_drift_aware_calibration_then_checks_and_commands_outside_its_conditio
     assert conditions["duration_s"] == 59 * 60.0 and conditions["records"] == 60
     assert conditions["time"] == [START.isoformat(), (START + timedelta(minutes=59)).isoformat()]
     report = client.get(f"/v1/calibrations/{body['id']}/report", headers={"accept": "text/html"}).text
+    assert 'id="fig-accuracy-history"' not in report  # one event: nothing over time yet
     shown = dict(re.findall(r'data-key="([^"]+)" data-value="([^"]*)"', report))
     assert float(shown["drift.magnitude_mm"]) == drift["magnitude_mm"]
     assert float(shown["drift.reference_scatter.after_mm"]) == drift["reference_scatter"]["after_mm"]
@@ -144,6 +145,9 @@ def test_a_drift_aware_calibration_then_checks_and_commands_outside_its_conditio
     assert calibration["predicted_mm"] == body["predicted_accuracy"]["rms_position_mm"]
     assert calibration["drift_mm"] == drift["magnitude_mm"]
     assert checked["kind"] == "check" and checked["rms_mm"] > 0
+    # ... and the calibration's report draws it (two events now), this calibration ringed
+    report = client.get(f"/v1/calibrations/{body['id']}/report", headers={"accept": "text/html"}).text
+    assert 'id="fig-accuracy-history"' in report
 
 
 def _refused(client: TestClient, robot_id: str, body: dict[str, Any], status: int, words: str) -> dict[str, Any]:
