@@ -14,6 +14,7 @@ from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
 from python_multipart.exceptions import MultipartParseError
 
+from models.identification.drift import MAX_DEGREE, DriftDriver
 from service.campaign_io import ImportOptions, QuaternionOrder
 from service.campaign_io.reference_table import anchor_names
 from service.csv_codec import joined_campaign, parse_campaign
@@ -35,6 +36,8 @@ class CampaignQuery:
     payload_kg: float | None
     payload_cog_mm: list[float] | None
     length_unknown: list[str]
+    drift: DriftDriver | None = None
+    drift_degree: int = 1
 
 
 def campaign_query(
@@ -60,6 +63,11 @@ def campaign_query(
         max_length=100,
         description="CSV bodies with distance records: the anchors whose bar length offset is unknown (identified)",
     ),
+    drift: DriftDriver | None = Query(
+        None,
+        description="CSV bodies: options.drift's driver (the time and reference columns feed it; docs/drift.md)",
+    ),
+    drift_degree: int = Query(1, ge=1, le=MAX_DEGREE, description="CSV bodies: options.drift's degree"),
 ) -> CampaignQuery:
     return CampaignQuery(
         apply,
@@ -70,6 +78,8 @@ def campaign_query(
         payload_kg,
         payload_cog_mm,
         list(length_unknown or []),
+        drift,
+        drift_degree,
     )
 
 
@@ -129,6 +139,8 @@ def _file_payload(measurements: list[dict[str, object]], notes: list[str], query
         payload["apply"] = query.apply
     if query.terms:
         payload["options"] = {"terms": query.terms}
+    if query.drift is not None:
+        payload.setdefault("options", {})["drift"] = {"driver": query.drift.value, "degree": query.drift_degree}
     if query.payload_kg is not None:
         payload["payload"] = {"mass_kg": query.payload_kg, "cog_mm": query.payload_cog_mm or [0.0, 0.0, 0.0]}
     return payload

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
+from typing import Any
 
 import numpy as np
 
@@ -26,6 +27,7 @@ class ModelCache:
     def __init__(self, db: Database, size: int = 256) -> None:
         self.db, self.size = db, size
         self._entries: OrderedDict[tuple[str, int], Model] = OrderedDict()
+        self._conditions: OrderedDict[tuple[str, int], dict[str, Any] | None] = OrderedDict()
         self._lock = threading.Lock()
 
     def current(self, robot_id: str) -> Model:
@@ -48,9 +50,28 @@ class ModelCache:
                 self._entries.popitem(last=False)
         return model
 
+    def conditions(self, robot_id: str) -> tuple[int, dict[str, Any] | None]:
+        """The current version's number and what its campaign was measured under (None: no campaign made it);
+        read only by requests that state conditions, so the hot path above never pays for it."""
+        version = self.db.current_version(robot_id)
+        if version is not None:
+            with self._lock:
+                if (robot_id, version) in self._conditions:
+                    return version, self._conditions[(robot_id, version)]
+        with self.db.reader() as s:
+            repo = Repository(s)
+            version = repo.current_version(robot_id)  # NotFound for an unknown robot
+            stored = repo.version(robot_id, version).conditions
+        with self._lock:
+            self._conditions[(robot_id, version)] = stored
+            while len(self._conditions) > self.size:
+                self._conditions.popitem(last=False)
+        return version, stored
+
     def __len__(self) -> int:
         return len(self._entries)
 
     def clear(self) -> None:
         with self._lock:
             self._entries.clear()
+            self._conditions.clear()

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from datetime import datetime
 from enum import StrEnum
 from typing import Any
 
@@ -39,9 +40,13 @@ ALIASES: dict[str, tuple[str, ...]] = {
     "timestamp": ("timestamp", "time", "datetime", "date_time", "date"),
     "collection": ("collection",),
     "group": ("group",),
+    "reference": ("reference", "ref", "is_reference"),
 }
 KNOWN_IGNORED = ("timestamp", "collection", "group")
-"""Columns instrument software writes that a calibration does not use: recognised, and not reported as unknown."""
+"""Columns instrument software writes that a calibration may not use: recognised, and not reported as unknown (a
+time stamp is read when it is seconds or ISO 8601 on every row, for a drift-aware calibration)."""
+REFERENCE_MARKS = {"1": True, "true": True, "yes": True, "x": True, "0": False, "false": False, "no": False, "": False}
+"""What a `reference` cell may say (case ignored): this row measures the reference pose, or not."""
 
 
 class QuaternionOrder(StrEnum):
@@ -76,6 +81,8 @@ class Measured:
     orientation: list[float] | None
     sigma_mm: float | None
     temperature_c: float | None
+    time: float | str | None = None
+    reference: bool = False
 
 
 def _column_map(table: Table, joint_names: Sequence[str]) -> tuple[dict[str, str], list[str]]:
@@ -145,8 +152,10 @@ def measured_points(
     order = options.quaternion_order
     if all(quaternion) and "qw" in table.columns and order is QuaternionOrder.XYZW:
         raise CampaignFileError("the columns name the quaternion's components; quaternion_order does not apply")
+    times, time_note = _times(table, found.get("timestamp"))
+    notes += [time_note] if time_note else []
     points = []
-    for row in table.rows:
+    for k, row in enumerate(table.rows):
         position = [table.number(row, found[c]) * scale for c in ("x", "y", "z")]
         orientation = None
         if all(quaternion):
@@ -160,9 +169,46 @@ def measured_points(
                 orientation=orientation,
                 sigma_mm=_sigma(table, row, found, options),
                 temperature_c=table.number(row, found["temperature_c"]) if "temperature_c" in found else None,
+                time=None if times is None else times[k],
+                reference=_reference(table, row, found.get("reference")),
             )
         )
     return points, notes
+
+
+def _times(table: Table, column: str | None) -> tuple[list[float | str] | None, str | None]:
+    """The time column as seconds (every cell a number) or ISO 8601 texts (every cell one); otherwise not read,
+    and a note says why (a format of the instrument's own is no time the service can order records by)."""
+    if column is None:
+        return None, None
+    cells = [row.cells.get(column, "").strip() for row in table.rows]
+    try:
+        return [float(c.replace(",", ".") if table.decimal_comma else c) for c in cells], None
+    except ValueError:
+        pass
+    try:
+        for cell in cells:
+            datetime.fromisoformat(cell)
+    except ValueError:
+        return None, (
+            f"column {column} not read as the records' time: every row needs seconds or an ISO 8601 time "
+            "(2026-12-05T14:03:00) for a drift-aware calibration"
+        )
+    return list(cells), None
+
+
+def _reference(table: Table, row: Row, column: str | None) -> bool:
+    if column is None:
+        return False
+    cell = row.cells.get(column, "").strip().lower()
+    if cell not in REFERENCE_MARKS:
+        raise CampaignFileError(
+            f"line {row.line}: column {column} says {cell!r}; mark a reference pose's row 1, true, yes or x, any "
+            "other row 0, false, no or nothing",
+            line=row.line,
+            column=table.column_number(column),
+        )
+    return REFERENCE_MARKS[cell]
 
 
 def _sigma(table: Table, row: Row, found: dict[str, str], options: ImportOptions) -> float | None:
@@ -226,6 +272,10 @@ def record(joints: list[float], point: Measured) -> dict[str, Any]:
         rec["sigma_mm"] = point.sigma_mm
     if point.temperature_c is not None:
         rec["temperature_c"] = point.temperature_c
+    if point.time is not None:
+        rec["time"] = point.time
+    if point.reference:
+        rec["reference"] = True
     return rec
 
 

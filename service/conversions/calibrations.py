@@ -107,6 +107,8 @@ def report_out(
     start_version: int,
     checks: tuple[Check, ...] = (),
     noise: NoiseModel | None = None,
+    drift: dict[str, Any] | None = None,
+    conditions: dict[str, Any] | None = None,
 ) -> CalibrationReportPublic:
     """The whole report, boundary units. `nominal` is the robot's nominal geometry and `start` the start
     version's values (the fit's `result.nominal`), so a re-fit shows both."""
@@ -190,6 +192,8 @@ def report_out(
             "references": references_out(result.references),
             "frame": result.frame,
             "record_kinds": dict(result.record_kinds) or None,
+            "drift": drift,
+            "conditions": conditions,
         }
     )
 

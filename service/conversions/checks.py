@@ -3,6 +3,9 @@
 
 from __future__ import annotations
 
+import csv
+import io
+import math
 from typing import Any
 
 import numpy as np
@@ -88,6 +91,20 @@ def check_document(
     }
 
 
+HISTORY_COLUMNS = ("at", "kind", "id", "version", "outcome", "rms_mm", "predicted_mm", "drift_mm")
+
+
+def history_csv(events: list[HistoryEventPublic]) -> str:
+    """The timeline as CSV (one row an event, the JSON's fields as columns; empty where null)."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(HISTORY_COLUMNS)
+    for e in events:
+        row = e.model_dump(mode="json")
+        writer.writerow(["" if row[c] is None else row[c] for c in HISTORY_COLUMNS])
+    return out.getvalue()
+
+
 def check_public(record: CheckRecord) -> QuickCheckPublic:
     return QuickCheckPublic.model_validate(measured_document(record))
 
@@ -114,8 +131,37 @@ def check_design_out(
     )
 
 
+def _number(value: object) -> float | None:
+    return float(value) if isinstance(value, int | float) and math.isfinite(value) else None
+
+
+def _rms(values: list[float]) -> float | None:
+    return float(np.sqrt(np.mean(np.square(values)))) if values else None
+
+
+def _calibration_accuracy(document: dict[str, Any]) -> dict[str, float | None]:
+    """A stored calibration's residual RMS after the fit, predicted accuracy and drift (None where absent)."""
+    after = (document.get("residuals") or {}).get("after") or {}
+    predicted = document.get("predicted_accuracy") or {}
+    drift = document.get("drift") or {}
+    return {
+        "rms_mm": _number(after.get("rms_mm")),
+        "predicted_mm": _number(predicted.get("rms_position_mm")),
+        "drift_mm": _number(drift.get("magnitude_mm")),
+    }
+
+
+def _check_accuracy(document: dict[str, Any]) -> dict[str, float | None]:
+    records = document.get("per_record") or []
+    return {
+        "rms_mm": _rms([r["position_mm"] for r in records]),
+        "predicted_mm": _rms([r["predicted_mm"] for r in records]),
+    }
+
+
 def history_out(calibrations: list[CalibrationRecord], checks: list[CheckRecord]) -> list[HistoryEventPublic]:
-    """One timeline, oldest first: each calibration (its status, applied or not) and each check (its verdict)."""
+    """One timeline, oldest first: each calibration (its status, applied or not) and each check (its verdict),
+    with the accuracy measured and expected then."""
     events = [
         (
             c.created_at,
@@ -124,9 +170,16 @@ def history_out(calibrations: list[CalibrationRecord], checks: list[CheckRecord]
                 "id": c.id,
                 "version": c.parameter_version,
                 "outcome": f"{c.status}, {'applied' if c.applied else 'not applied'}",
+                **_calibration_accuracy(c.result),
             },
         )
         for c in calibrations
-    ] + [(k.created_at, {"kind": "check", "id": k.id, "version": k.version, "outcome": k.verdict}) for k in checks]
+    ] + [
+        (
+            k.created_at,
+            {"kind": "check", "id": k.id, "version": k.version, "outcome": k.verdict, **_check_accuracy(k.result)},
+        )
+        for k in checks
+    ]
     events.sort(key=lambda e: (e[0], e[1]["id"]))
     return [HistoryEventPublic.model_validate({"at": timestamp(at), **e}) for at, e in events]

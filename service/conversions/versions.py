@@ -23,6 +23,7 @@ def version_out(row: ParameterVersion, current: int) -> ParameterVersionPublic:
             "created_at": row.created_at,
             "actor": row.actor,
             "current": row.version == current,
+            "conditions": row.conditions,
         }
     )
 

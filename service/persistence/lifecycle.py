@@ -125,6 +125,7 @@ class Lifecycle(Store):
         actor: Actor,
         restored_from: int | None = None,
         calibration_id: str | None = None,
+        conditions: dict[str, Any] | None = None,
     ) -> int:
         """A new version (never an update of an old one) that becomes current, made by `actor`."""
         version = Repository(self.s).latest_version(robot.id) + 1
@@ -139,6 +140,7 @@ class Lifecycle(Store):
                 calibration_id=calibration_id,
                 actor=actor.name,
                 restored_from=restored_from,
+                conditions=conditions,
             )
         )
         robot.current_version = version

@@ -78,6 +78,8 @@ class ParameterVersion(Base):
     actor: Mapped[str | None] = mapped_column(String(100), nullable=True)
     """Name of the API key that made this version (never the key); null without keys."""
     restored_from: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    conditions: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    """What the campaign that made it was measured under (`ConditionsPublic`, boundary units); null: no campaign."""
 
 
 class CampaignRecord(Base):

@@ -13,6 +13,7 @@ import io
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from datetime import datetime
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,8 @@ class CalibrationReport:
     noise_position_mm: float | None = None
     validations: Sequence[Mapping[str, Any]] = field(default=())
     """Validation documents of this robot (api.md, validations) to show after the calibration."""
+    history: Sequence[Mapping[str, Any]] = field(default=())
+    """The robot's history events (`GET /v1/robots/{id}/history`, as JSON): its accuracy over time."""
 
     # ------------------------------------------------------------------ numbers, as the API states them
     @property
@@ -101,8 +104,23 @@ class CalibrationReport:
             ("condition_number", "Condition number", c.get("condition_number")),
             ("solver.status", "Solver", (c.get("solver") or {}).get("status")),
             ("solver.iterations", "Solver iterations", (c.get("solver") or {}).get("iterations")),
+            *self._drift_and_conditions(),
         ]
         return [r for r in rows if r[2] is not None]
+
+    def _drift_and_conditions(self) -> list[tuple[str, str, Any]]:
+        """A drift-aware calibration's drift, and the conditions the produced version is calibrated for."""
+        rows = [
+            ("drift.magnitude_mm", "Instrument drift over the campaign, removed (mm)"),
+            ("drift.reference_scatter.before_mm", "Reference pose scatter as measured (mm)"),
+            ("drift.reference_scatter.after_mm", "Reference pose scatter, drift removed (mm)"),
+            ("conditions.temperature_c.min", "Calibrated from temperature (°C)"),
+            ("conditions.temperature_c.max", "Calibrated up to temperature (°C)"),
+            ("conditions.payload_kg.min", "Calibrated from payload (kg)"),
+            ("conditions.payload_kg.max", "Calibrated up to payload (kg)"),
+            ("conditions.duration_s", "Campaign duration (s)"),
+        ]
+        return [(key, label, _dotted(self.calibration, key)) for key, label in rows]
 
     def parameter_rows(self) -> list[dict[str, Any]]:
         confounding = self.calibration.get("confounding") or {}
@@ -158,6 +176,13 @@ class CalibrationReport:
         if interval is not None and vf is not None and math.isfinite(vf):
             dof = int(self.calibration["degrees_of_freedom"])
             out.append(("variance-factor", figures.variance_factor_test(vf, interval, dof, NOISE_CONSISTENCY_LEVEL)))
+        if len(self.history) >= 2:
+            at = [datetime.fromisoformat(str(e["at"])) for e in self.history]
+            ids = [e["id"] for e in self.history]
+            marked = ids.index(self.calibration.get("id")) if self.calibration.get("id") in ids else -1
+            measured = [e.get("rms_mm") for e in self.history]
+            predicted = [e.get("predicted_mm") for e in self.history]
+            out.append(("accuracy-history", figures.accuracy_history(at, measured, predicted, marked)))
         estimated = [r for r in self.parameter_rows() if r["identifiable"] and r["std_error"]]
         if estimated:
             out.append(
@@ -174,6 +199,14 @@ class CalibrationReport:
             names, matrix = self.correlation
             out.append(("correlation", figures.correlation_heatmap(names, np.asarray(matrix, dtype=float))))
         return out
+
+
+def _dotted(document: Mapping[str, Any], key: str) -> Any:
+    """The value at a dotted key of the document (None where any part is missing or null)."""
+    value: Any = document
+    for part in key.split("."):
+        value = value.get(part) if isinstance(value, Mapping) else None
+    return value
 
 
 def _cell(value: Any) -> str:

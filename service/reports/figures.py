@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import io
 from collections.abc import Sequence
+from datetime import datetime
 
 import matplotlib
 
@@ -134,5 +135,32 @@ def parameter_changes(names: Sequence[str], change: Array, std_error: Array) -> 
     ax.set_ylabel("|change| / std error")
     ax.set_title("How far each estimated parameter moved, in its own uncertainty")
     ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def accuracy_history(
+    at: Sequence[datetime], measured_mm: Sequence[float | None], predicted_mm: Sequence[float | None], marked: int
+) -> Figure:
+    """The robot's accuracy over its history: each calibration's and check's measured RMS error and what was
+    predicted, against the event's time; the event `marked` (this calibration) ringed."""
+    fig = Figure(figsize=(WIDTH_IN, 3.0))
+    ax = fig.add_subplot()
+    x = np.array([t.timestamp() / 86_400.0 for t in at])  # matplotlib's dates: days since 1970-01-01 UTC
+    for values, color, label in ((measured_mm, BEFORE, "measured (RMS)"), (predicted_mm, AFTER, "predicted (1 σ RMS)")):
+        y = np.array([np.nan if v is None else v for v in values], dtype=float)
+        shown = np.isfinite(y)
+        if shown.any():
+            ax.plot(x[shown], y[shown], marker="o", color=color, label=label)
+    if 0 <= marked < len(at) and measured_mm[marked] is not None:
+        ring = [float(measured_mm[marked] or 0.0)]
+        ax.plot(x[marked : marked + 1], ring, marker="o", markersize=12, fillstyle="none", color="black")
+    ax.xaxis_date()
+    ax.set_ylim(bottom=0)
+    ax.set_ylabel("TCP error (mm)")
+    ax.set_title("The robot's accuracy over its calibrations and checks (ringed: this calibration)")
+    ax.legend(loc="upper left", fontsize="small")
+    ax.grid(alpha=0.3)
+    fig.autofmt_xdate()
     fig.tight_layout()
     return fig

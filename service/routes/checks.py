@@ -1,9 +1,12 @@
 from __future__ import annotations
 
-from fastapi import APIRouter, Response
+from typing import Any
+
+from fastapi import APIRouter, Query, Request, Response
 from pydantic import TypeAdapter
 
-from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, compute
+from service.conversions.checks import HISTORY_COLUMNS, history_csv
+from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, compute, negotiate
 from service.json_bodies import OffloopRoute
 from service.operations import Runs, operation
 from service.responses import model_json, models_json
@@ -20,6 +23,13 @@ from service.services import checks
 router = APIRouter(tags=["checks"], route_class=OffloopRoute)
 _CHECKS = TypeAdapter(list[QuickCheckPublic])
 _HISTORY = TypeAdapter(list[HistoryEventPublic])
+_FORMATS = {"json": "application/json", "csv": "text/csv"}
+_HISTORY_CSV: dict[int | str, dict[str, Any]] = {
+    200: {
+        "content": {"text/csv": {"schema": {"type": "string", "description": "header: " + ",".join(HISTORY_COLUMNS)}}}
+    },
+    406: {"description": "Accept allows neither JSON nor CSV"},
+}
 
 
 @router.post("/v1/robots/{robot_id}/checks", status_code=201, response_model=QuickCheckPublic)
@@ -60,8 +70,25 @@ def get_check(check_id: str, db: DatabaseDep) -> Response:
     return model_json(checks.get_check(db=db, check_id=check_id))
 
 
-@router.get("/v1/robots/{robot_id}/history", response_model=list[HistoryEventPublic])
+@router.get("/v1/robots/{robot_id}/history", response_model=list[HistoryEventPublic], responses=_HISTORY_CSV)
 @operation(Scope.read)
-def history(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
-    """The robot's calibrations and checks on one timeline, oldest first."""
-    return models_json(checks.history(db=db, robot_id=robot_id, limit=limit, offset=offset), _HISTORY)
+def history(
+    robot_id: str,
+    *,
+    request: Request,
+    db: DatabaseDep,
+    limit: Limit = 100,
+    offset: Offset = 0,
+    format: str | None = Query(None, pattern="^(json|csv)$", description="Overrides Accept"),
+) -> Response:
+    """The robot's calibrations and checks on one timeline, oldest first, with the accuracy measured then: JSON,
+    or CSV to export."""
+    media = _FORMATS[format] if format else negotiate(request, list(_FORMATS.values()))
+    events = checks.history(db=db, robot_id=robot_id, limit=limit, offset=offset)
+    if media == "text/csv":
+        return Response(
+            history_csv(events),
+            media_type="text/csv",
+            headers={"content-disposition": f'attachment; filename="history-{robot_id}.csv"'},
+        )
+    return models_json(events, _HISTORY)

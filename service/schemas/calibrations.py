@@ -8,10 +8,12 @@ from typing import Annotated, Literal
 from pydantic import ConfigDict, Discriminator, Field, Tag
 
 from models.identification import IdentificationOptions, RobustLoss
+from models.identification.drift import MAX_DEGREE, DriftDriver
 from models.identification.options import DEFAULT_GROUPS
 from models.noise import NoiseModel
 from service.conversions.units import degrees_default
 from service.schemas.common import (
+    ConditionsPublic,
     FreeText,
     JointVector,
     Measurement,
@@ -20,6 +22,7 @@ from service.schemas.common import (
     Position,
     Public,
     Quaternion,
+    RecordTime,
     Strict,
     TemperatureC,
 )
@@ -54,6 +57,16 @@ class Record(Strict):
         default=None, description="The robot's temperature at this record (°C); required by the thermal term"
     )
     payload: Payload | None = Field(default=None, description="This record's payload (default: the campaign's)")
+    time: RecordTime | None = Field(
+        default=None,
+        description="When the record was measured: seconds from any origin, or an ISO 8601 time (without an offset: "
+        "UTC); a drift-aware calibration fits the instrument's drift over it (default: the record order)",
+    )
+    reference: bool = Field(
+        default=False,
+        description="This record measures the campaign's reference pose, the one pose measured again every few "
+        "records of a drift-aware calibration (options.drift); none marked: the pose measured most often",
+    )
 
 
 CampaignRecord = Annotated[
@@ -87,6 +100,24 @@ class CalibrationOptions(Strict):
         max_length=2,
         description="Model terms beyond geometry: thermal (κ of the legs and prismatic axes, ppm/K; records need "
         "temperature_c) and compliance (per leg, µm/N; needs a payload); their parameters are estimated",
+    )
+    drift: DriftRequest | None = Field(
+        default=None,
+        description="Fit and remove the instrument's drift over the campaign, seen on a reference pose measured "
+        "every few records (tracker records only); null: none",
+    )
+
+
+class DriftRequest(Strict):
+    """Fit the instrument's drift over the campaign and remove it (docs/drift.md)."""
+
+    driver: DriftDriver = Field(
+        default=DriftDriver.TIME,
+        description="time: over the records' time (their order where they carry none); temperature: over their "
+        "temperature_c (the instrument's frame moving with the hall's temperature)",
+    )
+    degree: int = Field(
+        default=1, ge=1, le=MAX_DEGREE, description="Of the drift's polynomial per axis (1: a constant rate)"
     )
 
 
@@ -249,6 +280,36 @@ class CorrelationPublic(Public):
     matrix: list[list[OptionalFloat]]
 
 
+class ScatterPublic(Public):
+    before_mm: float
+    after_mm: float
+
+
+class DriftPublic(Public):
+    """The instrument's drift fitted over the campaign and removed from the records before the parameters."""
+
+    driver: DriftDriver
+    degree: int
+    over: Literal["seconds", "records", "temperature_c"] = Field(
+        description="What the drift is a function of: the records' time (s), their order, or their temperature"
+    )
+    span: list[float] = Field(description="The driver's first and last value (s from the first record, index, °C)")
+    over_campaign_mm: list[float] = Field(description="x, y, z: the drift from the span's start to its end")
+    over_campaign_sigma_mm: list[OptionalFloat] = Field(description="Its 1-σ uncertainty per axis")
+    magnitude_mm: float = Field(description="|over_campaign_mm|")
+    rate_mm_per_h: list[float] | None = Field(description="x, y, z: the mean rate over the campaign (time stamps)")
+    rate_mm_per_k: list[float] | None = Field(description="x, y, z: the mean rate per kelvin (temperature)")
+    coefficients_mm: list[list[float]] = Field(
+        description="Per axis x, y, z: the coefficients of u, u² … (u = the driver scaled to −1 … 1 over the span)"
+    )
+    reference_records: list[int] = Field(description="The records of the reference pose (0-based)")
+    reference_scatter: ScatterPublic = Field(
+        description="RMS distance of the reference pose's measured positions from their mean, as measured and "
+        "with the drift removed (what remains is the instrument's noise)"
+    )
+    rounds: int = Field(description="Fits of the parameters (each with the drift of the round before removed)")
+
+
 class CalibrationReportPublic(Public):
     """What a calibration computed: stored once, as validated here, and served as stored."""
 
@@ -303,6 +364,13 @@ class CalibrationReportPublic(Public):
     )
     record_kinds: dict[str, int] | None = Field(
         default=None, description="Records per kind of a campaign with any but tracker records"
+    )
+    drift: DriftPublic | None = Field(
+        default=None, description="The instrument's drift fitted and removed (options.drift); null: none asked"
+    )
+    conditions: ConditionsPublic | None = Field(
+        default=None,
+        description="What the campaign was measured under (stored with the version it makes); null before kept",
     )
 
 

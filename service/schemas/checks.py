@@ -11,7 +11,7 @@ from pydantic import ConfigDict, Field
 from models.checks import CheckAction, CheckOptions, Verdict
 from optimal_design.checks import MAX_CHECK_POSES, MIN_CHECK_POSES
 from service.schemas.calibrations import CampaignRecord, Instrument, InstrumentPublic, Noise
-from service.schemas.common import FreeText, JointVector, Measurement, Public, Strict
+from service.schemas.common import ConditionWarningPublic, FreeText, JointVector, Measurement, Public, Strict
 from service.schemas.references import ReferenceDescriptions
 
 _OPTIONS = CheckOptions()
@@ -122,6 +122,10 @@ class QuickCheckPublic(Public):
     seconds: float
     notes: str | None
     instrument: InstrumentPublic | None
+    warnings: list[ConditionWarningPublic] = Field(
+        default_factory=list,
+        description="The records' temperature or payload outside what the version was calibrated under",
+    )
 
 
 class QuickCheckDesignCreate(Strict):
@@ -172,3 +176,16 @@ class HistoryEventPublic(Public):
     id: str
     version: int | None = Field(description="A calibration's new version (null: not applied); a check's version")
     outcome: str = Field(description="A calibration's status (applied or not); a check's verdict")
+    rms_mm: float | None = Field(
+        default=None,
+        description="The accuracy measured then: a calibration's RMS TCP residual after its fit, a check's RMS "
+        "|measured − predicted| (mm); null where none was computed",
+    )
+    predicted_mm: float | None = Field(
+        default=None,
+        description="What was expected: a calibration's predicted 1-σ TCP accuracy over the workspace, the RMS of "
+        "a check's predicted errors (mm)",
+    )
+    drift_mm: float | None = Field(
+        default=None, description="A drift-aware calibration's instrument drift over its campaign (mm)"
+    )

@@ -125,3 +125,44 @@ class Payload(Strict):
 
 
 TemperatureC = Annotated[float, Field(ge=-60, le=200, description="°C")]
+
+
+def _iso_time(text: str) -> str:
+    """An ISO 8601 time, kept as sent (the stored campaign is what was received)."""
+    try:
+        datetime.fromisoformat(text)
+    except ValueError as exc:
+        raise ValueError(f"{text!r} is not an ISO 8601 time such as 2026-12-05T14:03:00Z") from exc
+    return text
+
+
+RecordTime = Annotated[
+    Annotated[float, Field(ge=-1e12, le=1e12)] | Annotated[str, Field(max_length=64), AfterValidator(_iso_time)],
+    Field(description="Seconds from any origin (within ±1e12 s), or an ISO 8601 time"),
+]
+
+
+class RangePublic(Public):
+    min: float
+    max: float
+
+
+class ConditionsPublic(Public):
+    """What a campaign was measured under: the range a version is calibrated for."""
+
+    temperature_c: RangePublic | None = Field(description="The records' temperatures; null: none given")
+    payload_kg: RangePublic | None = Field(description="The payload masses (campaign or records); null: none")
+    time: list[str] | None = Field(description="The first and last record's ISO 8601 time; null: no ISO times")
+    duration_s: float | None = Field(description="From the first record to the last; null: no time stamps")
+    records: int
+
+
+class ConditionWarningPublic(Public):
+    """A condition of a request outside the range its version was calibrated under (the answer is still given)."""
+
+    condition: Literal["temperature_c", "payload_kg"]
+    value: float = Field(description="The request's farthest value outside the range")
+    calibrated: RangePublic
+    outside_by: float = Field(description="How far beyond the range (°C, kg)")
+    version: int
+    message: str

@@ -2,7 +2,17 @@ from __future__ import annotations
 
 from pydantic import Field
 
-from service.schemas.common import JointVector, OptionalFloat, Payload, PosePublic, Public, Strict, Target, TemperatureC
+from service.schemas.common import (
+    ConditionWarningPublic,
+    JointVector,
+    OptionalFloat,
+    Payload,
+    PosePublic,
+    Public,
+    Strict,
+    Target,
+    TemperatureC,
+)
 
 TEMPERATURE = (
     "°C: one number, or one per joint vector (target); used where the robot's current version has the thermal "
@@ -51,3 +61,8 @@ class InverseResponse(Public):
     hexapod_condition: list[OptionalFloat] = Field(description="Condition number of eq. 48 at each answer")
     methods: list[str] = Field(description="'newton', 'ipopt', 'ipopt-nearest' or 'invalid', per target")
     seconds: float
+    warnings: list[ConditionWarningPublic] = Field(
+        default_factory=list,
+        description="The request's temperature_c or payload outside what the current version was calibrated "
+        "under (the joints are computed all the same)",
+    )

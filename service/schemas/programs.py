@@ -6,7 +6,16 @@ from typing import Literal
 
 from pydantic import Field
 
-from service.schemas.common import JointVector, Position, Public, Quaternion, Strict
+from service.schemas.common import (
+    ConditionWarningPublic,
+    JointVector,
+    Payload,
+    Position,
+    Public,
+    Quaternion,
+    Strict,
+    TemperatureC,
+)
 
 ProgramFormat = Literal["krl", "rapid", "urscript", "csv"]
 PROGRAM_CHARS = 20_000_000
@@ -58,6 +67,14 @@ class ProgramRequest(Strict):
         description="Joints (deg, mm) near which the nominal controller's solution of each target is sought "
         "(default: mid-range), moved into each target's declared configuration (KRL T, RAPID cf1/cf4/cf6)",
     )
+    temperature_c: TemperatureC | None = Field(
+        default=None,
+        description="The temperature the program will run at: compared with what the version was calibrated under "
+        "(a warning outside it); the targets are corrected by the version's geometry whatever it is",
+    )
+    payload: Payload | None = Field(
+        default=None, description="The payload the program will carry: compared likewise (a warning outside)"
+    )
 
 
 class CompensatedTarget(Public):
@@ -92,4 +109,8 @@ class ProgramResponse(Public):
     base: str = Field(default=BASE_CONVENTION, description="How the robot-base frame is defined")
     pendant: PendantCheckPublic | None = Field(
         default=None, description="How the nominal model reproduced the pendant readings, when given"
+    )
+    warnings: list[ConditionWarningPublic] = Field(
+        default_factory=list,
+        description="The stated temperature_c or payload outside what the version was calibrated under",
     )

@@ -7,7 +7,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from service.schemas.common import PARAMETER_UNITS, OptionalFloat, Public, Strict
+from service.schemas.common import PARAMETER_UNITS, ConditionsPublic, OptionalFloat, Public, Strict
 
 Provenance = Literal["nominal", "calibration", "restore", "import", "edit"]
 
@@ -23,6 +23,11 @@ class ParameterVersionPublic(Public):
     created_at: datetime
     actor: str | None = Field(description="Name of the API key that made it (never the key); null without keys")
     current: bool
+    conditions: ConditionsPublic | None = Field(
+        default=None,
+        description="What the campaign that made it was measured under: checks and compensations outside these "
+        "ranges carry a warning; null: no campaign made it (or it was made before conditions were kept)",
+    )
 
 
 class ParameterDiffPublic(Public):

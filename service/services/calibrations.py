@@ -8,11 +8,15 @@ from sqlalchemy.orm import Session
 
 from models import Registry, RobotDescription
 from models._types import Array
+from models.campaign import Campaign
 from models.errors import InvalidInput
 from models.identifiability import structural_identifiability
 from models.identification import IdentificationOptions, IdentificationResult, identify
 from models.identification.acceptance import Acceptance, acceptance_checks, decide
+from models.identification.drift import DriftOptions, identify_with_drift
 from models.identification.reference_result import expected_rank, identify_reference_campaign
+from models.noise import NoiseModel
+from models.runtime import Runtime
 from service.audit_actions import AuditAction
 from service.conversions.calibrations import (
     calibration_public,
@@ -22,6 +26,7 @@ from service.conversions.calibrations import (
     options_in,
     report_out,
 )
+from service.conversions.drift import conditions_out, drift_out, timeline_in
 from service.conversions.references import Described, has_references, reference_groups_in
 from service.conversions.robots import description
 from service.conversions.terms import padded, requested_model
@@ -31,7 +36,7 @@ from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import CalibrationRecord, ParameterVersion, Robot
-from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic, Record
 from service.services.hooks import JobHooks
 
 
@@ -131,7 +136,13 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     runtime = registry.runtime(desc)
     candidates = desc.parameters.indices(options.estimate)
     everything = desc.parameters.indices(IdentificationOptions().estimate)
+    drift: dict[str, Any] | None = None
     if has_references(body.measurements):
+        if body.options.drift is not None:
+            raise BadRequest(
+                "options.drift needs tracker records (positions in the instrument's frame): distance, point, plane "
+                "and image records carry no frame that could drift; calibrate them without options.drift"
+            )
         if body.options.terms:
             raise BadRequest(
                 f"options.terms {body.options.terms} need tracker records: distance, point and plane records "
@@ -148,7 +159,7 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
         most = expected_rank(desc, everything, fixes_frame=fixes_frame, runtime=runtime)
     else:
         campaign = campaign_in(desc, body)
-        result = identify(desc, campaign, noise=noise, nominal=start.values, options=options, runtime=runtime)
+        result, drift = _tracker_fit(desc, campaign, body, start, options=options, noise=noise, runtime=runtime)
         expected = structural_identifiability(desc, candidates, campaign.kind, runtime=runtime).rank
         most = structural_identifiability(desc, everything, campaign.kind, runtime=runtime).rank
     partial = expected < most  # parameters held at the start version's (calibrated) values
@@ -162,9 +173,44 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     )
     decision = decide(checks, succeeded=result.succeeded, requested=body.apply, force=body.force_apply)
     report = report_out(
-        desc, result, start_values=start.values, start_version=start.version, checks=checks, noise=noise
+        desc,
+        result,
+        start_values=start.values,
+        start_version=start.version,
+        checks=checks,
+        noise=noise,
+        drift=drift,
+        conditions=conditions_out(body.measurements, body.payload),
     )
     return _Fit(result, decision, report)
+
+
+def _tracker_fit(
+    desc: RobotDescription,
+    campaign: Campaign,
+    body: CalibrationCreate,
+    start: _Start,
+    *,
+    options: IdentificationOptions,
+    noise: NoiseModel,
+    runtime: Runtime,
+) -> tuple[IdentificationResult, dict[str, Any] | None]:
+    """A tracker campaign's identification, with the instrument's drift fitted and removed when asked (and the
+    report's `drift`)."""
+    if body.options.drift is None:
+        return identify(desc, campaign, noise=noise, nominal=start.values, options=options, runtime=runtime), None
+    tracker = [r for r in body.measurements if isinstance(r, Record)]
+    fitted = identify_with_drift(
+        desc,
+        campaign,
+        timeline_in(desc, tracker, campaign),
+        drift=DriftOptions(body.options.drift.driver, body.options.drift.degree),
+        noise=noise,
+        nominal=start.values,
+        options=options,
+        runtime=runtime,
+    )
+    return fitted.result, drift_out(fitted.drift)
 
 
 def _store(
@@ -231,6 +277,7 @@ def _apply(s: Session, robot: Robot, record: CalibrationRecord, start: _Start, f
         provenance="calibration",
         actor=who,
         calibration_id=calibration_id,
+        conditions=None if fit.report.conditions is None else fit.report.conditions.model_dump(mode="json"),
     )
     record.applied = True
     Lifecycle(s).changed(

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -16,6 +17,7 @@ from models.measurement import MeasurementKind
 from optimal_design.checks import design_check
 from service.conversions.calibrations import records_in
 from service.conversions.checks import check_design_out, check_document, check_public, history_out
+from service.conversions.drift import condition_warnings
 from service.conversions.references import Described, has_references, reference_groups_in
 from service.conversions.robots import description
 from service.conversions.terms import stored_model
@@ -43,6 +45,8 @@ class _Version:
     values: Array
     covariance: Array
     calibration_poses: int
+    conditions: dict[str, Any] | None = None
+    """What the version's campaign was measured under (None: no campaign made it)."""
 
 
 def _current(repo: Repository, robot_id: str, against: Against) -> _Version:
@@ -53,7 +57,7 @@ def _current(repo: Repository, robot_id: str, against: Against) -> _Version:
     table = model.parameters
     if against == "tolerances":
         # The nominal tolerances (each parameter's expected error) as the version's uncertainty.
-        return _Version(model, row.version, values, np.diag(table.scales**2), CALIBRATION_POSES)
+        return _Version(model, row.version, values, np.diag(table.scales**2), CALIBRATION_POSES, row.conditions)
     stored = list(row.std_errors or [])
     std = np.array([math.nan if v is None else float(v) for v in stored] + [math.nan] * (len(table) - len(stored)))
     if not np.any(np.isfinite(std) & (std > 0)):
@@ -71,7 +75,8 @@ def _current(repo: Repository, robot_id: str, against: Against) -> _Version:
         if stored_correlation:
             names, correlation = stored_correlation["names"], np.asarray(stored_correlation["matrix"], dtype=float)
         poses = int(document.get("measurements") or CALIBRATION_POSES)
-    return _Version(model, row.version, values, version_covariance(table, std[: len(table)], names, correlation), poses)
+    covariance = version_covariance(table, std[: len(table)], names, correlation)
+    return _Version(model, row.version, values, covariance, poses, row.conditions)
 
 
 def _noise(noise: Noise) -> NoiseModel:
@@ -105,6 +110,15 @@ def create_check(*, db: Database, registry: Registry, robot_id: str, body: Quick
         )
         kind, size = campaign.kind, campaign.size
     document = check_document(desc, current.number, body.against, result, kind=kind, size=size)
+    # The check is answered all the same; a version calibrated under other conditions is said to be.
+    records = [r for r in body.measurements if isinstance(r, Record)]
+    warnings = condition_warnings(
+        current.conditions,
+        version=current.number,
+        temperatures=[r.temperature_c for r in records if r.temperature_c is not None],
+        payloads_kg=[r.payload.mass_kg for r in records if r.payload is not None],
+    )
+    document["warnings"] = [w.model_dump(mode="json") for w in warnings]
     with db.session() as s:
         repo, life = Repository(s), Lifecycle(s)
         repo.robot(robot_id, lock=True)  # still there

@@ -7,6 +7,7 @@ from models.compensation import inverse_kinematics
 from models.compensation.terms import terms_inverse_kinematics
 from models.identification.diagnosis import check_radians
 from models.terms import Conditions
+from service.conversions.drift import condition_warnings
 from service.conversions.kinematics import forward_out, inverse_out, joints_in, targets_in
 from service.conversions.terms import request_conditions
 from service.model_cache import ModelCache
@@ -57,4 +58,14 @@ def inverse(*, models: ModelCache, registry: Registry, robot_id: str, body: Inve
             follow=body.follow,
             runtime=registry.runtime(desc),
         )
-    return inverse_out(desc, answer)
+    out = inverse_out(desc, answer)
+    if conditions is None:
+        return out
+    version, calibrated = models.conditions(robot_id)
+    warnings = condition_warnings(
+        calibrated,
+        version=version,
+        temperatures=[] if conditions.temperature_c is None else conditions.temperature_c.tolist(),
+        payloads_kg=[] if conditions.payload_kg is None else conditions.payload_kg.tolist(),
+    )
+    return out.model_copy(update={"warnings": warnings}) if warnings else out

@@ -20,11 +20,13 @@ from programs import DIALECTS, PROGRAM, Program, ProgramError, Target, dialect, 
 from programs.collection import collector_paused
 from programs.configuration import kept
 from programs.configuration import seed as configuration_seed
+from service.conversions.drift import condition_warnings
 from service.conversions.kinematics import joints_in
 from service.conversions.robots import description
 from service.conversions.terms import stored_model
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
+from service.schemas.common import ConditionWarningPublic
 from service.schemas.programs import CompensatedTarget, PendantCheckPublic, ProgramRequest, ProgramResponse
 
 
@@ -130,6 +132,26 @@ def compensate(
         files={name: text for name, text in done.texts.items() if name is not None and name in changed},
         targets=[_target_out(o) for o in done.outcomes],
         pendant=pendant,
+        warnings=_warnings(db, models, robot_id, version, body),
+    )
+
+
+def _warnings(
+    db: Database, models: ModelCache, robot_id: str, version: int, body: ProgramRequest
+) -> list[ConditionWarningPublic]:
+    """The program's stated conditions against those `version` was calibrated under (read only when stated)."""
+    if body.temperature_c is None and body.payload is None:
+        return []
+    if body.version is None:
+        version, calibrated = models.conditions(robot_id)
+    else:
+        with db.reader() as s:
+            calibrated = Repository(s).version(robot_id, version).conditions
+    return condition_warnings(
+        calibrated,
+        version=version,
+        temperatures=[] if body.temperature_c is None else [body.temperature_c],
+        payloads_kg=[] if body.payload is None else [body.payload.mass_kg],
     )
 
 

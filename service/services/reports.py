@@ -8,9 +8,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from service.conversions.calibrations import calibration_public
+from service.conversions.checks import history_out
 from service.conversions.validations import validation_public
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
+from service.services.checks import HISTORY_MAX
 
 if TYPE_CHECKING:
     from service.reports import CalibrationReport
@@ -39,6 +41,10 @@ def build_report(*, db: Database, calibration_id: str) -> CalibrationReport:
                 results = [r for r in doc["results"] if r["version"] == produced]
                 if results:
                     validations.append({**doc, "results": results})
+        events = history_out(
+            repo.calibrations(record.robot_id, HISTORY_MAX, 0), life.checks(record.robot_id, HISTORY_MAX, 0)
+        )
+        history = [e.model_dump(mode="json") for e in events]
     stored = document.get("correlation")
     correlation = None
     if stored:
@@ -52,6 +58,7 @@ def build_report(*, db: Database, calibration_id: str) -> CalibrationReport:
         correlation=correlation,
         noise_position_mm=noise.get("position_mm"),
         validations=validations,
+        history=history,
     )
 
 

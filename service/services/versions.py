@@ -58,6 +58,7 @@ def restore(
             provenance="restore",
             actor=actor,
             restored_from=source.version,
+            conditions=source.conditions,  # the same values, calibrated under the same conditions
         )
         life.changed(
             robot,

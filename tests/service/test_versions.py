@@ -95,7 +95,12 @@ def test_versions_restore_and_diff(client: TestClient, robot_id: str) -> None:
         "created_at": None,
         "actor": "ops",
         "current": True,
+        # the same values, calibrated under the same conditions as version 2
+        "conditions": next(
+            v["conditions"] for v in client.get(f"/v1/robots/{robot_id}/parameter-versions").json() if v["version"] == 2
+        ),
     }
+    assert restored.json()["conditions"] is not None
     assert restored.headers["etag"] != etag
     assert _values(client, robot_id) == _values(client, robot_id, 2)  # equal to version 2, to the last digit
     assert _values(client, robot_id, 3) == [p["value"] for p in second["parameters"]]  # 3 untouched

@@ -4,6 +4,7 @@ draw one mark per datum, the report shows the API's numbers, and a screenshot of
 from __future__ import annotations
 
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 from urllib.parse import urlparse
 
@@ -95,6 +96,19 @@ def test_robot_page_history_drift_and_design(
     # One point per version on the drift plot, one error bar per version with a std error (the calibrated ones).
     assert p.locator("#drift-plot circle.point").count() == 4
     assert p.locator("#drift-plot line.band").count() == 3
+    # Accuracy over time: one event per calibration, each with its measured (RMS after) and predicted accuracy.
+    history = httpx.get(f"{server}/v1/robots/{robot_id}/history").json()
+    assert p.locator("#history-events tbody tr").count() == len(history) == 2
+    assert p.locator("#history-plot circle.point.s0").count() == 2
+    assert p.locator("#history-plot circle.point.s1").count() == 2
+    shown = p.locator("#history-events tbody tr td:nth-child(5)").all_inner_texts()
+    expected = [c["residuals"]["after"]["rms_mm"] for c in data["calibrations"]]
+    assert [float(c) for c in shown] == pytest.approx(expected, rel=1e-3)
+    with p.expect_download() as exported:
+        p.click("#history-csv")
+    lines = Path(exported.value.path()).read_text().splitlines()
+    assert lines[0].startswith("at,kind,id,version,outcome,rms_mm") and len(lines) == 3
+    screenshot(p, "robot-history")
     p.select_option("#drift-parameter", "base.x")
     p.wait_for_function("document.querySelector('#drift-plot title').textContent.startsWith('base.x')")
     assert p.locator("#drift-plot circle.point").count() == 4

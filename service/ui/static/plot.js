@@ -1,4 +1,4 @@
-// Small SVG plots for the UI: a line with error bars, a scatter and grouped bars. Written for this page (nothing fetched:
+// Small SVG plots for the UI: a line with error bars, several lines, a scatter and grouped bars. Written for this page (nothing fetched:
 // plant networks are offline), axes with "nice" ticks, every mark a real SVG element the browser test can count.
 "use strict";
 
@@ -89,5 +89,24 @@ const Plot = (() => {
     return svg;
   }
 
-  return { line, scatter, bars };
+  // Several series over one x, each a polyline with its points (class s0, s1, …) and a legend; a null value is a
+  // gap: a robot's accuracy over time, measured and predicted, event by event.
+  function series(container, opts) {
+    const all = opts.series.flatMap((s) => s.values.filter((v) => v != null));
+    const { svg, sx, sy } = frame(container, opts, opts.x, all.length ? [0, ...all] : [0, 1]);
+    opts.series.forEach((one, k) => {
+      const kept = opts.x.map((v, i) => [v, one.values[i], i]).filter(([, y]) => y != null);
+      el("polyline", { points: kept.map(([v, y]) => `${sx(v)},${sy(y)}`).join(" "), class: `series s${k}` }, svg);
+      for (const [v, y, i] of kept) {
+        const dot = el("circle", { cx: sx(v), cy: sy(y), r: 3.5, class: `point s${k}` }, svg);
+        el("title", {}, dot).textContent = `${one.name}, ${(opts.labels || [])[i] ?? v}: ${fmt(y)}`;
+      }
+      const key = el("g", { class: "legend" }, svg);
+      el("rect", { x: W - M.right - 190, y: M.top + k * 16, width: 10, height: 10, class: `bar s${k}` }, key);
+      el("text", { x: W - M.right - 175, y: M.top + k * 16 + 9 }, key).textContent = one.name;
+    });
+    return svg;
+  }
+
+  return { line, scatter, bars, series };
 })();

@@ -1,0 +1,29 @@
+"""A version remembers what the campaign that made it was measured under.
+
+- parameter_versions.conditions: the temperature and payload ranges, the first and last record's time and the
+  duration of the calibration's campaign (JSON; null for versions no campaign made, and for those stored
+  before); later checks and compensations warn when they run the robot outside them.
+
+Revision ID: 0007_version_conditions
+Revises: 0006_robot_urdf
+"""
+
+from __future__ import annotations
+
+import sqlalchemy as sa
+from alembic import op
+
+revision = "0007_version_conditions"
+down_revision = "0006_robot_urdf"
+branch_labels = None
+depends_on = None
+
+
+def upgrade() -> None:
+    with op.batch_alter_table("parameter_versions") as batch:
+        batch.add_column(sa.Column("conditions", sa.JSON(), nullable=True))
+
+
+def downgrade() -> None:
+    with op.batch_alter_table("parameter_versions") as batch:
+        batch.drop_column("conditions")
