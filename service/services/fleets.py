@@ -1,0 +1,226 @@
+"""Fleets: the robots of one structure document, read from the stored robots and their current versions (no
+table of their own). A unit counts in its fleet's population when its current version is a calibration made
+without a prior (a unit calibrated with the fleet's prior would vote twice for the fleet's own mean)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from models import RobotDescription
+from models._types import Array
+from models.errors import PriorMismatch
+from models.fleet import MIN_UNITS, FleetPrior, UnitEstimate, compare, fleet_prior, leave_one_out
+from models.identification import IdentificationResult
+from models.identification.prior import ParameterPrior
+from service.conversions.robots import description
+from service.errors import NotFound
+from service.persistence import Database, Repository
+from service.persistence.tables import ParameterVersion, Robot
+from service.schemas.fleets import (
+    FleetComparisonPublic,
+    FleetParameterPublic,
+    FleetPublic,
+    FleetUnitPublic,
+    FleetZPublic,
+)
+
+PAGE = 500
+"""Robots read a page at a time while the fleet's members are gathered."""
+
+
+def fleet_key(robot: Robot) -> str:
+    """A digest of the robot's structure document without its base and tool guesses (the IWR's: "iwr")."""
+    document: object = (
+        "iwr" if robot.structure is None else {k: v for k, v in robot.structure.items() if k not in ("base", "tool")}
+    )
+    canonical = json.dumps(document, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(canonical.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class Member:
+    robot: Robot
+    version: ParameterVersion
+    unit: UnitEstimate | None
+    """Its calibrated values (the geometric ones), None where its current version does not count."""
+
+
+@dataclass(frozen=True)
+class Fleet:
+    key: str
+    desc: RobotDescription
+    """The geometric model of the fleet (the first member's; every member's table has its names)."""
+    members: tuple[Member, ...]
+
+    @property
+    def units(self) -> tuple[UnitEstimate, ...]:
+        return tuple(m.unit for m in self.members if m.unit is not None)
+
+    def population(self, *, without: str | None = None) -> FleetPrior:
+        """The population of the calibrated units but `without`; FleetTooSmall (a 422) below MIN_UNITS."""
+        units = [u for u in self.units if u.unit != without]
+        what = f"fleet {self.key}" + (" (this robot not counted)" if without is not None else "")
+        return fleet_prior(self.desc.parameters, units, what=what)
+
+
+def read_fleet(s: Session, robot: Robot) -> Fleet:
+    """The fleet of `robot`, inside the caller's transaction."""
+    repo = Repository(s)
+    key = fleet_key(robot)
+    desc = description(robot).geometric
+    members = []
+    offset = 0
+    while True:
+        page = repo.robots(PAGE, offset)
+        for other in page:
+            if fleet_key(other) == key:
+                members.append(_member(repo, other))
+        if len(page) < PAGE:
+            break
+        offset += PAGE
+    return Fleet(key, desc, tuple(members))
+
+
+def _member(repo: Repository, robot: Robot) -> Member:
+    row = repo.version(robot.id)
+    if row.provenance != "calibration" or row.calibration_id is None:
+        return Member(robot, row, None)
+    made_by = repo.calibration(row.calibration_id).result
+    if (made_by.get("fleet") or {}).get("prior_used"):
+        return Member(robot, row, None)
+    desc = description(robot).geometric
+    n = desc.n_params
+    values = np.asarray(row.values[:n], dtype=float)
+    # The standard errors of what a calibration estimated (flagged identifiable); NaN for what it held.
+    std = np.full(n, np.nan)
+    for i, (value, estimated) in enumerate(zip(row.std_errors or [], row.identifiable or [], strict=False)):
+        if i < n and estimated and value is not None:
+            std[i] = float(value)
+    return Member(robot, row, UnitEstimate(robot.id, values, std, desc.parameters.nominal))
+
+
+def get_fleet(*, db: Database, robot_id: str) -> FleetPublic:
+    with db.reader() as s:
+        return fleet_out(read_fleet(s, Repository(s).robot(robot_id)))
+
+
+def get_fleet_by_key(*, db: Database, key: str) -> FleetPublic:
+    with db.reader() as s:
+        repo = Repository(s)
+        offset = 0
+        while True:
+            page = repo.robots(PAGE, offset)
+            for robot in page:
+                if fleet_key(robot) == key:
+                    return fleet_out(read_fleet(s, robot))
+            if len(page) < PAGE:
+                raise NotFound(f"no robot belongs to fleet {key!r}", resource="fleet")
+            offset += PAGE
+
+
+def fleet_out(fleet: Fleet) -> FleetPublic:
+    table = fleet.desc.parameters
+    units = fleet.units
+    ready = len(units) >= MIN_UNITS
+    parameters: list[FleetParameterPublic] = []
+    if ready:
+        population = fleet.population()
+        for i in population.covered:
+            parameters.append(
+                FleetParameterPublic(
+                    name=table.names[i],
+                    unit=table.units[i],  # type: ignore[arg-type]  # the table's units are the contract's
+                    mean_offset=float(population.offset[i] * table.to_boundary[i]),
+                    spread=float(population.spread[i] * table.to_boundary[i]),
+                    units=int(population.counts[i]),
+                )
+            )
+    flags = {c.unit: c for c in leave_one_out(table, units)}
+    out_units = []
+    for m in fleet.members:
+        c = flags.get(m.robot.id)
+        out_units.append(
+            FleetUnitPublic(
+                robot_id=m.robot.id,
+                name=m.robot.name,
+                version=m.version.version,
+                calibrated=m.unit is not None,
+                outlier=None if c is None else c.outlier,
+                worst_parameter=None if c is None or c.worst is None else c.worst[0],
+                worst_z=None if c is None or c.worst is None else c.worst[1],
+            )
+        )
+    return FleetPublic(
+        fleet=fleet.key,
+        units=out_units,
+        calibrated=len(units),
+        needed=MIN_UNITS,
+        ready=ready,
+        parameters=parameters,
+        outliers=[u for u, c in flags.items() if c.outlier],
+    )
+
+
+def calibration_prior(fleet: Fleet, robot_id: str, desc: RobotDescription, expected: str | None) -> ParameterPrior:
+    """The prior of a calibration of robot `robot_id` (its model `desc`, with any terms) from its fleet, itself
+    excluded: PriorMismatch when `expected` names another fleet, FleetTooSmall while the others are too few."""
+    if expected is not None and expected != fleet.key:
+        raise PriorMismatch(
+            f"options.fleet is {expected}, but robot {robot_id!r} belongs to fleet {fleet.key} (robots of another "
+            "structure document): calibrate it with its own fleet's prior (leave out options.fleet), or without one",
+            expected=len(fleet.desc.parameters),
+            got=0,
+        )
+    population = fleet.population(without=robot_id)
+    n, total = len(population.table), desc.n_params
+    mean, spread = np.full(total, np.nan), np.full(total, np.nan)
+    mean[:n] = desc.parameters.nominal[:n] + population.offset
+    spread[:n] = population.spread
+    return ParameterPrior(tuple(desc.parameters.names), mean, spread)
+
+
+def comparison_out(
+    fleet: Fleet, robot_id: str, nominal: Array, result: IdentificationResult, *, prior_used: bool
+) -> FleetComparisonPublic | None:
+    """This calibration (of robot `robot_id`, its geometric `nominal` values) against the others' population
+    (None while they are too few, or when it failed)."""
+    if len(fleet.units) - any(u.unit == robot_id for u in fleet.units) < MIN_UNITS or not result.succeeded:
+        return None
+    population = fleet.population(without=robot_id)
+    table = population.table
+    n = len(table)
+    std = np.full(n, np.nan)
+    estimated = [i for i in result.estimated if i < n]
+    std[estimated] = result.std_errors[estimated]
+    unit = UnitEstimate(robot_id, result.parameters[:n], std, nominal)
+    found = compare(population, unit)
+    rows = []
+    for i in estimated:
+        z = float(found.z[i])
+        if not np.isfinite(z):
+            continue
+        k = float(table.to_boundary[i])
+        rows.append(
+            FleetZPublic(
+                name=table.names[i],
+                unit=table.units[i],  # type: ignore[arg-type]
+                offset=float(result.parameters[i] - nominal[i]) * k,
+                mean_offset=float(population.offset[i]) * k,
+                spread=float(population.spread[i]) * k,
+                z=z,
+                limit=float(found.limit[i]),
+                flagged=bool(abs(z) > found.limit[i]),
+            )
+        )
+    return FleetComparisonPublic(
+        fleet=fleet.key,
+        units=len(population.units),
+        prior_used=prior_used,
+        outlier=any(r.flagged for r in rows),
+        parameters=rows,
+    )

@@ -1,0 +1,106 @@
+"""Fleets over HTTP: the population of a structure's calibrated robots, calibrations with its prior, the report's
+comparison, and the refusals (too few units, another fleet, reference records)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from models import sample_workspace
+from models.examples import iiwa_like_document, ur5_like, ur5_like_document
+from models.fleet import MIN_UNITS
+from models.simulation import fleet_unit
+from tests.service.helpers import records
+
+DESC = ur5_like()
+
+
+def _robot(client: TestClient, name: str, document: dict[str, Any] | None = None) -> str:
+    made = client.post("/v1/robots", json={"name": name, "structure": document or ur5_like_document()})
+    assert made.status_code == 201, made.text
+    return str(made.json()["id"])
+
+
+def _calibrate(client: TestClient, robot_id: str, unit: int, poses: int, **options: object) -> Any:
+    joints = sample_workspace(DESC, poses, seed=300 + unit)
+    body: dict[str, object] = {
+        "measurements": records(DESC, fleet_unit(DESC, unit, spread=0.02), joints, seed=400 + unit)
+    }
+    if options:
+        body["options"] = options
+    return client.post(f"/v1/robots/{robot_id}/calibrations", json=body)
+
+
+def test_a_fleet_of_one_is_refused_with_how_many_it_has_and_needs(client: TestClient) -> None:
+    robot = _robot(client, "alone")
+    fleet = client.get(f"/v1/robots/{robot}/fleet").json()
+    assert fleet["calibrated"] == 0 and fleet["needed"] == MIN_UNITS and not fleet["ready"]
+    assert [u["robot_id"] for u in fleet["units"]] == [robot] and fleet["parameters"] == []
+    refused = _calibrate(client, robot, 0, 8, prior="fleet")
+    assert refused.status_code == 422
+    problem = refused.json()
+    assert problem["type"].endswith("/fleet-too-small")
+    assert problem["units"] == 0 and problem["needed"] == MIN_UNITS
+    assert f"calibrate {MIN_UNITS} more units" in problem["detail"]
+    # nothing was stored
+    assert client.get(f"/v1/robots/{robot}/calibrations").json() == []
+    # a fleet by its key; an unknown one is not found
+    assert client.get(f"/v1/fleets/{fleet['fleet']}").json() == fleet
+    assert client.get("/v1/fleets/0123456789abcdef").status_code == 404
+    assert client.get("/v1/fleets/not-a-key").status_code == 422
+
+
+@pytest.mark.slow  # six calibrations over HTTP: ~1.5 s
+def test_a_fleet_calibrates_a_new_unit_with_its_prior(client: TestClient) -> None:
+    """Five calibrated units make a population; a sixth is calibrated from 6 poses with it, its report compares
+    it with the others; a robot of another structure is its own fleet, and naming this fleet for it is refused."""
+    units = [_robot(client, f"ur5-{k}") for k in range(MIN_UNITS + 2)]
+    for k, robot in enumerate(units[:MIN_UNITS]):
+        done = _calibrate(client, robot, k, 40)
+        assert done.status_code == 201 and done.json()["applied"], done.text
+    fleet = client.get(f"/v1/robots/{units[0]}/fleet").json()
+    assert fleet["ready"] and fleet["calibrated"] == MIN_UNITS and fleet["outliers"] == []
+    assert client.get(f"/v1/fleets/{fleet['fleet']}").json() == fleet
+    names = {p["name"] for p in fleet["parameters"]}
+    assert "link2.a" in names and not any(n.startswith("base.") for n in names)
+    # the population holds the fleet's common deviation: link2.a's mean offset is the simulated one
+    truth = fleet_unit(DESC, 0, spread=0.0).truth
+    i = DESC.parameters.index["link2.a"]
+    link2 = next(p for p in fleet["parameters"] if p["name"] == "link2.a")
+    assert abs(link2["mean_offset"] - (truth[i] - DESC.parameters.nominal[i])) < 3 * link2["spread"]
+
+    new = units[MIN_UNITS]
+    with_prior = _calibrate(client, new, 50, 6, prior="fleet", fleet=fleet["fleet"])
+    assert with_prior.status_code == 201, with_prior.text
+    report = with_prior.json()
+    assert report["fleet"]["prior_used"] and report["fleet"]["units"] == MIN_UNITS
+    assert report["fleet"]["fleet"] == fleet["fleet"] and not report["fleet"]["outlier"]
+    assert {p["name"] for p in report["fleet"]["parameters"]} <= names
+    assert report["applied"], report["not_applied_reason"]
+    page = client.get(f"/v1/calibrations/{report['id']}/report", headers={"Accept": "text/html"}).text
+    assert "<h2>Fleet</h2>" in page and "calibrated with the fleet&#x27;s prior" in page
+    # a unit calibrated with the prior does not vote in its own fleet's population
+    after = client.get(f"/v1/robots/{new}/fleet").json()
+    assert after["calibrated"] == MIN_UNITS
+    assert next(u for u in after["units"] if u["robot_id"] == new)["calibrated"] is False
+
+    plain = _calibrate(client, units[-1], 51, 20).json()
+    assert plain["fleet"]["prior_used"] is False and plain["fleet"]["units"] == MIN_UNITS
+    again = _calibrate(client, units[0], 0, 20).json()  # itself left out of the population it is compared with
+    assert again["fleet"]["units"] == MIN_UNITS
+
+    other = _robot(client, "iiwa", iiwa_like_document())
+    mismatch = client.post(
+        f"/v1/robots/{other}/calibrations",
+        json={
+            "measurements": [{"joints": [0.0] * 7, "position": [0.0, 0.0, 0.0]}] * 10,
+            "options": {"prior": "fleet", "fleet": fleet["fleet"]},
+        },
+    )
+    assert mismatch.status_code == 422 and mismatch.json()["type"].endswith("/prior-mismatch")
+    assert fleet["fleet"] in mismatch.json()["detail"]
+    assert client.get(f"/v1/robots/{other}/fleet").json()["fleet"] != fleet["fleet"]
+    assert np.isfinite(report["predicted_accuracy"]["rms_position_mm"])
