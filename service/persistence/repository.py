@@ -60,6 +60,25 @@ class Repository(Store):
     def robots(self, limit: int, offset: int) -> list[Robot]:
         return list(self.s.scalars(select(Robot).order_by(Robot.created_at, Robot.id).limit(limit).offset(offset)))
 
+    def current_versions(self) -> list[tuple[Robot, ParameterVersion]]:
+        """Every robot with its current parameter version, oldest robot first, in one query (a fleet's read)."""
+        query = (
+            select(Robot, ParameterVersion)
+            .join(
+                ParameterVersion,
+                (ParameterVersion.robot_id == Robot.id) & (ParameterVersion.version == Robot.current_version),
+            )
+            .order_by(Robot.created_at, Robot.id)
+        )
+        return [(row[0], row[1]) for row in self.s.execute(query)]
+
+    def calibration_documents(self, ids: list[str]) -> dict[str, dict[str, Any]]:
+        """The result documents of these calibrations, by id, in one query."""
+        if not ids:
+            return {}
+        query = select(CalibrationRecord.id, CalibrationRecord.result).where(CalibrationRecord.id.in_(ids))
+        return {row[0]: dict(row[1]) for row in self.s.execute(query)}
+
     def delete_robot(self, robot_id: str) -> None:
         robot = self.robot(robot_id)
         for table in (CalibrationRecord, CampaignRecord, PoseDesignRecord, ParameterVersion):
