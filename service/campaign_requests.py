@@ -35,6 +35,7 @@ class CampaignQuery:
     payload_kg: float | None
     payload_cog_mm: list[float] | None
     length_unknown: list[str]
+    prior: Literal["none", "fleet"] | None = None
 
 
 def campaign_query(
@@ -60,6 +61,9 @@ def campaign_query(
         max_length=100,
         description="CSV bodies with distance records: the anchors whose bar length offset is unknown (identified)",
     ),
+    prior: Literal["none", "fleet"] | None = Query(
+        None, description="CSV bodies: options.prior (fleet: calibrate with the robot's fleet's population)"
+    ),
 ) -> CampaignQuery:
     return CampaignQuery(
         apply,
@@ -70,6 +74,7 @@ def campaign_query(
         payload_kg,
         payload_cog_mm,
         list(length_unknown or []),
+        prior,
     )
 
 
@@ -129,6 +134,8 @@ def _file_payload(measurements: list[dict[str, object]], notes: list[str], query
         payload["apply"] = query.apply
     if query.terms:
         payload["options"] = {"terms": query.terms}
+    if query.prior is not None:
+        payload["options"] = {**payload.get("options", {}), "prior": query.prior}
     if query.payload_kg is not None:
         payload["payload"] = {"mass_kg": query.payload_kg, "cog_mm": query.payload_cog_mm or [0.0, 0.0, 0.0]}
     return payload

@@ -3,6 +3,7 @@ comparison, and the refusals (too few units, another fleet, reference records)."
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -13,9 +14,11 @@ from models import sample_workspace
 from models.examples import iiwa_like_document, ur5_like, ur5_like_document
 from models.fleet import MIN_UNITS
 from models.simulation import fleet_unit
+from service.reports.calibration import FLEET_HEADER, CalibrationReport
 from tests.service.helpers import records
 
 DESC = ur5_like()
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _robot(client: TestClient, name: str, document: dict[str, Any] | None = None) -> str:
@@ -34,6 +37,7 @@ def _calibrate(client: TestClient, robot_id: str, unit: int, poses: int, **optio
     return client.post(f"/v1/robots/{robot_id}/calibrations", json=body)
 
 
+@pytest.mark.slow  # a robot of a structure the session's registry may not have built yet: 0.2-1 s here
 def test_a_fleet_of_one_is_refused_with_how_many_it_has_and_needs(client: TestClient) -> None:
     robot = _robot(client, "alone")
     fleet = client.get(f"/v1/robots/{robot}/fleet").json()
@@ -80,8 +84,12 @@ def test_a_fleet_calibrates_a_new_unit_with_its_prior(client: TestClient) -> Non
     assert report["fleet"]["fleet"] == fleet["fleet"] and not report["fleet"]["outlier"]
     assert {p["name"] for p in report["fleet"]["parameters"]} <= names
     assert report["applied"], report["not_applied_reason"]
-    page = client.get(f"/v1/calibrations/{report['id']}/report", headers={"Accept": "text/html"}).text
-    assert "<h2>Fleet</h2>" in page and "calibrated with the fleet&#x27;s prior" in page
+    # the HTML and PDF reports' section (its rows; rendering the page's figures is test_reports')
+    shown = CalibrationReport(report, "ur5-new")
+    assert "calibrated with the fleet's prior" in shown.fleet_line() and "like the others" in shown.fleet_line()
+    rows = shown.fleet_rows()
+    assert len(rows) == len(report["fleet"]["parameters"]) and all(len(r) == len(FLEET_HEADER) for r in rows)
+    assert abs(rows[0][5]) == max(abs(p["z"]) for p in report["fleet"]["parameters"])
     # a unit calibrated with the prior does not vote in its own fleet's population
     after = client.get(f"/v1/robots/{new}/fleet").json()
     assert after["calibrated"] == MIN_UNITS
@@ -104,3 +112,12 @@ def test_a_fleet_calibrates_a_new_unit_with_its_prior(client: TestClient) -> Non
     assert fleet["fleet"] in mismatch.json()["detail"]
     assert client.get(f"/v1/robots/{other}/fleet").json()["fleet"] != fleet["fleet"]
     assert np.isfinite(report["predicted_accuracy"]["rms_position_mm"])
+    # a campaign file says it in the query: the IWR's fleet (another one) has no calibrated unit either
+    iwr = client.post("/v1/robots", json={"name": "cell"}).json()["id"]
+    csv = client.post(
+        f"/v1/robots/{iwr}/calibrations?prior=fleet",
+        content=(ROOT / "examples" / "campaign.csv").read_bytes(),
+        headers={"Content-Type": "text/csv"},
+    )
+    assert csv.status_code == 422 and csv.json()["type"].endswith("/fleet-too-small")
+    assert client.get(f"/v1/robots/{iwr}/fleet").json()["fleet"] != fleet["fleet"]
