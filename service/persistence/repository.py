@@ -72,12 +72,14 @@ class Repository(Store):
         )
         return [(row[0], row[1]) for row in self.s.execute(query)]
 
-    def calibration_documents(self, ids: list[str]) -> dict[str, dict[str, Any]]:
-        """The result documents of these calibrations, by id, in one query."""
+    def calibrations_with_prior(self, ids: list[str]) -> dict[str, bool]:
+        """Of these calibrations, by id, whether each used its fleet's prior (its report's `fleet.prior_used`),
+        read from the stored documents without loading them."""
         if not ids:
             return {}
-        query = select(CalibrationRecord.id, CalibrationRecord.result).where(CalibrationRecord.id.in_(ids))
-        return {row[0]: dict(row[1]) for row in self.s.execute(query)}
+        used = CalibrationRecord.result["fleet"]["prior_used"].as_boolean()
+        query = select(CalibrationRecord.id, used).where(CalibrationRecord.id.in_(ids))
+        return {row[0]: bool(row[1]) for row in self.s.execute(query)}
 
     def delete_robot(self, robot_id: str) -> None:
         robot = self.robot(robot_id)

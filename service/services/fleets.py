@@ -7,7 +7,6 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -71,30 +70,31 @@ def read_fleet(s: Session, robot: Robot) -> Fleet:
     repo = Repository(s)
     key = fleet_key(robot)
     rows = [(other, version) for other, version in repo.current_versions() if fleet_key(other) == key]
-    documents = repo.calibration_documents(
+    with_prior = repo.calibrations_with_prior(
         [v.calibration_id for _, v in rows if v.provenance == "calibration" and v.calibration_id is not None]
     )
     desc = description(robot).geometric
-    members = tuple(_member(desc, other, version, documents) for other, version in rows)
+    members = tuple(_member(desc, other, version, with_prior) for other, version in rows)
     return Fleet(key, desc, members)
 
 
-def _member(
-    fleet: RobotDescription, robot: Robot, row: ParameterVersion, documents: dict[str, dict[str, Any]]
-) -> Member:
-    made_by = documents.get(row.calibration_id or "")
-    if row.provenance != "calibration" or made_by is None or (made_by.get("fleet") or {}).get("prior_used"):
+def _member(fleet: RobotDescription, robot: Robot, row: ParameterVersion, with_prior: dict[str, bool]) -> Member:
+    made_with_prior = with_prior.get(row.calibration_id or "")
+    if row.provenance != "calibration" or made_with_prior is None or made_with_prior:
         return Member(robot, row, None)
-    # The fleet's model with this robot's own guesses (a third of the cost of reading its document again).
-    desc = fleet.with_base_tool(pose6(robot.base), pose6(robot.tool))
-    n = desc.n_params
+    table = fleet.parameters
+    n = len(table)
+    # The fleet's nominal values with this robot's own base and tool guesses (what its description holds).
+    nominal = table.nominal
+    nominal[fleet.slices["base"]] = pose6(robot.base)
+    nominal[fleet.slices["tool"]] = pose6(robot.tool)
     values = np.asarray(row.values[:n], dtype=float)
     # The standard errors of what a calibration estimated (flagged identifiable); NaN for what it held.
     std = np.full(n, np.nan)
     for i, (value, estimated) in enumerate(zip(row.std_errors or [], row.identifiable or [], strict=False)):
         if i < n and estimated and value is not None:
             std[i] = float(value)
-    return Member(robot, row, UnitEstimate(robot.id, values, std, desc.parameters.nominal))
+    return Member(robot, row, UnitEstimate(robot.id, values, std, nominal))
 
 
 def get_fleet(*, db: Database, robot_id: str) -> FleetPublic:
