@@ -49,6 +49,15 @@ def test_a_fleet_of_one_is_refused_with_how_many_it_has_and_needs(client: TestCl
     assert problem["type"].endswith("/fleet-too-small")
     assert problem["units"] == 0 and problem["needed"] == MIN_UNITS
     assert f"calibrate {MIN_UNITS} more units" in problem["detail"]
+    # a ballbar's records take no prior (their references are fitted with the robot): said before anything else
+    ballbar = [
+        {"kind": "distance", "joints": [0.0, -90.0, 90.0, 0.0, 45.0, 10.0 * k], "anchor": "a1", "distance_mm": 300.0}
+        for k in range(12)
+    ]
+    refused = client.post(
+        f"/v1/robots/{robot}/calibrations", json={"measurements": ballbar, "options": {"prior": "fleet"}}
+    )
+    assert refused.status_code == 422 and refused.json()["field"] == "options.prior", refused.text
     # nothing was stored
     assert client.get(f"/v1/robots/{robot}/calibrations").json() == []
     # a fleet by its key; an unknown one is not found
