@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import pytest
 
@@ -98,7 +99,7 @@ def test_delete_cascades_and_jobs_survive_a_restart(db: Database, registry: Regi
 
 def test_which_calibrations_used_a_fleet_prior_is_read_from_their_documents(db: Database) -> None:
     """`fleet.prior_used` from the stored JSON without loading it: true, false, a null section, no section."""
-    documents = {
+    documents: dict[str, dict[str, Any]] = {
         "used": {"fleet": {"prior_used": True, "units": 5}},
         "not": {"fleet": {"prior_used": False}},
         "null": {"fleet": None},
