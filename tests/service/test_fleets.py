@@ -27,11 +27,10 @@ def _robot(client: TestClient, name: str, document: dict[str, Any] | None = None
     return str(made.json()["id"])
 
 
-def _calibrate(client: TestClient, robot_id: str, unit: int, poses: int, **options: object) -> Any:
+def _calibrate(client: TestClient, robot_id: str, unit: int, poses: int, fleet_seed: int = 0, **options: object) -> Any:
     joints = sample_workspace(DESC, poses, seed=300 + unit)
-    body: dict[str, object] = {
-        "measurements": records(DESC, fleet_unit(DESC, unit, spread=0.02), joints, seed=400 + unit)
-    }
+    truth = fleet_unit(DESC, unit, fleet_seed=fleet_seed, spread=0.02)
+    body: dict[str, object] = {"measurements": records(DESC, truth, joints, seed=400 + unit)}
     if options:
         body["options"] = options
     return client.post(f"/v1/robots/{robot_id}/calibrations", json=body)
@@ -108,6 +107,13 @@ def test_a_fleet_calibrates_a_new_unit_with_its_prior(client: TestClient) -> Non
     assert plain["fleet"]["prior_used"] is False and plain["fleet"]["units"] == MIN_UNITS
     again = _calibrate(client, units[0], 0, 20).json()  # itself left out of the population it is compared with
     assert again["fleet"]["units"] == MIN_UNITS
+
+    # a unit of another make (its own systematic deviations): its report and the fleet say it is not like the others
+    odd = _robot(client, "ur5-odd")
+    stranger = _calibrate(client, odd, 60, 40, fleet_seed=7).json()
+    assert stranger["applied"] and stranger["fleet"]["outlier"]
+    assert any(p["flagged"] for p in stranger["fleet"]["parameters"])
+    assert client.get(f"/v1/robots/{odd}/fleet").json()["outliers"] == [odd]
 
     other = _robot(client, "iiwa", iiwa_like_document())
     mismatch = client.post(
