@@ -59,6 +59,8 @@ def test_a_fleet_of_one_is_refused_with_how_many_it_has_and_needs(client: TestCl
     assert refused.status_code == 422 and refused.json()["field"] == "options.prior", refused.text
     # nothing was stored
     assert client.get(f"/v1/robots/{robot}/calibrations").json() == []
+    design = client.post(f"/v1/robots/{robot}/pose-designs", json={"count": 8, "candidate_count": 50, "prior": "fleet"})
+    assert design.status_code == 422 and design.json()["type"].endswith("/fleet-too-small")
     # a fleet by its key; an unknown one is not found
     assert client.get(f"/v1/fleets/{fleet['fleet']}").json() == fleet
     assert client.get("/v1/fleets/0123456789abcdef").status_code == 404
@@ -83,6 +85,14 @@ def test_a_fleet_calibrates_a_new_unit_with_its_prior(client: TestClient) -> Non
     i = DESC.parameters.index["link2.a"]
     link2 = next(p for p in fleet["parameters"] if p["name"] == "link2.a")
     assert abs(link2["mean_offset"] - (truth[i] - DESC.parameters.nominal[i])) < 3 * link2["spread"]
+
+    # the target mode counts the poses a calibration with the prior needs
+    target = {"target": {"rms_tcp_mm": 0.04}, "criterion": "I", "candidate_count": 100}
+    counted = [
+        client.post(f"/v1/robots/{units[MIN_UNITS]}/pose-designs", json={**target, "prior": p}).json()
+        for p in ("none", "fleet")
+    ]
+    assert 0 < counted[1]["count"] < counted[0]["count"], counted
 
     new = units[MIN_UNITS]
     with_prior = _calibrate(client, new, 50, 6, prior="fleet", fleet=fleet["fleet"])
