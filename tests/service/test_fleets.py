@@ -125,19 +125,24 @@ def test_a_fleet_calibrates_a_new_unit_with_its_prior(client: TestClient) -> Non
     assert any(p["flagged"] for p in stranger["fleet"]["parameters"])
     assert client.get(f"/v1/robots/{odd}/fleet").json()["outliers"] == [odd]
 
+    assert np.isfinite(report["predicted_accuracy"]["rms_position_mm"])
+    _other_fleets_are_refused(client, fleet["fleet"])
+
+
+def _other_fleets_are_refused(client: TestClient, key: str) -> None:
+    """A robot of another structure is of another fleet: naming this one for it is refused; the IWR (a campaign
+    file, the prior asked in the query) is a fleet of its own, with no calibrated unit yet."""
     other = _robot(client, "iiwa", iiwa_like_document())
     mismatch = client.post(
         f"/v1/robots/{other}/calibrations",
         json={
             "measurements": [{"joints": [0.0] * 7, "position": [0.0, 0.0, 0.0]}] * 10,
-            "options": {"prior": "fleet", "fleet": fleet["fleet"]},
+            "options": {"prior": "fleet", "fleet": key},
         },
     )
     assert mismatch.status_code == 422 and mismatch.json()["type"].endswith("/prior-mismatch")
-    assert fleet["fleet"] in mismatch.json()["detail"]
-    assert client.get(f"/v1/robots/{other}/fleet").json()["fleet"] != fleet["fleet"]
-    assert np.isfinite(report["predicted_accuracy"]["rms_position_mm"])
-    # a campaign file says it in the query: the IWR's fleet (another one) has no calibrated unit either
+    assert key in mismatch.json()["detail"]
+    assert client.get(f"/v1/robots/{other}/fleet").json()["fleet"] != key
     iwr = client.post("/v1/robots", json={"name": "cell"}).json()["id"]
     csv = client.post(
         f"/v1/robots/{iwr}/calibrations?prior=fleet",
@@ -145,4 +150,4 @@ def test_a_fleet_calibrates_a_new_unit_with_its_prior(client: TestClient) -> Non
         headers={"Content-Type": "text/csv"},
     )
     assert csv.status_code == 422 and csv.json()["type"].endswith("/fleet-too-small")
-    assert client.get(f"/v1/robots/{iwr}/fleet").json()["fleet"] != fleet["fleet"]
+    assert client.get(f"/v1/robots/{iwr}/fleet").json()["fleet"] != key
