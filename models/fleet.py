@@ -122,9 +122,10 @@ def fleet_prior(
         raise InvalidInput("a population needs at least 2 units", field="minimum", min=2)
     if len(units) < minimum:
         raise FleetTooSmall(
-            f"{what} has {len(units)} calibrated unit{'s' if len(units) != 1 else ''} besides this one; a "
-            f"population needs at least {minimum}: calibrate {minimum - len(units)} more unit"
-            f"{'s' if minimum - len(units) != 1 else ''} of this model without a prior first",
+            f"{what} has {len(units)} calibrated unit{'s' if len(units) != 1 else ''}; a population needs at least "
+            f"{minimum}: calibrate {minimum - len(units)} more unit{'s' if minimum - len(units) != 1 else ''} of "
+            "this model (robots of the same structure document) without a prior first, or calibrate this one "
+            "without the prior",
             units=len(units),
             needed=minimum,
         )

@@ -61,7 +61,7 @@ class Fleet:
     def population(self, *, without: str | None = None) -> FleetPrior:
         """The population of the calibrated units but `without`; FleetTooSmall (a 422) below MIN_UNITS."""
         units = [u for u in self.units if u.unit != without]
-        what = f"fleet {self.key}" + (" (this robot not counted)" if without is not None else "")
+        what = f"fleet {self.key}" + (", this robot aside," if without is not None else "")
         return fleet_prior(self.desc.parameters, units, what=what)
 
 
