@@ -15,7 +15,7 @@ members, so a class has the same members wherever it is raised.
     │   ├── TooFewMeasurements(got, needed, missing, kind)
     │   ├── UnknownParameter(name)
     │   ├── TargetUnreachable(field, target_mm, reachable_mm, candidates)   pose design's target mode
-    │   ├── PriorMismatch(expected, got)       a prior of another robot model (parameter counts)
+    │   ├── PriorMismatch(expected, got)       a prior of another robot model (parameter counts, fleet keys)
     │   └── FleetTooSmall(units, needed)       too few calibrated units for a fleet's population
     ├── NotIdentifiable()                      the data determine none of the requested parameters
     ├── SolverFailed(solver, status, iterations)
@@ -205,10 +205,12 @@ class PriorMismatch(InvalidInput):
 
     fields = ("expected", "got")
 
-    def __init__(self, detail: str, *, expected: int, got: int) -> None:
+    def __init__(self, detail: str, *, expected: int | str, got: int | str) -> None:
         super().__init__(detail, field="prior", reason="structure")
         self.expected = expected
+        """This robot's: its parameter count, or (over HTTP) its fleet's key."""
         self.got = got
+        """The prior's: its parameter count, or the fleet key asked for."""
 
 
 class FleetTooSmall(InvalidInput):

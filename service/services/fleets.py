@@ -160,8 +160,8 @@ def calibration_prior(fleet: Fleet, robot_id: str, desc: RobotDescription, expec
         raise PriorMismatch(
             f"options.fleet is {expected}, but robot {robot_id!r} belongs to fleet {fleet.key} (robots of another "
             "structure document): calibrate it with its own fleet's prior (leave out options.fleet), or without one",
-            expected=len(fleet.desc.parameters),
-            got=0,
+            expected=fleet.key,
+            got=expected,
         )
     population = fleet.population(without=robot_id)
     n, total = len(population.table), desc.n_params

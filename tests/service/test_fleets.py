@@ -141,7 +141,7 @@ def _other_fleets_are_refused(client: TestClient, key: str) -> None:
         },
     )
     assert mismatch.status_code == 422 and mismatch.json()["type"].endswith("/prior-mismatch")
-    assert key in mismatch.json()["detail"]
+    assert key in mismatch.json()["detail"] and mismatch.json()["got"] == key
     assert client.get(f"/v1/robots/{other}/fleet").json()["fleet"] != key
     iwr = client.post("/v1/robots", json={"name": "cell"}).json()["id"]
     csv = client.post(
