@@ -17,16 +17,15 @@ from models.errors import PriorMismatch
 from models.fleet import MIN_UNITS, FleetPrior, UnitEstimate, compare, fleet_prior, leave_one_out
 from models.identification import IdentificationResult
 from models.identification.prior import ParameterPrior
+from service.conversions.fleets import comparison_rows_out, population_out
 from service.conversions.robots import description, pose6
 from service.errors import NotFound
 from service.persistence import Database, Repository
 from service.persistence.tables import ParameterVersion, Robot
 from service.schemas.fleets import (
     FleetComparisonPublic,
-    FleetParameterPublic,
     FleetPublic,
     FleetUnitPublic,
-    FleetZPublic,
 )
 
 
@@ -51,7 +50,7 @@ class Member:
 class Fleet:
     key: str
     desc: RobotDescription
-    """The geometric model of the fleet (the first member's; every member's table has its names)."""
+    """The geometric model of the robot the fleet was read for (every member's table has its names)."""
     members: tuple[Member, ...]
 
     @property
@@ -114,19 +113,7 @@ def fleet_out(fleet: Fleet) -> FleetPublic:
     table = fleet.desc.parameters
     units = fleet.units
     ready = len(units) >= MIN_UNITS
-    parameters: list[FleetParameterPublic] = []
-    if ready:
-        population = fleet.population()
-        for i in population.covered:
-            parameters.append(
-                FleetParameterPublic(
-                    name=table.names[i],
-                    unit=table.units[i],  # type: ignore[arg-type]  # the table's units are the contract's
-                    mean_offset=float(population.offset[i] * table.to_boundary[i]),
-                    spread=float(population.spread[i] * table.to_boundary[i]),
-                    units=int(population.counts[i]),
-                )
-            )
+    parameters = population_out(fleet.population()) if ready else []
     flags = {c.unit: c for c in leave_one_out(table, units)}
     out_units = []
     for m in fleet.members:
@@ -186,24 +173,7 @@ def comparison_out(
     std[estimated] = result.std_errors[estimated]
     unit = UnitEstimate(robot_id, result.parameters[:n], std, nominal)
     found = compare(population, unit)
-    rows = []
-    for i in estimated:
-        z = float(found.z[i])
-        if not np.isfinite(z):
-            continue
-        k = float(table.to_boundary[i])
-        rows.append(
-            FleetZPublic(
-                name=table.names[i],
-                unit=table.units[i],  # type: ignore[arg-type]
-                offset=float(result.parameters[i] - nominal[i]) * k,
-                mean_offset=float(population.offset[i]) * k,
-                spread=float(population.spread[i]) * k,
-                z=z,
-                limit=float(found.limit[i]),
-                flagged=bool(abs(z) > found.limit[i]),
-            )
-        )
+    rows = comparison_rows_out(population, found, result.parameters, nominal, estimated)
     return FleetComparisonPublic(
         fleet=fleet.key,
         units=len(population.units),
