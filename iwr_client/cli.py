@@ -141,7 +141,13 @@ def calibrate(client: Client, args: argparse.Namespace, console: Console) -> int
     bar = None if args.sync else console.progress()
     try:
         calibration = client.calibrate(
-            args.robot, args.campaign, noise_mm=args.noise_mm, apply=args.apply, async_=not args.sync, on_progress=bar
+            args.robot,
+            args.campaign,
+            noise_mm=args.noise_mm,
+            apply=args.apply,
+            async_=not args.sync,
+            on_progress=bar,
+            prior=args.prior,
         )
     finally:
         if bar is not None:
@@ -275,6 +281,9 @@ def _calibration_commands(commands: Any) -> None:
     parser.add_argument("--noise-mm", type=float, help="the instrument's position σ (default 0.025)")
     parser.add_argument("--no-apply", dest="apply", action="store_false", help="fit and store, keep the parameters")
     parser.add_argument("--sync", action="store_true", help="one request, not a job with progress")
+    parser.add_argument(
+        "--prior", choices=["none", "fleet"], help="fleet: with the population of the robot's fleet (fewer poses)"
+    )
     check = _command(commands, "validate", validate, "versions against records they were not fitted to")
     check.add_argument("robot", metavar="ROBOT")
     check.add_argument("records", type=_readable, metavar="RECORDS.csv")

@@ -235,11 +235,15 @@ class Client:
         apply: bool = True,
         async_: bool = False,
         on_progress: Callable[[Progress], None] | None = None,
+        prior: str | None = None,
     ) -> Json:
         """Identifies the robot's parameters from a campaign and answers the calibration (status, residuals,
-        predicted accuracy, whether it was applied and if not why). `async_` runs it as a job and waits for it."""
+        predicted accuracy, whether it was applied and if not why). `async_` runs it as a job and waits for it.
+        `prior="fleet"`: with the population of the robot's fleet as prior (docs/fleet.md)."""
         path = f"/v1/robots/{_segment(robot_id)}/calibrations"
         query: dict[str, object] = {"apply": apply}
+        if prior is not None:
+            query["prior"] = prior
         if async_:
             query["async"] = True
         if isinstance(campaign, str | Path):
@@ -251,6 +255,8 @@ class Client:
             body: Json = {"measurements": list(campaign), "apply": apply}
             if noise_mm is not None:
                 body["noise"] = {"position_mm": noise_mm}
+            if prior is not None:
+                body["options"] = {"prior": query.pop("prior")}
             answer = self._post(path, body, **query)
         if async_:
             return self.result(answer["job_id"], on_progress)

@@ -14,7 +14,9 @@ members, so a class has the same members wherever it is raised.
     │   ├── InvalidQuaternion(pose, norm, count)
     │   ├── TooFewMeasurements(got, needed, missing, kind)
     │   ├── UnknownParameter(name)
-    │   └── TargetUnreachable(field, target_mm, reachable_mm, candidates)   pose design's target mode
+    │   ├── TargetUnreachable(field, target_mm, reachable_mm, candidates)   pose design's target mode
+    │   ├── PriorMismatch(expected, got)       a prior of another robot model (parameter counts, fleet keys)
+    │   └── FleetTooSmall(units, needed)       too few calibrated units for a fleet's population
     ├── NotIdentifiable()                      the data determine none of the requested parameters
     ├── SolverFailed(solver, status, iterations)
     └── InconsistentData(rms_sigma, limit_sigma)
@@ -196,6 +198,31 @@ class TargetUnreachable(InvalidInput):
         self.reachable_mm = reachable_mm
         """The best predicted error any selection of the candidates (or the best design found) reaches."""
         self.candidates = candidates
+
+
+class PriorMismatch(InvalidInput):
+    """A prior of another robot model: its parameters are not this robot's."""
+
+    fields = ("expected", "got")
+
+    def __init__(self, detail: str, *, expected: int | str, got: int | str) -> None:
+        super().__init__(detail, field="prior", reason="structure")
+        self.expected = expected
+        """This robot's: its parameter count, or (over HTTP) its fleet's key."""
+        self.got = got
+        """The prior's: its parameter count, or the fleet key asked for."""
+
+
+class FleetTooSmall(InvalidInput):
+    """Too few calibrated units of a robot model to estimate its population (fleet priors)."""
+
+    fields = ("units", "needed")
+
+    def __init__(self, detail: str, *, units: int, needed: int) -> None:
+        super().__init__(detail, field="prior")
+        self.units = units
+        """Calibrated units the fleet has (the unit being calibrated not counted)."""
+        self.needed = needed
 
 
 class NotIdentifiable(CalibrationError):

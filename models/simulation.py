@@ -97,3 +97,20 @@ def measure(
     tilt = rotvec_to_matrix_np(rng.normal(scale=noise.orientation_rad, size=(n, 3)))
     quats = matrix_to_quaternion(tilt @ fk.rotations)
     return Campaign(np.array(joints, dtype=float), positions, quats, conditions=conditions)
+
+
+def fleet_unit(
+    desc: RobotDescription, unit: int, *, fleet_seed: int = 0, systematic: float = 1.0, spread: float = 0.05
+) -> SimulatedRobot:
+    """Unit `unit` of a fleet of identical cells (one arm model, one tool model): every parameter but the base is
+    nominal + the model's systematic deviation (Gaussian, `systematic` × the parameter's scale, drawn once per
+    `fleet_seed`: every unit shares it) + the unit's own (Gaussian, `spread` × scale). The base, the instrument
+    3 m away and rotated, is drawn per unit as in `perturbed_robot`."""
+    table = desc.parameters
+    own = [i for i in range(len(table)) if table.specs[i].group != "base"]
+    common = np.random.default_rng([fleet_seed, 0]).normal(size=len(table)) * systematic * table.scales
+    mine = np.random.default_rng([fleet_seed, 1, unit]).normal(size=len(table)) * spread * table.scales
+    placed = perturbed_robot(desc, seed=int(np.random.default_rng([fleet_seed, 2, unit]).integers(2**31)))
+    truth = placed.truth.copy()
+    truth[own] = table.nominal[own] + common[own] + mine[own]
+    return SimulatedRobot(desc, placed.nominal, truth)

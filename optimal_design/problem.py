@@ -17,6 +17,7 @@ from models import NoiseModel, RobotDescription, forward_kinematics, sample_work
 from models._types import Array
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows, poses_for
+from models.identification.prior import ParameterPrior
 from models.kinematics import as_joint_array, check_joint_ranges
 from models.measurement import MeasurementKind
 from models.runtime import Runtime
@@ -51,6 +52,10 @@ class DesignInputs:
     conditions: Conditions | None = None
     levels: Conditions | None = None
     fixed_conditions: Conditions | None = None
+    prior: ParameterPrior | None = None
+    """What is known of the parameters before any pose is measured (a fleet's population, `models.fleet`): its
+    information joins the fixed poses' in `base`, so the designs and the target mode count the poses a MAP
+    identification with that prior needs."""
 
 
 class DesignOptions(TypedDict, total=False):
@@ -70,6 +75,7 @@ class DesignOptions(TypedDict, total=False):
     conditions: Conditions | None
     levels: Conditions | None
     fixed_conditions: Conditions | None
+    prior: ParameterPrior | None
 
 
 @dataclass(frozen=True)
@@ -265,6 +271,8 @@ def _information(
         runtime=inputs.runtime,
     )
     base = info_all.subset_information(np.arange(n_fixed)) if n_fixed else np.zeros((info_all.n_params,) * 2)
+    if inputs.prior is not None:
+        base = base + prior_information(desc, inputs.prior, info_all.free)
     info = replace(
         info_all,
         joints=info_all.joints[n_fixed:],
@@ -272,6 +280,13 @@ def _information(
         conditions=cand_conditions,
     )
     return info, base
+
+
+def prior_information(desc: RobotDescription, prior: ParameterPrior, free: tuple[int, ...]) -> Array:
+    """The prior's information on the identifiable parameters, in the design's scaling (tolerance units): the
+    rows MAP identification stacks (`models.identification.prior`), so diag(scaleᵢ² / sᵢ²) where it covers."""
+    rows = prior.information_rows(desc.parameters)[:, list(free)]
+    return np.asarray(rows.T @ rows, dtype=float)
 
 
 def _with_conditions(

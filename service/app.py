@@ -33,6 +33,7 @@ from service.routes import (
     checks,
     designs,
     error_analysis,
+    fleets,
     health,
     jobs,
     kinematics,
@@ -227,6 +228,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         reports,
         programs,
         checks,
+        fleets,
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)

@@ -38,6 +38,7 @@ class CampaignQuery:
     length_unknown: list[str]
     drift: DriftDriver | None = None
     drift_degree: int = 1
+    prior: Literal["none", "fleet"] | None = None
 
 
 def campaign_query(
@@ -68,6 +69,9 @@ def campaign_query(
         description="CSV bodies: options.drift's driver (the time and reference columns feed it; docs/drift.md)",
     ),
     drift_degree: int = Query(1, ge=1, le=MAX_DEGREE, description="CSV bodies: options.drift's degree"),
+    prior: Literal["none", "fleet"] | None = Query(
+        None, description="CSV bodies: options.prior (fleet: calibrate with the robot's fleet's population)"
+    ),
 ) -> CampaignQuery:
     return CampaignQuery(
         apply,
@@ -80,6 +84,7 @@ def campaign_query(
         list(length_unknown or []),
         drift,
         drift_degree,
+        prior,
     )
 
 
@@ -141,6 +146,8 @@ def _file_payload(measurements: list[dict[str, object]], notes: list[str], query
         payload["options"] = {"terms": query.terms}
     if query.drift is not None:
         payload.setdefault("options", {})["drift"] = {"driver": query.drift.value, "degree": query.drift_degree}
+    if query.prior is not None:
+        payload["options"] = {**payload.get("options", {}), "prior": query.prior}
     if query.payload_kg is not None:
         payload["payload"] = {"mass_kg": query.payload_kg, "cog_mm": query.payload_cog_mm or [0.0, 0.0, 0.0]}
     return payload

@@ -36,6 +36,8 @@ PROBLEMS: dict[type[Exception], tuple[int, str, str]] = {
     domain.TooFewMeasurements: (422, "too-few-measurements", "Too few measurements"),
     domain.TargetUnreachable: (422, "target-unreachable", "Target accuracy unreachable"),
     domain.UnknownParameter: (422, "unknown-parameter", "Unknown parameter or group"),
+    domain.FleetTooSmall: (422, "fleet-too-small", "Too few calibrated units in the fleet"),
+    domain.PriorMismatch: (422, "prior-mismatch", "A prior of another robot model"),
     program_errors.ProgramSyntaxError: (422, "program-syntax", "Syntax error in the program"),
     program_errors.UndeclaredFrame: (422, "undeclared-frame", "Base or tool not declared"),
     program_errors.ProgramError: (422, "program-error", "Program not understood"),

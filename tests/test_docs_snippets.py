@@ -11,8 +11,8 @@ ROOT = Path(__file__).resolve().parent.parent
 DOCS = sorted((ROOT / "docs").glob("*.md"))
 BLOCK = re.compile(r"```python\n(.*?)```", re.DOTALL)
 SNIPPETS = [(doc, k, code) for doc in DOCS for k, code in enumerate(BLOCK.findall(doc.read_text()))]
-SLOW_DOCS = {"pose-design.md", "compensation.md", "controller.md"}
-"""Pages whose snippets take over a second (a design, inverse kinematics): outside `make test-fast`."""
+SLOW_DOCS = {"pose-design.md", "compensation.md", "controller.md", "fleet.md"}
+"""Pages whose snippets take over a second (a design, inverse kinematics, calibrations): outside `make test-fast`."""
 CASES = [
     pytest.param(doc, k, code, id=f"{doc.name}#{k}", marks=[pytest.mark.slow] if doc.name in SLOW_DOCS else [])
     for doc, k, code in SNIPPETS

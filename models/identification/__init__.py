@@ -4,6 +4,7 @@ from models.identifiability import minimum_poses, structural_identifiability
 from models.identification.accuracy import predicted_accuracy
 from models.identification.options import IdentificationOptions, RobustLoss
 from models.identification.pipeline import identify
+from models.identification.prior import ParameterPrior
 from models.identification.registration import RigidFit, registered_base, rigid_fit
 from models.identification.result import (
     IdentificationResult,
@@ -19,6 +20,7 @@ __all__ = [
     "IdentificationOptions",
     "IdentificationResult",
     "Outlier",
+    "ParameterPrior",
     "PredictedAccuracy",
     "ResidualSummary",
     "RigidFit",

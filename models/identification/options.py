@@ -8,6 +8,7 @@ from enum import StrEnum
 from types import MappingProxyType
 
 from models.errors import InvalidInput
+from models.identification.prior import ParameterPrior
 
 DEFAULT_GROUPS = ("base", "carriage", "hexapod", "tool")
 
@@ -39,6 +40,9 @@ class IdentificationOptions:
     max_iterations: int = 100
     workspace_samples: int = 200
     """Poses over which the predicted TCP accuracy is averaged."""
+    prior: ParameterPrior | None = None
+    """MAP: what is known of the parameters beforehand (a fleet's population, `models.fleet`); None: the data
+    alone (see `models.identification.prior`)."""
 
     def __post_init__(self) -> None:
         if not self.robust_scale > 0:

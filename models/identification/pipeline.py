@@ -96,6 +96,8 @@ def identify(
     rt = runtime_for(desc, runtime)
     noise, options = _checked(noise or NoiseModel()), options or IdentificationOptions()
     table = desc.parameters
+    if options.prior is not None:
+        options.prior.check(table)  # PriorMismatch: a prior of another robot model
     theta_nom = table.nominal if nominal is None else table.vector(nominal)
     if not np.all(np.isfinite(theta_nom)):
         raise NonFiniteValue("the nominal parameters contain non-finite numbers")
@@ -126,13 +128,28 @@ def identify(
         desc, campaign.joints, theta_start, jacobian=True, seeds=seeds, runtime=rt, conditions=campaign.conditions
     )
     scaled = scaled_jacobian(start.jacobians, table, noise, kind=campaign.kind)
-    ident = _identifiable(desc, scaled, candidates=candidates, campaign=campaign, notes=notes, rt=rt)
+    ident = _identifiable(
+        desc, _with_prior(scaled, table, options), candidates=candidates, campaign=campaign, notes=notes, rt=rt
+    )
+    if options.prior is not None:
+        # With a prior's rows every direction it covers is "determined", also those no data sees: the rank is
+        # what is estimated, the structure's subset, not the stacked matrix's.
+        ident = replace(ident, rank=len(ident.identifiable))
     # 3. the weighted least squares: robust first if asked, then without the outliers; polished
     free = np.array(ident.identifiable)
     # AUTO starts plain: the robust loss joins only if the χ² test finds gross errors (see _solve).
     loss = Loss(RobustLoss.NONE if options.robust is RobustLoss.AUTO else options.robust, options.robust_scale)
     problem = CampaignProblem(
-        desc, rt, campaign, noise, theta_start, free, loss, active=active, platforms=start.platforms.copy()
+        desc,
+        rt,
+        campaign,
+        noise,
+        theta_start,
+        free,
+        loss,
+        active=active,
+        platforms=start.platforms.copy(),
+        prior=options.prior,
     )
     problem, final, solver, outliers = _solve(problem, options, notes)
     if drop_far and final is not None:
@@ -235,6 +252,13 @@ def _registered_start(
         return registered_base(desc, theta_nom, fit), fk.platforms
     notes.append("the base (instrument frame) is not estimated: the given base is taken as exact")
     return theta_nom, fk.platforms
+
+
+def _with_prior(scaled: Array, table: ParameterTable, options: IdentificationOptions) -> Array:
+    """The data's scaled rows, with a prior's rows beneath: what data and prior together determine."""
+    if options.prior is None:
+        return scaled
+    return np.vstack([scaled, options.prior.information_rows(table)])
 
 
 def _identifiable(
@@ -378,7 +402,8 @@ def _estimate(
     where the final forward kinematics finds the model undefined)."""
     rt = problem.runtime
     desc, campaign, table, free = problem.desc, problem.campaign, problem.desc.parameters, problem.free
-    cov = covariance(ev.jacobian, ev.residuals)
+    prior_rows = None if problem.prior_rows is None else problem.prior_rows.jacobian
+    cov = covariance(ev.jacobian, ev.residuals, prior_rows)
     scales = table.scales[free]
     cov_theta = cov.z * np.outer(scales, scales)
     after = pose_errors(desc, campaign, ev.theta, problem.platforms, runtime=rt)
@@ -395,10 +420,12 @@ def _estimate(
         )
     except UnreachablePose:
         return None
-    scaled = scaled_jacobian(final.jacobians, table, problem.noise, kind=campaign.kind)
+    scaled = _with_prior(scaled_jacobian(final.jacobians, table, problem.noise, kind=campaign.kind), table, options)
     # The terms' parameters these conditions cannot determine stay out of the recheck, as out of the fit.
     missing = {name for name, _ in ident.missing}
-    recheck = analyse_identifiability(scaled, table, tuple(i for i in candidates if table.names[i] not in missing))
+    # With a prior, the question is whether data and prior still determine what was estimated.
+    pool = candidates if options.prior is None else ident.identifiable
+    recheck = analyse_identifiability(scaled, table, tuple(i for i in pool if table.names[i] not in missing))
     if recheck.rank != ident.rank:
         notes.append(
             f"at the solution {recheck.rank} parameters are identifiable (at the start: {ident.rank}); "

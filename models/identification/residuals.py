@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from models._types import Array
 from models.campaign import Campaign
 from models.identification.options import RobustLoss
+from models.identification.prior import ParameterPrior, PriorRows
 from models.kinematics import CLOSURE_TOLERANCE_MM, solve_platforms
 from models.measurements import ModelBatch, measurement
 from models.noise import NoiseModel
@@ -110,6 +111,9 @@ class CampaignProblem(EvaluatedOnce):
     platforms: Array | None = None
     _last: tuple[bytes, Evaluation | None] | None = field(default=None, repr=False)
     evaluations: int = 0
+    prior: ParameterPrior | None = None
+    """MAP: a prior's rows join the objective, gradient and Hessian (`models.identification.prior`); `jacobian`
+    and `residuals` of an evaluation stay the data's (outlier tests, variance factor)."""
 
     def __post_init__(self) -> None:
         self.runtime.check(self.desc)
@@ -123,6 +127,9 @@ class CampaignProblem(EvaluatedOnce):
             self.active = np.arange(self.campaign.size, dtype=np.intp)
         self.conditions = self.campaign.condition_inputs(self.desc)
         """(N, 7) inputs of the model terms, None without terms."""
+        self.prior_rows: PriorRows | None = (
+            None if self.prior is None else self.prior.rows(self.theta_start, self.free, self.scales)
+        )
 
     def _conditions(self) -> Array | None:
         return None if self.conditions is None else self.conditions[self.active_poses]
@@ -182,6 +189,12 @@ class CampaignProblem(EvaluatedOnce):
         objective = 0.5 * per * float(value.sum())
         gradient = per * (j.T @ (slope * flat))
         hessian = per * ((j * slope[:, None]).T @ j)
+        if self.prior_rows is not None:
+            # Scaled per data equation like the rest, so the polish's decrement stays a χ² (σ²) figure.
+            p = self.prior_rows.residuals(z)
+            objective += 0.5 * per * float(p @ p)
+            gradient = gradient + per * (self.prior_rows.jacobian.T @ p)
+            hessian = hessian + per * self.prior_rows.information
         if self.platforms is None:
             self.platforms = np.tile(np.asarray(self.desc.platform_home, dtype=float), (c.size, 1))
         self.platforms[self.active] = platforms

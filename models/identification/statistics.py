@@ -56,7 +56,12 @@ def chi2_upper_quantile(q: float, dof: int) -> float:
     return float(2.0 * scipy.special.gammainccinv(dof / 2.0, q))
 
 
-def covariance(jacobian: Array, residuals: Array) -> Covariance:
+def covariance(jacobian: Array, residuals: Array, prior: Array | None = None) -> Covariance:
+    """From the data's rows alone, or with a prior's rows `prior` ((k, n), σ per tolerance, linear): then the
+    covariance is (JᵀJ / s0² + PᵀP)⁻¹ and the variance factor's degrees of freedom are m − tr(JᵀJ (JᵀJ + PᵀP)⁻¹),
+    the data's equations less the share of the unknowns the data, not the prior, determine."""
+    if prior is not None and prior.shape[0]:
+        return _posterior(jacobian, residuals, prior)
     m, n = jacobian.shape
     dof = m - n
     ssr = float(np.sum(residuals**2))
@@ -67,6 +72,29 @@ def covariance(jacobian: Array, residuals: Array) -> Covariance:
     lo, hi = variance_factor_interval(dof) if dof > 0 else (np.nan, np.nan)
     return Covariance(
         z=s02 * inv if dof > 0 else inv,
+        variance_factor=s02,
+        dof=dof,
+        noise_consistent=bool(dof > 0 and lo <= s02 <= hi),
+        chi2_interval=(float(lo), float(hi)),
+    )
+
+
+def _posterior(jacobian: Array, residuals: Array, prior: Array) -> Covariance:
+    m, _ = jacobian.shape
+    data = jacobian.T @ jacobian
+    # Through the SVD of the stacked rows, as above: the prior rows make the stack full rank.
+    _, s, vt = np.linalg.svd(np.vstack([jacobian, prior]), full_matrices=False)
+    inv = (vt.T / s**2) @ vt
+    effective = float(np.trace(data @ inv))
+    dof_real = m - effective
+    dof = max(round(dof_real), 0)
+    s02 = float(np.sum(residuals**2)) / dof_real if dof_real > 0 else float("nan")
+    lo, hi = variance_factor_interval(dof) if dof > 0 else (np.nan, np.nan)
+    if dof > 0 and np.isfinite(s02) and s02 > 0:
+        _, s, vt = np.linalg.svd(np.vstack([jacobian / np.sqrt(s02), prior]), full_matrices=False)
+        inv = (vt.T / s**2) @ vt
+    return Covariance(
+        z=inv,
         variance_factor=s02,
         dof=dof,
         noise_consistent=bool(dof > 0 and lo <= s02 <= hi),

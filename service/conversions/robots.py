@@ -31,6 +31,11 @@ def _pose6(values: Sequence[float]) -> Pose6:
     return (x, y, z, rx, ry, rz)
 
 
+def pose6(values: Sequence[float]) -> Pose6:
+    """A stored base or tool (six numbers, internal units) as the description takes it."""
+    return _pose6(values)
+
+
 def description(robot: Robot) -> RobotDescription:
     if robot.structure is None:
         return iwr(_pose6(robot.base), _pose6(robot.tool))

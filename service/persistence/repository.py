@@ -60,6 +60,27 @@ class Repository(Store):
     def robots(self, limit: int, offset: int) -> list[Robot]:
         return list(self.s.scalars(select(Robot).order_by(Robot.created_at, Robot.id).limit(limit).offset(offset)))
 
+    def current_versions(self) -> list[tuple[Robot, ParameterVersion]]:
+        """Every robot with its current parameter version, oldest robot first, in one query (a fleet's read)."""
+        query = (
+            select(Robot, ParameterVersion)
+            .join(
+                ParameterVersion,
+                (ParameterVersion.robot_id == Robot.id) & (ParameterVersion.version == Robot.current_version),
+            )
+            .order_by(Robot.created_at, Robot.id)
+        )
+        return [(row[0], row[1]) for row in self.s.execute(query)]
+
+    def calibrations_with_prior(self, ids: list[str]) -> dict[str, bool]:
+        """Of these calibrations, by id, whether each used its fleet's prior (its report's `fleet.prior_used`),
+        read from the stored documents without loading them."""
+        if not ids:
+            return {}
+        used = CalibrationRecord.result["fleet"]["prior_used"].as_boolean()
+        query = select(CalibrationRecord.id, used).where(CalibrationRecord.id.in_(ids))
+        return {row[0]: bool(row[1]) for row in self.s.execute(query)}
+
     def delete_robot(self, robot_id: str) -> None:
         robot = self.robot(robot_id)
         for table in (CalibrationRecord, CampaignRecord, PoseDesignRecord, ParameterVersion):

@@ -28,6 +28,7 @@ PARAMETER_ROWS_PER_PDF_PAGE = 38
 OUTLIER_HEADER = ["pose", "position error (mm)", "orientation error (°)", "statistic", "threshold", "excluded"]
 NO_OUTLIERS = "No pose failed the outlier test."
 ISO_HEADER = ["ISO 9283 pose", "cycles", "AP (mm)", "RP (mm)"]
+FLEET_HEADER = ["parameter", "unit", "this unit (offset)", "fleet mean offset", "fleet spread", "z", "limit", "flagged"]
 REFERENCE_HEADER = [
     "kind",
     "name",
@@ -160,6 +161,23 @@ class CalibrationReport:
             located = ", ".join(f"{v:.4f}" for v in where) if where else ""
             rows.append([ref["kind"], ref["name"], ref["records"], located, extra, std, ref["rms_residual_mm"]])
         return rows
+
+    def fleet_rows(self) -> list[list[Any]]:
+        """This unit against its fleet's population, farthest first (`FLEET_HEADER`); empty without one."""
+        fleet = self.calibration.get("fleet") or {}
+        rows = sorted(fleet.get("parameters") or [], key=lambda p: -abs(float(p["z"])))
+        return [
+            [p["name"], p["unit"], p["offset"], p["mean_offset"], p["spread"], p["z"], p["limit"], p["flagged"]]
+            for p in rows
+        ]
+
+    def fleet_line(self) -> str:
+        fleet = self.calibration.get("fleet") or {}
+        if not fleet:
+            return ""
+        verdict = "an outlier: not like the others" if fleet.get("outlier") else "like the others"
+        prior = ", calibrated with the fleet's prior" if fleet.get("prior_used") else ""
+        return f"fleet {fleet.get('fleet')}: against {fleet.get('units')} other calibrated units, {verdict}{prior}"
 
     # ------------------------------------------------------------------ figures
     def figures(self) -> list[tuple[str, Figure]]:
@@ -340,6 +358,11 @@ def render_html(report: CalibrationReport) -> str:
         else ""
     )
     validation = _validation_html(report.validations) if report.validations else ""
+    fleet = (
+        f"<h2>Fleet</h2><p>{html.escape(report.fleet_line())}</p>" + _table(FLEET_HEADER, report.fleet_rows())
+        if report.fleet_line()
+        else ""
+    )
     return (
         f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
         f"<style>{STYLE}</style></head><body>"
@@ -349,7 +372,7 @@ def render_html(report: CalibrationReport) -> str:
         f'<b class="{status_class}">{html.escape(str(c.get("status")))}</b></p>'
         f'{notes}<h2>Summary</h2><table class="summary">{summary}</table>'
         f"<h2>Figures</h2>{figures_html}"
-        f"<h2>Outliers</h2>{outlier_html}{references}{validation}"
+        f"<h2>Outliers</h2>{outlier_html}{references}{validation}{fleet}"
         f"<h2>Parameters</h2>{params}{_downloads_html(c)}</body></html>"
     )
 
@@ -397,4 +420,6 @@ def render_pdf(report: CalibrationReport) -> bytes:
             for _, line, iso in validation_sections(report.validations):
                 lines += [line, *(_lines(ISO_HEADER, iso) if iso else []), ""]
             pdf.savefig(_text_page("Validation", lines))
+        if report.fleet_line():
+            pdf.savefig(_text_page("Fleet", [report.fleet_line(), "", *_lines(FLEET_HEADER, report.fleet_rows())]))
     return out.getvalue()

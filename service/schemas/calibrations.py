@@ -26,6 +26,7 @@ from service.schemas.common import (
     Strict,
     TemperatureC,
 )
+from service.schemas.fleets import FLEET_KEY, FleetComparisonPublic
 from service.schemas.references import (
     RECORD_KIND_ERROR,
     DistanceRecord,
@@ -100,6 +101,19 @@ class CalibrationOptions(Strict):
         max_length=2,
         description="Model terms beyond geometry: thermal (κ of the legs and prismatic axes, ppm/K; records need "
         "temperature_c) and compliance (per leg, µm/N; needs a payload); their parameters are estimated",
+    )
+    prior: Literal["none", "fleet"] = Field(
+        default="none",
+        description="fleet: calibrate with the population of the robot's fleet (the other calibrated robots of its "
+        "structure document, GET /v1/robots/{id}/fleet) as prior (maximum a posteriori): fewer poses reach the "
+        "same accuracy. Refused (422 fleet-too-small) while the fleet has too few calibrated units; tracker "
+        "records only",
+    )
+    fleet: str | None = Field(
+        default=None,
+        pattern=FLEET_KEY,
+        description="With prior fleet: the fleet expected (its key); a robot of another fleet is refused (422 "
+        "prior-mismatch) rather than calibrated with another model's population. Default: the robot's own",
     )
     drift: DriftRequest | None = Field(
         default=None,
@@ -371,6 +385,11 @@ class CalibrationReportPublic(Public):
     conditions: ConditionsPublic | None = Field(
         default=None,
         description="What the campaign was measured under (stored with the version it makes); null before kept",
+    )
+    fleet: FleetComparisonPublic | None = Field(
+        default=None,
+        description="This unit against the population of its fleet's other calibrated units (z-scores, outlier); "
+        "null while the fleet has too few of them",
     )
 
 

@@ -167,6 +167,12 @@ class PoseDesignCreate(Strict):
     payload_levels: list[Payload] | None = Field(
         default=None, min_length=1, max_length=20, description="With terms: the payloads the user can mount"
     )
+    prior: Literal["none", "fleet"] = Field(
+        default="none",
+        description="fleet: design for a calibration with the robot's fleet's prior (its information joins the "
+        "fixed poses'), so a target counts the poses that calibration needs; 422 fleet-too-small while the fleet "
+        "has too few calibrated units; tracker measurements only",
+    )
 
     @model_validator(mode="after")
     def _count_or_target(self) -> PoseDesignCreate:

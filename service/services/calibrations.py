@@ -37,6 +37,7 @@ from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import CalibrationRecord, ParameterVersion, Robot
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic, Record
+from service.services.fleets import Fleet, calibration_prior, comparison_out, read_fleet
 from service.services.hooks import JobHooks
 
 
@@ -96,6 +97,11 @@ class _Start:
     accuracy_mm: float | None
     dof: int | None
     """The degrees of freedom of the calibration that made the start version (None: uncalibrated)."""
+    robot_id: str
+    fleet: Fleet
+    """The robot's fleet (`service.services.fleets`): the prior of `options.prior` fleet, the report's comparison."""
+    own_nominal: Array
+    """The robot's geometric nominal values (its own base and tool guesses)."""
 
 
 def _read_start(db: Database, robot_id: str, body: CalibrationCreate, if_match: str | None) -> _Start:
@@ -116,6 +122,9 @@ def _read_start(db: Database, robot_id: str, body: CalibrationCreate, if_match: 
             identifiable=padded(list(row.identifiable or []) if same else [], desc.n_params, False),
             accuracy_mm=_predicted_accuracy(repo, row),
             dof=_made_by(repo, row).get("degrees_of_freedom"),
+            robot_id=robot_id,
+            fleet=read_fleet(s, repo.robot(robot_id)),
+            own_nominal=desc.geometric.parameters.nominal,
         )
 
 
@@ -126,10 +135,23 @@ class _Fit:
     report: CalibrationReportPublic
 
 
+def _with_fleet_prior(options: IdentificationOptions, body: CalibrationCreate, start: _Start) -> IdentificationOptions:
+    """`options` with the fleet's population as prior where the request asks for it (options.prior fleet)."""
+    if body.options.prior != "fleet":
+        return options
+    if has_references(body.measurements):
+        raise InvalidInput(
+            "options.prior fleet calibrates from tracker records: distance, point, plane and image records are "
+            "fitted with their references, which take no prior yet; leave out options.prior",
+            field="options.prior",
+        )
+    return replace(options, prior=calibration_prior(start.fleet, start.robot_id, start.desc, body.options.fleet))
+
+
 def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     """The identification, its acceptance checks and the decision, and the report (nothing stored yet)."""
     desc = start.desc
-    options = options_in(body)
+    options = _with_fleet_prior(options_in(body), body, start)
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
     noise = noise_in(body)
@@ -182,7 +204,8 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
         drift=drift,
         conditions=conditions_out(body.measurements, body.payload),
     )
-    return _Fit(result, decision, report)
+    fleet = comparison_out(start.fleet, start.robot_id, start.own_nominal, result, prior_used=options.prior is not None)
+    return _Fit(result, decision, report.model_copy(update={"fleet": fleet}))
 
 
 def _tracker_fit(

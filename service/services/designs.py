@@ -24,6 +24,7 @@ from service.schemas.designs import (
     PoseDesignReportPublic,
     PoseDesignSummaryPublic,
 )
+from service.services.fleets import calibration_prior, read_fleet
 from service.services.hooks import JobHooks
 from service.services.reference_designs import reference_report
 
@@ -42,12 +43,16 @@ def create_design(
     if job is not None:
         job.progress("reading", 0.0)
     if body.measurement in REFERENCE_MEASUREMENTS:
+        if body.prior != "none":
+            raise InvalidInput(
+                "prior fleet designs tracker poses: a reference campaign's fit takes no prior yet", field="prior"
+            )
         desc, theta = models.current(robot_id)
         if job is not None:
             job.progress("designing", 0.05)
         report_model = reference_report(desc, theta, body, registry.runtime(desc))
     else:
-        report_model = _tracker_report(models, registry, robot_id, body, job)
+        report_model = _tracker_report(db, models, registry, robot_id, body, job=job)
     report = report_model.model_dump(mode="json")
     if job is not None:
         job.progress("storing", 0.95)
@@ -61,10 +66,20 @@ def create_design(
 
 
 def _tracker_report(
-    models: ModelCache, registry: Registry, robot_id: str, body: PoseDesignCreate, job: JobHooks | None
+    db: Database,
+    models: ModelCache,
+    registry: Registry,
+    robot_id: str,
+    body: PoseDesignCreate,
+    *,
+    job: JobHooks | None,
 ) -> PoseDesignReportPublic:
     """A design of a tracker's poses (pose or position), count or target."""
     desc, common = _problem(models, registry, robot_id, body)
+    if body.prior == "fleet":
+        with db.reader() as s:
+            fleet = read_fleet(s, Repository(s).robot(robot_id))
+        common["prior"] = calibration_prior(fleet, robot_id, desc, None)
     if job is not None:
         job.progress("designing", 0.05)
     assert isinstance(body.measurement, MeasurementKind)  # the reference kinds are designed apart

@@ -35,6 +35,7 @@ SAMPLE: dict[str, Any] = {
     "draw": 7,
     "norm": 1.2,
     "needed": 9,
+    "units": 3,
     "missing": 6,
     "kind": "pose",
     "name": "tool.rz",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import pytest
 
@@ -94,3 +95,22 @@ def test_delete_cascades_and_jobs_survive_a_restart(db: Database, registry: Regi
         Repository(s).delete_robot(robot.id)
     with db.session() as s, pytest.raises(NotFound):
         Repository(s).robot(robot.id)
+
+
+def test_which_calibrations_used_a_fleet_prior_is_read_from_their_documents(db: Database) -> None:
+    """`fleet.prior_used` from the stored JSON without loading it: true, false, a null section, no section."""
+    documents: dict[str, dict[str, Any]] = {
+        "used": {"fleet": {"prior_used": True, "units": 5}},
+        "not": {"fleet": {"prior_used": False}},
+        "null": {"fleet": None},
+        "none": {},
+    }
+    with db.session() as s:
+        repo = Repository(s)
+        robot = repo.add_robot("r", "iwr", [0.0] * 6, [0.0] * 6, [0.0] * 70)
+        campaign = repo.add_campaign(robot.id, [{"joints": [0] * 10}])
+        for name, document in documents.items():
+            repo.add_calibration(name, robot.id, campaign.id, "succeeded", document)
+    with db.reader() as s:
+        found = Repository(s).calibrations_with_prior([*documents, "missing"])
+    assert found == {"used": True, "not": False, "null": False, "none": False}
