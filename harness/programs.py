@@ -84,12 +84,19 @@ def taught(cell: Cell, q: Array, *, base: Array | None = None, tool: Array | Non
 
 
 def executed(
-    cell: Cell, poses: Array, taught_at: Array, *, base: Array | None = None, tool: Array | None = None
+    cell: Cell,
+    poses: Array,
+    taught_at: Array,
+    *,
+    base: Array | None = None,
+    tool: Array | None = None,
+    real: Array | None = None,
 ) -> Array:
     """Where the true robot's TCP goes (world, (N, 3) mm) when the nominal controller runs to `poses` (the
     program's base frame) in the configuration the program was taught in (`taught_at`, the joints): the nominal
     model's solution from those joints (Newton, as a controller's iterative IK), then the true forward
-    kinematics."""
+    kinematics. `real`: the robot that moves, with the tool it physically carries, where the cell's `truth` is
+    only a calibration of it (the program's `tool` is then the controller's tool data only)."""
     world = cell.base @ (np.eye(4) if base is None else base) @ poses
     n = world.shape[0]
     target = np.hstack([world[:, :3, 3], world[:, :3, :3].transpose(0, 2, 1).reshape(n, 9)])
@@ -97,7 +104,8 @@ def executed(
     batch = IkBatch(cell.desc, theta, target, taught_at, joint_weights(cell.desc, None), False, runtime_for(cell.desc))
     v, converged = batch.newton(taught_at.copy())
     assert batch.accepted(v, converged).all()
-    return np.asarray(forward_kinematics(cell.desc, v, _with_tool(cell.desc, cell.truth, tool)).positions)
+    moving = _with_tool(cell.desc, cell.truth, tool) if real is None else real
+    return np.asarray(forward_kinematics(cell.desc, v, moving).positions)
 
 
 def world_positions(cell: Cell, poses: Array, base: Array | None = None) -> Array:
