@@ -1,7 +1,8 @@
 // One robot: what to do next (design poses, calibrate, validate), its calibrations, parameter versions (restore,
-// export, the difference of two: versions.js), validations, its accuracy over time (history), a parameter's drift over the versions, and its pose designs.
+// export, the difference of two: versions.js), validations, its fleet (fleet.js), its accuracy over time (history), a parameter's drift over the versions, and its pose designs.
 import { api } from "../api.js";
 import { fill, h, link, muted, numCell, statusBadge, table, when } from "../dom.js";
+import { fleetSection } from "./fleet.js";
 import { historySection } from "./history.js";
 import { validationsTable } from "./validation.js";
 import { versionsSection } from "./versions.js";
@@ -15,7 +16,7 @@ export async function robotView(view, id) {
   const first = await api(`/v1/robots/${id}/parameters?version=1`);
   for (const p of first.parameters) choose.append(h("option", { value: p.name }, p.name));
   choose.addEventListener("change", () => drawDrift(id, versions, choose.value, drift));
-  const history = await historySection(robot);
+  const [history, fleet] = await Promise.all([historySection(robot), fleetSection(robot)]);
   fill(view, 
     h("h1", {}, robot.name), muted(`${robot.model} · version ${robot.parameter_version} · ${robot.joint_names.length} joints · ${robot.id}`),
     buildNote(robot),
@@ -26,6 +27,7 @@ export async function robotView(view, id) {
     h("h2", {}, "Calibrations"), calibrationsTable(calibrations),
     h("h2", {}, "Parameter versions"), versionsSection(robot, versions),
     h("h2", {}, "Validations"), validationsTable(validations),
+    h("h2", {}, "Fleet"), fleet,
     h("h2", {}, "Accuracy over time"), history,
     h("h2", {}, "Parameter drift over versions"), h("div", { class: "row" }, choose), drift,
     h("h2", {}, "Pose designs"),
