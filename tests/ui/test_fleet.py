@@ -1,5 +1,6 @@
-"""A robot's fleet in /ui: a calibration with the fleet's prior refused in words while the fleet is too small, and
-the fleet section's numbers (units, calibrated, needed, the outlier unit, the population) equal to the API's.
+"""A robot's fleet in /ui: a calibration (and a pose design) with the fleet's prior refused in words while the fleet
+is too small, and the fleet section's numbers (units, calibrated, needed, the outlier unit, the population) equal
+to the API's.
 The robots are UR5-like (a structure no other UI test uses), so the fleet is this test's own on the shared server."""
 
 from __future__ import annotations
@@ -80,6 +81,16 @@ def test_fleet_prior_refused_then_the_fleet_section(page: Any, server: str, tmp_
         assert f"Calibrate {MIN_UNITS} more robots" in said
         assert http.get(f"/v1/robots/{units[0]}/calibrations").json() == []  # nothing stored
         screenshot(page, "fleet-too-small")
+        # A pose design for that calibration: the same refusal.
+        page.goto(f"{server}/ui#/robots/{units[0]}/design")
+        _ready(page, f"#/robots/{units[0]}/design")
+        page.get_by_label("Poses", exact=True).fill("8")
+        page.get_by_label("Candidate poses sampled").fill("50")
+        page.get_by_label("Design for a calibration with the fleet's prior").check()
+        page.get_by_role("button", name="Design the poses").click()
+        page.locator("#design-message #fleet-too-small").wait_for(timeout=30_000)
+        assert problem["detail"] in page.locator("#design-error").inner_text()
+        assert http.get(f"/v1/robots/{units[0]}/pose-designs").json() == []
 
         # Five units and one of another make calibrated without a prior: the fleet is ready, that one an outlier.
         for k, robot in enumerate(units[:MIN_UNITS]):

@@ -57,12 +57,12 @@ function populationTable(fleet) {
     h("summary", {}, `The population: ${fleet.parameters.length} parameters (the base, each campaign's instrument frame, has none)`), holder);
 }
 
-// Beside a refusal: the fleet-too-small problem's own counts in words.
-export function fleetRefusal(problem) {
+// Beside a refusal: the fleet-too-small problem's own counts in words; `option` names the form's checkbox.
+export function fleetRefusal(problem, option = "Calibrate with the fleet's prior") {
   if (!problem || typeof problem.type !== "string" || !problem.type.endsWith("/fleet-too-small")) return null;
   const more = problem.needed - problem.units;
   return h("p", { id: "fleet-too-small" }, `The fleet has ${problem.units} other calibrated unit${problem.units === 1 ? "" : "s"}; `
     + `its prior needs ${problem.needed}. Calibrate ${more} more robot${more === 1 ? "" : "s"} of this structure without the prior `
-    + "first, or untick “Calibrate with the fleet's prior”.");
+    + `first, or untick “${option}”.`);
 }
 
