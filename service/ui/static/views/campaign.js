@@ -6,12 +6,12 @@ import { readCsv } from "../csv.js";
 import { errorBox, field, fill, h, link, muted, table } from "../dom.js";
 import { watchJob } from "./jobs.js";
 import { diagnosesList } from "./calibration.js";
-import { fleetRefusal, priorSentence } from "./fleet.js";
+import { fleetOrNull, fleetRefusal, priorSentence } from "./fleet.js";
 
 const PREVIEW_ROWS = 8;
 
 export async function campaignView(view, robotId) {
-  const [robot, fleet] = await Promise.all([api(`/v1/robots/${robotId}`), api(`/v1/robots/${robotId}/fleet`)]);
+  const [robot, fleet] = await Promise.all([api(`/v1/robots/${robotId}`), fleetOrNull(robotId)]);
   const state = { text: null, name: null };
   const preview = h("div", { id: "campaign-preview" });
   const picker = filePicker("campaign-file", "Campaign CSV", async (file) => {

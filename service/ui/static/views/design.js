@@ -4,7 +4,7 @@
 import { api, query } from "../api.js";
 import { jointsCsv } from "../csv.js";
 import { download, errorBox, field, fill, h, link, muted, num, numCell, table, when } from "../dom.js";
-import { fleetRefusal, priorSentence } from "./fleet.js";
+import { fleetOrNull, fleetRefusal, priorSentence } from "./fleet.js";
 import { watchJob } from "./jobs.js";
 
 const PRIOR_OPTION = "Design for a calibration with the fleet's prior";
@@ -13,7 +13,7 @@ const CRITERIA = [["D", "D: the identified parameters' joint uncertainty"], ["A"
 
 export async function designView(view, robotId, params) {
   const [robot, designs, fleet] = await Promise.all([api(`/v1/robots/${robotId}`), api(`/v1/robots/${robotId}/pose-designs`),
-    api(`/v1/robots/${robotId}/fleet`)]);
+    fleetOrNull(robotId)]);
   const result = h("div", { id: "design-result" });
   fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)), h("h1", {}, `Pose design for ${robot.name}`),
     designForm(robot, result, priorSentence(fleet, robotId)),

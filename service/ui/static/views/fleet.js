@@ -2,7 +2,7 @@
 // current version from a calibration without a prior), whether their population can be this robot's prior and,
 // if not, how many more calibrated units it needs; the units flagged as outliers; the population per parameter.
 import { api } from "../api.js";
-import { h, link, muted, num, numCell, table } from "../dom.js";
+import { errorBox, h, link, muted, num, numCell, table } from "../dom.js";
 
 // The calibrated units a calibration of `robotId` with the fleet's prior would lean on: the robot itself is never
 // part of its own prior (services/fleets.py: population(without=robot)).
@@ -12,6 +12,7 @@ export function priorUnits(fleet, robotId) {
 
 // One sentence: available, or how many more calibrated units are needed, for this robot's calibration.
 export function priorSentence(fleet, robotId) {
+  if (!fleet) return "The fleet could not be read: the service decides when the request is sent.";
   const others = priorUnits(fleet, robotId);
   if (others >= fleet.needed) {
     return `A prior is available: ${others} other calibrated units of this structure (a prior needs ${fleet.needed}).`;
@@ -21,8 +22,10 @@ export function priorSentence(fleet, robotId) {
     + `calibrate ${more} more robot${more === 1 ? "" : "s"} of this structure without a prior first.`;
 }
 
+// The fleet's own errors stay in its section: the rest of the robot's page does not depend on it.
 export async function fleetSection(robot) {
-  const fleet = await api(`/v1/robots/${robot.id}/fleet`);
+  let fleet;
+  try { fleet = await api(`/v1/robots/${robot.id}/fleet`); } catch (error) { return h("div", { id: "fleet" }, errorBox(error, "fleet-error")); }
   const figure = (key, label, value) => h("div", { class: "figure" }, h("dt", {}, label),
     h("dd", { "data-key": key, "data-value": value, id: `fleet-${key}` }, num(value)));
   const section = h("div", { id: "fleet", "data-fleet": fleet.fleet },
@@ -56,6 +59,9 @@ function populationTable(fleet) {
   return h("details", { id: "fleet-population-details" },
     h("summary", {}, `The population: ${fleet.parameters.length} parameters (the base, each campaign's instrument frame, has none)`), holder);
 }
+
+// The fleet for a form's note, or null when it cannot be read (the form works without it).
+export const fleetOrNull = (robotId) => api(`/v1/robots/${robotId}/fleet`).catch(() => null);
 
 // Beside a refusal: the fleet-too-small problem's own counts in words; `option` names the form's checkbox.
 export function fleetRefusal(problem, option = "Calibrate with the fleet's prior") {
