@@ -16,7 +16,7 @@ import pytest
 
 from harness.live import ROOT
 
-pytestmark = pytest.mark.slow  # a wheel built and a venv made: ~3 s here (10 s while the machine is busy)
+pytestmark = pytest.mark.slow  # a wheel built and a venv made: 6-10 s here
 
 
 def _run(*args: str | Path, cwd: Path) -> subprocess.CompletedProcess[str]:
