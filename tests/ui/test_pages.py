@@ -152,3 +152,48 @@ def test_jobs_page(page: tuple[Any, PageProblems, set[str]], server: str) -> Non
         assert p.locator("#no-job-list").count() == 1
         pytest.skip("this service has no GET /v1/jobs yet: the page shows its note (screenshot kept)")
     assert p.locator("#jobs, p.muted").count() >= 1
+
+
+def _shown(row: Any) -> list[str]:
+    return [str(c) for c in row.locator("td").all_inner_texts()]
+
+
+def test_version_diff_by_clicks(page: tuple[Any, PageProblems, set[str]], server: str, data: dict[str, Any]) -> None:
+    """Versions 2 and 3 (the two calibrations) ticked and compared: the rows that moved, sorted by |difference/σ|,
+    the geometry apart from the registration, each number the API's."""
+    p, _, _ = page
+    robot_id = data["robot"]["id"]
+    _open(p, server, f"#/robots/{robot_id}")
+    compare = p.get_by_role("button", name="Compare the two ticked versions")
+    assert compare.is_disabled()
+    p.get_by_label("compare version 3").check()  # ticked newest first: the page still diffs the older against it
+    p.get_by_label("compare version 2").check()
+    compare.click()
+    p.wait_for_selector("#diff-geometry")
+    diff = httpx.get(f"{server}/v1/robots/{robot_id}/parameter-versions/2/diff/3").json()
+    assert p.locator("#diff").get_attribute("data-a") == "2" and p.locator("#diff").get_attribute("data-b") == "3"
+    shown_max = p.locator('[data-key="geometry_max_abs_sigma"]').get_attribute("data-value")
+    assert float(shown_max) == diff["geometry_max_abs_sigma"]
+    changed = [q for q in diff["parameters"] if q["name"] in set(diff["changed"])]
+    for registration, table_id in ((False, "#diff-geometry"), (True, "#diff-registration")):
+        expected = sorted(
+            (q for q in changed if q["registration"] is registration), key=lambda q: -abs(q["difference_sigma"])
+        )
+        rows = p.locator(f"{table_id} tbody tr")
+        assert rows.count() == len(expected) > 0
+        for k in (0, 1, len(expected) - 1):  # the first two and the last, cell by cell
+            name, a, b, difference, sigma, ratio, unit, *_ = _shown(rows.nth(k))
+            q = expected[k]
+            assert (name, unit) == (q["name"], q["unit"])
+            assert [float(a), float(b)] == pytest.approx([q["a"], q["b"]], rel=1e-5, abs=1e-9)
+            assert float(difference) == pytest.approx(q["difference"], rel=1e-2)
+            assert float(sigma) == pytest.approx(q["std_error"], rel=1e-1)
+            assert float(ratio) == pytest.approx(q["difference_sigma"], rel=1e-2)
+        names = [str(n) for n in rows.locator("td:first-child").all_inner_texts()]
+        assert names == [q["name"] for q in expected]
+        assert all(n.startswith("base.") is registration for n in names)
+    # The geometry's largest |difference/σ| is its table's first row.
+    assert abs(float(_shown(p.locator("#diff-geometry tbody tr").first)[5])) == pytest.approx(
+        diff["geometry_max_abs_sigma"], rel=1e-2
+    )
+    screenshot(p, "version-diff")

@@ -188,7 +188,11 @@ def test_a_refused_calibration_says_why_and_can_be_forced(page: Any, server: str
     page.get_by_role("link", name="← cell-noise").click()
     _ready(page, "^#/robots/[0-9a-f-]+$")
     page.get_by_role("button", name="restore 1").click()
-    page.wait_for_function("() => document.querySelector('#versions tbody tr:last-child b')?.textContent === 'current'")
+    # The page redrawn with the restore (a third row, current): the forced version's row was current before it.
+    page.wait_for_function(
+        "() => document.querySelectorAll('#versions tbody tr').length === 3"
+        " && document.querySelector('#versions tbody tr:last-child b')?.textContent === 'current'"
+    )
     versions = httpx.get(f"{server}/v1/robots/{robot_id}/parameter-versions").json()
     assert (versions[-1]["provenance"], versions[-1]["restored_from"], versions[-1]["current"]) == ("restore", 1, True)
 

@@ -1,16 +1,17 @@
 // A campaign to calibrate from: a CSV dropped or picked, a preview of its first rows with the columns the
-// service will read, the noise and apply options, then the calibration as a job with live progress and cancel.
+// service will read, the noise, apply and fleet-prior options, then the calibration as a job with live progress and cancel.
 // The file itself is sent (text/csv): the service's tolerant reader is the one that decides.
 import { api, fieldErrors, query } from "../api.js";
 import { readCsv } from "../csv.js";
 import { errorBox, field, fill, h, link, muted, table } from "../dom.js";
 import { watchJob } from "./jobs.js";
 import { diagnosesList } from "./calibration.js";
+import { fleetOrNull, fleetRefusal, priorSentence } from "./fleet.js";
 
 const PREVIEW_ROWS = 8;
 
 export async function campaignView(view, robotId) {
-  const robot = await api(`/v1/robots/${robotId}`);
+  const [robot, fleet] = await Promise.all([api(`/v1/robots/${robotId}`), fleetOrNull(robotId)]);
   const state = { text: null, name: null };
   const preview = h("div", { id: "campaign-preview" });
   const picker = filePicker("campaign-file", "Campaign CSV", async (file) => {
@@ -18,7 +19,7 @@ export async function campaignView(view, robotId) {
     state.name = file.name;
     showPreview(preview, state, robot);
   });
-  const options = optionsForm();
+  const options = optionsForm(priorSentence(fleet, robotId));
   const outcome = h("div", { id: "calibration-outcome" });
   const run = h("button", { type: "submit", id: "calibrate" }, "Calibrate");
   const form = h("form", { id: "campaign-form" }, picker, preview, options.node, h("p", {}, run), outcome);
@@ -73,20 +74,24 @@ export function showPreview(container, state, robot) {
   return csv;
 }
 
-function optionsForm() {
+// `fleetNote`: whether the fleet can give this robot a prior; the option is offered either way and the service decides.
+function optionsForm(fleetNote) {
   const position = h("input", { id: "noise-position", type: "number", step: "any", min: 0, value: 0.025 });
   const orientation = h("input", { id: "noise-orientation", type: "number", step: "any", min: 0, value: 0.01 });
   const unit = h("select", { id: "length-unit" }, ["mm", "m", "cm", "um", "in"].map((u) => h("option", { value: u }, u)));
   const order = h("select", { id: "quaternion-order" }, ["wxyz", "xyzw"].map((u) => h("option", { value: u }, u)));
   const apply = h("input", { type: "checkbox", id: "apply", checked: true });
+  const prior = h("input", { type: "checkbox", id: "fleet-prior-option" });
   const node = h("fieldset", { id: "calibration-options" }, h("legend", {}, "Options"),
     h("div", { class: "row" },
       field("Instrument σ, position (mm)", position), field("σ, orientation (deg)", orientation),
       field("Length unit where the header states none", unit), field("Order of q0…q3 columns", order)),
-    h("label", {}, apply, " Apply the result as the robot's new version when its checks pass"));
+    h("label", {}, apply, " Apply the result as the robot's new version when its checks pass"), h("br"),
+    h("label", {}, prior, " Calibrate with the fleet's prior (the population of the other calibrated robots of this structure: fewer poses for the same accuracy)"),
+    muted(fleetNote, "fleet-prior-note"));
   const values = () => ({
     noise_position_mm: position.value, noise_orientation_deg: orientation.value,
-    length_unit: unit.value, quaternion_order: order.value, apply: apply.checked,
+    length_unit: unit.value, quaternion_order: order.value, apply: apply.checked, prior: prior.checked ? "fleet" : null,
   });
   return { node, values };
 }
@@ -114,5 +119,5 @@ function refusal(text, problem) {
   const fields = fieldErrors(problem);
   return h("div", { class: "error refusal", id: "calibration-refused", role: "alert" },
     h("h3", {}, "The service refused the campaign"), h("p", {}, text),
-    fields.length ? h("ul", {}, fields.map((f) => h("li", {}, f))) : null, diagnosesList(problem && problem.diagnoses));
+    fields.length ? h("ul", {}, fields.map((f) => h("li", {}, f))) : null, fleetRefusal(problem), diagnosesList(problem && problem.diagnoses));
 }

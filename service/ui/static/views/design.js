@@ -4,16 +4,19 @@
 import { api, query } from "../api.js";
 import { jointsCsv } from "../csv.js";
 import { download, errorBox, field, fill, h, link, muted, num, numCell, table, when } from "../dom.js";
+import { fleetOrNull, fleetRefusal, priorSentence } from "./fleet.js";
 import { watchJob } from "./jobs.js";
 
+const PRIOR_OPTION = "Design for a calibration with the fleet's prior";
 const CRITERIA = [["D", "D: the identified parameters' joint uncertainty"], ["A", "A: their mean variance"],
   ["I", "I: the predicted TCP error over the workspace"], ["E", "E: the worst-determined direction"], ["condition", "condition number"]];
 
 export async function designView(view, robotId, params) {
-  const [robot, designs] = await Promise.all([api(`/v1/robots/${robotId}`), api(`/v1/robots/${robotId}/pose-designs`)]);
+  const [robot, designs, fleet] = await Promise.all([api(`/v1/robots/${robotId}`), api(`/v1/robots/${robotId}/pose-designs`),
+    fleetOrNull(robotId)]);
   const result = h("div", { id: "design-result" });
   fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)), h("h1", {}, `Pose design for ${robot.name}`),
-    designForm(robot, result),
+    designForm(robot, result, priorSentence(fleet, robotId)),
     designs.length === 0 ? null : h("section", {}, h("h2", {}, "Earlier designs"),
       table(["when", "criterion", "poses", "measurement", ""], designs.map((d) => [when(d.created_at), d.criterion, numCell(d.count, 3), d.measurement,
         link(`#/robots/${robotId}/design?design=${d.id}`, "open")]), "earlier-designs")),
@@ -21,7 +24,8 @@ export async function designView(view, robotId, params) {
   if (params.get("design")) await showDesign(robot, await api(`/v1/pose-designs/${params.get("design")}`), result);
 }
 
-function designForm(robot, result) {
+// `fleetNote`: whether the robot's fleet can give it a prior (docs/fleet.md); the service decides either way.
+function designForm(robot, result, fleetNote) {
   const mode = h("select", { id: "design-mode" }, h("option", { value: "count" }, "a number of poses"), h("option", { value: "target" }, "a target accuracy"));
   const count = h("input", { id: "design-count", type: "number", min: 1, step: 1, value: 30 });
   const target = h("input", { id: "design-target", type: "number", min: 0, step: "any", value: 0.05 });
@@ -30,10 +34,13 @@ function designForm(robot, result) {
     [["pose", "full pose (tracker with 6-DoF probe)"], ["position", "position only (tracker reflector)"]].map(([v, t]) => h("option", { value: v }, t)));
   const candidates = h("input", { id: "design-candidates", type: "number", min: 10, step: 1, value: 2000 });
   const seed = h("input", { id: "design-seed", type: "number", step: 1, value: 0 });
+  const prior = h("input", { type: "checkbox", id: "design-prior" });
   const message = h("div", { id: "design-message" });
   const form = h("form", { id: "design-form" }, h("fieldset", {}, h("legend", {}, "Design"),
     h("div", { class: "row" }, field("Choose", mode), field("Poses", count), field("Predicted TCP error, RMS (mm)", target, "target mode"),
-      field("Criterion", criterion), field("Measurement", measurement), field("Candidate poses sampled", candidates), field("Seed", seed))),
+      field("Criterion", criterion), field("Measurement", measurement), field("Candidate poses sampled", candidates), field("Seed", seed)),
+    h("label", {}, prior, ` ${PRIOR_OPTION} (its information joins the poses': a target counts the poses that calibration needs)`),
+    muted(fleetNote, "design-prior-note")),
   muted("Ballbar, point and plane designs need their anchors, points or planes: send those through the API (/docs)."),
   h("p", {}, h("button", { type: "submit", id: "design-submit" }, "Design the poses")), message);
   form.addEventListener("submit", async (event) => {
@@ -42,14 +49,15 @@ function designForm(robot, result) {
     const body = { criterion: criterion.value, measurement: measurement.value, candidate_count: Number(candidates.value), seed: Number(seed.value) };
     if (mode.value === "count") body.count = Number(count.value);
     else body.target = { rms_tcp_mm: Number(target.value) };
+    if (prior.checked) body.prior = "fleet";
     try {
       const accepted = await api(`/v1/robots/${robot.id}/pose-designs${query({ async: true })}`, { method: "POST", json: body });
       const job = await watchJob(accepted.job_id, message);
       if (job.status === "succeeded") await showDesign(robot, job.result, result);
       else if (job.status === "cancelled") message.append(h("p", { id: "job-cancelled" }, "The design was cancelled: nothing was stored."));
-      else message.append(errorBox({ message: `${job.error.status}: ${job.error.detail}`, problem: job.error }, "design-error"));
+      else message.append(errorBox({ message: `${job.error.status}: ${job.error.detail}`, problem: job.error }, "design-error"), fleetRefusal(job.error, PRIOR_OPTION) || "");
     } catch (error) {
-      fill(message, errorBox(error, "design-error"));
+      fill(message, errorBox(error, "design-error"), fleetRefusal(error.problem, PRIOR_OPTION));
     }
   });
   return form;

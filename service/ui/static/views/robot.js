@@ -1,9 +1,11 @@
 // One robot: what to do next (design poses, calibrate, validate), its calibrations, parameter versions (restore,
-// export), validations, its accuracy over time (history), a parameter's drift over the versions, and its pose designs.
+// export, the difference of two: versions.js), validations, its fleet (fleet.js), its accuracy over time (history), a parameter's drift over the versions, and its pose designs.
 import { api } from "../api.js";
-import { download, errorBox, fill, h, link, muted, numCell, statusBadge, table, when } from "../dom.js";
+import { fill, h, link, muted, numCell, statusBadge, table, when } from "../dom.js";
+import { fleetSection } from "./fleet.js";
 import { historySection } from "./history.js";
 import { validationsTable } from "./validation.js";
+import { versionsSection } from "./versions.js";
 
 export async function robotView(view, id) {
   const [robot, calibrations, versions, designs, validations] = await Promise.all([
@@ -14,7 +16,7 @@ export async function robotView(view, id) {
   const first = await api(`/v1/robots/${id}/parameters?version=1`);
   for (const p of first.parameters) choose.append(h("option", { value: p.name }, p.name));
   choose.addEventListener("change", () => drawDrift(id, versions, choose.value, drift));
-  const history = await historySection(robot);
+  const [history, fleet] = await Promise.all([historySection(robot), fleetSection(robot)]);
   fill(view, 
     h("h1", {}, robot.name), muted(`${robot.model} · version ${robot.parameter_version} · ${robot.joint_names.length} joints · ${robot.id}`),
     buildNote(robot),
@@ -23,8 +25,9 @@ export async function robotView(view, id) {
       link(`#/robots/${id}/calibrate`, "2. Calibrate from a campaign", { id: "go-calibrate" }),
       link(`#/robots/${id}/validate`, "3. Validate", { id: "go-validate" })),
     h("h2", {}, "Calibrations"), calibrationsTable(calibrations),
-    h("h2", {}, "Parameter versions"), versionsTable(robot, versions),
+    h("h2", {}, "Parameter versions"), versionsSection(robot, versions),
     h("h2", {}, "Validations"), validationsTable(validations),
+    h("h2", {}, "Fleet"), fleet,
     h("h2", {}, "Accuracy over time"), history,
     h("h2", {}, "Parameter drift over versions"), h("div", { class: "row" }, choose), drift,
     h("h2", {}, "Pose designs"),
@@ -43,25 +46,6 @@ function calibrationsTable(calibrations) {
       `${c.start_version ?? "—"} → ${c.parameter_version ?? "—"}`,
       numCell(c.residuals.before.rms_mm), numCell(c.residuals.after.rms_mm),
       h("span", {}, link(`#/calibrations/${c.id}`, "result"), " · ", link(`#/calibrations/${c.id}/report`, "report"))]), "calibrations");
-}
-
-function versionsTable(robot, versions) {
-  const message = h("div", { id: "versions-message" });
-  const restore = (v) => h("button", { type: "button", class: "link", "data-version": v.version, onclick: async () => {
-    try {
-      await api(`/v1/robots/${robot.id}/parameter-versions/${v.version}/restore`, { method: "POST" });
-      window.dispatchEvent(new HashChangeEvent("hashchange"));  // redraw this page with the new version
-    } catch (error) { fill(message, errorBox(error, "restore-error")); }
-  } }, `restore ${v.version}`);
-  const exportCsv = (v) => h("button", { type: "button", class: "link", onclick: async () => {
-    try {
-      const response = await api(`/v1/robots/${robot.id}/parameters?version=${v.version}&format=csv`, { raw: true, accept: "text/csv" });
-      download(`${robot.name}-v${v.version}.csv`, await response.text());
-    } catch (error) { fill(message, errorBox(error)); }
-  } }, "CSV");
-  return h("div", {}, message, table(["version", "provenance", "from", "by", "when", "", "parameters"], versions.map((v) => [numCell(v.version, 3), v.provenance,
-    v.calibration_id ? link(`#/calibrations/${v.calibration_id}`, "calibration") : (v.restored_from ? `version ${v.restored_from}` : "—"),
-    v.actor || "—", when(v.created_at), v.current ? h("b", {}, "current") : restore(v), exportCsv(v)]), "versions"));
 }
 
 async function drawDrift(id, versions, name, container) {
