@@ -7,6 +7,7 @@ import itertools
 import logging
 import os
 import re
+from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -90,15 +91,21 @@ def _never_selects(markexpr: str, **fixed: bool) -> bool:
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """A module listed in SLOW_MODULES with a test that is not slow would silently drop out of test-fast, and a
-    serial test outside SERIAL_MODULES out of the serial part (and so out of both `make` runs). This sees every
-    collected item, before `-m` deselects any: the parallel part (`-m "not serial"`) checks the serial ones."""
+    """Checks the markers, then orders the modules (below). A module listed in SLOW_MODULES with a test that is
+    not slow would silently drop out of test-fast, and a serial test outside SERIAL_MODULES out of the serial part
+    (and so out of both `make` runs). This sees every collected item, before `-m` deselects any: the parallel part
+    (`-m "not serial"`) checks the serial ones."""
     fast = {_relative(item.path) for item in items if item.get_closest_marker("slow") is None}
     listed = sorted(fast & SLOW_MODULES)
     assert not listed, f"these modules have tests not marked slow; mark them or unlist the modules: {listed}"
     serial = {_relative(item.path) for item in items if item.get_closest_marker("serial") is not None}
     unlisted = sorted(serial - SERIAL_MODULES)
     assert not unlisted, f"these modules have tests marked serial; list them in SERIAL_MODULES: {unlisted}"
+    # The modules with the most slow tests first, each whole and in its own order (its module fixtures still built
+    # once): pytest-xdist hands the collection out in order and workers steal from each other's ends, so the long
+    # tests start early and the run ends on sub-second ones, not on one worker's fleet test while the rest idle.
+    slow = Counter(_relative(item.path) for item in items if item.get_closest_marker("slow") is not None)
+    items.sort(key=lambda item: -slow[_relative(item.path)])
 
 
 def _relative(path: Path) -> str:
