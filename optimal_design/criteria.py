@@ -15,7 +15,7 @@ two families, which the algorithms tell apart by their methods, not by name:
   relaxation is first order (`gradient`), swaps have exact low-rank values
   (`swap_values`) and branch and bound applies (`branch_curvature`).
 - `SpectralCriterion` (E, condition): functions of the extreme eigenvalues, so
-  the relaxation is a semidefinite programme (`sdp_problem`, `dual_bound`) and
+  the relaxation is a semidefinite programme (`homogeneous`, `dual_bound`) and
   swaps are evaluated on the spectrum (`spectral_values`, `ritz_bound`).
 
 A new criterion is a new class here, one member of `Criterion` and one entry in
@@ -40,12 +40,7 @@ from models._types import Array
 from models.errors import InvalidInput
 
 if TYPE_CHECKING:
-    import cvxpy as cp
-
     from optimal_design.information import CandidateInformation
-
-    Compress = Callable[[bool, bool], tuple[cp.Expression, int]]
-    """(strong side?, homogeneous?) -> (the compressed information VᵀM(w)V as a cvxpy expression, its size)."""
 
 
 # A criterion's name, as the API spells it (the objects are in CRITERIA). No docstring: pydantic would put it in
@@ -324,6 +319,9 @@ class SpectralCriterion(DesignCriterion):
     proxy_start = True
     strong_side: bool = False
     """Its bound needs the strongest directions too (λ_max)."""
+    homogeneous: bool = False
+    """Its SDP is posed on u = τ·w (relaxation._compressed): maximise s with VᵀM(u)V ⪰ s·I, with UᵀM(u)U ⪯ I when
+    `strong_side`, Σu = Kτ, u ≤ τ. Otherwise on w itself: maximise s with VᵀM(w)V ⪰ s·I, Σw = K, w ≤ 1."""
 
     @abstractmethod
     def spectral_values(self, ev: Array) -> Array:
@@ -333,13 +331,6 @@ class SpectralCriterion(DesignCriterion):
     def ritz_bound(self, weak: Array, strong: Callable[[], Array]) -> Array:
         """An upper bound of each swap's utility from Rayleigh–Ritz bounds of λ_min (`weak`) and λ_max (`strong`,
         computed only when asked for)."""
-
-    @abstractmethod
-    def sdp_problem(
-        self, cp: Any, compress: Compress, count: int, *, w: cp.Variable, tau: cp.Variable, s: cp.Variable
-    ) -> tuple[cp.Problem, list[Any]]:
-        """The compressed SDP to solve and its spectral constraints, whose duals are the density matrices (weak
-        side first, then the strong one)."""
 
     @abstractmethod
     def relaxed_weights(self, raw: Array, tau: float) -> Array:
@@ -378,13 +369,6 @@ class EOptimal(SpectralCriterion):
     def ritz_bound(self, weak: Array, strong: Callable[[], Array]) -> Array:
         return weak
 
-    def sdp_problem(
-        self, cp: Any, compress: Compress, count: int, *, w: cp.Variable, tau: cp.Variable, s: cp.Variable
-    ) -> tuple[cp.Problem, list[Any]]:
-        low, q_low = compress(False, False)
-        lower = low - s * np.eye(q_low) >> 0
-        return cp.Problem(cp.Maximize(s), [lower, cp.sum(w) == count, w <= 1]), [lower]
-
     def relaxed_weights(self, raw: Array, tau: float) -> Array:
         return raw
 
@@ -403,6 +387,11 @@ class ConditionNumber(SpectralCriterion):
     cost_factor = 6.3
     default_d_floor = CONDITION_D_FLOOR
     strong_side = True
+    # Homogenised: the upper spectrum is pinned (UᵀM(u)U ⪯ I) and the lower one pushed up (VᵀM(u)V ⪰ s·I), so
+    # cond ≥ scale_high/(s·scale_low) for every K-subset — an exact convex form of the quasi-convex problem that
+    # Clarabel solves reliably (the form with a free upper bound t, min t s.t. I ⪯ M(u) ⪯ t·I, fails on these
+    # spectra).
+    homogeneous = True
 
     def _utility(self, ev: Array, m: Array, task: Array) -> float:
         return -float(np.sqrt(ev[-1] / ev[0]))
@@ -418,19 +407,6 @@ class ConditionNumber(SpectralCriterion):
 
     def ritz_bound(self, weak: Array, strong: Callable[[], Array]) -> Array:
         return np.asarray(np.where(weak > 0, -np.sqrt(strong() / weak), -np.inf))
-
-    def sdp_problem(
-        self, cp: Any, compress: Compress, count: int, *, w: cp.Variable, tau: cp.Variable, s: cp.Variable
-    ) -> tuple[cp.Problem, list[Any]]:
-        # Homogenised (u = τ·w, Σu = Kτ, u ≤ τ): the upper spectrum is pinned and the lower one pushed up:
-        # max s with VᵀM(u)V ⪰ s·I, UᵀM(u)U ⪯ I, so cond ≥ scale_high/(s·scale_low) for every K-subset — an
-        # exact convex form of the quasi-convex problem that Clarabel solves reliably (the form with a free upper
-        # bound t, min t s.t. I ⪯ M(u) ⪯ t·I, fails on these spectra).
-        low, q_low = compress(False, True)
-        up, q_up = compress(True, True)
-        lower = low - s * np.eye(q_low) >> 0
-        upper = np.eye(q_up) - up >> 0
-        return cp.Problem(cp.Maximize(s), [lower, upper, cp.sum(w) == count * tau, w <= tau]), [lower, upper]
 
     def relaxed_weights(self, raw: Array, tau: float) -> Array:
         return raw / max(tau, 1e-300)
