@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from models._types import Array
 from models.errors import InvalidInput
+from optimal_design.lowrank import SwapTerms, log_det_bound, trace_bound
 
 if TYPE_CHECKING:
     from optimal_design.information import CandidateInformation
@@ -167,11 +168,32 @@ class SmoothCriterion(DesignCriterion):
         """The certificate gap at which the first-order relaxation stops."""
 
     @abstractmethod
-    def swap_values(
-        self, info: CandidateInformation, s: Array, *, m: Array, inv: NDArray[Any], a_in: Array, a_out: Array
+    def swap_values(self, info: CandidateInformation, terms: SwapTerms) -> Array:
+        """Utility after each swap (design pose a out, pool candidate j in), (I, J), from the r × r systems
+        the swaps share (optimal_design.lowrank); −inf where the swapped design is singular."""
+
+    def swap_bound(
+        self, info: CandidateInformation, design: NDArray[Any], pool: NDArray[Any], *, m: Array, above: float
     ) -> Array:
-        """Utility after each swap (design pose a out, pool candidate j in) from the low-rank update
-        M' = M + U C Uᵀ, U = [Aⱼᵀ, Aₐᵀ], C = diag(I, −I): `s` = C⁻¹ + UᵀM⁻¹U for all pairs (I, J, 2r, 2r)."""
+        """An upper bound of `swap_values` (I, J), much cheaper than them, tight where it may exceed `above`:
+        exchange._swap_values_lowrank evaluates only the swaps whose bound exceeds what it asks for.
+
+        First the concave criterion's tangent, f(M') ≤ f(M) + tr(∂f/∂M (Fⱼ − Fₐ)), a sum of one number per
+        candidate and one per design pose; then, for the candidates that tangent cannot rule out, the family's
+        tighter `pair_bound`."""
+        inv = np.linalg.inv(m)
+        g = info.quadratic(self.derivative(info, inv), np.concatenate([design, pool]))
+        tangent = self.objective(info, m, inv) + g[None, design.size :] - g[: design.size, None]
+        open_ = np.flatnonzero(tangent.max(axis=0) > above - 1e-9 * max(1.0, abs(above)))
+        if open_.size:
+            tangent[:, open_] = np.minimum(tangent[:, open_], self.pair_bound(info, design, pool[open_], inv=inv))
+        return np.asarray(tangent)
+
+    @abstractmethod
+    def pair_bound(
+        self, info: CandidateInformation, design: NDArray[Any], pool: NDArray[Any], *, inv: NDArray[Any]
+    ) -> Array:
+        """An upper bound of `swap_values` (I, J) from a few matrix products (optimal_design.lowrank)."""
 
     @abstractmethod
     def branch_curvature(self, info: CandidateInformation, inv: NDArray[Any], rows: Array, near: Array) -> Array:
@@ -210,15 +232,13 @@ class DOptimal(SmoothCriterion):
     def tolerance(self, f: float) -> float:
         return GAP_D
 
-    def swap_values(
-        self, info: CandidateInformation, s: Array, *, m: Array, inv: NDArray[Any], a_in: Array, a_out: Array
+    def swap_values(self, info: CandidateInformation, terms: SwapTerms) -> Array:
+        return terms.log_det()
+
+    def pair_bound(
+        self, info: CandidateInformation, design: NDArray[Any], pool: NDArray[Any], *, inv: NDArray[Any]
     ) -> Array:
-        r = info.rows
-        sign, logdet_s = np.linalg.slogdet(s)
-        # det(M') = det(M) det(C) det(S), det(C) = (−1)^r
-        value = np.linalg.slogdet(m)[1] + logdet_s
-        value[sign * (-1) ** r <= 0] = -np.inf
-        return np.asarray(value)
+        return log_det_bound(info.blocks[design], info.blocks[pool], inv)
 
     def branch_curvature(self, info: CandidateInformation, inv: NDArray[Any], rows: Array, near: Array) -> Array:
         return np.asarray(near * near)  # ∂²/∂wᵢ∂wⱼ log det M = −tr(M⁻¹FᵢM⁻¹Fⱼ)
@@ -246,26 +266,14 @@ class TraceCriterion(SmoothCriterion):
     def efficiency(self, design_utility: float, bound: float, n_params: int) -> float:
         return float(bound / design_utility)  # both negative
 
-    def swap_values(
-        self, info: CandidateInformation, s: Array, *, m: Array, inv: NDArray[Any], a_in: Array, a_out: Array
+    def swap_values(self, info: CandidateInformation, terms: SwapTerms) -> Array:
+        return np.asarray(-terms.trace(self.weight(info.task, info.n_params)))
+
+    def pair_bound(
+        self, info: CandidateInformation, design: NDArray[Any], pool: NDArray[Any], *, inv: NDArray[Any]
     ) -> Array:
-        r = info.rows
-        lm = self.weight(info.task, m.shape[0])
-        q = inv @ lm @ inv
-        # trace(L M'⁻¹) = trace(L M⁻¹) − trace(S⁻¹ Uᵀ Q U)
-        qjj = np.einsum("jri,ik,jsk->jrs", a_in, q, a_in, optimize=True)
-        qii = np.einsum("ari,ik,ask->ars", a_out, q, a_out, optimize=True)
-        qij = np.einsum("jri,ik,ask->ajrs", a_in, q, a_out, optimize=True)
-        w = np.empty_like(s)
-        w[:, :, :r, :r] = qjj[None]
-        w[:, :, r:, r:] = qii[:, None]
-        w[:, :, :r, r:] = qij
-        w[:, :, r:, :r] = qij.transpose(0, 1, 3, 2)
-        try:
-            correction = np.einsum("abii->ab", np.linalg.solve(s, w))
-        except np.linalg.LinAlgError:
-            return np.full(s.shape[:2], -np.inf)
-        return np.asarray(-(float(np.trace(lm @ inv)) - correction))
+        weight = self.weight(info.task, info.n_params)
+        return np.asarray(-trace_bound(info.blocks[design], info.blocks[pool], inv, weight))
 
     def branch_curvature(self, info: CandidateInformation, inv: NDArray[Any], rows: Array, near: Array) -> Array:
         # ∂²/∂wᵢ∂wⱼ (−tr LM⁻¹) = −2 tr(M⁻¹LM⁻¹ Fᵢ M⁻¹ Fⱼ), symmetrised

@@ -60,9 +60,8 @@ def test_the_bound_is_valid_and_within_two_percent_of_the_full_sdp(
     assert relaxed.bound is not None
     tol = 1e-6 * abs(truth)
     assert relaxed.bound >= truth - tol  # no K-subset, and not even the relaxation, beats the bound
-    assert relaxed.bound <= truth + 0.02 * abs(
-        truth
-    )  # the moving bases found the optimum's directions (1 round: 4-7 % off)
+    # and close: the moving bases found the optimum's directions (the first round alone is 4-7 % off)
+    assert relaxed.bound <= truth + 0.02 * abs(truth)
     # the relaxed weights are feasible, and no better than the optimum
     assert relaxed.weights.sum() == pytest.approx(K, rel=1e-4)
     assert relaxed.weights.min() >= 0 and relaxed.weights.max() <= 1
