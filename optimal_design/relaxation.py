@@ -252,35 +252,48 @@ def _initial(
 class _Grams:
     """The working set's information blocks AᵢᵀAᵢ, flattened (a × P²): M(w) and tr(Q AᵢᵀAᵢ) are then one
     matrix-vector product each instead of products with the (a·r × P) rows, r times fewer operations (6 for full
-    poses). Kept across the multiplicative iterations, which only drop candidates; rebuilt when the working set
-    moves (every CHECK_EVERY iterations)."""
+    poses). The iterations only drop candidates: those stay in the table (`rows` says which are live) until
+    fewer than half are, so dropping copies nothing; the table is rebuilt when the working set moves (every
+    CHECK_EVERY iterations), reusing the blocks it already holds."""
 
-    def __init__(self, info: CandidateInformation, active: NDArray[Any], flat: Array | None = None) -> None:
+    def __init__(
+        self,
+        info: CandidateInformation,
+        active: NDArray[Any],
+        flat: Array | None = None,
+        rows: NDArray[Any] | None = None,
+    ) -> None:
         self.info, self.active = info, active
         p = info.n_params
         blocks = info.blocks[active]
         self.flat = flat if flat is not None else (blocks.transpose(0, 2, 1) @ blocks).reshape(active.size, p * p)
+        self.rows = rows if rows is not None else np.arange(active.size)
 
     def information(self, weights: Array) -> Array:
         p = self.info.n_params
-        m = (weights @ self.flat).reshape(p, p)
+        spread = np.zeros(self.flat.shape[0])
+        spread[self.rows] = weights
+        m = (spread @ self.flat).reshape(p, p)
         return np.asarray((m + m.T) / 2)
 
     def quadratic(self, q: Array) -> Array:
-        return np.asarray(self.flat @ ((q + q.T) / 2).ravel())
+        return np.asarray((self.flat @ ((q + q.T) / 2).ravel())[self.rows])
 
     def kept(self, keep: NDArray[np.bool_]) -> _Grams:
-        return self if keep.all() else _Grams(self.info, self.active[keep], self.flat[keep])
+        if keep.all():
+            return self
+        rows = self.rows[keep]
+        if 2 * rows.size < self.flat.shape[0]:
+            return _Grams(self.info, self.active[keep], self.flat[rows])
+        return _Grams(self.info, self.active[keep], self.flat, rows)
 
     def moved(self, active: NDArray[Any]) -> _Grams:
-        held = np.isin(active, self.active)
-        if not held.any():
-            return _Grams(self.info, active)
+        position = np.searchsorted(self.active, active).clip(max=max(self.active.size - 1, 0))
+        held = self.active[position] == active if self.active.size else np.zeros(active.size, dtype=bool)
         flat = np.empty((active.size, self.flat.shape[1]))
-        flat[held] = self.flat[np.searchsorted(self.active, active[held])]
+        flat[held] = self.flat[self.rows[position[held]]]
         if (~held).any():
-            new = _Grams(self.info, active[~held])
-            flat[~held] = new.flat
+            flat[~held] = _Grams(self.info, active[~held]).flat
         return _Grams(self.info, active, flat)
 
 
