@@ -101,8 +101,10 @@ class DesignCriterion(ABC):
 
     name: Criterion
     cost_factor: float
-    """Its design time relative to D's (service.limits' estimate): measured at M = 2 000, K = 30 on a loaded
-    2-core machine, D 0.52 s, A 1.1 s, I 1.2 s, E 3.4 s, condition 3.3 s."""
+    """Its design time relative to D's (service.limits' estimate), rounded up: measured at M = 2 000, K = 30, in
+    one run of the library (a loaded 2-core machine, medians of seeds 1-3) after issue 30's speed-up, D 0.72 s,
+    A 0.87 s, I 1.28 s, E 1.72 s, condition 1.77 s (before it, in the same run: 1.27, 3.65, 3.73, 7.47 and
+    7.47 s)."""
     branchable: bool = False
     """Branch and bound (optimal_design.branching) can tighten its certificate."""
     targetable: bool = False
@@ -291,7 +293,7 @@ class TraceCriterion(SmoothCriterion):
 
 class AOptimal(TraceCriterion):
     name = Criterion.A
-    cost_factor = 2.1
+    cost_factor = 1.3
     power = 1.5
 
     def weight(self, task: Array, p: int) -> Array:
@@ -308,7 +310,7 @@ class IOptimal(TraceCriterion):
     """The mean predicted TCP position variance over the workspace, tr(L M⁻¹) with L the task matrix."""
 
     name = Criterion.I
-    cost_factor = 2.3
+    cost_factor = 1.9
     targetable = True
     power = 2.0
 
@@ -368,7 +370,7 @@ class SpectralCriterion(DesignCriterion):
 
 class EOptimal(SpectralCriterion):
     name = Criterion.E
-    cost_factor = 6.5
+    cost_factor = 2.6
 
     def _utility(self, ev: Array, m: Array, task: Array) -> float:
         return float(ev[0])
@@ -400,7 +402,7 @@ class ConditionNumber(SpectralCriterion):
     """The condition number of the stacked scaled Jacobian, √(λ_max/λ_min) of M; utility −cond(J)."""
 
     name = Criterion.CONDITION
-    cost_factor = 6.3
+    cost_factor = 2.8
     default_d_floor = CONDITION_D_FLOOR
     strong_side = True
     # Homogenised: the upper spectrum is pinned (UᵀM(u)U ⪯ I) and the lower one pushed up (VᵀM(u)V ⪰ s·I), so
