@@ -212,9 +212,11 @@ def trace_bound(a_out: Array, a_in: Array, inv: NDArray[Any], weight: Array) -> 
     added, _ = cholesky(np.eye(r) + d)
     folded = (lower_inverse(added) @ a_in).reshape(-1, p)  # Lⱼ⁻¹Bⱼ
     rows = a_out.reshape(-1, p).T
-    w = ((folded @ inv) @ rows).reshape(n_j, r, n_i, r)
-    u = ((folded @ q) @ rows).reshape(n_j, r, n_i, r)
-    t = (folded @ q).reshape(n_j, r, p) @ folded.reshape(n_j, r, p).transpose(0, 2, 1)
+    # one product for W, U and Tⱼ's factor: Lⱼ⁻¹Bⱼ · [N Aᵀ, Q Aᵀ, Q]
+    both = folded @ np.hstack([inv @ rows, q @ rows, q])
+    w = both[:, : n_i * r].reshape(n_j, r, n_i, r)
+    u = both[:, n_i * r : 2 * n_i * r].reshape(n_j, r, n_i, r)
+    t = both[:, 2 * n_i * r :].reshape(n_j, r, p) @ folded.reshape(n_j, r, p).transpose(0, 2, 1)
     qaa = np.einsum("arp,arp->a", a_out @ q, a_out)
     tw = (t @ w.reshape(n_j, r, -1)).reshape(w.shape)
     removal = qaa[:, None] + (w * (tw - 2.0 * u)).sum(axis=(1, 3)).T  # tr(AₐQAₐᵀ) − 2 tr(WᵀU) + tr(WᵀTW)
