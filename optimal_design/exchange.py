@@ -48,8 +48,6 @@ wide pool (every candidate up to LOWRANK_POOL, or POOL) evaluated, to confirm a 
 the score missed. At K = 30 of 2 000 the A exchange from the greedy start went from 30 full evaluations of
 59 100 pairs (5.7 s) to ~30 small and ~3 wide ones."""
 UNIVERSE = 5000
-RESCORE = 4
-"""Swaps for which one ranking of the candidates serves the small pool (exchange)."""
 LAZY_BATCH = 64
 PAIR_CHUNK = 20_000
 """Pairs evaluated per batch of 2r × 2r systems (12 × 12 for full poses): ~25 MB of temporaries."""
@@ -277,7 +275,7 @@ def exchange(
         score = _pool_score(info, crit, design, base, first, weights=weights)
         universe = np.zeros_like(allowed)
         universe[first[np.argsort(-score)[:UNIVERSE]]] = True
-    stale: Index | None = None  # the last ranking, reused for the small pool for up to RESCORE swaps
+    stale: Index | None = None  # the last ranking, reused for the small pool (DesignCriterion.ranking_reuse)
     since_scored = 0
     where: dict[str, Any] = {"spread": spread, "log_det_floor": log_det_floor}
 
@@ -290,7 +288,7 @@ def exchange(
         if candidates.size == 0:
             break
         found = None
-        if stale is not None and since_scored < RESCORE:
+        if stale is not None and since_scored < crit.ranking_reuse:
             # The ranking of a few swaps ago still points at good candidates: scoring every candidate again was
             # half of the D exchange's time. Only when it finds nothing is the ranking redone.
             found = _best_swap(info, crit, design, base, order=stale[outside[stale]], limits=(small,), **where)
