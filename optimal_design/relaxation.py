@@ -12,8 +12,8 @@ bound over *all* candidates, however w was found:
   `tr(Z Fᵢ)` bound λ_min of any K-subset. Condition: with Z₁, Z₂ the same for
   λ_min and λ_max, `λ_max/λ_min ≥ tr(Z₂M)/tr(Z₁M)`, minimised over K-subsets
   exactly (bisection on the ratio, K smallest terms). Z, Z₁, Z₂ are the dual
-  matrices of the SDP that cvxpy and Clarabel solve on a screened set of
-  candidates; the bound is reported only when Clarabel says optimal.
+  matrices of the compressed SDPs that Clarabel solves on a screened set of
+  candidates (`sdp`); the bound is reported only when Clarabel says solved.
 
 Why not Clarabel for D, A and I too: their cones are 2P × 2P (108 × 108 here),
 whose scaling block is a dense 5886 × 5886 matrix in every interior-point
