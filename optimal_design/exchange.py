@@ -303,10 +303,17 @@ def exchange(
             )
         if found is None:
             break
+        leaving = design[found[0]]
         design[found[0]] = found[1]
+        swapped = crit.utility(base + info.subset_information(design), info.task)
+        if not swapped > current:
+            # The low-rank value said better, the design itself does not (a swap onto a numerically singular
+            # design whose value was finite): undo it and stop here, at the last design that was better.
+            design[found[0]] = leaving
+            break
         swaps += 1
         since_scored += 1
-        current = crit.utility(base + info.subset_information(design), info.task)
+        current = swapped
     return np.sort(design), swaps
 
 

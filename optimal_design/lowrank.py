@@ -28,6 +28,9 @@ from numpy.typing import NDArray
 
 from models._types import Array
 
+SINGULAR_SWAP = 1e-12
+"""A swap whose Schur complement X has a pivot below this (X is O(1): I − AₐMⱼ⁻¹Aₐᵀ) is taken as singular."""
+
 
 def cholesky(s: Array) -> tuple[Array, NDArray[np.bool_]]:
     """Lower Cholesky factors of a stack of symmetric matrices (..., n, n), and which were positive definite
@@ -117,6 +120,9 @@ def _finish(products: Callable[[Array], tuple[Array, Array, Array]], m: Array, i
     w = linv @ c
     x = (np.eye(r) - h) + np.swapaxes(w, -1, -2) @ w
     factor, regular = cholesky(x)
+    # X is singular exactly when M' is; in floating point its last pivot is then rounding (a pose whose rows are
+    # partly zero, e.g. a ballbar length padded to a camera's rows, left X ~1e-17 there and the trace finite)
+    regular &= np.diagonal(factor, axis1=-2, axis2=-1).min(axis=-1) ** 2 > SINGULAR_SWAP
     return SwapTerms(
         log_det_m=float(np.linalg.slogdet(m)[1]),
         log_det_added=log_det(added),

@@ -93,3 +93,23 @@ def test_bounds_hold_and_pruned_evaluation_keeps_every_swap_above_the_threshold(
             assert np.allclose(pruned[keep], truth[keep], rtol=1e-7)  # every swap above the threshold is exact
             assert np.all(pruned[~keep] <= above + 1e-9 * abs(above) + 1e-12)  # and the others stay below it
             assert np.isneginf(pruned).any()  # and the bound spared some
+
+
+@pytest.mark.parametrize("criterion", SMOOTH)
+def test_a_swap_onto_a_singular_design_is_worthless(criterion: Criterion) -> None:
+    """4 poses that just identify the 12 parameters, swapped for a candidate with one non-zero row (a ballbar
+    length among camera rows, padded with zeros): the swapped design is singular, so its value is −inf however
+    rounding leaves the Schur complement's last pivot."""
+    info = _info(30, seed=5)
+    blocks = info.blocks.copy()
+    blocks[20] = 0.0
+    blocks[20, 0] = blocks[0, 0]  # what pose 0 measures along its first row, nothing else
+    info = CandidateInformation(joints=info.joints, blocks=blocks, free=info.free, task=info.task, position_only=False)
+    design, pool = np.arange(P // ROWS), np.array([20])
+    m = info.subset_information(design)
+    truth = _direct(info, criterion, design, pool)
+    assert np.all(np.isneginf(truth))  # every one of these swaps loses rank
+    values = smooth(criterion).swap_values(
+        info, swap_terms(info.blocks[design], info.blocks[pool], m, np.linalg.inv(m))
+    )
+    assert np.all(np.isneginf(values))
