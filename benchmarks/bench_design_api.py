@@ -8,6 +8,11 @@ rounding), and the same design by the library here. A design the service refuses
 over the synchronous budget) is timed as a job (`?async=true`, submitted to succeeded). The remainder between
 the request's wall and the service's `seconds` is HTTP, the hop to the compute process, storing the design and
 the response.
+
+D at M = 20 000 goes through a second server whose synchronous budget (`IWR_SYNC_BUDGET_SECONDS`, a setting) admits
+it (LARGE_BUDGET_S): under the default 2 s budget the service's estimate sends it to a job, as it should; the
+issue's target for it is a 5 s wall.
+Walls are medians of REPEAT designs (seeds 1-3); the targets are on the medians.
 """
 
 from __future__ import annotations
@@ -28,6 +33,9 @@ CRITERIA = ("D", "A", "I", "E", "condition")
 TARGETS_S = {"D": 0.5, "A": 1.0, "I": 1.0, "E": 2.0, "condition": 2.0}
 """Issue 30's targets for K = 30 of M = 2 000, synchronous."""
 REPEAT = 3
+LARGE_BUDGET_S = 6.0
+"""The synchronous budget of the server that takes D at M = 20 000: just above the service's estimate for it
+(service.limits.pose_design, 5.85 s, calibrated before issue 30's speed-up and 1.5x up)."""
 
 
 def _body(criterion: str, m: int, seed: int) -> dict[str, object]:
@@ -62,6 +70,8 @@ def _through_api(http: httpx.Client, robot: str, criterion: str, m: int) -> dict
         "mode": mode,
         "wall_s": walls[best],
         "wall_median_s": statistics.median(walls),
+        "efficiencies": [r["efficiency"] for r in reports],
+        "bounds": [(r["bound"] or {}).get("value") for r in reports],
         "service_seconds": report["seconds"],
         "information_s": relaxation.get("information_s"),
         "relaxation_s": relaxation.get("relaxation_s"),
@@ -86,8 +96,8 @@ def _in_library(criterion: str, m: int) -> float:
 
 def _table(rows: dict[str, dict[str, Any]]) -> list[str]:
     lines = [
-        "| design (K = 30) | how | API wall (s) | service `seconds` | information / relaxation / greedy / rounding"
-        " (s) | outside the design (s) | library here (s) | efficiency |",
+        "| design (K = 30) | how | API wall, median (best) (s) | service `seconds` | information / relaxation / greedy"
+        " / rounding (s) | outside the design (s) | library here (s) | efficiency (seeds 1-3) |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for name, r in rows.items():
@@ -95,9 +105,10 @@ def _table(rows: dict[str, dict[str, Any]]) -> list[str]:
             f"{float(r[k]):.2f}" if r[k] is not None else "—"
             for k in ("information_s", "relaxation_s", "greedy_exchange_s", "rounding_exchange_s")
         )
+        efficiencies = " / ".join(f"{e:.3f}" for e in r["efficiencies"])
         lines.append(
-            f"| {name} | {r['mode']} | {r['wall_s']:.2f} | {r['service_seconds']:.2f} | {split} | "
-            f"{r['outside_the_design_s']:.2f} | {r['library_s']:.2f} | {r['efficiency']:.3f} |"
+            f"| {name} | {r['mode']} | {r['wall_median_s']:.2f} ({r['wall_s']:.2f}) | {r['service_seconds']:.2f} | "
+            f"{split} | {r['outside_the_design_s']:.2f} | {r['library_s']:.2f} | {efficiencies} |"
         )
     return lines
 
@@ -105,25 +116,29 @@ def _table(rows: dict[str, dict[str, Any]]) -> list[str]:
 def _sync_target(name: str, row: dict[str, Any], limit: float) -> dict[str, object]:
     """The target is a synchronous answer: a design refused synchronously misses it whatever its job took."""
     if row["mode"] == "synchronous":
-        return target(f"{name} through the API, synchronous (s)", row["wall_s"], limit)
-    missed = target(f"{name} through the API: refused synchronously, as a job (s)", row["wall_s"], limit)
+        return target(f"{name} through the API, synchronous, median (s)", row["wall_median_s"], limit)
+    missed = target(f"{name} through the API: refused synchronously, as a job, median (s)", row["wall_median_s"], limit)
     missed["met"] = False
     return missed
 
 
 def run() -> dict[str, object]:
     rows: dict[str, dict[str, Any]] = {}
-    with (
-        tempfile.TemporaryDirectory() as tmp,
-        running_server(f"sqlite:///{tmp}/design.db") as url,
-        httpx.Client(base_url=url, timeout=600) as http,
-    ):
-        robot = http.post("/v1/robots", json={"name": "design-bench"}).json()["id"]
-        for criterion in CRITERIA:  # one design of each first: every compute process warm for it
-            http.post(f"/v1/robots/{robot}/pose-designs", json=_body(criterion, 200, 9))
-        for criterion in CRITERIA:
-            rows[f"{criterion}, M = 2000"] = _through_api(http, robot, criterion, 2000)
-        rows["D, M = 20000"] = _through_api(http, robot, "D", 20_000)
+    with tempfile.TemporaryDirectory() as tmp:
+        with running_server(f"sqlite:///{tmp}/design.db") as url, httpx.Client(base_url=url, timeout=600) as http:
+            robot = http.post("/v1/robots", json={"name": "design-bench"}).json()["id"]
+            for criterion in CRITERIA:  # one design of each first: every compute process warm for it
+                http.post(f"/v1/robots/{robot}/pose-designs", json=_body(criterion, 200, 9))
+            for criterion in CRITERIA:
+                rows[f"{criterion}, M = 2000"] = _through_api(http, robot, criterion, 2000)
+        with (
+            running_server(f"sqlite:///{tmp}/large.db", IWR_SYNC_BUDGET_SECONDS=str(LARGE_BUDGET_S)) as url,
+            httpx.Client(base_url=url, timeout=600) as http,
+        ):
+            robot = http.post("/v1/robots", json={"name": "design-bench-large"}).json()["id"]
+            for seed in (8, 9):  # each compute process's CasADi maps for 20 000 poses built once, as in service
+                http.post(f"/v1/robots/{robot}/pose-designs", json=_body("D", 20_000, seed))
+            rows["D, M = 20000"] = _through_api(http, robot, "D", 20_000)
     for name, row in rows.items():
         criterion, m = name.split(", M = ")
         row["library_s"] = _in_library(criterion, int(m))
@@ -131,5 +146,5 @@ def run() -> dict[str, object]:
         _sync_target(f"{criterion}: K=30 of M=2000", rows[f"{criterion}, M = 2000"], limit)
         for criterion, limit in TARGETS_S.items()
     ]
-    targets.append(_sync_target("D: K=30 of M=20000", rows["D, M = 20000"], 5.0))
+    targets.append(_sync_target(f"D: K=30 of M=20000 (budget {LARGE_BUDGET_S:g} s)", rows["D, M = 20000"], 5.0))
     return {**rows, "targets": targets, "markdown": _table(rows)}

@@ -15,7 +15,7 @@ two families, which the algorithms tell apart by their methods, not by name:
   relaxation is first order (`gradient`), swaps have exact low-rank values
   (`swap_values`) and branch and bound applies (`branch_curvature`).
 - `SpectralCriterion` (E, condition): functions of the extreme eigenvalues, so
-  the relaxation is a semidefinite programme (`sdp_problem`, `dual_bound`) and
+  the relaxation is a semidefinite programme (`homogeneous`, `dual_bound`) and
   swaps are evaluated on the spectrum (`spectral_values`, `ritz_bound`).
 
 A new criterion is a new class here, one member of `Criterion` and one entry in
@@ -38,14 +38,10 @@ from numpy.typing import NDArray
 
 from models._types import Array
 from models.errors import InvalidInput
+from optimal_design.lowrank import SwapTerms, log_det_bound, trace_bound
 
 if TYPE_CHECKING:
-    import cvxpy as cp
-
     from optimal_design.information import CandidateInformation
-
-    Compress = Callable[[bool, bool], tuple[cp.Expression, int]]
-    """(strong side?, homogeneous?) -> (the compressed information VᵀM(w)V as a cvxpy expression, its size)."""
 
 
 # A criterion's name, as the API spells it (the objects are in CRITERIA). No docstring: pydantic would put it in
@@ -91,7 +87,13 @@ def bottom_sum(g: Array, k: int) -> float:
 
 
 def _traces(info: CandidateInformation, z: Array) -> Array:
-    return np.asarray(info.quadratic(z) / np.trace(z), dtype=float)
+    """tr(Z AᵢᵀAᵢ) / tr(Z) for every candidate, through Z's factor: the duals have rank ~9 (the bundle's bases),
+    so ‖Aᵢ R‖² with Z = RRᵀ is a product with 9 columns instead of 54."""
+    ev, vec = np.linalg.eigh((z + z.T) / 2)
+    kept = ev > 1e-14 * max(float(ev[-1]), 1e-300)
+    factor = vec[:, kept] * np.sqrt(ev[kept])
+    reach = np.square(info.blocks.reshape(-1, info.n_params) @ factor).sum(axis=1)
+    return np.asarray(reach.reshape(info.size, info.rows).sum(axis=1) / np.trace(z), dtype=float)
 
 
 class DesignCriterion(ABC):
@@ -99,8 +101,10 @@ class DesignCriterion(ABC):
 
     name: Criterion
     cost_factor: float
-    """Its design time relative to D's (service.limits' estimate): measured at M = 2 000, K = 30 on a loaded
-    2-core machine, D 0.52 s, A 1.1 s, I 1.2 s, E 3.4 s, condition 3.3 s."""
+    """Its design time relative to D's (service.limits' estimate), rounded up: measured at M = 2 000, K = 30, in
+    one run of the library (a loaded 2-core machine, medians of seeds 1-3) after issue 30's speed-up, D 0.72 s,
+    A 0.87 s, I 1.28 s, E 1.72 s, condition 1.77 s (before it, in the same run: 1.27, 3.65, 3.73, 7.47 and
+    7.47 s)."""
     branchable: bool = False
     """Branch and bound (optimal_design.branching) can tighten its certificate."""
     targetable: bool = False
@@ -113,6 +117,9 @@ class DesignCriterion(ABC):
     """Whether the exchange from the greedy start may leave the small pool (solve._greedy_start)."""
     proxy_start: bool = False
     """Whether the rounded start is first improved on a smooth proxy (solve._smooth_start)."""
+    ranking_reuse: int = 0
+    """Swaps for which one ranking of the candidates serves the exchange's small pool before it is redone (0: a
+    fresh ranking at every swap; a fresh one and the wide pool always confirm the end)."""
 
     def utility(self, m: Array, task: Array) -> float:
         """Larger is better; -inf for a singular design."""
@@ -150,7 +157,9 @@ class SmoothCriterion(DesignCriterion):
     """Exponent of the multiplicative update wᵢ ← wᵢ gᵢ^power (relaxation.first_order). The classical 1 (D) and
     1/2 (A, I) are the proven monotone ones; at K = 30 of 2 000 the larger ones used converge in 92 (D), 87 (A)
     and 126 (I) iterations instead of 272, 257 and 477, to the same bounds; larger still diverged (A at 2, I at
-    3). Any drop of the objective halves the exponent, and the certificate never depends on it."""
+    3). Any drop of the objective after a multiplicative step halves the exponent (until a rounding-level drop
+    after the working set moved was taken for one, every D relaxation ran at half its exponent from the second
+    iteration: 172 iterations instead of 87 at K = 30 of 2 000), and the certificate never depends on it."""
     newton: bool = False
     """Its relaxation has a projected Newton route (relaxation.newton_d) for the root polish and the leaves."""
 
@@ -172,11 +181,32 @@ class SmoothCriterion(DesignCriterion):
         """The certificate gap at which the first-order relaxation stops."""
 
     @abstractmethod
-    def swap_values(
-        self, info: CandidateInformation, s: Array, *, m: Array, inv: NDArray[Any], a_in: Array, a_out: Array
+    def swap_values(self, info: CandidateInformation, terms: SwapTerms) -> Array:
+        """Utility after each swap (design pose a out, pool candidate j in), (I, J), from the r × r systems
+        the swaps share (optimal_design.lowrank); −inf where the swapped design is singular."""
+
+    def swap_bound(
+        self, info: CandidateInformation, design: NDArray[Any], pool: NDArray[Any], *, m: Array, above: float
     ) -> Array:
-        """Utility after each swap (design pose a out, pool candidate j in) from the low-rank update
-        M' = M + U C Uᵀ, U = [Aⱼᵀ, Aₐᵀ], C = diag(I, −I): `s` = C⁻¹ + UᵀM⁻¹U for all pairs (I, J, 2r, 2r)."""
+        """An upper bound of `swap_values` (I, J), much cheaper than them, tight where it may exceed `above`:
+        exchange._swap_values_lowrank evaluates only the swaps whose bound exceeds what it asks for.
+
+        First the concave criterion's tangent, f(M') ≤ f(M) + tr(∂f/∂M (Fⱼ − Fₐ)), a sum of one number per
+        candidate and one per design pose; then, for the candidates that tangent cannot rule out, the family's
+        tighter `pair_bound`."""
+        inv = np.linalg.inv(m)
+        g = info.quadratic(self.derivative(info, inv), np.concatenate([design, pool]))
+        tangent = self.objective(info, m, inv) + g[None, design.size :] - g[: design.size, None]
+        open_ = np.flatnonzero(tangent.max(axis=0) > above - 1e-9 * max(1.0, abs(above)))
+        if open_.size:
+            tangent[:, open_] = np.minimum(tangent[:, open_], self.pair_bound(info, design, pool[open_], inv=inv))
+        return np.asarray(tangent)
+
+    @abstractmethod
+    def pair_bound(
+        self, info: CandidateInformation, design: NDArray[Any], pool: NDArray[Any], *, inv: NDArray[Any]
+    ) -> Array:
+        """An upper bound of `swap_values` (I, J) from a few matrix products (optimal_design.lowrank)."""
 
     @abstractmethod
     def branch_curvature(self, info: CandidateInformation, inv: NDArray[Any], rows: Array, near: Array) -> Array:
@@ -192,6 +222,9 @@ class SmoothCriterion(DesignCriterion):
 class DOptimal(SmoothCriterion):
     name = Criterion.D
     cost_factor = 1.0
+    # Scoring every candidate at every swap was half of the D exchange's time; the same designs at K = 30 of
+    # 2 000 (seeds 1-5). A and I took other paths with it (seed 2: efficiency 0.9598 -> 0.9591 and 0.928 -> 0.926).
+    ranking_reuse = 4
     targetable = True
     power = 3.0
     newton = True
@@ -215,15 +248,13 @@ class DOptimal(SmoothCriterion):
     def tolerance(self, f: float) -> float:
         return GAP_D
 
-    def swap_values(
-        self, info: CandidateInformation, s: Array, *, m: Array, inv: NDArray[Any], a_in: Array, a_out: Array
+    def swap_values(self, info: CandidateInformation, terms: SwapTerms) -> Array:
+        return terms.log_det()
+
+    def pair_bound(
+        self, info: CandidateInformation, design: NDArray[Any], pool: NDArray[Any], *, inv: NDArray[Any]
     ) -> Array:
-        r = info.rows
-        sign, logdet_s = np.linalg.slogdet(s)
-        # det(M') = det(M) det(C) det(S), det(C) = (−1)^r
-        value = np.linalg.slogdet(m)[1] + logdet_s
-        value[sign * (-1) ** r <= 0] = -np.inf
-        return np.asarray(value)
+        return log_det_bound(info.blocks[design], info.blocks[pool], inv)
 
     def branch_curvature(self, info: CandidateInformation, inv: NDArray[Any], rows: Array, near: Array) -> Array:
         return np.asarray(near * near)  # ∂²/∂wᵢ∂wⱼ log det M = −tr(M⁻¹FᵢM⁻¹Fⱼ)
@@ -251,26 +282,14 @@ class TraceCriterion(SmoothCriterion):
     def efficiency(self, design_utility: float, bound: float, n_params: int) -> float:
         return float(bound / design_utility)  # both negative
 
-    def swap_values(
-        self, info: CandidateInformation, s: Array, *, m: Array, inv: NDArray[Any], a_in: Array, a_out: Array
+    def swap_values(self, info: CandidateInformation, terms: SwapTerms) -> Array:
+        return np.asarray(-terms.trace(self.weight(info.task, info.n_params)))
+
+    def pair_bound(
+        self, info: CandidateInformation, design: NDArray[Any], pool: NDArray[Any], *, inv: NDArray[Any]
     ) -> Array:
-        r = info.rows
-        lm = self.weight(info.task, m.shape[0])
-        q = inv @ lm @ inv
-        # trace(L M'⁻¹) = trace(L M⁻¹) − trace(S⁻¹ Uᵀ Q U)
-        qjj = np.einsum("jri,ik,jsk->jrs", a_in, q, a_in, optimize=True)
-        qii = np.einsum("ari,ik,ask->ars", a_out, q, a_out, optimize=True)
-        qij = np.einsum("jri,ik,ask->ajrs", a_in, q, a_out, optimize=True)
-        w = np.empty_like(s)
-        w[:, :, :r, :r] = qjj[None]
-        w[:, :, r:, r:] = qii[:, None]
-        w[:, :, :r, r:] = qij
-        w[:, :, r:, :r] = qij.transpose(0, 1, 3, 2)
-        try:
-            correction = np.einsum("abii->ab", np.linalg.solve(s, w))
-        except np.linalg.LinAlgError:
-            return np.full(s.shape[:2], -np.inf)
-        return np.asarray(-(float(np.trace(lm @ inv)) - correction))
+        weight = self.weight(info.task, info.n_params)
+        return np.asarray(-trace_bound(info.blocks[design], info.blocks[pool], inv, weight))
 
     def branch_curvature(self, info: CandidateInformation, inv: NDArray[Any], rows: Array, near: Array) -> Array:
         # ∂²/∂wᵢ∂wⱼ (−tr LM⁻¹) = −2 tr(M⁻¹LM⁻¹ Fᵢ M⁻¹ Fⱼ), symmetrised
@@ -280,7 +299,7 @@ class TraceCriterion(SmoothCriterion):
 
 class AOptimal(TraceCriterion):
     name = Criterion.A
-    cost_factor = 2.1
+    cost_factor = 1.3
     power = 1.5
 
     def weight(self, task: Array, p: int) -> Array:
@@ -297,7 +316,7 @@ class IOptimal(TraceCriterion):
     """The mean predicted TCP position variance over the workspace, tr(L M⁻¹) with L the task matrix."""
 
     name = Criterion.I
-    cost_factor = 2.3
+    cost_factor = 1.9
     targetable = True
     power = 2.0
 
@@ -324,6 +343,9 @@ class SpectralCriterion(DesignCriterion):
     proxy_start = True
     strong_side: bool = False
     """Its bound needs the strongest directions too (λ_max)."""
+    homogeneous: bool = False
+    """Its SDP is posed on u = τ·w (relaxation._compressed): maximise s with VᵀM(u)V ⪰ s·I, with UᵀM(u)U ⪯ I when
+    `strong_side`, Σu = Kτ, u ≤ τ. Otherwise on w itself: maximise s with VᵀM(w)V ⪰ s·I, Σw = K, w ≤ 1."""
 
     @abstractmethod
     def spectral_values(self, ev: Array) -> Array:
@@ -333,13 +355,6 @@ class SpectralCriterion(DesignCriterion):
     def ritz_bound(self, weak: Array, strong: Callable[[], Array]) -> Array:
         """An upper bound of each swap's utility from Rayleigh–Ritz bounds of λ_min (`weak`) and λ_max (`strong`,
         computed only when asked for)."""
-
-    @abstractmethod
-    def sdp_problem(
-        self, cp: Any, compress: Compress, count: int, *, w: cp.Variable, tau: cp.Variable, s: cp.Variable
-    ) -> tuple[cp.Problem, list[Any]]:
-        """The compressed SDP to solve and its spectral constraints, whose duals are the density matrices (weak
-        side first, then the strong one)."""
 
     @abstractmethod
     def relaxed_weights(self, raw: Array, tau: float) -> Array:
@@ -361,7 +376,7 @@ class SpectralCriterion(DesignCriterion):
 
 class EOptimal(SpectralCriterion):
     name = Criterion.E
-    cost_factor = 6.5
+    cost_factor = 2.6
 
     def _utility(self, ev: Array, m: Array, task: Array) -> float:
         return float(ev[0])
@@ -378,13 +393,6 @@ class EOptimal(SpectralCriterion):
     def ritz_bound(self, weak: Array, strong: Callable[[], Array]) -> Array:
         return weak
 
-    def sdp_problem(
-        self, cp: Any, compress: Compress, count: int, *, w: cp.Variable, tau: cp.Variable, s: cp.Variable
-    ) -> tuple[cp.Problem, list[Any]]:
-        low, q_low = compress(False, False)
-        lower = low - s * np.eye(q_low) >> 0
-        return cp.Problem(cp.Maximize(s), [lower, cp.sum(w) == count, w <= 1]), [lower]
-
     def relaxed_weights(self, raw: Array, tau: float) -> Array:
         return raw
 
@@ -400,9 +408,14 @@ class ConditionNumber(SpectralCriterion):
     """The condition number of the stacked scaled Jacobian, √(λ_max/λ_min) of M; utility −cond(J)."""
 
     name = Criterion.CONDITION
-    cost_factor = 6.3
+    cost_factor = 2.8
     default_d_floor = CONDITION_D_FLOOR
     strong_side = True
+    # Homogenised: the upper spectrum is pinned (UᵀM(u)U ⪯ I) and the lower one pushed up (VᵀM(u)V ⪰ s·I), so
+    # cond ≥ scale_high/(s·scale_low) for every K-subset — an exact convex form of the quasi-convex problem that
+    # Clarabel solves reliably (the form with a free upper bound t, min t s.t. I ⪯ M(u) ⪯ t·I, fails on these
+    # spectra).
+    homogeneous = True
 
     def _utility(self, ev: Array, m: Array, task: Array) -> float:
         return -float(np.sqrt(ev[-1] / ev[0]))
@@ -418,19 +431,6 @@ class ConditionNumber(SpectralCriterion):
 
     def ritz_bound(self, weak: Array, strong: Callable[[], Array]) -> Array:
         return np.asarray(np.where(weak > 0, -np.sqrt(strong() / weak), -np.inf))
-
-    def sdp_problem(
-        self, cp: Any, compress: Compress, count: int, *, w: cp.Variable, tau: cp.Variable, s: cp.Variable
-    ) -> tuple[cp.Problem, list[Any]]:
-        # Homogenised (u = τ·w, Σu = Kτ, u ≤ τ): the upper spectrum is pinned and the lower one pushed up:
-        # max s with VᵀM(u)V ⪰ s·I, UᵀM(u)U ⪯ I, so cond ≥ scale_high/(s·scale_low) for every K-subset — an
-        # exact convex form of the quasi-convex problem that Clarabel solves reliably (the form with a free upper
-        # bound t, min t s.t. I ⪯ M(u) ⪯ t·I, fails on these spectra).
-        low, q_low = compress(False, True)
-        up, q_up = compress(True, True)
-        lower = low - s * np.eye(q_low) >> 0
-        upper = np.eye(q_up) - up >> 0
-        return cp.Problem(cp.Maximize(s), [lower, upper, cp.sum(w) == count * tau, w <= tau]), [lower, upper]
 
     def relaxed_weights(self, raw: Array, tau: float) -> Array:
         return raw / max(tau, 1e-300)
@@ -449,6 +449,8 @@ class ConditionNumber(SpectralCriterion):
                 hi = r
             else:
                 lo = r
+            if hi - lo <= 1e-13 * hi:  # lo, the bound, is then exact to rounding (~45 halvings, not 200)
+                break
         ratio = lo  # no K-subset has λ_max/λ_min below this
         chosen = np.argpartition(a - hi * b, count - 1)[:count]
         return -float(np.sqrt(max(ratio, 0.0))), chosen

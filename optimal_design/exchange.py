@@ -2,10 +2,10 @@
 
 Rounding keeps the K largest weights. The exchange swaps one chosen pose for
 one candidate whenever that improves the exact criterion, best swap first,
-until no swap helps. Swap values come from low-rank updates: with
-`U = [Aⱼᵀ, Aᵢᵀ]` (adding j, removing i), `M' = M + U C Uᵀ`, `C = diag(I, −I)`;
-the determinant lemma and the Woodbury identity give log det, trace(M'⁻¹) and
-trace(L M'⁻¹) from 2r × 2r systems for all pairs at once. E and the condition
+until no swap helps. Swap values come from low-rank updates (adding j, then
+removing i): the determinant lemma and the Woodbury identity give log det,
+trace(M'⁻¹) and trace(L M'⁻¹) from r × r positive definite systems for all
+pairs at once (optimal_design.lowrank). E and the condition
 number need the spectrum, so for them the pairs are evaluated on a pool of the
 most promising candidates.
 """
@@ -30,6 +30,7 @@ from optimal_design.criteria import (
     spectral,
 )
 from optimal_design.information import CandidateInformation
+from optimal_design.lowrank import pair_terms, swap_terms
 
 Index = NDArray[Any]
 
@@ -51,6 +52,10 @@ LAZY_BATCH = 64
 PAIR_CHUNK = 20_000
 """Pairs evaluated per batch of 2r × 2r systems (12 × 12 for full poses): ~25 MB of temporaries."""
 IMPROVEMENT = 1e-10
+BOUNDED_POOL = 200
+"""From this many candidates on, the low-rank swaps are first bounded (SmoothCriterion.swap_bound) and only the
+swaps the bound cannot rule out are evaluated: the bound costs one matrix product, the exact values an r × r
+system per pair (for 48 candidates the bound saved nothing)."""
 
 
 def round_weights(weights: Array, count: int, allowed: Index, spread: Spread | None = None) -> Array:
@@ -107,7 +112,7 @@ def greedy(info: CandidateInformation, count: int, base: Array, allowed: Index, 
                 batch_size *= 2  # early steps re-evaluate most candidates: reach them in a few batches
             blocks = info.blocks[batch]
             # rows of one pose are coupled, so the gain is an r × r determinant
-            small = np.einsum("mri,ij,msj->mrs", blocks, inv, blocks, optimize=True)
+            small = (blocks @ inv) @ blocks.transpose(0, 2, 1)
             stale[batch] = np.linalg.slogdet(eye + small)[1]
             fresh[batch] = True
             rest = free & ~fresh
@@ -124,34 +129,50 @@ def greedy(info: CandidateInformation, count: int, base: Array, allowed: Index, 
 
 
 def _swap_values_lowrank(
-    info: CandidateInformation, criterion: str | DesignCriterion, design: Index, base: Array, pool: Index
+    info: CandidateInformation,
+    criterion: str | DesignCriterion,
+    design: Index,
+    base: Array,
+    pool: Index,
+    *,
+    above: float | None = None,
 ) -> Array:
-    """Utility after swapping design[a] for pool[b], all pairs (len(design), len(pool)), in chunks of pairs."""
+    """Utility after swapping design[a] for pool[b], all pairs (len(design), len(pool)), in chunks of pairs.
+
+    With `above`, only the swaps that may exceed it are evaluated (the criterion's `swap_bound` says which; the
+    others are −inf): the exchange asks only for improving swaps, and the D-efficiency floor only for those above
+    it. At a local optimum that is a handful of the (K × M) swaps."""
     crit = smooth(criterion)
     m = base + info.subset_information(design)
+    if above is not None and design.size and pool.size >= BOUNDED_POOL:
+        return _bounded(info, crit, design, pool, m=m, above=above)
     inv = np.linalg.inv(m)
     step = max(1, PAIR_CHUNK // max(design.size, 1))
     parts = [_lowrank_chunk(info, crit, design, pool[lo : lo + step], m=m, inv=inv) for lo in range(0, pool.size, step)]
     return np.hstack(parts) if parts else np.empty((design.size, 0))
 
 
+def _bounded(
+    info: CandidateInformation, crit: SmoothCriterion, design: Index, pool: Index, *, m: Array, above: float
+) -> Array:
+    """The swaps whose bound exceeds `above` (less a margin for the bound's rounding) evaluated exactly, one
+    system per pair; −inf for the others."""
+    margin = 1e-9 * max(1.0, abs(above))
+    rows, cols = np.nonzero(crit.swap_bound(info, design, pool, m=m, above=above) > above - margin)
+    out = np.full((design.size, pool.size), -np.inf)
+    inv = np.linalg.inv(m)
+    a_out = info.blocks[design]
+    for lo in range(0, rows.size, PAIR_CHUNK):
+        a, j = rows[lo : lo + PAIR_CHUNK], cols[lo : lo + PAIR_CHUNK]
+        entering, at = np.unique(j, return_inverse=True)
+        out[a, j] = crit.swap_values(info, pair_terms(a_out, info.blocks[pool[entering]], (a, at), m, inv))
+    return out
+
+
 def _lowrank_chunk(
     info: CandidateInformation, criterion: SmoothCriterion, design: Index, pool: Index, *, m: Array, inv: NDArray[Any]
 ) -> Array:
-    r = info.rows
-    a_in = info.blocks[pool]  # (J, r, P)
-    a_out = info.blocks[design]  # (I, r, P)
-    jj = np.einsum("jri,ik,jsk->jrs", a_in, inv, a_in, optimize=True)
-    ii = np.einsum("ari,ik,ask->ars", a_out, inv, a_out, optimize=True)
-    ij = np.einsum("jri,ik,ask->ajrs", a_in, inv, a_out, optimize=True)  # (I, J, r, r)
-    n_i, n_j = design.size, pool.size
-    # S = C⁻¹ + Uᵀ M⁻¹ U with C⁻¹ = diag(I, −I)
-    s = np.empty((n_i, n_j, 2 * r, 2 * r))
-    s[:, :, :r, :r] = np.eye(r) + jj[None]
-    s[:, :, r:, r:] = -np.eye(r) + ii[:, None]
-    s[:, :, :r, r:] = ij
-    s[:, :, r:, :r] = ij.transpose(0, 1, 3, 2)
-    return criterion.swap_values(info, s, m=m, inv=inv, a_in=a_in, a_out=a_out)
+    return criterion.swap_values(info, swap_terms(info.blocks[design], info.blocks[pool], m, inv))
 
 
 RITZ_VECTORS = 8
@@ -179,8 +200,8 @@ def _swap_values_spectral(
     left beats the best value found (measured at K = 30 of 2 000: 1.4 s of the E design's exchange before)."""
     crit = spectral(criterion)
     m = base + info.subset_information(design)
-    f_out = np.einsum("ari,ark->aik", info.blocks[design], info.blocks[design])
-    f_in = np.einsum("jri,jrk->jik", info.blocks[pool], info.blocks[pool])
+    f_out = np.asarray(info.blocks[design].transpose(0, 2, 1) @ info.blocks[design], dtype=float)
+    f_in = np.asarray(info.blocks[pool].transpose(0, 2, 1) @ info.blocks[pool], dtype=float)
     without = m[None] - f_out
     ev, vec = np.linalg.eigh(without)
     k = min(RITZ_VECTORS, m.shape[0])
@@ -199,7 +220,7 @@ def _swap_values_spectral(
         if not live.any():
             break  # every swap left is bounded by one already evaluated
         a, j = a[live], j[live]
-        exact = np.linalg.eigvalsh(without[a] + f_in[j])
+        exact = np.asarray(np.linalg.eigvalsh(without[a] + f_in[j]), dtype=float)
         with np.errstate(divide="ignore", invalid="ignore"):
             values = crit.spectral_values(exact)
         out[a, j] = values
@@ -254,43 +275,87 @@ def exchange(
         score = _pool_score(info, crit, design, base, first, weights=weights)
         universe = np.zeros_like(allowed)
         universe[first[np.argsort(-score)[:UNIVERSE]]] = True
+    stale: Index | None = None  # the last ranking, reused for the small pool (DesignCriterion.ranking_reuse)
+    since_scored = 0
+    where: dict[str, Any] = {"spread": spread, "log_det_floor": log_det_floor}
+
     while swaps < MAX_SWAPS:
         cancellation.check()
+        where["current"] = current
         outside = universe.copy()
         outside[design] = False
         candidates = np.flatnonzero(outside)
         if candidates.size == 0:
             break
-        order = candidates
-        if candidates.size > small:
-            score = _pool_score(info, crit, design, base, candidates, weights=weights)
-            order = candidates[np.argsort(-score)]
         found = None
-        for limit in (small, wide_pool) if wide else (small,):
-            pool = order[:limit]
-            # Which swaps are allowed at all, before their values: the spectral evaluation skips swaps that a
-            # bound proves worse than an evaluated one, which must be an allowed one.
-            admissible = np.ones((design.size, pool.size), dtype=bool)
-            if spread is not None:
-                admissible &= spread.swap_mask(design, pool)
-            if log_det_floor is not None:
-                admissible &= _swap_values_lowrank(info, D_OPTIMAL, design, base, pool) >= log_det_floor
-            if on_spectrum:
-                values = _swap_values_spectral(info, crit, design, base, pool, admissible=admissible)
-            else:
-                values = np.where(admissible, _swap_values_lowrank(info, crit, design, base, pool), -np.inf)
-            a, b = np.unravel_index(int(np.argmax(values)), values.shape)
-            if values[a, b] > current + IMPROVEMENT * max(1.0, abs(current)):
-                found = (int(a), int(pool[b]))
-                break
-            if pool.size == order.size:
-                break
+        if stale is not None and since_scored < crit.ranking_reuse:
+            # The ranking of a few swaps ago still points at good candidates: scoring every candidate again was
+            # half of the D exchange's time. Only when it finds nothing is the ranking redone.
+            found = _best_swap(info, crit, design, base, order=stale[outside[stale]], limits=(small,), **where)
+        if found is None:
+            order = candidates
+            if candidates.size > small:
+                score = _pool_score(info, crit, design, base, candidates, weights=weights)
+                order = candidates[np.argsort(-score)]
+            stale, since_scored = order, 0
+            found = _best_swap(
+                info, crit, design, base, order=order, limits=(small, wide_pool) if wide else (small,), **where
+            )
         if found is None:
             break
+        leaving = design[found[0]]
         design[found[0]] = found[1]
+        swapped = crit.utility(base + info.subset_information(design), info.task)
+        if not swapped > current:
+            # The low-rank value said better, the design itself does not (a swap onto a numerically singular
+            # design whose value was finite): undo it and stop here, at the last design that was better.
+            design[found[0]] = leaving
+            break
         swaps += 1
-        current = crit.utility(base + info.subset_information(design), info.task)
+        since_scored += 1
+        current = swapped
     return np.sort(design), swaps
+
+
+def _best_swap(
+    info: CandidateInformation,
+    crit: DesignCriterion,
+    design: Index,
+    base: Array,
+    *,
+    order: Index,
+    limits: tuple[int, ...],
+    current: float,
+    spread: Spread | None,
+    log_det_floor: float | None,
+) -> tuple[int, int] | None:
+    """(position in the design, candidate) of the best improving swap among the first `limits[0]` candidates of
+    `order`, then the first `limits[1]`, ...; None when none improves."""
+    threshold = current + IMPROVEMENT * max(1.0, abs(current))
+    for limit in limits:
+        pool = order[:limit]
+        if pool.size == 0:
+            break
+        # Which swaps are allowed at all, before their values: the spectral evaluation skips swaps that a
+        # bound proves worse than an evaluated one, which must be an allowed one.
+        admissible = np.ones((design.size, pool.size), dtype=bool)
+        if spread is not None:
+            admissible &= spread.swap_mask(design, pool)
+        if log_det_floor is not None:
+            admissible &= (
+                _swap_values_lowrank(info, D_OPTIMAL, design, base, pool, above=log_det_floor) >= log_det_floor
+            )
+        if isinstance(crit, SpectralCriterion):
+            values = _swap_values_spectral(info, crit, design, base, pool, admissible=admissible)
+        else:
+            values = _swap_values_lowrank(info, crit, design, base, pool, above=threshold)
+            values = np.where(admissible, values, -np.inf)
+        a, b = np.unravel_index(int(np.argmax(values)), values.shape)
+        if values[a, b] > threshold:
+            return int(a), int(pool[b])
+        if pool.size == order.size:
+            break
+    return None
 
 
 def _pool_score(

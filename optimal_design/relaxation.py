@@ -12,8 +12,8 @@ bound over *all* candidates, however w was found:
   `tr(Z Fᵢ)` bound λ_min of any K-subset. Condition: with Z₁, Z₂ the same for
   λ_min and λ_max, `λ_max/λ_min ≥ tr(Z₂M)/tr(Z₁M)`, minimised over K-subsets
   exactly (bisection on the ratio, K smallest terms). Z, Z₁, Z₂ are the dual
-  matrices of the SDP that cvxpy and Clarabel solve on a screened set of
-  candidates; the bound is reported only when Clarabel says optimal.
+  matrices of the compressed SDPs that Clarabel solves on a screened set of
+  candidates (`sdp`); the bound is reported only when Clarabel says solved.
 
 Why not Clarabel for D, A and I too: their cones are 2P × 2P (108 × 108 here),
 whose scaling block is a dense 5886 × 5886 matrix in every interior-point
@@ -30,10 +30,9 @@ the cones see an O(1) spectrum and are a few dozen entries instead of 1 485.
 from __future__ import annotations
 
 import time
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,6 +42,7 @@ from models._types import Array
 from optimal_design.criteria import (
     D_OPTIMAL,
     DesignCriterion,
+    SmoothCriterion,
     SpectralCriterion,
     criterion_of,
     smooth,
@@ -50,9 +50,6 @@ from optimal_design.criteria import (
     top_sum,
 )
 from optimal_design.information import CandidateInformation
-
-if TYPE_CHECKING:
-    import cvxpy as cp
 
 MAX_ITERATIONS = 3000
 TIME_LIMIT_S = 40.0
@@ -66,29 +63,29 @@ INITIAL_SET = 1000
 PRUNE = 1e-7
 """Weights below this leave the working set (they change log det by < 1e-5); a later full pass can bring them back."""
 SCREENED = 240
-"""Candidates in the first SDP round (column generation adds more). E and condition spend their time on a larger weak
-subspace instead: at K = 30 of 2 000, 400 rather than 240 tightened the E bound by 1 % and the condition bound by
-0.7 % for 1.7x the SDP time."""
+"""Candidates in the first SDP round (column generation adds those the dual bound picks)."""
 SUBSPACE_RATIO = 300.0
-"""The compressed SDPs keep the directions within this factor of the weakest (strongest) eigenvalue of the D
-relaxation's information; at K = 30 of 2 000 that is 15 of 54 at each end."""
-SUBSPACE_MAX = 36
-SUBSPACE_MISS = 0.05
-"""A relaxed design's weakest (strongest) eigenvectors further than this from the basis enter it."""
-SDP_ROUNDS = 3
-SDP_ROUNDS_LARGE = 6
+"""The first compressed SDP keeps the directions within this factor of the weakest (strongest) eigenvalue of the D
+relaxation's information, at most SUBSPACE_START of them; at K = 30 of 2 000 that is 15 of 54 at each end."""
+SUBSPACE_START = 10
+"""At most this many directions at each end in the first round: Clarabel's time per iteration grows like the
+cube of the cone's entries (q(q+1)/2), 13 ms at 15 directions and 110 ms at 36, while the bundle rounds below
+find the directions that matter anyway."""
+BUNDLE_GROW = 6
+"""Weakest eigenvectors of each round's relaxed design added to the next round's weak basis (BUNDLE_GROW_STRONG
+strongest to the strong one): λ_min's relaxed optimum lives where the D relaxation is not weakest, so the basis
+must move with the relaxed design."""
+BUNDLE_GROW_STRONG = 2
+BUNDLE_KEEP = 1e-3
+"""The next basis keeps the range of this round's dual matrix (its eigenvectors above this fraction of its
+largest eigenvalue): the bound of the next round can then only use directions at least as good."""
+BUNDLE_ROUNDS = 16
+BUNDLE_ROUNDS_LARGE = 24
 LARGE = 5000
-"""Column-generation rounds beyond LARGE candidates: the 240 screened ones are a smaller share of the set, and the
-bound keeps falling after round 3. At K = 30 of 20 000: E bound 0.00640 (3 rounds) -> 0.00603 (6), condition
-6 746 -> 7 290 (efficiency 0.865 -> 0.920 and 0.860 -> 0.942), for ~3x the SDP time (one loaded run: E 26 s ->
-59 s in all). At 2 000 the rounds stay 3, for the 5 s target (the bound still fell 8 % in the third)."""
-SUBSPACE_GROW = 12
-"""Weak directions added per round, every round (the strong side adds 2 when missed). λ_min's relaxed optimum
-lives where the D relaxation is *not* weakest: the first round's E weights leave directions outside the
-15-direction basis at λ ≈ 0.0017 while the compressed bound says 0.0056, so every round adds the relaxed design's
-12 weakest eigenvectors. At K = 30 of 2 000: E bound 0.00519 (2 directions a round, grown only when missed, at
-most 24) -> 0.00443 (15 -> 27 -> 36 directions), against 0.00429 for the uncompressed SDP on all 2 000 candidates
-(146 s); condition bound 8 123 -> 8 806."""
+"""Beyond LARGE candidates the 240 screened ones are a smaller share of the set, so column generation needs more
+rounds."""
+BUNDLE_TOLERANCE = 2e-3
+"""Rounds stop once two in a row tightened the bound by less than this (relative)."""
 SOLVER_OPTIONS: dict[str, float] = {"tol_gap_rel": 1e-5, "tol_gap_abs": 1e-7, "tol_feas": 1e-6}
 """Looser than Clarabel's 1e-8 defaults: 15 % fewer iterations, bounds equal to 6 digits at K = 30 of 2 000. The
 bound's validity does not depend on the solver's accuracy: it is recomputed from the (PSD-projected) duals."""
@@ -99,11 +96,9 @@ REGULARISED: dict[str, float] = {
     "static_regularization_constant": 1e-7,
 }
 SOLVER_ATTEMPTS: tuple[dict[str, float], ...] = (REGULARISED, SOLVER_OPTIONS)
-"""Each round is solved looser and more regularised first, and retried with SOLVER_OPTIONS if that fails. With
-SOLVER_OPTIONS alone the third round failed on this machine's Clarabel, at K = 30 of 2 000 (E) and of 20 000
-(E), which ended column generation early (E efficiency 0.818 at 2 000, 0.687 at 20 000); as the fallback
-of a failed first attempt it cost E 12 s instead of 5.7 s at 2 000 (a loaded run). The bounds agree to 4 digits
-(E 0.0044327 against 0.0044325) and stay valid either way (recomputed from the duals)."""
+"""Each round is solved looser and more regularised first, and retried with SOLVER_OPTIONS if that fails (with
+SOLVER_OPTIONS alone a round failed on this machine's Clarabel at K = 30 of 2 000 and of 20 000, which ended
+column generation early). The bounds stay valid either way (recomputed from the duals)."""
 
 
 @dataclass(frozen=True)
@@ -175,7 +170,8 @@ def first_order(
     next working set. The certificate needs only a feasible w and the gradient at w over every candidate, so
     restricting the iterations costs no validity. Measured at K = 30: M = 2 000 went from 248 full iterations
     (1.1 s) to ~0.2 s, M = 20 000 from 446 full iterations that hit the 40 s limit to ~1 s.
-    `start` (weights of a nearby problem, e.g. the previous K of a scan) warm-starts the iterations.
+    `start` (weights of a nearby problem, e.g. the previous K of a scan) warm-starts the iterations. Each
+    iteration works on the working set's information blocks flattened (`_Grams`): two matrix-vector products.
     """
     # Long on purpose: one algorithm (multiplicative updates, working set, certificate) whose loop state every
     # step shares.
@@ -183,36 +179,26 @@ def first_order(
     crit = smooth(criterion)
     n = info.size
     power = crit.power
-    if start is not None and start.shape == (n,) and float(np.sum(start)) > 0:
-        # The start's support and the 3K candidates its gradient likes most: spreading a little weight over
-        # every candidate instead kept all of them in the working set for the first ~10 iterations (a third of
-        # a branch-and-bound leaf's time at M = 2 000).
-        held = np.maximum(start, 0.0)
-        _, g0 = crit.gradient(info, base + info.information(capped(held + 1e-3 * count / n, count)))
-        top = np.argpartition(-g0, min(3 * count, n - 1))[: 3 * count]
-        active = np.union1d(np.flatnonzero(held > PRUNE), top)
-        w = _on(active, capped(held[active] + 1e-3 * count / active.size, count), n)
-    elif n > INITIAL_SET:
-        _, g0 = crit.gradient(info, base + info.information(np.full(n, count / n)))
-        active = np.sort(np.argsort(-g0)[: max(INITIAL_SET, 4 * count)])
-        w = np.zeros(n)
-        w[active] = count / active.size
-    else:
-        w = np.full(n, count / n)
-        active = np.arange(n)
+    w, active = _initial(info, crit, count, base, start)
     bound, f, it, since = np.inf, -np.inf, 0, CHECK_EVERY
+    grams = _Grams(info, active)
     while it < MAX_ITERATIONS:
         cancellation.check()  # a design whose client left stops at its next iteration
         it += 1
-        m = base + info.information(w[active], active)
+        m = base + grams.information(w[active])
         previous = f
-        f, ga = crit.gradient(info, m, active)
-        if f < previous - 1e-12 * abs(previous) and power > POWER_MIN:
+        inv = np.linalg.inv(m)
+        f = crit.objective(info, m, inv)
+        ga = grams.quadratic(crit.derivative(info, inv))
+        # Only a multiplicative step can overshoot: after a pass that moved the working set (and re-projected
+        # the weights) f may differ from the previous one by rounding alone, which halved the exponent at the
+        # second iteration of every D relaxation (172 iterations at K = 30 of 2 000 instead of 92).
+        if since > 0 and f < previous - 1e-12 * abs(previous) and power > POWER_MIN:
             power = max(POWER_MIN, power / 2)  # an overshoot: the update exponent was too bold for this problem
         restricted = f + top_sum(ga, count) - float(ga @ w[active])
         if since >= CHECK_EVERY or restricted - f <= crit.tolerance(f):
             since = 0
-            _, g = crit.gradient(info, m)
+            g = info.quadratic(crit.derivative(info, inv))
             bound = min(bound, f + top_sum(g, count) - float(g @ w))
             if bound - f <= crit.tolerance(f) or time.perf_counter() - started > TIME_LIMIT_S:
                 break
@@ -221,12 +207,14 @@ def first_order(
             entering = np.setdiff1d(top, np.flatnonzero(w > PRUNE))
             w[entering] = np.maximum(w[entering], 1e-3)  # multiplicative updates cannot grow a zero weight
             active = np.union1d(np.flatnonzero(w > PRUNE), top)
+            grams = grams.moved(active)
             w = _on(active, capped(w[active], count), n)
             continue
         since += 1
         new = capped(w[active] * np.maximum(ga, 0.0) ** power, count)
         keep = new > PRUNE
         active = active[keep]
+        grams = grams.kept(keep)
         w = _on(active, capped(new[keep], count), n)
     return Relaxation(
         weights=w,
@@ -236,6 +224,77 @@ def first_order(
         iterations=it,
         seconds=time.perf_counter() - started,
     )
+
+
+def _initial(
+    info: CandidateInformation, crit: SmoothCriterion, count: int, base: Array, start: Array | None
+) -> tuple[Array, NDArray[Any]]:
+    """The first weights and working set of `first_order`."""
+    n = info.size
+    if start is not None and start.shape == (n,) and float(np.sum(start)) > 0:
+        # The start's support and the 3K candidates its gradient likes most: spreading a little weight over
+        # every candidate instead kept all of them in the working set for the first ~10 iterations (a third of
+        # a branch-and-bound leaf's time at M = 2 000).
+        held = np.maximum(start, 0.0)
+        _, g0 = crit.gradient(info, base + info.information(capped(held + 1e-3 * count / n, count)))
+        top = np.argpartition(-g0, min(3 * count, n - 1))[: 3 * count]
+        active = np.union1d(np.flatnonzero(held > PRUNE), top)
+        return _on(active, capped(held[active] + 1e-3 * count / active.size, count), n), active
+    if n > INITIAL_SET:
+        _, g0 = crit.gradient(info, base + info.information(np.full(n, count / n)))
+        active = np.sort(np.argsort(-g0)[: max(INITIAL_SET, 4 * count)])
+        w = np.zeros(n)
+        w[active] = count / active.size
+        return w, active
+    return np.full(n, count / n), np.arange(n)
+
+
+class _Grams:
+    """The working set's information blocks AᵢᵀAᵢ, flattened (a × P²): M(w) and tr(Q AᵢᵀAᵢ) are then one
+    matrix-vector product each instead of products with the (a·r × P) rows, r times fewer operations (6 for full
+    poses). The iterations only drop candidates: those stay in the table (`rows` says which are live) until
+    fewer than half are, so dropping copies nothing; the table is rebuilt when the working set moves (every
+    CHECK_EVERY iterations), reusing the blocks it already holds."""
+
+    def __init__(
+        self,
+        info: CandidateInformation,
+        active: NDArray[Any],
+        flat: Array | None = None,
+        rows: NDArray[Any] | None = None,
+    ) -> None:
+        self.info, self.active = info, active
+        p = info.n_params
+        blocks = info.blocks[active]
+        self.flat = flat if flat is not None else (blocks.transpose(0, 2, 1) @ blocks).reshape(active.size, p * p)
+        self.rows = rows if rows is not None else np.arange(active.size)
+
+    def information(self, weights: Array) -> Array:
+        p = self.info.n_params
+        spread = np.zeros(self.flat.shape[0])
+        spread[self.rows] = weights
+        m = (spread @ self.flat).reshape(p, p)
+        return np.asarray((m + m.T) / 2)
+
+    def quadratic(self, q: Array) -> Array:
+        return np.asarray((self.flat @ ((q + q.T) / 2).ravel())[self.rows])
+
+    def kept(self, keep: NDArray[np.bool_]) -> _Grams:
+        if keep.all():
+            return self
+        rows = self.rows[keep]
+        if 2 * rows.size < self.flat.shape[0]:
+            return _Grams(self.info, self.active[keep], self.flat[rows])
+        return _Grams(self.info, self.active[keep], self.flat, rows)
+
+    def moved(self, active: NDArray[Any]) -> _Grams:
+        position = np.searchsorted(self.active, active).clip(max=max(self.active.size - 1, 0))
+        held = self.active[position] == active if self.active.size else np.zeros(active.size, dtype=bool)
+        flat = np.empty((active.size, self.flat.shape[1]))
+        flat[held] = self.flat[self.rows[position[held]]]
+        if (~held).any():
+            flat[~held] = _Grams(self.info, active[~held]).flat
+        return _Grams(self.info, active, flat)
 
 
 NEWTON_GAP = 1e-4
@@ -400,10 +459,10 @@ def _subspace(m: Array, strong: bool) -> Array:
     ev, vec = np.linalg.eigh((m + m.T) / 2)
     if strong:
         q = int(np.sum(ev >= ev[-1] / SUBSPACE_RATIO))
-        basis = vec[:, ::-1][:, : min(max(q, 2), SUBSPACE_MAX)]
+        basis = vec[:, ::-1][:, : min(max(q, 2), SUBSPACE_START)]
     else:
         q = int(np.sum(ev <= ev[0] * SUBSPACE_RATIO))
-        basis = vec[:, : min(max(q, 2), SUBSPACE_MAX)]
+        basis = vec[:, : min(max(q, 2), SUBSPACE_START)]
     return np.asarray(basis)
 
 
@@ -415,6 +474,16 @@ def _screen(info: CandidateInformation, weights: Array, weak: Array, size: int) 
     return np.union1d(np.argsort(-weights)[:k], np.argsort(-reach)[:k])
 
 
+def _bundle(basis: Array, dual: Array, extreme: Array) -> Array:
+    """The next round's basis: the range of this round's dual matrix `dual` (q × q, on `basis`) and the relaxed
+    design's extreme eigenvectors `extreme`, orthonormalised."""
+    ev, vec = np.linalg.eigh((dual + dual.T) / 2)
+    kept = basis @ vec[:, ev > BUNDLE_KEEP * max(float(ev[-1]), 1e-300)]
+    q, r = np.linalg.qr(np.hstack([kept, extreme]))
+    independent = np.abs(np.diag(r)) > 1e-10  # an extreme direction already in the kept range adds nothing
+    return np.asarray(q[:, independent])
+
+
 def sdp(
     info: CandidateInformation,
     criterion: str | DesignCriterion,
@@ -423,18 +492,21 @@ def sdp(
     *,
     d_relaxation: Relaxation | None = None,
 ) -> Relaxation:
-    """E or condition by cvxpy + Clarabel, compressed onto the weak (and strong) subspaces, on screened
-    candidates; the bound over all candidates comes from the dual matrices lifted back.
+    """E or condition by Clarabel, compressed onto small weak (and strong) subspaces that move from round to
+    round (a spectral bundle method), on screened candidates with column generation; the bound over all
+    candidates comes from the dual matrices lifted back.
 
     Compression is what makes the cone small: λ_min(M) ≤ λ_min(VᵀMV) and λ_max(M) ≥ λ_max(UᵀMU) for orthonormal
     V, U, so the compressed problem is itself a relaxation; and whatever density matrices the solver returns,
-    the bound is recomputed over every candidate from them (`_dual_bound`), so neither the compression nor the
-    screening can make it invalid, only looser. With 15 + 15 directions the cones are 120 + 120 entries instead
-    of 2 × 1 485: Clarabel went from 3 s (E) and 10-19 s (condition) on 240 candidates to 0.3-0.5 s a round on
-    ~400, and the larger screened set with column generation tightened both bounds at K = 30 of 2 000 (λ_min
-    0.00528 -> 0.00519, condition number 7 786 -> 8 123).
+    the bound is recomputed over every candidate from them (`_dual_bound`), so neither the compression, the
+    screening nor the choice of basis can make it invalid, only looser. The dual matrix at the optimum has low
+    rank (1-3 at K = 30 of 2 000), so each round's basis is the range of the previous dual plus the relaxed
+    design's few weakest (strongest) eigenvectors: ~9 directions instead of a basis that only grows (15 -> 27 ->
+    36, whose last round was 110 ms an interior-point iteration against 2 ms). Measured at K = 30 of 2 000: E bound
+    0.00443 (three growing rounds, 3.1 s) -> 0.00434 (12 bundle rounds, 0.5 s), against 0.00429 for the
+    uncompressed SDP on every candidate (146 s).
     """
-    # Long on purpose: screening, the compressed solve and the certificate over all candidates: one chain of
+    # Long on purpose: screening, the compressed solves and the certificate over all candidates: one chain of
     # results.
     started = time.perf_counter()
     crit = spectral(criterion)
@@ -444,33 +516,33 @@ def sdp(
     strong = _subspace(ref, strong=True)
     index = _screen(info, d.weights, weak, SCREENED)
     best: tuple[Array, float] | None = None
-    iterations, status = 0, "not run"
-    for _ in range(SDP_ROUNDS_LARGE if info.size > LARGE else SDP_ROUNDS):
+    iterations, status, rounds, stalled = 0, "not run", 0, 0
+    for _ in range(BUNDLE_ROUNDS_LARGE if info.size > LARGE else BUNDLE_ROUNDS):
         cancellation.check()
-        weights, bound, chosen, status, its = _compressed(
-            info, crit, count, base, index=index, weak=weak, strong=strong
-        )
-        iterations += its
-        if weights is None or bound is None or chosen is None:
+        solved = _compressed(info, crit, count, base, index=index, weak=weak, strong=strong)
+        iterations += solved.iterations
+        status = solved.status
+        if solved.weights is None or solved.bound is None or solved.chosen is None or not solved.duals:
             break
-        if best is None or bound < best[1]:
-            best = (weights, bound)
-        # Column generation: candidates the dual bound picks but the SDP did not see enter the next round, and
-        # so do the relaxed design's weakest directions (every round, see SUBSPACE_GROW) and, when the strong
-        # side counts, the strongest ones the basis missed.
-        index = np.union1d(index, np.setdiff1d(chosen, index))
-        _, vec = np.linalg.eigh(base + info.information(weights))
-        missed_high = (
-            crit.strong_side
-            and np.linalg.norm(vec[:, -2:] - strong @ (strong.T @ vec[:, -2:]), axis=0).max() > SUBSPACE_MISS
-        )
-        if weak.shape[1] < SUBSPACE_MAX:
-            weak = np.linalg.qr(np.hstack([weak, vec[:, :SUBSPACE_GROW]]))[0][:, :SUBSPACE_MAX]
-        if missed_high and strong.shape[1] < SUBSPACE_MAX:
-            strong = np.linalg.qr(np.hstack([strong, vec[:, -2:]]))[0][:, :SUBSPACE_MAX]
+        rounds += 1
+        if best is not None and best[1] - solved.bound <= BUNDLE_TOLERANCE * abs(best[1]):
+            stalled += 1
+        else:
+            stalled = 0
+        if best is None or solved.bound < best[1]:
+            best = (solved.weights, solved.bound)
+        if stalled >= 2:
+            break
+        # Column generation: candidates the dual bound picks but the SDP did not see enter the next round; the
+        # bases move to the dual's range plus the relaxed design's extreme directions (`_bundle`).
+        index = np.union1d(index, solved.chosen)
+        _, vec = np.linalg.eigh(base + info.information(solved.weights))
+        weak = _bundle(weak, solved.duals[0], vec[:, :BUNDLE_GROW])
+        if crit.strong_side:
+            strong = _bundle(strong, solved.duals[1], vec[:, -BUNDLE_GROW_STRONG:])
     method = (
-        "cvxpy + Clarabel SDP compressed onto the weak/strong subspaces, on screened candidates with column "
-        "generation; dual bound over all candidates"
+        "Clarabel SDP compressed onto moving weak/strong subspaces (spectral bundle), on screened candidates "
+        "with column generation; dual bound over all candidates"
     )
     if best is None:
         return Relaxation(
@@ -486,11 +558,33 @@ def sdp(
     return Relaxation(
         weights=best[0],
         bound=best[1],
-        method=method,
+        method=f"{method} ({rounds} rounds)",
         status="optimal",
         iterations=iterations,
         seconds=time.perf_counter() - started,
     )
+
+
+@dataclass(frozen=True)
+class _Round:
+    """One compressed SDP: the weights over all candidates, the bound over all candidates, the candidates the
+    bound picks, the dual matrices on the bases (weak side first), Clarabel's status and iterations."""
+
+    weights: Array | None
+    bound: float | None
+    chosen: NDArray[Any] | None
+    duals: list[Array]
+    status: str
+    iterations: int
+
+
+def _svec(q: int) -> tuple[NDArray[Any], NDArray[Any], Array]:
+    """(rows, columns, scale) of Clarabel's PSD triangle: the upper triangle column by column, off-diagonal
+    entries times √2 (so that the inner product of two svec's is that of the matrices)."""
+    r, c = np.triu_indices(q)
+    order = np.lexsort((r, c))
+    r, c = r[order], c[order]
+    return r, c, np.where(r == c, 1.0, np.sqrt(2.0))
 
 
 def _compressed(
@@ -502,60 +596,123 @@ def _compressed(
     index: Array,
     weak: Array,
     strong: Array,
-) -> tuple[Array | None, float | None, NDArray[Any] | None, str, int]:
-    """One compressed SDP: (weights over all candidates, bound over all candidates, the candidates the bound
-    picks, status, iterations)."""
-    # Long on purpose: the cvxpy problem written out in one place reads as the formulation it is.
-    # Imported here, not with the module: cvxpy (and the scipy.stats it loads) is ~0.9 s of start-up that every
-    # API, compute and job process would pay, most of which never solve a certified design.
-    import cvxpy as cp  # noqa: PLC0415
+) -> _Round:
+    """One compressed SDP (SpectralCriterion.homogeneous says which), solved by Clarabel directly.
 
-    ref_low = float(np.linalg.eigvalsh(weak.T @ (base + info.information(np.ones(index.size), index)) @ weak)[0])
-    scale_low = max(ref_low / index.size * count, 1e-300)
+    Variables x = [w (or u = τ·w), τ when homogeneous, s]; Clarabel minimises −s subject to b − Ax in its
+    cones: Σw = K (Σu = Kτ); 0 ≤ w ≤ 1 (0 ≤ u ≤ τ, τ ≥ 0); VᵀM(w)V − s·I ⪰ 0; and I − UᵀM(u)U ⪰ 0 on the strong
+    side. Each side is scaled by its own typical eigenvalue, so the cones see an O(1) spectrum. Written without
+    cvxpy, whose compilation was ~10 % of a round and whose import (~0.9 s) every compute process would pay."""
+    # Imported here, not with the module: a process that never solves a spectral design does not load the solver.
+    import clarabel  # noqa: PLC0415
+    from scipy import sparse  # noqa: PLC0415
 
-    def compress(on_strong: bool, homogeneous: bool) -> tuple[cp.Expression, int]:
-        if on_strong:
-            ref_high = float(np.linalg.eigvalsh(strong.T @ info.information(np.ones(index.size), index) @ strong)[-1])
-            basis, scale = strong, max(ref_high / index.size * count, 1e-300)
-        else:
-            basis, scale = weak, scale_low
-        rows = info.blocks[index] @ basis / np.sqrt(scale)
-        q = basis.shape[1]
-        f = np.einsum("mri,mrj->mij", rows, rows).reshape(index.size, q * q)
-        flat = cp.reshape(f.T @ w, (q, q), order="C")
-        fixed = basis.T @ base @ basis / scale
-        # A homogenised problem (w stands for τ·w) scales the measured poses with τ too.
-        return (flat + flat.T) / 2 + (tau * fixed if homogeneous else fixed), q
-
-    tau = cp.Variable(nonneg=True)
-    w = cp.Variable(index.size, nonneg=True)
-    s = cp.Variable()
-    problem, constraints = criterion.sdp_problem(cp, compress, count, w=w, tau=tau, s=s)
-    status = "not run"
+    s = index.size
+    homogeneous = criterion.homogeneous
+    n_x = s + (2 if homogeneous else 1)
+    bases = (weak, strong) if criterion.strong_side else (weak,)
+    linear_a, linear_b, nonneg = _linear_rows(s, n_x, count, homogeneous)
+    sides = [
+        _cone_rows(info, base, count, index=index, basis=basis, on_strong=k == 1, homogeneous=homogeneous, n_x=n_x)
+        for k, basis in enumerate(bases)
+    ]
+    a = sparse.vstack([linear_a, *(sparse.csr_matrix(rows) for rows, _ in sides)], format="csc")
+    b = np.concatenate([linear_b, *(rhs for _, rhs in sides)])
+    c = np.zeros(n_x)
+    c[-1] = -1.0
+    cones = [clarabel.ZeroConeT(1), clarabel.NonnegativeConeT(nonneg)]
+    cones += [clarabel.PSDTriangleConeT(basis.shape[1]) for basis in bases]
+    status, solution = "not run", None
     for options in SOLVER_ATTEMPTS:
-        try:
-            with warnings.catch_warnings():
-                # cvxpy warns on "optimal_inaccurate"; the bound does not rely on accuracy (see below)
-                warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
-                problem.solve(solver=cp.CLARABEL, **options)
-            status = str(problem.status)
-        except cp.error.SolverError as exc:
-            status = f"solver error: {exc}"
-        if status in ("optimal", "optimal_inaccurate"):
+        settings = clarabel.DefaultSettings()
+        settings.verbose = False
+        for key, value in options.items():
+            setattr(settings, key, value)
+        solution = clarabel.DefaultSolver(sparse.csc_matrix((n_x, n_x)), c, a, b, cones, settings).solve()
+        status = str(solution.status)
+        if status in ("Solved", "AlmostSolved"):
             break
-    iterations = int(problem.solver_stats.num_iters or 0) if problem.solver_stats else 0
-    duals = [c.dual_value for c in constraints]
-    # "optimal_inaccurate" is usable too: the bound is recomputed from the PSD-projected duals, valid for any.
-    if status not in ("optimal", "optimal_inaccurate") or any(dv is None for dv in duals) or w.value is None:
-        return None, None, None, status, iterations
-    scale = 0.0 if tau.value is None else float(np.asarray(tau.value))  # τ is no variable of a plain problem
-    raw = criterion.relaxed_weights(np.asarray(w.value, dtype=float), scale)
+    iterations = int(solution.iterations) if solution is not None else 0
+    # "AlmostSolved" is usable too: the bound is recomputed from the PSD-projected duals, valid for any.
+    if solution is None or status not in ("Solved", "AlmostSolved"):
+        return _Round(None, None, None, [], status, iterations)
+    x, z = np.asarray(solution.x, dtype=float), np.asarray(solution.z, dtype=float)
+    raw = criterion.relaxed_weights(x[:s], float(x[s]) if homogeneous else 0.0)
     weights = np.zeros(info.size)
     weights[index] = np.clip(raw, 0.0, 1.0)
+    duals, at = [], 1 + nonneg
+    for basis in bases:
+        r, col, scale = _svec(basis.shape[1])
+        y = np.zeros((basis.shape[1],) * 2)
+        y[r, col] = y[col, r] = z[at : at + r.size] / scale
+        duals.append(y)
+        at += r.size
     # Lift the duals back to the full parameter space: V Y Vᵀ is a density matrix there (up to its trace).
-    zs = [basis @ np.asarray(dual, dtype=float) @ basis.T for basis, dual in zip((weak, strong), duals, strict=False)]
+    zs = [basis @ dual @ basis.T for basis, dual in zip(bases, duals, strict=True)]
     bound, chosen = _dual_bound(info, criterion, count, base, zs)
-    return weights, bound, chosen, status, iterations
+    return _Round(weights, bound, chosen, duals, status, iterations)
+
+
+def _linear_rows(s: int, n_x: int, count: int, homogeneous: bool) -> tuple[Any, Array, int]:
+    """(A, b, the number of nonnegative rows) of Σw = K and 0 ≤ w ≤ 1, or of Σu = Kτ, 0 ≤ u ≤ τ and τ ≥ 0: the
+    equality row first, then the nonnegative ones."""
+    from scipy import sparse  # noqa: PLC0415
+
+    total = np.zeros((1, n_x))
+    total[0, :s] = 1.0
+    eye = sparse.identity(s, format="csr")
+    pad = sparse.csr_matrix((s, n_x - s))
+    if not homogeneous:
+        rows = [sparse.csr_matrix(total), sparse.hstack([eye, pad]), sparse.hstack([-eye, pad])]
+        return sparse.vstack(rows, format="csr"), np.concatenate([[float(count)], np.ones(s), np.zeros(s)]), 2 * s
+    total[0, s] = -float(count)
+    tau = np.zeros((s, n_x - s))
+    tau[:, 0] = -1.0  # u − τ ≤ 0
+    last = np.zeros((1, n_x))
+    last[0, s] = -1.0  # τ ≥ 0
+    rows = [
+        sparse.csr_matrix(total),
+        sparse.hstack([eye, sparse.csr_matrix(tau)]),
+        sparse.hstack([-eye, pad]),
+        sparse.csr_matrix(last),
+    ]
+    return sparse.vstack(rows, format="csr"), np.zeros(2 * s + 2), 2 * s + 1
+
+
+def _cone_rows(
+    info: CandidateInformation,
+    base: Array,
+    count: int,
+    *,
+    index: Array,
+    basis: Array,
+    on_strong: bool,
+    homogeneous: bool,
+    n_x: int,
+) -> tuple[Array, Array]:
+    """(A, b) of one side's PSD cone in Clarabel's triangle (`_svec`): VᵀM(w)V − s·I on the weak side,
+    I − UᵀM(u)U on the strong one, scaled by the side's typical eigenvalue (its extreme one over the screened
+    candidates, per pose, times K)."""
+    s = index.size
+    whole = info.information(np.ones(s), index) + (0.0 if on_strong else base)
+    ev = np.linalg.eigvalsh(basis.T @ whole @ basis)
+    scale = max(float(ev[-1] if on_strong else ev[0]) / s * count, 1e-300)
+    r, col, sc = _svec(basis.shape[1])
+    rows = info.blocks[index] @ basis / np.sqrt(scale)
+    f = np.einsum("mri,mrj->mij", rows, rows)[:, r, col] * sc  # (s, q(q+1)/2)
+    fixed = (basis.T @ base @ basis / scale)[r, col] * sc
+    eye = np.where(r == col, 1.0, 0.0)
+    sign = 1.0 if on_strong else -1.0  # b − Ax: the strong side's information enters with −, the weak side's with +
+    a = np.zeros((r.size, n_x))
+    a[:, :s] = sign * f.T
+    if homogeneous:
+        a[:, s] = sign * fixed  # the measured poses scale with τ
+        b = eye if on_strong else np.zeros(r.size)
+    else:
+        b = eye - fixed if on_strong else fixed
+    if not on_strong:
+        a[:, -1] = eye  # − s·I
+    return a, b
 
 
 def _psd(z: Array) -> Array:
@@ -579,14 +736,19 @@ def relax(
     base: Array,
     *,
     start: Array | None = None,
+    d_relaxation: Relaxation | None = None,
 ) -> Relaxation:
+    """The criterion's relaxation; E and condition start from the D relaxation (`d_relaxation` when the caller
+    has it already)."""
     crit = criterion_of(criterion)
     if isinstance(crit, SpectralCriterion):
-        return sdp(info, crit, count, base, d_relaxation=first_order(info, D_OPTIMAL, count, base, start=start))
+        return sdp(
+            info, crit, count, base, d_relaxation=d_relaxation or relax(info, D_OPTIMAL, count, base, start=start)
+        )
     relaxed = first_order(info, crit, count, base, start=start)
     if smooth(crit).newton and relaxed.bound is not None and count <= NEWTON_COUNT:
         # The multiplicative algorithm stops at a 0.01 gap; a few Newton steps from its weights close it (at
-        # K = 30 of 2 000: 180.6636 -> 180.654, ~5 iterations). Only the bound is taken: rounding and exchange
+        # K = 30 of 2 000: 180.6636 -> 180.6549, ~6 iterations). Only the bound is taken: rounding and exchange
         # start from the same weights as before, so the design does not change.
         polished = newton_d(info, count, base, relaxed.weights, iterations=ROOT_NEWTON_ITERATIONS)
         if polished is not None and polished.bound is not None and polished.bound < relaxed.bound:

@@ -20,6 +20,7 @@ from optimal_design.criteria import (
     D_OPTIMAL,
     I_OPTIMAL,
     DesignCriterion,
+    SpectralCriterion,
     criterion_of,
     listing,
     names,
@@ -35,10 +36,17 @@ Index = NDArray[Any]
 
 @dataclass
 class _Log:
-    """The notes and step timings a solve collects on its way."""
+    """The notes and step timings a solve collects on its way, and the D relaxation once made (the E and
+    condition relaxations start from it, and the D-efficiency floor is measured against its bound)."""
 
     notes: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    d_relaxation: Relaxation | None = None
+
+    def d_relaxed(self, problem: DesignProblem, count: int, start: Array | None = None) -> Relaxation:
+        if self.d_relaxation is None:
+            self.d_relaxation = relax(problem.info, D_OPTIMAL, count, problem.base, start=start)
+        return self.d_relaxation
 
 
 @dataclass(frozen=True)
@@ -116,7 +124,8 @@ def _relaxation(
     t0 = time.perf_counter()
     relaxed: Relaxation | None
     try:
-        relaxed = relax(problem.info, crit, count, problem.base, start=start)
+        d = log.d_relaxed(problem, count, start) if isinstance(crit, SpectralCriterion) else None
+        relaxed = relax(problem.info, crit, count, problem.base, start=start, d_relaxation=d)
     except (np.linalg.LinAlgError, ValueError, ArithmeticError) as exc:
         relaxed = None
         log.notes.append(f"the relaxation failed ({exc}); the design is the greedy one, improved by exchange")
@@ -135,7 +144,7 @@ def _d_floor_of(
         asked = crit.default_d_floor
     if asked is None or asked == 0:
         return None, asked
-    threshold, start, applied = _d_floor(problem, crit, count, asked, log.notes, soft=soft)
+    threshold, start, applied = _d_floor(problem, crit, count, asked, log, soft=soft)
     return _Floor(threshold, start), applied
 
 
@@ -302,7 +311,7 @@ def _smooth_start(
 
 
 def _d_floor(
-    problem: DesignProblem, crit: DesignCriterion, count: int, floor: float, notes: list[str], *, soft: bool = False
+    problem: DesignProblem, crit: DesignCriterion, count: int, floor: float, log: _Log, *, soft: bool = False
 ) -> tuple[float, Index, float]:
     """(log det floor, a D design above it, the D-efficiency floor applied) for a design that keeps a
     D-efficiency floor.
@@ -327,8 +336,8 @@ def _d_floor(
             min=0,
             max=1,
         )
-    info, base = problem.info, problem.base
-    d = relax(info, D_OPTIMAL, count, base)
+    info, base, notes = problem.info, problem.base, log.notes
+    d = log.d_relaxed(problem, count)
     if d.bound is None:
         raise InvalidInput("the D relaxation gave no bound: no D-efficiency floor can be enforced")
     threshold = d.bound + info.n_params * math.log(floor)
