@@ -206,9 +206,13 @@ def _from_seed(batch: IkBatch, world: Array, steps: int) -> tuple[Array, NDArray
         else:
             v, converged = batch.newton(start, goal)
             alive &= converged
-    at_seed = batch.jacobian_determinant(batch.seeds, np.hstack([p0, np.swapaxes(r0, 1, 2).reshape(n, 9)]))
+    # Once per distinct seed (a program without declared configurations has one).
+    _, first, which = np.unique(batch.seeds, axis=0, return_index=True, return_inverse=True)
+    seed_pose = np.hstack([p0[first], np.swapaxes(r0[first], 1, 2).reshape(first.size, 9)])
+    at_seed = batch.subset(first).jacobian_determinant(batch.seeds[first], seed_pose)
     if at_seed is None:
         return v, alive, np.zeros(n, dtype=bool)
+    at_seed = at_seed[which.reshape(-1)]
     at_end = batch.jacobian_determinant(np.where(alive[:, None], v, batch.seeds), batch.target)
     assert at_end is not None
     kept = (np.sign(at_end) == np.sign(at_seed)) & (np.abs(at_end) >= NEAR_SINGULAR * np.abs(at_seed))
