@@ -4,6 +4,7 @@ rest extrapolated) in the same run; and a 1 000-target program in one call."""
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
 
@@ -80,10 +81,12 @@ def run() -> dict[str, object]:
         "rewrite_s": big["rewrite_s"],
         "reached": int(big["reached"]),
         "program_1000_s": little["total_s"],
+        "program_1000_cpu_s": little["total_cpu_s"],
         "program_1000_split_s": {k: little[k] for k in ("read_s", "compensate_s", "rewrite_s")},
         "per_target_call_ms": 1e3 * per_target_s,
         "one_by_one_10000_s_extrapolated": per_target_s * N_TARGETS,
         "speedup_vs_one_by_one": per_target_s * N_TARGETS / big["total_s"],
         "program_bytes": len(text),
         "repeats": REPEATS,
+        "load_average_1min_at_end": os.getloadavg()[0],
     }

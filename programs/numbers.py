@@ -19,6 +19,11 @@ def styled(value: float, like: str, min_decimals: int) -> str:
 
     A value that rounds to zero is written without a sign ("-0.000" would read as a change)."""
     stripped = like.strip()
+    point = stripped.find(".")
+    if point > 0 and stripped[point + 1 :].isdecimal() and stripped[:point].removeprefix("-").isdecimal():
+        # The common spelling, [-]digits.digits (a program's numbers: 60 000 of these calls), without the regex.
+        text = f"{value:.{max(len(stripped) - point - 1, min_decimals)}f}"
+        return text[1:] if text[0] == "-" and not text.strip("-0.") else text
     m = _NUMBER.match(stripped)
     written_places = len(m.group("frac") or "") if m else 0  # decimals(like), without matching it twice
     places = max(written_places, min_decimals)

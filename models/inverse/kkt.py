@@ -69,6 +69,10 @@ def _solve(jf: np.ndarray, f: np.ndarray) -> np.ndarray:
 
 
 FULL_TURN = 2.0 * np.pi
+QUADRATIC_STEP = 1e-7
+"""A Newton step this small (rad, mm) with the equations within a thousand times it ends the iteration: the step
+solves their linearisation, so what it leaves is of the order of its square times the TCP's curvature (under
+1e4 mm/rad² on any arm here): below 1e-10 mm, where a further iteration would only confirm it."""
 
 
 def wrapped(angles: np.ndarray, seed: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -114,7 +118,10 @@ def _newton(
         step = _solve(jf, f)
         v[todo] += step[:, :k]
         lam[todo] += step[:, k:]
-        done = (np.abs(f[:, k:]).max(axis=1) <= tolerance) & (np.abs(step[:, :k]).max(axis=1) <= tolerance)
+        residual, moved = np.abs(f[:, k:]).max(axis=1), np.abs(step[:, :k]).max(axis=1)
+        done = ((residual <= tolerance) & (moved <= tolerance)) | (
+            (moved <= QUADRATIC_STEP) & (residual <= QUADRATIC_STEP * 1e3)
+        )
         converged[todo[done]] = True
         todo = todo[~done & np.isfinite(step).all(axis=1)]
         if todo.size == 0:
@@ -162,7 +169,9 @@ def newton_kkt(
     Of the variables that leave their box, the one furthest outside is fixed at its bound (one a round); a fixed
     one whose bound multiplier has the wrong sign (the objective would improve moving inwards) is released;
     repeat until the set settles (at most `rounds` times). Converged: the TCP
-    equations hold to `tolerance_mm`, the last step moved nothing by more than that, and the set is settled.
+    equations hold to `tolerance_mm` and the last step moved nothing by more than that, or the last step was
+    below `QUADRATIC_STEP` (what it leaves is below `tolerance_mm`: one evaluation fewer a solve); and the set is
+    settled.
     `periodic`: the variables (revolute joints whose range spans a full turn) that are first turned by whole
     turns back into their range, nearest the seed: there they are the same pose, not a bound to hold.
     """

@@ -106,6 +106,22 @@ class IkBatch:
             iterations=iterations,
         )
 
+    def jacobian_determinant(self, v: Array, goal: Array) -> NDArray[np.float64] | None:
+        """The determinant of the TCP equations' Jacobian at `v`, `goal` being `v`'s own pose (there that
+        Jacobian is the arm's Jacobian with rows scaled by positive factors): its sign says which side of the
+        arm's singular configurations `v` lies on (two solutions of one sign are on one branch unless a path
+        between them crossed the singularities twice), its size how far from them. None where the problem is
+        not square (more variables than equations: a redundant arm has no such sign)."""
+        k, m = self.desc.n_ik, 3 if self.position_only else 6
+        if k != m:
+            return None
+        name = "ik_kkt_position" if self.position_only else "ik_kkt_pose"
+        n = v.shape[0]
+        _, jf, _ = kkt_functions(self.desc, self.runtime).batch(
+            name, v, np.zeros((n, m)), goal, self.seeds, np.broadcast_to(self.w, self.seeds.shape), self.theta
+        )
+        return np.asarray(np.linalg.det(jf[:, k:, :k]), dtype=float)
+
     def accepted(self, v: Array, converged: NDArray[np.bool_]) -> NDArray[np.bool_]:
         """Converged inside every range, and (a serial arm) on the wanted orientation, not half a turn away."""
         ok = converged & within_bounds(self.desc, self.theta, v)

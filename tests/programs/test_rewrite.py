@@ -120,6 +120,10 @@ def test_the_source_style_is_kept() -> None:
         (1500.25, "1.5E3", 3, "1.500250E3"),
         (0.25, "9E+09", 2, "2.5E-01"),
         (3.0, "+2", 1, "+3.0"),
+        (-0.0000004, "-0.25", 6, "0.000000"),  # the plain spelling's own path: rounds to zero, no sign
+        (-12.3456789, " -0.25 ", 2, "-12.35"),
+        (2.0, "-.5", 1, "2.0"),
+        (2.0, "-1.", 0, "2"),
     ],
 )
 def test_numbers_keep_their_style(value: float, like: str, decimals: int, out: str) -> None:
