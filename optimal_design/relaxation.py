@@ -622,16 +622,7 @@ def _compressed(
     c[-1] = -1.0
     cones = [clarabel.ZeroConeT(1), clarabel.NonnegativeConeT(nonneg)]
     cones += [clarabel.PSDTriangleConeT(basis.shape[1]) for basis in bases]
-    status, solution = "not run", None
-    for options in SOLVER_ATTEMPTS:
-        settings = clarabel.DefaultSettings()
-        settings.verbose = False
-        for key, value in options.items():
-            setattr(settings, key, value)
-        solution = clarabel.DefaultSolver(sparse.csc_matrix((n_x, n_x)), c, a, b, cones, settings).solve()
-        status = str(solution.status)
-        if status in ("Solved", "AlmostSolved"):
-            break
+    status, solution = _clarabel(sparse.csc_matrix((n_x, n_x)), c, a, b, cones)
     iterations = int(solution.iterations) if solution is not None else 0
     # "AlmostSolved" is usable too: the bound is recomputed from the PSD-projected duals, valid for any.
     if solution is None or status not in ("Solved", "AlmostSolved"):
@@ -640,17 +631,41 @@ def _compressed(
     raw = criterion.relaxed_weights(x[:s], float(x[s]) if homogeneous else 0.0)
     weights = np.zeros(info.size)
     weights[index] = np.clip(raw, 0.0, 1.0)
-    duals, at = [], 1 + nonneg
+    duals = _psd_duals(z, bases, start=1 + nonneg)
+    # Lift the duals back to the full parameter space: V Y Vᵀ is a density matrix there (up to its trace).
+    zs = [basis @ dual @ basis.T for basis, dual in zip(bases, duals, strict=True)]
+    bound, chosen = _dual_bound(info, criterion, count, base, zs)
+    return _Round(weights, bound, chosen, duals, status, iterations)
+
+
+def _clarabel(p: Any, c: Array, a: Any, b: Array, cones: list[Any]) -> tuple[str, Any]:
+    """Clarabel's status and solution of min cᵀx (+ ½xᵀPx) s.t. b − Ax in `cones`, with each of
+    SOLVER_ATTEMPTS' settings in turn until one solves (or almost)."""
+    import clarabel  # noqa: PLC0415
+
+    status, solution = "not run", None
+    for options in SOLVER_ATTEMPTS:
+        settings = clarabel.DefaultSettings()
+        settings.verbose = False
+        for key, value in options.items():
+            setattr(settings, key, value)
+        solution = clarabel.DefaultSolver(p, c, a, b, cones, settings).solve()
+        status = str(solution.status)
+        if status in ("Solved", "AlmostSolved"):
+            break
+    return status, solution
+
+
+def _psd_duals(z: Array, bases: tuple[Array, ...], *, start: int) -> list[Array]:
+    """The dual matrices of the PSD cones (one per basis), read from Clarabel's scaled triangles from `start`."""
+    duals, at = [], start
     for basis in bases:
         r, col, scale = _svec(basis.shape[1])
         y = np.zeros((basis.shape[1],) * 2)
         y[r, col] = y[col, r] = z[at : at + r.size] / scale
         duals.append(y)
         at += r.size
-    # Lift the duals back to the full parameter space: V Y Vᵀ is a density matrix there (up to its trace).
-    zs = [basis @ dual @ basis.T for basis, dual in zip(bases, duals, strict=True)]
-    bound, chosen = _dual_bound(info, criterion, count, base, zs)
-    return _Round(weights, bound, chosen, duals, status, iterations)
+    return duals
 
 
 def _linear_rows(s: int, n_x: int, count: int, homogeneous: bool) -> tuple[Any, Array, int]:

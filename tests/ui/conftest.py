@@ -24,7 +24,10 @@ CHROMIUM_FLAGS = [
 ]
 
 
-@pytest.fixture(scope="session")
+# Package scope, not session: Playwright's sync API holds an asyncio loop in this thread while it runs, and a
+# worker that goes on to other tests (pytest-xdist hands them out in any order) needs the thread back for their
+# asyncio.run. Pytest ends the fixture before the first test outside tests/ui.
+@pytest.fixture(scope="package")
 def browser() -> Iterator[object]:
     if not CHROMIUM.exists():
         reason = f"{CHROMIUM} is missing (Debian package chromium; `make test` installs it when run as root)"
