@@ -158,8 +158,7 @@ class DriftEstimate:
 
     def basis(self, s: Array) -> Array:
         """(N, degree) u^1 … u^degree."""
-        u = self.u(s)
-        return np.stack([u**k for k in range(1, self.degree + 1)], axis=1)
+        return _powers(self.u(s), self.degree)
 
     def at(self, s: Array) -> Array:
         """(N, 3) the drift at driver values `s`, mm (zero at the span's centre)."""
@@ -168,7 +167,8 @@ class DriftEstimate:
     @property
     def total_mm(self) -> Array:
         """(3,) the drift from the span's start to its end, per axis, mm."""
-        return np.asarray(self.at(np.array(self.span))[1] - self.at(np.array(self.span))[0])
+        start, end = self.at(np.array(self.span))
+        return np.asarray(end - start)
 
     @property
     def total_sigma_mm(self) -> Array:
@@ -214,8 +214,7 @@ def identify_with_drift(
     check_reference(desc, campaign.joints, timeline.reference, drift.degree)
     low, high = float(np.min(driver)), float(np.max(driver))
     centre, half = 0.5 * (low + high), 0.5 * (high - low)
-    u = (driver - centre) / half
-    basis = np.stack([u**k for k in range(1, drift.degree + 1)], axis=1)  # (N, degree)
+    basis = _powers((driver - centre) / half, drift.degree)  # (N, degree), as DriftEstimate.basis
 
     def fit(c: Array) -> tuple[Campaign, IdentificationResult]:
         corrected = _corrected(campaign, basis @ c.T)
@@ -312,6 +311,11 @@ def _driver(campaign: Campaign, timeline: Timeline, driver: DriftDriver) -> Arra
             reason="shape",
         )
     return times
+
+
+def _powers(u: Array, degree: int) -> Array:
+    """(N, degree) u^1 … u^degree: the drift's basis, without the constant the instrument frame absorbs."""
+    return np.stack([u**k for k in range(1, degree + 1)], axis=1)
 
 
 def _corrected(campaign: Campaign, drift_mm: Array) -> Campaign:
