@@ -71,6 +71,12 @@ def _create_database() -> str | None:
 PG_ERROR = _create_database()
 sqlite_schema = schemathesis.openapi.from_asgi("/openapi.json", SQLITE_APP)
 pg_schema = schemathesis.openapi.from_asgi("/openapi.json", PG_APP if PG_ERROR is None else SQLITE_APP)
+# Loading the documents ran each app's lifespan start (schemathesis asks the app itself) but never its end, and
+# every test's lifespan replaces `app.state.db`: close the databases opened here, or their pooled connections are
+# collected at some later test (psycopg's ResourceWarning, an error under this suite's warning filter).
+for _app in (SQLITE_APP, PG_APP):
+    if getattr(_app.state, "db", None) is not None:
+        _app.state.db.dispose()
 # The one slow operation (error analysis, ~3 s an example) is covered by test_contract.py; here it would only
 # spend the budget.
 SLOW = "/v1/error-analysis"
