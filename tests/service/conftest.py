@@ -4,12 +4,10 @@ from __future__ import annotations
 
 import os
 import shutil
-import sys
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
-import psycopg
 import pytest
 from fastapi.testclient import TestClient
 
@@ -19,42 +17,7 @@ from service.persistence import Database
 from service.settings import Settings
 from tests.service.contract_check import ContractClient, committed
 
-SLOW_CONTRACT_CASES = tuple(
-    f"test_api_contract[{operation}]"
-    for operation in (
-        "POST /v1/error-analysis",  # up to 40 000 poses x draws an example: ~34 s
-        # 2-6 s each here: a calibration, a design or a robot of a generated structure per example
-        "POST /v1/robots",
-        "PATCH /v1/robots/{robot_id}",
-        "POST /v1/robots/{robot_id}/calibrations",
-        "POST /v1/robots/{robot_id}/pose-designs",
-        "POST /v1/robots/{robot_id}/validations",
-    )
-)
-"""Contract cases that take long (see test_contract.py): `make test-fast` skips them, `make test` runs them; the
-API tests of test-fast call each of these operations (against the same contract, `ContractClient`)."""
-
-
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    for item in items:
-        if item.name in SLOW_CONTRACT_CASES:
-            item.add_marker(pytest.mark.slow)
-
-
 POSTGRES_ADMIN = os.environ.get("IWR_TEST_POSTGRES", "postgresql://postgres@127.0.0.1:5432/postgres")
-
-FUZZ_MODULE = "tests.service.test_contract_fuzz"
-
-
-def pytest_sessionfinish(session: pytest.Session) -> None:
-    """test_contract_fuzz creates its PostgreSQL database at import, and its fixture drops it after its tests. Under
-    pytest-xdist every worker imports (collects) the module and only one runs those tests: the database of every
-    other worker, and of a run that deselects them, is dropped here (IF EXISTS: the fixture may have done it)."""
-    fuzz = sys.modules.get(FUZZ_MODULE)
-    if fuzz is None or fuzz.PG_ERROR is not None:
-        return
-    with psycopg.connect(POSTGRES_ADMIN, autocommit=True, connect_timeout=3) as admin:
-        admin.execute(f'DROP DATABASE IF EXISTS "{fuzz._PG_NAME}" WITH (FORCE)')
 
 
 def postgres_url() -> Iterator[str]:

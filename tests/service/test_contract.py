@@ -4,42 +4,63 @@ API tests. (The committed OpenAPI document and the error table: tests/service/te
 from __future__ import annotations
 
 import json
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 import schemathesis
+from fastapi import FastAPI
 from fastapi.testclient import TestClient
 from hypothesis import HealthCheck, settings
 from schemathesis.checks import not_a_server_error
+from schemathesis.schemas import BaseSchema
 from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
 
 from service.app import create_app
 from service.settings import Settings
 from tests.service.contract_check import ContractChecker
+from tests.service.contract_schema import asgi_schema
 
-# Outside the inner loop: schemathesis builds its cases at import, ~8 s of CPU per pytest process.
+# Outside the inner loop (~40 s of CPU). The schema is read from the app when the tests run, in the one worker that
+# runs them, not at import: schemathesis builds every operation's cases while it collects them (~5 s of CPU here,
+# paid by every pytest-xdist worker, each of which collects every module). The operations then run one after
+# another inside `test_api_contract`, each reported as its own subtest.
 pytestmark = pytest.mark.slow
 
 
-_DB = Path(__import__("tempfile").mkdtemp()) / "contract.db"
-APP = create_app(
-    Settings(database_url=f"sqlite:///{_DB}", warm_up=False, background_builds=False, job_workers=0, log_level="ERROR")
-)
-schema = schemathesis.openapi.from_asgi("/openapi.json", APP)
+def _app() -> FastAPI:
+    database = Path(tempfile.mkdtemp()) / "contract.db"
+    return create_app(
+        Settings(
+            database_url=f"sqlite:///{database}",
+            warm_up=False,
+            background_builds=False,
+            job_workers=0,
+            log_level="ERROR",
+        )
+    )
 
 
-@pytest.fixture(scope="module", autouse=True)
+@pytest.fixture(scope="module")
 def running_app() -> Iterator[TestClient]:
-    with TestClient(APP) as client:
+    with TestClient(_app()) as client:
         # One real robot, so that generated requests with its id get past the 404s.
         client.post("/v1/robots", json={"name": "contract"})
         yield client
 
 
-# POST /v1/error-analysis is the one slow operation here: schemathesis sends requests of up to the
-# budget's 18 000 poses x draws (service.limits), seconds each; tests/service/conftest.py marks that case slow.
+@pytest.fixture(scope="module")
+def contract_schema(running_app: TestClient) -> BaseSchema:
+    return asgi_schema(running_app.app)
+
+
+schema = schemathesis.pytest.from_fixture("contract_schema")
+
+
+# POST /v1/error-analysis is the slowest operation here: schemathesis sends requests of up to the budget's
+# 18 000 poses x draws (service.limits), seconds each.
 @schema.parametrize()
 @settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
 def test_api_contract(case: schemathesis.Case[Any]) -> None:
@@ -49,7 +70,7 @@ def test_api_contract(case: schemathesis.Case[Any]) -> None:
 
 def test_the_response_checker_refuses_unknown_keys_and_undeclared_answers() -> None:
 
-    checker = ContractChecker(APP.openapi())
+    checker = ContractChecker(_app().openapi())
     robot = {
         "id": "r",
         "name": "n",

@@ -16,9 +16,11 @@ from typing import Any
 
 import pytest
 import schemathesis
+from fastapi import FastAPI
 from fastapi.testclient import TestClient
 from hypothesis import HealthCheck, Phase, settings
 from schemathesis.checks import not_a_server_error
+from schemathesis.schemas import BaseSchema
 from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
 
 from service.app import create_app
@@ -26,6 +28,7 @@ from service.persistence import Database
 from service.persistence.tables import Base
 from service.settings import Settings
 from tests.service.conftest import POSTGRES_ADMIN
+from tests.service.contract_schema import asgi_schema
 
 # The whole module is `make test`'s (~50 s here): test_contract.py runs every operation on SQLite in test-fast.
 pytestmark = pytest.mark.slow
@@ -38,77 +41,59 @@ STEPS = int(os.environ.get("IWR_FUZZ_STEPS", "6"))
 CHECKS = [not_a_server_error, response_schema_conformance, content_type_conformance]
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=list(HealthCheck), database=None)
 
-_PG_NAME = f"iwr_fuzz_{uuid.uuid4().hex[:12]}"
-_SQLITE = Path(tempfile.mkdtemp()) / "fuzz.db"
-SQLITE_APP = create_app(
-    Settings(
-        database_url=f"sqlite:///{_SQLITE}", warm_up=False, background_builds=False, job_workers=0, log_level="ERROR"
-    )
-)
-PG_APP = create_app(
-    Settings(
-        database_url=f"postgresql+psycopg://postgres@127.0.0.1:5432/{_PG_NAME}",
-        warm_up=False,
-        background_builds=False,
-        job_workers=0,
-        log_level="ERROR",
-    )
-)
-
-
-def _create_database() -> str | None:
-    """The PostgreSQL database, made at import: schemathesis reads the app's document (and so starts it) then."""
-    try:
-        import psycopg
-
-        with psycopg.connect(POSTGRES_ADMIN, autocommit=True, connect_timeout=3) as admin:
-            admin.execute(f'CREATE DATABASE "{_PG_NAME}"')
-    except Exception as exc:  # reported by the fixture, which skips (or fails on CI)
-        return str(exc)
-    return None
-
-
-PG_ERROR = _create_database()
-sqlite_schema = schemathesis.openapi.from_asgi("/openapi.json", SQLITE_APP)
-pg_schema = schemathesis.openapi.from_asgi("/openapi.json", PG_APP if PG_ERROR is None else SQLITE_APP)
-# Loading the documents ran each app's lifespan start (schemathesis asks the app itself) but never its end, and
-# every test's lifespan replaces `app.state.db`: close the databases opened here, or their pooled connections are
-# collected at some later test (psycopg's ResourceWarning, an error under this suite's warning filter).
-for _app in (SQLITE_APP, PG_APP):
-    if getattr(_app.state, "db", None) is not None:
-        _app.state.db.dispose()
-# The one slow operation (error analysis, ~3 s an example) is covered by test_contract.py; here it would only
-# spend the budget.
+# As in test_contract.py, the schemas are read from the apps when the tests run, in the worker that runs them (not at
+# import, in every pytest-xdist worker), and each operation is a subtest of the test that runs it.
 SLOW = "/v1/error-analysis"
+"""The one slow operation (error analysis, ~3 s an example) is covered by test_contract.py; here it would only spend
+the budget."""
+
+
+def _app(database_url: str) -> FastAPI:
+    return create_app(
+        Settings(database_url=database_url, warm_up=False, background_builds=False, job_workers=0, log_level="ERROR")
+    )
 
 
 @pytest.fixture(scope="module")
 def postgres_app() -> Iterator[TestClient]:
-    if PG_ERROR is not None:
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"PostgreSQL must be running for CI on this machine: {PG_ERROR}")
-        pytest.skip(f"PostgreSQL is not reachable at {POSTGRES_ADMIN}: {PG_ERROR}")
     import psycopg
 
+    name = f"iwr_fuzz_{uuid.uuid4().hex[:12]}"
     try:
-        with TestClient(PG_APP) as client:
+        with psycopg.connect(POSTGRES_ADMIN, autocommit=True, connect_timeout=3) as admin:
+            admin.execute(f'CREATE DATABASE "{name}"')
+    except psycopg.OperationalError as exc:
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"PostgreSQL must be running for CI on this machine: {exc}")
+        pytest.skip(f"PostgreSQL is not reachable at {POSTGRES_ADMIN}: {exc}")
+    try:
+        with TestClient(_app(f"postgresql+psycopg://postgres@127.0.0.1:5432/{name}")) as client:
             client.post("/v1/robots", json={"name": "fuzz"})
             yield client
     finally:
         with psycopg.connect(POSTGRES_ADMIN, autocommit=True, connect_timeout=3) as admin:
-            admin.execute(f'DROP DATABASE IF EXISTS "{_PG_NAME}" WITH (FORCE)')
+            admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
 
 
 @pytest.fixture(scope="module")
 def sqlite_app() -> Iterator[TestClient]:
-    with TestClient(SQLITE_APP) as client:
+    with TestClient(_app(f"sqlite:///{Path(tempfile.mkdtemp()) / 'fuzz.db'}")) as client:
         client.post("/v1/robots", json={"name": "fuzz"})
         yield client
 
 
-@pg_schema.exclude(path=SLOW).parametrize()
+def _schema(client: TestClient) -> BaseSchema:
+    return asgi_schema(client.app)
+
+
+@pytest.fixture(scope="module")
+def postgres_schema(postgres_app: TestClient) -> BaseSchema:
+    return _schema(postgres_app)
+
+
+@schemathesis.pytest.from_fixture("postgres_schema").exclude(path=SLOW).parametrize()
 @SETTINGS
-def test_api_contract_on_postgresql(postgres_app: TestClient, case: schemathesis.Case[Any]) -> None:
+def test_api_contract_on_postgresql(case: schemathesis.Case[Any]) -> None:
     """What found the 2^31 version and the NUL characters: PostgreSQL's types are narrower than SQLite's."""
     case.call_and_validate(checks=CHECKS)
 
@@ -157,7 +142,7 @@ def _machine(schema: Any, app: Any) -> Any:
 @pytest.mark.parametrize("database", ["sqlite", "postgres"])
 def test_stateful(database: str, request: pytest.FixtureRequest) -> None:
     client = request.getfixturevalue(f"{database}_app")
-    machine = _machine(sqlite_schema if database == "sqlite" else pg_schema, client.app)
+    machine = _machine(_schema(client), client.app)
     links = [name for name in dir(machine) if "POST_v1_robots___201" in name]
     assert len(links) >= 5, "the create -> read links were not inferred: the stateful phase would test nothing"
     machine.run(

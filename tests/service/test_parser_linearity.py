@@ -88,11 +88,11 @@ CASES: dict[str, tuple[Callable[[int], Any], Callable[[Any], object], int]] = {
     "csv header cell of spaces": (spaces_cell, read_table, 2_000_000),
     "csv line of quotes (sniffer)": (quotes_line, read_table, 20_000),
     "csv rows": (rows, parse_campaign, 5_000),
-    "joint + point files (csv)": (lambda n: (joint_file(n), point_file(n)), _joined(False), 10_000),
-    "joint + point files (spatial analyzer)": (lambda n: (joint_file(n), sa_file(n)), _joined(True), 10_000),
-    "spatial analyzer lines": (sa_file, read_spatial_analyzer, 20_000),
+    "joint + point files (csv)": (lambda n: (joint_file(n), point_file(n)), _joined(False), 3_000),
+    "joint + point files (spatial analyzer)": (lambda n: (joint_file(n), sa_file(n)), _joined(True), 3_000),
+    "spatial analyzer lines": (sa_file, read_spatial_analyzer, 8_000),
     "spatial analyzer line of fields": (lambda n: "c g t " + " ".join("1" * n) + "\n", read_spatial_analyzer, 200_000),
-    "parameters csv rows": (parameters_file, parse_parameters, 20_000),
+    "parameters csv rows": (parameters_file, parse_parameters, 10_000),
 }
 
 
