@@ -7,15 +7,19 @@ away at an unknown rotation, with Gaussian noise.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from fnmatch import fnmatchcase
 
 import numpy as np
 
 from models._types import Array
 from models.campaign import Campaign
 from models.error_analysis.magnitudes import ErrorMagnitudes
+from models.errors import InvalidInput
 from models.kinematics import forward_kinematics
 from models.noise import NoiseModel
+from models.parameters import GROUP_ALIASES
 from models.robot import RobotDescription
 from models.terms import Conditions
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np
@@ -99,17 +103,79 @@ def measure(
     return Campaign(np.array(joints, dtype=float), positions, quats, conditions=conditions)
 
 
+def unit_spreads(desc: RobotDescription, spread: float, spreads: Mapping[str, float] | None = None) -> Array:
+    """Each parameter's unit-to-unit spread in fractions of its scale (`fleet_unit`): `spread` everywhere, but
+    where a key of `spreads` names the parameter. A key is a group (`links`, `tool`; `table.indices`' names and
+    aliases), a parameter name, or a name pattern (`fnmatch`: `link*.theta`, the joint zero offsets). Names and
+    patterns win over groups, so that `{"links": 0.05, "link*.theta": 1.0}` reads as "the machined geometry
+    alike, the offsets not"; two names or patterns that give one parameter different spreads are refused, as
+    is a key that matches nothing or only the base (the base is the instrument's placement, drawn per unit
+    anyway), and a negative spread. The base's entries are 0."""
+    table = desc.parameters
+    out = np.full(len(table), float(spread))
+    base = set(table.groups.get("base", ()))
+    by_name: dict[int, tuple[str, float]] = {}
+    for key, value in (spreads or {}).items():
+        if not value >= 0.0:
+            raise InvalidInput(
+                f"a unit spread must be >= 0 (of a tolerance); {key!r} has {value}", field="spreads", value=value
+            )
+        is_group = key in table.groups or key in GROUP_ALIASES
+        if is_group or key in table.index:
+            hit = set(table.indices([key]))
+        else:
+            hit = {i for i, name in enumerate(table.names) if fnmatchcase(name, key)}
+        if not hit - base:
+            raise InvalidInput(
+                f"{key!r} names no parameter that differs from unit to unit (the base is drawn per unit); "
+                f"groups are {sorted(set(table.groups) - {'base'})}",
+                field="spreads",
+                value=key,
+            )
+        for i in hit - base:
+            if is_group:
+                continue
+            if i in by_name and by_name[i][1] != value:
+                raise InvalidInput(
+                    f"{table.names[i]} has two unit spreads: {by_name[i][1]} ({by_name[i][0]!r}) and {value} ({key!r})",
+                    field="spreads",
+                    value=key,
+                )
+            by_name[i] = (key, float(value))
+        if is_group:
+            out[sorted(hit - base)] = value
+    # Groups first (whatever their order in the mapping), then the names and patterns over them.
+    for i, (_, value) in by_name.items():
+        out[i] = value
+    out[sorted(base)] = 0.0
+    return out
+
+
 def fleet_unit(
-    desc: RobotDescription, unit: int, *, fleet_seed: int = 0, systematic: float = 1.0, spread: float = 0.05
+    desc: RobotDescription,
+    unit: int,
+    *,
+    fleet_seed: int = 0,
+    systematic: float = 1.0,
+    spread: float = 0.05,
+    spreads: Mapping[str, float] | None = None,
 ) -> SimulatedRobot:
     """Unit `unit` of a fleet of identical cells (one arm model, one tool model): every parameter but the base is
     nominal + the model's systematic deviation (Gaussian, `systematic` × the parameter's scale, drawn once per
     `fleet_seed`: every unit shares it) + the unit's own (Gaussian, `spread` × scale). The base, the instrument
-    3 m away and rotated, is drawn per unit as in `perturbed_robot`."""
+    3 m away and rotated, is drawn per unit as in `perturbed_robot`.
+
+    `spreads` gives kinds of parameters their own unit spread (`unit_spreads`): real units of one model are not
+    alike to the same fraction everywhere. Machined geometry (lengths, twists: one drawing, one fixture) repeats
+    closely; what assembly sets (the joints' zero offsets from encoder mastering, the tool's mounting) differs
+    by much of its tolerance, e.g. `{"links": 0.05, "link*.theta": 1.0, "tool": 1.0}`. The same random numbers
+    are drawn either way: a unit's deviation is the same standard normal draw, scaled by its parameter's spread,
+    so without `spreads` the units are those of earlier versions, bit for bit."""
     table = desc.parameters
     own = [i for i in range(len(table)) if table.specs[i].group != "base"]
     common = np.random.default_rng([fleet_seed, 0]).normal(size=len(table)) * systematic * table.scales
-    mine = np.random.default_rng([fleet_seed, 1, unit]).normal(size=len(table)) * spread * table.scales
+    fraction: float | Array = spread if spreads is None else unit_spreads(desc, spread, spreads)
+    mine = np.random.default_rng([fleet_seed, 1, unit]).normal(size=len(table)) * fraction * table.scales
     placed = perturbed_robot(desc, seed=int(np.random.default_rng([fleet_seed, 2, unit]).integers(2**31)))
     truth = placed.truth.copy()
     truth[own] = table.nominal[own] + common[own] + mine[own]
