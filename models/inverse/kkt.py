@@ -59,13 +59,22 @@ def _solve(jf: np.ndarray, f: np.ndarray) -> np.ndarray:
     try:
         return np.linalg.solve(jf, -f[..., None])[..., 0]
     except np.linalg.LinAlgError:
-        out = np.full(f.shape, np.nan)
-        for i in range(f.shape[0]):
+        pass
+    # Some system is singular (a serial arm with a joint held at its limit has fewer free joints than equations):
+    # those rows get NaN and the rest one batched solve. Row by row, as before, the iiwa-like arm's 250 targets
+    # from the default seed took 110 000 single solves: 1.4 s of CPU instead of 1.2.
+    out = np.full(f.shape, np.nan)
+    sign, _ = np.linalg.slogdet(jf)  # exactly 0 where LU meets a zero pivot, what makes solve raise
+    regular = np.flatnonzero(sign != 0.0)
+    try:
+        out[regular] = np.linalg.solve(jf[regular], -f[regular][..., None])[..., 0]
+    except np.linalg.LinAlgError:  # a pivot slogdet's LU passed and solve's did not: row by row after all
+        for i in regular:
             try:
                 out[i] = np.linalg.solve(jf[i], -f[i])
             except np.linalg.LinAlgError:
                 continue
-        return out
+    return out
 
 
 FULL_TURN = 2.0 * np.pi

@@ -1,11 +1,11 @@
-"""The KKT Newton's active-set decisions (models.inverse.kkt), on hand-made multipliers and Jacobians whose
-answer is known by inspection."""
+"""The KKT Newton's pieces (models.inverse.kkt): its batched solve and its active-set decisions, on hand-made
+systems, multipliers and Jacobians whose answer is known by inspection."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from models.inverse.kkt import _released, _swapped
+from models.inverse.kkt import _released, _solve, _swapped
 
 # Three orientation equations (rows: rotation about x, y, z) over six variables: v0 and v1 turn the tool about z,
 # v2 about x, v3, v4 and v5 about y. With every variable that turns it about one axis fixed, the rest cannot
@@ -51,3 +51,12 @@ def test_a_bound_that_leaves_an_axis_unturnable_is_swapped_for_the_one_held_leas
     # 3: v0 and v4 fixed leave v1 (z), v2 (x), v3 and v5 (y): nothing to swap.
     # 4: as 2, but not a target to decide (its Newton did not converge).
     assert out.tolist() == _mask([[3], [3], [4], [], []]).tolist()
+
+
+def test_a_singular_system_gets_nan_and_the_others_their_exact_steps() -> None:
+    # Rows 0 and 2: diagonal systems, steps -f / diag. Row 1: a zero pivot (a joint held with nothing to move).
+    jf = np.stack([np.diag([2.0, 4.0, 5.0]), np.diag([1.0, 0.0, 1.0]), np.diag([1.0, 1.0, 0.5])])
+    f = np.array([[2.0, -4.0, 10.0], [1.0, 1.0, 1.0], [3.0, 0.0, -1.0]])
+    out = _solve(jf, f)
+    assert np.array_equal(out[[0, 2]], [[-1.0, 1.0, -2.0], [-3.0, 0.0, 2.0]])
+    assert np.isnan(out[1]).all()
