@@ -260,7 +260,8 @@ def newton_kkt(
     the last step was below `QUADRATIC_STEP` (what it leaves is below `tolerance_mm`: one evaluation fewer a
     solve); and the set is settled.
     `periodic`: the variables (revolute joints whose range spans a full turn) that are first turned by whole
-    turns back into their range, nearest the seed: there they are the same pose, not a bound to hold.
+    turns back into their range, nearest the seed: there they are the same pose, not a bound to hold (nor a box
+    to damp steps by).
     """
     # Long on purpose: one vectorised active-set iteration; its state (active bounds, step, convergence) is
     # shared by every line.
