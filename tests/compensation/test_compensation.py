@@ -77,8 +77,8 @@ def test_round_trip_on_the_model(desc: RobotDescription, sim: SimulatedRobot, ca
 @pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_batch_newton_finds_the_ipopt_optimum(desc: RobotDescription, calibrated: IdentificationResult) -> None:
     theta = calibrated.parameters
-    fk = forward_kinematics(desc, sample_workspace(desc, 120, seed=33), theta)
-    n = 120
+    n = 400
+    fk = forward_kinematics(desc, sample_workspace(desc, n, seed=33), theta)
     target = np.hstack([fk.positions, fk.rotations.transpose(0, 2, 1).reshape(n, 9)])
     table = starts.start_table(desc, theta)
     _, nearest = table.pose_tree.query(starts.features(fk.positions, fk.rotations))
@@ -100,8 +100,9 @@ def test_batch_newton_finds_the_ipopt_optimum(desc: RobotDescription, calibrated
     ok &= routing.within_bounds(desc, theta, v)
     batch = routing.IkBatch(desc, theta, target, seeds, w, position_only=False, runtime=runtime_for(desc))
     reference, met = routing.ipopt_solutions(batch, start=start, exact=True)
-    # Newton's active set (one variable fixed a round) takes 119 of the 120; the rest are IPOPT's.
-    assert ok.mean() > 0.95 and met.all()
+    # Newton takes 398 of the 400; the rest are IPOPT's. Before its steps were damped and its active set
+    # released one bound at a time and swapped bounds that left an axis unturnable, it took 384 (96 %).
+    assert ok.mean() >= 0.99 and met.all()
     assert np.abs(v[ok] - reference[ok]).max() < 1e-5  # mm and rad: IPOPT's own tolerance
 
 
