@@ -26,9 +26,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg
+from numpy.typing import NDArray
 
 from models._types import Array
 from models.errors import WrongShape
@@ -150,7 +152,7 @@ def analyse_identifiability(
     )
 
 
-def _rank(s: Array, rtol: float) -> tuple[float, int]:
+def _rank(s: NDArray[np.floating[Any]], rtol: float) -> tuple[float, int]:
     """(threshold, rank) from singular values `s` (descending): those above `rtol` · s_max count."""
     threshold = float(s[0] * rtol) if s.size and s[0] > 0 else 0.0
     return threshold, int(np.sum(s > threshold)) if threshold > 0 else 0
