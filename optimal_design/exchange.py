@@ -113,7 +113,7 @@ def greedy(info: CandidateInformation, count: int, base: Array, allowed: Index, 
             blocks = info.blocks[batch]
             # rows of one pose are coupled, so the gain is an r × r determinant. The (batch·r × P) @ (P × P)
             # product flattened: numpy runs a stacked (batch, r, P) @ (P, P) as one small product per candidate,
-            # 4x slower (the greedy was a third of a D design's time at K = 30 of 2 000).
+            # 4x slower (the greedy was a quarter of a D design's CPU time at K = 30 of 2 000).
             scaled = (blocks.reshape(-1, p) @ inv).reshape(blocks.shape)
             small = scaled @ blocks.transpose(0, 2, 1)
             stale[batch] = np.linalg.slogdet(eye + small)[1]
