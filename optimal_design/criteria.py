@@ -101,10 +101,11 @@ class DesignCriterion(ABC):
 
     name: Criterion
     cost_factor: float
-    """Its design time relative to D's (service.limits' estimate), rounded up: measured at M = 2 000, K = 30, in
-    one run of the library (a loaded 2-core machine, medians of seeds 1-3) after issue 30's speed-up, D 0.72 s,
-    A 0.87 s, I 1.28 s, E 1.72 s, condition 1.77 s (before it, in the same run: 1.27, 3.65, 3.73, 7.47 and
-    7.47 s)."""
+    """Its design time relative to D's (service.limits' estimate): the largest ratio of three runs of the library
+    at M = 2 000, K = 30 (medians of seeds 1-3, the shared 2-core machine at load 2.5-3.1), rounded up. After the
+    dspeed branch: D 0.21 / 0.29 / 0.27 s, A 0.34 / 0.53 / 0.40 s (x1.63 / 1.86 / 1.48), I 0.54 / 0.77 / 0.66 s
+    (x2.54 / 2.71 / 2.45), E 0.67 / 1.00 / 0.87 s (x3.16 / 3.50 / 3.23), condition 0.70 / 1.10 / 0.75 s
+    (x3.31 / 3.86 / 2.77). (After issue 30, in one run: D 0.72, A 0.87, I 1.28, E 1.72, condition 1.77 s.)"""
     branchable: bool = False
     """Branch and bound (optimal_design.branching) can tighten its certificate."""
     targetable: bool = False
@@ -299,7 +300,7 @@ class TraceCriterion(SmoothCriterion):
 
 class AOptimal(TraceCriterion):
     name = Criterion.A
-    cost_factor = 1.3
+    cost_factor = 1.9
     power = 1.5
 
     def weight(self, task: Array, p: int) -> Array:
@@ -316,7 +317,7 @@ class IOptimal(TraceCriterion):
     """The mean predicted TCP position variance over the workspace, tr(L M⁻¹) with L the task matrix."""
 
     name = Criterion.I
-    cost_factor = 1.9
+    cost_factor = 2.8
     targetable = True
     power = 2.0
 
@@ -376,7 +377,7 @@ class SpectralCriterion(DesignCriterion):
 
 class EOptimal(SpectralCriterion):
     name = Criterion.E
-    cost_factor = 2.6
+    cost_factor = 3.5
 
     def _utility(self, ev: Array, m: Array, task: Array) -> float:
         return float(ev[0])
@@ -408,7 +409,7 @@ class ConditionNumber(SpectralCriterion):
     """The condition number of the stacked scaled Jacobian, √(λ_max/λ_min) of M; utility −cond(J)."""
 
     name = Criterion.CONDITION
-    cost_factor = 2.8
+    cost_factor = 3.9
     default_d_floor = CONDITION_D_FLOOR
     strong_side = True
     # Homogenised: the upper spectrum is pinned (UᵀM(u)U ⪯ I) and the lower one pushed up (VᵀM(u)V ⪰ s·I), so

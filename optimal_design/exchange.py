@@ -111,8 +111,11 @@ def greedy(info: CandidateInformation, count: int, base: Array, allowed: Index, 
                 batch = pending[np.argpartition(-stale[pending], k - 1)[:k]]
                 batch_size *= 2  # early steps re-evaluate most candidates: reach them in a few batches
             blocks = info.blocks[batch]
-            # rows of one pose are coupled, so the gain is an r × r determinant
-            small = (blocks @ inv) @ blocks.transpose(0, 2, 1)
+            # rows of one pose are coupled, so the gain is an r × r determinant. The (batch·r × P) @ (P × P)
+            # product flattened: numpy runs a stacked (batch, r, P) @ (P, P) as one small product per candidate,
+            # 4x slower (the greedy was a quarter of a D design's CPU time at K = 30 of 2 000).
+            scaled = (blocks.reshape(-1, p) @ inv).reshape(blocks.shape)
+            small = scaled @ blocks.transpose(0, 2, 1)
             stale[batch] = np.linalg.slogdet(eye + small)[1]
             fresh[batch] = True
             rest = free & ~fresh

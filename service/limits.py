@@ -57,14 +57,19 @@ IK_BYTES_PER_TARGET = 40_000  # 34 KB measured (3 000 targets: +103 MB); the 100
 IK_MAX_TARGETS = int(SYNC_BUDGET_S / IK_S_PER_TARGET)
 """2 105: what the budget allows, since inverse kinematics cannot run as a job."""
 
-# Pose design after its speed-up (optimal_design's benchmark, K = 30, a loaded 2-core machine): D 0.52 s at
-# M = 2 000 and 3.9 s at M = 20 000, linear in M; the other criteria's multiples of D: their cost_factor. Taken
-# 1.5x up, so an estimate errs on the side of a job. Issue 30's speed-up made D ~0.6x that (docs/pose-design.md)
-# and is not taken off here, so D's estimate errs further up; the cost factors are the new multiples of D, which
-# puts E (1.6 s) and condition (1.8 s) at M = 2 000 inside the 2 s budget.
-DESIGN_FIXED_S = 0.05  # information blocks and baselines at small M
-DESIGN_S_PER_CANDIDATE = 2.9e-4  # (3.9 - 0.52) s / 18 000 candidates, x1.5
-DESIGN_K_EXPONENT = 0.55  # K = 30 -> 300 at M = 2 000: 4.6 s -> 16 s (x3.5 for x10)
+# Pose design, calibrated on the library's walls after the dspeed branch (K = 30, medians of seeds 1-3 in three
+# runs of one warm process on the shared 2-core machine, load average 2.5-3.1; /tmp measurement script, numbers in
+# docs/pose-design.md): D at M = 500 / 2 000 / 20 000 took 0.094-0.117 / 0.211-0.285 / 1.90-2.19 s, linear in M
+# (0.064 s + 1.06e-4 s a candidate through the slowest run's M = 500 and M = 20 000); taken 1.5x up, so an
+# estimate errs on the side of a job (through the API at load ~5 D took 0.45 s of service time at M = 2 000 and
+# 3.2 s at M = 20 000). The other criteria are multiples of D: their cost_factor, from the same runs. The
+# calibration before (5.85 s at M = 20 000, 0.63 s at M = 2 000) dated from before issue 30 and was 2-3x D's time.
+DESIGN_FIXED_S = 0.09  # information blocks, baselines and report at small M
+DESIGN_S_PER_CANDIDATE = 1.55e-4  # 1.06e-4 s a candidate, x1.5 (rounded up)
+DESIGN_K_EXPONENT = 0.55
+"""K = 30 -> 300 at M = 2 000 took 4.6 s -> 16 s (x3.5 for x10) when measured, before issue 30. Now (one design
+each, load ~5) D grows x1-1.8 for x10, A x7, I x4.5, E x9 and condition x13: one exponent for all errs up for D and
+down for the others at large K (left as it was: those designs are jobs beyond K ~ 45 anyway)."""
 DESIGN_BASE_BYTES = 150_000_000  # peak 252 MB at M = 2 000 and 671 MB at M = 20 000 (K = 30, after the speed-up)
 DESIGN_BYTES_PER_CANDIDATE = 30_000  # (671 - 252) MB / 18 000 candidates = 23 KB, rounded up
 DESIGN_BYTES_PER_PAIR = 400  # per chosen pose and candidate: the exchange's swap tables
