@@ -224,6 +224,10 @@ def _rounded(
         if g_design is None:
             raise
         start_design = g_design
+    if g_design is not None and not _positive_definite(base + info.subset_information(start_design)):
+        # Rounding can lose rank where each candidate adds few rows (a ballbar's one distance): the exchange scores
+        # swaps through the inverse information, so it starts from the greedy design, full rank by construction.
+        start_design = g_design
     log_det_floor = None if floor is None else floor.log_det
     if crit.proxy_start:
         start_design = _smooth_start(info, relaxed.weights, start_design, base, spread=spread, floor=log_det_floor)
@@ -238,6 +242,14 @@ def _rounded(
         log_det_floor=log_det_floor,
     )
     return r_design, r_swaps, crit.utility(base + info.subset_information(r_design), info.task)
+
+
+def _positive_definite(m: Array) -> bool:
+    try:
+        np.linalg.cholesky(m)
+    except np.linalg.LinAlgError:
+        return False
+    return True
 
 
 def _branch_and_bound(

@@ -303,3 +303,13 @@ def test_the_documented_request_bodies_are_valid_designs() -> None:
     assert [b["measurement"] for b in bodies] == ["distance", "point", "plane", "image"]
     for body in bodies:
         PoseDesignCreate.model_validate(body)
+
+
+def test_a_rounding_that_loses_rank_starts_the_exchange_from_the_greedy_design(client: TestClient, arm: str) -> None:
+    """An I design of 30 ballbar distances from 1 340 candidates per anchor (seed 1): its rounded relaxation was
+    singular and the exchange's inverse of it answered 500. The design starts from the greedy one instead."""
+    body = {"measurement": "distance", "count": 30, "criterion": "I", "candidate_count": 1340, "seed": 1}
+    design = _design(client, arm, {**body, "anchors": _anchors(), "noise": NOISE})
+    assert len(design["poses"]) == 30
+    predicted = design["metrics"]["predicted_rms_tcp_mm"]
+    assert math.isfinite(predicted) and predicted < 0.5 * design["random_baseline"]["predicted_rms_tcp_mm"]
