@@ -1,7 +1,8 @@
 """`iwr`: the service's main workflow from a shell (robots, pose designs, calibrations, reports, parameters,
 validations), on `iwr_client.Client`.
 
-Exit codes: 0 success; 1 a calibration that failed or was not applied (or a cancelled job); 2 a usage error
+Exit codes: 0 success; 1 a calibration that failed or was not applied, a check whose verdict is not `fine` (or a
+cancelled job); 2 a usage error
 (including a file that cannot be read); 3 the API refused the request (4xx: the problem's detail printed); 4 the
 service unreachable or a 5xx. `--json` prints the API's JSON documents on stdout and nothing else there.
 """
@@ -182,6 +183,31 @@ def parameters(client: Client, args: argparse.Namespace, console: Console) -> in
     return OK
 
 
+def check_poses(client: Client, args: argparse.Namespace, console: Console) -> int:
+    plan = client.check_design(args.robot, count=args.count, measurement=args.measurement, seed=args.seed)
+    if args.csv:
+        names = client.robot(args.robot)["joint_names"]
+        lines = [",".join(names)] + [",".join(repr(float(v)) for v in pose["joints"]) for pose in plan["poses"]]
+        Path(args.csv).write_text("\n".join(lines) + "\n")
+    console.document(plan, lambda: summary.check_design_summary(plan, args.csv))
+    return OK
+
+
+def check(client: Client, args: argparse.Namespace, console: Console) -> int:
+    found = client.check(args.robot, args.records, noise_mm=args.noise_mm, alpha=args.alpha, notes=args.notes)
+    console.document(found, lambda: summary.check_summary(found))
+    return OK if found["verdict"] == "fine" else NOT_APPLIED
+
+
+def history(client: Client, args: argparse.Namespace, console: Console) -> int:
+    if args.csv:
+        _write(args.output, client.history(args.robot, "csv", limit=args.limit).encode(), console, "history")
+        return OK
+    events = client.history(args.robot, limit=args.limit)
+    console.document(events, lambda: summary.history_table(events))
+    return OK
+
+
 def validate(client: Client, args: argparse.Namespace, console: Console) -> int:
     found = client.validate(args.robot, args.records, versions=args.version, register=args.register)
     console.document(found, lambda: summary.validation_summary(found))
@@ -242,6 +268,7 @@ def build_parser() -> argparse.ArgumentParser:
     _design_command(commands)
     _calibration_commands(commands)
     _export_commands(commands)
+    _check_commands(commands)
     return parser
 
 
@@ -289,6 +316,26 @@ def _calibration_commands(commands: Any) -> None:
     check.add_argument("records", type=_readable, metavar="RECORDS.csv")
     check.add_argument("--version", type=int, action="append", help="a version to evaluate (repeatable)")
     check.add_argument("--register", action="store_true", help="fit the instrument frame first")
+
+
+def _check_commands(commands: Any) -> None:
+    poses = _command(commands, "check-poses", check_poses, "the poses a quick check should measure")
+    poses.add_argument("robot", metavar="ROBOT")
+    poses.add_argument("--count", type=int, default=8, help="5-10 poses (default 8)")
+    poses.add_argument("--measurement", default="position", choices=["position", "pose"])
+    poses.add_argument("--seed", type=int, default=0)
+    poses.add_argument("--csv", metavar="OUT", help="write the poses as CSV (the robot's joint names)")
+    parser = _command(commands, "check", check, "a quick check of the current version (exit 1 unless fine)")
+    parser.add_argument("robot", metavar="ROBOT")
+    parser.add_argument("records", type=_readable, metavar="RECORDS.csv")
+    parser.add_argument("--noise-mm", type=float, help="the instrument's position σ (default 0.025)")
+    parser.add_argument("--alpha", type=float, help="the false-alarm rate (default 0.01)")
+    parser.add_argument("--notes", help="stored with the check (what happened to the robot)")
+    timeline = _command(commands, "history", history, "the robot's calibrations and checks, oldest first")
+    timeline.add_argument("robot", metavar="ROBOT")
+    timeline.add_argument("--csv", action="store_true", help="the CSV export (with -o FILE, else stdout)")
+    timeline.add_argument("-o", "--output", metavar="FILE", help="with --csv; default: stdout")
+    timeline.add_argument("--limit", type=int, default=100)
 
 
 def _export_commands(commands: Any) -> None:

@@ -310,6 +310,52 @@ class Client:
             body["register"] = True
         return dict(self._post(f"/v1/robots/{_segment(robot_id)}/validations", body))
 
+    # -- quick checks and the history ---------------------------------------------------------------------------
+
+    def check_design(
+        self, robot_id: str, *, count: int = 8, measurement: Literal["position", "pose"] = "position", seed: int = 0
+    ) -> Json:
+        """The `count` poses a quick check should measure (the most sensitive to the likely changes: the joint
+        offsets, the tool), and the change of each it would flag with 95 % probability. Stores nothing."""
+        body = {"count": count, "measurement": measurement, "seed": seed}
+        return dict(self._post(f"/v1/robots/{_segment(robot_id)}/checks/design", body))
+
+    def check(
+        self,
+        robot_id: str,
+        records: Campaign,
+        *,
+        noise_mm: float | None = None,
+        alpha: float | None = None,
+        notes: str | None = None,
+    ) -> Json:
+        """A quick check of the current version: the verdict (fine, drifted, changed), what best explains a
+        change, and what to do. A file is read here, as for `validate` (a check takes JSON)."""
+        if isinstance(records, str | Path):
+            joint_names = self.robot(robot_id)["joint_names"]
+            records = records_from_csv(Path(records).read_text(), joint_names)
+        body: Json = {"measurements": list(records)}
+        if noise_mm is not None:
+            body["noise"] = {"position_mm": noise_mm}
+        if alpha is not None:
+            body["alpha"] = alpha
+        if notes is not None:
+            body["notes"] = notes
+        return dict(self._post(f"/v1/robots/{_segment(robot_id)}/checks", body))
+
+    @overload
+    def history(self, robot_id: str, fmt: Literal["json"] = "json", *, limit: int = 100) -> list[Json]: ...
+
+    @overload
+    def history(self, robot_id: str, fmt: Literal["csv"], *, limit: int = 100) -> str: ...
+
+    def history(self, robot_id: str, fmt: Literal["json", "csv"] = "json", *, limit: int = 100) -> list[Json] | str:
+        """The robot's calibrations and checks on one timeline, oldest first, with the accuracy measured then."""
+        accept = "text/csv" if fmt == "csv" else "application/json"
+        path = f"/v1/robots/{_segment(robot_id)}/history"
+        answer = self.request("GET", path, query={"format": fmt, "limit": limit}, accept=accept)
+        return answer.body.decode() if fmt == "csv" else list(answer.json())
+
 
 def _segment(value: str) -> str:
     """An id as one path segment: a '/' or '?' in it cannot reach another route."""

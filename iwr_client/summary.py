@@ -79,3 +79,49 @@ def validation_summary(validation: Mapping[str, Any]) -> str:
             f"{_mm(position['max'])} max{registered}"
         )
     return "\n".join(lines)
+
+
+def check_summary(check: Mapping[str, Any]) -> str:
+    """The verdict with its statistic, what explains a change, and the recommendation."""
+    statistic = check["statistic"]
+    lines = [
+        f"check {check['id']}: {check['verdict']} (version {check['version']}, {check['measurements']} records; "
+        f"chi2 {statistic['chi2']:.1f} against {statistic['threshold']:.1f} at alpha {statistic['alpha']:g}, "
+        f"p = {statistic['p_value']:.3g})"
+    ]
+    explanation = check.get("explanation")
+    if explanation:
+        changes = ", ".join(
+            f"{c['name']} {c['change']:+.4f} ± {c['std_error']:.4f} {c['unit']}" for c in explanation["parameters"]
+        )
+        lines.append(f"  explained by {explanation['name']}: {changes}")
+    lines.append(f"  to do: {check['recommendation']['message']}")
+    lines += [f"  warning: {w.get('message') or w}" for w in check.get("warnings") or []]
+    return "\n".join(lines)
+
+
+def check_design_summary(plan: Mapping[str, Any], csv_path: str | None) -> str:
+    seen = [w for w in plan["watched"] if w.get("detectable") is not None]
+    lines = [f"{len(plan['poses'])} check poses ({plan['measurement']} records) for version {plan['version']}"]
+    lines += [f"  sees {w['name']} change by {w['detectable']:.4g} {w['unit']} (95 %)" for w in seen[:8]]
+    lines.append(f"  poses written to {csv_path}" if csv_path else "  (--csv FILE writes the poses for the pendant)")
+    return "\n".join(lines)
+
+
+def history_table(events: Sequence[Mapping[str, Any]]) -> str:
+    if not events:
+        return "no calibrations or checks yet"
+    rows = [("at", "kind", "outcome", "version", "measured", "expected")]
+    rows += [
+        (
+            str(e["at"])[:19].replace("T", " "),
+            e["kind"],
+            e["outcome"],
+            "–" if e.get("version") is None else str(e["version"]),
+            _mm(e.get("rms_mm")),
+            _mm(e.get("predicted_mm")),
+        )
+        for e in events
+    ]
+    widths = [max(len(row[k]) for row in rows) for k in range(6)]
+    return "\n".join("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows)

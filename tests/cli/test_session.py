@@ -1,6 +1,8 @@
 """`iwr` against a live server, run as a user runs it (a subprocess, `python -m iwr_client`): the IWR created,
 10 poses designed to a CSV, examples/campaign.csv calibrated as a job with progress, its report written as HTML
-and PDF, the parameters exported and validated; exit codes 0, 1, 3 and 4; `--json` is the API's document."""
+and PDF, the parameters exported and validated, a quick check's poses designed and the robot checked as it is and
+after a known change, the history listed and exported; exit codes 0, 1, 3 and 4; `--json` is the API's
+document."""
 
 from __future__ import annotations
 
@@ -16,15 +18,20 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
+from harness.checks import changed
 from harness.live import ROOT, free_port, running_server
+from models import iwr as iwr_description
+from models.simulation import SimulatedRobot, measure, perturbed_robot
 
 # One live server for the module, then a few seconds of calibrations and a design.
 pytestmark = pytest.mark.slow
 
 CAMPAIGN = ROOT / "examples" / "campaign.csv"
 JOINTS = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
+IWR = iwr_description()
 
 
 def _environment() -> dict[str, str]:
@@ -200,3 +207,83 @@ def test_a_refused_request_exits_3_with_the_problems_detail(server: str, robot: 
 def test_an_unreachable_service_exits_4() -> None:
     run = iwr(f"http://127.0.0.1:{free_port()}", "robots", "list", "--json")
     assert run.returncode == 4 and "unreachable" in run.stderr and run.stdout == ""
+
+
+# -- the weekly check: poses, the check as it is and after a change, the history -----------------------------------
+
+TRUTH = perturbed_robot(IWR, seed=2009)  # the robot examples/campaign.csv was measured on (examples/make_campaign.py)
+LEG = IWR.parameters.index["leg3.offset"]
+TRACKER_HEADER = ["x", "y", "z", "qw", "qx", "qy", "qz"]
+
+
+def _tracker_file(path: Path, robot: SimulatedRobot, poses_csv: Path, joint_names: list[str], seed: int) -> Path:
+    """The tracker's records of `robot` at the poses of `poses_csv` (boundary units), as campaign.csv has them."""
+    rows = list(csv.DictReader(io.StringIO(poses_csv.read_text())))
+    joints = np.array([[float(row[name]) for name in joint_names] for row in rows]) / IWR.joint_to_boundary
+    measured = measure(robot, joints, seed=seed)
+    assert measured.quaternions is not None
+    with path.open("w", newline="") as out:
+        writer = csv.writer(out)
+        writer.writerow(joint_names + TRACKER_HEADER)
+        for q, p, o in zip(joints * IWR.joint_to_boundary, measured.positions, measured.quaternions, strict=True):
+            writer.writerow([*q, *p, *o])
+    return path
+
+
+@pytest.fixture(scope="module")
+def checks(
+    server: str,
+    robot: dict[str, Any],
+    calibration: tuple[Any, dict[str, Any]],
+    tmp_path_factory: pytest.TempPathFactory,
+) -> tuple[subprocess.CompletedProcess[str], subprocess.CompletedProcess[str]]:
+    """`iwr check-poses` to a CSV, then `iwr check` of the robot as it is and after leg 3's offset moved 0.1 mm."""
+    folder = tmp_path_factory.mktemp("checks")
+    poses = folder / "poses.csv"
+    plan = iwr(server, "check-poses", robot["id"], "--measurement", "pose", "--seed", "1", "--csv", str(poses))
+    assert plan.returncode == 0, plan.stderr
+    assert "8 check poses (pose records) for version 2" in plan.stdout and "leg3.offset" in plan.stdout
+    names = robot["joint_names"]
+    assert poses.read_text().splitlines()[0] == ",".join(names) and len(poses.read_text().splitlines()) == 9
+    as_is = _tracker_file(folder / "as-is.csv", TRUTH, poses, names, seed=71)
+    moved = _tracker_file(folder / "moved.csv", changed(TRUTH, LEG, 0.1), poses, names, seed=72)
+    fine = iwr(server, "check", robot["id"], str(as_is), "--noise-mm", "0.025")
+    after = iwr(server, "check", robot["id"], str(moved), "--noise-mm", "0.025", "--notes", "leg 3 replaced", "--json")
+    return fine, after
+
+
+def test_a_check_of_the_robot_as_it_is_exits_0_and_after_a_change_exits_1_naming_it(
+    server: str, robot: dict[str, Any], checks: tuple[Any, Any]
+) -> None:
+    fine, after = checks
+    assert fine.returncode == 0, fine.stderr
+    assert fine.stdout.startswith("check ") and ": fine (version 2, 8 records" in fine.stdout
+    assert "to do:" in fine.stdout
+    assert after.returncode == 1, after.stderr
+    document = json.loads(after.stdout)
+    assert document == api(server, f"/v1/checks/{document['id']}")
+    assert document["verdict"] == "changed" and document["notes"] == "leg 3 replaced"
+    # Leg 3's length: its offset, or one of its joints moved along the leg (its base's or its platform's z), which
+    # eight poses against a version from 40 barely tell apart.
+    assert document["explanation"]["name"] in {"leg3.offset", "leg3.a.z", "leg3.b.z"}
+    (change,) = document["explanation"]["parameters"]
+    assert abs(abs(change["change"]) - 0.1) < 0.03
+
+
+def test_the_history_lists_the_calibrations_and_checks_and_exports_the_apis_csv(
+    server: str, robot: dict[str, Any], checks: tuple[Any, Any], tmp_path: Path
+) -> None:
+    events = api(server, f"/v1/robots/{robot['id']}/history")
+    human = iwr(server, "history", robot["id"])
+    assert human.returncode == 0, human.stderr
+    lines = human.stdout.splitlines()
+    assert lines[0].split() == ["at", "kind", "outcome", "version", "measured", "expected"]
+    assert len(lines) == 1 + len(events) and [e["kind"] for e in events].count("check") == 2
+    assert lines[-1].split()[2:4] == ["check", "changed"]
+    machine = iwr(server, "history", robot["id"], "--json")
+    assert json.loads(machine.stdout) == events
+    out = tmp_path / "history.csv"
+    exported = iwr(server, "history", robot["id"], "--csv", "-o", str(out))
+    assert exported.returncode == 0, exported.stderr
+    with urllib.request.urlopen(f"{server}/v1/robots/{robot['id']}/history?format=csv", timeout=30) as answer:
+        assert out.read_bytes() == answer.read()

@@ -16,7 +16,16 @@ from typing import ClassVar
 import pytest
 
 from harness.live import ROOT, free_port
-from iwr_client import ApiError, CampaignFileError, Client, JobCancelled, JobFailed, Progress, ServiceUnreachable
+from iwr_client import (
+    ApiError,
+    CampaignFileError,
+    Client,
+    JobCancelled,
+    JobFailed,
+    Progress,
+    ServiceUnreachable,
+    summary,
+)
 from iwr_client.cli import UsageError, calibration_exit, describe, exit_code, main
 from iwr_client.progress import ProgressBar, format_eta, format_progress
 from iwr_client.records import records_from_csv
@@ -274,3 +283,39 @@ def test_the_client_runs_on_a_bare_python_and_an_unreachable_service_exits_4() -
     )
     assert run.returncode == 4, run.stderr
     assert f"{url} is unreachable" in run.stderr and run.stdout == ""
+
+
+def test_a_checks_summary_names_the_verdict_the_statistic_the_explanation_and_what_to_do() -> None:
+    check = {
+        "id": "c1",
+        "verdict": "changed",
+        "version": 2,
+        "measurements": 8,
+        "statistic": {"chi2": 93.2, "threshold": 66.2, "alpha": 0.01, "p_value": 1.2e-5},
+        "explanation": {
+            "name": "leg3.offset",
+            "parameters": [{"name": "leg3.offset", "change": -0.1012, "std_error": 0.011, "unit": "mm"}],
+        },
+        "recommendation": {"message": "re-fit leg3.offset from 12 designed poses"},
+        "warnings": [{"message": "40.0 °C is 5.0 °C above the calibrated 20-35 °C"}],
+    }
+    lines = summary.check_summary(check).splitlines()
+    assert lines[0] == "check c1: changed (version 2, 8 records; chi2 93.2 against 66.2 at alpha 0.01, p = 1.2e-05)"
+    assert lines[1] == "  explained by leg3.offset: leg3.offset -0.1012 ± 0.0110 mm"
+    assert lines[2] == "  to do: re-fit leg3.offset from 12 designed poses"
+    assert lines[3] == "  warning: 40.0 °C is 5.0 °C above the calibrated 20-35 °C"
+
+
+def test_the_history_table_has_a_row_per_event_and_dashes_for_what_was_not_measured() -> None:
+    events = [
+        {"at": "2026-12-01T08:00:00Z", "kind": "calibration", "outcome": "succeeded, applied", "version": 2,
+         "rms_mm": 0.0213, "predicted_mm": 0.0151},
+        {"at": "2026-12-05T08:00:00Z", "kind": "check", "outcome": "fine", "version": 2, "rms_mm": None,
+         "predicted_mm": 0.03},
+    ]  # fmt: skip
+    lines = summary.history_table(events).splitlines()
+    assert lines[0].split() == ["at", "kind", "outcome", "version", "measured", "expected"]
+    assert lines[1].split() == ["2026-12-01", "08:00:00", "calibration", "succeeded,", "applied", "2", "0.0213", "mm",
+                                "0.0151", "mm"]  # fmt: skip
+    assert lines[2].split() == ["2026-12-05", "08:00:00", "check", "fine", "2", "–", "0.0300", "mm"]
+    assert summary.history_table([]) == "no calibrations or checks yet"
