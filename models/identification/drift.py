@@ -33,9 +33,11 @@ from models._types import Array
 from models.campaign import Campaign
 from models.errors import InvalidInput
 from models.identifiability import scaled_jacobian
+from models.identification.accuracy import predicted_accuracy
 from models.identification.options import IdentificationOptions
 from models.identification.pipeline import identify
 from models.identification.result import IdentificationResult
+from models.identification.statistics import correlated_pairs, covariance_of
 from models.kinematics import forward_kinematics
 from models.noise import NoiseModel
 from models.robot import RobotDescription
@@ -224,6 +226,17 @@ def identify_with_drift(
         return _drift_step(desc, corrected, result, basis=basis, noise=noise, rt=rt)
 
     result, coefficients, cov, rounds = _rounds(fit, step_of, drift.degree)
+    if result.succeeded and result.dof > 0 and np.isfinite(result.variance_factor):
+        result, ratio = _with_drift_unknowns(
+            desc,
+            _corrected(campaign, basis @ coefficients.T),
+            result,
+            basis=basis,
+            noise=noise,
+            options=options or IdentificationOptions(),
+            rt=rt,
+        )
+        cov = cov * ratio
     ref = timeline.reference
     estimate = DriftEstimate(
         driver=drift.driver,
@@ -326,7 +339,7 @@ def _scatter(points: Array) -> float:
     return float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
 
 
-def _drift_step(
+def _weighted_system(
     desc: RobotDescription,
     campaign: Campaign,
     result: IdentificationResult,
@@ -334,9 +347,10 @@ def _drift_step(
     basis: Array,
     noise: NoiseModel,
     rt: Runtime,
-) -> tuple[Array, Array]:
-    """The drift coefficients' least-squares step from `result`'s residuals with the estimated parameters'
-    Jacobian projected out, and their marginal covariance (scaled by the fit's variance factor), mm / mm²."""
+) -> tuple[Array, Array, Array]:
+    """At `result`'s solution, over the records its fit kept, every row in σ: the estimated parameters' Jacobian
+    J (columns in tolerance units, as the fit's), the drift's T (coefficients in mm, position rows only) and the
+    position residuals r (measured − model; zero on orientation rows)."""
     # Only the records the fit kept (an excluded blunder would pull the drift as it would the parameters).
     excluded = {o.pose for o in result.outliers if o.excluded}
     keep = np.array([i for i in range(campaign.size) if i not in excluded])
@@ -359,7 +373,22 @@ def _drift_step(
         design[:, a, a * degree : (a + 1) * degree] = basis[keep] / sigma[:, None]
     target = np.zeros((sub.size, rows))
     target[:, :3] = residual / sigma[:, None]
-    j, t, r = jac.reshape(sub.size * rows, -1), design.reshape(sub.size * rows, -1), target.reshape(-1)
+    return jac.reshape(sub.size * rows, -1), design.reshape(sub.size * rows, -1), target.reshape(-1)
+
+
+def _drift_step(
+    desc: RobotDescription,
+    campaign: Campaign,
+    result: IdentificationResult,
+    *,
+    basis: Array,
+    noise: NoiseModel,
+    rt: Runtime,
+) -> tuple[Array, Array]:
+    """The drift coefficients' least-squares step from `result`'s residuals with the estimated parameters'
+    Jacobian projected out, and their marginal covariance (scaled by the fit's variance factor), mm / mm²."""
+    j, t, r = _weighted_system(desc, campaign, result, basis=basis, noise=noise, rt=rt)
+    degree = basis.shape[1]
     q, _ = np.linalg.qr(j)
     t_perp = t - q @ (q.T @ t)
     normal = t_perp.T @ t_perp
@@ -376,4 +405,49 @@ def _drift_step(
     # (the orientation residuals, which this Jacobian's rows express in another frame, are never needed).
     step = np.linalg.solve(normal, t.T @ r)
     factor = result.variance_factor if np.isfinite(result.variance_factor) else 1.0
-    return step.reshape(3, degree), factor * np.linalg.inv(normal)
+    cov = np.asarray(factor * np.linalg.inv(normal), dtype=np.float64)
+    return np.asarray(step.reshape(3, degree), dtype=float), cov
+
+
+def _with_drift_unknowns(
+    desc: RobotDescription,
+    campaign: Campaign,
+    result: IdentificationResult,
+    *,
+    basis: Array,
+    noise: NoiseModel,
+    options: IdentificationOptions,
+    rt: Runtime,
+) -> tuple[IdentificationResult, float]:
+    """`result` (the last fit, of the records with the drift removed) with its statistics those of the joint
+    problem, robot and drift together: the parameters' covariance the marginal (Jᵀ P⊥ J)⁻¹, P⊥ projecting out the
+    drift's columns (the drift's uncertainty widens the parameters'), and the variance factor over the data's
+    rows less both sets of unknowns. Then the σ, correlations and predicted accuracy that follow. Also the ratio
+    of the joint variance factor to the fit's, which the drift's own covariance takes."""
+    j, t, _ = _weighted_system(desc, campaign, result, basis=basis, noise=noise, rt=rt)
+    q, _ = np.linalg.qr(t)
+    j_perp = j - q @ (q.T @ j)
+    free = np.array(result.estimated)
+    table = desc.parameters
+    prior = None if options.prior is None else options.prior.rows(result.parameters, free, table.scales[free])
+    # The fit's sum of squares (its rows at its solution; drift removed, so the joint problem's too). With a prior
+    # its dof is rounded: the sum is then off by under half a row's share.
+    ssr = result.variance_factor * result.dof
+    joint = covariance_of(j_perp, ssr, None if prior is None else prior.jacobian, projected=t.shape[1])
+    scales = table.scales[free]
+    cov_theta = joint.z * np.outer(scales, scales)
+    std = np.full(len(table), np.nan)
+    std[free] = np.sqrt(np.diag(cov_theta))
+    accuracy = predicted_accuracy(desc, result.parameters, free, cov_theta, options.workspace_samples, runtime=rt)
+    widened = replace(
+        result,
+        std_errors=std,
+        covariance=cov_theta,
+        correlated_pairs=correlated_pairs(cov_theta, tuple(table.names[i] for i in free)),
+        variance_factor=joint.variance_factor,
+        dof=joint.dof,
+        noise_consistent=joint.noise_consistent,
+        variance_interval=joint.chi2_interval,
+        predicted_accuracy=accuracy,
+    )
+    return widened, joint.variance_factor / result.variance_factor

@@ -60,11 +60,16 @@ def covariance(jacobian: Array, residuals: Array, prior: Array | None = None) ->
     """From the data's rows alone, or with a prior's rows `prior` ((k, n), σ per tolerance, linear): then the
     covariance is (JᵀJ / s0² + PᵀP)⁻¹ and the variance factor's degrees of freedom are m − tr(JᵀJ (JᵀJ + PᵀP)⁻¹),
     the data's equations less the share of the unknowns the data, not the prior, determine."""
+    return covariance_of(jacobian, float(np.sum(residuals**2)), prior)
+
+
+def covariance_of(jacobian: Array, ssr: float, prior: Array | None = None, *, projected: int = 0) -> Covariance:
+    """`covariance` from the residuals' sum of squares `ssr`; `projected` more unknowns of the same fit whose
+    columns were projected out of `jacobian`'s rows (a campaign's drift): they take as many degrees of freedom."""
     if prior is not None and prior.shape[0]:
-        return _posterior(jacobian, residuals, prior)
+        return _posterior(jacobian, ssr, prior, projected)
     m, n = jacobian.shape
-    dof = m - n
-    ssr = float(np.sum(residuals**2))
+    dof = m - n - projected
     s02 = ssr / dof if dof > 0 else float("nan")
     # Through the SVD rather than (JᵀJ)⁻¹: the condition number is squared in the normal equations.
     _, s, vt = np.linalg.svd(jacobian, full_matrices=False)
@@ -79,16 +84,16 @@ def covariance(jacobian: Array, residuals: Array, prior: Array | None = None) ->
     )
 
 
-def _posterior(jacobian: Array, residuals: Array, prior: Array) -> Covariance:
+def _posterior(jacobian: Array, ssr: float, prior: Array, projected: int) -> Covariance:
     m, _ = jacobian.shape
     data = jacobian.T @ jacobian
     # Through the SVD of the stacked rows, as above: the prior rows make the stack full rank.
     _, s, vt = np.linalg.svd(np.vstack([jacobian, prior]), full_matrices=False)
     inv = (vt.T / s**2) @ vt
     effective = float(np.trace(data @ inv))
-    dof_real = m - effective
+    dof_real = m - effective - projected
     dof = max(round(dof_real), 0)
-    s02 = float(np.sum(residuals**2)) / dof_real if dof_real > 0 else float("nan")
+    s02 = ssr / dof_real if dof_real > 0 else float("nan")
     lo, hi = variance_factor_interval(dof) if dof > 0 else (np.nan, np.nan)
     if dof > 0 and np.isfinite(s02) and s02 > 0:
         _, s, vt = np.linalg.svd(np.vstack([jacobian / np.sqrt(s02), prior]), full_matrices=False)

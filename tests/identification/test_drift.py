@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from harness.drift import drift_campaign, tcp_error_mm
-from models import NoiseModel, RobotDescription, iwr, sample_workspace
+from models import NoiseModel, RobotDescription, forward_kinematics, iwr, sample_workspace
 from models.errors import InvalidInput
+from models.identifiability import scaled_jacobian
 from models.identification import identify
 from models.identification.drift import (
     DriftDriver,
@@ -162,3 +163,38 @@ def test_a_temperature_driven_drift_beside_the_robots_thermal_term() -> None:
     assert np.all(np.abs(fit.drift.total_mm - rate * span) < 3.5 * fit.drift.total_sigma_mm)
     kappa = desc.parameters.index["thermal.legs"]
     assert abs(fit.result.parameters[kappa] - 20e-6) <= 3 * fit.result.std_errors[kappa]
+
+
+def test_the_parameters_covariance_is_the_joint_problems_with_the_drift_unknowns(desc: RobotDescription) -> None:
+    """The robot's σ count the drift's coefficients as unknowns of the same least squares: the θ block of the
+    inverse normal matrix of the augmented rows [J T] (computed here as that block, not by projection), scaled by
+    the residuals over m − n − k degrees of freedom; every σ at least the drift-free fit's of the same records."""
+    sim = drift_campaign(desc, 3, noise=NOISE)
+    fit = identify_with_drift(desc, sim.drifted, sim.timeline, noise=NOISE)
+    result, drift = fit.result, fit.drift
+    assert result.succeeded and not any(o.excluded for o in result.outliers)
+    corrected = replace(sim.drifted, positions=sim.drifted.positions - drift.at(np.asarray(sim.timeline.times_s)))
+    alone = identify(desc, corrected, noise=NOISE)  # the same records, the drift taken as known
+    free = list(result.estimated)
+    assert list(alone.estimated) == free
+
+    fk = forward_kinematics(desc, corrected.joints, result.parameters, jacobian=True)
+    j = scaled_jacobian(fk.jacobians, desc.parameters, NOISE, kind=corrected.kind)[:, free]
+    rows = 3 if corrected.position_only else 6
+    k = 3 * drift.degree
+    t = np.zeros((corrected.size, rows, k))
+    for axis in range(3):
+        t[:, axis, axis * drift.degree : (axis + 1) * drift.degree] = drift.basis(np.asarray(sim.timeline.times_s))
+    augmented = np.hstack([j, t.reshape(corrected.size * rows, k) / NOISE.position_mm])
+    m, n = j.shape
+    block = np.linalg.inv(augmented.T @ augmented)[:n, :n]
+    dof = m - n - k
+    s02 = alone.variance_factor * alone.dof / dof  # the same residuals, fewer degrees of freedom
+    scales = desc.parameters.scales[free]
+    expected = s02 * block * np.outer(scales, scales)
+
+    assert result.dof == dof == alone.dof - k
+    np.testing.assert_allclose(result.covariance, expected, rtol=1e-5, atol=1e-14)
+    widening = result.std_errors[free] / alone.std_errors[free]
+    assert np.all(widening >= 1 - 1e-9) and widening.max() > 1.02, widening
+    assert result.predicted_accuracy.rms_position_mm > alone.predicted_accuracy.rms_position_mm
