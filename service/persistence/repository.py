@@ -11,7 +11,15 @@ from sqlalchemy import func, select
 from models.urdf import UrdfSource
 from service.errors import NotFound
 from service.persistence.store import Store
-from service.persistence.tables import CalibrationRecord, CampaignRecord, Job, ParameterVersion, PoseDesignRecord, Robot
+from service.persistence.tables import (
+    CalibrationRecord,
+    CampaignRecord,
+    Job,
+    ParameterVersion,
+    PoseDesignRecord,
+    Robot,
+    fleet_key_of,
+)
 
 
 def new_id() -> str:
@@ -32,7 +40,16 @@ class Repository(Store):
         urdf: UrdfSource | None = None,
     ) -> Robot:
         robot = self._insert(
-            Robot(id=new_id(), name=name, model=model, base=base, tool=tool, current_version=1, structure=structure)
+            Robot(
+                id=new_id(),
+                name=name,
+                model=model,
+                base=base,
+                tool=tool,
+                current_version=1,
+                structure=structure,
+                fleet_key=fleet_key_of(structure),
+            )
         )
         if urdf is not None:
             robot.urdf, robot.base_link, robot.tip_link = urdf.urdf, urdf.base_link, urdf.tip_link
@@ -60,14 +77,16 @@ class Repository(Store):
     def robots(self, limit: int, offset: int) -> list[Robot]:
         return list(self.s.scalars(select(Robot).order_by(Robot.created_at, Robot.id).limit(limit).offset(offset)))
 
-    def current_versions(self) -> list[tuple[Robot, ParameterVersion]]:
-        """Every robot with its current parameter version, oldest robot first, in one query (a fleet's read)."""
+    def current_versions(self, fleet_key: str) -> list[tuple[Robot, ParameterVersion]]:
+        """The robots of one fleet (`Robot.fleet_key`) with their current parameter versions, oldest robot first,
+        in one indexed query."""
         query = (
             select(Robot, ParameterVersion)
             .join(
                 ParameterVersion,
                 (ParameterVersion.robot_id == Robot.id) & (ParameterVersion.version == Robot.current_version),
             )
+            .where(Robot.fleet_key == fleet_key)
             .order_by(Robot.created_at, Robot.id)
         )
         return [(row[0], row[1]) for row in self.s.execute(query)]

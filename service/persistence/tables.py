@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+import json
 from datetime import UTC, datetime
 from typing import Any, ClassVar
 
@@ -18,6 +20,14 @@ from sqlalchemy import (
     UniqueConstraint,
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+
+
+def fleet_key_of(structure: dict[str, Any] | None) -> str:
+    """A digest of a structure document without its base and tool guesses (the IWR's, `None`: of "iwr"): robots
+    with the same key are one model, a fleet. Migration 0008 holds a frozen copy of this for the rows it fills."""
+    document: object = "iwr" if structure is None else {k: v for k, v in structure.items() if k not in ("base", "tool")}
+    canonical = json.dumps(document, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(canonical.encode()).hexdigest()[:16]
 
 
 def now() -> datetime:
@@ -60,6 +70,9 @@ class Robot(Base):
     is this document with only the chain's joint origins changed. None for a robot of another origin."""
     base_link: Mapped[str | None] = mapped_column(String(200), nullable=True)
     tip_link: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    fleet_key: Mapped[str | None] = mapped_column(String(16), nullable=True, index=True)
+    """The robot's fleet, `fleet_key_of(structure)`: stored so that a fleet is read by one indexed query, not by
+    digesting every robot's document (migration 0008 filled it for the robots before it)."""
 
 
 class ParameterVersion(Base):

@@ -4,8 +4,6 @@ without a prior (a unit calibrated with the fleet's prior would vote twice for t
 
 from __future__ import annotations
 
-import hashlib
-import json
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +19,7 @@ from service.conversions.fleets import comparison_rows_out, population_out
 from service.conversions.robots import description, pose6
 from service.errors import NotFound
 from service.persistence import Database, Repository
-from service.persistence.tables import ParameterVersion, Robot
+from service.persistence.tables import ParameterVersion, Robot, fleet_key_of
 from service.schemas.fleets import (
     FleetComparisonPublic,
     FleetPublic,
@@ -30,12 +28,8 @@ from service.schemas.fleets import (
 
 
 def fleet_key(robot: Robot) -> str:
-    """A digest of the robot's structure document without its base and tool guesses (the IWR's: "iwr")."""
-    document: object = (
-        "iwr" if robot.structure is None else {k: v for k, v in robot.structure.items() if k not in ("base", "tool")}
-    )
-    canonical = json.dumps(document, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(canonical.encode()).hexdigest()[:16]
+    """The robot's fleet: a digest of its structure document without its base and tool guesses (stored)."""
+    return robot.fleet_key or fleet_key_of(robot.structure)
 
 
 @dataclass(frozen=True)
@@ -68,7 +62,7 @@ def read_fleet(s: Session, robot: Robot) -> Fleet:
     """The fleet of `robot`, inside the caller's transaction (two queries, whatever the fleet's size)."""
     repo = Repository(s)
     key = fleet_key(robot)
-    rows = [(other, version) for other, version in repo.current_versions() if fleet_key(other) == key]
+    rows = repo.current_versions(key)
     with_prior = repo.calibrations_with_prior(
         [v.calibration_id for _, v in rows if v.provenance == "calibration" and v.calibration_id is not None]
     )
@@ -103,10 +97,10 @@ def get_fleet(*, db: Database, robot_id: str) -> FleetPublic:
 
 def get_fleet_by_key(*, db: Database, key: str) -> FleetPublic:
     with db.reader() as s:
-        for robot, _ in Repository(s).current_versions():
-            if fleet_key(robot) == key:
-                return fleet_out(read_fleet(s, robot))
-        raise NotFound(f"no robot belongs to fleet {key!r}", resource="fleet")
+        members = Repository(s).current_versions(key)
+        if not members:
+            raise NotFound(f"no robot belongs to fleet {key!r}", resource="fleet")
+        return fleet_out(read_fleet(s, members[0][0]))
 
 
 def fleet_out(fleet: Fleet) -> FleetPublic:
