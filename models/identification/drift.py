@@ -450,4 +450,5 @@ def _with_drift_unknowns(
         variance_interval=joint.chi2_interval,
         predicted_accuracy=accuracy,
     )
-    return widened, joint.variance_factor / result.variance_factor
+    ratio = joint.variance_factor / result.variance_factor if result.variance_factor > 0 else 1.0
+    return widened, ratio
