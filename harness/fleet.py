@@ -65,9 +65,6 @@ class Fleet:
             "IWR_BROKER_URL": self.broker_url,
             "IWR_JOB_QUEUE": self.queue,
             "IWR_LOG_LEVEL": "INFO",
-            # One compute process per API, not one per core: these tests are about the job engine, and each
-            # spawned process costs seconds of CPU to import and warm on a machine the other tests share.
-            "IWR_COMPUTE_PROCESSES": "1",
             "PYTHONPATH": str(ROOT),
             **self.extra,
         }

@@ -300,15 +300,18 @@ class Client:
         """Each version (default: the current one) against records it was not fitted to: errors, percentiles and
         ISO 9283 characteristics. A file is read here (a validation takes JSON), its joint columns named as the
         robot's joints (GET of the robot first)."""
-        if isinstance(records, str | Path):
-            joint_names = self.robot(robot_id)["joint_names"]
-            records = records_from_csv(Path(records).read_text(), joint_names)
-        body: Json = {"measurements": list(records)}
+        body: Json = {"measurements": self._records(robot_id, records)}
         if versions is not None:
             body["versions"] = list(versions)
         if register:
             body["register"] = True
         return dict(self._post(f"/v1/robots/{_segment(robot_id)}/validations", body))
+
+    def _records(self, robot_id: str, records: Campaign) -> list[Any]:
+        """Records as JSON: a file read here, its joint columns named as the robot's joints (GET of the robot)."""
+        if isinstance(records, str | Path):
+            return records_from_csv(Path(records).read_text(), self.robot(robot_id)["joint_names"])
+        return list(records)
 
     # -- quick checks and the history ---------------------------------------------------------------------------
 
@@ -331,10 +334,7 @@ class Client:
     ) -> Json:
         """A quick check of the current version: the verdict (fine, drifted, changed), what best explains a
         change, and what to do. A file is read here, as for `validate` (a check takes JSON)."""
-        if isinstance(records, str | Path):
-            joint_names = self.robot(robot_id)["joint_names"]
-            records = records_from_csv(Path(records).read_text(), joint_names)
-        body: Json = {"measurements": list(records)}
+        body: Json = {"measurements": self._records(robot_id, records)}
         if noise_mm is not None:
             body["noise"] = {"position_mm": noise_mm}
         if alpha is not None:

@@ -16,8 +16,13 @@ def robots_table(robots: Sequence[Mapping[str, Any]]) -> str:
         return "no robots"
     rows = [("id", "name", "model", "version")]
     rows += [(r["id"], r["name"], r["model"], str(r["parameter_version"])) for r in robots]
-    widths = [max(len(row[k]) for row in rows) for k in range(3)]
-    return "\n".join(f"{a:<{widths[0]}}  {b:<{widths[1]}}  {c:<{widths[2]}}  {d}" for a, b, c, d in rows)
+    return _table(rows)
+
+
+def _table(rows: Sequence[Sequence[str]]) -> str:
+    """Rows of cells in columns two spaces apart, each as wide as its widest cell (the header is the first row)."""
+    widths = [max(len(row[k]) for row in rows) for k in range(len(rows[0]))]
+    return "\n".join("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows)
 
 
 def robot_summary(robot: Mapping[str, Any]) -> str:
@@ -123,5 +128,4 @@ def history_table(events: Sequence[Mapping[str, Any]]) -> str:
         )
         for e in events
     ]
-    widths = [max(len(row[k]) for row in rows) for k in range(6)]
-    return "\n".join("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows)
+    return _table(rows)

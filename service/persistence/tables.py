@@ -70,7 +70,7 @@ class Robot(Base):
     is this document with only the chain's joint origins changed. None for a robot of another origin."""
     base_link: Mapped[str | None] = mapped_column(String(200), nullable=True)
     tip_link: Mapped[str | None] = mapped_column(String(200), nullable=True)
-    fleet_key: Mapped[str | None] = mapped_column(String(16), nullable=True, index=True)
+    fleet_key: Mapped[str] = mapped_column(String(16), index=True)
     """The robot's fleet, `fleet_key_of(structure)`: stored so that a fleet is read by one indexed query, not by
     digesting every robot's document (migration 0008 filled it for the robots before it)."""
 

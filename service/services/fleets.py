@@ -19,17 +19,12 @@ from service.conversions.fleets import comparison_rows_out, population_out
 from service.conversions.robots import description, pose6
 from service.errors import NotFound
 from service.persistence import Database, Repository
-from service.persistence.tables import ParameterVersion, Robot, fleet_key_of
+from service.persistence.tables import ParameterVersion, Robot
 from service.schemas.fleets import (
     FleetComparisonPublic,
     FleetPublic,
     FleetUnitPublic,
 )
-
-
-def fleet_key(robot: Robot) -> str:
-    """The robot's fleet: a digest of its structure document without its base and tool guesses (stored)."""
-    return robot.fleet_key or fleet_key_of(robot.structure)
 
 
 @dataclass(frozen=True)
@@ -61,7 +56,7 @@ class Fleet:
 def read_fleet(s: Session, robot: Robot) -> Fleet:
     """The fleet of `robot`, inside the caller's transaction (two queries, whatever the fleet's size)."""
     repo = Repository(s)
-    key = fleet_key(robot)
+    key = robot.fleet_key
     rows = repo.current_versions(key)
     with_prior = repo.calibrations_with_prior(
         [v.calibration_id for _, v in rows if v.provenance == "calibration" and v.calibration_id is not None]

@@ -38,6 +38,8 @@ def upgrade() -> None:
     bind = op.get_bind()
     for robot_id, structure in bind.execute(sa.select(robots.c.id, robots.c.structure)).all():
         bind.execute(robots.update().where(robots.c.id == robot_id).values(fleet_key=_key(structure)))
+    with op.batch_alter_table("robots") as batch:  # every robot has one now, and every new one gets one
+        batch.alter_column("fleet_key", existing_type=sa.String(16), nullable=False)
 
 
 def downgrade() -> None:
