@@ -107,6 +107,11 @@ class ProgramResponse(Public):
     files: dict[str, str] = Field(description="The companion files that hold corrected targets, rewritten")
     targets: list[CompensatedTarget]
     base: str = Field(default=BASE_CONVENTION, description="How the robot-base frame is defined")
+    controller_frame: str | None = Field(
+        default=None,
+        description="The controller's base frame the targets are read in, by name: the first frame of a DH/MDH "
+        "table, an imported URDF's root (or its ROS-Industrial `base` link), UR's Base for a UR kinematics file",
+    )
     pendant: PendantCheckPublic | None = Field(
         default=None, description="How the nominal model reproduced the pendant readings, when given"
     )

@@ -10,19 +10,21 @@ from numpy.typing import ArrayLike
 
 from models import Registry, RobotDescription
 from models._types import Array
+from models.compensation.controller import ZERO, ControllerFrame, urdf_controller_frame
 from models.compensation.pendant import check_pendant
 from models.compensation.poses import compensate_poses
 from models.errors import InvalidInput
 from models.inverse import default_seed
 from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
+from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
 from programs import DIALECTS, PROGRAM, Program, ProgramError, Target, dialect, dialect_of_file, read_program, rewritten
 from programs.collection import collector_paused
 from programs.configuration import kept
 from programs.configuration import seed as configuration_seed
 from service.conversions.drift import condition_warnings
 from service.conversions.kinematics import joints_in
-from service.conversions.robots import description
+from service.conversions.robots import description, urdf_source
 from service.conversions.terms import stored_model
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
@@ -52,9 +54,13 @@ def compensate_program(
     nominal: ArrayLike | None = None,
     seed: Array | None = None,
     runtime: Runtime | None = None,
+    controller: ControllerFrame = ZERO,
 ) -> CompensatedProgram:
     """Every target of `program` corrected so that the calibrated robot's TCP lands where the nominal one's would
-    (`nominal`: default the description's nominal parameters); the ones that cannot be keep their text."""
+    (`nominal`: default the description's nominal parameters); the ones that cannot be keep their text.
+
+    The program's frames start at the controller's base frame (`controller`: {0} <- it, the nominal
+    geometry's), which for an imported robot is not the model's {0} (`models.compensation.controller`)."""
     # Objects per target (outcomes, arrays, rewritten numbers): without the cycle collector's passes over
     # them, as in reading (`programs.collection`).
     with collector_paused():
@@ -62,7 +68,7 @@ def compensate_program(
         outcomes = {id(t): TargetOutcome(t, None, t.kept) for t in program.targets}
         if active:
             start = default_seed(desc) if seed is None else seed
-            bases = np.array([t.frames.base for t in active])
+            bases = controller.zero_from_controller @ np.array([t.frames.base for t in active])
             result = compensate_poses(
                 desc,
                 calibrated,
@@ -120,10 +126,11 @@ def compensate(
     *, db: Database, models: ModelCache, registry: Registry, robot_id: str, body: ProgramRequest
 ) -> ProgramResponse:
     desc, theta, version = _model(db, models, robot_id, body.version)
-    pendant = _pendant(desc, body, registry.runtime(desc)) if body.pendant else None
+    frame = controller_frame(db, robot_id)
+    pendant = _pendant(desc, body, registry.runtime(desc), frame) if body.pendant else None
     program = read_program(body.format, body.program, body.files)
     seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
-    done = compensate_program(desc, theta, program, seed=seed, runtime=registry.runtime(desc))
+    done = compensate_program(desc, theta, program, seed=seed, runtime=registry.runtime(desc), controller=frame)
     changed = {o.target.file for o in done.outcomes if o.pose is not None}
     return ProgramResponse(
         format=body.format,
@@ -133,6 +140,19 @@ def compensate(
         targets=[_target_out(o) for o in done.outcomes],
         pendant=pendant,
         warnings=_warnings(db, models, robot_id, version, body),
+        controller_frame=frame.name,
+    )
+
+
+def controller_frame(db: Database, robot_id: str) -> ControllerFrame:
+    """The frame the robot's controller gives its targets in: {0} for a DH/MDH document or the IWR; for an
+    imported URDF (or UR file) its root or ROS-Industrial's `base` (`models.compensation.controller`)."""
+    with db.reader() as s:
+        source = urdf_source(Repository(s).robot(robot_id))
+    if source is None:
+        return ZERO
+    return urdf_controller_frame(
+        source.urdf, source.base_link, source.tip_link, ur_file=source.base_link == UR_BASE_LINK
     )
 
 
@@ -155,14 +175,19 @@ def _warnings(
     )
 
 
-def _pendant(desc: RobotDescription, body: ProgramRequest, runtime: Runtime) -> PendantCheckPublic:
+def _pendant(
+    desc: RobotDescription, body: ProgramRequest, runtime: Runtime, frame: ControllerFrame
+) -> PendantCheckPublic:
     """The pendant readings against the nominal model (what the controller runs): a 422 naming what differs,
-    before anything is compensated."""
+    before anything is compensated. A pendant displays poses in the controller's frame: taken into {0}."""
     readings = body.pendant
     joints = joints_in(desc, [r.joints for r in readings])
-    positions = np.array([r.position for r in readings], dtype=float)
+    into = frame.zero_from_controller
+    positions = np.array([r.position for r in readings], dtype=float) @ into[:3, :3].T + into[:3, 3]
     with_orientation = all(r.orientation is not None for r in readings)
-    rotations = quaternion_to_matrix(np.array([r.orientation for r in readings])) if with_orientation else None
+    rotations = (
+        into[:3, :3] @ quaternion_to_matrix(np.array([r.orientation for r in readings])) if with_orientation else None
+    )
     found = check_pendant(
         desc,
         desc.parameters.nominal,

@@ -19,6 +19,8 @@ from models import Registry, forward_kinematics
 from models.examples import ur5_like_document
 from models.transforms import matrix_to_quaternion
 from programs import read_program
+from programs.frames import matrix_quaternion
+from tests.programs.robots import UR10E_BOX, UR10E_KINEMATICS, ur_file_fk
 from tests.programs.samples import KRL_CONFIG, KRL_DAT, KRL_SRC
 from tests.service.conftest import make_client
 
@@ -199,3 +201,40 @@ def test_pendant_readings_the_nominal_model_does_not_reproduce_stop_the_compensa
     refused = _post(client, ur5, format="urscript", program=program, seed=list(HOME_DEG), pendant=readings)
     assert refused.status_code == 422 and refused.json()["field"] == "pendant", refused.text
     assert "tool is not the model's" in refused.json()["detail"]
+
+
+def test_a_ur_file_robot_reads_targets_and_pendant_in_ur_base(client: TestClient) -> None:
+    """A UR10e imported from its kinematics file: the pendant's readings and the program's targets are in UR's
+    Base (the file's origin, 180.7 mm below the model's {0}); the answer names that frame. Version 1 is the
+    nominal, so every target is reached and keeps its value."""
+    made = client.post(
+        "/v1/robots", json={"name": "ur10e", "import": {"format": "ur-calibration", "document": UR10E_KINEMATICS}}
+    )
+    assert made.status_code == 201, made.text
+    robot_id = made.json()["id"]
+    fk = ur_file_fk(UR10E_KINEMATICS)
+    box = np.radians(np.array(UR10E_BOX, dtype=float))
+    q = np.random.default_rng(4).uniform(box[:, 0], box[:, 1], size=(6, 6))
+    poses = [fk(qk) for qk in q]
+    pendant = [
+        {
+            "joints": np.degrees(qk).tolist(),
+            "position": p[:3, 3].tolist(),
+            "orientation": matrix_quaternion(p[:3, :3]).tolist(),
+        }
+        for qk, p in zip(q[:3], poses[:3], strict=True)
+    ]
+    answer = _post(
+        client,
+        robot_id,
+        format="csv",
+        program=csv_table(poses),
+        seed=np.degrees(box.mean(axis=1)).tolist(),
+        pendant=pendant,
+    )
+    assert answer.status_code == 200, answer.text
+    out = answer.json()
+    assert "UR's Base" in out["controller_frame"]
+    assert out["pendant"]["max_position_mm"] < 1e-6
+    assert all(t["reached"] for t in out["targets"]), out["targets"]
+    assert max(abs(c) for t in out["targets"] for c in t["correction_mm"]) < 1e-6
