@@ -49,6 +49,13 @@ RELATIVE = frozenset({"ptp_rel", "lin_rel", "circ_rel", "sptp_rel", "slin_rel", 
 POSE_MEMBERS = ("x", "y", "z", "a", "b", "c")
 JOINT_MEMBERS = frozenset({f"a{k}" for k in range(1, 7)})
 FRAME_TABLES = {"base_data": "base", "tool_data": "tool"}
+SYSTEM_FILES = frozenset({"$config.dat", "$machine.dat", "$robcor.dat", "$option.dat", "$custom.dat"})
+"""The controller's own data lists (KRC/R1/System, KRC/Steu/Mada): read for what they declare (TOOL_DATA,
+BASE_DATA, FRAME variables a program names as a base or tool), never for targets: their FRAME and POS values
+are reference points, corrections and machine data, and compensating them would move every program's frames."""
+SOURCE_SUFFIXES = (".src", ".sub")
+"""Companion files whose motions count as uses (the .src of a .dat sent as the program, the other .src of a
+KRC/R1 folder): motions live in sources, data lists only declare."""
 MIN_DECIMALS = (3, 3, 3, 4, 4, 4)
 """mm to 1 µm and degrees to 1e-4° (2 µm at a metre): the correction survives its printing."""
 
@@ -361,13 +368,26 @@ class Walk:
     inline: list[tuple[str | None, Aggregate, Frames, str | None]] = field(default_factory=list)
     frame_names: set[str] = field(default_factory=set)
     """Variables used as a base or a tool: frames, not targets."""
+    motions: int = 0
+
+
+def system_file(name: str | None) -> bool:
+    return name is not None and name.replace("\\", "/").rsplit("/", 1)[-1].lower() in SYSTEM_FILES
 
 
 def _walk(sym: Symbols, statements: list[tuple[str | None, Statement]], program: str | None) -> Walk:
-    state, walk, kept = State(), Walk(), None
+    """The motions of the program and of the sources among its files (each source from its start: the frames
+    are followed in each file's own order)."""
+    walk = Walk()
+    sources = [program, *sorted({f for f, _ in statements if f is not None and f.lower().endswith(SOURCE_SUFFIXES)})]
+    for source in sources:
+        _walk_file(sym, [(f, st) for f, st in statements if f == source], walk)
+    return walk
+
+
+def _walk_file(sym: Symbols, statements: list[tuple[str | None, Statement]], walk: Walk) -> None:
+    state, kept = State(), None
     for file, st in statements:
-        if file != program:
-            continue
         if st.kind == "assign":
             ref, value = st.items[0]
             name = ref.name.text.lower()
@@ -391,7 +411,7 @@ def _walk(sym: Symbols, statements: list[tuple[str | None, Statement]], program:
                 elif isinstance(operand, Ref):
                     key = (operand.name.text.lower(), operand.index)
                     walk.uses.setdefault(key, []).append((frames, st.first.line, why))
-    return walk
+            walk.motions += 1
 
 
 def _frames_of(walk: Walk, key: tuple[str, str | None]) -> tuple[Frames, str | None]:
@@ -407,6 +427,15 @@ def _frames_of(walk: Walk, key: tuple[str, str | None]) -> tuple[Frames, str | N
         if not (same_tool and np.allclose(frames.base, first.base)):
             return first, f"used with different bases or tools (lines {uses[0][1]} and {line})"
     return first, next((why for _, _, why in uses if why), None)
+
+
+DATA = "data, left alone: no motion of the program goes to it"
+SYSTEM_DATA = "data, left alone: the controller's system data, read for what it declares (TOOL_DATA, BASE_DATA)"
+"""A Cartesian value no PTP/LIN/CIRC/SPLINE names (a measured point, a computed base, arithmetic): kept."""
+
+
+def _used(walk: Walk, key: tuple[str, str | None]) -> bool:
+    return key in walk.uses or (key[1] is not None and (key[0], "*") in walk.uses)
 
 
 def _target(file: str | None, name: str | None, agg: Aggregate, frames: Frames, why: str | None) -> Target:
@@ -442,6 +471,12 @@ def read(program: str, files: Mapping[str, str]) -> Program:
         if name in walk.frame_names or not _is_cartesian(sym, name, assigned.aggregate):
             continue
         frames, why = _frames_of(walk, assigned.key)
+        if system_file(assigned.file):
+            why = SYSTEM_DATA
+        elif walk.motions and not _used(walk, assigned.key):
+            why = DATA
+        elif not walk.motions and sym.types.get(name) == "frame":
+            why = DATA  # a data list alone: its POS/E6POS are taught points, its FRAMEs are bases and tools
         targets.append(_target(assigned.file, assigned.name, assigned.aggregate, frames, why))
     for file, agg, frames, why in walk.inline:
         if _is_cartesian(sym, "", agg):

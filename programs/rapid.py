@@ -49,6 +49,10 @@ MOTIONS = {
     for name in names
 }
 """Each motion's number of robtarget arguments; its tool is the positional argument two after them."""
+SYSTEM_SUFFIX = ".sys"
+"""System modules (user.sys, base.sys, a cell's tool and wobj declarations) are read for what they declare."""
+DATA = "data, left alone: no motion of the program goes to it"
+SYSTEM_DATA = "data, left alone: a system module (.sys), read for what it declares (tooldata, wobjdata)"
 MIN_DECIMALS = (3, 3, 3, 6, 6, 6, 6)
 """mm to 1 µm, quaternions to 1e-6 (2e-6 rad): the correction survives its printing."""
 
@@ -182,6 +186,9 @@ class Symbols:
     arrays: set[str] = field(default_factory=set)
     uses: dict[tuple[str, str | None], list[tuple[Frames, str | None, int]]] = field(default_factory=dict)
     inline: list[tuple[str | None, Robtarget, Frames, str | None]] = field(default_factory=list)
+    relative: dict[tuple[str, str | None], tuple[str, int]] = field(default_factory=dict)
+    """Robtargets a motion reaches only through a function of them (Offs, RelTool): the function, its line."""
+    motions: int = 0
 
 
 def _start(run: list[Token]) -> int:
@@ -300,7 +307,13 @@ def _motion(run: list[Token], sym: Symbols, file: str | None) -> None:
             ref.next()
             key = (arg[0].text.lower(), _index(ref))
             sym.uses.setdefault(key, []).append((frames, why, arg[0].line))
-        # Offs(p10, ...), RelTool(...): a function of a target, computed by the controller at run time
+        elif arg[0].kind == "name" and len(arg) > 3 and arg[1].is_("op", "(") and arg[2].kind == "name":
+            # Offs(p10, ...), RelTool(...): a function of a target, computed by the controller at run time
+            inner = Cursor(arg[2:], file, "the robtarget")
+            inner.next()
+            key = (arg[2].text.lower(), _index(inner))
+            sym.relative.setdefault(key, (arg[0].text, arg[0].line))
+    sym.motions += 1
 
 
 def _statement(run: list[Token], sym: Symbols, file: str | None, declarations: bool) -> None:
@@ -377,6 +390,17 @@ def read(program: str, files: Mapping[str, str]) -> Program:
     targets = []
     for file, written_name, key, rt in sym.robtargets:
         frames, why = _frames_of(sym, key)
+        used = key in sym.uses or (key[1] is not None and (key[0], "*") in sym.uses)
+        if file is not None and file.lower().endswith(SYSTEM_SUFFIX):
+            why = SYSTEM_DATA  # read for its tooldata and wobjdata, never for targets
+        elif not used and key in sym.relative:
+            function, line = sym.relative[key]
+            why = (
+                f"data, left alone: reached only through {function}(...) (line {line}), an offset the controller "
+                "computes from it at run time"
+            )
+        elif not used and sym.motions:
+            why = DATA
         targets.append(_target(file, written_name, rt, frames, why))
     targets += [_target(file, None, rt, frames, why) for file, rt, frames, why in sym.inline]
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))

@@ -19,6 +19,7 @@ import numpy as np
 from models._types import Array
 from models.transforms import rotvec_to_matrix_np
 from programs.aggregates import Number, Value, literal_or_expression, plain_number, signed_number
+from programs.errors import UndeclaredFrame
 from programs.frames import rotvec_matrix, rotvecs_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
 from programs.targets import PROGRAM, Frames, Program, Target, target_at, written
@@ -38,6 +39,7 @@ LEXER = Lexer(
 )
 MOTIONS = {"movel": (0,), "movej": (0,), "movep": (0,), "servoc": (0,), "movec": (0, 1)}
 """Each motion's pose arguments (0-based)."""
+DATA = "data, left alone: no motion of the program goes to it"
 METRE_DECIMALS = (6, 6, 6, 6, 6, 6)
 """1 µm and 1e-6 rad (1 µm at a metre): the correction survives its printing."""
 
@@ -213,7 +215,7 @@ def _motion_base(stack: list[Context]) -> tuple[bool, str | None]:
 class Reading:
     variables: dict[str, list[tuple[int, Pose]]] = field(default_factory=dict)
     targets: list[tuple[Pose, Frames, str | None]] = field(default_factory=list)
-    uses: dict[int, list[tuple[Frames, int]]] = field(default_factory=dict)
+    uses: dict[int, list[tuple[Frames, int, str | None]]] = field(default_factory=dict)
     """By the token index of a variable's literal: the frames of each motion naming it, and the line."""
 
     def latest(self, name: str, before: int) -> Pose | None:
@@ -238,26 +240,44 @@ def _read_events(events: list[Event], file: str | None) -> Reading:
             reading.variables.setdefault(e.assigned, []).append((e.at, e.pose))
     tool: Array | None = None
     tool_name: str | None = None
+    tool_unknown: str | None = None
+    """Why the active tool cannot be read (`set_tcp(computed)`): the motions after it keep their targets."""
     for e in events:
         in_tcp = bool(e.stack) and e.stack[-1].name == "set_tcp" and e.stack[-1].argument == 0
         motion, feature = _motion_base(e.stack)
         if in_tcp:
+            tool_unknown = None
             if e.pose is not None:
                 tool, tool_name = pose_matrix(e.pose), "set_tcp(p[...])"
             elif e.name is not None:
-                tool, tool_name = _frame(reading, e.name, e.at, file), e.name.text
+                tool_name = e.name.text
+                try:
+                    tool = _frame(reading, e.name, e.at, file)
+                except UndeclaredFrame:
+                    tool = None
+                    tool_unknown = (
+                        f"the tool set at line {e.name.line} (set_tcp({e.name.text})) is computed at run time: "
+                        "the target's TCP is not known from the text"
+                    )
             continue
         if not motion:
             continue
         base = np.eye(4)
+        why = tool_unknown
         if feature is not None:
             token = next(x.name for x in events if x.name is not None and x.name.text == feature and x.at < e.at)
-            base = _frame(reading, token, e.at, file)
+            try:
+                base = _frame(reading, token, e.at, file)
+            except UndeclaredFrame:
+                why = why or (
+                    f"placed by pose_trans({feature}, ...) in a feature computed at run time (line {token.line}): "
+                    "its base is not known from the text"
+                )
         frames = Frames(base, tool, feature, tool_name)
         if e.pose is not None:
-            reading.targets.append((e.pose, frames, None))
+            reading.targets.append((e.pose, frames, why))
         elif e.name is not None and (pose := reading.latest(e.name.text, e.at)) is not None:
-            reading.uses.setdefault(pose.open.start, []).append((frames, e.name.line))
+            reading.uses.setdefault(pose.open.start, []).append((frames, e.name.line, why))
     return reading
 
 
@@ -290,10 +310,11 @@ def read(program: str, files: Mapping[str, str]) -> Program:
     for name, assigned in reading.variables.items():
         for _, pose in assigned:
             uses = reading.uses.get(pose.open.start, [])
-            if not uses:
-                continue  # a pose no motion goes to: an offset, a feature, a TCP
-            frames, why = uses[0][0], None
-            for other, line in uses[1:]:
+            if not uses:  # a pose no motion goes to: an offset, a feature, a TCP
+                found.append((pose, name, Frames(), DATA))
+                continue
+            frames, why = uses[0][0], next((w for _, _, w in uses if w), None)
+            for other, line, _ in uses[1:]:
                 if not _same(other, frames):
                     why = f"used with different features or tools (lines {uses[0][1]} and {line})"
             found.append((pose, name, frames, why))

@@ -44,8 +44,8 @@ def test_krl_frames_follow_the_statements_fdat_and_config_dat() -> None:
     # after `$TOOL = TOOL_DATA[1]` and `$BASE=$NULLFRAME`: the robot's base
     assert named["XEND"].frames.base_name == "$NULLFRAME" and np.allclose(named["XEND"].frames.base, np.eye(4))
     assert named["PATH[2]"].frames.tool_name == "TOOL_DATA[1]"
-    # a value no motion names: the robot's base and the model's tool
-    assert named["F_PROBE"].frames.tool is None and named["F_PROBE"].kept is None
+    # a value no motion names: data, left alone (a measured point is not a target)
+    assert named["F_PROBE"].kept is not None and named["F_PROBE"].kept.startswith("data, left alone")
 
 
 def test_krl_keeps_partial_relative_and_joint_values() -> None:
@@ -112,7 +112,9 @@ def test_rapid_an_undeclared_tool_and_a_malformed_robtarget_are_refused() -> Non
 
 def test_urscript_targets_features_and_the_tcp() -> None:
     program = read_program("urscript", URSCRIPT, {})
-    targets = program.targets
+    data = [t for t in program.targets if t.kept is not None and t.kept.startswith("data, left alone")]
+    assert [t.name for t in data] == ["Plane_1"]  # a feature: listed with its line, never moved
+    targets = tuple(t for t in program.targets if t not in data)
     assert [t.name for t in targets if t.name] == ["Waypoint_1_p", "Waypoint_2_p"]  # never Plane_1, the TCP
     assert len(targets) == 7  # 2 waypoints, pose_trans, movep, movec's two, the non-literal one
     w1 = targets[0]
