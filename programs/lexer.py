@@ -4,6 +4,7 @@ and a rewrite can replace a number's characters and keep every other byte."""
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from itertools import compress, repeat
@@ -70,6 +71,8 @@ class Lexer:
                 column=int(column[0]),
                 reason="unexpected-character",
             )
+        if _HUGE.search(text):  # C speed; only a text with a 3-digit exponent or 309 digits is checked by token
+            _finite_numbers(kinds, texts, starts, newlines, file)
         skip = self.skip
         keep = [kind not in skip for kind in kinds]
         lines, columns = _line_column(newlines, starts[np.array(keep, dtype=bool)])
@@ -85,6 +88,28 @@ class Lexer:
 
 
 _NEWLINE = re.compile("\n")
+_HUGE = re.compile(r"[eE]\+?0*\d{3}|\d{309}")
+"""What a number past a double's range (1e308) must contain somewhere in the text."""
+
+
+def _finite_numbers(
+    kinds: tuple[str, ...],
+    texts: tuple[str, ...],
+    starts: NDArray[np.int64],
+    newlines: NDArray[np.int64],
+    file: str | None,
+) -> None:
+    """A number token that overflows a double (`1e400`) is a syntax error at its place, not an infinity."""
+    for k, (kind, text) in enumerate(zip(kinds, texts, strict=True)):
+        if kind == "number" and not math.isfinite(float(text)):
+            line, column = _line_column(newlines, np.array([starts[k]], dtype=np.int64))
+            raise ProgramSyntaxError(
+                f"the number {text[:40]!r} is out of range (beyond ±1.8e308): a value a controller cannot hold",
+                file=file,
+                line=int(line[0]),
+                column=int(column[0]),
+                reason="number-out-of-range",
+            )
 
 
 def _line_column(

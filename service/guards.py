@@ -160,7 +160,7 @@ def precheck(scope: Scope, body: bytes) -> None:
         return
     can_run_async = found.job is not None
     run_async = can_run_async and b"async=true" in scope.get("query_string", b"").lower()
-    estimate = found.precount.estimate(found.precount.count(body))
+    estimate = found.precount.of(body)
     budget = scope["app"].state.settings.sync_budget_seconds
     limits.admit(estimate, run_async=run_async, can_run_async=can_run_async, budget_s=budget)
 

@@ -144,15 +144,29 @@ def inverse_kinematics(targets: int) -> Estimate:
     return Estimate(f"inverse kinematics of {targets} targets", seconds, memory)
 
 
-PROGRAM_S_PER_TARGET = 1.0e-3
-"""Measured: a 10 000-target URScript program on the UR5-like arm read, compensated and rewritten in 7.7 s
-(benchmarks/bench_programs.py, the loaded 2-core machine), rounded up."""
+PROGRAM_S_PER_TARGET = 2.0e-4
+"""Compensating and rewriting one target once it is read: 10 000 URScript targets took 1.06 s of CPU (0.87 s
+compensating, 0.19 s rewriting) at load 2 to 3 on the 2-core machine (benchmarks/bench_programs.py); doubled
+for load. Targets Newton cannot solve from the program's configuration go to the general inverse kinematics
+(0.3 s each) only until `PROGRAM_SOLVE_S`."""
+PROGRAM_S_PER_BYTE = 1.3e-6
+"""Reading a program costs by its text, not by its targets: measured (CPU, load 9) 0.5 µs a byte for a
+Polyscope-style script, 0.85 for a RAPID module, 0.95 for a KRL .dat, and 1.1 to 1.3 µs a byte for a dense
+one-line text of numbers and operators with no target (the worst: one token every two bytes)."""
+PROGRAM_BYTES_PER_BYTE = 350
+"""Memory while reading: 320 bytes per byte of a dense one-line text (its tokens), 90 to 120 for real programs."""
 PROGRAM_BYTES_PER_TARGET = 2 * IK_BYTES_PER_TARGET  # two inverse-kinematics batches
+PROGRAM_SOLVE_S = 1.5 * SYNC_BUDGET_S
+"""Past this, a program's targets that need the general inverse kinematics are listed, not solved: the answer
+comes before the compute deadline (2.5x the budget), never a 503 for an ordinary file."""
 
 
-def program_compensation(targets: int) -> Estimate:
+def program_compensation(targets: int, size: int = 0) -> Estimate:
+    """A program of `size` bytes holding up to `targets` targets: reading by its bytes, compensating by targets."""
     return Estimate(
-        f"a program of up to {targets} targets", targets * PROGRAM_S_PER_TARGET, targets * PROGRAM_BYTES_PER_TARGET
+        f"a program of {size} bytes and up to {targets} targets",
+        size * PROGRAM_S_PER_BYTE + targets * PROGRAM_S_PER_TARGET,
+        size * PROGRAM_BYTES_PER_BYTE + targets * PROGRAM_BYTES_PER_TARGET,
     )
 
 

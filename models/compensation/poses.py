@@ -10,6 +10,7 @@ the nominal geometry placed where the calibrated model puts the robot's base.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -75,6 +76,7 @@ def compensate_poses(
     tools: Sequence[ArrayLike | None] | None = None,
     seeds: ArrayLike | None = None,
     runtime: Runtime | None = None,
+    deadline: float | None = None,
 ) -> PoseCompensation:
     """Targets (N, 4, 4, robot-base frame, mm) corrected for the calibrated robot, run by a nominal controller.
 
@@ -82,7 +84,9 @@ def compensate_poses(
     models' own tool in both models; None (for all, or for one target): each model keeps its own tool, the
     calibrated one as measured, the nominal one as designed. `seeds`: joints near which the nominal
     controller's solution is sought (one vector or one per target; default the model's default seed).
-    Targets are solved in one batch per distinct tool.
+    Targets are solved in one batch per distinct tool. `deadline` (a `time.monotonic()` instant): the targets
+    that Newton from their seed leaves to the general inverse kinematics (about 0.3 s of CPU each: table starts,
+    multistart, IPOPT) are not started after it and keep a reason, so a request answers in its time.
     """
     rt = runtime_for(desc, runtime)
     theta_cal = desc.parameters.vector(calibrated)
@@ -106,7 +110,9 @@ def compensate_poses(
         if tool is not None:
             cal[desc.slices["tool"]] = nom[desc.slices["tool"]] = tool
         seed = None if seed_rows is None else seed_rows[idx]
-        corrected, q_nom, q_cal, why = _compensate_group(desc, cal, nom, world[idx], seed=seed, rt=rt)
+        corrected, q_nom, q_cal, why = _compensate_group(
+            desc, cal, nom, world[idx], seed=seed, rt=rt, deadline=deadline
+        )
         out.poses[idx] = np.linalg.inv(base) @ corrected
         out.nominal_joints[idx], out.joints[idx] = q_nom, q_cal
         out.reached[idx] = [w is None for w in why]
@@ -131,27 +137,38 @@ def _tool_groups(tools: Sequence[ArrayLike | None] | None, n: int) -> list[tuple
 
 
 def _compensate_group(
-    desc: RobotDescription, cal: Array, nom: Array, world: Array, *, seed: Array | None, rt: Runtime
+    desc: RobotDescription,
+    cal: Array,
+    nom: Array,
+    world: Array,
+    *,
+    seed: Array | None,
+    rt: Runtime,
+    deadline: float | None = None,
 ) -> tuple[Array, Array, Array, list[str | None]]:
     """World-frame corrected targets, nominal and calibrated joints, and why each miss (None: reached)."""
     n = world.shape[0]
     start = np.tile(default_seed(desc), (n, 1)) if seed is None else seed
-    nominal_reached, nominal_joints, nominal_reasons = _near(desc, nom, world, start, rt, nominal=True)
+    nominal_reached, nominal_joints, nominal_reasons = _near(
+        desc, nom, world, start, rt, nominal=True, deadline=deadline
+    )
     why: list[str | None] = [None] * n
     for i in np.flatnonzero(~nominal_reached):
-        why[i] = f"the nominal robot cannot reach it ({nominal_reasons[i]})"
+        found = nominal_reasons[i]
+        why[i] = found if found == OUT_OF_TIME else f"the nominal robot cannot reach it ({found})"
     q_nom = np.where(nominal_reached[:, None], nominal_joints, np.nan)
     corrected = world.copy()
     q_cal = np.full_like(q_nom, np.nan)
     ok = np.flatnonzero(nominal_reached)
     if ok.size == 0:
         return corrected, q_nom, q_cal, why
-    reachable, joints, reasons = _near(desc, cal, world[ok], q_nom[ok], rt, nominal=False)
+    reachable, joints, reasons = _near(desc, cal, world[ok], q_nom[ok], rt, nominal=False, deadline=deadline)
     step = np.max(np.abs(joints - q_nom[ok]), axis=1)
     good = reachable & (step <= MAX_BRANCH_STEP_RAD)
     for k, i in enumerate(ok):
         if not reachable[k]:
-            why[i] = f"the calibrated robot cannot reach it ({reasons[k]})"
+            found = reasons[k]
+            why[i] = found if found == OUT_OF_TIME else f"the calibrated robot cannot reach it ({found})"
         elif not good[k]:
             why[i] = (
                 f"the calibrated robot reaches it only on another configuration (a joint moves "
@@ -243,8 +260,23 @@ def _nominal_from_seed(batch: IkBatch, world: Array) -> tuple[Array, NDArray[np.
     return v, reached
 
 
+GENERAL_CHUNK = 8
+"""Targets handed to the general inverse kinematics at a time, the deadline checked between chunks."""
+OUT_OF_TIME = (
+    "not solved in the request's time: Newton from the program's configuration did not reach it, and the general "
+    "inverse kinematics (about 0.3 s a target) was not started for it; send fewer such targets at a time"
+)
+
+
 def _near(
-    desc: RobotDescription, theta: Array, world: Array, seeds: Array, rt: Runtime, *, nominal: bool
+    desc: RobotDescription,
+    theta: Array,
+    world: Array,
+    seeds: Array,
+    rt: Runtime,
+    *,
+    nominal: bool,
+    deadline: float | None = None,
 ) -> tuple[NDArray[np.bool_], Array, list[str | None]]:
     """The joints reaching each target nearest its seed: (reached, joints, reasons).
 
@@ -267,8 +299,14 @@ def _near(
             v, converged = batch.newton(seeds.copy())
             reached = batch.accepted(v, converged)
         joints[reached] = np.clip(v[reached], desc.joint_min, desc.joint_max)
-    rest = np.flatnonzero(~reached)
-    if rest.size:
+    remaining = np.flatnonzero(~reached)
+    chunk = remaining.size if deadline is None else GENERAL_CHUNK
+    for at in range(0, remaining.size, max(chunk, 1)):
+        rest = remaining[at : at + chunk]
+        if deadline is not None and time.monotonic() > deadline:
+            for i in remaining[at:]:
+                reasons[i] = OUT_OF_TIME
+            break
         positions, quats = world[rest, :3, 3], matrix_to_quaternion(world[rest, :3, :3])
         if nominal:
             ik = inverse_kinematics(desc, positions, quats, theta, seed=seeds[rest], runtime=rt)

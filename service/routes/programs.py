@@ -18,12 +18,14 @@ from service.services import programs
 
 router = APIRouter(prefix="/v1/robots/{robot_id}", tags=["programs"], route_class=OffloopRoute)
 
-COMPENSATE = BodyComputation(
-    "program_compensation",
-    ProgramRequest,
-    programs.compensate,
-    estimate=lambda body: limits.program_compensation(program_targets(body.program.encode())),
-)
+
+def _estimate(body: ProgramRequest) -> limits.Estimate:
+    """The program and its files by their targets and their bytes (reading costs by the text)."""
+    texts = [body.program.encode(), *(text.encode() for text in body.files.values())]
+    return limits.program_compensation(sum(program_targets(t) for t in texts), sum(len(t) for t in texts))
+
+
+COMPENSATE = BodyComputation("program_compensation", ProgramRequest, programs.compensate, estimate=_estimate)
 TEXT_TYPES = ("text/", "application/octet-stream")
 
 
@@ -62,7 +64,7 @@ async def compensate(
     raw = await request.body()
     # The guard counts JSON bodies (the operation's precount); a text body is counted here, before it is parsed.
     budget = request.app.state.settings.sync_budget_seconds
-    estimate = limits.program_compensation(program_targets(raw))
+    estimate = limits.program_compensation(program_targets(raw), len(raw))
     limits.admit(estimate, run_async=False, can_run_async=False, budget_s=budget)
     answer = await compute(
         m,

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +23,7 @@ from programs import DIALECTS, PROGRAM, Program, ProgramError, Target, dialect, 
 from programs.collection import collector_paused
 from programs.configuration import kept
 from programs.configuration import seed as configuration_seed
+from service import limits
 from service.conversions.drift import condition_warnings
 from service.conversions.kinematics import joints_in
 from service.conversions.robots import description, urdf_source
@@ -55,6 +57,7 @@ def compensate_program(
     seed: Array | None = None,
     runtime: Runtime | None = None,
     controller: ControllerFrame = ZERO,
+    deadline: float | None = None,
 ) -> CompensatedProgram:
     """Every target of `program` corrected so that the calibrated robot's TCP lands where the nominal one's would
     (`nominal`: default the description's nominal parameters); the ones that cannot be keep their text.
@@ -77,6 +80,7 @@ def compensate_program(
                 tools=[t.frames.tool for t in active],
                 seeds=np.array([configuration_seed(t.configuration, start, desc.n_joints) for t in active]),
                 runtime=runtime,
+                deadline=deadline,
             )
             in_base = np.linalg.solve(bases, result.poses)  # back into each target's own base frame
             for k, t in enumerate(active):
@@ -125,12 +129,18 @@ def _model(db: Database, models: ModelCache, robot_id: str, version: int | None)
 def compensate(
     *, db: Database, models: ModelCache, registry: Registry, robot_id: str, body: ProgramRequest
 ) -> ProgramResponse:
+    started = time.monotonic()
     desc, theta, version = _model(db, models, robot_id, body.version)
     frame = controller_frame(db, robot_id)
     pendant = _pendant(desc, body, registry.runtime(desc), frame) if body.pendant else None
     program = read_program(body.format, body.program, body.files)
     seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
-    done = compensate_program(desc, theta, program, seed=seed, runtime=registry.runtime(desc), controller=frame)
+    # The request's own time: Newton's answers for every target, the costly general route only while time is
+    # left, so an ordinary file is answered (its slow targets listed) rather than dropped at the compute deadline.
+    deadline = started + limits.PROGRAM_SOLVE_S
+    done = compensate_program(
+        desc, theta, program, seed=seed, runtime=registry.runtime(desc), controller=frame, deadline=deadline
+    )
     changed = {o.target.file for o in done.outcomes if o.pose is not None}
     return ProgramResponse(
         format=body.format,

@@ -7,6 +7,8 @@ nothing stored changes."""
 
 from __future__ import annotations
 
+import resource
+import time
 from pathlib import Path
 from typing import Any
 
@@ -14,12 +16,24 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from harness.programs import HOME_DEG, Cell, csv_table, executed, joints, taught, ur5_cell, urscript_program
+from harness.programs import (
+    FIXTURE,
+    HOME_DEG,
+    Cell,
+    csv_table,
+    executed,
+    joints,
+    rapid_module,
+    taught,
+    ur5_cell,
+    urscript_program,
+)
 from models import Registry, forward_kinematics
 from models.examples import ur5_like_document
 from models.transforms import matrix_to_quaternion
 from programs import read_program
 from programs.frames import matrix_quaternion
+from service import limits
 from tests.programs.robots import UR10E_BOX, UR10E_KINEMATICS, ur_file_fk
 from tests.programs.samples import KRL_CONFIG, KRL_DAT, KRL_SRC
 from tests.service.conftest import make_client
@@ -161,13 +175,104 @@ def test_a_program_over_the_body_limit_is_refused(tmp_path: Path, registry: Regi
 
 
 def test_a_program_over_the_work_budget_is_refused_from_its_bytes(client: TestClient, ur5: str) -> None:
-    rows = "x,y,z,a,b,c\n" + "400,0,300,0,180,0\n" * 3_000  # 3 000 targets: ~3 s, over the 2 s budget
+    rows = "x,y,z,a,b,c\n" + "400,0,300,0,180,0\n" * 12_000  # 12 000 targets: ~2.7 s, over the 2 s budget
     answer = _post(client, ur5, format="csv", program=rows)
     assert answer.status_code == 422 and answer.json()["type"].endswith("work-too-large"), answer.text
     text = client.post(
         f"/v1/robots/{ur5}/programs/compensate?format=csv", content=rows.encode(), headers={"Content-Type": "text/csv"}
     )
     assert text.status_code == 422 and text.json()["type"].endswith("work-too-large")
+
+
+def _rss_peak_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+@pytest.mark.parametrize(
+    ("what", "body"),
+    [
+        ("a 20 MB program with no target", "x = " + "1 + " * 4_999_000 + "1\n"),
+        ("a 10 MB one-line program", "DECL INT X=" + "1+" * 5_000_000 + "1"),
+        ("a 10 MB one-line CSV", "x,y,z,a,b,c\n" + "1," * 5_000_000),
+    ],
+    ids=["20MB-no-target", "10MB-one-line", "10MB-one-line-csv"],
+)
+def test_a_program_is_admitted_by_its_real_cost(client: TestClient, ur5: str, what: str, body: str) -> None:
+    """Issue 48: a program with no target used to be admitted (estimate 0) and took 20 s and 3.4 GB to read.
+    Its bytes are its cost: refused as a 4xx before it is parsed, in milliseconds, the process's memory flat."""
+    fmt = "csv" if "CSV" in what else ("krl" if "DECL" in body else "urscript")
+    raw = body.encode()
+    before = _rss_peak_mb()
+    cpu = time.process_time()
+    text = client.post(
+        f"/v1/robots/{ur5}/programs/compensate?format={fmt}", content=raw, headers={"Content-Type": "text/plain"}
+    )
+    as_json = _post(client, ur5, format=fmt, program=body)
+    spent = time.process_time() - cpu
+    for answer in (text, as_json):
+        assert answer.status_code in (413, 422), (what, answer.status_code)
+        assert answer.json()["type"].endswith(("work-too-large", "payload-too-large")), answer.text
+    assert spent < 2.0, (what, spent)  # CPU of this process (client and server): no parse was started
+    assert _rss_peak_mb() - before < 300, what
+
+
+def test_a_module_of_1500_targets_is_compensated_in_one_request(client: TestClient, ur5: str, cell: Cell) -> None:
+    """Issue 44: a 245 kB RAPID module of 1 488 targets was a 503. Its cost (bytes and targets) is under the
+    budget: it is compensated, every target answered."""
+    q = joints(1_500, seed=31)
+    module = rapid_module(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q, base=FIXTURE, tool=cell.tool)
+    assert len(module) > 200_000
+    answer = _post(client, ur5, format="rapid", program=module, seed=list(HOME_DEG))
+    assert answer.status_code == 200, answer.text[:500]
+    targets = answer.json()["targets"]
+    # A few near a wrist boundary are kept for a configuration flip, each with its reason.
+    assert len(targets) == 1_500 and sum(t["reached"] for t in targets) >= 1_480
+    assert all(t["reason"] for t in targets if not t["reached"])
+
+
+def test_targets_the_general_solver_would_take_long_on_are_listed_not_timed_out(
+    client: TestClient, ur5: str, cell: Cell, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Out-of-reach targets cost the general inverse kinematics ~0.3 s each (a 135-target KRL .dat was a 503):
+    past the request's own solve time they are listed with the reason, and the reachable ones compensated."""
+    monkeypatch.setattr(limits, "PROGRAM_SOLVE_S", 0.5)
+    poses = taught(cell, joints(30, seed=8))
+    poses[10:, :3, 3] *= 3.0  # 20 targets 2 to 3 m out: beyond the arm
+    answer = _post(client, ur5, format="csv", program=csv_table(list(poses)), seed=list(HOME_DEG))
+    assert answer.status_code == 200, answer.text
+    targets = answer.json()["targets"]
+    assert all(t["reached"] for t in targets[:10])
+    assert all(not t["reached"] and t["reason"] for t in targets[10:])
+    assert any("request's time" in t["reason"] for t in targets[10:])
+
+
+@pytest.mark.parametrize(
+    ("fmt", "program", "line"),
+    [
+        ("krl", "DEF a()\nLIN {X 1e400, Y 0, Z 0, A 0, B 0, C 0}\nEND\n", 2),
+        (
+            "rapid",
+            "MODULE M\n  CONST robtarget p:=[[400,0,1E+400],[1,0,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  PROC main()\n    MoveL p,v100,fine,tool0;\n  ENDPROC\nENDMODULE\n",
+            2,
+        ),
+        (
+            "urscript",
+            "def f():\n  movel(p[0.4, 0, 0.3, 0, 3.14, 0], a=1, v=1)\n  movel(p[1e400, 0, 0, 0, 0, 0])\nend\n",
+            3,
+        ),
+        ("csv", "x,y,z,a,b,c\n1e400,0,0,0,0,0\n", 2),
+    ],
+    ids=["krl", "rapid", "urscript", "csv"],
+)
+def test_a_number_past_a_double_is_a_4xx_naming_its_line(
+    client: TestClient, ur5: str, fmt: str, program: str, line: int
+) -> None:
+    answer = _post(client, ur5, format=fmt, program=program)
+    assert answer.status_code == 422, answer.text
+    problem = answer.json()
+    assert problem["line"] == line and problem["column"] >= 1, problem
+    assert "1e400" in problem["detail"].lower() or "1e+400" in problem["detail"].lower(), problem
 
 
 def test_an_unknown_version_or_robot_is_not_found(client: TestClient, ur5: str) -> None:
