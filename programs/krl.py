@@ -23,7 +23,7 @@ from programs.aggregates import Number, Opaque, Value, literal_or_expression
 from programs.errors import ProgramError
 from programs.frames import abc_matrix, abcs_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Configuration, Frames, Program, Target, target_at, written
+from programs.targets import PROGRAM, Configuration, Frames, JointMove, Program, Target, target_at, written
 
 NAME = "krl"
 LEXER = Lexer(
@@ -369,6 +369,10 @@ class Walk:
     frame_names: set[str] = field(default_factory=set)
     """Variables used as a base or a tool: frames, not targets."""
     motions: int = 0
+    last_joints: JointMove | None = None
+    after: dict[tuple[str, str | None], JointMove | None] = field(default_factory=dict)
+    """Per variable: the last joint move before its first motion."""
+    inline_after: list[JointMove | None] = field(default_factory=list)
 
 
 def system_file(name: str | None) -> bool:
@@ -403,15 +407,42 @@ def _walk_file(sym: Symbols, statements: list[tuple[str | None, Statement]], wal
             if number.kind == "number":
                 setattr(state, st.type_name[1:], _table(sym, st.type_name[1:], int(number.text), st, file))
         elif st.kind == "motion":
-            frames = Frames(state.base[0], state.tool[0], state.base[1], state.tool[1])
-            why = "a relative motion: its value is an offset, not a pose" if st.relative else kept
-            for _, operand in st.items:
-                if isinstance(operand, Aggregate):
-                    walk.inline.append((file, operand, frames, why))
-                elif isinstance(operand, Ref):
-                    key = (operand.name.text.lower(), operand.index)
-                    walk.uses.setdefault(key, []).append((frames, st.first.line, why))
-            walk.motions += 1
+            _motion(st, file, Frames(state.base[0], state.tool[0], state.base[1], state.tool[1]), kept, walk)
+            joints = None if st.relative else _joint_move(sym, st)
+            if joints is not None:
+                walk.last_joints = joints
+
+
+def _motion(st: Statement, file: str | None, frames: Frames, kept: str | None, walk: Walk) -> None:
+    """A motion's operands: inline aggregates and the variables it names, with its frames and the last joint
+    move before it (where the controller's solve starts)."""
+    why = "a relative motion: its value is an offset, not a pose" if st.relative else kept
+    for _, operand in st.items:
+        if isinstance(operand, Aggregate):
+            walk.inline.append((file, operand, frames, why))
+            walk.inline_after.append(walk.last_joints)
+        elif isinstance(operand, Ref):
+            key = (operand.name.text.lower(), operand.index)
+            walk.uses.setdefault(key, []).append((frames, st.first.line, why))
+            walk.after.setdefault(key, walk.last_joints)
+    walk.motions += 1
+
+
+def _joint_move(sym: Symbols, st: Statement) -> JointMove | None:
+    """The axes a PTP goes to, written inline (`{A1 0, A2 -90, ...}`) or as an AXIS/E6AXIS variable (XHOME)."""
+    if not st.items or st.first.text.lower() not in ("ptp", "sptp"):
+        return None
+    operand = st.items[0][1]
+    agg = operand if isinstance(operand, Aggregate) else None
+    if isinstance(operand, Ref) and sym.types.get(operand.name.text.lower()) in ("axis", "e6axis"):
+        agg = sym.value(operand.name.text.lower(), operand.index)
+    if agg is None:
+        return None
+    values = [agg.members.get(f"a{k}") for k in range(1, 7)]
+    numbers = [v.value for v in values if isinstance(v, Number)]
+    if len(numbers) != len(values):
+        return None
+    return JointMove(tuple(float(np.radians(v)) for v in numbers), st.first.line)
 
 
 def _frames_of(walk: Walk, key: tuple[str, str | None]) -> tuple[Frames, str | None]:
@@ -438,11 +469,22 @@ def _used(walk: Walk, key: tuple[str, str | None]) -> bool:
     return key in walk.uses or (key[1] is not None and (key[0], "*") in walk.uses)
 
 
-def _target(file: str | None, name: str | None, agg: Aggregate, frames: Frames, why: str | None) -> Target:
+def _target(
+    file: str | None, name: str | None, agg: Aggregate, frames: Frames, why: str | None, *, after: JointMove | None
+) -> Target:
     pose, partial = _pose(agg)
     members = [agg.members.get(m) for m in POSE_MEMBERS]
     return target_at(
-        file, name, agg.open, members, pose, frames=frames, kept=partial or why, configuration=_turn(agg), style="abc"
+        file,
+        name,
+        agg.open,
+        members,
+        pose,
+        frames=frames,
+        kept=partial or why,
+        configuration=_turn(agg),
+        style="abc",
+        after=after,
     )
 
 
@@ -477,10 +519,11 @@ def read(program: str, files: Mapping[str, str]) -> Program:
             why = DATA
         elif not walk.motions and sym.types.get(name) == "frame":
             why = DATA  # a data list alone: its POS/E6POS are taught points, its FRAMEs are bases and tools
-        targets.append(_target(assigned.file, assigned.name, assigned.aggregate, frames, why))
-    for file, agg, frames, why in walk.inline:
+        after = walk.after.get(assigned.key) or walk.after.get((assigned.key[0], "*"))
+        targets.append(_target(assigned.file, assigned.name, assigned.aggregate, frames, why, after=after))
+    for (file, agg, frames, why), after in zip(walk.inline, walk.inline_after, strict=True):
         if _is_cartesian(sym, "", agg):
-            targets.append(_target(file, None, agg, frames, why))
+            targets.append(_target(file, None, agg, frames, why, after=after))
     texts: dict[str | None, str] = {PROGRAM: program}
     texts.update(files)
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))

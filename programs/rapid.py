@@ -13,8 +13,9 @@ with `;` and may span lines.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -22,7 +23,7 @@ from models._types import Array
 from programs.aggregates import Number, Opaque, Value, literal_or_expression
 from programs.frames import quaternion_matrix, quaternions_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Configuration, Frames, Program, Target, target_at, written
+from programs.targets import PROGRAM, Configuration, Frames, JointMove, Program, Target, target_at, written
 
 NAME = "rapid"
 LEXER = Lexer(
@@ -38,7 +39,7 @@ LEXER = Lexer(
     skip=frozenset({"blank", "comment", "newline"}),
 )
 STORAGE = frozenset({"const", "pers", "var"})
-FRAME_TYPES = frozenset({"robtarget", "tooldata", "wobjdata"})
+FRAME_TYPES = frozenset({"robtarget", "tooldata", "wobjdata", "jointtarget"})
 """The data this reader reads the values of: the targets and the frames they are taught in."""
 MOTIONS = {
     name: points
@@ -135,6 +136,16 @@ def robtarget(value: Agg | Value, cur: Cursor) -> Robtarget:
     return Robtarget(value.open, _pose(pos, quat), (*pos, *quat), configuration)
 
 
+def _joints(value: Agg | Value, line: int) -> JointMove | None:
+    """A jointtarget's robot axes `[[j1..j6], [eax]]` (degrees) in radians; None unless six literal numbers."""
+    if not isinstance(value, Agg) or not value.items or not isinstance(value.items[0], Agg):
+        return None
+    axes = [v.value for v in value.items[0].items if isinstance(v, Number)]
+    if len(axes) != len(value.items[0].items) or not axes:
+        return None
+    return JointMove(tuple(math.radians(a) for a in axes), line)
+
+
 def _frame_pose(value: Agg | Value, cur: Cursor, what: str) -> Array | None:
     """A `pose` [[x, y, z], [q1..q4]] (None where not literal numbers)."""
     if not isinstance(value, Agg) or len(value.items) != 2:
@@ -186,6 +197,14 @@ class Symbols:
     arrays: set[str] = field(default_factory=set)
     uses: dict[tuple[str, str | None], list[tuple[Frames, str | None, int]]] = field(default_factory=dict)
     inline: list[tuple[str | None, Robtarget, Frames, str | None]] = field(default_factory=list)
+    jointtargets: dict[str, JointMove] = field(default_factory=dict)
+    last_joints: JointMove | None = None
+    after: dict[tuple[str, str | None], JointMove | None] = field(default_factory=dict)
+    conf_off: dict[str, bool] = field(default_factory=lambda: {"movel": False, "movej": False})
+    """ConfL \\Off, ConfJ \\Off in force (in the text's order): the controller does not hold the robtarget's cf."""
+    held: set[tuple[str, str | None]] = field(default_factory=set)
+    """Robtargets some motion goes to with their configuration held (Conf On)."""
+    inline_after: list[tuple[JointMove | None, bool]] = field(default_factory=list)
     relative: dict[tuple[str, str | None], tuple[str, int]] = field(default_factory=dict)
     """Robtargets a motion reaches only through a function of them (Offs, RelTool): the function, its line."""
     motions: int = 0
@@ -197,7 +216,7 @@ def _start(run: list[Token]) -> int:
         word = tok.text.lower()
         if tok.kind != "name":
             continue
-        if word in STORAGE or word in ("local", "task") or word in MOTIONS:
+        if word in STORAGE or word in ("local", "task") or word in MOTIONS or word in ("confl", "confj", "moveabsj"):
             return k
         if k + 1 < len(run) and (run[k + 1].is_("op", ":=") or run[k + 1].is_("op", "{")):
             return k
@@ -248,6 +267,10 @@ def _given(
         sym.frames[key] = tooldata(value, cur)
     elif type_name == "wobjdata":
         sym.frames[key] = wobjdata(value, cur)
+    elif type_name == "jointtarget" and not array:
+        found = _joints(value, name.line)
+        if found is not None:
+            sym.jointtargets[key] = found
 
 
 def _arguments(tokens: list[Token]) -> tuple[list[list[Token]], dict[str, list[Token]]]:
@@ -298,15 +321,20 @@ def _motion(run: list[Token], sym: Symbols, file: str | None) -> None:
     wobj, wobj_name, wobj_kept = _frame(sym, optional.get("wobj", []), "wobj0", file)
     frames = Frames(wobj if wobj is not None else np.eye(4), tool, wobj_name, tool_name)
     why = tool_kept or wobj_kept
+    held = not sym.conf_off["movel" if run[0].text.lower().startswith(("movel", "movec")) else "movej"]
     for arg in positional[:points]:
         if arg[0].is_("op", "["):
             inner = Cursor(arg, file, "the robtarget")
             sym.inline.append((file, robtarget(parse_aggregate(inner), inner), frames, why))
+            sym.inline_after.append((sym.last_joints, held))
         elif arg[0].kind == "name" and (len(arg) == 1 or arg[1].is_("op", "{")):
             ref = Cursor(arg, file, "the robtarget")
             ref.next()
             key = (arg[0].text.lower(), _index(ref))
             sym.uses.setdefault(key, []).append((frames, why, arg[0].line))
+            sym.after.setdefault(key, sym.last_joints)
+            if held:
+                sym.held.add(key)
         elif arg[0].kind == "name" and len(arg) > 3 and arg[1].is_("op", "(") and arg[2].kind == "name":
             # Offs(p10, ...), RelTool(...): a function of a target, computed by the controller at run time
             inner = Cursor(arg[2:], file, "the robtarget")
@@ -314,6 +342,19 @@ def _motion(run: list[Token], sym: Symbols, file: str | None) -> None:
             key = (arg[2].text.lower(), _index(inner))
             sym.relative.setdefault(key, (arg[0].text, arg[0].line))
     sym.motions += 1
+
+
+def _joint_motion(run: list[Token], sym: Symbols) -> None:
+    """`MoveAbsJ jt, ...` or `MoveAbsJ [[j1..j6],[eax]]\\NoEOffs, ...`: the joints the next targets start from."""
+    positional, _ = _arguments(run[1:])
+    if not positional:
+        return
+    arg = positional[0]
+    if arg[0].is_("op", "["):
+        cur = Cursor(arg, None, "the jointtarget")
+        sym.last_joints = _joints(parse_aggregate(cur), arg[0].line)
+    elif arg[0].kind == "name" and len(arg) == 1:
+        sym.last_joints = sym.jointtargets.get(arg[0].text.lower())
 
 
 def _statement(run: list[Token], sym: Symbols, file: str | None, declarations: bool) -> None:
@@ -328,6 +369,12 @@ def _statement(run: list[Token], sym: Symbols, file: str | None, declarations: b
     elif word in MOTIONS:
         if not declarations:
             _motion(run, sym, file)
+    elif word in ("confl", "confj"):
+        if not declarations:  # ConfL \Off: the controller takes the solution nearest the current joints
+            sym.conf_off["movel" if word == "confl" else "movej"] = any(t.text.lower() == "off" for t in run[1:])
+    elif word == "moveabsj":
+        if not declarations:
+            _joint_motion(run, sym)
     elif declarations:
         _assignment(cur, sym, file)
 
@@ -363,7 +410,16 @@ def _frames_of(sym: Symbols, key: tuple[str, str | None]) -> tuple[Frames, str |
     return first, why
 
 
-def _target(file: str | None, name: str | None, rt: Robtarget, frames: Frames, why: str | None) -> Target:
+def _held(rt: Robtarget, held: bool) -> Robtarget:
+    """The robtarget with its configuration a hint only where no motion to it holds it (ConfL/ConfJ \\Off)."""
+    if held or rt.configuration is None:
+        return rt
+    return replace(rt, configuration=replace(rt.configuration, enforced=False))
+
+
+def _target(
+    file: str | None, name: str | None, rt: Robtarget, frames: Frames, why: str | None, *, after: JointMove | None
+) -> Target:
     literal = None if rt.pose is not None else "not literal numbers: the target is known only at run time"
     return target_at(
         file,
@@ -375,6 +431,7 @@ def _target(file: str | None, name: str | None, rt: Robtarget, frames: Frames, w
         kept=why or literal,
         configuration=rt.configuration,
         style="quaternion",
+        after=after,
     )
 
 
@@ -401,8 +458,12 @@ def read(program: str, files: Mapping[str, str]) -> Program:
             )
         elif not used and sym.motions:
             why = DATA
-        targets.append(_target(file, written_name, rt, frames, why))
-    targets += [_target(file, None, rt, frames, why) for file, rt, frames, why in sym.inline]
+        held = _held(rt, not used or key in sym.held or (key[0], "*") in sym.held)
+        targets.append(_target(file, written_name, held, frames, why, after=sym.after.get(key)))
+    targets += [
+        _target(file, None, _held(rt, held), frames, why, after=after)
+        for (file, rt, frames, why), (after, held) in zip(sym.inline, sym.inline_after, strict=True)
+    ]
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))
 
 

@@ -54,6 +54,18 @@ class Configuration:
     joints: tuple[int, ...]
     values: tuple[int, ...]
     text: str
+    enforced: bool = True
+    """The controller holds the motion to it (KUKA's T on a PTP, ABB's cf under ConfJ/ConfL On); False: it is a
+    hint only (ABB's ConfL \\Off: the controller takes the solution nearest the current joints)."""
+
+
+@dataclass(frozen=True)
+class JointMove:
+    """The joints of a joint motion the program makes before a target (the controller starts the target's solve
+    from the arm's current joints): radians for revolute axes as the controller counts them."""
+
+    joints: tuple[float, ...]
+    line: int
 
 
 @dataclass(frozen=True)
@@ -71,6 +83,9 @@ class Target:
     """Why the text alone says the target cannot be compensated (a partial aggregate, a relative motion)."""
     style: Mapping[str, object] = field(default_factory=dict)
     """What the dialect needs to write the target back (the source's angles, quaternion sign)."""
+    after: JointMove | None = None
+    """The program's last joint move before the target (in the text's order): where the controller's solve
+    starts, so the branch it will take (None: no joint move precedes it)."""
 
 
 @dataclass(frozen=True)
@@ -111,6 +126,7 @@ def target_at(
     kept: str | None,
     configuration: Configuration | None = None,
     style: str,
+    after: JointMove | None = None,
 ) -> Target:
     """A target from its literal: `values` are its position then its rotation's numbers as written (None or
     Opaque where not a number: no slot), the rotation's also kept as `style` for writing it back nearby."""
@@ -127,4 +143,5 @@ def target_at(
         configuration=configuration,
         kept=kept,
         style={style: like},
+        after=after,
     )

@@ -22,7 +22,7 @@ from programs.aggregates import Number, Value, literal_or_expression, plain_numb
 from programs.errors import UndeclaredFrame
 from programs.frames import rotvec_matrix, rotvecs_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Frames, Program, Target, target_at, written
+from programs.targets import PROGRAM, Frames, JointMove, Program, Target, target_at, written
 
 NAME = "urscript"
 LEXER = Lexer(
@@ -130,6 +130,48 @@ class Event:
     pose: Pose | None = None
     name: Token | None = None
     assigned: str | None = None
+    joints: JointMove | None = None
+    """`movej([q1, ..., q6], ...)`: the joints of a joint move (radians)."""
+
+
+def _joint_list(tokens: list[Token], i: int) -> tuple[JointMove, int] | None:
+    """`[q1, q2, ...]` of plain signed numbers at token i: the joints and the index after `]` (None: not such)."""
+    values: list[float] = []
+    k = i + 1
+    while k < len(tokens):
+        sign = -1.0 if tokens[k].kind == "op" and tokens[k].text == "-" else 1.0
+        k += tokens[k].kind == "op" and tokens[k].text in ("-", "+")
+        if k >= len(tokens) or tokens[k].kind != "number":
+            return None
+        values.append(sign * float(tokens[k].text))
+        k += 1
+        if k < len(tokens) and tokens[k].kind == "op" and tokens[k].text == "]":
+            return JointMove(tuple(values), tokens[i].line), k + 1
+        if k >= len(tokens) or not (tokens[k].kind == "op" and tokens[k].text == ","):
+            return None
+        k += 1
+    return None
+
+
+def _operator(tokens: list[Token], i: int, stack: list[Context], events: list[Event], file: str | None) -> int:
+    """A bracket or a comma at token i: the call stack kept; a movej's joint list read whole. The next index."""
+    tok = tokens[i]
+    text = tok.text
+    if text == "[" and stack and stack[-1].name == "movej" and stack[-1].argument == 0:
+        found = _joint_list(tokens, i)
+        if found is not None:
+            events.append(Event(i, _snapshot(stack), joints=found[0]))
+            return found[1]
+    if text in {"(", "["}:
+        prev = tokens[i - 1] if i else None
+        stack.append(Context(prev.text if text == "(" and prev is not None and prev.kind == "name" else ""))
+    elif text in {")", "]"}:
+        if not stack:
+            raise Cursor(tokens, file, "the program").error(f"unbalanced {text!r}", tok)
+        stack.pop()
+    elif text == "," and stack:
+        stack[-1].argument += 1
+    return i + 1
 
 
 def _scan(tokens: list[Token], file: str | None) -> list[Event]:
@@ -144,17 +186,9 @@ def _scan(tokens: list[Token], file: str | None) -> list[Event]:
         tok = tokens[i]
         kind = tok.kind
         if kind == "op":
-            text = tok.text
-            if text in {"(", "["}:
-                prev = tokens[i - 1] if i else None
-                stack.append(Context(prev.text if text == "(" and prev is not None and prev.kind == "name" else ""))
-            elif text in {")", "]"}:
-                if not stack:
-                    raise Cursor(tokens, file, "the program").error(f"unbalanced {text!r}", tok)
-                stack.pop()
-            elif text == "," and stack:
-                stack[-1].argument += 1
-        elif kind == "name":
+            i = _operator(tokens, i, stack, events, file)
+            continue
+        if kind == "name":
             nxt = tokens[i + 1] if i + 1 < n else None
             prev = tokens[i - 1] if i else None
             if tok.text == "p" and nxt is not None and nxt.kind == "op" and nxt.text == "[":
@@ -200,6 +234,14 @@ def _motion_base(stack: list[Context]) -> tuple[bool, str | None]:
     """Whether a value in this place is a motion's pose, and the feature it is placed in (pose_trans)."""
     if stack and stack[-1].name in MOTIONS and stack[-1].argument in MOTIONS[stack[-1].name]:
         return True, None
+    if (  # movej(get_inverse_kin(p[...])): the joints of a pose, which the move goes to
+        len(stack) >= 2
+        and stack[-1].name == "get_inverse_kin"
+        and stack[-1].argument == 0
+        and stack[-2].name in MOTIONS
+        and stack[-2].argument in MOTIONS[stack[-2].name]
+    ):
+        return True, None
     if (
         len(stack) >= 2
         and stack[-1].name == "pose_trans"
@@ -214,8 +256,8 @@ def _motion_base(stack: list[Context]) -> tuple[bool, str | None]:
 @dataclass
 class Reading:
     variables: dict[str, list[tuple[int, Pose]]] = field(default_factory=dict)
-    targets: list[tuple[Pose, Frames, str | None]] = field(default_factory=list)
-    uses: dict[int, list[tuple[Frames, int, str | None]]] = field(default_factory=dict)
+    targets: list[tuple[Pose, Frames, str | None, JointMove | None]] = field(default_factory=list)
+    uses: dict[int, list[tuple[Frames, int, str | None, JointMove | None]]] = field(default_factory=dict)
     """By the token index of a variable's literal: the frames of each motion naming it, and the line."""
 
     def latest(self, name: str, before: int) -> Pose | None:
@@ -233,6 +275,24 @@ def _frame(reading: Reading, name: Token, at: int, file: str | None) -> Array:
     return matrix
 
 
+def _tcp(
+    reading: Reading, e: Event, file: str | None, current: tuple[Array | None, str | None]
+) -> tuple[Array | None, str | None, str | None]:
+    """`set_tcp(...)`: the tool, its name, and why it cannot be read (a TCP the script computes)."""
+    if e.pose is not None:
+        return pose_matrix(e.pose), "set_tcp(p[...])", None
+    if e.name is None:
+        return (*current, None)
+    try:
+        return _frame(reading, e.name, e.at, file), e.name.text, None
+    except UndeclaredFrame:
+        why = (
+            f"the tool set at line {e.name.line} (set_tcp({e.name.text})) is computed at run time: the target's TCP "
+            "is not known from the text"
+        )
+        return None, e.name.text, why
+
+
 def _read_events(events: list[Event], file: str | None) -> Reading:
     reading = Reading()
     for e in events:
@@ -242,23 +302,15 @@ def _read_events(events: list[Event], file: str | None) -> Reading:
     tool_name: str | None = None
     tool_unknown: str | None = None
     """Why the active tool cannot be read (`set_tcp(computed)`): the motions after it keep their targets."""
+    after: JointMove | None = None
     for e in events:
+        if e.joints is not None:
+            after = e.joints
+            continue
         in_tcp = bool(e.stack) and e.stack[-1].name == "set_tcp" and e.stack[-1].argument == 0
         motion, feature = _motion_base(e.stack)
         if in_tcp:
-            tool_unknown = None
-            if e.pose is not None:
-                tool, tool_name = pose_matrix(e.pose), "set_tcp(p[...])"
-            elif e.name is not None:
-                tool_name = e.name.text
-                try:
-                    tool = _frame(reading, e.name, e.at, file)
-                except UndeclaredFrame:
-                    tool = None
-                    tool_unknown = (
-                        f"the tool set at line {e.name.line} (set_tcp({e.name.text})) is computed at run time: "
-                        "the target's TCP is not known from the text"
-                    )
+            tool, tool_name, tool_unknown = _tcp(reading, e, file, (tool, tool_name))
             continue
         if not motion:
             continue
@@ -275,9 +327,9 @@ def _read_events(events: list[Event], file: str | None) -> Reading:
                 )
         frames = Frames(base, tool, feature, tool_name)
         if e.pose is not None:
-            reading.targets.append((e.pose, frames, why))
+            reading.targets.append((e.pose, frames, why, after))
         elif e.name is not None and (pose := reading.latest(e.name.text, e.at)) is not None:
-            reading.uses.setdefault(pose.open.start, []).append((frames, e.name.line, why))
+            reading.uses.setdefault(pose.open.start, []).append((frames, e.name.line, why, after))
     return reading
 
 
@@ -304,20 +356,20 @@ def read(program: str, files: Mapping[str, str]) -> Program:
     del files
     events = _scan(LEXER.tokens(program, PROGRAM), PROGRAM)
     reading = _read_events(events, PROGRAM)
-    found: list[tuple[Pose, str | None, Frames, str | None]] = [
-        (pose, None, frames, why) for pose, frames, why in reading.targets
+    found: list[tuple[Pose, str | None, Frames, str | None, JointMove | None]] = [
+        (pose, None, frames, why, after) for pose, frames, why, after in reading.targets
     ]
     for name, assigned in reading.variables.items():
         for _, pose in assigned:
             uses = reading.uses.get(pose.open.start, [])
             if not uses:  # a pose no motion goes to: an offset, a feature, a TCP
-                found.append((pose, name, Frames(), DATA))
+                found.append((pose, name, Frames(), DATA, None))
                 continue
-            frames, why = uses[0][0], next((w for _, _, w in uses if w), None)
-            for other, line, _ in uses[1:]:
+            frames, why = uses[0][0], next((w for _, _, w, _ in uses if w), None)
+            for other, line, _, _ in uses[1:]:
                 if not _same(other, frames):
                     why = f"used with different features or tools (lines {uses[0][1]} and {line})"
-            found.append((pose, name, frames, why))
+            found.append((pose, name, frames, why, uses[0][3]))
     targets = [
         target_at(
             PROGRAM,
@@ -328,8 +380,9 @@ def read(program: str, files: Mapping[str, str]) -> Program:
             frames=frames,
             kept=why or (None if matrix is not None else "not literal numbers: the pose is known only at run time"),
             style="rotvec",
+            after=after,
         )
-        for (pose, name, frames, why), matrix in zip(found, _matrices([f[0] for f in found]), strict=True)
+        for (pose, name, frames, why, after), matrix in zip(found, _matrices([f[0] for f in found]), strict=True)
     ]
     return Program(NAME, {PROGRAM: program}, tuple(sorted(targets, key=lambda t: (t.line, t.column))))
 

@@ -98,6 +98,16 @@ class CompensatedTarget(Public):
         "base frame (deg); null where kept"
     )
     reason: str | None = None
+    branch: str | None = Field(
+        default=None,
+        description="What fixed the joint configuration the target was solved in: the request's seed, the "
+        "program's joint move before it, its declared configuration, or (with a warning) the middle of the ranges",
+    )
+    warning: str | None = Field(
+        default=None,
+        description="Set on a compensated target whose configuration the program does not fix: the robot may run "
+        "it on another branch than the one it was compensated for",
+    )
 
 
 class ProgramResponse(Public):

@@ -40,6 +40,10 @@ class TargetOutcome:
     pose: Array | None
     """The corrected pose in the target's base frame (None: kept as written)."""
     reason: str | None
+    branch: str | None = None
+    """Where the nominal controller's joint solution was sought: what fixes the target's branch."""
+    warning: str | None = None
+    """Set where the program does not fix the branch the controller will take."""
 
 
 @dataclass(frozen=True)
@@ -70,7 +74,7 @@ def compensate_program(
         active = [t for t in program.targets if t.kept is None]
         outcomes = {id(t): TargetOutcome(t, None, t.kept) for t in program.targets}
         if active:
-            start = default_seed(desc) if seed is None else seed
+            starts, branches = _starts(desc, active, seed)
             bases = controller.zero_from_controller @ np.array([t.frames.base for t in active])
             result = compensate_poses(
                 desc,
@@ -78,19 +82,61 @@ def compensate_program(
                 desc.parameters.nominal if nominal is None else nominal,
                 bases @ np.array([t.pose for t in active]),
                 tools=[t.frames.tool for t in active],
-                seeds=np.array([configuration_seed(t.configuration, start, desc.n_joints) for t in active]),
+                seeds=np.array(starts),
                 runtime=runtime,
                 deadline=deadline,
             )
             in_base = np.linalg.solve(bases, result.poses)  # back into each target's own base frame
             for k, t in enumerate(active):
-                why = result.reasons[k] or kept(
-                    t.configuration, result.nominal_joints[k], result.joints[k], desc.joint_names
-                )
-                outcomes[id(t)] = TargetOutcome(t, None if why is not None else in_base[k], why)
+                held = t.configuration if t.configuration is not None and t.configuration.enforced else None
+                why = result.reasons[k] or kept(held, result.nominal_joints[k], result.joints[k], desc.joint_names)
+                branch, warning = branches[k]
+                pose = None if why is not None else in_base[k]
+                outcomes[id(t)] = TargetOutcome(t, pose, why, branch, warning if pose is not None else None)
         ordered = tuple(outcomes[id(t)] for t in program.targets)
         changes = [(o.target, o.pose) for o in ordered if o.pose is not None]
         return CompensatedProgram(rewritten(program, changes), ordered)
+
+
+UNDETERMINED = (
+    "the program does not fix this target's configuration (no declared one the controller holds, no joint move "
+    "before it): it was solved nearest the middle of the joint ranges, which may not be the branch the robot "
+    "runs; give `seed` (the joints the robot is at) or put a joint move before it"
+)
+
+
+def _starts(
+    desc: RobotDescription, active: list[Target], seed: Array | None
+) -> tuple[list[Array], list[tuple[str, str | None]]]:
+    """Per target the joints its nominal solution is sought from, and (what fixed them, a warning or None): the
+    request's seed (an override), else the program's last joint move before it (the controller starts its solve
+    from the arm's joints), else the middle of the ranges, with a warning unless the target declares a
+    configuration the controller holds."""
+    middle = default_seed(desc)
+    revolute = all(k.boundary_unit != "mm" for k in desc.joint_kinds)
+    starts: list[Array] = []
+    branches: list[tuple[str, str | None]] = []
+    held_text = "its declared configuration ({}), which the controller holds"
+    for t in active:
+        config = t.configuration
+        declared = config is not None and config.enforced
+        # A declared configuration the controller holds moves the start into it; one it does not hold (ConfL
+        # \Off) only where nothing else says where the arm is.
+        branch: tuple[str, str | None]
+        if seed is not None:
+            start, branch = seed, ("the request's seed", None)
+        elif t.after is not None and revolute and len(t.after.joints) == desc.n_joints:
+            start = np.clip(np.asarray(t.after.joints), desc.joint_min, desc.joint_max)
+            branch = (f"the joint move at line {t.after.line}", None)
+            config = config if declared else None
+        elif declared:
+            assert config is not None
+            start, branch = middle, (held_text.format(config.text), None)
+        else:
+            start, branch = middle, ("the middle of the joint ranges", UNDETERMINED)
+        starts.append(configuration_seed(config, start, desc.n_joints))
+        branches.append(branch)
+    return starts, branches
 
 
 def _target_out(o: TargetOutcome) -> CompensatedTarget:
@@ -111,6 +157,8 @@ def _target_out(o: TargetOutcome) -> CompensatedTarget:
         correction_mm=delta_mm,
         correction_deg=delta_deg,
         reason=o.reason,
+        branch=o.branch,
+        warning=o.warning,
     )
 
 
