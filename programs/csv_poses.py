@@ -82,7 +82,7 @@ def fields(line: str, offset: int, sep: str, line_no: int) -> list[Field]:
 
 
 def _layout(header: list[Field], line_no: int) -> tuple[list[int], str, int | None]:
-    names = [f.text.strip().lower() for f in header]
+    names = [f.text.strip().lstrip("\ufeff").lower() for f in header]  # a UTF-8 BOM before the first name
     for kind, cols in ORIENTATIONS.items():
         wanted = ("x", "y", "z", *cols)
         if all(c in names for c in wanted):

@@ -29,7 +29,7 @@ NAME = "krl"
 LEXER = Lexer(
     [
         ("newline", r"\r?\n"),
-        ("blank", r"[ \t\f\v\r]+"),
+        ("blank", r"[ \t\f\v\r\ufeff]+"),
         ("comment", r";[^\r\n]*"),
         ("directive", r"&[^\r\n]*"),
         ("string", r'"[^"\r\n]*"'),

@@ -29,12 +29,12 @@ NAME = "rapid"
 LEXER = Lexer(
     [
         ("newline", r"\r?\n"),
-        ("blank", r"[ \t\f\v\r]+"),
+        ("blank", r"[ \t\f\v\r\ufeff]+"),
         ("comment", r"![^\r\n]*"),
         ("string", r'"(?:[^"\\\r\n]|\\.|"")*"'),
         ("number", r"(?:\d+\.\d*|\.\d+|\d+)(?:[eE][+-]?\d+)?"),
         ("name", r"[A-Za-z_]\w*"),
-        ("op", r":=|<>|<=|>=|[-+*/=<>()\[\]{},;:\\.%]"),
+        ("op", r":=|<>|<=|>=|[-+*/=<>()\[\]{},;:\\.%|]"),
     ],
     skip=frozenset({"blank", "comment", "newline"}),
 )
@@ -216,7 +216,12 @@ def _start(run: list[Token]) -> int:
         word = tok.text.lower()
         if tok.kind != "name":
             continue
-        if word in STORAGE or word in ("local", "task") or word in MOTIONS or word in ("confl", "confj", "moveabsj"):
+        if word in ("local", "task"):
+            # LOCAL PERS ...: a declaration; LOCAL PROC / FUNC / TRAP / RECORD: a block's header, skipped
+            if k + 1 < len(run) and run[k + 1].text.lower() in (*STORAGE, "local", "task"):
+                return k
+            continue
+        if word in STORAGE or word in MOTIONS or word in ("confl", "confj", "moveabsj"):
             return k
         if k + 1 < len(run) and (run[k + 1].is_("op", ":=") or run[k + 1].is_("op", "{")):
             return k

@@ -28,7 +28,7 @@ NAME = "urscript"
 LEXER = Lexer(
     [
         ("newline", r"\r?\n"),
-        ("blank", r"[ \t\f\v\r]+|\\\r?\n"),
+        ("blank", r"[ \t\f\v\r\ufeff]+|\\\r?\n"),
         ("comment", r"#[^\r\n]*"),
         ("string", r'"(?:[^"\\\r\n]|\\.)*"' + r"|'(?:[^'\\\r\n]|\\.)*'"),
         ("number", r"(?:\d+\.\d*|\.\d+|\d+)(?:[eE][+-]?\d+)?"),

@@ -117,6 +117,11 @@ class ProgramResponse(Public):
     files: dict[str, str] = Field(description="The companion files that hold corrected targets, rewritten")
     targets: list[CompensatedTarget]
     base: str = Field(default=BASE_CONVENTION, description="How the robot-base frame is defined")
+    encoding: str | None = Field(
+        default=None,
+        description="For a program sent as the body itself: the encoding its bytes were read in (utf-8, utf-16, "
+        "windows-1252); write the answer's program back in it for the controller",
+    )
     controller_frame: str | None = Field(
         default=None,
         description="The controller's base frame the targets are read in, by name: the first frame of a DH/MDH "

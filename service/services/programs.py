@@ -265,23 +265,44 @@ def _pendant(
     )
 
 
-def request_from_text(
-    raw: bytes, *, format_name: str | None, filename: str | None, version: int | None
-) -> ProgramRequest:
-    """A program sent as the body itself (text/plain): its format from `?format=` or the file name's extension;
-    bytes that are not UTF-8 are refused with where they are."""
+def decoded(raw: bytes) -> tuple[str, str]:
+    """A program file's text and the encoding it was read in, as controllers write them: UTF-16 with its byte
+    order mark (RobotStudio's exports), UTF-8 (a BOM kept as the text's first character: the readers skip it
+    and the answer gives it back), else Windows-1252 (KUKA's KRC writes its .src and .dat so: ä, °, µ in
+    comments). Bytes that are none of these are refused with where the first bad one is."""
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        try:
+            return raw.decode("utf-16"), "utf-16"
+        except UnicodeDecodeError as exc:
+            raise ProgramError(
+                f"the program starts with a UTF-16 byte order mark but is not UTF-16 text: {exc.reason} at byte "
+                f"{exc.start}",
+                reason="not-utf8",
+            ) from None
     try:
-        text = raw.decode("utf-8")
+        return raw.decode("utf-8"), "utf-8"
     except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        first = exc
+    try:
+        return raw.decode("cp1252"), "windows-1252"
+    except UnicodeDecodeError:
+        line = raw.count(b"\n", 0, first.start) + 1
+        column = first.start - (raw.rfind(b"\n", 0, first.start) + 1) + 1
         raise ProgramError(
-            f"the program is not UTF-8 text: byte 0x{raw[exc.start]:02x} at offset {exc.start}; "
-            "convert it (e.g. from Windows-1252) first",
+            f"the program is neither UTF-8, UTF-16 nor Windows-1252 text: byte 0x{raw[first.start]:02x} at offset "
+            f"{first.start}; convert it to UTF-8 first",
             line=line,
             column=column,
             reason="not-utf8",
         ) from None
+
+
+def request_from_text(
+    raw: bytes, *, format_name: str | None, filename: str | None, version: int | None
+) -> tuple[ProgramRequest, str]:
+    """A program sent as the body itself (text/plain): its format from `?format=` or the file name's extension,
+    and the encoding its bytes were read in (`decoded`)."""
+    text, encoding = decoded(raw)
     name = format_name
     if name is None and filename:
         found = dialect_of_file(filename)
@@ -293,7 +314,7 @@ def request_from_text(
         )
     if name not in DIALECTS:
         dialect(name)  # the error naming the formats
-    return ProgramRequest.model_validate({"format": name, "program": text, "version": version})
+    return ProgramRequest.model_validate({"format": name, "program": text, "version": version}), encoding
 
 
 def compensate_text(
@@ -307,5 +328,6 @@ def compensate_text(
     filename: str | None,
     version: int | None,
 ) -> ProgramResponse:
-    body = request_from_text(raw, format_name=format_name, filename=filename, version=version)
-    return compensate(db=db, models=models, registry=registry, robot_id=robot_id, body=body)
+    body, encoding = request_from_text(raw, format_name=format_name, filename=filename, version=version)
+    answer = compensate(db=db, models=models, registry=registry, robot_id=robot_id, body=body)
+    return answer.model_copy(update={"encoding": encoding})

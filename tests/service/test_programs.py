@@ -32,7 +32,7 @@ from models import Registry, forward_kinematics
 from models.examples import ur5_like_document
 from models.transforms import matrix_to_quaternion
 from programs import read_program
-from programs.frames import matrix_quaternion
+from programs.frames import matrix_abc, matrix_quaternion
 from service import limits
 from tests.programs.robots import UR10E_BOX, UR10E_KINEMATICS, ur_file_fk
 from tests.programs.samples import KRL_CONFIG, KRL_DAT, KRL_SRC
@@ -153,15 +153,49 @@ def test_mistakes_are_problems_that_say_where(
     assert _versions(client, ur5) == before
 
 
-def test_bytes_that_are_not_utf8_and_unknown_formats_are_refused(client: TestClient, ur5: str) -> None:
+def test_bytes_that_are_no_controller_encoding_and_unknown_formats_are_refused(client: TestClient, ur5: str) -> None:
     url = f"/v1/robots/{ur5}/programs/compensate"
-    latin = "DEF a( )\r\n; Schweißnaht\r\nEND\r\n".encode("cp1252")
-    answer = client.post(url + "?format=krl", content=latin, headers={"Content-Type": "text/plain"})
+    # 0x81 is undefined in Windows-1252 and invalid in UTF-8: no controller writes it
+    junk = b"DEF a( )\r\n; Schwei\x81naht\r\nEND\r\n"
+    answer = client.post(url + "?format=krl", content=junk, headers={"Content-Type": "text/plain"})
     assert answer.status_code == 422 and answer.json()["reason"] == "not-utf8"
-    assert (answer.json()["line"], answer.json()["column"]) == (2, 9)  # the ß
+    assert (answer.json()["line"], answer.json()["column"]) == (2, 9)  # the bad byte
     unnamed = client.post(url + "?filename=weld.txt", content=b"x", headers={"Content-Type": "text/plain"})
     assert unnamed.status_code == 422 and unnamed.json()["reason"] == "unknown-format"
     assert client.post(url + "?format=fanuc", content=b"x", headers={"Content-Type": "text/plain"}).status_code == 422
+
+
+def test_programs_in_the_encodings_controllers_write_are_read(client: TestClient, ur5: str, cell: Cell) -> None:
+    """Issue 44: KUKA writes Windows-1252 (ß, ° in comments), RobotStudio exports UTF-16 with a byte order mark,
+    editors add a UTF-8 BOM. Each is read, compensated, and the answer says the encoding to write it back in."""
+    url = f"/v1/robots/{ur5}/programs/compensate"
+    q = joints(3, seed=41)
+    poses = taught(cell, q)
+    script = urscript_program(list(poses))
+    krl_lines = ["DEF a( )\r\n", "; Schweißnaht 90°\r\n"]
+    for pose in poses:
+        a, b, c = matrix_abc(pose[:3, :3])
+        x, y, z = pose[:3, 3]
+        krl_lines.append(f"LIN {{X {x:.4f},Y {y:.4f},Z {z:.4f},A {a:.5f},B {b:.5f},C {c:.5f}}}\r\n")
+    krl = "".join([*krl_lines, "END\r\n"])
+    module = rapid_module(list(poses), q, base=np.eye(4), tool=cell.tool)
+    cases = [
+        ("krl", krl.encode("cp1252"), "windows-1252"),
+        ("urscript", "\ufeff".encode() + script.encode(), "utf-8"),
+        ("rapid", module.encode("utf-16"), "utf-16"),
+    ]
+    for fmt, raw, encoding in cases:
+        answer = client.post(f"{url}?format={fmt}", content=raw, headers={"Content-Type": "text/plain"})
+        assert answer.status_code == 200, (fmt, answer.text)
+        out = answer.json()
+        assert out["encoding"] == encoding and len(out["targets"]) == 3, (fmt, out["targets"])
+        # (the module's cf, with no seed and no MoveAbsJ, may ask for other branches: each then says so)
+        assert all(t["reached"] or t["reason"] for t in out["targets"]), fmt
+        assert any(t["reached"] for t in out["targets"]), (fmt, [t["reason"] for t in out["targets"]])
+        if fmt == "krl":
+            assert "Schweißnaht 90°" in out["program"]
+        if fmt == "urscript":
+            assert out["program"].startswith("\ufeff")  # every character kept, the BOM too
 
 
 def test_a_program_over_the_body_limit_is_refused(tmp_path: Path, registry: Registry) -> None:

@@ -1,0 +1,69 @@
+"""Valid syntax as the vendors' own files write it (issue 44): RAPID `LOCAL PROC` and the `\\a | b` alternative
+parameters of ROS-Industrial's abb_driver modules, a program split over several modules, a KRC/R1 folder's
+paths, and text with a UTF-8 byte order mark. Written here in those shapes; read, never refused."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from programs import read_program
+
+DRIVER_STYLE = (
+    "MODULE ROS_motion_server\r\n"
+    "  LOCAL CONST num server_port := 11000;\r\n"
+    "  LOCAL VAR robtarget pStart := [[600,0,800],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\r\n"
+    "  PROC main()\r\n"
+    "    MoveJ pStart, v200, fine, tool0;\r\n"
+    "    ROS_wait_for_client server_port, client_socket \\wait_time:=60;\r\n"
+    "  ENDPROC\r\n"
+    "  LOCAL PROC ROS_wait_for_client(num port, VAR socketdev client_socket, \\num wait_time)\r\n"
+    "    SocketCreate client_socket;\r\n"
+    "  ENDPROC\r\n"
+    "  LOCAL FUNC bool is_near(robtarget a, robtarget b, \\switch On | switch Off)\r\n"
+    "    RETURN TRUE;\r\n"
+    "  ENDFUNC\r\n"
+    "ENDMODULE\r\n"
+)
+
+
+def test_rapid_local_routines_and_alternative_switches_are_read() -> None:
+    program = read_program("rapid", DRIVER_STYLE)
+    assert [t.name for t in program.targets] == ["pStart"]
+    assert program.targets[0].kept is None and np.allclose(program.targets[0].pose[:3, 3], [600, 0, 800])
+
+
+def test_a_rapid_program_over_several_modules_and_a_bom() -> None:
+    """Targets in one module, the tooldata and wobjdata in another, the moves in a third (a BOM in front)."""
+    data = (
+        "MODULE CellData\n  PERS tooldata tGun:=[TRUE,[[0,0,215.5],[1,0,0,0]],[2,[0,0,90],[1,0,0,0],0,0,0]];\n"
+        '  PERS wobjdata wTable:=[FALSE,TRUE,"",[[1000,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];\nENDMODULE\n'
+    )
+    points = (
+        "MODULE Points\n  PERS robtarget p1:=[[10,20,30],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\nENDMODULE\n"
+    )
+    main = (
+        "\ufeffMODULE MainModule\n  PROC main()\n    MoveL p1, v100, fine, tGun\\WObj:=wTable;\n  ENDPROC\nENDMODULE\n"
+    )
+    program = read_program("rapid", main, {"CellData.mod": data, "Points.modx": points})
+    (target,) = program.targets
+    assert target.file == "Points.modx" and target.kept is None
+    assert target.frames.base_name == "wTable" and np.allclose(target.frames.base[:3, 3], [1000, 0, 0])
+    assert target.frames.tool_name == "tGun" and target.frames.tool is not None
+
+
+def test_a_krc_folder_with_its_paths() -> None:
+    """A backup's files by their paths in KRC/R1: the .dat is the program, its .src and the system data beside."""
+    dat = (
+        "&ACCESS RVP\r\nDEFDAT  weld\r\n"
+        "DECL E6POS XP1={X 900.0,Y 10.0,Z 700.0,A 0.0,B 90.0,C 0.0,S 2,T 2,E1 0.0}\r\n"
+        "DECL FDAT FP1={TOOL_NO 1,BASE_NO 0,IPO_FRAME #BASE}\r\nENDDAT\r\n"
+    )
+    src = "&ACCESS RVP\r\nDEF weld( )\r\nPTP XHOME\r\nFDAT_ACT=FP1\r\nLIN XP1\r\nEND\r\n"
+    config = (
+        "DEFDAT  $CONFIG\r\nDECL FRAME TOOL_DATA[16]\r\nTOOL_DATA[1]={X 0.0,Y 0.0,Z 200.0,A 0.0,B 0.0,C 0.0}\r\n"
+        "E6AXIS XHOME={A1 0.0,A2 -90.0,A3 90.0,A4 0.0,A5 30.0,A6 0.0,E1 0.0}\r\nENDDAT\r\n"
+    )
+    program = read_program("krl", dat, {"KRC/R1/Program/weld.src": src, "KRC\\R1\\System\\$config.dat": config})
+    (xp1,) = [t for t in program.targets if t.name == "XP1"]
+    assert xp1.kept is None and xp1.frames.tool_name == "TOOL_DATA[1]"
+    assert xp1.after is not None and xp1.after.line == 3 and np.allclose(np.degrees(xp1.after.joints[4]), 30.0)
