@@ -13,12 +13,18 @@ import numpy as np
 
 from models import RobotDescription, forward_kinematics
 from models._types import Array
+from models.compensation.controller import ControllerFrame, urdf_controller_frame
 from models.compensation.poses import matrix_pose6, pose6_matrix, pose_matrices
 from models.examples import ur5_like
 from models.inverse.problem import joint_weights
 from models.inverse.routing import IkBatch
 from models.runtime import runtime_for
 from models.simulation import perturbed_robot
+from models.structure import description_from_document
+from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
+from models.ur_kinematics import TIP_LINK as UR_TIP_LINK
+from models.ur_kinematics import read_kinematics, urdf_of_kinematics
+from models.urdf import document_from_urdf
 from programs.frames import matrix_abc, matrix_quaternion, matrix_rotvec
 
 JOINT_BOX_DEG = ((-40, 40), (-120, -60), (50, 110), (-120, -60), (60, 120), (-40, 40))
@@ -67,6 +73,69 @@ def ur5_cell(seed: int = 3) -> Cell:
     desc = ur5_like()
     sim = perturbed_robot(desc, seed=seed)
     return Cell(desc, sim.nominal, sim.truth)
+
+
+UR10E_KINEMATICS = """\
+kinematics:
+  shoulder:
+    x: 0
+    y: 0
+    z: 0.1807
+    roll: 0
+    pitch: 0
+    yaw: 0
+  upper_arm:
+    x: 0
+    y: 0
+    z: 0
+    roll: 1.570796327
+    pitch: 0
+    yaw: 0
+  forearm:
+    x: -0.6127
+    y: 0
+    z: 0
+    roll: 0
+    pitch: 0
+    yaw: 0
+  wrist_1:
+    x: -0.57155
+    y: 0
+    z: 0.17415
+    roll: 0
+    pitch: 0
+    yaw: 0
+  wrist_2:
+    x: 0
+    y: -0.11985
+    z: -2.458164590756244e-11
+    roll: 1.570796327
+    pitch: 0
+    yaw: 0
+  wrist_3:
+    x: 0
+    y: 0.11655
+    z: -2.390480459346185e-11
+    roll: 1.570796326589793
+    pitch: 3.141592653589793
+    yaw: 3.141592653589793
+  hash: calib_12788084448423163542
+"""
+"""A UR10e's `default_kinematics.yaml` as ur_description ships it (the published dimensions, the file's shape)."""
+
+
+def ur10e_cell(seed: int = 3) -> tuple[Cell, ControllerFrame]:
+    """A UR10e imported from its kinematics file as the service imports it, a perturbed truth as its calibration,
+    and the controller frame its programs are in (UR's Base, 180.7 mm below the model's {0})."""
+    urdf = urdf_of_kinematics(read_kinematics(UR10E_KINEMATICS))
+    desc = description_from_document(document_from_urdf(urdf, UR_BASE_LINK, UR_TIP_LINK))
+    sim = perturbed_robot(desc, seed=seed)
+    return Cell(desc, sim.nominal, sim.truth), urdf_controller_frame(urdf, UR_BASE_LINK, UR_TIP_LINK, ur_file=True)
+
+
+def taught_in(cell: Cell, frame: ControllerFrame, q: Array) -> Array:
+    """(N, 4, 4) the targets the nominal controller reaches at joints `q`, in its own base frame."""
+    return np.asarray(np.linalg.solve(frame.zero_from_controller, taught(cell, q)), dtype=float)
 
 
 def joints(n: int, seed: int = 0) -> Array:

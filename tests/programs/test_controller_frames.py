@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from harness.programs import UR10E_KINEMATICS
 from models._types import Array
 from models.compensation.controller import ZERO, ControllerFrame, urdf_controller_frame
 from models.robot import RobotDescription
@@ -25,7 +26,7 @@ from models.urdf import document_from_urdf
 from programs import PROGRAM, read_program
 from programs.frames import matrix_quaternion, matrix_rotvec
 from service.services.programs import compensate_program
-from tests.programs.robots import MAKERS, UR10E_BOX, UR10E_KINEMATICS, UrdfFk, _pose6, mdh_fk, ur_file_fk, urdf_fk
+from tests.programs.robots import MAKERS, UR10E_BOX, UrdfFk, _pose6, mdh_fk, ur_file_fk, urdf_fk
 
 ROBOTS = ("ur10e-file", "ur10e-urdf", "kr6-urdf", "irb140-urdf")
 N = 12

@@ -19,6 +19,7 @@ from fastapi.testclient import TestClient
 from harness.programs import (
     FIXTURE,
     HOME_DEG,
+    UR10E_KINEMATICS,
     Cell,
     csv_table,
     executed,
@@ -34,7 +35,7 @@ from models.transforms import matrix_to_quaternion
 from programs import read_program
 from programs.frames import matrix_abc, matrix_quaternion
 from service import limits
-from tests.programs.robots import UR10E_BOX, UR10E_KINEMATICS, ur_file_fk
+from tests.programs.robots import UR10E_BOX, ur_file_fk
 from tests.programs.samples import KRL_CONFIG, KRL_DAT, KRL_SRC
 from tests.service.conftest import make_client
 
