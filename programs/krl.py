@@ -148,7 +148,7 @@ class Ref:
 @dataclass(frozen=True)
 class Statement:
     kind: str
-    """"decl", "assign", "motion" or "bas"."""
+    """"decl", "assign", "motion", "bas", "def" (a routine's header: `first` is its name) or "call"."""
     first: Token
     type_name: str | None = None
     items: tuple[tuple[Ref, Aggregate | Ref | None], ...] = ()
@@ -189,6 +189,11 @@ def statement(line: list[Token], file: str | None) -> Statement | None:
     """The statement of one line, where it can concern a target or a frame (None: any other)."""
     cur = Cursor(line, file, "the statement")
     head = line[0].text.lower()
+    routine = _routine_header(line)
+    if routine is not None:
+        return Statement("def", routine)
+    if line[0].kind == "name" and len(line) > 1 and line[1].is_("op", "(") and head not in MOTIONS and head != "bas":
+        return Statement("call", line[0])
     if head in ("decl", "global", "const") or (head in DECLARED_TYPES and len(line) > 1 and line[1].kind == "name"):
         return _declaration(cur)
     if head in MOTIONS or head in RELATIVE:
@@ -208,6 +213,15 @@ def statement(line: list[Token], file: str | None) -> Statement | None:
             # `$BASE = BASE_DATA[1] : {X 10}`: an expression, not one value this reader can name
             return Statement("assign", line[0], items=((target, value if cur.peek() is None else None),))
     return None
+
+
+def _routine_header(line: list[Token]) -> Token | None:
+    """The name of `DEF name(`, `GLOBAL DEF name(` (a routine's first line); None for any other line."""
+    words = [t.text.lower() for t in line[:3]]
+    at = 1 if words[:1] == ["def"] else (2 if words[:2] == ["global", "def"] else None)
+    if at is None or len(line) <= at or line[at].kind != "name":
+        return None
+    return line[at]
 
 
 def _declaration(cur: Cursor) -> Statement | None:
@@ -369,6 +383,7 @@ class Walk:
     frame_names: set[str] = field(default_factory=set)
     """Variables used as a base or a tool: frames, not targets."""
     motions: int = 0
+    routines: dict[str, list[tuple[str | None, Statement]]] = field(default_factory=dict)
     last_joints: JointMove | None = None
     after: dict[tuple[str, str | None], JointMove | None] = field(default_factory=dict)
     """Per variable: the last joint move before its first motion."""
@@ -384,6 +399,7 @@ def _walk(sym: Symbols, statements: list[tuple[str | None, Statement]], program:
     are followed in each file's own order)."""
     walk = Walk()
     sources = [program, *sorted({f for f, _ in statements if f is not None and f.lower().endswith(SOURCE_SUFFIXES)})]
+    walk.routines = _routines([(f, st) for f, st in statements if f in sources])
     for source in sources:
         _walk_file(sym, [(f, st) for f, st in statements if f == source], walk)
     return walk
@@ -392,25 +408,49 @@ def _walk(sym: Symbols, statements: list[tuple[str | None, Statement]], program:
 def _walk_file(sym: Symbols, statements: list[tuple[str | None, Statement]], walk: Walk) -> None:
     state, kept = State(), None
     for file, st in statements:
-        if st.kind == "assign":
-            ref, value = st.items[0]
-            name = ref.name.text.lower()
-            if name in ("$base", "$tool"):
-                which = name[1:]
-                setattr(state, which, _frame(sym, value, st, file))
-                if isinstance(value, Ref):
-                    walk.frame_names.add(value.name.text.lower())
-            elif name == "fdat_act":
-                kept = _fdat(sym, state, value, st, file)
-        elif st.kind == "bas" and st.type_name in ("#tool", "#base"):
-            number = st.items[0][0].name
-            if number.kind == "number":
-                setattr(state, st.type_name[1:], _table(sym, st.type_name[1:], int(number.text), st, file))
-        elif st.kind == "motion":
+        if st.kind == "motion":
             _motion(st, file, Frames(state.base[0], state.tool[0], state.base[1], state.tool[1]), kept, walk)
             joints = None if st.relative else _joint_move(sym, st)
             if joints is not None:
                 walk.last_joints = joints
+        elif st.kind == "call":
+            # A literal call of a routine among the files: the frames it sets hold after it, as on the controller
+            for routine_file, inner in walk.routines.get(st.first.text.lower(), ()):
+                kept = _frame_statement(sym, inner, routine_file, state, walk, kept=kept)
+        else:
+            kept = _frame_statement(sym, st, file, state, walk, kept=kept)
+
+
+def _frame_statement(
+    sym: Symbols, st: Statement, file: str | None, state: State, walk: Walk, *, kept: str | None
+) -> str | None:
+    """`$BASE =`, `$TOOL =`, `BAS(#BASE|#TOOL, n)`, `FDAT_ACT =`: the state changed; the FDAT's kept-reason."""
+    if st.kind == "assign":
+        ref, value = st.items[0]
+        name = ref.name.text.lower()
+        if name in ("$base", "$tool"):
+            setattr(state, name[1:], _frame(sym, value, st, file))
+            if isinstance(value, Ref):
+                walk.frame_names.add(value.name.text.lower())
+        elif name == "fdat_act":
+            return _fdat(sym, state, value, st, file)
+    elif st.kind == "bas" and st.type_name in ("#tool", "#base"):
+        number = st.items[0][0].name
+        if number.kind == "number":
+            setattr(state, st.type_name[1:], _table(sym, st.type_name[1:], int(number.text), st, file))
+    return kept
+
+
+def _routines(statements: list[tuple[str | None, Statement]]) -> dict[str, list[tuple[str | None, Statement]]]:
+    """Each routine's (DEF name ... END) statements that set frames, by its name: what a call of it applies."""
+    out: dict[str, list[tuple[str | None, Statement]]] = {}
+    current: list[tuple[str | None, Statement]] | None = None
+    for file, st in statements:
+        if st.kind == "def":
+            current = out.setdefault(st.first.text.lower(), [])
+        elif current is not None and st.kind in ("assign", "bas"):
+            current.append((file, st))
+    return {name: body for name, body in out.items() if body}
 
 
 def _motion(st: Statement, file: str | None, frames: Frames, kept: str | None, walk: Walk) -> None:

@@ -67,3 +67,33 @@ def test_a_krc_folder_with_its_paths() -> None:
     (xp1,) = [t for t in program.targets if t.name == "XP1"]
     assert xp1.kept is None and xp1.frames.tool_name == "TOOL_DATA[1]"
     assert xp1.after is not None and xp1.after.line == 3 and np.allclose(np.degrees(xp1.after.joints[4]), 30.0)
+
+
+def test_krl_frames_set_in_a_called_routine_hold_after_the_call() -> None:
+    """Issue 44: a base and a tool set inside a subroutine were taken as the robot's base and the model's tool.
+    A literal call of a routine among the files applies the frames it sets, as the controller does."""
+    src = (
+        "DEF cell( )\r\n"
+        "  LIN XP0\r\n"
+        "  SET_FRAMES( )\r\n"
+        "  LIN XP1\r\n"
+        "END\r\n"
+        "DEF SET_FRAMES( )\r\n"
+        "  $BASE = BASE_DATA[2]\r\n"
+        "  $TOOL = TOOL_DATA[3]\r\n"
+        "END\r\n"
+    )
+    dat = (
+        "DEFDAT cell\r\n"
+        "DECL E6POS XP0={X 900,Y 0,Z 700,A 0,B 90,C 0}\r\n"
+        "DECL E6POS XP1={X 100,Y 20,Z 30,A 0,B 90,C 0}\r\n"
+        "ENDDAT\r\n"
+    )
+    config = (
+        "DEFDAT $CONFIG\r\nBASE_DATA[2]={X 1000.0,Y 0.0,Z 0.0,A 0.0,B 0.0,C 0.0}\r\n"
+        "TOOL_DATA[3]={X 0.0,Y 0.0,Z 150.0,A 0.0,B 0.0,C 0.0}\r\nENDDAT\r\n"
+    )
+    named = {t.name: t for t in read_program("krl", src, {"cell.dat": dat, "$config.dat": config}).targets}
+    assert named["XP0"].frames.base_name is None and named["XP0"].frames.tool is None
+    assert named["XP1"].frames.base_name == "BASE_DATA[2]" and named["XP1"].frames.tool_name == "TOOL_DATA[3]"
+    assert np.allclose(named["XP1"].frames.base[:3, 3], [1000, 0, 0])
