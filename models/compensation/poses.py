@@ -262,6 +262,10 @@ def _nominal_from_seed(batch: IkBatch, world: Array) -> tuple[Array, NDArray[np.
 
 GENERAL_CHUNK = 8
 """Targets handed to the general inverse kinematics at a time, the deadline checked between chunks."""
+NO_NEAR_SOLUTION = (
+    "no solution next to the nominal one (Newton from it did not converge): the target is near a singular "
+    "configuration or at the edge of the calibrated robot's reach"
+)
 OUT_OF_TIME = (
     "not solved in the request's time: Newton from the program's configuration did not reach it, and the general "
     "inverse kinematics (about 0.3 s a target) was not started for it; send fewer such targets at a time"
@@ -300,6 +304,14 @@ def _near(
             reached = batch.accepted(v, converged)
         joints[reached] = np.clip(v[reached], desc.joint_min, desc.joint_max)
     remaining = np.flatnonzero(~reached)
+    if not nominal and not desc.has_closure and not desc.terms.any:
+        # Newton from q_nom failed for the calibrated robot: the target is near a singular configuration (or
+        # out of its reach). The general route starts from its table, not from q_nom, and its answers are then
+        # another branch, refused by the 5° check: measured on 3 000 targets each, the UR5-like arm's 12 and an
+        # imported UR10e's 19 such targets cost 0.3 s of CPU each in IPOPT and none ended compensated.
+        for i in remaining:
+            reasons[i] = NO_NEAR_SOLUTION
+        return reached, joints, reasons
     chunk = remaining.size if deadline is None else GENERAL_CHUNK
     for at in range(0, remaining.size, max(chunk, 1)):
         rest = remaining[at : at + chunk]
