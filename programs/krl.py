@@ -14,7 +14,7 @@ files ($config.dat) assign them; `$BASE` is taken relative to the robot's base (
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -387,7 +387,10 @@ class Walk:
     last_joints: JointMove | None = None
     after: dict[tuple[str, str | None], JointMove | None] = field(default_factory=dict)
     """Per variable: the last joint move before its first motion."""
-    inline_after: list[JointMove | None] = field(default_factory=list)
+    inline_after: list[tuple[JointMove | None, bool]] = field(default_factory=list)
+    """Per inline aggregate: the last joint move before it, and whether its motion is a PTP."""
+    ptp: set[tuple[str, str | None]] = field(default_factory=set)
+    """Variables some PTP goes to: the controller holds their S and T."""
 
 
 def system_file(name: str | None) -> bool:
@@ -457,14 +460,18 @@ def _motion(st: Statement, file: str | None, frames: Frames, kept: str | None, w
     """A motion's operands: inline aggregates and the variables it names, with its frames and the last joint
     move before it (where the controller's solve starts)."""
     why = "a relative motion: its value is an offset, not a pose" if st.relative else kept
+    # KUKA reads S and T on a PTP only; a LIN or CIRC keeps the configuration it starts in.
+    point_to_point = st.first.text.lower() in ("ptp", "sptp")
     for _, operand in st.items:
         if isinstance(operand, Aggregate):
             walk.inline.append((file, operand, frames, why))
-            walk.inline_after.append(walk.last_joints)
+            walk.inline_after.append((walk.last_joints, point_to_point))
         elif isinstance(operand, Ref):
             key = (operand.name.text.lower(), operand.index)
             walk.uses.setdefault(key, []).append((frames, st.first.line, why))
             walk.after.setdefault(key, walk.last_joints)
+            if point_to_point:
+                walk.ptp.add(key)
     walk.motions += 1
 
 
@@ -510,9 +517,19 @@ def _used(walk: Walk, key: tuple[str, str | None]) -> bool:
 
 
 def _target(
-    file: str | None, name: str | None, agg: Aggregate, frames: Frames, why: str | None, *, after: JointMove | None
+    file: str | None,
+    name: str | None,
+    agg: Aggregate,
+    frames: Frames,
+    why: str | None,
+    *,
+    after: JointMove | None,
+    held: bool = True,
 ) -> Target:
     pose, partial = _pose(agg)
+    turn = _turn(agg)
+    if turn is not None and not held:
+        turn = replace(turn, enforced=False)
     members = [agg.members.get(m) for m in POSE_MEMBERS]
     return target_at(
         file,
@@ -522,7 +539,7 @@ def _target(
         pose,
         frames=frames,
         kept=partial or why,
-        configuration=_turn(agg),
+        configuration=turn,
         style="abc",
         after=after,
     )
@@ -560,10 +577,12 @@ def read(program: str, files: Mapping[str, str]) -> Program:
         elif not walk.motions and sym.types.get(name) == "frame":
             why = DATA  # a data list alone: its POS/E6POS are taught points, its FRAMEs are bases and tools
         after = walk.after.get(assigned.key) or walk.after.get((assigned.key[0], "*"))
-        targets.append(_target(assigned.file, assigned.name, assigned.aggregate, frames, why, after=after))
-    for (file, agg, frames, why), after in zip(walk.inline, walk.inline_after, strict=True):
+        key = assigned.key
+        held = not _used(walk, key) or key in walk.ptp or (key[0], "*") in walk.ptp
+        targets.append(_target(assigned.file, assigned.name, assigned.aggregate, frames, why, after=after, held=held))
+    for (file, agg, frames, why), (after, ptp) in zip(walk.inline, walk.inline_after, strict=True):
         if _is_cartesian(sym, "", agg):
-            targets.append(_target(file, None, agg, frames, why, after=after))
+            targets.append(_target(file, None, agg, frames, why, after=after, held=ptp))
     texts: dict[str | None, str] = {PROGRAM: program}
     texts.update(files)
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))

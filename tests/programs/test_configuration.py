@@ -8,9 +8,22 @@ same program without its joint moves is compensated from the middle of the range
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
-from harness.programs import FIXTURE, HOME_DEG, executed, joints, rapid_module, taught, ur5_cell, world_positions
+from harness.programs import (
+    FIXTURE,
+    HOME_DEG,
+    executed,
+    joints,
+    krl_config,
+    krl_pair,
+    rapid_module,
+    taught,
+    ur5_cell,
+    world_positions,
+)
 from models._types import Array
 from programs import PROGRAM, read_program
 from programs.frames import matrix_rotvec
@@ -96,3 +109,22 @@ def test_rapid_confl_off_lets_the_controller_choose_and_moveabsj_says_where_from
     done = compensate_program(cell.desc, cell.truth, read_program("rapid", free), nominal=cell.nominal)
     assert all(o.pose is not None for o in done.outcomes), [o.reason for o in done.outcomes]
     assert all((o.branch or "").startswith("the joint move at line") for o in done.outcomes)
+
+
+def test_kuka_holds_s_and_t_on_a_ptp_only() -> None:
+    """A KRL program whose T values are wrong (taught on another arm): a PTP to such a target is refused for
+    its configuration, as the controller would drive another branch; a LIN keeps the configuration it starts
+    in, so its T is a hint and the target is compensated."""
+    cell = ur5_cell()
+    q = joints(10, seed=19)
+    src, dat = krl_pair(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q)
+    wrong = re.sub(r",T (\d+),", lambda m: f",T {int(m.group(1)) ^ 1},", dat)  # axis 1's sign bit flipped
+    program = read_program("krl", src, {"weld.dat": wrong, "$config.dat": krl_config(FIXTURE, cell.tool)})
+    done = compensate_program(cell.desc, cell.truth, program, nominal=cell.nominal, seed=np.radians(HOME_DEG))
+    by_name = {o.target.name: o for o in done.outcomes}
+    point_to_point = {f"XP{k}" for k in range(1, 11) if k % 5 == 1}  # krl_pair's PTPs
+    for name, o in by_name.items():
+        if name in point_to_point:
+            assert o.pose is None and "configuration" in (o.reason or ""), (name, o.reason)
+        else:
+            assert o.pose is not None, (name, o.reason)
