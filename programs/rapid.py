@@ -108,6 +108,9 @@ def _pose(pos: list[Number | Opaque], quat: list[Number | Opaque]) -> Array | No
     if not all(isinstance(v, Number) for v in values):
         return None
     x = [v.value for v in values if isinstance(v, Number)]
+    if not 1e-6 < math.hypot(*x[3:]) < 1e150:
+        # A zero (or absurd) quaternion is no rotation: a pose of NaN, which the compensation lists as not a pose
+        return np.full((4, 4), np.nan)
     return transform(x[:3], quaternion_matrix(x[3:]))
 
 

@@ -27,6 +27,8 @@ from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np
 
+FAR_MM = 1.0e5
+"""100 m from the base: beyond any arm's reach (the largest industrial arms reach under 5 m)."""
 MAX_BRANCH_STEP_RAD = float(np.radians(5.0))
 """A compensation moves joints by hundredths of a degree; a joint of q* more than this away from q_nom means
 the calibrated solution lies on another branch (a wrist flip, a turn), which the controller would not follow."""
@@ -105,7 +107,25 @@ def compensate_poses(
         joints=np.full((n, desc.n_joints), np.nan),
     )
     reasons: list[str | None] = list(out.reasons)
-    for tool, idx in _tool_groups(tools, n):
+    # Targets no solver should see: not a pose (a zero quaternion read as NaN) or kilometres away (1e300 mm
+    # overflowed the start table's distances, an IndexError). They keep their value with the reason.
+    finite = np.isfinite(t).all(axis=(1, 2))
+    rotations = np.where(finite[:, None, None], t[:, :3, :3], 0.0)
+    rotation_ok = finite & np.all(
+        np.abs(np.einsum("nij,nkj->nik", rotations, rotations) - np.eye(3)) < 1e-6, axis=(1, 2)
+    )
+    far = np.max(np.abs(np.nan_to_num(t[:, :3, 3], nan=np.inf)), axis=1) > FAR_MM  # no squares: 1e300 overflows
+    for i in np.flatnonzero(~rotation_ok | far):
+        reasons[i] = (
+            f"farther than {FAR_MM:g} mm from the base: out of any arm's reach"
+            if rotation_ok[i]
+            else "not a pose: its orientation is not a rotation (a zero or non-finite quaternion or angle)"
+        )
+    solvable = rotation_ok & ~far
+    for tool, group in _tool_groups(tools, n):
+        idx = group[solvable[group]]
+        if idx.size == 0:
+            continue
         cal, nom = theta_cal.copy(), theta_nom.copy()
         if tool is not None:
             cal[desc.slices["tool"]] = nom[desc.slices["tool"]] = tool

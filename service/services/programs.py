@@ -181,14 +181,17 @@ def compensate(
     desc, theta, version = _model(db, models, robot_id, body.version)
     frame = controller_frame(db, robot_id)
     pendant = _pendant(desc, body, registry.runtime(desc), frame) if body.pendant else None
-    program = read_program(body.format, body.program, body.files)
     seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
     # The request's own time: Newton's answers for every target, the costly general route only while time is
     # left, so an ordinary file is answered (its slow targets listed) rather than dropped at the compute deadline.
     deadline = started + limits.PROGRAM_SOLVE_S
-    done = compensate_program(
-        desc, theta, program, seed=seed, runtime=registry.runtime(desc), controller=frame, deadline=deadline
-    )
+    # A zero quaternion or a 1e300 value makes NaN or inf on the way, not an error: compensate_poses lists
+    # such a target as not a pose or out of reach (numpy's warnings about them are noise here).
+    with np.errstate(all="ignore"):
+        program = read_program(body.format, body.program, body.files)
+        done = compensate_program(
+            desc, theta, program, seed=seed, runtime=registry.runtime(desc), controller=frame, deadline=deadline
+        )
     changed = {o.target.file for o in done.outcomes if o.pose is not None}
     return ProgramResponse(
         format=body.format,

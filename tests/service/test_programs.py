@@ -282,6 +282,34 @@ def test_targets_the_general_solver_would_take_long_on_are_listed_not_timed_out(
 
 
 @pytest.mark.parametrize(
+    ("fmt", "program", "reason"),
+    [
+        ("krl", "DEF a()\nLIN {X 1e300, Y 0, Z 0, A 0, B 0, C 0}\nEND\n", "out of any arm's reach"),
+        ("csv", "x,y,z,a,b,c\n1e300,0,0,0,0,0\n", "out of any arm's reach"),
+        (
+            "rapid",
+            "MODULE M\n  CONST robtarget p:=[[400,0,300],[0,0,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  PROC main()\n    MoveL p,v100,fine,tool0;\n  ENDPROC\nENDMODULE\n",
+            "not a rotation",
+        ),
+        ("urscript", "def f():\n  movel(p[0.4, 1e300, 0.3, 0, 3.14, 0])\nend\n", "out of any arm's reach"),
+        ("urscript", "def f():\n  movel(p[1e300, 0, 0, 0, 0, 1e300])\nend\n", "not a rotation"),
+        ("csv", "x,y,z,qw,qx,qy,qz\n400,0,300,0,0,0,0\n", "not a rotation"),
+    ],
+    ids=["krl-far", "csv-far", "rapid-zero-quaternion", "urscript-far", "urscript-overflow", "csv-zero-quaternion"],
+)
+def test_finite_but_impossible_targets_are_listed_not_a_500(
+    client: TestClient, ur5: str, fmt: str, program: str, reason: str
+) -> None:
+    """Found probing for the next 500s: a target 1e300 mm away overflowed the start table's distances (an
+    IndexError), a zero quaternion gave NaN. Each is listed with its reason; the answer is a 200."""
+    answer = _post(client, ur5, format=fmt, program=program)
+    assert answer.status_code == 200, answer.text
+    (target,) = answer.json()["targets"]
+    assert not target["reached"] and reason in target["reason"], target
+
+
+@pytest.mark.parametrize(
     ("fmt", "program", "line"),
     [
         ("krl", "DEF a()\nLIN {X 1e400, Y 0, Z 0, A 0, B 0, C 0}\nEND\n", 2),
