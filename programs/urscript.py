@@ -40,6 +40,10 @@ LEXER = Lexer(
 MOTIONS = {"movel": (0,), "movej": (0,), "movep": (0,), "servoc": (0,), "movec": (0, 1)}
 """Each motion's pose arguments (0-based)."""
 DATA = "data, left alone: no motion of the program goes to it"
+_IN_MOVED = (
+    "placed by pose_trans in {0}, which the program also moves to and which is compensated itself: the two "
+    "corrections would add up; left as written"
+)
 METRE_DECIMALS = (6, 6, 6, 6, 6, 6)
 """1 µm and 1e-6 rad (1 µm at a metre): the correction survives its printing."""
 
@@ -370,6 +374,13 @@ def read(program: str, files: Mapping[str, str]) -> Program:
                 if not _same(other, frames):
                     why = f"used with different features or tools (lines {uses[0][1]} and {line})"
             found.append((pose, name, frames, why, uses[0][3]))
+    # pose_trans(W, p[...]) is compensated in W's frame as written; where W is itself a target the program moves
+    # to, W's own correction would be added on top: those are listed instead.
+    moved = {name for pose, name, _, why, _ in found if name is not None and why is None}
+    found = [
+        (pose, name, frames, why or (_IN_MOVED.format(frames.base_name) if frames.base_name in moved else None), after)
+        for pose, name, frames, why, after in found
+    ]
     targets = [
         target_at(
             PROGRAM,

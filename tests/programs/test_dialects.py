@@ -97,3 +97,20 @@ def test_krl_frames_set_in_a_called_routine_hold_after_the_call() -> None:
     assert named["XP0"].frames.base_name is None and named["XP0"].frames.tool is None
     assert named["XP1"].frames.base_name == "BASE_DATA[2]" and named["XP1"].frames.tool_name == "TOOL_DATA[3]"
     assert np.allclose(named["XP1"].frames.base[:3, 3], [1000, 0, 0])
+
+
+def test_urscript_pose_trans_in_a_moved_target_is_not_corrected_twice() -> None:
+    """`pose_trans(Waypoint_1_p, p[offset])` is compensated in the feature's frame; where the script also moves
+    to Waypoint_1_p (compensated itself), the offset's target is listed instead of corrected twice."""
+    script = (
+        "def f():\n"
+        "  global Waypoint_1_p=p[.4, -.1, .35, 0, 3.1416, 0]\n"
+        "  global Plane_1=p[.5, -.2, .05, 0, 0, 0]\n"
+        "  movel(Waypoint_1_p)\n"
+        "  movel(pose_trans(Waypoint_1_p, p[0, 0, -0.05, 0, 0, 0]))\n"
+        "  movel(pose_trans(Plane_1, p[0.01, 0, 0.1, 0, 3.1416, 0]))\n"
+        "end\n"
+    )
+    kept = {t.line: t.kept for t in read_program("urscript", script).targets}
+    assert kept[2] is None and kept[6] is None  # the waypoint, and the pose placed in a feature
+    assert "corrections would add up" in (kept[5] or "")
