@@ -70,7 +70,9 @@ def backup(cell: Cell, q: np.ndarray, folder: Path) -> dict[str, Path]:
     src = src.replace("&REL 1\r\n", "&REL 1\r\n&COMMENT Schweißnaht Träger links\r\n", 1)
     src = src.replace("END\r\n", "; zum Schluss: außer Reichweite\r\nLIN XFAR\r\nEND\r\n")
     dat = dat.replace("ENDDAT\r\n", f"DECL INT nZähler=0\r\n{UNREACHABLE}ENDDAT\r\n")
-    config = krl_config(FIXTURE, cell.tool).replace("DEFDAT  $CONFIG\r\n", "DEFDAT  $CONFIG\r\n; Werkzeug: Brenner\r\n")
+    config = krl_config(FIXTURE, cell.tool).replace(
+        "DEFDAT  $CONFIG\r\n", "DEFDAT  $CONFIG\r\n; Werkzeug: Brenner für Naht 1\r\n"
+    )
     files = {"weld.src": src, "weld.dat": dat, "$config.dat": config}
     folder.mkdir(parents=True, exist_ok=True)
     for name, text in files.items():
@@ -78,7 +80,7 @@ def backup(cell: Cell, q: np.ndarray, folder: Path) -> dict[str, Path]:
     return {name: folder / name for name in files}
 
 
-def _skeleton(data: bytes) -> bytes:
+def skeleton(data: bytes) -> bytes:
     """The bytes without their numbers' characters: what a compensation must leave exactly as it was."""
     return re.sub(rb"[-+0-9.]", b"", data)
 
@@ -127,7 +129,7 @@ def test_a_krl_backup_is_compensated_into_a_folder_in_its_own_encoding(
     assert written == ["weld.dat", "weld.src"]  # $config.dat held no target: not rewritten
     for name in written:
         before, after = files[name].read_bytes(), (out / name).read_bytes()
-        assert _skeleton(after) == _skeleton(before)  # umlauts in Windows-1252, CRLF, folds: all as they were
+        assert skeleton(after) == skeleton(before)  # umlauts in Windows-1252, CRLF, folds: all as they were
         assert after != before or name == "weld.src"
     assert "Schweißnaht".encode("cp1252") in (out / "weld.src").read_bytes()
 
