@@ -24,7 +24,18 @@ import numpy as np
 import pytest
 
 from harness.live import ROOT, running_server
-from harness.programs import FIXTURE, HOME_DEG, Cell, executed, joints, krl_config, krl_pair, taught, ur5_cell
+from harness.programs import (
+    FIXTURE,
+    HOME_DEG,
+    Cell,
+    executed,
+    joints,
+    krl_config,
+    krl_pair,
+    rapid_module,
+    taught,
+    ur5_cell,
+)
 from iwr_client import ApiError, Client, ProgramFile, summary
 from iwr_client.cli import main
 from iwr_client.programs import compensated_bytes, format_of
@@ -155,6 +166,31 @@ def test_a_krl_backup_is_compensated_into_a_folder_in_its_own_encoding(
     kept = next(line for line in run.stdout.splitlines() if " XFAR " in line)
     assert "kept" in kept and "BASE_DATA[1]" in kept and len(kept.split("kept", 1)[1].strip()) > 10  # a reason
     assert str(out / "weld.dat") in run.stdout and run.stderr == ""
+
+
+@pytest.mark.slow
+def test_a_rapid_module_exported_in_utf16_comes_back_in_utf16(
+    server: str, robot: str, cell: Cell, tmp_path: Path
+) -> None:
+    """A module as RobotStudio writes one (tooldata, wobjdata, CONST robtargets, MoveJ then MoveL), saved as
+    UTF-16 with its byte-order mark and a German comment: written back in UTF-16, landing on its targets."""
+    q = joints(5, seed=23)
+    module = rapid_module(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q, base=FIXTURE, tool=cell.tool)
+    module = module.replace("MODULE Module1\r\n", "MODULE Module1\r\n    ! Schweißzelle 3, Vorrichtung links\r\n")
+    source = tmp_path / "Module1.mod"
+    source.write_bytes(b"\xff\xfe" + module.encode("utf-16-le"))
+    out = tmp_path / "out"
+    run = iwr(server, "compensate", robot, str(source), "--seed", ",".join(map(str, HOME_DEG)), "-o", str(out))
+    assert run.returncode == 0, run.stderr + run.stdout
+    data = (out / "Module1.mod").read_bytes()
+    assert data.startswith(b"\xff\xfe") and skeleton(data) == skeleton(source.read_bytes())
+    again = read_program("rapid", data[2:].decode("utf-16-le"))
+    original = read_program("rapid", module)
+    assert [t.name for t in again.targets] == [f"Target_{10 * k}" for k in range(1, 6)]
+    wanted = (cell.base @ FIXTURE @ np.array([t.pose for t in original.targets]))[:, :3, 3]
+    landed = executed(cell, np.array([t.pose for t in again.targets]), q, base=FIXTURE, tool=cell.tool)
+    assert np.linalg.norm(landed - wanted, axis=1).max() < 0.05
+    assert "5 of 5 targets corrected, 0 kept" in run.stdout and "wFixture" in run.stdout
 
 
 @pytest.mark.slow
