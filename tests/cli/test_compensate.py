@@ -48,6 +48,23 @@ UNREACHABLE = (
 )
 
 
+HEADER = (
+    "&REL 1\r\n&COMMENT Schweißnaht Träger links\r\n&PARAM EDITMASK = *\r\n"
+    "&PARAM TEMPLATE = C:\\KRC\\Roboter\\Template\\vorgabe\r\n&PARAM DISKPATH = KRC:\\R1\\Program\r\n"
+)
+INI = (
+    "  ;FOLD BASISTECH INI\r\n    GLOBAL INTERRUPT DECL 3 WHEN $STOPMESS==TRUE DO IR_STOPM ( )\r\n"
+    "    INTERRUPT ON 3\r\n    BAS (#INITMOV,0 )\r\n  ;ENDFOLD (BASISTECH INI)\r\n"
+    "  ;FOLD USER INI\r\n    ;Make your modifications here\r\n  ;ENDFOLD (USER INI)\r\n"
+)
+"""What KUKA's inline forms put at the top of a .src: its header lines and the INI fold."""
+EXTERNAL = (
+    "%V3.2.0,%MKUKATPBASIS,%CEXT,%VCOMMON,%P\r\n;FOLD BASISTECH EXT;%{PE}%MKUKATPBASIS,%CEXT,%VEXT,%P\r\n"
+    "EXT  BAS (BAS_COMMAND  :IN,REAL  :IN )\r\nDECL INT SUCCESS\r\n;ENDFOLD (BASISTECH EXT)\r\n"
+)
+"""The .dat's external declarations, as a backup holds them."""
+
+
 def _environment() -> dict[str, str]:
     return {k: v for k, v in os.environ.items() if not k.startswith("IWR_")}
 
@@ -78,7 +95,8 @@ def backup(cell: Cell, q: np.ndarray, folder: Path) -> dict[str, Path]:
     CRLF, KUKA's inline forms; the .dat also declares an INT and a target far outside the arm's reach that a LIN
     goes to last."""
     src, dat = krl_pair(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q)
-    src = src.replace("&REL 1\r\n", "&REL 1\r\n&COMMENT Schweißnaht Träger links\r\n", 1)
+    src = src.replace("&REL 1\r\n", HEADER, 1).replace("  BAS (#INITMOV,0 )\r\n", INI, 1)
+    dat = dat.replace("&REL 1\r\n", "&REL 1\r\n&PARAM EDITMASK = *\r\n", 1).replace("%V3.2.0\r\n", EXTERNAL, 1)
     src = src.replace("END\r\n", "; zum Schluss: außer Reichweite\r\nLIN XFAR\r\nEND\r\n")
     dat = dat.replace("ENDDAT\r\n", f"DECL INT nZähler=0\r\n{UNREACHABLE}ENDDAT\r\n")
     config = krl_config(FIXTURE, cell.tool).replace(
