@@ -16,6 +16,7 @@ from python_multipart.exceptions import MultipartParseError
 
 from models.identification.drift import MAX_DEGREE, DriftDriver
 from service.campaign_io import ImportOptions, QuaternionOrder
+from service.campaign_io.encoding import decode_text
 from service.campaign_io.reference_table import anchor_names
 from service.csv_codec import joined_campaign, parse_campaign
 from service.errors import BadRequest, UnsupportedMediaType
@@ -96,11 +97,12 @@ async def campaign_body(request: Request, query: CampaignQuery) -> CalibrationCr
     try:
         if content_type in ("text/csv", "multipart/form-data"):
             if content_type == "text/csv":
-                text = _text(raw, "the CSV body")
+                text, decoded = decode_text(raw, "the CSV body")
                 # Off the event loop, like the JSON body below: a large file parses for seconds.
                 measurements, notes = await request.app.state.compute.call(
                     functools.partial(parse_campaign, text, options=query.file_options)
                 )
+                notes = [*([decoded] if decoded else []), *notes]
                 described: dict[str, Any] = {}
             else:
                 measurements, notes, described = await _files(request, query.file_options)
@@ -161,18 +163,12 @@ def _validate_json(raw: bytes) -> CalibrationCreate | list[Any]:
         return list(exc.errors(include_url=False, include_context=False))
 
 
-def _text(raw: bytes, what: str) -> str:
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise BadRequest(f"{what} must be UTF-8 text") from exc
-
-
 async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[str, object]], list[str], dict[str, Any]]:
     """A joint file and a point file (CSV, a Leica-style export, or SpatialAnalyzer's ASCII) joined by pose id;
     or one `records` file in the layout of several kinds with its references' `descriptions` (JSON: anchors,
     points, planes, cameras) beside it. The records, the reader's notes and the descriptions."""
     parts = {}
+    decoded: list[str] = []
     try:
         async with request.form() as form:  # closes the spooled upload files when done
             names = ("records", "descriptions") if "records" in form else ("joints", "points")
@@ -185,18 +181,24 @@ async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[st
                         f"multipart campaigns are two files, 'joints' and 'points', or a 'records' file with its "
                         f"'descriptions'; '{name}' is missing"
                     )
-                parts[name] = part if isinstance(part, str) else _text(await part.read(), f"the '{name}' file")
+                if isinstance(part, str):
+                    parts[name] = part
+                    continue
+                parts[name], note = decode_text(await part.read(), f"the '{name}' file")
+                decoded += [note] if note else []
             points_format = str(form.get("points_format") or "csv")
     except MultipartParseError as exc:
         # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500).
         raise BadRequest(f"the multipart body is malformed: {exc}") from exc
     if "records" in parts:
         measurements, notes = parse_campaign(parts["records"], options=options)
-        return measurements, notes, _descriptions(parts.get("descriptions"))
+        return measurements, [*decoded, *notes], _descriptions(parts.get("descriptions"))
     if points_format not in ("csv", "spatial-analyzer"):
         raise BadRequest(f"points_format must be 'csv' or 'spatial-analyzer', not {points_format!r}")
-    joined = joined_campaign(parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options)
-    return (*joined, {})
+    measurements, notes = joined_campaign(
+        parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options
+    )
+    return measurements, [*decoded, *notes], {}
 
 
 DESCRIBED = ("anchors", "points", "planes", "cameras")
