@@ -89,10 +89,16 @@ class ImportOptions:
     """Of the columns qw/qx/qy/qz or q0…q3 when they are not named by component."""
     uncertainty: UncertaintyKind = UncertaintyKind.SIGMA
     """What a column called `uncertainty` holds; a column called `u95` is always read as U95."""
+    columns: tuple[tuple[str, str], ...] = ()
+    """The column map: file column (normalised) → a joint or coordinate (`service.campaign_io.columns`)."""
+    joint_unit: str | None = None
+    """`rad` or `deg`: the revolute joint columns' unit where the header states none (default: degrees)."""
 
     def __post_init__(self) -> None:
         if self.length_unit.lower() not in MM_PER:
             raise CampaignFileError(f"unknown length unit {self.length_unit!r}; use one of {', '.join(MM_PER)}")
+        if self.joint_unit is not None and self.joint_unit not in ("deg", "rad"):
+            raise CampaignFileError(f"unknown joint unit {self.joint_unit!r}; use deg or rad")
 
 
 @dataclass(frozen=True)
