@@ -16,7 +16,7 @@ from models.structure import description_from_document
 from models.urdf import document_from_urdf
 from service.campaign_io import CampaignFileError, ImportOptions
 from service.campaign_io.columns import RobotColumns, parse_column_map
-from service.csv_codec import parse_campaign
+from service.csv_codec import joined_campaign, parse_campaign
 
 UR5 = ur5_like()
 
@@ -293,3 +293,35 @@ def test_a_xacro_upload_is_named_with_the_command_that_expands_it(client: TestCl
         assert r.status_code == 422, r.text
         detail = r.json()["detail"]
         assert "xacro file" in detail and "xacro robot.urdf.xacro > robot.urdf" in detail and "ros2 run xacro" in detail
+
+
+def test_a_controller_file_under_urdf_names_joined_with_a_leica_point_file(
+    truth: tuple[np.ndarray, np.ndarray],
+) -> None:
+    joints, poses = truth
+    ids = [f"P{k + 1}" for k in range(len(joints))]
+    joint_file = "\n".join(
+        ["Point ID," + ",".join(f"{n} (rad)" for n in UR_NAMES)]
+        + [f"{pid}," + ",".join(repr(float(v)) for v in np.radians(row)) for pid, row in zip(ids, joints, strict=True)]
+    )
+    point_file = "\n".join(
+        ["Point ID;Target;X [mm];Y [mm];Z [mm];U(95) [mm]"]
+        + [
+            f"{pid};TMC 30-B #5320;" + ";".join(repr(float(v)).replace(".", ",") for v in p[:3]) + ";0,02"
+            for pid, p in reversed(list(zip(ids, poses, strict=True)))
+        ]
+    )
+    got, notes = joined_campaign(joint_file, point_file, spatial_analyzer=False, robot=_ur_robot())
+    np.testing.assert_allclose(_joints(got), joints, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(np.array([g["position"] for g in got], dtype=float), poses[:, :3], atol=1e-12)
+    assert all(g["sigma_mm"] == pytest.approx(0.01) for g in got)
+    assert any("wrist_3_joint → q6" in n for n in notes) and any("reflector" in n for n in notes)
+    # A map entry naming a column neither file has is named with what the files have.
+    with pytest.raises(CampaignFileError, match="which no file has"):
+        joined_campaign(
+            joint_file,
+            point_file,
+            spatial_analyzer=False,
+            robot=_ur_robot(),
+            options=ImportOptions(columns=parse_column_map("Axis 7=q1")),
+        )
