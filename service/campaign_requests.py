@@ -50,7 +50,7 @@ class CampaignQuery:
     prior: Literal["none", "fleet"] | None = None
 
 
-def campaign_query(
+def campaign_query(  # Long on purpose: one FastAPI dependency, a Query declaration per parameter a file needs
     *,
     apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
     noise_position_mm: float | None = Query(None, gt=0, le=1000, description="σ position, CSV bodies"),

@@ -187,6 +187,18 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
             )
         rows.append(Row(line=line, cells=dict(zip(names, cells, strict=True))))
     units = {n: u for n, raw in zip(names, raw_names, strict=True) if (u := unit_of(raw))}
+    return Table(
+        columns=tuple(names),
+        units=units,
+        rows=tuple(rows),
+        delimiter=delimiter,
+        decimal_comma=decimal_comma,
+        notes=_notes(skipped, preamble_unit, decimal_comma=decimal_comma),
+        length_unit=preamble_unit,
+    )
+
+
+def _notes(skipped: int, preamble_unit: str | None, *, decimal_comma: bool) -> tuple[str, ...]:
     notes = []
     if skipped:
         notes.append(
@@ -195,15 +207,7 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
         )
     if decimal_comma:
         notes.append("numbers were read with decimal commas")
-    return Table(
-        columns=tuple(names),
-        units=units,
-        rows=tuple(rows),
-        delimiter=delimiter,
-        decimal_comma=decimal_comma,
-        notes=tuple(notes),
-        length_unit=preamble_unit,
-    )
+    return tuple(notes)
 
 
 PREAMBLE_LINES = 30
