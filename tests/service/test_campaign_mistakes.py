@@ -299,3 +299,8 @@ def test_a_leica_file_with_a_temperature_column_for_a_6r_arm_is_read_and_the_tem
     assert "Windows-1252" in notes and "'TMC 30-B #5320' on every record" in notes
     assert "temperature_c read (the records span 3.9 K) but unused" in notes
     assert body["measurements"] == c.size and body["status"] == "succeeded"
+    stored = client.get(f"/v1/campaigns/{body['campaign_id']}").json()["measurements"]
+    assert [m["sigma_mm"] for m in stored] == [pytest.approx(0.010)] * c.size  # U(95) / 2
+    assert stored[7]["temperature_c"] == pytest.approx(20.7)
+    as_csv = client.get(f"/v1/campaigns/{body['campaign_id']}", params={"format": "csv"}).text.splitlines()
+    assert as_csv[0].endswith(",x,y,z,sigma_mm,temperature_c") and as_csv[8].endswith(",0.01,20.7")
