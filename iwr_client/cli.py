@@ -150,6 +150,8 @@ def calibrate(client: Client, args: argparse.Namespace, console: Console) -> int
             async_=not args.sync,
             on_progress=bar,
             prior=args.prior,
+            columns=args.columns,
+            joint_unit=args.joint_unit,
         )
     finally:
         if bar is not None:
@@ -355,6 +357,15 @@ def _calibration_commands(commands: Any) -> None:
     parser.add_argument("--sync", action="store_true", help="one request, not a job with progress")
     parser.add_argument(
         "--prior", choices=["none", "fleet"], help="fleet: with the population of the robot's fleet (fewer poses)"
+    )
+    parser.add_argument(
+        "--columns",
+        metavar="MAP",
+        help="which file column is which: 'J1=joint_1,J2=joint_2,X_m=x' (a joint of the robot, its URDF's names "
+        "too, or x, y, z, qw…, pose_id, sigma_mm, u95, temperature_c, time)",
+    )
+    parser.add_argument(
+        "--joint-unit", choices=["deg", "rad"], help="the revolute joint columns' unit where the header has none"
     )
     check = _command(commands, "validate", validate, "versions against records they were not fitted to")
     check.add_argument("robot", metavar="ROBOT")

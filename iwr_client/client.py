@@ -240,10 +240,14 @@ class Client:
         async_: bool = False,
         on_progress: Callable[[Progress], None] | None = None,
         prior: str | None = None,
+        columns: str | None = None,
+        joint_unit: str | None = None,
     ) -> Json:
         """Identifies the robot's parameters from a campaign and answers the calibration (status, residuals,
         predicted accuracy, whether it was applied and if not why). `async_` runs it as a job and waits for it.
-        `prior="fleet"`: with the population of the robot's fleet as prior (docs/fleet.md)."""
+        `prior="fleet"`: with the population of the robot's fleet as prior (docs/fleet.md). For a campaign file:
+        `columns`, the column map (`"J1=joint_1,X_m=x"`: file column = the robot's joint or a coordinate), and
+        `joint_unit` (`"rad"`: the revolute joint columns whose header states no unit)."""
         path = f"/v1/robots/{_segment(robot_id)}/calibrations"
         query: dict[str, object] = {"apply": apply}
         if prior is not None:
@@ -253,9 +257,13 @@ class Client:
         if isinstance(campaign, str | Path):
             # The file goes as it is: the service's reader knows the instruments' column and unit variants.
             query["noise_position_mm"] = noise_mm
+            query["columns"] = columns
+            query["joint_unit"] = joint_unit
             data = Path(campaign).read_bytes()
             answer = self.request("POST", path, query=query, data=data, content_type="text/csv").json()
         else:
+            if columns is not None or joint_unit is not None:
+                raise ValueError("columns and joint_unit say how to read a campaign file; records are the API's own")
             body: Json = {"measurements": list(campaign), "apply": apply}
             if noise_mm is not None:
                 body["noise"] = {"position_mm": noise_mm}

@@ -23,6 +23,7 @@ significant digits, metres and radians as URDF wants: its FK equals the model's 
 
 from __future__ import annotations
 
+import functools
 import io
 import math
 import xml.etree.ElementTree as ET
@@ -66,6 +67,7 @@ def urdf_chain(urdf: str, base_link: str, tip_link: str) -> list[Any]:
     import yourdfpy  # a heavy import (trimesh), needed only by URDF requests
 
     check_size(urdf)
+    refuse_xacro(urdf)
     try:
         model = yourdfpy.URDF.load(
             io.BytesIO(urdf.encode()),
@@ -77,6 +79,30 @@ def urdf_chain(urdf: str, base_link: str, tip_link: str) -> list[Any]:
     except Exception as exc:  # yourdfpy raises lxml's and its own errors alike: all mean "not a URDF"
         raise InvalidInput(f"not a readable URDF: {exc}", field="urdf") from exc
     return _chain(model.robot, base_link, tip_link)
+
+
+XACRO_MARKS = ("xmlns:xacro", "<xacro:")
+
+
+def refuse_xacro(text: str, field: str = "urdf") -> None:
+    """A xacro file (a URDF macro, which ROS expands at launch) named as such with the command that expands it:
+    read as a URDF it has no links at the top level, and the answer was "the URDF has no link ''"."""
+    if any(mark in text for mark in XACRO_MARKS):
+        raise InvalidInput(
+            "this is a xacro file (a URDF with xacro macros), not a URDF: expand it first with "
+            "`xacro robot.urdf.xacro > robot.urdf` (ROS 2: `ros2 run xacro xacro robot.urdf.xacro > robot.urdf`; "
+            "ROS 1: `rosrun xacro xacro robot.urdf.xacro > robot.urdf`), passing the macro's arguments as name:=value, "
+            "and send the URDF it writes",
+            field=field,
+        )
+
+
+@functools.lru_cache(maxsize=32)
+def urdf_joint_names(urdf: str, base_link: str, tip_link: str) -> tuple[str, ...]:
+    """The moving joints' names from `base_link` to `tip_link`, in order: the robot's joints as ROS names them
+    (`joint_1` …, `panda_joint1` …, `shoulder_pan_joint` …), which campaign files use as column names. Cached: a
+    robot's files are read many times, its URDF parsed once."""
+    return tuple(str(joint.name) for joint in urdf_chain(urdf, base_link, tip_link) if joint.type != "fixed")
 
 
 def _chain(robot: Any, base_link: str, tip_link: str) -> list[Any]:
