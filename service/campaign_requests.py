@@ -190,12 +190,19 @@ async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[st
     except MultipartParseError as exc:
         # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500).
         raise BadRequest(f"the multipart body is malformed: {exc}") from exc
+    # Off the event loop, as a single CSV body is (the guard bounded the files' cells before: up to ~1 s of parsing).
+    compute = request.app.state.compute
     if "records" in parts:
-        measurements, notes = parse_campaign(parts["records"], options=options)
-        return measurements, notes, _descriptions(parts.get("descriptions"))
+        descriptions = _descriptions(parts.get("descriptions"))
+        measurements, notes = await compute.call(functools.partial(parse_campaign, parts["records"], options=options))
+        return measurements, notes, descriptions
     if points_format not in ("csv", "spatial-analyzer"):
         raise BadRequest(f"points_format must be 'csv' or 'spatial-analyzer', not {points_format!r}")
-    joined = joined_campaign(parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options)
+    joined = await compute.call(
+        functools.partial(
+            joined_campaign, parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options
+        )
+    )
     return (*joined, {})
 
 
