@@ -12,14 +12,14 @@ import anyio
 from fastapi import Query, Request
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
-from python_multipart.exceptions import MultipartParseError
+from python_multipart.exceptions import FormParserError
 
 from models.identification.drift import MAX_DEGREE, DriftDriver
 from service.campaign_io import ImportOptions, QuaternionOrder
 from service.campaign_io.reference_table import anchor_names
 from service.csv_codec import joined_campaign, parse_campaign
 from service.errors import BadRequest, UnsupportedMediaType
-from service.guards import OFFLOOP_BYTES
+from service.guards import MAX_DEPTH, OFFLOOP_BYTES, too_deep
 from service.schemas.calibrations import CalibrationCreate
 
 
@@ -187,8 +187,9 @@ async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[st
                     )
                 parts[name] = part if isinstance(part, str) else _text(await part.read(), f"the '{name}' file")
             points_format = str(form.get("points_format") or "csv")
-    except MultipartParseError as exc:
-        # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500).
+    except FormParserError as exc:
+        # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500); the base class:
+        # the parser raises it bare where it starts (a boundary over 256 characters, refused by the body guard too).
         raise BadRequest(f"the multipart body is malformed: {exc}") from exc
     # Off the event loop, as a single CSV body is (the guard bounded the files' cells before: up to ~1 s of parsing).
     compute = request.app.state.compute
@@ -214,6 +215,9 @@ def _descriptions(text: str | None) -> dict[str, Any]:
     the body)."""
     if text is None:
         return {}
+    depth = too_deep(text.encode())  # json.loads recurses: 100 000 "[" were a RecursionError, a 500
+    if depth is not None:
+        raise BadRequest(f"the 'descriptions' part is JSON nested {depth} levels deep; at most {MAX_DEPTH} are read")
     try:
         found = json.loads(text)
     except json.JSONDecodeError as exc:

@@ -24,11 +24,12 @@ import anyio
 import numpy as np
 import orjson
 from fastapi.exceptions import RequestValidationError
+from python_multipart.multipart import MAX_BOUNDARY_LENGTH, parse_options_header
 from starlette.routing import Match
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service import limits, operations, problems
-from service.errors import NotFound, PayloadTooLarge, RequestTimeout, ServiceError
+from service.errors import BadRequest, NotFound, PayloadTooLarge, RequestTimeout, ServiceError
 
 BODY_TIMEOUT_S = 30.0
 """A whole request body within this (unless the app gives `IWR_BODY_TIMEOUT_SECONDS`): the largest accepted
@@ -201,6 +202,18 @@ def table_shape(body: bytes) -> str | None:
     return None
 
 
+def check_boundary(content_type: bytes) -> None:
+    """400 naming the header for a multipart boundary the form parser refuses when it starts (over
+    `MAX_BOUNDARY_LENGTH`, 256 characters; RFC 2046 allows 70). python_multipart raised its `FormParserError`
+    from inside the route, which was a 500."""
+    boundary = parse_options_header(content_type)[1].get(b"boundary", b"")
+    if len(boundary) > MAX_BOUNDARY_LENGTH:
+        raise BadRequest(
+            f"the Content-Type header's multipart boundary has {len(boundary)} characters; at most "
+            f"{MAX_BOUNDARY_LENGTH} are read (RFC 2046 allows 70)"
+        )
+
+
 def precheck_table(scope: Scope, body: bytes) -> None:
     """A CSV or multipart body to an operation that reads tables: its records (`Precount.count_table`) against
     the budget (422 `work-too-large`), then its shape (`table_shape`: a 422 naming the bound), before parsing."""
@@ -238,6 +251,8 @@ class BodyGuard:
             if too_large:
                 raise PayloadTooLarge(f"the request body exceeds {self.limit} bytes; send less", limit=self.limit)
             content_type = dict(scope.get("headers", [])).get(b"content-type", b"application/json").lower()
+            if content_type.startswith(b"multipart/"):
+                check_boundary(content_type)
             if content_type.startswith(TABLE_TYPES):
                 precheck_table(scope, body)  # C-speed counts: ~10 ms on the loop for the largest body
             elif b"json" in content_type:
