@@ -177,6 +177,24 @@ def inverse_kinematics(targets: int) -> Estimate:
     return Estimate(f"inverse kinematics of {targets} targets", seconds, memory)
 
 
+VALIDATION_S_PER_EVALUATION = 100e-6
+"""A record compared with one parameter version: measured 57 µs of CPU each, the body's validation included
+(30 000 tracker records, one version: 1.78 s of CPU, 4.9 s of wall at load ~5; 10 000: 0.65 s), taken up towards
+the loaded wall time. So 20 000 evaluations fill the budget; 100 000 records (the schema's cap) × 50 versions were
+5 million, ~5 minutes, admitted before issue 48 until the compute deadline stopped them."""
+VALIDATION_BYTES_PER_RECORD = 6_000  # +168 MB at 30 000 records (5.6 KB), rounded up
+
+
+def validation(evaluations: int, records: int | None = None) -> Estimate:
+    """`evaluations`: records × versions; memory grows with the records (the versions are compared in turn)."""
+    held = evaluations if records is None else records
+    return Estimate(
+        f"a validation of {evaluations} record-version comparisons",
+        evaluations * VALIDATION_S_PER_EVALUATION,
+        held * VALIDATION_BYTES_PER_RECORD,
+    )
+
+
 PROGRAM_S_PER_TARGET = 1.0e-3
 """Measured: a 10 000-target URScript program on the UR5-like arm read, compensated and rewritten in 7.7 s
 (benchmarks/bench_programs.py, the loaded 2-core machine), rounded up."""

@@ -95,6 +95,15 @@ def _table_records(body: bytes) -> int:
     return lines // 2 if b'name="joints"' in body else max(lines - 1, 0)
 
 
+def _evaluations(body: bytes) -> int:
+    # Records × versions: each record is compared with each version. `"versions"` before a colon is a key (a
+    # list of integers: its commas count its items); absent, one version, the current.
+    records = _records(body)
+    found = _VERSIONS_KEY.search(body)
+    versions = found.group(1).count(b",") + 1 if found and found.group(1).strip() else 1
+    return records * versions
+
+
 def program_targets(body: bytes) -> int:
     """An upper count of a robot program's targets in its bytes, JSON or the text itself, whatever its format:
     KRL aggregates that open with X (`{X`, `{E6POS: X`), RAPID's nested aggregates (`[[`: every robtarget, and
@@ -107,6 +116,7 @@ def program_targets(body: bytes) -> int:
 _KRL_POSE = re.compile(rb"\{\s*(?:[A-Za-z0-9_]+\s*:\s*)?[Xx]\s")
 _POSITION_KEY = re.compile(rb'"position"\s*:')
 _JOINTS_KEY = re.compile(rb'"joints"\s*:')
+_VERSIONS_KEY = re.compile(rb'"versions"\s*:\s*\[([^\]]*)\]')
 
 # Measured: the schema's 100 000 joint vectors, 7 MB, took 0.8 s of loop to parse and validate, only to be
 # refused; a 6 000-record calibration's key check waited up to 2.9 s for the parse process behind other large
@@ -115,6 +125,7 @@ FORWARD_KINEMATICS = Precount(_joint_vectors, limits.forward_kinematics)
 INVERSE_KINEMATICS = Precount(_targets, limits.inverse_kinematics)
 CALIBRATION = Precount(_records, limits.calibration, count_table=_table_records)
 PROGRAM_COMPENSATION = Precount(program_targets, limits.program_compensation)
+VALIDATION = Precount(_evaluations, limits.validation)
 
 
 def operation(

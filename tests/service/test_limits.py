@@ -83,6 +83,26 @@ def test_inverse_kinematics_is_capped_at_the_budget(client: TestClient, robot_id
     assert client.post(url, json={"targets": [target] * 3}).status_code == 200
 
 
+def test_validations_are_admitted_by_records_times_versions(client: TestClient, robot_id: str) -> None:
+    # Issue 48: a validation had no estimate; 100 000 records x 50 versions (the schema's caps) ran until the
+    # compute deadline. The budget holds 20 000 record-version comparisons.
+    at_budget = int(limits.SYNC_BUDGET_S / limits.VALIDATION_S_PER_EVALUATION)
+    assert limits.validation(at_budget).seconds <= limits.SYNC_BUDGET_S < limits.validation(at_budget + 1).seconds
+    url = f"/v1/robots/{robot_id}/validations"
+    # A small body (52 kB: parsed on the loop, not counted by the guard) that asks for 30 000 comparisons.
+    small = {"measurements": [RECORD] * 600, "versions": list(range(1, 51))}
+    # A large one (2.5 MB) counted in its bytes before parsing: 30 000 records, one version.
+    large = {"measurements": [RECORD] * 30_000}
+    for body, count in ((small, 30_000), (large, 30_000)):
+        r = client.post(url, json=body)
+        assert r.status_code == 422, r.text
+        problem = r.json()
+        assert problem["type"].endswith("work-too-large") and problem["use_async"] is False
+        assert f"a validation of {count} record-version comparisons" in problem["detail"]
+    r = client.post(url, json={"measurements": [RECORD] * 20})
+    assert r.status_code == 201, r.text
+
+
 @pytest.mark.serial  # refused within 1 s of wall time: alone on the cores
 def test_error_analysis_has_the_same_budget(client: TestClient) -> None:
     at_budget = int((limits.SYNC_BUDGET_S - limits.ERROR_ANALYSIS_FIXED_S) / limits.ERROR_ANALYSIS_S_PER_EVALUATION)
