@@ -35,7 +35,7 @@ import anyio
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from models.cancellation import DEADLINE, CancellationToken, Cancelled
-from optimal_design.criteria import cost_factor
+from optimal_design.criteria import Criterion, cost_factor
 from service.compute import ComputePool, Task
 from service.errors import ClientGone, Overloaded, WorkTooLarge
 
@@ -216,6 +216,15 @@ def pose_design(candidates: int, count: int, fixed: int, criterion: str, *, boun
     seconds += bound_seconds
     memory = DESIGN_BASE_BYTES + DESIGN_BYTES_PER_CANDIDATE * m + DESIGN_BYTES_PER_PAIR * count * m
     return Estimate(f"a pose design of {count} among {candidates} candidates ({criterion})", seconds, memory)
+
+
+def pose_design_at_least(candidates: int) -> Estimate:
+    """The least any design among `candidates` given candidates can cost (one pose, no fixed poses, the cheapest
+    criterion, no branch and bound; a target design costs more): what its body's bytes tell before parsing. Over
+    the budget or the cap, the exact estimate after parsing would be too."""
+    cheapest = min((c.value for c in Criterion), key=cost_factor)
+    least = pose_design(candidates, 1, 0, cheapest)
+    return Estimate(f"a pose design among {candidates} candidates", least.seconds, least.bytes)
 
 
 TARGET_DESIGNS = 5.0
