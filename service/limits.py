@@ -83,7 +83,8 @@ FORWARD_S_PER_POSE = 34e-6  # README's service table: 1 000 joint vectors in one
 
 # ------------------------------------------------------------------ what parsing a body may cost, bounded before it
 # CSV bodies and files (campaigns, parameter imports) are bounded in their raw bytes before any parser sees them
-# (`service.guards.table_shape`, C-speed counts, ~10 ms for 20 MB); JSON bodies by their nesting and keys
+# (`service.guards.table_shape`: C-speed counts, 0.1-0.2 s for 20 MB, in the parse process over 1 MB); JSON bodies
+# by their nesting and keys
 # (`service.guards.too_deep`, `MAX_OBJECT_KEYS`); YAML, URDF and structure documents by their readers (text length,
 # element counts and nesting, `models.ur_kinematics`, `models.urdf_tree`). Measured with a /tmp script of issue 48's
 # branch, one parse per fresh process, CPU time and peak RSS (getrusage), this 2-core machine shared with others:
@@ -98,6 +99,8 @@ FORWARD_S_PER_POSE = 34e-6  # README's service table: 1 000 joint vectors in one
 # | 300 000 parameter rows, …/parameter-versions (8 MB)    | parsed on the loop: 1.3 s, +265 MB| 422, 0.08 s, +0 MB |
 # | one cell of 10 MB (no line break)                      | 400, the csv module's field limit| the same, 0.39 s   |
 #
+# "now" with the counts on the event loop; moved to the parse process for bodies over 1 MB, the first row is 0.27 s
+# and +36 MB at load 6-8 (the body's copy), the second 0.26 s and +41 MB.
 # Valid tables cost, parsed (CPU, peak RSS): 37 500 campaign records x 17 columns (6 MB, the most any job takes)
 # 0.73 s, +96 MB; 60 000 x 17 (1 M cells) 1.26 s, +153 MB; 4 000 lines x 250 unknown columns 0.26 s, +86 MB.
 TABLE_CELLS_MAX = 1_000_000
