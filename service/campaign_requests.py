@@ -13,7 +13,7 @@ import anyio
 from fastapi import Query, Request
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
-from python_multipart.exceptions import MultipartParseError
+from python_multipart.exceptions import FormParserError
 
 from models.identification.drift import MAX_DEGREE, DriftDriver
 from models.parameters import Kind
@@ -26,7 +26,7 @@ from service.campaign_io.tabular import normalise
 from service.conversions.robots import description, urdf_source
 from service.csv_codec import joined_campaign, parse_campaign
 from service.errors import BadRequest, UnsupportedMediaType
-from service.guards import OFFLOOP_BYTES
+from service.guards import MAX_DEPTH, OFFLOOP_BYTES, too_deep
 from service.persistence.database import Database
 from service.persistence.repository import Repository
 from service.schemas.calibrations import CalibrationCreate
@@ -220,16 +220,29 @@ async def _files(
                 parts[name], note = decode_text(await part.read(), f"the '{name}' file")
                 decoded += [note] if note else []
             points_format = str(form.get("points_format") or "csv")
-    except MultipartParseError as exc:
-        # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500).
+    except FormParserError as exc:
+        # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500); the base class:
+        # the parser raises it bare where it starts (a boundary over 256 characters, refused by the body guard too).
         raise BadRequest(f"the multipart body is malformed: {exc}") from exc
+    # Off the event loop, as a single CSV body is (the guard bounded the files' cells before: up to ~1 s of parsing).
+    compute = request.app.state.compute
     if "records" in parts:
-        measurements, notes = parse_campaign(parts["records"], options=options, robot=robot)
-        return measurements, [*decoded, *notes], _descriptions(parts.get("descriptions"))
+        descriptions = _descriptions(parts.get("descriptions"))
+        measurements, notes = await compute.call(
+            functools.partial(parse_campaign, parts["records"], options=options, robot=robot)
+        )
+        return measurements, [*decoded, *notes], descriptions
     if points_format not in ("csv", "spatial-analyzer"):
         raise BadRequest(f"points_format must be 'csv' or 'spatial-analyzer', not {points_format!r}")
-    measurements, notes = joined_campaign(
-        parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options, robot=robot
+    measurements, notes = await compute.call(
+        functools.partial(
+            joined_campaign,
+            parts["joints"],
+            parts["points"],
+            spatial_analyzer=points_format != "csv",
+            options=options,
+            robot=robot,
+        )
     )
     return measurements, [*decoded, *notes], {}
 
@@ -242,6 +255,9 @@ def _descriptions(text: str | None) -> dict[str, Any]:
     the body)."""
     if text is None:
         return {}
+    depth = too_deep(text.encode())  # json.loads recurses: 100 000 "[" were a RecursionError, a 500
+    if depth is not None:
+        raise BadRequest(f"the 'descriptions' part is JSON nested {depth} levels deep; at most {MAX_DEPTH} are read")
     try:
         found = json.loads(text)
     except json.JSONDecodeError as exc:

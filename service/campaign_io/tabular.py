@@ -158,8 +158,17 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
     data_lines = [t for _, t in lines[1:]]
     delimiter = _sniff(header, data_lines)
     reader = csv.reader([t for _, t in lines], delimiter=delimiter)
+    parsed: list[list[str]] = []
     try:
-        parsed = list(reader)
+        for cells in reader:
+            if reader.line_num != len(parsed) + 1:
+                # A quote left open runs the cell on into the next lines (the csv module joins them), so rows and
+                # lines no longer pair (found by tests/service/test_reader_fuzz.py: a 500).
+                line = lines[len(parsed)][0]
+                raise CampaignFileError(
+                    f"line {line}: a quoted cell is not closed on its line (a '\"' without its pair)", line=line
+                )
+            parsed.append(cells)
     except csv.Error as exc:
         raise CampaignFileError(
             f"line {lines[reader.line_num - 1][0]}: {exc}", line=lines[reader.line_num - 1][0]

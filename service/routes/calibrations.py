@@ -86,7 +86,7 @@ def _json_answer(request: Request) -> None:
     openapi_extra=_BODY,
     dependencies=[Depends(_json_answer)],
 )
-@operation(Scope.write, runs=Runs.COMPUTE, precount=CALIBRATION, job="calibration")
+@operation(Scope.write, runs=Runs.COMPUTE, precount=CALIBRATION, job="calibration", tables=True)
 async def create_calibration(
     robot_id: str,
     request: Request,
