@@ -12,7 +12,7 @@ from __future__ import annotations
 import itertools
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
 
 import fcl  # type: ignore[import-untyped]
@@ -26,8 +26,10 @@ from models.cell.geometry import Attached, RobotGeometry, Segment, default_geome
 from models.cell.instruments import Ballbar, Camera, Target, Tracker
 from models.cell.shapes import capsule_geometry, collision_geometry
 from models.errors import InvalidInput
+from models.kinematics import pose_batch, solve_platforms
 from models.robot import RobotDescription
-from models.runtime import Runtime
+from models.runtime import Runtime, runtime_for
+from models.serial_chain import JointType
 from models.transforms import rotvec_to_matrix_np
 from models.workspace import sample_workspace
 
@@ -65,10 +67,16 @@ class Feasibility:
 
 
 # ------------------------------------------------------------------------------------------------ solids
+SPHERES = 4
+"""Bounding spheres per robot shape for the pre-pass: a segment's are strung along it, so that a pair of long
+capsules reaches the library only where some of their spheres come near (one sphere a capsule sent ~50 pairs
+a pose to it)."""
+
+
 @dataclass(frozen=True)
 class _Placed:
-    """The robot's shapes placed for a batch: world transforms (N, S, 4, 4), capsule lengths for segments,
-    bounding spheres (centres (N, S, 3), radii (S,))."""
+    """The robot's shapes placed for a batch: world transforms (N, S, 4, 4), capsule lengths for segments, and
+    the pre-pass's bounding spheres (centres (N, S, SPHERES, 3), radii (S,))."""
 
     bodies: tuple[str, ...]
     transforms: Array
@@ -76,6 +84,7 @@ class _Placed:
     centres: Array
     radii: Array
     shapes: tuple[Segment | Attached, ...]
+    _objects: dict[tuple[int, int], fcl.CollisionObject] = field(default_factory=dict)
 
     def geometry(self, n: int, s: int) -> object:
         shape = self.shapes[s]
@@ -84,8 +93,12 @@ class _Placed:
         return collision_geometry(shape.shape)
 
     def object(self, n: int, s: int) -> fcl.CollisionObject:
-        t = self.transforms[n, s]
-        return fcl.CollisionObject(self.geometry(n, s), fcl.Transform(t[:3, :3], t[:3, 3]))
+        """Shape s placed for pose n (made once per check)."""
+        found = self._objects.get((n, s))
+        if found is None:
+            t = self.transforms[n, s]
+            found = self._objects[n, s] = fcl.CollisionObject(self.geometry(n, s), fcl.Transform(t[:3, :3], t[:3, 3]))
+        return found
 
 
 def _z_frames(a: Array, b: Array) -> Array:
@@ -109,7 +122,9 @@ def _place(geometry: RobotGeometry, names: tuple[str, ...], frames: Array) -> _P
     n, s = frames.shape[0], len(geometry.shapes)
     transforms = np.zeros((n, s, 4, 4))
     lengths = np.zeros((n, s))
+    centres = np.zeros((n, s, SPHERES, 3))
     radii = np.zeros(s)
+    along = (np.arange(SPHERES) + 0.5) / SPHERES
     for k, shape in enumerate(geometry.shapes):
         if isinstance(shape, Segment):
             fa, fb = frames[:, index[shape.frame_a]], frames[:, index[shape.frame_b]]
@@ -117,42 +132,49 @@ def _place(geometry: RobotGeometry, names: tuple[str, ...], frames: Array) -> _P
             pb = fb[:, :3, :3] @ np.asarray(shape.b) + fb[:, :3, 3]
             transforms[:, k] = _z_frames(pa, pb)
             lengths[:, k] = np.linalg.norm(pb - pa, axis=1)
-            radii[k] = shape.radius
+            centres[:, k] = pa[:, None, :] + along[None, :, None] * (pb - pa)[:, None, :]
+            radii[k] = shape.radius + 0.5 * lengths[:, k].max(initial=0.0) / SPHERES
         else:
             transforms[:, k] = frames[:, index[shape.frame]] @ shape.matrix
+            centres[:, k] = transforms[:, k, None, :3, 3]
             radii[k] = shape.shape.bounding_radius
-    bounding = radii + 0.5 * lengths.max(axis=0, initial=0.0)
-    return _Placed(
-        tuple(sh.body for sh in geometry.shapes),
-        transforms,
-        lengths,
-        transforms[:, :, :3, 3].copy(),
-        bounding,
-        geometry.shapes,
-    )
+    return _Placed(tuple(sh.body for sh in geometry.shapes), transforms, lengths, centres, radii, geometry.shapes)
 
 
 @dataclass(frozen=True)
 class _Fixed:
+    """The obstacles' collision objects, and for the pre-pass their boxes (world <- box rotations and centres,
+    half extents) and bounding spheres."""
+
     names: tuple[str, ...]
     objects: tuple[fcl.CollisionObject, ...]
+    rotations: Array
     centres: Array
+    halves: Array
     radii: Array
+
+    def box_distance(self, points: Array, j: int) -> Array:
+        """Distance of points (..., 3) from obstacle j's box (0 inside): a lower bound of the distance to it."""
+        local = np.abs((points - self.centres[j]) @ self.rotations[j]) - self.halves[j]
+        return np.asarray(np.linalg.norm(np.maximum(local, 0.0), axis=-1), dtype=float)
 
 
 def _fixed(obstacles: tuple[Obstacle, ...]) -> _Fixed:
-    objects, centres, radii = [], [], []
-    for o in obstacles:
-        r = rotvec_to_matrix_np(np.asarray(o.pose[3:], dtype=float))
-        t = np.asarray(o.pose[:3], dtype=float)
-        objects.append(fcl.CollisionObject(collision_geometry(o.shape), fcl.Transform(r, t)))
-        centres.append(t)
-        radii.append(o.shape.bounding_radius)
+    rotations = np.array([rotvec_to_matrix_np(np.asarray(o.pose[3:], dtype=float)) for o in obstacles]).reshape(
+        -1, 3, 3
+    )
+    centres = np.array([o.pose[:3] for o in obstacles], dtype=float).reshape(-1, 3)
+    objects = tuple(
+        fcl.CollisionObject(collision_geometry(o.shape), fcl.Transform(r, t))
+        for o, r, t in zip(obstacles, rotations, centres, strict=True)
+    )
     return _Fixed(
         tuple(o.name for o in obstacles),
-        tuple(objects),
-        np.asarray(centres, dtype=float).reshape(-1, 3),
-        np.asarray(radii, dtype=float),
+        objects,
+        rotations,
+        centres,
+        np.array([o.shape.half_extents for o in obstacles], dtype=float).reshape(-1, 3),
+        np.array([o.shape.bounding_radius for o in obstacles], dtype=float),
     )
 
 
@@ -172,13 +194,15 @@ class _Verdicts:
     def __init__(self, n: int) -> None:
         self.reasons = [""] * n
         self.details = [""] * n
+        self.refused = np.zeros(n, dtype=bool)
 
     def open(self) -> NDArray[np.intp]:
-        return np.flatnonzero([not r for r in self.reasons])
+        return np.flatnonzero(~self.refused)
 
     def refuse(self, k: int, reason: Reason, detail: str) -> None:
-        if not self.reasons[k]:
+        if not self.refused[k]:
             self.reasons[k], self.details[k] = reason.value, detail
+            self.refused[k] = True
 
 
 def _target_points(frames: Array, target: Target) -> tuple[Array, Array]:
@@ -198,20 +222,19 @@ def _tracker(v: _Verdicts, rows: NDArray[np.intp], frames: Array, tracker: Track
     to_tracker = np.asarray(tracker.position) - point
     dist = np.linalg.norm(to_tracker, axis=1)
     angle = _angle(facing, to_tracker)
-    for i, k in enumerate(rows):
-        if not tracker.range_min <= dist[i] <= tracker.range_max:
-            v.refuse(
-                k,
-                Reason.OUT_OF_RANGE,
-                f"reflector {dist[i]:.0f} mm from the tracker, range {tracker.range_min:.0f}-{tracker.range_max:.0f}",
-            )
-        elif angle[i] > tracker.acceptance:
-            v.refuse(
-                k,
-                Reason.INCIDENCE,
-                f"beam {np.degrees(angle[i]):.1f}° off the reflector's axis, "
-                f"cone {np.degrees(tracker.acceptance):.1f}°",
-            )
+    far = (dist < tracker.range_min) | (dist > tracker.range_max)
+    lo, hi = tracker.range_min, tracker.range_max
+    for i in np.flatnonzero(far).tolist():
+        v.refuse(
+            int(rows[i]), Reason.OUT_OF_RANGE, f"reflector {dist[i]:.0f} mm from the tracker, range {lo:.0f}-{hi:.0f}"
+        )
+    cone = np.degrees(tracker.acceptance)
+    for i in np.flatnonzero(~far & (angle > tracker.acceptance)).tolist():
+        v.refuse(
+            int(rows[i]),
+            Reason.INCIDENCE,
+            f"beam {np.degrees(angle[i]):.1f}° off the reflector's axis, cone {cone:.1f}°",
+        )
 
 
 def _camera(v: _Verdicts, rows: NDArray[np.intp], frames: Array, camera: Camera) -> None:
@@ -271,22 +294,30 @@ def _pairs(cell: Cell, fixed: _Fixed) -> tuple[list[tuple[int, int]], list[tuple
 def _collisions(v: _Verdicts, rows: NDArray[np.intp], placed: _Placed, cell: Cell, fixed: _Fixed) -> None:
     own, against = _pairs(cell, fixed)
     clearance = cell.clearance
-    for reason, pairs, other_centres, other_radii in (
-        (Reason.SELF_COLLISION, own, placed.centres, placed.radii),
-        (Reason.CELL_COLLISION, against, None, fixed.radii),
-    ):
-        for i, j in pairs:
-            centre_j = placed.centres[:, j] if other_centres is not None else fixed.centres[j]
-            gap = np.linalg.norm(placed.centres[:, i] - centre_j, axis=-1) - placed.radii[i] - other_radii[j]
-            for n in map(int, np.flatnonzero(gap < clearance)):
-                k = int(rows[n])
-                if v.reasons[k]:
-                    continue
-                b = placed.object(n, j) if other_centres is not None else fixed.objects[j]
-                d = _distance(placed.object(n, i), b)
-                if d < clearance:
-                    name_j = placed.bodies[j] if other_centres is not None else fixed.names[j]
-                    v.refuse(k, reason, f"{placed.bodies[i]} × {name_j}: {d:.1f} mm, clearance {clearance:.1f}")
+    c, r = placed.centres, placed.radii
+    for i, j in own:
+        at = np.flatnonzero(~v.refused[rows])  # the pre-pass only on poses still open
+        reach = (r[i] + r[j] + clearance) ** 2
+        between = np.square(c[at, i, :, None, :] - c[at, j, None, :, :]).sum(axis=-1).min(axis=(1, 2))
+        for n in at[between < reach].tolist():
+            d = _distance(placed.object(n, i), placed.object(n, j))
+            if d < clearance:
+                v.refuse(
+                    int(rows[n]),
+                    Reason.SELF_COLLISION,
+                    f"{placed.bodies[i]} × {placed.bodies[j]}: {d:.1f} mm, clearance {clearance:.1f}",
+                )
+    for i, j in against:
+        at = np.flatnonzero(~v.refused[rows])
+        gap = fixed.box_distance(c[at, i], j).min(axis=1) - r[i]
+        for n in at[gap < clearance].tolist():
+            d = _distance(placed.object(n, i), fixed.objects[j])
+            if d < clearance:
+                v.refuse(
+                    int(rows[n]),
+                    Reason.CELL_COLLISION,
+                    f"{placed.bodies[i]} × {fixed.names[j]}: {d:.1f} mm, clearance {clearance:.1f}",
+                )
 
 
 def _sight(
@@ -312,16 +343,18 @@ def _sight(
     axis = point - source
     span = np.maximum(np.einsum("ij,ij->i", axis, axis), 1e-12)
 
-    def near(centres: Array, radii: Array) -> Array:
+    def near(centres: Array, radii: Array) -> NDArray[np.bool_]:
         t = np.clip(np.einsum("nsj,nj->ns", centres - source, axis) / span[:, None], 0.0, 1.0)
         closest = source + t[..., None] * axis[:, None, :]
-        return np.asarray(np.linalg.norm(centres - closest, axis=-1) < radii + radius)
+        return np.asarray(np.linalg.norm(centres - closest, axis=-1) < radii + radius, dtype=bool)
 
-    close_robot = near(placed.centres[:, robot], placed.radii[robot])
+    m = placed.centres.shape[2]
+    spheres = near(placed.centres[:, robot].reshape(len(rows), -1, 3), np.repeat(placed.radii[robot], m))
+    close_robot = np.asarray(spheres.reshape(len(rows), len(robot), m).any(axis=2), dtype=bool)
     close_fixed = near(np.broadcast_to(fixed.centres, (len(rows), *fixed.centres.shape)), fixed.radii)
-    for n, k in enumerate(rows):
-        if v.reasons[k] or not (close_robot[n].any() or close_fixed[n].any()):
-            continue
+    todo = (close_robot.any(axis=1) | close_fixed.any(axis=1)) & ~v.refused[rows]
+    for n in map(int, np.flatnonzero(todo)):
+        k = int(rows[n])
         t = beams[n]
         beam = fcl.CollisionObject(
             capsule_geometry(radius, round(float(lengths[n]), 6)), fcl.Transform(t[:3, :3], t[:3, 3])
@@ -359,13 +392,23 @@ def check_poses(
         v.refuse(int(k), Reason.JOINT_LIMITS, f"joint {desc.joint_names[bad]} outside its range")
     rows = v.open()
     if rows.size:
-        frames = stage_frames(desc, q[rows], params, runtime=runtime)
+        # The instruments need the TCP alone (the compiled forward kinematics); they refuse most random poses
+        # (a reflector's cone), so only the rest get every frame, are placed and tested for collisions.
+        rt = runtime_for(desc, runtime)
+        theta = desc.parameters.nominal if params is None else np.asarray(params, dtype=float)
+        platforms, _ = solve_platforms(desc, q[rows], theta, runtime=rt)
+        tcp = pose_batch(desc, q[rows], theta, platforms, runtime=rt)
+        ends = np.zeros((rows.size, 1, 4, 4))
+        ends[:, 0, :3, :3], ends[:, 0, :3, 3], ends[:, 0, 3, 3] = tcp.rotations, tcp.positions, 1.0
         if cell.tracker is not None:
-            _tracker(v, rows, frames, cell.tracker)
+            _tracker(v, rows, ends, cell.tracker)
         if cell.camera is not None:
-            _camera(v, rows, frames, cell.camera)
+            _camera(v, rows, ends, cell.camera)
         if cell.ballbar is not None:
-            _ballbar(v, rows, frames, cell.ballbar)
+            _ballbar(v, rows, ends, cell.ballbar)
+        keep = np.flatnonzero(~v.refused[rows])
+        rows = rows[keep]
+        frames = stage_frames(desc, q[rows], theta, platforms=platforms[keep], runtime=rt)
         placed = _place(cell.geometry, layout.names, frames)
         fixed = _fixed(cell.obstacles)
         _collisions(v, rows, placed, cell, fixed)
@@ -395,7 +438,7 @@ def check_poses(
                 radius=cam.sight_clearance,
                 what="the camera's sight line",
             )
-    feasible = np.array([not r for r in v.reasons], dtype=bool)
+    feasible = ~v.refused
     return Feasibility(feasible, tuple(v.reasons), tuple(v.details))
 
 
@@ -409,7 +452,8 @@ def default_allowed(
     *,
     runtime: Runtime | None = None,
 ) -> dict[Pair, str]:
-    """The pairs a cell allows to touch by default, each with why: `adjacent` bodies along the chain, and pairs
+    """The pairs a cell allows to touch by default, each with why: `adjacent` bodies along the chain, the bodies
+    `across a prismatic joint`, and pairs
     `always touching`: within the clearance at every one of `poses` (default: the middle of the joint ranges and
     ALWAYS_POSES poses drawn in the workspace, seeded): a base on its table, a wrist's overlapping capsules. A
     pair that touches only sometimes is a collision the check must see, so it is never allowed by default."""
@@ -420,6 +464,12 @@ def default_allowed(
     bodies = [b for b in order if b in geometry.bodies]
     for a, b in itertools.pairwise(bodies):
         out[pair(a, b)] = "adjacent"
+    # A prismatic link's bodies on either side slide along each other (a telescope's sleeves, a carriage on
+    # its rail): they touch by design wherever the stroke is short.
+    chain = [b for b in order if b.startswith("link")]
+    for k, link in enumerate(desc.links):
+        if link.joint is JointType.PRISMATIC and 0 < k < len(chain) - 1:
+            out.setdefault(pair(chain[k - 1], chain[k + 1]), "across a prismatic joint")
     if poses is None:
         middle = 0.5 * (desc.joint_min + desc.joint_max)
         poses = np.vstack([middle[None, :], sample_workspace(desc, ALWAYS_POSES, seed=0, runtime=runtime)])

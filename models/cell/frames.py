@@ -26,6 +26,9 @@ from models.serial_chain import Convention, JointType
 from models.stages import SerialStage
 from models.transforms import homogeneous, rot_x, rot_y, rot_z
 
+CHUNK = 2048
+"""Poses per evaluation of the frames' Function."""
+
 
 @dataclass(frozen=True)
 class FrameLayout:
@@ -123,7 +126,15 @@ def stage_frames(
         return np.zeros((0, len(frame_layout(desc).names), 4, 4))
     if platforms is None:
         platforms, _ = solve_platforms(desc, q, theta, runtime=rt)
-    (flat,) = rt.artefact("stage_frames", None, lambda: _frames(desc)).batch("stage_frames", q, theta, platforms)
+    fns = rt.artefact("stage_frames", None, lambda: _frames(desc))
+    # In chunks: a CasADi map is built per (padded) batch size, 0.3 s for tens of thousands of poses, while
+    # chunks repeat a few sizes.
+    flat = np.vstack(
+        [
+            fns.batch("stage_frames", q[at : at + CHUNK], theta, platforms[at : at + CHUNK])[0]
+            for at in range(0, q.shape[0], CHUNK)
+        ]
+    )
     n = q.shape[0]
     blocks = flat.reshape(n, -1, 4, 3)  # each frame's [R | p] by columns
     frames = np.zeros((n, blocks.shape[1], 4, 4))

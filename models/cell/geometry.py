@@ -9,8 +9,9 @@ Defaults for a DH or MDH document (`default_geometry`), a user sees them in `Rob
 
 - each link i: two capsules, previous frame's origin -> the link's middle frame's origin -> its end frame's
   origin (the offset along the joint axis, then the common normal), of radius
-  clamp(LINK_RADIUS_FRACTION · (|a_i| + |d_i|), LINK_RADIUS_MIN, LINK_RADIUS_MAX) mm (a prismatic link's stroke
-  is not counted: the carriage's metal does not grow with it);
+  clamp(LINK_RADIUS_FRACTION · (|a_i| + |d_i|), LINK_RADIUS_MIN, LINK_RADIUS_MAX) mm. A prismatic link's stroke
+  (its d, which its joint drives) is its guide, not metal that moves with it: it gets no capsule and does not
+  count in the radius (model the guide as an obstacle); its fixed part (a) does;
 - a parallel stage: one capsule per hexapod leg, base joint to platform joint, of radius LEG_RADIUS;
 - the tool: one capsule from the last frame's origin to the TCP, of radius TOOL_RADIUS.
 """
@@ -26,6 +27,7 @@ from models.cell.frames import FrameLayout, frame_layout
 from models.cell.shapes import Shape
 from models.errors import InvalidInput
 from models.robot import RobotDescription
+from models.serial_chain import Convention, JointType
 from models.stages import HexapodStage, SerialStage
 
 LINK_RADIUS_FRACTION = 0.1
@@ -101,9 +103,12 @@ def default_geometry(desc: RobotDescription) -> RobotGeometry:
         if isinstance(stage, SerialStage):
             for link in stage.links:
                 body = f"link{number}"
-                r = link_radius(link.a, 0.0 if link.joint.value == "prismatic" else link.d)
-                shapes.append(Segment(body, previous, f"{body}.mid", r))
-                shapes.append(Segment(body, f"{body}.mid", body, r))
+                prismatic = link.joint is JointType.PRISMATIC
+                r = link_radius(link.a, 0.0 if prismatic else link.d)
+                if not prismatic or link.convention is Convention.MDH:
+                    shapes.append(Segment(body, previous, f"{body}.mid", r))
+                if not prismatic or link.convention is Convention.DH:
+                    shapes.append(Segment(body, f"{body}.mid", body, r))
                 previous, number = body, number + 1
             continue
         body = f"stage{k + 1}"

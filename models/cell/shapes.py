@@ -38,6 +38,10 @@ class Box:
     def bounding_radius(self) -> float:
         return 0.5 * float(np.linalg.norm((self.x, self.y, self.z)))
 
+    @property
+    def half_extents(self) -> tuple[float, float, float]:
+        return (0.5 * self.x, 0.5 * self.y, 0.5 * self.z)
+
 
 @dataclass(frozen=True)
 class Cylinder:
@@ -54,6 +58,10 @@ class Cylinder:
     def bounding_radius(self) -> float:
         return float(np.hypot(self.radius, 0.5 * self.length))
 
+    @property
+    def half_extents(self) -> tuple[float, float, float]:
+        return (self.radius, self.radius, 0.5 * self.length)
+
 
 @dataclass(frozen=True)
 class Sphere:
@@ -65,6 +73,10 @@ class Sphere:
     @property
     def bounding_radius(self) -> float:
         return self.radius
+
+    @property
+    def half_extents(self) -> tuple[float, float, float]:
+        return (self.radius, self.radius, self.radius)
 
 
 @dataclass(frozen=True)
@@ -81,6 +93,10 @@ class Capsule:
     @property
     def bounding_radius(self) -> float:
         return self.radius + 0.5 * self.length
+
+    @property
+    def half_extents(self) -> tuple[float, float, float]:
+        return (self.radius, self.radius, self.radius + 0.5 * self.length)
 
 
 @dataclass(frozen=True)
@@ -108,6 +124,12 @@ class Mesh:
     @property
     def bounding_radius(self) -> float:
         return float(np.linalg.norm(np.asarray(self.vertices), axis=1).max())
+
+    @property
+    def half_extents(self) -> tuple[float, float, float]:
+        """Of the box centred on the mesh's origin that holds it (a conservative bound for the checks)."""
+        h = np.abs(np.asarray(self.vertices)).max(axis=0)
+        return (float(h[0]), float(h[1]), float(h[2]))
 
 
 Shape = Box | Cylinder | Sphere | Capsule | Mesh
