@@ -334,6 +334,8 @@ def _sight(
 ) -> None:
     """The sight line from `source` to the target: a capsule of `radius` that no solid may touch, but the bodies
     that carry the target."""
+    if rows.size == 0:
+        return
     point, _ = _target_points(frames, target)
     beams = _z_frames(np.broadcast_to(source, point.shape), point)
     lengths = np.linalg.norm(point - source, axis=1)
