@@ -67,7 +67,7 @@ def segment_distance(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndar
     s = np.where(a <= tiny, 0.0, s)
     c1 = p1 + s[..., None] * d1
     c2 = p2 + t[..., None] * d2
-    return np.linalg.norm(c1 - c2, axis=-1)
+    return np.asarray(np.linalg.norm(c1 - c2, axis=-1), dtype=float)
 
 
 def segment_box_distance(
@@ -78,7 +78,7 @@ def segment_box_distance(
     s = np.linspace(0.0, 1.0, SAMPLES)
     pts = p[:, None, :] + s[None, :, None] * (q - p)[:, None, :]
     local = np.abs((pts - centre) @ rot) - half
-    return np.linalg.norm(np.maximum(local, 0.0), axis=-1).min(axis=1)
+    return np.asarray(np.linalg.norm(np.maximum(local, 0.0), axis=-1).min(axis=1), dtype=float)
 
 
 def slab_hit(p: np.ndarray, q: np.ndarray, centre: np.ndarray, rot: np.ndarray, half: np.ndarray) -> np.ndarray:
@@ -90,7 +90,7 @@ def slab_hit(p: np.ndarray, q: np.ndarray, centre: np.ndarray, rot: np.ndarray, 
     lo = np.where(np.abs(d) > 1e-12, np.minimum(t1, t2), np.where(np.abs(a) <= half, -np.inf, np.inf))
     hi = np.where(np.abs(d) > 1e-12, np.maximum(t1, t2), np.where(np.abs(a) <= half, np.inf, -np.inf))
     enter, leave = np.max(lo, axis=1), np.min(hi, axis=1)
-    return (enter <= leave) & (leave >= 0) & (enter <= 1)
+    return np.asarray((enter <= leave) & (leave >= 0) & (enter <= 1), dtype=bool)
 
 
 Ends = list[tuple[np.ndarray, np.ndarray]]

@@ -25,6 +25,7 @@ from models.errors import InvalidInput
 from models.examples import ur5_like
 from models.iwr import iwr
 from models.kinematics import forward_kinematics
+from models.robot import RobotDescription
 from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 from models.workspace import sample_workspace
@@ -37,11 +38,11 @@ FIXTURE = Obstacle("fixture", Box(300.0, 300.0, 300.0), (500.0, 300.0, 150.0, 0.
 
 def ur5_cell(**tracker: object) -> Cell:
     options = {"acceptance": np.radians(60.0), **tracker}
-    return cell_for(UR5, obstacles=(TABLE, FIXTURE), tracker=Tracker((2500.0, 0.0, 600.0), **options))  # type: ignore[arg-type]
+    return cell_for(UR5, obstacles=(TABLE, FIXTURE), tracker=Tracker((2500.0, 0.0, 600.0), **options))
 
 
 @pytest.mark.parametrize("desc", [UR5, ur5_like("mdh"), iwr()], ids=["dh", "mdh", "iwr"])
-def test_the_last_frame_is_the_forward_kinematics(desc) -> None:
+def test_the_last_frame_is_the_forward_kinematics(desc: RobotDescription) -> None:
     q = sample_workspace(desc, 64, seed=3)
     frames = stage_frames(desc, q)
     fk = forward_kinematics(desc, q)
@@ -117,13 +118,13 @@ def test_a_forearm_across_the_beam_blocks_it() -> None:
     reflector = frames[-1, :3, 3]
     # The tracker on the line from the reflector through the forearm's middle, 2 m beyond it
     direction = (forearm - reflector) / np.linalg.norm(forearm - reflector)
-    tracker = Tracker(tuple(forearm + 2000.0 * direction), acceptance=np.pi)  # type: ignore[arg-type]
+    tracker = Tracker(tuple(forearm + 2000.0 * direction), acceptance=np.pi)
     blocked = check_poses(UR5, cell_for(UR5, tracker=tracker), q)
     assert blocked.reasons == (Reason.LINE_OF_SIGHT.value,)
     assert blocked.details[0].endswith("link3")
     # The same pose seen from the side is measurable
     aside = np.cross(direction, [0.0, 0.0, 1.0])
-    side = Tracker(tuple(reflector + 2500.0 * aside / np.linalg.norm(aside)), acceptance=np.pi)  # type: ignore[arg-type]
+    side = Tracker(tuple(reflector + 2500.0 * aside / np.linalg.norm(aside)), acceptance=np.pi)
     assert check_poses(UR5, cell_for(UR5, tracker=side), q).feasible.all()
 
 
@@ -132,12 +133,12 @@ def test_incidence_and_range_follow_the_reflector() -> None:
     tcp = dh_frames(UR5, q)[0, -1]
     ahead = tcp[:3, 3] + 3000.0 * tcp[:3, 2]  # on the reflector's axis (it faces along the TCP's z)
     behind = tcp[:3, 3] - 3000.0 * tcp[:3, 2]
-    assert check_poses(UR5, cell_for(UR5, tracker=Tracker(tuple(ahead))), q).feasible.all()  # type: ignore[arg-type]
-    assert check_poses(UR5, cell_for(UR5, tracker=Tracker(tuple(behind))), q).reasons == ("incidence",)  # type: ignore[arg-type]
-    far = Tracker(tuple(ahead), range_max=2000.0)  # type: ignore[arg-type]
+    assert check_poses(UR5, cell_for(UR5, tracker=Tracker(tuple(ahead))), q).feasible.all()
+    assert check_poses(UR5, cell_for(UR5, tracker=Tracker(tuple(behind))), q).reasons == ("incidence",)
+    far = Tracker(tuple(ahead), range_max=2000.0)
     assert check_poses(UR5, cell_for(UR5, tracker=far), q).reasons == ("out_of_range",)
     # A reflector turned by 90° about the TCP's x no longer faces the tracker on the old axis
-    turned = Tracker(tuple(ahead), reflector=Target(facing=(0.0, 1.0, 0.0)))  # type: ignore[arg-type]
+    turned = Tracker(tuple(ahead), reflector=Target(facing=(0.0, 1.0, 0.0)))
     assert check_poses(UR5, cell_for(UR5, tracker=turned), q).reasons == ("incidence",)
 
 
@@ -148,14 +149,14 @@ def test_camera_field_of_view_and_ballbar_reach() -> None:
     # A camera 1.5 m along the TCP's z, looking back at it (its z = -TCP z, a rotation of 180° about TCP x)
     look = tcp[:3, :3] @ np.diag([1.0, -1.0, -1.0])
     pose = (*(p + 1500.0 * z), *matrix_to_rotvec_np(look))
-    assert check_poses(UR5, cell_for(UR5, camera=Camera(pose)), q).feasible.all()  # type: ignore[arg-type]
+    assert check_poses(UR5, cell_for(UR5, camera=Camera(pose)), q).feasible.all()
     # Turned 40° about its own y: the target leaves a 30° half-width
     turned = look @ rotvec_to_matrix_np(np.array([0.0, np.radians(40.0), 0.0]))
     pose2 = (*(p + 1500.0 * z), *matrix_to_rotvec_np(turned))
-    assert check_poses(UR5, cell_for(UR5, camera=Camera(pose2)), q).reasons == ("field_of_view",)  # type: ignore[arg-type]
+    assert check_poses(UR5, cell_for(UR5, camera=Camera(pose2)), q).reasons == ("field_of_view",)
     pivot = tuple(p + np.array([0.0, 0.0, -150.0]))
-    assert check_poses(UR5, cell_for(UR5, ballbar=Ballbar(pivot, 100.0, 200.0)), q).feasible.all()  # type: ignore[arg-type]
-    assert check_poses(UR5, cell_for(UR5, ballbar=Ballbar(pivot, 160.0, 200.0)), q).reasons == ("ballbar_reach",)  # type: ignore[arg-type]
+    assert check_poses(UR5, cell_for(UR5, ballbar=Ballbar(pivot, 100.0, 200.0)), q).feasible.all()
+    assert check_poses(UR5, cell_for(UR5, ballbar=Ballbar(pivot, 160.0, 200.0)), q).reasons == ("ballbar_reach",)
 
 
 def test_joint_limits_are_refused_first() -> None:
