@@ -83,6 +83,8 @@ class _Placed:
     lengths: Array
     centres: Array
     radii: Array
+    outer: Array
+    """Each shape's one bounding sphere's radius (its centre is the transform's origin): the coarse pass."""
     shapes: tuple[Segment | Attached, ...]
     _objects: dict[tuple[int, int], fcl.CollisionObject] = field(default_factory=dict)
 
@@ -138,7 +140,10 @@ def _place(geometry: RobotGeometry, names: tuple[str, ...], frames: Array) -> _P
             transforms[:, k] = frames[:, index[shape.frame]] @ shape.matrix
             centres[:, k] = transforms[:, k, None, :3, 3]
             radii[k] = shape.shape.bounding_radius
-    return _Placed(tuple(sh.body for sh in geometry.shapes), transforms, lengths, centres, radii, geometry.shapes)
+    outer = np.array([sh.shape.bounding_radius if isinstance(sh, Attached) else sh.radius for sh in geometry.shapes])
+    outer = outer + 0.5 * lengths.max(axis=0, initial=0.0)
+    bodies = tuple(sh.body for sh in geometry.shapes)
+    return _Placed(bodies, transforms, lengths, centres, radii, outer, geometry.shapes)
 
 
 @dataclass(frozen=True)
@@ -295,8 +300,12 @@ def _collisions(v: _Verdicts, rows: NDArray[np.intp], placed: _Placed, cell: Cel
     own, against = _pairs(cell, fixed)
     clearance = cell.clearance
     c, r = placed.centres, placed.radii
+    middle, outer = placed.transforms[:, :, :3, 3], placed.outer
     for i, j in own:
-        at = np.flatnonzero(~v.refused[rows])  # the pre-pass only on poses still open
+        # The pre-pass on the poses still open: one sphere a shape, then the strings of spheres
+        at = np.flatnonzero(~v.refused[rows])
+        far = (outer[i] + outer[j] + clearance) ** 2
+        at = at[np.square(middle[at, i] - middle[at, j]).sum(axis=-1) < far]
         reach = (r[i] + r[j] + clearance) ** 2
         between = np.square(c[at, i, :, None, :] - c[at, j, None, :, :]).sum(axis=-1).min(axis=(1, 2))
         for n in at[between < reach].tolist():
