@@ -192,6 +192,11 @@ def _distance(a: fcl.CollisionObject, b: fcl.CollisionObject) -> float:
     return d
 
 
+def _gap(d: float) -> str:
+    # The library reports overlapping solids as a negative number, not their depth
+    return "overlapping" if d <= 0 else f"{d:.1f} mm apart"
+
+
 # ------------------------------------------------------------------------------------------------ checks
 class _Verdicts:
     """The first failing reason per candidate (candidates already refused are not tested again)."""
@@ -314,7 +319,7 @@ def _collisions(v: _Verdicts, rows: NDArray[np.intp], placed: _Placed, cell: Cel
                 v.refuse(
                     int(rows[n]),
                     Reason.SELF_COLLISION,
-                    f"{placed.bodies[i]} × {placed.bodies[j]}: {d:.1f} mm, clearance {clearance:.1f}",
+                    f"{placed.bodies[i]} × {placed.bodies[j]}: {_gap(d)}, clearance {clearance:.1f} mm",
                 )
     for i, j in against:
         at = np.flatnonzero(~v.refused[rows])
@@ -325,7 +330,7 @@ def _collisions(v: _Verdicts, rows: NDArray[np.intp], placed: _Placed, cell: Cel
                 v.refuse(
                     int(rows[n]),
                     Reason.CELL_COLLISION,
-                    f"{placed.bodies[i]} × {fixed.names[j]}: {d:.1f} mm, clearance {clearance:.1f}",
+                    f"{placed.bodies[i]} × {fixed.names[j]}: {_gap(d)}, clearance {clearance:.1f} mm",
                 )
 
 
