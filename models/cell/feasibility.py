@@ -387,6 +387,40 @@ def _sight(
                     break
 
 
+def _instruments(v: _Verdicts, rows: NDArray[np.intp], ends: Array, cell: Cell) -> None:
+    """Range, incidence, field of view and reach: from the TCP frames `ends` (N, 1, 4, 4) alone."""
+    if cell.tracker is not None:
+        _tracker(v, rows, ends, cell.tracker)
+    if cell.camera is not None:
+        _camera(v, rows, ends, cell.camera)
+    if cell.ballbar is not None:
+        _ballbar(v, rows, ends, cell.ballbar)
+
+
+def _sight_lines(
+    v: _Verdicts, rows: NDArray[np.intp], frames: Array, placed: _Placed, *, cell: Cell, fixed: _Fixed
+) -> None:
+    lines = []
+    if cell.tracker is not None:
+        tr = cell.tracker
+        lines.append((tr.position, tr.reflector, tr.beam_clearance, "the tracker's beam"))
+    if cell.camera is not None:
+        cam = cell.camera
+        lines.append((cam.pose[:3], cam.target, cam.sight_clearance, "the camera's sight line"))
+    for source, target, radius, what in lines:
+        _sight(
+            v,
+            rows,
+            frames,
+            placed,
+            fixed,
+            source=np.asarray(source, dtype=float),
+            target=target,
+            radius=radius,
+            what=what,
+        )
+
+
 def check_poses(
     desc: RobotDescription,
     cell: Cell,
@@ -416,46 +450,15 @@ def check_poses(
         tcp = pose_batch(desc, q[rows], theta, platforms, runtime=rt)
         ends = np.zeros((rows.size, 1, 4, 4))
         ends[:, 0, :3, :3], ends[:, 0, :3, 3], ends[:, 0, 3, 3] = tcp.rotations, tcp.positions, 1.0
-        if cell.tracker is not None:
-            _tracker(v, rows, ends, cell.tracker)
-        if cell.camera is not None:
-            _camera(v, rows, ends, cell.camera)
-        if cell.ballbar is not None:
-            _ballbar(v, rows, ends, cell.ballbar)
+        _instruments(v, rows, ends, cell)
         keep = np.flatnonzero(~v.refused[rows])
         rows = rows[keep]
         frames = stage_frames(desc, q[rows], theta, platforms=platforms[keep], runtime=rt)
         placed = _place(cell.geometry, layout.names, frames)
         fixed = _fixed(cell.obstacles)
         _collisions(v, rows, placed, cell, fixed)
-        if cell.tracker is not None:
-            tr = cell.tracker
-            _sight(
-                v,
-                rows,
-                frames,
-                placed,
-                fixed,
-                source=np.asarray(tr.position, dtype=float),
-                target=tr.reflector,
-                radius=tr.beam_clearance,
-                what="the tracker's beam",
-            )
-        if cell.camera is not None:
-            cam = cell.camera
-            _sight(
-                v,
-                rows,
-                frames,
-                placed,
-                fixed,
-                source=np.asarray(cam.pose[:3], dtype=float),
-                target=cam.target,
-                radius=cam.sight_clearance,
-                what="the camera's sight line",
-            )
-    feasible = ~v.refused
-    return Feasibility(feasible, tuple(v.reasons), tuple(v.details))
+        _sight_lines(v, rows, frames, placed, cell=cell, fixed=fixed)
+    return Feasibility(~v.refused, tuple(v.reasons), tuple(v.details))
 
 
 # ------------------------------------------------------------------------------------------------ defaults
