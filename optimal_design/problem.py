@@ -253,9 +253,10 @@ def _sampled(
         for _ in range(SAMPLING_ROUNDS):
             if total >= count:
                 break
-            more = sample_workspace(
-                desc, _batch(inputs, count - total, total, offered), seed=rng, params=theta, runtime=runtime
-            )
+            size = _batch(inputs, count - total, total, offered)
+            if size <= 0:
+                break
+            more = sample_workspace(desc, size, seed=rng, params=theta, runtime=runtime)
             more_ok, more_excluded = admissible(more)
             kept.append(more[more_ok])
             total += int(more_ok.sum())
@@ -273,7 +274,9 @@ def _batch(inputs: DesignInputs, missing: int, kept: int, offered: int) -> int:
     if inputs.cell is None:
         return inputs.candidate_count
     share = max(kept / max(offered, 1), 1.0 / CELL_BATCH_GROWTH)
-    return int(min(MAX_CANDIDATES, math.ceil(1.2 * missing / share) + 16))
+    # At most MAX_CANDIDATES offered in all (~5 s of checks): a cell that sees almost nothing gets a design on
+    # the fewer candidates it kept, its report saying how many were offered and why they were refused.
+    return int(min(MAX_CANDIDATES - offered, math.ceil(1.2 * missing / share) + 16))
 
 
 def _information(

@@ -14,7 +14,7 @@ from models.iwr import iwr
 from models.robot import RobotDescription
 from models.workspace import sample_workspace
 from optimal_design import design_poses
-from optimal_design.problem import DesignInputs, DesignProblem
+from optimal_design.problem import MAX_CANDIDATES, DesignInputs, DesignProblem
 from tests.models.cell_reference import dh_frames, reference_verdicts
 
 UR5 = ur5_like()
@@ -82,3 +82,12 @@ def test_a_cell_that_refuses_everything_says_why() -> None:
     cell = Cell(cell.geometry, (boxed_in,), cell.tracker, clearance=cell.clearance, allowed=cell.allowed)
     with pytest.raises(InvalidInput, match=r"cell_collision"):
         design_poses(UR5, 30, "D", "position", candidates=sample_workspace(UR5, 200, seed=1), cell=cell)
+
+
+def test_a_cell_that_sees_little_stops_sampling_at_the_cap() -> None:
+    # A 4° cone sees ~0.1 % of random orientations: 2 000 feasible candidates would need ~2 million samples
+    cell = cell_for(UR5, tracker=Tracker((2500.0, 0.0, 600.0), acceptance=np.radians(4.0)))
+    problem = DesignProblem.build(UR5, DesignInputs(measurement="position", candidate_count=2000, seed=3, cell=cell))
+    assert problem.offered <= MAX_CANDIDATES
+    assert 0 < problem.info.size < 2000
+    assert sum(problem.excluded.values()) == problem.offered - problem.info.size
