@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from models._types import IDENTITY, Pose6
 from models.cell.geometry import RobotGeometry
 from models.cell.instruments import Ballbar, Camera, Tracker
@@ -32,6 +34,15 @@ class Obstacle:
     name: str
     shape: Shape
     pose: Pose6 = IDENTITY
+
+    def __post_init__(self) -> None:
+        if not self.name:
+            raise InvalidInput("an obstacle needs a name (refusals name the solid they hit)", field="obstacles.name")
+        if len(self.pose) != 6 or not np.isfinite(np.asarray(self.pose, dtype=float)).all():
+            raise InvalidInput(
+                f"obstacle {self.name!r}: pose is x, y, z (mm) and a rotation vector (rad), 6 finite numbers",
+                field="obstacles.pose",
+            )
 
 
 @dataclass(frozen=True)

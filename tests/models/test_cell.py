@@ -187,3 +187,9 @@ def test_bad_cells_are_refused_naming_the_field() -> None:
     with pytest.raises(InvalidInput) as err:
         check_poses(UR5, cell_for(UR5), np.zeros((2, 5)))
     assert err.value.field == "joints"
+    with pytest.raises(InvalidInput) as err:
+        Obstacle("table", Box(1.0, 1.0, 1.0), (0.0, 0.0, float("nan"), 0.0, 0.0, 0.0))
+    assert err.value.field == "obstacles.pose"
+    with pytest.raises(InvalidInput) as err:
+        Cell(default_geometry(UR5), (TABLE, TABLE))
+    assert err.value.field == "obstacles"
