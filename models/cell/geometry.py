@@ -1,8 +1,8 @@
 """A robot's collision geometry: shapes attached to its bodies, from its links' lengths or from a URDF.
 
 Two kinds of link shape. A `Segment` is a capsule between two points each fixed in a frame of
-`models.cell.frames` (its length follows the joints: a prismatic link's capsule grows with its stroke, a
-hexapod leg runs from its base joint to its platform joint). An `Attached` shape (box, cylinder, sphere,
+`models.cell.frames` (its length may follow the joints: a hexapod leg runs from its base joint to its platform
+joint). An `Attached` shape (box, cylinder, sphere,
 capsule, mesh) is rigid in one frame at a fixed pose: a URDF's `<collision>` elements.
 
 Defaults for a DH or MDH document (`default_geometry`), a user sees them in `RobotGeometry.shapes`:
