@@ -120,7 +120,9 @@ test: lint
 # of `make test` (~20 s).
 fuzz: $(STAMP)
 	IWR_FUZZ_EXAMPLES=150 IWR_FUZZ_STEPS=10 $(BIN)/pytest -p no:cacheprovider tests/service/test_contract_fuzz.py
-	IWR_URDF_FUZZ_EXAMPLES=2000 $(BIN)/pytest -p no:cacheprovider tests/models/test_urdf_fuzz.py
+	IWR_URDF_FUZZ_EXAMPLES=2000 $(BIN)/pytest -p no:cacheprovider tests/models/test_urdf_fuzz.py \
+		tests/models/test_importer_fuzz.py
+	IWR_READER_FUZZ_EXAMPLES=2000 $(BIN)/pytest -p no:cacheprovider tests/service/test_reader_fuzz.py
 
 # The load and fleet tests at their full length (IWR_SOAK=1, tests/service/helpers.py): 50 clients for 10 s, 12 s
 # of mixed load with oversized requests, 200 jobs through two APIs and two workers (~3 min here). `make test`

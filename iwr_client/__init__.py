@@ -8,6 +8,7 @@ maths or the service), so any Python ≥ 3.11 runs it against a running service.
 
 from iwr_client.client import Answer, Client, Progress
 from iwr_client.errors import ApiError, CampaignFileError, JobCancelled, JobFailed, ServiceUnreachable
+from iwr_client.programs import ProgramFile
 
 __all__ = [
     "Answer",
@@ -16,6 +17,7 @@ __all__ = [
     "Client",
     "JobCancelled",
     "JobFailed",
+    "ProgramFile",
     "Progress",
     "ServiceUnreachable",
 ]

@@ -1,8 +1,8 @@
 """`iwr`: the service's main workflow from a shell (robots, pose designs, calibrations, reports, parameters,
-validations), on `iwr_client.Client`.
+validations, program compensation), on `iwr_client.Client`.
 
-Exit codes: 0 success; 1 a calibration that failed or was not applied, a check whose verdict is not `fine` (or a
-cancelled job); 2 a usage error
+Exit codes: 0 success; 1 a calibration that failed or was not applied, a check whose verdict is not `fine`, a
+program with a target left uncorrected (or a cancelled job); 2 a usage error
 (including a file that cannot be read); 3 the API refused the request (4xx: the problem's detail printed); 4 the
 service unreachable or a 5xx. `--json` prints the API's JSON documents on stdout and nothing else there.
 """
@@ -20,6 +20,7 @@ from typing import Any, TextIO
 from iwr_client import summary
 from iwr_client.client import Client, Json
 from iwr_client.errors import ApiError, CampaignFileError, JobCancelled, ServiceUnreachable
+from iwr_client.programs import ProgramFile, compensated_bytes, format_of
 from iwr_client.progress import ProgressBar
 
 DEFAULT_URL = "http://127.0.0.1:8000"
@@ -149,6 +150,8 @@ def calibrate(client: Client, args: argparse.Namespace, console: Console) -> int
             async_=not args.sync,
             on_progress=bar,
             prior=args.prior,
+            columns=args.columns,
+            joint_unit=args.joint_unit,
         )
     finally:
         if bar is not None:
@@ -214,6 +217,49 @@ def validate(client: Client, args: argparse.Namespace, console: Console) -> int:
     return OK
 
 
+def compensate(client: Client, args: argparse.Namespace, console: Console) -> int:
+    program = ProgramFile.read(args.program)
+    files = {f.name: f for f in map(ProgramFile.read, args.files or [])}
+    names = [program.name, *(Path(f).name for f in args.files or [])]
+    if len(set(names)) != len(names):
+        raise UsageError(f"two files named {next(n for n in names if names.count(n) > 1)}: the API names files so")
+    fmt = args.format or format_of(program.name)
+    if fmt is None:
+        raise UsageError(f"the format of {program.name} is not known from its extension: give --format")
+    out = Path(args.output) if args.output else None
+    inputs = {Path(p).resolve() for p in [args.program, *(args.files or [])]}
+    if out is not None and any((out / name).resolve() in inputs for name in names):
+        raise UsageError(f"-o {out} would overwrite the files read: write the compensated ones elsewhere")
+    bar = console.progress()
+    try:
+        answer = client.compensate(
+            args.robot,
+            program,
+            files=list(files.values()),
+            format=fmt,
+            version=args.version,
+            seed=args.seed,
+            async_=True if args.use_async else None,
+            on_progress=bar,
+        )
+    finally:
+        bar.close()
+    written: list[str] = []
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        for name, data in compensated_bytes(answer, program, files).items():
+            (out / name).write_bytes(data)
+            written.append(str(out / name))
+    console.document(answer, lambda: summary.program_summary(answer, program.name, written))
+    return program_exit(answer)
+
+
+def program_exit(answer: Json) -> int:
+    """1 when a target was kept as written (unreachable, another configuration, …): the program would not run
+    compensated everywhere. Values the service leaves alone because they are no motion targets are not such."""
+    return OK if all(t.get("reached") for t in answer.get("targets") or []) else NOT_APPLIED
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """The console script `iwr` (and `python -m iwr_client`)."""
     parser = build_parser()
@@ -269,6 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
     _calibration_commands(commands)
     _export_commands(commands)
     _check_commands(commands)
+    _program_command(commands)
     return parser
 
 
@@ -311,6 +358,15 @@ def _calibration_commands(commands: Any) -> None:
     parser.add_argument(
         "--prior", choices=["none", "fleet"], help="fleet: with the population of the robot's fleet (fewer poses)"
     )
+    parser.add_argument(
+        "--columns",
+        metavar="MAP",
+        help="which file column is which: 'J1=joint_1,J2=joint_2,X_m=x' (a joint of the robot, its URDF's names "
+        "too, or x, y, z, qw…, pose_id, sigma_mm, u95, temperature_c, time)",
+    )
+    parser.add_argument(
+        "--joint-unit", choices=["deg", "rad"], help="the revolute joint columns' unit where the header has none"
+    )
     check = _command(commands, "validate", validate, "versions against records they were not fitted to")
     check.add_argument("robot", metavar="ROBOT")
     check.add_argument("records", type=_readable, metavar="RECORDS.csv")
@@ -348,3 +404,31 @@ def _export_commands(commands: Any) -> None:
     export.add_argument("--format", default="csv", choices=["csv", "urdf", "json"])
     export.add_argument("--version", type=int)
     export.add_argument("-o", "--output", metavar="FILE", help="default: stdout")
+
+
+def _seed(text: str) -> list[float]:
+    """An argparse `type`: joints as '0,-90,80,-90,90,0' (commas: a leading minus is no option then)."""
+    try:
+        return [float(v) for v in text.replace(" ", ",").split(",") if v]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a list of numbers: {text!r}") from None
+
+
+def _program_command(commands: Any) -> None:
+    parser = _command(commands, "compensate", compensate, "a robot program with its targets corrected for the robot")
+    parser.add_argument("robot", metavar="ROBOT")
+    parser.add_argument("program", type=_readable, metavar="PROGRAM", help=".src, .mod, .script, .csv, …")
+    parser.add_argument(
+        "--files",
+        nargs="+",
+        type=_readable,
+        metavar="FILE",
+        help="companion files: the KRL .dat, $config.dat (quote the $), RAPID modules with its tooldata/wobjdata",
+    )
+    parser.add_argument("--format", choices=["krl", "rapid", "urscript", "csv"], help="default: from the extension")
+    parser.add_argument("--version", type=int, help="the parameter version (default: the current one)")
+    parser.add_argument("--seed", type=_seed, metavar="J1,J2,…", help="joints (deg, mm) the solutions start near")
+    parser.add_argument("-o", "--output", metavar="DIR", help="write the compensated files there, same names")
+    parser.add_argument(
+        "--async", dest="use_async", action="store_true", help="as a job with progress (large programs)"
+    )

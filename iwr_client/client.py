@@ -1,5 +1,6 @@
 """A typed client of the service's main workflow over urllib: robots, pose designs, calibrations (as jobs with
-progress), reports, parameter exports and validations. Standard library only, so any Python ≥ 3.11 runs it.
+progress), reports, parameter exports, validations and program compensation. Standard library only, so any
+Python ≥ 3.11 runs it.
 
 Millimetres and degrees, as the API takes them; answers are the API's JSON documents as dicts (their keys are
 service/openapi.json's). An error answer raises `ApiError` with the problem; no answer, `ServiceUnreachable`.
@@ -19,12 +20,15 @@ from pathlib import Path
 from typing import Any, Literal, overload
 
 from iwr_client.errors import ApiError, JobCancelled, JobFailed, ServiceUnreachable
+from iwr_client.programs import ProgramFile, format_of
 from iwr_client.records import records_from_csv
 
 Json = dict[str, Any]
 Records = Sequence[Mapping[str, Any]]
 Campaign = str | Path | Records
 """A campaign file's path (sent as it is, `text/csv`) or records as the API's JSON takes them."""
+ProgramSource = str | Path | ProgramFile
+"""A program file's path, or its text already read (`ProgramFile(name, text, encoding)`)."""
 TERMINAL = frozenset({"succeeded", "failed", "cancelled"})
 
 
@@ -236,10 +240,14 @@ class Client:
         async_: bool = False,
         on_progress: Callable[[Progress], None] | None = None,
         prior: str | None = None,
+        columns: str | None = None,
+        joint_unit: str | None = None,
     ) -> Json:
         """Identifies the robot's parameters from a campaign and answers the calibration (status, residuals,
         predicted accuracy, whether it was applied and if not why). `async_` runs it as a job and waits for it.
-        `prior="fleet"`: with the population of the robot's fleet as prior (docs/fleet.md)."""
+        `prior="fleet"`: with the population of the robot's fleet as prior (docs/fleet.md). For a campaign file:
+        `columns`, the column map (`"J1=joint_1,X_m=x"`: file column = the robot's joint or a coordinate), and
+        `joint_unit` (`"rad"`: the revolute joint columns whose header states no unit)."""
         path = f"/v1/robots/{_segment(robot_id)}/calibrations"
         query: dict[str, object] = {"apply": apply}
         if prior is not None:
@@ -249,9 +257,13 @@ class Client:
         if isinstance(campaign, str | Path):
             # The file goes as it is: the service's reader knows the instruments' column and unit variants.
             query["noise_position_mm"] = noise_mm
+            query["columns"] = columns
+            query["joint_unit"] = joint_unit
             data = Path(campaign).read_bytes()
             answer = self.request("POST", path, query=query, data=data, content_type="text/csv").json()
         else:
+            if columns is not None or joint_unit is not None:
+                raise ValueError("columns and joint_unit say how to read a campaign file; records are the API's own")
             body: Json = {"measurements": list(campaign), "apply": apply}
             if noise_mm is not None:
                 body["noise"] = {"position_mm": noise_mm}
@@ -270,6 +282,57 @@ class Client:
         accept = "application/pdf" if fmt == "pdf" else "text/html"
         path = f"/v1/calibrations/{_segment(calibration_id)}/report"
         return self.request("GET", path, query={"format": fmt}, accept=accept).body
+
+    # -- program compensation ---------------------------------------------------------------------------------
+
+    def compensate(
+        self,
+        robot_id: str,
+        program: ProgramSource,
+        *,
+        files: Sequence[ProgramSource] = (),
+        format: str | None = None,
+        version: int | None = None,
+        seed: Sequence[float] | None = None,
+        async_: bool | None = None,
+        on_progress: Callable[[Progress], None] | None = None,
+        options: Mapping[str, Any] | None = None,
+    ) -> Json:
+        """A robot program with its targets corrected for the robot's current (or `version`'s) parameters: the
+        API's answer (the program's text, the companion files it rewrote, one entry per target with its
+        correction or why it was kept). `files` are the companion files (a KRL .dat and $config.dat, RAPID
+        modules), sent by their names; `format` defaults to the program's extension's (`programs.FORMATS`);
+        `seed` is in degrees (mm for prismatic joints); `options` are further members of the request body
+        (`pendant`, `temperature_c`, …). `async_=None` sends one request and, if the service answers that the
+        work is over its synchronous budget and may run as a job, sends it again as one (`?async=true`) and
+        waits; True sends it as a job at once, False never. `ProgramFile.encode` writes an answer's texts back
+        in the encoding each file came in (`programs.compensated_bytes`)."""
+        source = _program_file(program)
+        companions = [_program_file(f) for f in files]
+        fmt = format or format_of(source.name)
+        if fmt is None:
+            raise ValueError(f"the format of {source.name!r} is not known from its name: give format=")
+        names = [source.name, *(f.name for f in companions)]
+        if len(set(names)) != len(names):
+            raise ValueError(f"two files of one name: {sorted(n for n in set(names) if names.count(n) > 1)}")
+        body: Json = {"format": fmt, "program": source.text, "files": {f.name: f.text for f in companions}}
+        if version is not None:
+            body["version"] = version
+        if seed is not None:
+            body["seed"] = [float(v) for v in seed]
+        body.update(options or {})
+        path = f"/v1/robots/{_segment(robot_id)}/programs/compensate"
+        try:
+            answer = self.request("POST", path, query={"async": True} if async_ else None, json_body=body)
+        except ApiError as refused:
+            if async_ is not None or not refused.problem.get("use_async"):
+                raise
+            answer = self.request("POST", path, query={"async": True}, json_body=body)
+        document = answer.json()
+        # A service with the job form answers 202 and a job; one without it ignores ?async and answers at once.
+        if answer.status == 202 or ("job_id" in document and "program" not in document):
+            return self.result(str(document["job_id"]), on_progress)
+        return dict(document)
 
     # -- parameters and validations ---------------------------------------------------------------------------
 
@@ -355,6 +418,10 @@ class Client:
         path = f"/v1/robots/{_segment(robot_id)}/history"
         answer = self.request("GET", path, query={"format": fmt, "limit": limit}, accept=accept)
         return answer.body.decode() if fmt == "csv" else list(answer.json())
+
+
+def _program_file(source: ProgramSource) -> ProgramFile:
+    return source if isinstance(source, ProgramFile) else ProgramFile.read(source)
 
 
 def _segment(value: str) -> str:

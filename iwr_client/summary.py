@@ -129,3 +129,116 @@ def history_table(events: Sequence[Mapping[str, Any]]) -> str:
         for e in events
     ]
     return _table(rows)
+
+
+# -- program compensation -----------------------------------------------------------------------------------------
+
+PROGRAM_KEYS = frozenset({"format", "version", "program", "files", "targets", "base", "pendant", "warnings"})
+"""The answer's members this summary lays out; any other the service adds is printed generically after them."""
+TARGET_KEYS = frozenset(
+    {
+        "file",
+        "line",
+        "column",
+        "name",
+        "base_frame",
+        "tool_frame",
+        "reached",
+        "correction_mm",
+        "correction_deg",
+        "reason",
+    }
+)
+
+
+def _norm(vector: object) -> float | None:
+    if not isinstance(vector, list | tuple) or not all(isinstance(v, int | float) for v in vector):
+        return None
+    return float(sum(v * v for v in vector) ** 0.5)
+
+
+def _said(value: object) -> str:
+    """Anything the service says (a message, a warning object, a list of them) as one line of text."""
+    if isinstance(value, Mapping):
+        for key in ("message", "reason", "detail"):
+            if isinstance(value.get(key), str):
+                return str(value[key])
+        return ", ".join(f"{k} {_said(v)}" for k, v in value.items())
+    if isinstance(value, list | tuple):
+        return "; ".join(_said(v) for v in value)
+    return "–" if value is None else str(value)
+
+
+def _where(item: Mapping[str, Any], program: str) -> str:
+    place = f"{item.get('file') or program}:{item['line']}" if item.get("line") is not None else ""
+    return " ".join(p for p in (place, str(item.get("name") or "")) if p)
+
+
+def target_notes(target: Mapping[str, Any]) -> str:
+    """Why a target was kept, and whatever else the service says of it (warnings, a configuration)."""
+    notes = [str(target["reason"])] if target.get("reason") else []
+    notes += [
+        f"{k.replace('_', ' ')}: {_said(v)}"
+        for k, v in target.items()
+        if k not in TARGET_KEYS and v not in (None, [], {})
+    ]
+    return "; ".join(notes)
+
+
+def program_summary(answer: Mapping[str, Any], program: str, written: Sequence[str] = ()) -> str:
+    """What was corrected, by how much and in which frames; what was kept and why; whatever else the answer holds
+    (the service may add members: printed generically); the files written."""
+    targets: list[Mapping[str, Any]] = list(answer.get("targets") or [])
+    corrected = [t for t in targets if t.get("reached")]
+    sizes = [_norm(t.get("correction_mm")) or 0.0 for t in corrected]
+    turns = [_norm(t.get("correction_deg")) or 0.0 for t in corrected]
+    head = (
+        f"{program} compensated for version {answer.get('version')}: {len(corrected)} of {len(targets)} targets "
+        f"corrected, {len(targets) - len(corrected)} kept"
+    )
+    if corrected:
+        head += f" (largest correction {max(sizes):.3f} mm, {max(turns):.4f} deg)"
+    lines = [head]
+    if answer.get("base"):
+        lines.append(f"  frames: {answer['base']}")
+    header = ("file", "line", "name", "base", "tool", "status", "dx mm", "dy mm", "dz mm", "|d| mm", "|r| deg", "notes")
+    rows: list[tuple[str, ...]] = [header]
+    for t in targets:
+        shift = t.get("correction_mm") if isinstance(t.get("correction_mm"), list) else None
+        size, turn = _norm(shift), _norm(t.get("correction_deg"))
+        rows.append(
+            (
+                str(t.get("file") or program),
+                str(t.get("line", "–")),
+                str(t.get("name") or "–"),
+                str(t.get("base_frame") or "robot base"),
+                str(t.get("tool_frame") or "model tool"),
+                "corrected" if t.get("reached") else "kept",
+                *([f"{v:+.3f}" for v in shift] if shift and len(shift) == 3 else ["–"] * 3),
+                "–" if size is None else f"{size:.3f}",
+                "–" if turn is None else f"{turn:.4f}",
+                target_notes(t),
+            )
+        )
+    if targets:
+        lines.append(_table(rows))
+    pendant = answer.get("pendant")
+    if isinstance(pendant, Mapping):
+        lines.append(f"  pendant check: {_said(pendant)}")
+    lines += [f"  warning: {_said(w)}" for w in answer.get("warnings") or []]
+    for key, value in answer.items():
+        if key in PROGRAM_KEYS or value in (None, [], {}):
+            continue
+        title = key.replace("_", " ")
+        if isinstance(value, list):
+            lines.append(f"{title} ({len(value)}):")
+            for item in value:
+                where = _where(item, program) if isinstance(item, Mapping) else ""
+                lines.append(f"  {where + ': ' if where else ''}{_said(item)}")
+        else:
+            lines.append(f"  {title}: {_said(value)}")
+    if written:
+        lines.append(f"  written: {', '.join(written)}")
+    else:
+        lines.append("  (-o DIR writes the compensated files)")
+    return "\n".join(lines)

@@ -23,6 +23,7 @@ significant digits, metres and radians as URDF wants: its FK equals the model's 
 
 from __future__ import annotations
 
+import functools
 import io
 import math
 import xml.etree.ElementTree as ET
@@ -48,7 +49,11 @@ CONTINUOUS_TURNS = 10
 CONTINUOUS_RANGE_DEG = (-360.0 * CONTINUOUS_TURNS, 360.0 * CONTINUOUS_TURNS)
 """A URDF `continuous` joint has no limits. A serial stage needs a range, so it gets ±10 turns: wide enough that
 no reading a controller reports is refused (one turn refused a UR's wrist at 270°), finite for the solvers'
-bounds and the workspace sampling (revolute kinematics are periodic, so the width costs nothing there)."""
+bounds and the workspace sampling (revolute kinematics are periodic, so the width costs nothing there). A revolute
+joint's wider limits are cut to the same range, for the same reason (1e300 rad made a range of 5.7e301 degrees)."""
+MAX_OFFSET_M = 1000.0
+"""A joint origin's offset or a prismatic joint's limit (m) at most: a robot on a rail or a gantry spans tens of
+metres; `<origin xyz="1e308 0 0">` overflowed to infinity in millimetres (an internal assertion, a 500)."""
 
 
 # ---------------------------------------------------------------------------------------------- import
@@ -66,6 +71,7 @@ def urdf_chain(urdf: str, base_link: str, tip_link: str) -> list[Any]:
     import yourdfpy  # a heavy import (trimesh), needed only by URDF requests
 
     check_size(urdf)
+    refuse_xacro(urdf)
     try:
         model = yourdfpy.URDF.load(
             io.BytesIO(urdf.encode()),
@@ -77,6 +83,30 @@ def urdf_chain(urdf: str, base_link: str, tip_link: str) -> list[Any]:
     except Exception as exc:  # yourdfpy raises lxml's and its own errors alike: all mean "not a URDF"
         raise InvalidInput(f"not a readable URDF: {exc}", field="urdf") from exc
     return _chain(model.robot, base_link, tip_link)
+
+
+XACRO_MARKS = ("xmlns:xacro", "<xacro:")
+
+
+def refuse_xacro(text: str, field: str = "urdf") -> None:
+    """A xacro file (a URDF macro, which ROS expands at launch) named as such with the command that expands it:
+    read as a URDF it has no links at the top level, and the answer was "the URDF has no link ''"."""
+    if any(mark in text for mark in XACRO_MARKS):
+        raise InvalidInput(
+            "this is a xacro file (a URDF with xacro macros), not a URDF: expand it first with "
+            "`xacro robot.urdf.xacro > robot.urdf` (ROS 2: `ros2 run xacro xacro robot.urdf.xacro > robot.urdf`; "
+            "ROS 1: `rosrun xacro xacro robot.urdf.xacro > robot.urdf`), passing the macro's arguments as name:=value, "
+            "and send the URDF it writes",
+            field=field,
+        )
+
+
+@functools.lru_cache(maxsize=32)
+def urdf_joint_names(urdf: str, base_link: str, tip_link: str) -> tuple[str, ...]:
+    """The moving joints' names from `base_link` to `tip_link`, in order: the robot's joints as ROS names them
+    (`joint_1` …, `panda_joint1` …, `shoulder_pan_joint` …), which campaign files use as column names. Cached: a
+    robot's files are read many times, its URDF parsed once."""
+    return tuple(str(joint.name) for joint in urdf_chain(urdf, base_link, tip_link) if joint.type != "fixed")
 
 
 def _chain(robot: Any, base_link: str, tip_link: str) -> list[Any]:
@@ -101,9 +131,31 @@ def _chain(robot: Any, base_link: str, tip_link: str) -> list[Any]:
     path.reverse()
     for joint in path:
         check_serial(joint)
+        _check_sizes(joint)
     if not any(joint.type != "fixed" for joint in path):
         raise InvalidInput("the chain between base_link and tip_link has no moving joint", field="tip_link")
     return path
+
+
+def _check_sizes(joint: Any) -> None:
+    """InvalidInput naming the joint and the element for a length beyond MAX_OFFSET_M (finite, checked before)."""
+    offset = 0.0 if joint.origin is None else float(np.abs(np.asarray(joint.origin, dtype=float)[:3, 3]).max())
+    lengths = [("<origin xyz>", offset)]
+    if joint.type == "prismatic" and joint.limit is not None:
+        lengths += [
+            (f"<limit {side}>", abs(float(v)))
+            for side in ("lower", "upper")
+            if (v := getattr(joint.limit, side)) is not None
+        ]
+    for element, value in lengths:
+        if not value <= MAX_OFFSET_M:  # `not <=`: NaN too
+            raise InvalidInput(
+                f"joint {joint.name!r} {element}: {value:g} m; at most {MAX_OFFSET_M:g} m is read (URDF lengths are "
+                "metres)",
+                field="urdf",
+                value=joint.name,
+                max=MAX_OFFSET_M,
+            )
 
 
 def origin_mm(joint: Any) -> Array:
@@ -174,8 +226,11 @@ def _limits(joint: Any) -> list[float]:
         if joint.type == "prismatic":
             raise InvalidInput(f"prismatic joint {joint.name!r} needs <limit lower upper>", field="urdf")
         return list(CONTINUOUS_RANGE_DEG)
-    scale = MM_PER_M if joint.type == "prismatic" else math.degrees(1.0)
-    return [float(joint.limit.lower) * scale, float(joint.limit.upper) * scale]
+    if joint.type == "prismatic":
+        return [float(joint.limit.lower) * MM_PER_M, float(joint.limit.upper) * MM_PER_M]
+    lo, hi = CONTINUOUS_RANGE_DEG
+    lower, upper = math.degrees(float(joint.limit.lower)), math.degrees(float(joint.limit.upper))
+    return [lower if math.isnan(lower) else max(lo, lower), upper if math.isnan(upper) else min(hi, upper)]
 
 
 def document_from_urdf(urdf: str, base_link: str, tip_link: str) -> Document:
@@ -190,6 +245,7 @@ def document_from_urdf(urdf: str, base_link: str, tip_link: str) -> Document:
         world = world @ origin_mm(joint)
         if joint.type != "fixed":
             axis = np.array([1.0, 0, 0]) if joint.axis is None else np.asarray(joint.axis, dtype=float)
+            axis = axis / np.abs(axis).max()  # a direction: `1e200 1e200 0` overflowed its norm
             axes.append((world[:3, 3].copy(), _unit(world[:3, :3] @ axis), joint))
     tip = world
     # Frames 0..m (frame 0 on the first axis, fixed to base_link), each x on the normal to the next axis.

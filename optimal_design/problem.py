@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from models import NoiseModel, RobotDescription, forward_kinematics, sample_workspace
 from models._types import Array
+from models.cell import Cell, check_poses
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows, poses_for
 from models.identification.prior import ParameterPrior
@@ -27,6 +28,8 @@ from optimal_design.information import CandidateInformation, candidate_informati
 
 MAX_CANDIDATES = 100_000
 SAMPLING_ROUNDS = 20
+CELL_BATCH_GROWTH = 50
+"""With a cell, a next batch is at most this many times the candidates still missing."""
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,9 @@ class DesignInputs:
     """What is known of the parameters before any pose is measured (a fleet's population, `models.fleet`): its
     information joins the fixed poses' in `base`, so the designs and the target mode count the poses a MAP
     identification with that prior needs."""
+    cell: Cell | None = None
+    """The cell around the robot (`models.cell`): only the candidates it can measure are offered (collision-free,
+    seen by its instrument); each refused one is counted in `DesignProblem.excluded` under its reason."""
 
 
 class DesignOptions(TypedDict, total=False):
@@ -76,6 +82,7 @@ class DesignOptions(TypedDict, total=False):
     levels: Conditions | None
     fixed_conditions: Conditions | None
     prior: ParameterPrior | None
+    cell: Cell | None
 
 
 @dataclass(frozen=True)
@@ -118,7 +125,8 @@ class DesignProblem:
             cand, origin, offered, excluded = _sampled(desc, inputs, theta, admissible)
         if cand.shape[0] == 0:
             raise InvalidInput(
-                f"no candidate pose satisfies the joint sub-ranges and the keep-out box (of {offered} offered: "
+                "no candidate pose satisfies the joint sub-ranges, the keep-out box and the cell "
+                f"(of {offered} offered: "
                 f"{', '.join(f'{n} {why}' for why, n in excluded.items())})",
                 field="candidates",
                 reason="all_filtered",
@@ -177,12 +185,14 @@ def _position_only(measurement: str) -> bool:
 
 
 class _Filters:
-    """The joint sub-ranges and the keep-out box: which candidates pass, and how many each filter excluded."""
+    """The joint sub-ranges, the keep-out box and the cell: which candidates pass, and how many each filter
+    excluded (the cell's refusals under their reasons, `models.cell.Reason`)."""
 
     def __init__(self, desc: RobotDescription, inputs: DesignInputs, theta: Array | None) -> None:
         self.desc, self.theta, self.runtime = desc, theta, inputs.runtime
         self.box = KeepOut.of(inputs.keep_out) if inputs.keep_out is not None else None
         self.ranges = dict(inputs.joint_ranges or {})
+        self.cell = inputs.cell
 
     def __call__(self, q: Array) -> tuple[Array, dict[str, int]]:
         ok = np.ones(q.shape[0], dtype=bool)
@@ -195,6 +205,12 @@ class _Filters:
             clear = keep_out_mask(self.desc, q, self.box, self.theta, runtime=self.runtime)
             counts["keep_out"] = int((ok & ~clear).sum())
             ok &= clear
+        if self.cell is not None:
+            # Only what passed the cheaper filters goes to the cell's check (frames and distances per pose).
+            rows = np.flatnonzero(ok)
+            seen = check_poses(self.desc, self.cell, q[rows], self.theta, runtime=self.runtime)
+            counts.update(seen.counts)
+            ok[rows] = seen.feasible
         return ok, counts
 
 
@@ -237,7 +253,10 @@ def _sampled(
         for _ in range(SAMPLING_ROUNDS):
             if total >= count:
                 break
-            more = sample_workspace(desc, count, seed=rng, params=theta, runtime=runtime)
+            size = _batch(inputs, count - total, total, offered)
+            if size <= 0:
+                break
+            more = sample_workspace(desc, size, seed=rng, params=theta, runtime=runtime)
             more_ok, more_excluded = admissible(more)
             kept.append(more[more_ok])
             total += int(more_ok.sum())
@@ -246,6 +265,18 @@ def _sampled(
                 excluded[k] = excluded.get(k, 0) + v
         cand = np.vstack(kept)[:count]
     return cand, np.arange(cand.shape[0]), offered, excluded
+
+
+def _batch(inputs: DesignInputs, missing: int, kept: int, offered: int) -> int:
+    """The next batch to sample: `candidate_count` as before; with a cell (which may refuse most poses: a
+    reflector's cone sees a few percent of random orientations), sized by the share kept so far so that one
+    or two more batches complete the set, each check amortising its batched frames over many poses."""
+    if inputs.cell is None:
+        return inputs.candidate_count
+    share = max(kept / max(offered, 1), 1.0 / CELL_BATCH_GROWTH)
+    # At most MAX_CANDIDATES offered in all (~5 s of checks): a cell that sees almost nothing gets a design on
+    # the fewer candidates it kept, its report saying how many were offered and why they were refused.
+    return int(min(MAX_CANDIDATES - offered, math.ceil(1.2 * missing / share) + 16))
 
 
 def _information(

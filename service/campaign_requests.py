@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import functools
 import json
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -12,14 +13,22 @@ import anyio
 from fastapi import Query, Request
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
-from python_multipart.exceptions import MultipartParseError
+from python_multipart.exceptions import FormParserError
 
 from models.identification.drift import MAX_DEGREE, DriftDriver
+from models.parameters import Kind
+from models.urdf import urdf_joint_names
 from service.campaign_io import ImportOptions, QuaternionOrder
+from service.campaign_io.columns import RobotColumns, parse_column_map
+from service.campaign_io.encoding import decode_text
 from service.campaign_io.reference_table import anchor_names
+from service.campaign_io.tabular import normalise
+from service.conversions.robots import description, urdf_source
 from service.csv_codec import joined_campaign, parse_campaign
 from service.errors import BadRequest, UnsupportedMediaType
-from service.guards import OFFLOOP_BYTES
+from service.guards import MAX_DEPTH, OFFLOOP_BYTES, too_deep
+from service.persistence.database import Database
+from service.persistence.repository import Repository
 from service.schemas.calibrations import CalibrationCreate
 
 
@@ -41,7 +50,7 @@ class CampaignQuery:
     prior: Literal["none", "fleet"] | None = None
 
 
-def campaign_query(
+def campaign_query(  # Long on purpose: one FastAPI dependency, a Query declaration per parameter a file needs
     *,
     apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
     noise_position_mm: float | None = Query(None, gt=0, le=1000, description="σ position, CSV bodies"),
@@ -72,12 +81,30 @@ def campaign_query(
     prior: Literal["none", "fleet"] | None = Query(
         None, description="CSV bodies: options.prior (fleet: calibrate with the robot's fleet's population)"
     ),
+    columns: str | None = Query(
+        None,
+        max_length=10_000,
+        description="CSV and multipart bodies: the column map, FILE_COLUMN=MEANING entries separated by commas "
+        "(J1=joint_1,J2=joint_2,X_m=x): a meaning is a joint of the robot (q1 … or its URDF's joint names, which a "
+        "header may also use unmapped) or x, y, z, qw, qx, qy, qz, pose_id, sigma_mm, u95, temperature_c, time, "
+        "reference, reflector",
+    ),
+    joint_unit: Literal["deg", "rad"] | None = Query(
+        None,
+        description="CSV and multipart bodies: the revolute joint columns' unit where the header states none "
+        "(a header says it as 'A1 [rad]', 'A1 (rad)' or 'a1_rad'); default deg",
+    ),
 ) -> CampaignQuery:
     return CampaignQuery(
         apply,
         noise_position_mm,
         noise_orientation_deg,
-        ImportOptions(length_unit=length_unit, quaternion_order=quaternion_order),
+        ImportOptions(
+            length_unit=length_unit,
+            quaternion_order=quaternion_order,
+            columns=parse_column_map(columns),
+            joint_unit=joint_unit,
+        ),
         list(terms) if terms else None,
         payload_kg,
         payload_cog_mm,
@@ -88,22 +115,28 @@ def campaign_query(
     )
 
 
-async def campaign_body(request: Request, query: CampaignQuery) -> CalibrationCreate:
+async def campaign_body(
+    request: Request, query: CampaignQuery, robot: Callable[[], RobotColumns] | None = None
+) -> CalibrationCreate:
     """The campaign as JSON, as one CSV, or as the controller's joint file and the instrument's point file
-    (multipart: `joints`, `points`, optional `points_format`), with noise and apply from the query."""
+    (multipart: `joints`, `points`, optional `points_format`), with noise and apply from the query. `robot`
+    gives the robot's joint names (its URDF's too) when a file is to be read: a JSON body never needs them."""
     content_type = request.headers.get("content-type", "application/json").split(";")[0].strip().lower()
     raw = await request.body()
     try:
         if content_type in ("text/csv", "multipart/form-data"):
             if content_type == "text/csv":
-                text = _text(raw, "the CSV body")
+                text, decoded = decode_text(raw, "the CSV body")
                 # Off the event loop, like the JSON body below: a large file parses for seconds.
+                columns = None if robot is None else await anyio.to_thread.run_sync(robot)
                 measurements, notes = await request.app.state.compute.call(
-                    functools.partial(parse_campaign, text, options=query.file_options)
+                    functools.partial(parse_campaign, text, options=query.file_options, robot=columns)
                 )
+                notes = [*([decoded] if decoded else []), *notes]
                 described: dict[str, Any] = {}
             else:
-                measurements, notes, described = await _files(request, query.file_options)
+                columns = None if robot is None else await anyio.to_thread.run_sync(robot)
+                measurements, notes, described = await _files(request, query.file_options, columns)
             payload = _file_payload(measurements, notes, query)
             payload.update({k: {**payload.get(k, {}), **v} for k, v in described.items()})
             return await anyio.to_thread.run_sync(CalibrationCreate.model_validate, payload)
@@ -161,18 +194,14 @@ def _validate_json(raw: bytes) -> CalibrationCreate | list[Any]:
         return list(exc.errors(include_url=False, include_context=False))
 
 
-def _text(raw: bytes, what: str) -> str:
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise BadRequest(f"{what} must be UTF-8 text") from exc
-
-
-async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[str, object]], list[str], dict[str, Any]]:
+async def _files(
+    request: Request, options: ImportOptions, robot: RobotColumns | None
+) -> tuple[list[dict[str, object]], list[str], dict[str, Any]]:
     """A joint file and a point file (CSV, a Leica-style export, or SpatialAnalyzer's ASCII) joined by pose id;
     or one `records` file in the layout of several kinds with its references' `descriptions` (JSON: anchors,
     points, planes, cameras) beside it. The records, the reader's notes and the descriptions."""
     parts = {}
+    decoded: list[str] = []
     try:
         async with request.form() as form:  # closes the spooled upload files when done
             names = ("records", "descriptions") if "records" in form else ("joints", "points")
@@ -185,18 +214,37 @@ async def _files(request: Request, options: ImportOptions) -> tuple[list[dict[st
                         f"multipart campaigns are two files, 'joints' and 'points', or a 'records' file with its "
                         f"'descriptions'; '{name}' is missing"
                     )
-                parts[name] = part if isinstance(part, str) else _text(await part.read(), f"the '{name}' file")
+                if isinstance(part, str):
+                    parts[name] = part
+                    continue
+                parts[name], note = decode_text(await part.read(), f"the '{name}' file")
+                decoded += [note] if note else []
             points_format = str(form.get("points_format") or "csv")
-    except MultipartParseError as exc:
-        # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500).
+    except FormParserError as exc:
+        # Starlette turns its own multipart errors into a 400 but lets the parser's escape (a 500); the base class:
+        # the parser raises it bare where it starts (a boundary over 256 characters, refused by the body guard too).
         raise BadRequest(f"the multipart body is malformed: {exc}") from exc
+    # Off the event loop, as a single CSV body is (the guard bounded the files' cells before: up to ~1 s of parsing).
+    compute = request.app.state.compute
     if "records" in parts:
-        measurements, notes = parse_campaign(parts["records"], options=options)
-        return measurements, notes, _descriptions(parts.get("descriptions"))
+        descriptions = _descriptions(parts.get("descriptions"))
+        measurements, notes = await compute.call(
+            functools.partial(parse_campaign, parts["records"], options=options, robot=robot)
+        )
+        return measurements, [*decoded, *notes], descriptions
     if points_format not in ("csv", "spatial-analyzer"):
         raise BadRequest(f"points_format must be 'csv' or 'spatial-analyzer', not {points_format!r}")
-    joined = joined_campaign(parts["joints"], parts["points"], spatial_analyzer=points_format != "csv", options=options)
-    return (*joined, {})
+    measurements, notes = await compute.call(
+        functools.partial(
+            joined_campaign,
+            parts["joints"],
+            parts["points"],
+            spatial_analyzer=points_format != "csv",
+            options=options,
+            robot=robot,
+        )
+    )
+    return measurements, [*decoded, *notes], {}
 
 
 DESCRIBED = ("anchors", "points", "planes", "cameras")
@@ -207,6 +255,9 @@ def _descriptions(text: str | None) -> dict[str, Any]:
     the body)."""
     if text is None:
         return {}
+    depth = too_deep(text.encode())  # json.loads recurses: 100 000 "[" were a RecursionError, a 500
+    if depth is not None:
+        raise BadRequest(f"the 'descriptions' part is JSON nested {depth} levels deep; at most {MAX_DEPTH} are read")
     try:
         found = json.loads(text)
     except json.JSONDecodeError as exc:
@@ -216,3 +267,20 @@ def _descriptions(text: str | None) -> dict[str, Any]:
     if not isinstance(found, dict) or not set(found) <= set(DESCRIBED):
         raise BadRequest(f"the 'descriptions' part is a JSON object of {', '.join(DESCRIBED)}")
     return found
+
+
+def robot_columns(db: Database, robot_id: str) -> RobotColumns:
+    """The robot's joints as its campaign files may name them: q1 … (robots.md) and, for a robot imported from
+    a URDF (or a UR's kinematics file, through the URDF it makes), that URDF's joint names in the same order."""
+    with db.reader() as s:
+        robot = Repository(s).robot(robot_id)  # NotFound for an unknown robot, before any file is read
+        desc = description(robot)
+        source = urdf_source(robot)
+    names = desc.joint_names
+    revolute = frozenset(n for n, kind in zip(names, desc.joint_kinds, strict=True) if kind is Kind.ANGLE)
+    if source is None:
+        return RobotColumns(names, {}, revolute)
+    urdf = urdf_joint_names(source.urdf, source.base_link, source.tip_link)
+    if len(urdf) != len(names):  # a URDF robot is its chain's joints; should it ever differ, read q1 … only
+        return RobotColumns(names, {}, revolute)
+    return RobotColumns(names, {normalise(u): n for u, n in zip(urdf, names, strict=True)}, revolute)

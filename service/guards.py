@@ -10,22 +10,28 @@
   no object with more keys than `MAX_OBJECT_KEYS` (measured on main: 300 000 unknown keys in 3.5 MB blocked
   the loop 6.9 s and answered 19.7 MB of errors; the issue's 1.3 million keys, 20 s and 86 MB). The largest
   schema object has 9 keys. No JSON body nests deeper than `MAX_DEPTH` (any size; counted in the raw bytes).
+- A CSV or multipart body to an operation that reads tables (`Operation.tables`) is bounded in its raw bytes before
+  any parser sees it: its records counted from its lines against the work budget (`Precount.count_table`), its
+  cells and fields per line against `limits.TABLE_CELLS_MAX` and `limits.TABLE_FIELDS_MAX` (`table_shape`); over
+  `INLINE_CHECK_BYTES`, counted in the parse process.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import Any
 
 import anyio
 import numpy as np
 import orjson
 from fastapi.exceptions import RequestValidationError
+from python_multipart.multipart import MAX_BOUNDARY_LENGTH, parse_options_header
 from starlette.routing import Match
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service import limits, operations, problems
-from service.errors import NotFound, PayloadTooLarge, RequestTimeout, ServiceError
+from service.errors import BadRequest, NotFound, PayloadTooLarge, RequestTimeout, ServiceError
 
 BODY_TIMEOUT_S = 30.0
 """A whole request body within this (unless the app gives `IWR_BODY_TIMEOUT_SECONDS`): the largest accepted
@@ -158,11 +164,82 @@ def precheck(scope: Scope, body: bytes) -> None:
     found = operations.matching(scope)
     if found is None or found.precount is None:
         return
+    _admit(scope, found, found.precount.of(body))
+
+
+def _admit(scope: Scope, found: operations.Operation, estimate: limits.Estimate) -> None:
     can_run_async = found.job is not None
     run_async = can_run_async and b"async=true" in scope.get("query_string", b"").lower()
-    estimate = found.precount.of(body)
     budget = scope["app"].state.settings.sync_budget_seconds
     limits.admit(estimate, run_async=run_async, can_run_async=can_run_async, budget_s=budget)
+
+
+TABLE_TYPES = (b"text/csv", b"multipart/form-data")
+_DELIMITERS = (b",", b";", b"\t")
+
+
+def table_shape(body: bytes) -> str | None:
+    """What is over the bounds of a CSV body (or of a multipart body's files), None when nothing is: its cells
+    (`limits.TABLE_CELLS_MAX`) and the fields of its widest line (`limits.TABLE_FIELDS_MAX`), counted in the
+    bytes before any parsing: `bytes.count` for the cells (C speed, ~10 ms for 20 MB), then one pass over the
+    lines long enough to hold too many fields. Delimiters inside quotes count too: an upper count."""
+    lines = operations.text_lines(body)
+    delimiters = max(body.count(d) for d in _DELIMITERS)
+    cells = lines + delimiters
+    if cells > limits.TABLE_CELLS_MAX:
+        return (
+            f"the CSV has up to {cells} cells ({lines} lines); at most {limits.TABLE_CELLS_MAX} are read in one "
+            "request: send fewer records at a time"
+        )
+    for number, line in enumerate(body.splitlines(), start=1):
+        if len(line) > limits.TABLE_FIELDS_MAX:  # a shorter line cannot hold more fields than that
+            fields = max(line.count(d) for d in _DELIMITERS) + 1
+            if fields > limits.TABLE_FIELDS_MAX:
+                return (
+                    f"line {number} of the CSV has {fields} fields; at most {limits.TABLE_FIELDS_MAX} are read (a "
+                    "campaign has tens of columns): leave out the columns the robot does not use"
+                )
+    return None
+
+
+def check_boundary(content_type: bytes) -> None:
+    """400 naming the header for a multipart boundary the form parser refuses when it starts (over
+    `MAX_BOUNDARY_LENGTH`, 256 characters; RFC 2046 allows 70). python_multipart raised its `FormParserError`
+    from inside the route, which was a 500."""
+    boundary = parse_options_header(content_type)[1].get(b"boundary", b"")
+    if len(boundary) > MAX_BOUNDARY_LENGTH:
+        raise BadRequest(
+            f"the Content-Type header's multipart boundary has {len(boundary)} characters; at most "
+            f"{MAX_BOUNDARY_LENGTH} are read (RFC 2046 allows 70)"
+        )
+
+
+def table_counts(body: bytes, count: Callable[[bytes], int] | None) -> tuple[int | None, str | None]:
+    """(the records `count` finds, None without one; what `table_shape` refuses, None if nothing): the checks of a
+    CSV or multipart body in one hop (plain arguments and answer, for the parse process)."""
+    return (None if count is None else count(body)), table_shape(body)
+
+
+async def precheck_table(scope: Scope, body: bytes) -> None:
+    """A CSV or multipart body to an operation that reads tables: its records (`Precount.count_table`) against
+    the budget (422 `work-too-large`), then its shape (`table_shape`: a 422 naming the bound), before parsing. Up
+    to INLINE_CHECK_BYTES on the loop (~1 ms a MB of counts); a larger body in the parse process, as JSON is
+    (20 MB: 0.1-0.2 s of counts and, for half a million short lines, the pass over them)."""
+    found = operations.matching(scope)
+    if found is None or not found.tables:
+        return
+    count = found.precount.count_table if found.precount is not None else None
+    if len(body) <= INLINE_CHECK_BYTES:
+        records, problem = table_counts(body, count)
+    else:
+        pool = getattr(scope["app"].state, "compute", None)
+        records, problem = await (
+            pool.call(table_counts, body, count) if pool else anyio.to_thread.run_sync(table_counts, body, count)
+        )
+    if records is not None and found.precount is not None:
+        _admit(scope, found, found.precount.estimate(records))
+    if problem is not None:
+        raise RequestValidationError([{"loc": ("body",), "msg": problem}])
 
 
 class BodyGuard:
@@ -188,8 +265,12 @@ class BodyGuard:
                 return
             if too_large:
                 raise PayloadTooLarge(f"the request body exceeds {self.limit} bytes; send less", limit=self.limit)
-            content_type = dict(scope.get("headers", [])).get(b"content-type", b"application/json")
-            if b"json" in content_type.lower():
+            content_type = dict(scope.get("headers", [])).get(b"content-type", b"application/json").lower()
+            if content_type.startswith(b"multipart/"):
+                check_boundary(content_type)
+            if content_type.startswith(TABLE_TYPES):
+                await precheck_table(scope, body)
+            elif b"json" in content_type:
                 if len(body) <= OFFLOOP_BYTES:
                     _raise_too_deep(too_deep(body))  # 64 kB at most: ~1 ms on the loop
                 else:

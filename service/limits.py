@@ -35,7 +35,7 @@ import anyio
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from models.cancellation import DEADLINE, CancellationToken, Cancelled
-from optimal_design.criteria import cost_factor
+from optimal_design.criteria import Criterion, cost_factor
 from service.compute import ComputePool, Task
 from service.errors import ClientGone, Overloaded, WorkTooLarge
 
@@ -80,6 +80,42 @@ ERROR_ANALYSIS_S_PER_EVALUATION = 100e-6
 (the schema's former cap, 40 000, was twice the budget)."""
 ERROR_ANALYSIS_BYTES_PER_EVALUATION = 1_000  # 48 stored numbers (~400 B) and working arrays: +11 MB at 40 000
 FORWARD_S_PER_POSE = 34e-6  # README's service table: 1 000 joint vectors in one request, 34 ms
+
+# ------------------------------------------------------------------ what parsing a body may cost, bounded before it
+# CSV bodies and files (campaigns, parameter imports) are bounded in their raw bytes before any parser sees them
+# (`service.guards.table_shape`: C-speed counts, 0.1-0.2 s for 20 MB, in the parse process over 1 MB); JSON bodies
+# by their nesting and keys
+# (`service.guards.too_deep`, `MAX_OBJECT_KEYS`); YAML, URDF and structure documents by their readers (text length,
+# element counts and nesting, `models.ur_kinematics`, `models.urdf_tree`). Measured with a /tmp script of issue 48's
+# branch, one parse per fresh process, CPU time and peak RSS (getrusage), this 2-core machine shared with others:
+#
+# | body (10 MB unless said)                                | before                           | now (live, SQLite) |
+# |--------------------------------------------------------|----------------------------------|--------------------|
+# | CSV records with CR line ends (one line to `wc -l`),   | 714 000 rows parsed: 15.5 s,     | 422 work-too-large |
+# |   POST …/calibrations as text/csv                      |   +896 MB, then a 422            |   0.06 s, +0 MB    |
+# | the same as a multipart `records` file                 | 17.3 s, +350 MB, on the loop     | 422, 0.04 s, +0 MB |
+# | a header and one line of 5 M fields                    | 400 after parsing, 0.22 s, +84 MB| 422, 0.25 s, +9 MB |
+# | a header of 20 000 columns and one row (220 kB)        | 400 after parsing, 0.23 s        | 422, 0.01 s        |
+# | 300 000 parameter rows, …/parameter-versions (8 MB)    | parsed on the loop: 1.3 s, +265 MB| 422, 0.08 s, +0 MB |
+# | one cell of 10 MB (no line break)                      | 400, the csv module's field limit| the same, 0.39 s   |
+#
+# "now" with the counts on the event loop; moved to the parse process for bodies over 1 MB, the first row is 0.27 s
+# and +36 MB at load 6-8 (the body's copy), the second 0.26 s and +41 MB.
+# Valid tables cost, parsed (CPU, peak RSS): 37 500 campaign records x 17 columns (6 MB, the most any job takes)
+# 0.73 s, +96 MB; 60 000 x 17 (1 M cells) 1.26 s, +153 MB; 4 000 lines x 250 unknown columns 0.26 s, +86 MB.
+TABLE_CELLS_MAX = 1_000_000
+"""Cells of a CSV body (or all the files of a multipart one), counted as lines plus the most frequent delimiter's
+occurrences (`,`, `;` or tab: an upper count whichever the sniffer picks). Measured per cell: ~1.2 µs and ~150 bytes
+for campaign columns read as numbers (60 000 rows x 17: 1.26 s, +153 MB), ~0.3 µs and ~90 bytes for columns
+ignored; so the bound keeps a parse under ~1.3 s and ~160 MB. The largest campaign any job may take (37 500
+records, `JOB_MEMORY_BYTES`) with 26 columns fits."""
+TABLE_FIELDS_MAX = 256
+"""Fields on one line of a CSV (its delimiters, counted in the raw line, plus one). Instrument exports have tens of
+columns; a header of 20 000 columns took 0.23 s to name its columns, 100 000 about 1 s (each name normalised)."""
+TABLE_TOKEN_MAX = 131_072
+"""The longest cell: the csv module's own field limit (`csv.field_size_limit()`), refused by the reader with the
+line (a 10 MB cell: 400 in 0.06 s)."""
+
 
 CORES = os.cpu_count() or 1
 SYNC_COMPUTE_SLOTS = CORES
@@ -144,6 +180,24 @@ def inverse_kinematics(targets: int) -> Estimate:
     return Estimate(f"inverse kinematics of {targets} targets", seconds, memory)
 
 
+VALIDATION_S_PER_EVALUATION = 100e-6
+"""A record compared with one parameter version: measured 57 µs of CPU each, the body's validation included
+(30 000 tracker records, one version: 1.78 s of CPU, 4.9 s of wall at load ~5; 10 000: 0.65 s), taken up towards
+the loaded wall time. So 20 000 evaluations fill the budget; 100 000 records (the schema's cap) × 50 versions were
+5 million, ~5 minutes, admitted before issue 48 until the compute deadline stopped them."""
+VALIDATION_BYTES_PER_RECORD = 6_000  # +168 MB at 30 000 records (5.6 KB), rounded up
+
+
+def validation(evaluations: int, records: int | None = None) -> Estimate:
+    """`evaluations`: records × versions; memory grows with the records (the versions are compared in turn)."""
+    held = evaluations if records is None else records
+    return Estimate(
+        f"a validation of {evaluations} record-version comparisons",
+        evaluations * VALIDATION_S_PER_EVALUATION,
+        held * VALIDATION_BYTES_PER_RECORD,
+    )
+
+
 PROGRAM_S_PER_TARGET = 2.0e-4
 """Compensating and rewriting one target once it is read: 10 000 URScript targets took 1.06 s of CPU (0.87 s
 compensating, 0.19 s rewriting) at load 2 to 3 on the 2-core machine (benchmarks/bench_programs.py); doubled
@@ -179,6 +233,15 @@ def pose_design(candidates: int, count: int, fixed: int, criterion: str, *, boun
     seconds += bound_seconds
     memory = DESIGN_BASE_BYTES + DESIGN_BYTES_PER_CANDIDATE * m + DESIGN_BYTES_PER_PAIR * count * m
     return Estimate(f"a pose design of {count} among {candidates} candidates ({criterion})", seconds, memory)
+
+
+def pose_design_at_least(candidates: int) -> Estimate:
+    """The least any design among `candidates` given candidates can cost (one pose, no fixed poses, the cheapest
+    criterion, no branch and bound; a target design costs more): what its body's bytes tell before parsing. Over
+    the budget or the cap, the exact estimate after parsing would be too."""
+    cheapest = min((c.value for c in Criterion), key=cost_factor)
+    least = pose_design(candidates, 1, 0, cheapest)
+    return Estimate(f"a pose design among {candidates} candidates", least.seconds, least.bytes)
 
 
 TARGET_DESIGNS = 5.0

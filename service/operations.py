@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any, TypeVar
 
+import numpy as np
 from fastapi import FastAPI
 from fastapi.routing import iter_route_contexts
 from starlette.routing import Match
@@ -47,6 +48,8 @@ class Precount:
 
     count: Callable[[bytes], int]
     estimate: Callable[..., limits.Estimate]
+    count_table: Callable[[bytes], int] | None = None
+    """The same work counted in a CSV or multipart body (None: the operation's files are not counted)."""
     sized: bool = False
     """The estimate also takes the body's size in bytes: reading a program costs by its text, not only by the
     targets it holds (a 10 MB line with none took 20 s and 3.4 GB)."""
@@ -65,6 +68,9 @@ class Operation:
     precount: Precount | None = None
     job: JobKind | None = None
     """The job kind it becomes with `?async=true` (None: it has no async form)."""
+    tables: bool = False
+    """It reads CSV files (`text/csv` or `multipart/form-data`): their lines, cells and fields per line are bounded
+    before they are parsed (`service.guards.table_shape`, limits in `service.limits`)."""
 
 
 def _joint_vectors(body: bytes) -> int:
@@ -82,6 +88,45 @@ def _records(body: bytes) -> int:
     return len(_JOINTS_KEY.findall(body))
 
 
+def text_lines(body: bytes) -> int:
+    """Lines of a text body, as `bytes.splitlines` and the CSV reader break them (LF, CRLF or a lone CR: a file of
+    CR line ends is one line to `wc -l`), counted at C speed (a 10 MB body ~5 ms)."""
+    breaks = body.count(b"\n") + body.count(b"\r") - body.count(b"\r\n")
+    return breaks + (0 if not body or body.endswith((b"\n", b"\r")) else 1)  # the text after the last break
+
+
+def _table_records(body: bytes) -> int:
+    # An upper count of a campaign file's records: a CSV's lines after the header; in a multipart body of a joint
+    # file and a point file each record is a line of both (records <= min(a, b) <= (a + b) / 2); of a `records`
+    # file, the body's lines. Blank and comment lines count too: an estimate that errs towards a job.
+    lines = text_lines(body)
+    return lines // 2 if b'name="joints"' in body else max(lines - 1, 0)
+
+
+def _evaluations(body: bytes) -> int:
+    # Records × versions: each record is compared with each version. `"versions"` before a colon is a key (a
+    # list of integers: its commas count its items); absent, one version, the current.
+    records = _records(body)
+    found = _VERSIONS_KEY.search(body)
+    versions = found.group(1).count(b",") + 1 if found and found.group(1).strip() else 1
+    return records * versions
+
+
+def _candidates(body: bytes) -> int:
+    # The items of the top-level `"candidates"` array that are arrays or objects (a joint vector, a reference
+    # candidate): its brackets, strings removed, and the openings one level inside it (C speed: 15 MB ~0.1 s).
+    # A key is never text: inside a JSON string its quotes are escaped.
+    found = _CANDIDATES_KEY.search(body)
+    if found is None:
+        return 0
+    brackets = _STRING.sub(b"", body[found.end() - 1 :]).translate(None, _NOT_BRACKETS)
+    steps = _STEP[np.frombuffer(brackets, dtype=np.uint8)]
+    depth = np.cumsum(steps, dtype=np.int64)
+    closed = np.flatnonzero(depth == 0)  # where the array ends (malformed: to the body's end, the parser's to refuse)
+    end = int(closed[0]) if closed.size else depth.size
+    return int(np.count_nonzero((steps[:end] == 1) & (depth[:end] == 2)))
+
+
 def program_targets(body: bytes) -> int:
     """An upper count of a robot program's targets in its bytes, JSON or the text itself, whatever its format:
     KRL aggregates that open with X (`{X`, `{E6POS: X`), RAPID's nested aggregates (`[[`: every robtarget, and
@@ -94,21 +139,34 @@ def program_targets(body: bytes) -> int:
 _KRL_POSE = re.compile(rb"\{\s*(?:[A-Za-z0-9_]+\s*:\s*)?[Xx]\s")
 _POSITION_KEY = re.compile(rb'"position"\s*:')
 _JOINTS_KEY = re.compile(rb'"joints"\s*:')
+_CANDIDATES_KEY = re.compile(rb'"candidates"\s*:\s*\[')
+_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"')  # a JSON string, escapes included (as service.guards reads it)
+_NOT_BRACKETS = bytes(c for c in range(256) if c not in b"[]{}")
+_STEP = np.zeros(256, dtype=np.int8)
+_STEP[list(b"[{")], _STEP[list(b"]}")] = 1, -1
+_VERSIONS_KEY = re.compile(rb'"versions"\s*:\s*\[([^\]]*)\]')
 
 # Measured: the schema's 100 000 joint vectors, 7 MB, took 0.8 s of loop to parse and validate, only to be
 # refused; a 6 000-record calibration's key check waited up to 2.9 s for the parse process behind other large
 # bodies, only to be refused. Counted in the bytes, both are refused in milliseconds.
 FORWARD_KINEMATICS = Precount(_joint_vectors, limits.forward_kinematics)
 INVERSE_KINEMATICS = Precount(_targets, limits.inverse_kinematics)
-CALIBRATION = Precount(_records, limits.calibration)
+CALIBRATION = Precount(_records, limits.calibration, count_table=_table_records)
 PROGRAM_COMPENSATION = Precount(program_targets, limits.program_compensation, sized=True)
+VALIDATION = Precount(_evaluations, limits.validation)
+POSE_DESIGN = Precount(_candidates, limits.pose_design_at_least)
 
 
 def operation(
-    scope: Scope, *, runs: Runs = Runs.THREAD, precount: Precount | None = None, job: JobKind | None = None
+    scope: Scope,
+    *,
+    runs: Runs = Runs.THREAD,
+    precount: Precount | None = None,
+    job: JobKind | None = None,
+    tables: bool = False,
 ) -> Callable[[F], F]:
     """Declares the policy of the endpoint it decorates (put it under the router's decorator)."""
-    declared = Operation(scope, runs, precount, job)
+    declared = Operation(scope, runs, precount, job, tables)
 
     def mark(endpoint: F) -> F:
         setattr(endpoint, _ATTRIBUTE, declared)

@@ -41,6 +41,8 @@ from models.transforms import quaternion_to_matrix
 MIN_RECORDS = 5
 RADIANS_RANGE_DEG = 20.0
 """Only revolute joints whose range is wider than this can betray radians (a ±3° joint reads ±π either way)."""
+RADIANS_TURNS = 4 * math.pi
+"""Readings in radians lie within the joint's range in radians, up to two turns either way."""
 SCALE_TOLERANCE = 0.2
 """A similarity scale within ±20 % of 1/1000, 1/25.4 or 1000 names that unit."""
 REFLECTION_GAIN = 0.5
@@ -100,12 +102,17 @@ def check_radians(desc: RobotDescription, joints: Array) -> Diagnosis | None:
     if not wide or joints.shape[0] < MIN_RECORDS:
         return None
     as_degrees = np.degrees(joints[:, wide])
-    if np.all(np.abs(as_degrees) <= math.pi + 1e-9):
+    # Radians lie within ±π, or within the joint's own range read as radians where that is wider (a ±360° or
+    # ±400° wrist reads up to ±6.28 or ±6.98; such a campaign was called a mismatch, issue 45), never beyond two
+    # turns: a ±10-turn joint's degrees could lie within its ±62.8.
+    bound = np.clip(np.maximum(np.abs(desc.joint_min[wide]), np.abs(desc.joint_max[wide])), math.pi, RADIANS_TURNS)
+    if np.all(np.abs(as_degrees) <= bound + 1e-9):
         names = ", ".join(desc.joint_names[j] for j in wide)
         return Diagnosis(
             Finding.RADIANS,
-            f"every reading of the revolute joint(s) {names} lies within ±3.14 although their ranges span tens of "
-            "degrees: the joints look like radians; send them in degrees",
+            f"every reading of the revolute joint(s) {names} lies within ±{float(bound.max()):.3g} although their "
+            "ranges span tens of degrees: the joints look like radians; send them in degrees (in a file: a "
+            "header 'q1 [rad]', or joint_unit=rad)",
         )
     return None
 

@@ -18,8 +18,9 @@ from models.identification.diagnosis import Diagnosis, Finding
 from models.identification.residuals import CampaignProblem, Evaluation
 from models.identification.statistics import chi2_quantile
 from models.kinematics import leg_tensions
+from models.robot import RobotDescription
 from models.serial_chain import JointType
-from models.terms import GRAVITY_M_S2, MIN_PAYLOAD_SPREAD_KG
+from models.terms import GRAVITY_M_S2, MIN_PAYLOAD_SPREAD_KG, Conditions
 
 SCORE_ALPHA = 1e-4
 """The score test names a missing term only beyond this false-alarm probability."""
@@ -33,7 +34,7 @@ def missing_term_diagnoses(problem: CampaignProblem, ev: Evaluation) -> tuple[Di
     active = problem.active_poses
     found: list[Diagnosis] = []
     temps = conditions.temperature_c
-    if not desc.terms.thermal and temps is not None and np.ptp(temps[active]) > 0:
+    if not desc.terms.thermal and temps is not None and np.ptp(temps[active]) > 0 and thermal_axes(desc):
         columns = _thermal_columns(problem, ev, temps[active] - desc.terms.reference_temperature_c)
         stat, k, limit = _score(problem, ev, columns)
         if stat > limit:
@@ -63,6 +64,24 @@ def missing_term_diagnoses(problem: CampaignProblem, ev: Evaluation) -> tuple[Di
                 )
             )
     return tuple(found)
+
+
+def thermal_axes(desc: RobotDescription) -> bool:
+    """Whether the thermal term has anything to expand in `desc`: hexapod legs or prismatic axes. A revolute arm
+    has neither (its thermal growth is not modelled), so its records' temperatures cannot enter the model: the
+    score test then had no column at all (a 6R arm's Leica file with a Temperature column crashed here, issue 45)."""
+    return desc.hexapod is not None or any(link.joint is JointType.PRISMATIC for link in desc.links)
+
+
+def unused_temperature_note(desc: RobotDescription, conditions: Conditions | None) -> str | None:
+    """The note for records that carry temperatures this robot's model cannot use (None when it can, or when
+    they carry none)."""
+    if conditions is None or conditions.temperature_c is None or thermal_axes(desc):
+        return None
+    return (
+        f"temperature_c read (the records span {conditions.temperature_span_k:.2g} K) but unused: the thermal term "
+        "expands hexapod legs and prismatic axes, and this robot has neither"
+    )
 
 
 def _score(problem: CampaignProblem, ev: Evaluation, columns: list[Array]) -> tuple[float, int, float]:

@@ -14,7 +14,7 @@ from datetime import datetime
 from enum import StrEnum
 from typing import Any
 
-from service.campaign_io.errors import CampaignFileError, listed
+from service.campaign_io.errors import SHOWN, CampaignFileError, listed
 from service.campaign_io.tabular import Row, Table
 
 MM_PER: dict[str, float] = {"mm": 1.0, "m": 1000.0, "cm": 10.0, "um": 1e-3, "µm": 1e-3, "in": 25.4, "inch": 25.4}
@@ -26,23 +26,45 @@ DEG_PER: dict[str, float] = {"deg": 1.0, "°": 1.0, "degree": 1.0, "degrees": 1.
 U95_COVERAGE = 2.0
 
 ALIASES: dict[str, tuple[str, ...]] = {
-    "pose_id": ("pose_id", "pose", "id", "point_id", "point", "name", "point_name", "target"),
-    "x": ("x",),
-    "y": ("y",),
-    "z": ("z",),
+    "pose_id": (
+        "pose_id",
+        "pose",
+        "id",
+        "point_id",
+        "point",
+        "name",
+        "point_name",
+        "feature_name",
+        "feature",
+        "label",
+        "nr",
+        "nr.",
+        "no",
+        "no.",
+        "point_no",
+        "point_no.",
+    ),
+    "x": ("x", "meas_x", "x_meas", "measured_x", "x_measured", "actual_x", "x_actual"),
+    "y": ("y", "meas_y", "y_meas", "measured_y", "y_measured", "actual_y", "y_actual"),
+    "z": ("z", "meas_z", "z_meas", "measured_z", "z_measured", "actual_z", "z_actual"),
     "qw": ("qw", "w"),
     "qx": ("qx",),
     "qy": ("qy",),
     "qz": ("qz",),
-    "sigma_mm": ("sigma_mm", "sigma", "uncertainty", "std", "rms"),
-    "u95": ("u95", "u95_mm"),
-    "temperature_c": ("temperature_c", "temperature", "temp"),
+    "sigma_mm": ("sigma_mm", "sigma", "uncertainty", "std", "std_dev", "stdev", "rms"),
+    "u95": ("u95", "u95_mm", "expanded_uncertainty"),
+    "temperature_c": ("temperature_c", "temperature", "temp", "temp.", "air_temperature", "air_temp"),
     "timestamp": ("timestamp", "time", "datetime", "date_time", "date"),
     "collection": ("collection",),
     "group": ("group",),
     "reference": ("reference", "ref", "is_reference"),
+    "reflector": ("reflector", "reflector_name", "smr", "probe", "target_type"),
 }
-KNOWN_IGNORED = ("timestamp", "collection", "group")
+TARGET = "target"
+"""A `target` column names the pose in SpatialAnalyzer's export and in joint files written to match it, but the
+reflector in Leica's (`TMC 30-B #5320`, the same on every row): read as the pose id only where no other column
+is one and its names are all different, else as the reflector."""
+KNOWN_IGNORED = ("timestamp", "collection", "group", "reflector")
 """Columns instrument software writes that a calibration may not use: recognised, and not reported as unknown (a
 time stamp is read when it is seconds or ISO 8601 on every row, for a drift-aware calibration)."""
 REFERENCE_MARKS = {"1": True, "true": True, "yes": True, "x": True, "0": False, "false": False, "no": False, "": False}
@@ -67,10 +89,16 @@ class ImportOptions:
     """Of the columns qw/qx/qy/qz or q0…q3 when they are not named by component."""
     uncertainty: UncertaintyKind = UncertaintyKind.SIGMA
     """What a column called `uncertainty` holds; a column called `u95` is always read as U95."""
+    columns: tuple[tuple[str, str], ...] = ()
+    """The column map: file column (normalised) → a joint or coordinate (`service.campaign_io.columns`)."""
+    joint_unit: str | None = None
+    """`rad` or `deg`: the revolute joint columns' unit where the header states none (default: degrees)."""
 
     def __post_init__(self) -> None:
         if self.length_unit.lower() not in MM_PER:
             raise CampaignFileError(f"unknown length unit {self.length_unit!r}; use one of {', '.join(MM_PER)}")
+        if self.joint_unit is not None and self.joint_unit not in ("deg", "rad"):
+            raise CampaignFileError(f"unknown joint unit {self.joint_unit!r}; use deg or rad")
 
 
 @dataclass(frozen=True)
@@ -94,6 +122,11 @@ def _column_map(table: Table, joint_names: Sequence[str]) -> tuple[dict[str, str
             if alias in columns:
                 found[canonical] = alias
                 break
+    if TARGET in columns:
+        names = [row.cells.get(TARGET, "").strip() for row in table.rows]
+        unique = all(names) and len(set(names)) == len(names)
+        role = "pose_id" if "pose_id" not in found and unique else "reflector"
+        found.setdefault(role, TARGET)
     joints = {normalise_joint(n) for n in joint_names}
     # Leica-style q0…q3 are quaternion components (q0 the scalar), unless the robot's own joints are named so and
     # the table has no q0: a joint file.
@@ -122,7 +155,7 @@ def normalise_joint(name: str) -> str:
 
 
 def length_factor(table: Table, column: str, options: ImportOptions) -> float:
-    unit = table.units.get(column, options.length_unit).lower()
+    unit = table.units.get(column, table.length_unit or options.length_unit).lower()
     if unit not in MM_PER:
         raise CampaignFileError(
             f"column {column}: unknown length unit {unit!r} in the header; use one of {', '.join(MM_PER)}",
@@ -152,6 +185,8 @@ def measured_points(
     order = options.quaternion_order
     if all(quaternion) and "qw" in table.columns and order is QuaternionOrder.XYZW:
         raise CampaignFileError("the columns name the quaternion's components; quaternion_order does not apply")
+    if "reflector" in found:
+        notes.append(_reflector_note(table, found["reflector"]))
     times, time_note = _times(table, found.get("timestamp"))
     notes += [time_note] if time_note else []
     points = []
@@ -174,6 +209,24 @@ def measured_points(
             )
         )
     return points, notes
+
+
+def _reflector_note(table: Table, column: str) -> str:
+    """Which reflectors the records were measured with: one per record is what a record holds (several reflectors
+    on one tool are not a record kind yet), so a change of reflector is named, not silently mixed."""
+    counts: dict[str, int] = {}
+    for row in table.rows:
+        name = row.cells.get(column, "").strip()
+        counts[name] = counts.get(name, 0) + 1
+    if len(counts) == 1:
+        return (
+            f"column {column} read as the reflector's name ({next(iter(counts))!r} on every record), not as a pose id"
+        )
+    listed_counts = ", ".join(f"{name!r} ×{n}" for name, n in list(counts.items())[:SHOWN])
+    return (
+        f"column {column} read as the reflector's name, not as a pose id: {len(counts)} reflectors ({listed_counts}); "
+        "each record is one point, so every reflector must sit at the same tool offset"
+    )
 
 
 def _times(table: Table, column: str | None) -> tuple[list[float | str] | None, str | None]:
@@ -298,7 +351,8 @@ def joined_records(
     notes = [*notes, *joint_unit_notes(joint_table, joint_names)]
     if any(pid is None for _, pid, _ in joints) or any(p.pose_id is None for p in points):
         raise CampaignFileError(
-            "to join a joint file and a point file both need a pose id column (pose_id, id, point, name or target)"
+            "to join a joint file and a point file both need a pose id column (pose_id, id, point, name, or target "
+            "where its names are all different: a target column that repeats names the reflector)"
         )
     by_id: dict[str, Measured] = {}
     for p in points:

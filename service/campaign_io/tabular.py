@@ -41,17 +41,36 @@ def _name_and_unit(name: str) -> tuple[str, str | None]:
     if not opens:
         return name, None
     start = min(opens)  # the leftmost opener: the name is as short as the old lazy match made it
+    if inner[start + 1 :].strip().isdigit():
+        return name, None  # Leica's `U(95)`: a number in brackets is part of the name, not a unit
     return text[:start].rstrip(), inner[start + 1 :]
+
+
+UNIT_SUFFIXES = {"_rad": "rad", "_deg": "deg", "_mm": "mm"}
+"""A unit written as the name's suffix (`joint_1_rad`, `x_mm`): as `[rad]`, `[mm]` would say."""
+
+
+def _suffix_unit(core: str) -> tuple[str, str | None]:
+    lowered = core.strip().lower()
+    for suffix, unit in UNIT_SUFFIXES.items():
+        if lowered.endswith(suffix) and len(lowered) > len(suffix):
+            return core.strip()[: -len(suffix)], unit
+    return core, None
 
 
 def normalise(name: str) -> str:
     """`" X [mm] "` → `"x"`; `"Point ID"` → `"point_id"`."""
-    core = _name_and_unit(name)[0]
+    core, unit = _name_and_unit(name)
+    if unit is None:
+        core = _suffix_unit(core)[0]
+    core = re.sub(r"[\[\]()]", "", core)  # `U(95)` → `u95`
     return re.sub(r"[\s\-]+", "_", core.strip().lower())
 
 
 def unit_of(name: str) -> str | None:
-    unit = _name_and_unit(name)[1]
+    core, unit = _name_and_unit(name)
+    if unit is None:
+        unit = _suffix_unit(core)[1]
     return unit.strip().lower() if unit is not None else None
 
 
@@ -73,6 +92,8 @@ class Table:
     delimiter: str
     decimal_comma: bool
     notes: tuple[str, ...] = field(default=())
+    length_unit: str | None = None
+    """The length unit the file's preamble states (`Units: Millimeters`), for columns whose header states none."""
 
     def column_number(self, name: str) -> int:
         return self.columns.index(name) + 1
@@ -122,6 +143,9 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
     lines = _content_lines(text, comment)
     if not lines:
         raise CampaignFileError("the file has no header and no data (only blank or comment lines)", line=1)
+    skipped = _preamble(lines)
+    preamble_unit = _stated_unit(t for _, t in lines[:skipped])
+    lines = lines[skipped:]
     header_line, header = lines[0]
     expected_names = list(expected)
     widest = max(header.count(d) for d in SNIFF_DELIMITERS) + 1
@@ -134,8 +158,17 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
     data_lines = [t for _, t in lines[1:]]
     delimiter = _sniff(header, data_lines)
     reader = csv.reader([t for _, t in lines], delimiter=delimiter)
+    parsed: list[list[str]] = []
     try:
-        parsed = list(reader)
+        for cells in reader:
+            if reader.line_num != len(parsed) + 1:
+                # A quote left open runs the cell on into the next lines (the csv module joins them), so rows and
+                # lines no longer pair (found by tests/service/test_reader_fuzz.py: a 500).
+                line = lines[len(parsed)][0]
+                raise CampaignFileError(
+                    f"line {line}: a quoted cell is not closed on its line (a '\"' without its pair)", line=line
+                )
+            parsed.append(cells)
     except csv.Error as exc:
         raise CampaignFileError(
             f"line {lines[reader.line_num - 1][0]}: {exc}", line=lines[reader.line_num - 1][0]
@@ -163,14 +196,55 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
             )
         rows.append(Row(line=line, cells=dict(zip(names, cells, strict=True))))
     units = {n: u for n, raw in zip(names, raw_names, strict=True) if (u := unit_of(raw))}
-    notes = []
-    if decimal_comma:
-        notes.append("numbers were read with decimal commas")
     return Table(
         columns=tuple(names),
         units=units,
         rows=tuple(rows),
         delimiter=delimiter,
         decimal_comma=decimal_comma,
-        notes=tuple(notes),
+        notes=_notes(skipped, preamble_unit, decimal_comma=decimal_comma),
+        length_unit=preamble_unit,
     )
+
+
+def _notes(skipped: int, preamble_unit: str | None, *, decimal_comma: bool) -> tuple[str, ...]:
+    notes = []
+    if skipped:
+        notes.append(
+            f"{skipped} line(s) above the header read as the software's preamble"
+            + (f" (its length unit: {preamble_unit})" if preamble_unit else "")
+        )
+    if decimal_comma:
+        notes.append("numbers were read with decimal commas")
+    return tuple(notes)
+
+
+PREAMBLE_LINES = 30
+"""At most this many lines of a report's preamble (title, part, date, units) before the header."""
+PREAMBLE_FIELDS = 2
+STATED_UNIT = re.compile(r"\bunits?\b\s*[:=]?\s*(millimet(?:er|re)s?|mm|met(?:er|re)s?|m|inch(?:es)?|in)\b", re.I)
+UNIT_WORDS = {"millimeter": "mm", "millimetre": "mm", "meter": "m", "metre": "m", "inch": "in", "inche": "in"}
+
+
+def _width(line: str) -> int:
+    return max(line.count(d) for d in SNIFF_DELIMITERS) + 1
+
+
+def _preamble(lines: Sequence[tuple[int, str]]) -> int:
+    """How many leading lines are a report's preamble rather than the table: PC-DMIS, CAM2 and BuildIT reports
+    open with lines such as `PART NAME : cell 3` or `Units: Millimeters` (one or two fields) before the header,
+    and the header is the first line wider than that."""
+    for k, (_, line) in enumerate(lines[: PREAMBLE_LINES + 1]):
+        if _width(line) > PREAMBLE_FIELDS:
+            return k
+    return 0  # no line wider than a preamble's: a narrow table (a joint file of one joint), read as it is
+
+
+def _stated_unit(preamble: Iterable[str]) -> str | None:
+    """The length unit a preamble states (`Units: Millimeters`, `UNITS=MM`, `Unit: inch`), as MM_PER's key."""
+    for line in preamble:
+        found = STATED_UNIT.search(line)
+        if found:
+            word = found.group(1).lower().rstrip("s")
+            return UNIT_WORDS.get(word, word)
+    return None

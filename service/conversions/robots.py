@@ -17,7 +17,7 @@ from models.transforms import matrix_to_rotvec_np
 from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
 from models.ur_kinematics import TIP_LINK as UR_TIP_LINK
 from models.ur_kinematics import read_kinematics, urdf_of_kinematics
-from models.urdf import UrdfSource, document_from_urdf
+from models.urdf import UrdfSource, document_from_urdf, refuse_xacro
 from service.builds import BuildStatus
 from service.conversions.kinematics import pose6_in, pose6_out
 from service.persistence.tables import ParameterVersion, Robot
@@ -69,6 +69,7 @@ def _urdf_source(body: RobotCreate) -> UrdfSource | None:
         return UrdfSource(urdf_of_kinematics(origins, name=body.name), UR_BASE_LINK, UR_TIP_LINK)
     if body.urdf is None:
         return None
+    refuse_xacro(body.urdf)  # before "a URDF needs base_link": a xacro's links are inside its macros
     for field, value in (("base_link", body.base_link), ("tip_link", body.tip_link)):
         if value is None:
             raise InvalidInput(f"a URDF needs {field}", field=field)

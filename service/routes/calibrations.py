@@ -1,12 +1,13 @@
 from __future__ import annotations
 
+import functools
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, Query, Request, Response
 from pydantic import TypeAdapter
 
 from service import limits
-from service.campaign_requests import CampaignQuery, campaign_body, campaign_query
+from service.campaign_requests import CampaignQuery, campaign_body, campaign_query, robot_columns
 from service.csv_codec import CAMPAIGN_HEADER
 from service.deps import (
     ActorDep,
@@ -85,7 +86,7 @@ def _json_answer(request: Request) -> None:
     openapi_extra=_BODY,
     dependencies=[Depends(_json_answer)],
 )
-@operation(Scope.write, runs=Runs.COMPUTE, precount=CALIBRATION, job="calibration")
+@operation(Scope.write, runs=Runs.COMPUTE, precount=CALIBRATION, job="calibration", tables=True)
 async def create_calibration(
     robot_id: str,
     request: Request,
@@ -102,7 +103,7 @@ async def create_calibration(
 ) -> Response:
     # A JSON body over the budget was refused before any parsing (its `precount`, service.operations); a CSV one is
     # counted once parsed.
-    body = await campaign_body(request, query)
+    body = await campaign_body(request, query, functools.partial(robot_columns, db, robot_id))
     limits.admit(limits.calibration(len(body.measurements)), run_async=run_async, budget_s=settings.sync_budget_seconds)
     if run_async:
         accepted = submit_job(

@@ -53,11 +53,15 @@ def campaign_csv(campaign: CampaignPublic, joint_names: Sequence[str]) -> str:
             writer.writerows(_kind_rows(r))
         return out.getvalue()
     with_orientation = any(r.orientation is not None for r in tracker)
-    writer.writerow([*joint_names, *(POSE_COLUMNS if with_orientation else POSE_COLUMNS[:3])])
+    # A record's own σ and temperature (a tracker file's U(95) / 2, its Temperature column) go back out with it,
+    # so the CSV fitted again is the same campaign.
+    extra = [c for c in ("sigma_mm", "temperature_c") if any(getattr(r, c) is not None for r in tracker)]
+    writer.writerow([*joint_names, *(POSE_COLUMNS if with_orientation else POSE_COLUMNS[:3]), *extra])
     for r in tracker:
         cells = [repr(float(v)) for v in (*r.joints, *r.position)]
         if with_orientation:
             cells += [repr(float(v)) for v in r.orientation] if r.orientation is not None else ["", "", "", ""]
+        cells += ["" if (v := getattr(r, c)) is None else repr(float(v)) for c in extra]
         writer.writerow(cells)
     return out.getvalue()
 

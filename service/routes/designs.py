@@ -21,7 +21,7 @@ from service.deps import (
 )
 from service.json_bodies import OffloopRoute
 from service.model_cache import ModelCache
-from service.operations import Runs, operation
+from service.operations import POSE_DESIGN, Runs, operation
 from service.responses import model_json, models_json
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
 from service.schemas.jobs import JobAccepted
@@ -54,7 +54,7 @@ def _answer(request: Request, design: PoseDesignPublic, status_code: int, models
 
 
 @router.post("/v1/robots/{robot_id}/pose-designs", status_code=201, response_model=PoseDesignPublic, responses=_CREATED)
-@operation(Scope.write, runs=Runs.COMPUTE, job="pose_design")
+@operation(Scope.write, runs=Runs.COMPUTE, precount=POSE_DESIGN, job="pose_design")
 async def create_design(
     robot_id: str,
     *,

@@ -3,9 +3,10 @@ from __future__ import annotations
 from fastapi import APIRouter, Response
 from pydantic import TypeAdapter
 
-from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, compute
+from service import limits
+from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute
 from service.json_bodies import OffloopRoute
-from service.operations import Runs, operation
+from service.operations import VALIDATION, Runs, operation
 from service.responses import model_json, models_json
 from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
 from service.security import Scope
@@ -16,12 +17,23 @@ _VALIDATIONS = TypeAdapter(list[ValidationPublic])
 
 
 @router.post("/v1/robots/{robot_id}/validations", status_code=201, response_model=ValidationPublic)
-@operation(Scope.write, runs=Runs.COMPUTE)
+@operation(Scope.write, runs=Runs.COMPUTE, precount=VALIDATION)
 async def create_validation(
-    robot_id: str, body: ValidationCreate, db: DatabaseDep, registry: RegistryDep, m: MetricsDep
+    robot_id: str,
+    body: ValidationCreate,
+    *,
+    db: DatabaseDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+    settings: SettingsDep,
 ) -> Response:
     """Measurements that are not fitted, against parameter versions: per-pose errors, RMS, max, percentiles, and
     ISO 9283 AP/RP (and AD/RD) where joint commands repeat."""
+    # A large body was counted in its bytes (its precount); a small one can still ask for much (600 records × 50
+    # versions), counted here. No job form: over the budget, fewer at a time.
+    records = len(body.measurements)
+    cost = limits.validation(records * len(body.versions or [None]), records)
+    limits.admit(cost, run_async=False, can_run_async=False, budget_s=settings.sync_budget_seconds)
     result = await compute(
         m, "validation", validations.validate, db=db, registry=registry, robot_id=robot_id, body=body
     )

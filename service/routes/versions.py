@@ -85,7 +85,7 @@ async def _import_body(request: Request) -> ParameterVersionImport:
 @router.post(
     "", status_code=201, response_model=ParameterVersionPublic, responses=_PRECONDITION, openapi_extra=_IMPORT_BODY
 )
-@operation(Scope.admin)  # importing makes another version current
+@operation(Scope.admin, tables=True)  # importing makes another version current
 async def import_version(
     robot_id: str, request: Request, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None
 ) -> Response:

@@ -19,6 +19,10 @@ class CampaignRecordPublic(Public):
     joints: list[float] = Field(description="[q1 (mm), q2 (mm), q3 (deg), q4 (deg), l1 … l6 (mm)]")
     position: list[float] = Field(description="mm")
     orientation: list[float] | None = Field(description="unit quaternion [w, x, y, z]; null when not measured")
+    sigma_mm: float | None = Field(
+        default=None, description="The record's own position σ (mm; a file's U(95) / 2); null: the campaign's noise"
+    )
+    temperature_c: float | None = Field(default=None, description="The record's temperature (°C); null: none given")
 
 
 class CampaignPublic(Public):

@@ -15,6 +15,7 @@ from models.identification import IdentificationOptions, IdentificationResult, i
 from models.identification.acceptance import Acceptance, acceptance_checks, decide
 from models.identification.drift import DriftOptions, identify_with_drift
 from models.identification.reference_result import expected_rank, identify_reference_campaign
+from models.identification.terms_check import unused_temperature_note
 from models.noise import NoiseModel
 from models.runtime import Runtime
 from service.audit_actions import AuditAction
@@ -182,6 +183,8 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     else:
         campaign = campaign_in(desc, body)
         result, drift = _tracker_fit(desc, campaign, body, start, options=options, noise=noise, runtime=runtime)
+        unused = unused_temperature_note(desc, campaign.conditions)
+        result = result if unused is None else replace(result, notes=(*result.notes, unused))
         expected = structural_identifiability(desc, candidates, campaign.kind, runtime=runtime).rank
         most = structural_identifiability(desc, everything, campaign.kind, runtime=runtime).rank
     partial = expected < most  # parameters held at the start version's (calibrated) values

@@ -32,6 +32,12 @@ REFERENCE_FIELDS = {
 def _record(stored: dict[str, Any]) -> dict[str, Any]:
     kind = stored.get("kind")
     if kind is None:
-        return {"joints": stored["joints"], "position": stored["position"], "orientation": stored.get("orientation")}
+        return {
+            "joints": stored["joints"],
+            "position": stored["position"],
+            "orientation": stored.get("orientation"),
+            "sigma_mm": stored.get("sigma_mm"),
+            "temperature_c": stored.get("temperature_c"),
+        }
     shown = ("kind", "joints", *REFERENCE_FIELDS[kind])
     return {key: stored.get(key) for key in shown}

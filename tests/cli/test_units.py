@@ -319,3 +319,61 @@ def test_the_history_table_has_a_row_per_event_and_dashes_for_what_was_not_measu
                                 "0.0151", "mm"]  # fmt: skip
     assert lines[2].split() == ["2026-12-05", "08:00:00", "check", "fine", "2", "–", "0.0300", "mm"]
     assert summary.history_table([]) == "no calibrations or checks yet"
+
+
+class _Recording(BaseHTTPRequestHandler):
+    """Records each POST (path with its query, content type, body) and answers a failed calibration."""
+
+    SEEN: ClassVar[list[tuple[str, str, bytes]]] = []
+
+    def do_POST(self) -> None:
+        body = self.rfile.read(int(self.headers.get("Content-Length", "0")))
+        self.SEEN.append((self.path, self.headers.get("Content-Type", ""), body))
+        answer = json.dumps({"id": "c1", "status": "failed", "reason": "canned", "applied": False}).encode()
+        self.send_response(201)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(answer)))
+        self.end_headers()
+        self.wfile.write(answer)
+
+    def log_message(self, *args: object) -> None:
+        pass
+
+
+def test_calibrate_sends_the_column_map_and_the_joint_unit_with_the_file_as_it_is(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 45: `iwr calibrate ROBOT FILE --columns 'Achse 1=joint_1,…' --joint-unit rad`; the file's bytes go
+    unchanged (a Windows-1252 export is decoded by the service, which names the encoding)."""
+    server = ThreadingHTTPServer(("127.0.0.1", 0), _Recording)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        campaign = tmp_path / "AT960.csv"
+        raw = "Achse 1;X [mm];Temperature [°C]\n1,5;2,0;21,3\n".encode("cp1252")
+        campaign.write_bytes(raw)
+        url = f"http://127.0.0.1:{server.server_address[1]}"
+        code = main(
+            [
+                "--url",
+                url,
+                "calibrate",
+                "r1",
+                str(campaign),
+                "--sync",
+                "--columns",
+                "Achse 1=joint_1",
+                "--joint-unit",
+                "rad",
+            ]
+        )
+        assert code == 1  # the canned calibration failed
+        path, content_type, body = _Recording.SEEN[-1]
+        assert path.startswith("/v1/robots/r1/calibrations?") and content_type.startswith("text/csv")
+        assert "columns=Achse+1%3Djoint_1" in path or "columns=Achse%201%3Djoint_1" in path, path
+        assert "joint_unit=rad" in path and body == raw
+        with pytest.raises(ValueError, match="records are the API's own"):
+            Client(url).calibrate("r1", [{"joints": [0.0], "position": [0.0, 0.0, 0.0]}], columns="A1=q1")
+    finally:
+        server.shutdown()
+        server.server_close()
+    capsys.readouterr()

@@ -13,11 +13,13 @@ from service.campaign_io import (
     CampaignFileError,
     ImportOptions,
     QuaternionOrder,
+    Table,
     campaign_records,
     joined_records,
     read_spatial_analyzer,
     read_table,
 )
+from service.campaign_io.encoding import decode_text
 from tests.service.helpers import records
 
 DESC = iwr()
@@ -140,3 +142,134 @@ def test_join_names_the_missing_pose_ids() -> None:
         joined_records(joints, points, JOINTS, ImportOptions())
     with pytest.raises(CampaignFileError, match="unknown length unit 'furlong'"):
         ImportOptions(length_unit="furlong")
+
+
+# ------------------------------------------------------------------------------ as each tool writes (issue 45)
+# Each file below is written the way the tool's export writes it: its encoding (Windows-1252 on a European
+# Windows machine, UTF-16 from Excel's "Unicode text"), separators, decimal commas, the preamble above the header,
+# the column names. `decode_text` then the readers, as the API reads an upload.
+REFLECTOR = "TMC 30-B #5320"
+
+
+def _joint_file(truth: Records, ids: list[str]) -> str:
+    return "\n".join(
+        ["Point ID;" + ";".join(JOINTS)]
+        + [f"{i};" + ";".join(map(repr, r["joints"])) for i, r in zip(ids, truth, strict=True)]
+    )
+
+
+def _read(raw: bytes, what: str = "the 'points' file") -> tuple[Table, list[str]]:
+    text, note = decode_text(raw, what)
+    return read_table(text), [note] if note else []
+
+
+def test_a_leica_at960_export_in_windows_1252_with_reflector_u95_and_temperature(truth: Records) -> None:
+    # Leica's export on a German Windows: cp1252 (the header's °C), ';' and decimal commas, the reflector's name
+    # in Target on every row, U(95) in mm, the temperature, date and time in columns of their own.
+    ids = [f"Pos{k + 1:03d}" for k in range(len(truth))]
+    lines = ["Point ID;Target;X [mm];Y [mm];Z [mm];U(95) [mm];Temperature [°C];Date;Time"]
+    for pid, r in zip(ids, truth, strict=True):
+        x, y, z = (_european(v) for v in r["position"])
+        lines.append(f"{pid};{REFLECTOR};{x};{y};{z};0,024;21,4;30.11.2026;10:14:03")
+    raw = "\r\n".join(lines).encode("cp1252")
+    with pytest.raises(UnicodeDecodeError):
+        raw.decode("utf-8")  # what the service refused before: "must be UTF-8 text"
+    points, decoded = _read(raw)
+    got, notes = joined_records(read_table(_joint_file(truth, ids)), points, JOINTS, ImportOptions())
+    assert len(got) == len(truth)
+    for g, w in zip(got, truth, strict=True):
+        np.testing.assert_allclose(g["position"], w["position"], atol=1e-12)
+        assert g["sigma_mm"] == pytest.approx(0.012) and g["temperature_c"] == pytest.approx(21.4)
+    assert "Windows-1252" in decoded[0]
+    assert any(f"reflector's name ('{REFLECTOR}' on every record)" in n for n in notes), notes
+    assert not any("ignored" in n and "u95" in n for n in notes)
+
+
+def test_a_leica_export_without_point_names_joins_nothing_but_reads_as_one_table(truth: Records) -> None:
+    # Joints and the tracker's columns in one sheet, the reflector the only name: the rows are the poses in order.
+    header = [*JOINTS, "Target", "X", "Y", "Z", "U(95)"]
+    rows = [[*map(repr, r["joints"]), REFLECTOR, *map(repr, r["position"]), "0.03"] for r in truth]
+    table = read_table("\n".join(",".join(row) for row in [header, *rows]))
+    got, notes = campaign_records(table, JOINTS, ImportOptions())
+    np.testing.assert_allclose([g["position"] for g in got], [r["position"] for r in truth], atol=1e-12)
+    assert all(g["sigma_mm"] == pytest.approx(0.015) for g in got)
+    assert any("reflector" in n for n in notes)
+    # To join two files a repeated Target is no pose id, and the message says why.
+    with pytest.raises(CampaignFileError, match="a target column that repeats names the reflector"):
+        joined_records(
+            read_table(_joint_file(truth, [str(k) for k in range(len(truth))])), table, JOINTS, ImportOptions()
+        )
+
+
+def test_a_leica_at5xx_export_in_utf16_with_tabs(truth: Records) -> None:
+    # Excel's "Unicode text" of the tracker's sheet: UTF-16 LE with its byte-order mark, tab-separated, metres.
+    ids = [f"P{k + 1}" for k in range(len(truth))]
+    lines = ["Name\tTarget\tX [m]\tY [m]\tZ [m]\tU(95) [µm]"]
+    lines += [
+        f"{pid}\tRRR 1.5in #A12\t" + "\t".join(repr(v / 1000) for v in r["position"]) + "\t30"
+        for pid, r in zip(ids, truth, strict=True)
+    ]
+    raw = "\r\n".join(lines).encode("utf-16")
+    assert raw[:2] == b"\xff\xfe"
+    points, decoded = _read(raw)
+    got, _ = joined_records(read_table(_joint_file(truth, ids)), points, JOINTS, ImportOptions())
+    np.testing.assert_allclose([g["position"] for g in got], [r["position"] for r in truth], atol=1e-9)
+    assert all(g["sigma_mm"] == pytest.approx(0.015) for g in got)  # 30 µm U95 → σ 15 µm
+    assert "UTF-16" in decoded[0]
+    # Without the byte-order mark (some tools strip it), the NUL bytes of ASCII text still say UTF-16.
+    text, note = decode_text("\r\n".join(lines).encode("utf-16-le"), "the 'points' file")
+    assert text.startswith("Name\tTarget") and note is not None and "little-endian" in note
+
+
+def test_a_hexagon_pc_dmis_csv_with_its_designator_row(truth: Records) -> None:
+    # PC-DMIS: a report preamble, a lone `*` announcing the designator row TYPE,NAME,X,Y,Z,+TOL,-TOL.
+    lines = ["PART NAME  : ROBOT CELL 3", "REV NUMBER : 2", "SER NUMBER : AT960-751", "*", "TYPE,NAME,X,Y,Z,+TOL,-TOL"]
+    ids = [f"X48a{k + 1:03d}" for k in range(len(truth))]
+    lines += [
+        f"Point,{pid}," + ",".join(f"{v:.6f}" for v in r["position"]) + ",0.05,0.05"
+        for pid, r in zip(ids, truth, strict=True)
+    ]
+    points, _ = _read("\r\n".join(lines).encode("cp1252"))
+    got, notes = joined_records(read_table(_joint_file(truth, ids)), points, JOINTS, ImportOptions())
+    np.testing.assert_allclose([g["position"] for g in got], [r["position"] for r in truth], atol=5e-7)
+    assert any("4 line(s) above the header" in n for n in notes), notes
+    assert any("ignored (unknown): type, +tol, _tol" in n for n in notes), notes
+
+
+def test_a_faro_cam2_report_in_inches_states_its_unit_above_the_header(truth: Records) -> None:
+    # CAM2's point report of a FARO tracker: title, date and `Units: Inches` above the header, the point names
+    # in `Feature Name`, measured coordinates as `Meas X` ….
+    lines = ["CAM2 Measure - Robot cell 3", "Date: 11/30/2026", "Units: Inches", "Feature Name,Meas X,Meas Y,Meas Z"]
+    ids = [f"Point {k + 1}" for k in range(len(truth))]
+    lines += [f"{pid}," + ",".join(f"{v / 25.4:.8f}" for v in r["position"]) for pid, r in zip(ids, truth, strict=True)]
+    points, _ = _read("\r\n".join(lines).encode("cp1252"))
+    got, notes = joined_records(read_table(_joint_file(truth, ids)), points, JOINTS, ImportOptions())
+    np.testing.assert_allclose([g["position"] for g in got], [r["position"] for r in truth], atol=2e-6)
+    assert any("its length unit: in" in n for n in notes) and any("×25.4" in n for n in notes), notes
+
+
+def test_an_api_tracker_s_spatial_analyzer_csv_and_ascii_exports_in_windows_1252(truth: Records) -> None:
+    # An API (Automated Precision) tracker measured through SpatialAnalyzer: its CSV point export
+    # (Collection, Group, Point, X, Y, Z) and its ASCII export with a Windows-1252 comment line.
+    ids = [f"T{k + 1}" for k in range(len(truth))]
+    csv_lines = ["Collection,Group,Point,X,Y,Z"] + [
+        f"A,Robot,{pid}," + ",".join(f"{v:.6f}" for v in r["position"]) for pid, r in zip(ids, truth, strict=True)
+    ]
+    points, _ = _read("\r\n".join(csv_lines).encode("cp1252"))
+    got, notes = joined_records(read_table(_joint_file(truth, ids)), points, JOINTS, ImportOptions())
+    np.testing.assert_allclose([g["position"] for g in got], [r["position"] for r in truth], atol=5e-7)
+    assert not any("ignored" in n for n in notes), notes  # collection and group are known, not used
+    ascii_lines = ["// Radian API tracker, Temperatur 20,5 °C, Einheit mm, Unsicherheit ± 15 µm"] + [
+        f"A Robot {pid} " + " ".join(f"{v:.6f}" for v in r["position"]) for pid, r in zip(ids, truth, strict=True)
+    ]
+    text, note = decode_text("\r\n".join(ascii_lines).encode("cp1252"), "the 'points' file")
+    got, _ = joined_records(read_table(_joint_file(truth, ids)), read_spatial_analyzer(text), JOINTS, ImportOptions())
+    np.testing.assert_allclose([g["position"] for g in got], [r["position"] for r in truth], atol=5e-7)
+    assert note is not None and "Windows-1252" in note
+
+
+def test_what_no_text_encoding_reads_is_named() -> None:
+    with pytest.raises(CampaignFileError, match="not valid UTF-16"):
+        decode_text(b"\xff\xfeX\x00\x00\xd8", "the 'points' file")  # a lone surrogate
+    with pytest.raises(CampaignFileError, match="NUL bytes"):
+        decode_text(b"x,y,z\n\x00\x00\x00\x00\x01\x02\x03\x00", "the CSV body")

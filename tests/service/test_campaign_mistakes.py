@@ -10,6 +10,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import iwr, sample_workspace
+from models.campaign import Campaign
+from models.examples import ur5_like, ur5_like_document
 from models.noise import NoiseModel
 from models.simulation import measure, perturbed_robot
 from tests.service.helpers import finished_job
@@ -256,3 +258,49 @@ def test_residuals_come_per_axis_measured_minus_model(client: TestClient, robot_
     np.testing.assert_allclose(np.linalg.norm(xyz, axis=1), after["per_pose_mm"], rtol=1e-12)
     np.testing.assert_allclose(after["rms_xyz_mm"], np.sqrt(np.mean(xyz**2, axis=0)), rtol=1e-12)
     assert xyz[7, 0] == pytest.approx(0.4, abs=0.05) and np.all(np.abs(xyz[7, 1:]) < 0.05)
+
+
+# ------------------------------------------------------------------------------------ issue 45: real tracker files
+UR5 = ur5_like()
+
+
+def _ur5_campaign(seed: int, n: int, noise: float) -> Campaign:
+    sim = perturbed_robot(UR5, seed=seed)
+    return measure(sim, sample_workspace(UR5, n, seed=seed + 1), NoiseModel(noise, math.radians(0.01)), seed=seed + 2)
+
+
+def test_a_leica_file_with_a_temperature_column_for_a_6r_arm_is_read_and_the_temperature_named_unused(
+    client: TestClient,
+) -> None:
+    """Issue 45: a Leica export (Windows-1252, the reflector in Target, U(95), a Temperature column) for a 6R arm
+    was refused as not UTF-8, its Target taken as the pose id, and, once past that, its temperatures crashed the
+    score test (a 500): a revolute arm has nothing the thermal term expands."""
+    robot = client.post("/v1/robots", json={"name": "irb", "structure": ur5_like_document()}).json()["id"]
+    c = _ur5_campaign(31, 40, 0.05)  # noisier than the σ the file states: the score test runs
+    ids = [f"Pos{k + 1:03d}" for k in range(c.size)]
+    joints = ["Point ID;" + ";".join(f"q{j + 1}" for j in range(6))] + [
+        f"{pid};" + ";".join(f"{v:.9f}".replace(".", ",") for v in row * UR5.joint_to_boundary)
+        for pid, row in zip(ids, c.joints, strict=True)
+    ]
+    points = ["Point ID;Target;X [mm];Y [mm];Z [mm];U(95) [mm];Temperature [°C]"] + [
+        f"{pid};TMC 30-B #5320;"
+        + ";".join(f"{v:.6f}".replace(".", ",") for v in p)
+        + f";0,020;{20 + 0.1 * k:.1f}".replace(".", ",")
+        for k, (pid, p) in enumerate(zip(ids, c.positions, strict=True))
+    ]
+    files = {
+        "joints": ("joints.csv", "\r\n".join(joints).encode("cp1252"), "text/csv"),
+        "points": ("AT960.csv", "\r\n".join(points).encode("cp1252"), "text/csv"),
+    }
+    r = client.post(f"/v1/robots/{robot}/calibrations", files=files)
+    assert r.status_code == 201, r.text
+    body = r.json()
+    notes = " | ".join(body["notes"])
+    assert "Windows-1252" in notes and "'TMC 30-B #5320' on every record" in notes
+    assert "temperature_c read (the records span 3.9 K) but unused" in notes
+    assert body["measurements"] == c.size and body["status"] == "succeeded"
+    stored = client.get(f"/v1/campaigns/{body['campaign_id']}").json()["measurements"]
+    assert [m["sigma_mm"] for m in stored] == [pytest.approx(0.010)] * c.size  # U(95) / 2
+    assert stored[7]["temperature_c"] == pytest.approx(20.7)
+    as_csv = client.get(f"/v1/campaigns/{body['campaign_id']}", params={"format": "csv"}).text.splitlines()
+    assert as_csv[0].endswith(",x,y,z,sigma_mm,temperature_c") and as_csv[8].endswith(",0.01,20.7")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Awaitable, Callable
 from pathlib import Path
@@ -9,13 +10,16 @@ from pathlib import Path
 import anyio
 import pytest
 from fastapi.testclient import TestClient
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from starlette.types import Message
 
 from models import Registry, cancellation, forward_kinematics, iwr, sample_workspace
 from models.cancellation import CancellationToken
 from models.examples import ur5_like_document
 from models.transforms import matrix_to_quaternion
-from service import limits
+from optimal_design.criteria import Criterion
+from service import limits, operations
 from service.errors import ClientGone, Overloaded, WorkTooLarge
 from tests.service.conftest import make_client
 
@@ -81,6 +85,61 @@ def test_inverse_kinematics_is_capped_at_the_budget(client: TestClient, robot_id
     r = client.post(url, json={"targets": [target] * (limits.IK_MAX_TARGETS + 1)})
     assert r.status_code == 422 and "send fewer" in r.json()["detail"] and r.json()["use_async"] is False
     assert client.post(url, json={"targets": [target] * 3}).status_code == 200
+
+
+def test_validations_are_admitted_by_records_times_versions(client: TestClient, robot_id: str) -> None:
+    # Issue 48: a validation had no estimate; 100 000 records x 50 versions (the schema's caps) ran until the
+    # compute deadline. The budget holds 20 000 record-version comparisons.
+    at_budget = int(limits.SYNC_BUDGET_S / limits.VALIDATION_S_PER_EVALUATION)
+    assert limits.validation(at_budget).seconds <= limits.SYNC_BUDGET_S < limits.validation(at_budget + 1).seconds
+    url = f"/v1/robots/{robot_id}/validations"
+    # A small body (52 kB: parsed on the loop, not counted by the guard) that asks for 30 000 comparisons.
+    small = {"measurements": [RECORD] * 600, "versions": list(range(1, 51))}
+    # A large one (2.5 MB) counted in its bytes before parsing: 30 000 records, one version.
+    large = {"measurements": [RECORD] * 30_000}
+    for body, count in ((small, 30_000), (large, 30_000)):
+        r = client.post(url, json=body)
+        assert r.status_code == 422, r.text
+        problem = r.json()
+        assert problem["type"].endswith("work-too-large") and problem["use_async"] is False
+        assert f"a validation of {count} record-version comparisons" in problem["detail"]
+    r = client.post(url, json={"measurements": [RECORD] * 20})
+    assert r.status_code == 201, r.text
+
+
+def test_a_design_of_100_000_candidates_is_refused_before_parsing(client: TestClient, robot_id: str) -> None:
+    # Issue 48: 15 MB of candidates were parsed and validated in the parse process (2.9 s live, +160 MB) only to be
+    # refused; now counted in the bytes against the least any design among them can cost.
+    vector = [400.123456789, 150.1234567, 90.1234567, 45.1234567, *[420.123456789] * 6]
+    url = f"/v1/robots/{robot_id}/pose-designs"
+    # 20 000: at least 3.2 s, over the budget (a job would take it); 100 000: at least 3.2 GB, over any job's cap.
+    for n, suffix, says in ((20_000, "", "?async=true"), (100_000, "?async=true", "cap of any job")):
+        body = json.dumps({"count": 30, "candidates": [vector] * n, "fixed": [vector] * 3})
+        started = time.process_time()
+        r = client.post(url + suffix, content=body, headers={"content-type": "application/json"})
+        assert r.status_code == 422 and f"a pose design among {n} candidates" in r.json()["detail"], r.text
+        assert says in r.json()["detail"]
+        assert time.process_time() - started < 1.0  # parsing and validating 100 000 took 2.9 s of one process
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(
+    st.lists(st.one_of(st.lists(st.floats(-1e3, 1e3), max_size=3), st.fixed_dictionaries({"joints": st.just([1.0])}))),
+    st.text(alphabet='[]{}",:\\ ', max_size=12),
+)
+def test_the_candidate_count_is_the_parsers(candidates: list[object], noise: str) -> None:
+    # Exact for any candidates, whatever strings (with brackets, quotes and escapes) and lists sit beside them.
+    body = json.dumps({"notes": noise, "fixed": [[1.0], [2.0]], "candidates": candidates, "ranges": {"q1": [0, 1]}})
+    assert operations.POSE_DESIGN.count(body.encode()) == len(candidates)
+
+
+@pytest.mark.parametrize("criterion", [c.value for c in Criterion])
+def test_the_design_precount_is_a_lower_bound_of_the_estimate(criterion: str) -> None:
+    # Refusing on it never refuses a design the exact estimate would admit.
+    for m, count, fixed in ((10, 1, 0), (2_000, 30, 5), (100_000, 300, 10_000)):
+        least = limits.pose_design_at_least(m)
+        for exact in (limits.pose_design(m, count, fixed, criterion), limits.target_design(m, fixed)):
+            assert least.seconds <= exact.seconds and least.bytes <= exact.bytes
 
 
 @pytest.mark.serial  # refused within 1 s of wall time: alone on the cores

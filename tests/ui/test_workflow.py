@@ -1,7 +1,8 @@
 """The calibration workflow in /ui driven by clicks and file uploads only, each outcome checked against the API:
 a robot created, a campaign uploaded and calibrated as a job, its result page showing the stored numbers; a
 failed and a refused calibration showing their reasons (and a forced apply of the refused one); a robot from a
-DH table, a pose design with its CSV, a validation, and a 401 said in words."""
+DH table (with its base and tool), a pose design with its CSV, a validation, a 401 said in words, and a
+Windows-1252 tracker file read through a column map."""
 
 from __future__ import annotations
 
@@ -15,7 +16,9 @@ from typing import Any
 from urllib.parse import urlparse
 
 import httpx
+import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from tests.models.test_urdf_hostile import joint, urdf
 from tests.ui.conftest import PageProblems, screenshot
@@ -333,3 +336,85 @@ def test_a_running_job_is_cancelled_and_listed(page: Any, server: str) -> None:
     row = page.locator("#jobs tbody tr", has=page.locator(f'a[href="#/robots/{robot_id}"]'))
     assert row.locator(".status-cancelled").inner_text() == "cancelled"
     screenshot(page, "jobs-cancelled")
+
+
+def test_a_dh_robot_takes_its_base_and_tool_and_the_last_link_stays_as_typed(page: Any, server: str) -> None:
+    """Issue 45: the DH form had no tool, so a tracker reflector's 95 mm went into the last link (82.3 → 177.1 mm)
+    and every export carried it. The tool (and the base) are now fields of their own, into the document's."""
+    page.goto(f"{server}/ui#/")
+    _ready(page, "^#/$")
+    page.get_by_label("Name").fill("arm-dh-tool")
+    page.get_by_label("A DH / MDH table").check()
+    page.get_by_label("Or paste rows from a spreadsheet").fill(DH_ROWS)
+    page.get_by_role("button", name="Fill the table from the pasted rows").click()
+    typed_base = {"x": "1200", "y": "-350,5", "z": "0", "rz": "30", "ry": "0", "rx": "0"}  # a decimal comma too
+    typed_tool = {"x": "0", "y": "0", "z": "95", "rz": "10", "ry": "-20", "rx": "180"}
+    for what, typed in (("Base", typed_base), ("Tool", typed_tool)):
+        for key, value in typed.items():
+            unit = "mm" if key in "xyz" else "deg"
+            page.get_by_label(f"{what} {key} ({unit})", exact=True).fill(value)
+    screenshot(page, "robot-dh-base-tool")
+    page.get_by_role("button", name="Create the robot").click()
+    robot_id = _ready(page, "^#/robots/[0-9a-f-]+$").split("/")[-1]
+    robot = httpx.get(f"{server}/v1/robots/{robot_id}").json()
+    document = robot["structure"]
+    for pose, typed in ((document["base"], typed_base), (document["tool"], typed_tool)):
+        numbers = {k: float(v.replace(",", ".")) for k, v in typed.items()}
+        assert pose["position"] == pytest.approx([numbers["x"], numbers["y"], numbers["z"]], abs=1e-9)
+        # The independent truth: scipy's intrinsic Z-Y-X rotation, as [w, x, y, z] up to the quaternion's sign.
+        x, y, z, w = Rotation.from_euler("ZYX", [numbers["rz"], numbers["ry"], numbers["rx"]], degrees=True).as_quat()
+        expected = np.array([w, x, y, z])
+        got = np.array(pose["orientation"])
+        assert min(np.abs(got - expected).max(), np.abs(got + expected).max()) < 1e-9
+    assert robot["tool"]["position"] == pytest.approx([0.0, 0.0, 95.0], abs=1e-9)
+    links = document["stages"][0]["links"]
+    last = [links[-1]["theta"], links[-1]["d"], links[-1]["a"], links[-1]["alpha"], *links[-1]["range"]]
+    assert last == pytest.approx([float(v) for v in DH_ROWS.splitlines()[-1].split("\t")[1:]], abs=1e-9)
+
+
+def test_a_windows_1252_tracker_file_with_a_column_map_calibrates_by_clicks(
+    page: Any, server: str, tmp_path: Path
+) -> None:
+    """Issue 45: the campaign's bytes go as they are (a Windows-1252 export with °C in its header) and a column map
+    says which of a controller's columns is which joint."""
+    rows = list(csv.reader(CAMPAIGN.read_text().splitlines()))
+    header = [f"Achse {k + 1}" for k in range(4)] + [f"Bein {k}" for k in range(1, 7)]
+    header += ["X [mm]", "Y [mm]", "Z [mm]", "qw", "qx", "qy", "qz", "Temperature [°C]"]
+    lines = [";".join(header)] + [";".join([*(c.replace(".", ",") for c in row), "21,5"]) for row in rows[1:]]
+    path = tmp_path / "AT960 Export.csv"
+    path.write_bytes("\r\n".join(lines).encode("cp1252"))
+    _create_iwr(page, server, "cell-cp1252")
+    page.get_by_role("link", name="2. Calibrate from a campaign").click()
+    _ready(page, "/calibrate$")
+    page.set_input_files("#campaign-file", str(path))
+    page.wait_for_selector("#preview-table")
+    assert "Temperature [°C]" not in page.locator("#preview-table thead").inner_text()  # the unit is shown apart
+    assert "°c" in page.locator("#preview-table thead").inner_text().lower()  # decoded, not a replacement sign
+    mapping = ",".join([f"Achse {k + 1}=q{k + 1}" for k in range(4)] + [f"Bein {k}=l{k}" for k in range(1, 7)])
+    page.get_by_label("Column map (file column = joint or coordinate)").fill(mapping)
+    page.get_by_role("button", name="Calibrate").click()
+    calibration_id = _ready(page, "^#/calibrations/[0-9a-f-]+$").split("/")[-1]
+    stored = httpx.get(f"{server}/v1/calibrations/{calibration_id}").json()
+    assert stored["status"] == "succeeded" and stored["measurements"] == RECORDS
+    notes = " ".join(stored["notes"])
+    assert "Windows-1252" in notes and "achse_1 → q1" in notes and "decimal commas" in notes
+
+
+def test_a_xacro_file_is_named_with_its_command(page: Any, server: str, tmp_path: Path) -> None:
+    """Issue 45: a xacro chosen as the URDF offered no link and the service then answered "no link ''"."""
+    path = tmp_path / "irb2400_macro.xacro"
+    path.write_text(
+        '<?xml version="1.0"?>\n<robot xmlns:xacro="http://ros.org/wiki/xacro">\n'
+        '<xacro:macro name="abb_irb2400" params="prefix">\n  <link name="${prefix}base_link"/>\n'
+        "</xacro:macro>\n</robot>\n"
+    )
+    page.goto(f"{server}/ui#/")
+    _ready(page, "^#/$")
+    page.get_by_label("Name").fill("arm-xacro")
+    page.get_by_label("A URDF file").check()
+    page.set_input_files("#urdf-file", str(path))
+    page.wait_for_function("document.querySelector('#urdf-info').textContent.includes('xacro')")
+    assert "xacro robot.urdf.xacro > robot.urdf" in page.locator("#urdf-info").inner_text()
+    page.get_by_role("button", name="Create the robot").click()
+    text = page.locator("#create-error").inner_text()
+    assert "422" in text and "ros2 run xacro" in text and "no link" not in text

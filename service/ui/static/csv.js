@@ -8,23 +8,35 @@ const DELIMITERS = [",", ";", "\t"];
 const MM_PER = { mm: 1, m: 1000, cm: 10, um: 1e-3, "µm": 1e-3, in: 25.4, inch: 25.4 };
 const DEG_PER = { deg: 1, "°": 1, degree: 1, degrees: 1, rad: 180 / Math.PI };
 const ALIASES = {
-  pose_id: ["pose_id", "pose", "id", "point_id", "point", "name", "point_name", "target"],
-  x: ["x"], y: ["y"], z: ["z"], qw: ["qw", "w"], qx: ["qx"], qy: ["qy"], qz: ["qz"],
-  sigma_mm: ["sigma_mm", "sigma", "uncertainty", "std", "rms"], u95: ["u95", "u95_mm"],
-  temperature_c: ["temperature_c", "temperature", "temp"],
+  pose_id: ["pose_id", "pose", "id", "point_id", "point", "name", "point_name", "feature_name", "feature", "label",
+    "nr", "nr.", "no", "no.", "point_no", "point_no."],
+  x: ["x", "meas_x", "x_meas", "measured_x", "x_measured", "actual_x", "x_actual"],
+  y: ["y", "meas_y", "y_meas", "measured_y", "y_measured", "actual_y", "y_actual"],
+  z: ["z", "meas_z", "z_meas", "measured_z", "z_measured", "actual_z", "z_actual"],
+  qw: ["qw", "w"], qx: ["qx"], qy: ["qy"], qz: ["qz"],
+  sigma_mm: ["sigma_mm", "sigma", "uncertainty", "std", "std_dev", "stdev", "rms"], u95: ["u95", "u95_mm", "expanded_uncertainty"],
+  temperature_c: ["temperature_c", "temperature", "temp", "temp.", "air_temperature", "air_temp"],
+  reflector: ["reflector", "reflector_name", "smr", "probe", "target_type"],
 };
 const ROLE_WORDS = { x: "position x", y: "position y", z: "position z", qw: "orientation qw", qx: "orientation qx",
   qy: "orientation qy", qz: "orientation qz", sigma_mm: "σ of the record", u95: "U95 (σ = U95 / 2)",
-  temperature_c: "temperature (°C)", pose_id: "pose id" };
+  temperature_c: "temperature (°C)", pose_id: "pose id", reflector: "reflector's name (noted)" };
 const IGNORED_KNOWN = ["timestamp", "time", "datetime", "date_time", "date", "collection", "group"];
 const JOINT_STYLES = ["q", "a", "j", "axis", "joint"];
 const LEGS = ["l1", "l2", "l3", "l4", "l5", "l6"];
 
+// `X [mm]`, `X (mm)` and `x_mm` state a unit (`_rad`, `_deg` too); `U(95)` is a name, not a unit.
+const SUFFIX_UNITS = { _rad: "rad", _deg: "deg", _mm: "mm" };
 function nameAndUnit(raw) {
   const match = raw.trim().match(/^(.*?)\s*[[(]([^\])]*)[\])]$/);
-  return match ? [match[1], match[2].trim().toLowerCase()] : [raw, null];
+  if (match && !/^\s*\d+\s*$/.test(match[2])) return [match[1], match[2].trim().toLowerCase()];
+  const lowered = raw.trim().toLowerCase();
+  for (const [suffix, unit] of Object.entries(SUFFIX_UNITS)) {
+    if (lowered.endsWith(suffix) && lowered.length > suffix.length) return [raw.trim().slice(0, -suffix.length), unit];
+  }
+  return [raw, null];
 }
-const normalise = (raw) => nameAndUnit(raw)[0].trim().toLowerCase().replace(/[\s-]+/g, "_");
+const normalise = (raw) => nameAndUnit(raw)[0].replace(/[[\]()]/g, "").trim().toLowerCase().replace(/[\s-]+/g, "_");
 
 // One line into cells, with "quoted, cells" as csv writers make them.
 function splitLine(line, delimiter) {
@@ -42,14 +54,28 @@ function splitLine(line, delimiter) {
 }
 
 // The joint columns in the robot's order: serial joints 1 … m in one numbering style, then a hexapod's legs.
+// The numbering may carry a URDF's prefix and underscore (`joint_1`, `panda_joint1`), as the service reads it.
+const NUMBERED = new RegExp(`^((?:[a-z][a-z0-9]*_)*(?:${JOINT_STYLES.join("|")})_?)([1-9][0-9]*)$`);
 function jointColumns(columns) {
   if (columns.includes("q0")) return [];  // a Leica q0…q3 quaternion: the service names the clash
-  for (const style of JOINT_STYLES) {
-    const serial = columns.filter((c) => new RegExp(`^${style}[1-9][0-9]*$`).test(c))
-      .sort((a, b) => Number(a.slice(style.length)) - Number(b.slice(style.length)));
-    if (serial.length) return [...serial, ...LEGS.filter((l) => columns.includes(l))];
+  const styles = new Map();
+  for (const c of columns) {
+    const m = c.match(NUMBERED);
+    if (m) styles.set(m[1], [...(styles.get(m[1]) || []), c]);
+  }
+  for (const [prefix, serial] of styles) {
+    serial.sort((a, b) => Number(a.slice(prefix.length)) - Number(b.slice(prefix.length)));
+    return [...serial, ...LEGS.filter((l) => columns.includes(l))];
   }
   return LEGS.filter((l) => columns.includes(l));
+}
+
+// A report's preamble (PC-DMIS `PART NAME : …`, CAM2's title and `Units: …`): lines of at most two fields above
+// the first wider line, the header.
+function headerIndex(lines) {
+  const width = (t) => Math.max(...DELIMITERS.map((d) => t.split(d).length));
+  const k = lines.slice(0, 31).findIndex((l) => width(l.text) > 2);
+  return k < 0 ? 0 : k;
 }
 
 // columns: normalised names; units: name → unit; rows: arrays of strings; roles: name → what it is read as.
@@ -57,6 +83,7 @@ export function readCsv(text) {
   const lines = text.replace(/^\ufeff/, "").split(/\r\n|\r|\n/)
     .map((t, k) => ({ line: k + 1, text: t })).filter((l) => l.text.trim() && !l.text.trim().startsWith("#"));
   if (lines.length === 0) throw new Error("the file has no header and no data (only blank or comment lines)");
+  lines.splice(0, headerIndex(lines));
   const header = lines[0].text;
   const delimiter = DELIMITERS.reduce((best, d) => (header.split(d).length > header.split(best).length ? d : best), ",");
   const raw = splitLine(header, delimiter);
@@ -75,6 +102,9 @@ function canonical(columns) {
     if (alias) found[alias] = name;
   }
   if (columns.includes("q0")) for (const [i, q] of ["qw", "qx", "qy", "qz"].entries()) found[`q${i}`] = q;
+  // `target`: SpatialAnalyzer's point name, or Leica's reflector; the preview cannot see the rows, the service can.
+  if (columns.includes("target") && !Object.values(found).includes("pose_id")) found.target = "pose_id";
+  else if (columns.includes("target")) found.target = "reflector";
   return found;
 }
 

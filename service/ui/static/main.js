@@ -7,6 +7,7 @@ import { calibrationView } from "./views/calibration.js";
 import { campaignView } from "./views/campaign.js";
 import { designView } from "./views/design.js";
 import { jobsView, stopJobTimers } from "./views/jobs.js";
+import { programsIndex, programsView } from "./views/programs.js";
 import { reportView } from "./views/report.js";
 import { robotView } from "./views/robot.js";
 import { robotsView } from "./views/robots.js";
@@ -33,10 +34,12 @@ function pick(parts, params) {
   if (first === "robots" && id && sub === "design") return () => designView(view, id, params);
   if (first === "robots" && id && sub === "calibrate") return () => campaignView(view, id);
   if (first === "robots" && id && sub === "validate") return () => validationView(view, id);
+  if (first === "robots" && id && sub === "programs") return () => programsView(view, id);
   if (first === "robots" && id) return () => robotView(view, id);
   if (first === "calibrations" && id && sub === "report") return () => reportView(view, id);
   if (first === "calibrations" && id) return () => calibrationView(view, id);
   if (first === "jobs") return () => jobsView(view);
+  if (first === "programs") return () => programsIndex(view);
   return () => robotsView(view);
 }
 

@@ -12,10 +12,11 @@ const PREVIEW_ROWS = 8;
 
 export async function campaignView(view, robotId) {
   const [robot, fleet] = await Promise.all([api(`/v1/robots/${robotId}`), fleetOrNull(robotId)]);
-  const state = { text: null, name: null };
+  const state = { text: null, name: null, bytes: null };
   const preview = h("div", { id: "campaign-preview" });
   const picker = filePicker("campaign-file", "Campaign CSV", async (file) => {
-    state.text = await file.text();
+    state.bytes = await file.arrayBuffer();  // sent as they are: the service decodes Windows-1252 and UTF-16 too
+    state.text = decoded(state.bytes);
     state.name = file.name;
     showPreview(preview, state, robot);
   });
@@ -28,7 +29,7 @@ export async function campaignView(view, robotId) {
     if (!state.text) { fill(outcome, errorBox(new Error("choose or drop a campaign CSV first"))); return; }
     run.disabled = true;
     try {
-      await calibrate(robotId, state.text, options.values(), outcome);
+      await calibrate(robotId, state.bytes, options.values(), outcome);
     } catch (error) {
       fill(outcome, errorBox(error, "calibration-error"));  // the job could not be followed (the API stopped answering)
     } finally {
@@ -38,8 +39,19 @@ export async function campaignView(view, robotId) {
   fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)),
     h("h1", {}, `Calibrate ${robot.name}`),
     muted(`Joint columns this robot reads, in order: ${robot.joint_names.join(", ")} (${robot.joint_units.join(", ")}), `
-      + "then x, y, z in mm and, for a full pose, qw, qx, qy, qz; optional sigma_mm or u95, temperature_c."),
+      + "then x, y, z in mm and, for a full pose, qw, qx, qy, qz; optional sigma_mm or u95, temperature_c. "
+      + "A robot from a URDF also reads its URDF's joint names; any other header, say which column is which below."),
     form);
+}
+
+// The file's text for the preview, decoded as the service will: UTF-16 by its byte-order mark, UTF-8 when valid,
+// else Windows-1252 (what tracker software on Windows writes).
+function decoded(bytes) {
+  const head = new Uint8Array(bytes.slice(0, 2));
+  if ((head[0] === 0xff && head[1] === 0xfe) || (head[0] === 0xfe && head[1] === 0xff)) {
+    return new TextDecoder(head[0] === 0xff ? "utf-16le" : "utf-16be").decode(bytes);
+  }
+  try { return new TextDecoder("utf-8", { fatal: true }).decode(bytes); } catch { return new TextDecoder("windows-1252").decode(bytes); }
 }
 
 // A drop zone around a file input: a file dropped on it is handled as one picked.
@@ -80,23 +92,30 @@ function optionsForm(fleetNote) {
   const orientation = h("input", { id: "noise-orientation", type: "number", step: "any", min: 0, value: 0.01 });
   const unit = h("select", { id: "length-unit" }, ["mm", "m", "cm", "um", "in"].map((u) => h("option", { value: u }, u)));
   const order = h("select", { id: "quaternion-order" }, ["wxyz", "xyzw"].map((u) => h("option", { value: u }, u)));
+  const columns = h("input", { id: "column-map", size: 50, autocomplete: "off", placeholder: "Achse 1=joint_1, Achse 2=joint_2, X_m=x" });
+  const jointUnit = h("select", { id: "joint-unit" }, [["", "as the header says (default degrees)"], ["deg", "degrees"], ["rad", "radians"]]
+    .map(([value, text]) => h("option", { value }, text)));
   const apply = h("input", { type: "checkbox", id: "apply", checked: true });
   const prior = h("input", { type: "checkbox", id: "fleet-prior-option" });
   const node = h("fieldset", { id: "calibration-options" }, h("legend", {}, "Options"),
     h("div", { class: "row" },
       field("Instrument σ, position (mm)", position), field("σ, orientation (deg)", orientation),
       field("Length unit where the header states none", unit), field("Order of q0…q3 columns", order)),
+    h("div", { class: "row" },
+      field("Column map (file column = joint or coordinate)", columns, "joints: this robot's names; coordinates: x, y, z, qw…, pose_id, sigma_mm, u95, temperature_c, time"),
+      field("Revolute joints' unit where the header states none", jointUnit)),
     h("label", {}, apply, " Apply the result as the robot's new version when its checks pass"), h("br"),
     h("label", {}, prior, " Calibrate with the fleet's prior (the population of the other calibrated robots of this structure: fewer poses for the same accuracy)"),
     muted(fleetNote, "fleet-prior-note"));
   const values = () => ({
     noise_position_mm: position.value, noise_orientation_deg: orientation.value,
     length_unit: unit.value, quaternion_order: order.value, apply: apply.checked, prior: prior.checked ? "fleet" : null,
+    columns: columns.value.trim() || null, joint_unit: jointUnit.value || null,
   });
   return { node, values };
 }
 
-// Submits the CSV as a job, follows it, and opens the stored result; a refusal before any fit stays here.
+// Submits the CSV (its bytes) as a job, follows it, and opens the stored result; a refusal before any fit stays here.
 async function calibrate(robotId, text, options, outcome) {
   fill(outcome, muted("Sending the campaign…"));
   let accepted;

@@ -28,7 +28,9 @@ function outcomeHash(job) {
 }
 
 // The list leaves results out (GET the job for its result), so a succeeded job's link asks for the job first.
+// A kind whose outcome has no page here (a program compensation: its answer is shown where it was asked) has none.
 function outcomeLink(job, message) {
+  if (job.kind !== "calibration" && job.kind !== "pose_design") return null;
   const text = job.kind === "calibration" ? "result" : "design";
   if (job.status === "succeeded") {
     return h("button", { type: "button", class: "link", onclick: async () => {

@@ -62,12 +62,51 @@ function dhEditor() {
     if (/[\t\n;,]/.test(text.trim())) { e.preventDefault(); paste.value = text; fillFromPaste(); }
   });
   for (let i = 0; i < 3; i++) body.append(linkRow({ joint: "revolute", theta: 0, d: 0, a: 0, alpha: 0, range: [-170, 170] }));
+  const base = poseFields("base", "Base: world ← robot base"), tool = poseFields("tool", "Tool: last link → TCP");
   const node = h("div", { id: "dh-editor" }, field("Convention", convention), grid,
     h("p", {}, h("button", { type: "button", id: "dh-add", onclick: () => body.append(linkRow({ joint: "revolute", range: [-170, 170] })) }, "Add a link")),
     field("Or paste rows from a spreadsheet", paste),
-    h("p", {}, h("button", { type: "button", id: "dh-fill", onclick: fillFromPaste }, "Fill the table from the pasted rows")));
-  const structure = () => ({ stages: [{ kind: "serial", convention: convention.value, links: [...body.rows].map(readRow) }] });
+    h("p", {}, h("button", { type: "button", id: "dh-fill", onclick: fillFromPaste }, "Fill the table from the pasted rows")),
+    muted("The table ends at the last joint's frame (the flange). What the instrument measures beyond it, a tracker's "
+      + "reflector on the tool, is the tool below, not the last link: a calibration then identifies the tool apart from the arm."),
+    h("div", { class: "row" }, base.node, tool.node));
+  const structure = () => {
+    const doc = { stages: [{ kind: "serial", convention: convention.value, links: [...body.rows].map(readRow) }] };
+    const b = base.pose(), t = tool.pose();
+    if (b) doc.base = b;
+    if (t) doc.tool = t;
+    return doc;
+  };
   return { node, structure };
+}
+
+// A pose as robots.md's document takes it: a position (mm) and a unit quaternion [w, x, y, z], typed as x, y, z and
+// Z-Y-X Euler angles rz, ry, rx in degrees (R = Rz·Ry·Rx, the convention of the hexapod's workspace). Null when
+// all six are zero: the document's default, identity.
+const POSE_KEYS = [["x", "mm"], ["y", "mm"], ["z", "mm"], ["rz", "deg"], ["ry", "deg"], ["rx", "deg"]];
+
+function poseFields(prefix, legend) {
+  const inputs = Object.fromEntries(POSE_KEYS.map(([k]) => [k, h("input", { id: `${prefix}-${k}`, inputmode: "decimal", size: 7, value: 0 })]));
+  const what = prefix[0].toUpperCase() + prefix.slice(1);
+  const node = h("fieldset", { id: `${prefix}-pose`, class: "pose" }, h("legend", {}, legend),
+    POSE_KEYS.map(([k, unit]) => field(`${what} ${k} (${unit})`, inputs[k])));
+  const pose = () => {
+    const v = Object.fromEntries(POSE_KEYS.map(([k]) => [k, inputs[k].value.trim().replace(",", ".")]));
+    for (const [k] of POSE_KEYS) {
+      if (v[k] === "" || !Number.isFinite(Number(v[k]))) throw new Error(`${prefix} ${k}: ${JSON.stringify(v[k])} is not a number`);
+    }
+    const n = Object.fromEntries(POSE_KEYS.map(([k]) => [k, Number(v[k])]));
+    if (POSE_KEYS.every(([k]) => n[k] === 0)) return null;
+    return { position: [n.x, n.y, n.z], orientation: quaternionZYX(n.rz, n.ry, n.rx) };
+  };
+  return { node, pose };
+}
+
+// q = q_z(rz) · q_y(ry) · q_x(rx), [w, x, y, z].
+function quaternionZYX(rz, ry, rx) {
+  const half = (deg) => (deg * Math.PI) / 360;
+  const [cz, sz, cy, sy, cx, sx] = [Math.cos(half(rz)), Math.sin(half(rz)), Math.cos(half(ry)), Math.sin(half(ry)), Math.cos(half(rx)), Math.sin(half(rx))];
+  return [cz * cy * cx + sz * sy * sx, cz * cy * sx - sz * sy * cx, cz * sy * cx + sz * cy * sx, sz * cy * cx - cz * sy * sx];
 }
 
 function linkRow(linkData) {
@@ -111,12 +150,18 @@ function parseRows(text) {
 
 // ---------------------------------------------------------------- URDF
 function urdfPicker() {
-  const file = h("input", { type: "file", id: "urdf-file", accept: ".urdf,.xml,application/xml,text/xml" });
+  const file = h("input", { type: "file", id: "urdf-file", accept: ".urdf,.xml,.xacro,application/xml,text/xml" });
   const base = h("select", { id: "urdf-base" }), tip = h("select", { id: "urdf-tip" });
   const info = h("p", { class: "muted", id: "urdf-info" }, "Choose a URDF file: its links are offered as base and tip.");
   let text = null;
   file.addEventListener("change", async () => {
     text = await file.files[0].text();
+    if (/xmlns:xacro|<xacro:/.test(text)) {  // a xacro's links are inside its macros: there is nothing to offer
+      fill(base); fill(tip);
+      info.textContent = "This is a xacro file, not a URDF: expand it first with `xacro robot.urdf.xacro > robot.urdf` "
+        + "(ROS 2: `ros2 run xacro xacro robot.urdf.xacro > robot.urdf`) and choose the URDF it writes.";
+      return;
+    }
     const { links, root, leaves } = urdfLinks(text);
     if (links.length === 0) { info.textContent = "This file names no <link>: is it a URDF?"; return; }
     const options = (selected) => links.map((l) => h("option", { value: l, selected: l === selected }, l));
