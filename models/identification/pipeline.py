@@ -64,6 +64,7 @@ from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
+from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 
 INCONSISTENT_SIGMA = 100.0
 MAX_EXCLUDED_SHARE = 0.2
@@ -114,6 +115,7 @@ def identify(
     if blocking:
         return _not_fitted(desc, campaign, theta_nom, found, blocking, started=started, rt=rt, strict=strict)
     notes += [d.message for d in found]
+    theta_nom_used = _with_measured_tool_rotation(desc, theta_nom, found, candidates)
     # Records far off all the others (a wrong row, another point's name) would drag least squares to where the
     # hexapod does not assemble before any outlier test could see them: left out from the start, and reported.
     far = [r for d in found if d.finding is Finding.FAR_RECORDS for r in d.records]
@@ -122,7 +124,7 @@ def identify(
 
     # 1. the instrument frame, in closed form
     theta_start, seeds = _registered_start(
-        desc, campaign, theta_nom=theta_nom, candidates=candidates, notes=notes, rt=rt, active=active
+        desc, campaign, theta_nom=theta_nom_used, candidates=candidates, notes=notes, rt=rt, active=active
     )
     # 2. what these data can identify, at the start
     start = forward_kinematics(
@@ -254,6 +256,21 @@ def _registered_start(
         return registered_base(desc, theta_nom, fit), fk.platforms
     notes.append("the base (instrument frame) is not estimated: the given base is taken as exact")
     return theta_nom, fk.platforms
+
+
+def _with_measured_tool_rotation(
+    desc: RobotDescription, theta: Array, found: tuple[Diagnosis, ...], candidates: tuple[int, ...]
+) -> Array:
+    """`theta` with the tool's rotation the records show (a TOOL_ORIENTATION finding), where the fit estimates
+    the tool's rotation: started 90° or 180° off, the fit would end in another minimum or stop."""
+    tool = desc.slices["tool"]
+    rotation = list(range(tool.start + 3, tool.stop))
+    measured = next((d.tool_rotation for d in found if d.tool_rotation is not None), None)
+    if measured is None or not set(rotation) <= set(candidates):
+        return theta
+    out = theta.copy()
+    out[rotation] = matrix_to_rotvec_np(rotvec_to_matrix_np(theta[rotation]) @ measured)
+    return out
 
 
 def _with_prior(scaled: Array, table: ParameterTable, options: IdentificationOptions) -> Array:

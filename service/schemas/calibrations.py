@@ -267,9 +267,11 @@ class DiagnosisPublic(Public):
         "temperature_term",
         "load_term",
         "other_plane",
+        "tool_orientation",
     ] = Field(
         description="temperature_term / load_term: after a fit, the residuals follow the records' conditions; "
-        "other_plane: some touches of a plane lie on another face"
+        "other_plane: some touches of a plane lie on another face; tool_orientation (not blocking): the records' "
+        "orientations differ from the robot's by one constant tool-side rotation, which the fit starts from"
     )
     message: str
     records: list[int] = Field(description="The records concerned (0-based); empty: the whole campaign")
