@@ -483,7 +483,11 @@ def _estimate(
             f"at the solution {recheck.rank} parameters are identifiable (at the start: {ident.rank}); "
             "the estimate used the starting subset"
         )
-    accuracy = predicted_accuracy(desc, ev.theta, free, cov_theta, options.workspace_samples, runtime=rt)
+    accuracy = predicted_accuracy(
+        desc, ev.theta, free, cov_theta, options.workspace_samples, runtime=rt, measured=campaign.joints
+    )
+    if accuracy.extrapolation is not None:
+        notes.append(accuracy.extrapolation)
     rechecked = recheck.rank == ident.rank
     return Estimate(ev.theta, free, cov, cov_theta, ident, rechecked, ResidualSummary.of(after), accuracy)
 

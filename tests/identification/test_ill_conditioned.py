@@ -79,3 +79,27 @@ def test_the_unobservable_directions_are_named_with_the_parameters_to_hold() -> 
         assert name in sentence
     assert len(hold) == 1 and hold[0] in ("link1.d", "link2.d", "tool.z")
     assert describe_unobservable(a, ("x", "y")) == ("", ())
+
+
+@pytest.mark.slow  # ~2 s: a line campaign and a box campaign, each with 300 fresh records
+def test_the_prediction_holds_in_the_measured_region_and_flags_the_rest() -> None:
+    desc = irb2400_like()
+    fit_q, held_q = _line(1)
+    box_center = np.radians([-20.0, 20.0, 30.0, 150.0, 60.0, -140.0])
+    half = np.radians([20.0, 10.0, 20.0, 5.0, 15.0, 15.0])
+    rng = np.random.default_rng(11)
+    box = box_center + rng.uniform(-half, half, (40, 6)), box_center + rng.uniform(-half, half, (300, 6))
+    for seed, (fit, held) in ((1, (fit_q, held_q)), (2, box)):
+        sim = perturbed_robot(desc, seed=seed)
+        result = identify(desc, measure(sim, fit, NOISE, seed=400 + seed, position_only=True), noise=NOISE)
+        assert result.succeeded, result.reason
+        truth = forward_kinematics(desc, held, sim.truth).positions
+        errors = forward_kinematics(desc, held, result.parameters).positions - truth
+        measured = float(np.sqrt(np.mean(np.sum(errors**2, axis=1))))
+        predicted = result.predicted_accuracy
+        # Inside the measured region: within 2× of the error measured on fresh records there.
+        assert 0.5 < predicted.region_rms_position_mm / measured < 2.0
+        # The workspace-wide figure is far above (the directions these records do not see): said, not silent.
+        assert predicted.rms_position_mm > 10 * predicted.region_rms_position_mm
+        assert predicted.extrapolation is not None and "extrapolation" in predicted.extrapolation
+        assert predicted.extrapolation in result.notes
