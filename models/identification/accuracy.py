@@ -42,6 +42,7 @@ def predicted_accuracy(
     *,
     runtime: Runtime,
     measured: Array | None = None,
+    observable_cov_theta: Array | None = None,
 ) -> PredictedAccuracy:
     """TCP uncertainty over random workspace poses from the parameter covariance (first order), and at the
     `measured` joints (the campaign's poses: the region it covered), with the reason the workspace figures are
@@ -50,14 +51,18 @@ def predicted_accuracy(
     A campaign measured in a small region (a line, one face of a part) leaves directions of the parameters that
     move those poses by nothing: the covariance along them is huge, and so is the workspace-wide prediction
     (measured: 40 records on a straight line, 1e6 mm predicted over the workspace, 0.02 mm held-out on the line);
-    on the line itself the prediction is the held-out error's."""
+    on the line itself the prediction is the held-out error's. In the region the covariance along the
+    observable directions only (`observable_cov_theta`, where given) is what applies: the solver leaves the
+    others near their start, so their noise does not reach these poses (each direction would otherwise add
+    σ²/N to the region's mean square, whatever its weakness)."""
     joints = workspace_samples(desc, samples, ACCURACY_SEED, runtime=runtime)
     pos, rot, ok = _tcp_sigma(desc, joints, theta, free, cov_theta, runtime=runtime)
     rms = float(np.sqrt(np.mean(pos**2)))
     region_rms = region_max = float("nan")
     reason = None
     if measured is not None and measured.shape[0]:
-        near, _, _ = _tcp_sigma(desc, measured, theta, free, cov_theta, runtime=runtime)
+        region_cov = cov_theta if observable_cov_theta is None else observable_cov_theta
+        near, _, _ = _tcp_sigma(desc, measured, theta, free, region_cov, runtime=runtime)
         region_rms, region_max = float(np.sqrt(np.mean(near**2))), float(near.max())
         if rms > EXTRAPOLATION_RATIO * region_rms:
             reason = _extrapolation(desc, measured, rms, region_rms)

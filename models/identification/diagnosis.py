@@ -20,6 +20,8 @@ starting) model in closed form: no iteration, milliseconds for hundreds of poses
   fails its variance-factor test and its residuals follow the records' temperatures (payloads).
 - `OTHER_PLANE` (after a fit against planes, `models.identification.reference_diagnosis`): the touches of a
   plane that fail it lie on a plane of their own, another face touched under the same name.
+- `JOINT_CONVENTION`: the rigid fit is poor as sent, and near-perfect with one joint's readings negated or
+  shifted by ±90° or 180°: the controller's sign or zero of that joint differs from the description's.
 - `MISMATCH`: no placement of the robot, rigid or scaled or mirrored, comes near the measured positions: the
   joint rows and the measurements do not belong together (shuffled files, another robot's campaign).
 Internal units throughout (mm, rad); the messages state boundary units.
@@ -73,6 +75,8 @@ class Finding(StrEnum):
     QUATERNION_ORDER = "quaternion_order"
     ORIENTATION_FLIP = "orientation_flip"
     TOOL_ORIENTATION = "tool_orientation"
+    JOINT_CONVENTION = "joint_convention"
+    """One joint's readings fit far better negated or shifted by ±90°/180°: a sign or zero convention."""
     """Not blocking: the records' orientations differ from the model's by one constant tool-side rotation."""
     FAR_RECORDS = "far_records"
     MISMATCH = "mismatch"
@@ -272,6 +276,51 @@ def check_far_records(model: Array, measured: Array, index: NDArray[np.intp]) ->
     )
 
 
+CONVENTION_SHIFTS_DEG = (180.0, 90.0, -90.0)
+CONVENTION_GAIN = 0.2
+"""A convention is named when it brings the rigid fit's median residual below this fraction of the fit as sent
+(and to a fit as good as a unit slip's, `FIT_QUALITY`)."""
+
+
+def check_joint_convention(
+    desc: RobotDescription,
+    joints: Array,
+    measured: Array,
+    params: Array,
+    *,
+    typical: float,
+    runtime: Runtime | None,
+) -> Diagnosis | None:
+    """The one joint whose readings, negated or shifted by ±90°/180°, make the rigid fit near-perfect."""
+    best: tuple[float, str] | None = None
+    for j, kind in enumerate(desc.joint_kinds):
+        if kind is not Kind.ANGLE:
+            continue
+        variants = [("negated", -joints[:, j])] + [
+            (f"shifted by {shift:+.0f}°", joints[:, j] + math.radians(shift)) for shift in CONVENTION_SHIFTS_DEG
+        ]
+        for label, column in variants:
+            trial = joints.copy()
+            trial[:, j] = column
+            try:
+                fk = forward_kinematics(desc, trial, params, check_ranges=False, runtime=runtime)
+            except CalibrationError:
+                continue
+            fit = _similarity(fk.positions, measured, allow_reflection=False, with_scale=False)
+            residual = np.linalg.norm(fk.positions @ fit.rotation.T + fit.translation - measured, axis=1)
+            median = float(np.median(residual))
+            if best is None or median < best[0]:
+                best = (median, f"joint {desc.joint_names[j]} {label}")
+    if best is None or best[0] > CONVENTION_GAIN * typical or best[0] > FIT_QUALITY * _spread(measured):
+        return None
+    return Diagnosis(
+        Finding.JOINT_CONVENTION,
+        f"the measured positions fit the robot with {best[1]} ({best[0]:.3g} mm median) far better than as sent "
+        f"({typical:.4g} mm): the controller's sign or zero of that joint differs from the description's; "
+        "convert the readings (or the description's joint offset and direction) before calibrating",
+    )
+
+
 def _model_poses(
     desc: RobotDescription, joints: Array, params: Array, runtime: Runtime | None
 ) -> tuple[Array, Array, NDArray[np.intp]]:
@@ -321,6 +370,10 @@ def diagnose(
     # The median residual, not the RMS: a few far records must not hide what the rest says.
     residual = np.linalg.norm(model @ rigid.rotation.T + rigid.translation - measured, axis=1)
     typical = float(np.median(residual))
+    if typical > FIT_QUALITY * _spread(measured):
+        convention = check_joint_convention(desc, joints[usable], measured, params, typical=typical, runtime=runtime)
+        if convention is not None:
+            return (convention,)
     if typical > MISMATCH_SHARE * _spread(measured):
         return (
             Diagnosis(

@@ -279,10 +279,12 @@ class DiagnosisPublic(Public):
         "load_term",
         "other_plane",
         "tool_orientation",
+        "joint_convention",
     ] = Field(
         description="temperature_term / load_term: after a fit, the residuals follow the records' conditions; "
         "other_plane: some touches of a plane lie on another face; tool_orientation (not blocking): the records' "
-        "orientations differ from the robot's by one constant tool-side rotation, which the fit starts from"
+        "orientations differ from the robot's by one constant tool-side rotation, which the fit starts from; "
+        "joint_convention: one joint's readings fit negated or shifted by ±90°/180° (a sign or zero convention)"
     )
     message: str
     records: list[int] = Field(description="The records concerned (0-based); empty: the whole campaign")

@@ -60,3 +60,33 @@ def test_the_tool_orientation_is_not_mistaken_for_a_flipped_instrument_axis() ->
     found = diagnose(DESC, campaign.joints, campaign.positions, quats, DESC.parameters.nominal)
     assert [d.finding for d in found] == [Finding.ORIENTATION_FLIP]
     assert math.isclose(len(found[0].records), 20)
+
+
+@pytest.mark.parametrize(("joint", "change", "words"), [(1, "negate", "negated"), (2, 90.0, "shifted by -90°")])
+def test_a_joint_sign_or_zero_convention_is_named(joint: int, change: str | float, words: str) -> None:
+    sim = perturbed_robot(DESC, seed=11)
+    campaign = measure(sim, sample_workspace(DESC, 40, seed=12), seed=13, position_only=True)
+    sent = campaign.joints.copy()
+    # The controller's convention: this joint counts the other way, or from another zero (the description
+    # then needs the reading shifted back by -90° to match).
+    sent[:, joint] = -sent[:, joint] if change == "negate" else sent[:, joint] + np.radians(float(change))
+    found = diagnose(DESC, sent, campaign.positions, None, DESC.parameters.nominal)
+    assert [d.finding for d in found] == [Finding.JOINT_CONVENTION]
+    assert found[0].blocking and f"joint {DESC.joint_names[joint]} {words}" in found[0].message
+
+
+def test_a_missing_tool_offset_is_fitted() -> None:
+    # The reflector sits 95 mm out on a nest the description does not have: the tool's offset is estimated.
+    sim = perturbed_robot(DESC, seed=14)
+    truth = sim.truth.copy()
+    tool = DESC.slices["tool"].start
+    truth[tool : tool + 3] += [0.0, 0.0, 95.0]
+    sim = SimulatedRobot(DESC, sim.nominal, truth)
+    campaign = measure(sim, sample_workspace(DESC, 40, seed=15), seed=16, position_only=True)
+    result = identify(DESC, campaign)
+    assert result.succeeded and result.diagnoses == ()
+    fresh = sample_workspace(DESC, 100, seed=17)
+    error = (
+        forward_kinematics(DESC, fresh, result.parameters).positions - forward_kinematics(DESC, fresh, truth).positions
+    )
+    assert np.sqrt(np.mean(np.sum(error**2, axis=1))) < 0.05
