@@ -61,7 +61,12 @@ from models.identification.result import (
 from models.identification.solver import IpoptRun, SolverPool, solver_pool
 from models.identification.statistics import Covariance, PoseErrors, correlated_pairs, covariance, outlier_threshold
 from models.identification.terms_check import missing_term_diagnoses
-from models.identification.trust_region import UNOBSERVABLE_SIGMA, describe_unobservable, trust_region_finish
+from models.identification.trust_region import (
+    UNOBSERVABLE_SIGMA,
+    describe_unobservable,
+    on_observable_directions,
+    trust_region_finish,
+)
 from models.kinematics import forward_kinematics
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
@@ -408,7 +413,9 @@ def _run(
     both: the status names IPOPT's end and the finish's."""
     run = pool.solve(problem, z0, lower, upper, max_iter)
     if run.success:
-        return run
+        # IPOPT too drifts along the directions the records do not see (a small region's campaign): put back.
+        z = on_observable_directions(problem, run.z)
+        return run if z is run.z else replace(run, z=z, objective=_objective(problem, z, run.objective))
     finish = trust_region_finish(problem, run.z, lower, upper)
     return IpoptRun(
         z=finish.z if finish.success else run.z,
@@ -421,6 +428,11 @@ def _run(
 
 
 FINISHED_BY = "trust-region finish: "
+
+
+def _objective(problem: CampaignProblem, z: Array, otherwise: float) -> float:
+    ev = problem.evaluate(z)
+    return otherwise if ev is None else ev.objective
 
 
 def _regained(

@@ -103,7 +103,7 @@ def trust_region_finish(problem: CampaignProblem, z0: Array, lower: Array, upper
         gtol=1e-10,
         max_nfev=MAX_EVALUATIONS,
     )
-    z = _on_observable_directions(problem, np.asarray(fit.x, dtype=float))
+    z = on_observable_directions(problem, np.asarray(fit.x, dtype=float))
     if fit.status <= 0 and gauss_newton_decrement(problem, z) >= CONVERGED_DECREMENT:
         z = _observable_steps(problem, z)
     ev = problem.evaluate(z)
@@ -120,7 +120,7 @@ def trust_region_finish(problem: CampaignProblem, z0: Array, lower: Array, upper
     )
 
 
-def _on_observable_directions(problem: CampaignProblem, z: Array) -> Array:
+def on_observable_directions(problem: CampaignProblem, z: Array) -> Array:
     """`z` with its components along the unobservable directions put back to the start (0), then Gauss–Newton
     on the observable ones from there (plain loss, no prior, no bounds; the others keep `z`).
 
