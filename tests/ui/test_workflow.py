@@ -175,13 +175,15 @@ def test_a_refused_calibration_says_why_and_can_be_forced(page: Any, server: str
     lines = CAMPAIGN.read_text().splitlines()
     fewer = tmp_path / "campaign-fewer.csv"
     fewer.write_text("\n".join(lines[: 1 + RECORDS // 3]) + "\n")
+    page.get_by_role("link", name="← cell-noise").click()
+    _ready(page, "^#/robots/[0-9a-f-]+$")
     refused_id = _calibrate(page, fewer, noise_mm=0.0025)
     page.wait_for_selector("#verdict.not-applied")
     refused = httpx.get(f"{server}/v1/calibrations/{refused_id}").json()
     assert refused["status"] == "succeeded" and not refused["applied"]
     assert page.locator("#not-applied-reason").inner_text() == refused["not_applied_reason"]
     failed = [c["name"] for c in refused["checks"] if not c["passed"] and c["blocks_apply"]]
-    assert failed == ["accuracy"]
+    assert "accuracy" in failed and "noise" not in failed  # the noise check never blocks
     screenshot(page, "calibration-not-applied")
     page.get_by_role("button", name="Force apply").click()
     page.wait_for_function("old => location.hash !== old", arg=f"#/calibrations/{refused_id}")
