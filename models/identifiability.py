@@ -46,6 +46,10 @@ from models.workspace import workspace_samples
 
 RANK_RTOL = 1e-9
 """Singular values below this fraction of the largest count as zero (see module docstring)."""
+REGAINED_RTOL = 1e-5
+"""At a fitted geometry, a direction counts only above this fraction of the largest singular value (rich data,
+σ per tolerance): a tool a fraction of a millimetre off the last axis (a simulated tool error) makes that axis'
+parameters "identifiable" at 1e-9 yet determined to degrees; a reflector centimetres off it clears 1e-5."""
 CONFOUNDING_REPORT = 4
 """How many identifiable partners to report for each unidentifiable parameter."""
 STRUCTURAL_POSES = 60
@@ -188,6 +192,26 @@ def structural_identifiability(
         return analyse_identifiability(scaled, desc.parameters, candidates)
 
     return rt.artefact("structural_subset", (desc, tuple(candidates), kind), analyse, capacity=64)
+
+
+def structural_identifiability_at(
+    desc: RobotDescription,
+    theta: Array,
+    candidates: tuple[int, ...],
+    kind: MeasurementKind | bool,
+    *,
+    runtime: Runtime | None = None,
+) -> Identifiability:
+    """`structural_identifiability` at the parameters `theta` rather than the description's nominal ones (not
+    kept: one per fit that needs it). A nominal geometry can be special where the real one is not: a tool on the
+    last joint's axis (a URDF's `tool0`) hides that joint's offset and twist from position measurements, which a
+    reflector a few centimetres off that axis sees."""
+    rt = runtime_for(desc, runtime)
+    kind = MeasurementKind.of(kind)
+    joints = workspace_samples(desc, STRUCTURAL_POSES, STRUCTURAL_SEED, runtime=rt)
+    fk = forward_kinematics(desc, joints, theta, jacobian=True, runtime=rt, conditions=structural_conditions(desc))
+    scaled = scaled_jacobian(fk.jacobians, desc.parameters, NoiseModel(), kind=kind)
+    return analyse_identifiability(scaled, desc.parameters, candidates, rtol=REGAINED_RTOL)
 
 
 def structural_conditions(desc: RobotDescription, n: int = STRUCTURAL_POSES) -> Conditions | None:

@@ -41,6 +41,10 @@ class Check:
     """"fit", "noise", "identifiable", "residuals" or "accuracy"."""
     passed: bool
     detail: str
+    blocking: bool = True
+    """A failed check that blocks applying. The noise check never does: a stated σ that the residuals contradict
+    says nothing against the geometry (the a-posteriori covariance takes σ from the residuals); it is said, with
+    the estimate, and the result is applied."""
 
     @classmethod
     def of(cls, name: str, passed: bool, if_passed: str, if_failed: str) -> Check:
@@ -56,6 +60,7 @@ def acceptance_checks(
     sigma_mm: float,
     held_accuracy_mm: float | None = None,
     start_dof: int | None = None,
+    sigma_stated: bool = True,
 ) -> tuple[Check, ...]:
     """The checks of `result`: `expected_rank` is the structure's identifiable count for what was estimated and
     how it was measured; `start_accuracy_mm` the start version's predicted RMS TCP accuracy (None: unknown, as for
@@ -64,6 +69,9 @@ def acceptance_checks(
     `held_accuracy_mm`: for a partial re-fit that held calibrated parameters at the start version's values, their
     own predicted TCP uncertainty (RMS, 3-D). It adds to what the residuals may show — measured: a base-only re-fit
     after a 60-pose calibration gives a variance factor of 1.44 against the noise alone, 1.13 with it.
+
+    `sigma_stated`: False when neither the request nor the records gave σ (`sigma_mm` was a default): the noise
+    check then reports σ as estimated from the residuals, with its standard error, and has nothing to test.
     """
     # Long on purpose: one block a check, each with its own words: splitting them would scatter the acceptance
     # rule.
@@ -75,21 +83,28 @@ def acceptance_checks(
     factor = raw * sigma_mm**2 / (sigma_mm**2 + held)
     ratio = math.sqrt(factor) if math.isfinite(factor) and factor > 0 else float("nan")
     allowed = "" if held == 0.0 else f", allowing for the held parameters' {held_accuracy_mm:.3g} mm"
-    if lo <= factor <= hi:
-        checks.append(Check("noise", True, f"variance factor {factor:.3g} within [{lo:.3g}, {hi:.3g}]{allowed}"))
+    estimate = noise_estimate(sigma_mm, factor, result.dof)
+    if not sigma_stated:
+        checks.append(Check("noise", True, f"σ not stated: {estimate} (the standard errors use it)"))
+    elif lo <= factor <= hi:
+        checks.append(
+            Check("noise", True, f"variance factor {factor:.3g} within [{lo:.3g}, {hi:.3g}]{allowed}; {estimate}")
+        )
     else:
         side = "larger" if factor > hi else "smaller"
         advice = (
             "state the instrument's real σ, or look for a temperature or load effect"
             if side == "larger"
-            else "the stated σ is pessimistic: state the real one for honest standard errors"
+            else "the stated σ is pessimistic: state the real one"
         )
         checks.append(
             Check(
                 "noise",
                 False,
                 f"the residuals look {ratio:.2g}× {side} than the stated σ (variance factor {factor:.3g} outside "
-                f"[{lo:.3g}, {hi:.3g}]{allowed}): {advice}",
+                f"[{lo:.3g}, {hi:.3g}]{allowed}); {estimate}, which the standard errors and the predicted accuracy "
+                f"use: {advice}. Not a reason to hold the calibration back",
+                blocking=False,
             )
         )
     checks.append(
@@ -166,7 +181,16 @@ def decide(checks: tuple[Check, ...], *, succeeded: bool, requested: bool, force
     return Acceptance(apply=True, forced=True) if force else Acceptance(apply=False, reason=refused)
 
 
+def noise_estimate(sigma_mm: float, factor: float, dof: int) -> str:
+    """σ as the residuals estimate it (σ·√factor) with its standard error (≈ σ̂/√(2·dof), from χ²/dof's), in
+    words; where the records carried their own σ, the same words are about the scale of those."""
+    if not (math.isfinite(factor) and factor > 0 and dof > 0):
+        return "σ cannot be estimated from these residuals (no redundancy)"
+    sigma = sigma_mm * math.sqrt(factor)
+    return f"σ from the residuals {sigma:.3g} ± {sigma / math.sqrt(2 * dof):.2g} mm (1 σ, {dof} degrees of freedom)"
+
+
 def failed_checks(checks: tuple[Check, ...]) -> str | None:
-    """One reason naming every failed check, or None when all passed."""
-    failed = [c.detail for c in checks if not c.passed]
+    """One reason naming every failed check that blocks applying, or None when none did."""
+    failed = [c.detail for c in checks if not c.passed and c.blocking]
     return "; ".join(failed) if failed else None

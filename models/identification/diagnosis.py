@@ -10,12 +10,18 @@ starting) model in closed form: no iteration, milliseconds for hundreds of poses
 - `REFLECTION`: a mirrored fit is much better than any rotation: a left-handed instrument frame (one axis
   flipped), which no rigid base can represent.
 - `QUATERNION_ORDER`: the orientations fit far better read as `[x, y, z, w]` than as `[w, x, y, z]`.
-- `ORIENTATION_FLIP`: orientation residuals near 180° after registration (a sign or frame convention).
+- `TOOL_ORIENTATION` (not blocking): every record's orientation differs from the model's by one constant
+  rotation on the tool's side (a reflector's or tool frame's orientation far from the description's): the fit
+  starts from the measured one and estimates it.
+- `ORIENTATION_FLIP`: orientation residuals near 180° after registration that no constant tool rotation
+  explains (a sign or frame convention in the instrument's orientation output).
 - `FAR_RECORDS`: single records far off the rest after a robust registration (this record, not the campaign).
 - `TEMPERATURE_TERM`, `LOAD_TERM` (after a fit, `models.identification.terms_check`): the geometric fit
   fails its variance-factor test and its residuals follow the records' temperatures (payloads).
 - `OTHER_PLANE` (after a fit against planes, `models.identification.reference_diagnosis`): the touches of a
   plane that fail it lie on a plane of their own, another face touched under the same name.
+- `JOINT_CONVENTION`: the rigid fit is poor as sent, and near-perfect with one joint's readings negated or
+  shifted by ±90° or 180°: the controller's sign or zero of that joint differs from the description's.
 - `MISMATCH`: no placement of the robot, rigid or scaled or mirrored, comes near the measured positions: the
   joint rows and the measurements do not belong together (shuffled files, another robot's campaign).
 Internal units throughout (mm, rad); the messages state boundary units.
@@ -51,6 +57,10 @@ FIT_QUALITY = 0.05
 """A unit or handedness slip leaves a near-perfect similarity fit (the robot's own error, a few mm in a metre of
 spread); a fit worse than this fraction of the spread means the records do not match at all (another finding)."""
 FLIP_DEG = 150.0
+TOOL_OFFSET_DEG = 10.0
+"""A constant tool-side rotation larger than this is taken from the records as the fit's start…"""
+TOOL_SPREAD_DEG = 5.0
+"""…when every record agrees on it within this (median): the tool frame, not the instrument, is off."""
 FAR_MAD = 8.0
 """A record is far off when its residual exceeds the median by this many robust σ (1.4826 MAD)…"""
 FAR_MIN_MM = 10.0
@@ -66,6 +76,10 @@ class Finding(StrEnum):
     REFLECTION = "reflection"
     QUATERNION_ORDER = "quaternion_order"
     ORIENTATION_FLIP = "orientation_flip"
+    TOOL_ORIENTATION = "tool_orientation"
+    JOINT_CONVENTION = "joint_convention"
+    """One joint's readings fit far better negated or shifted by ±90°/180°: a sign or zero convention."""
+    """Not blocking: the records' orientations differ from the model's by one constant tool-side rotation."""
     FAR_RECORDS = "far_records"
     MISMATCH = "mismatch"
     TEMPERATURE_TERM = "temperature_term"
@@ -85,6 +99,8 @@ class Diagnosis:
     """The records concerned (0-based, campaign order); empty when it is the whole campaign."""
     blocking: bool = True
     """True when no fit can succeed until it is fixed; False for records a robust fit can leave out."""
+    tool_rotation: Array | None = None
+    """TOOL_ORIENTATION: the constant rotation C (3×3) with measured ≈ model · C, tool side."""
 
 
 def _listed(records: list[int]) -> str:
@@ -189,6 +205,18 @@ def check_orientations(
     rotation_fit: Array, model_rotations: Array, quaternions: Array, index: NDArray[np.intp]
 ) -> Diagnosis | None:
     predicted = np.einsum("ij,njk->nik", rotation_fit, model_rotations)
+    # First: a wrong component order or a flipped instrument axis scatters C_i = P_iᵀ M_i; a turned tool does not.
+    tool = _constant_tool_rotation(predicted, quaternion_to_matrix(quaternions))
+    if tool is not None:
+        angle = math.degrees(float(np.arccos(np.clip((np.trace(tool) - 1.0) / 2.0, -1.0, 1.0))))
+        return Diagnosis(
+            Finding.TOOL_ORIENTATION,
+            f"every record's orientation differs from the robot's by the same {angle:.3g}° rotation on the tool's "
+            "side: the tool (reflector) frame's orientation in the description is off; the fit starts from the "
+            "measured orientation and estimates it (correct the tool's orientation in the description to keep it)",
+            blocking=False,
+            tool_rotation=tool,
+        )
     as_given = _angles(quaternion_to_matrix(quaternions), predicted)
     reordered = _angles(quaternion_to_matrix(np.roll(quaternions, 1, axis=1)), predicted)
     # Register the remaining constant offset away (the tool's orientation may be far from nominal): compare the
@@ -207,6 +235,21 @@ def check_orientations(
             "convention in the instrument's orientation output",
             tuple(flipped),
         )
+    return None
+
+
+def _constant_tool_rotation(predicted: Array, measured: Array) -> Array | None:
+    """The rotation C with measured_i ≈ predicted_i · C for every record, when there is one far from identity.
+
+    A tool frame turned in the description (a reflector's nest 90° or 180° about an axis) is such a constant
+    right factor; a flipped instrument axis or wrong records are not (their C_i scatter)."""
+    offsets = np.einsum("nji,njk->nik", predicted, measured)  # C_i = P_iᵀ M_i
+    u, _, vt = np.linalg.svd(offsets.sum(axis=0))
+    mean = u @ np.diag([1.0, 1.0, float(np.linalg.det(u @ vt))]) @ vt  # the chordal mean rotation
+    spread = _angles(offsets, np.broadcast_to(mean, offsets.shape))
+    angle = float(np.arccos(np.clip((np.trace(mean) - 1.0) / 2.0, -1.0, 1.0)))
+    if angle > math.radians(TOOL_OFFSET_DEG) and float(np.median(spread)) < math.radians(TOOL_SPREAD_DEG):
+        return np.asarray(mean, dtype=float)
     return None
 
 
@@ -237,6 +280,51 @@ def check_far_records(model: Array, measured: Array, index: NDArray[np.intp]) ->
         + "; check these records (joint row, point name) — the rest of the campaign agrees",
         tuple(int(index[k]) for k in worst),
         blocking=False,
+    )
+
+
+CONVENTION_SHIFTS_DEG = (180.0, 90.0, -90.0)
+CONVENTION_GAIN = 0.2
+"""A convention is named when it brings the rigid fit's median residual below this fraction of the fit as sent
+(and to a fit as good as a unit slip's, `FIT_QUALITY`)."""
+
+
+def check_joint_convention(
+    desc: RobotDescription,
+    joints: Array,
+    measured: Array,
+    params: Array,
+    *,
+    typical: float,
+    runtime: Runtime | None,
+) -> Diagnosis | None:
+    """The one joint whose readings, negated or shifted by ±90°/180°, make the rigid fit near-perfect."""
+    best: tuple[float, str] | None = None
+    for j, kind in enumerate(desc.joint_kinds):
+        if kind is not Kind.ANGLE:
+            continue
+        variants = [("negated", -joints[:, j])] + [
+            (f"shifted by {shift:+.0f}°", joints[:, j] + math.radians(shift)) for shift in CONVENTION_SHIFTS_DEG
+        ]
+        for label, column in variants:
+            trial = joints.copy()
+            trial[:, j] = column
+            try:
+                fk = forward_kinematics(desc, trial, params, check_ranges=False, runtime=runtime)
+            except CalibrationError:
+                continue
+            fit = _similarity(fk.positions, measured, allow_reflection=False, with_scale=False)
+            residual = np.linalg.norm(fk.positions @ fit.rotation.T + fit.translation - measured, axis=1)
+            median = float(np.median(residual))
+            if best is None or median < best[0]:
+                best = (median, f"joint {desc.joint_names[j]} {label}")
+    if best is None or best[0] > CONVENTION_GAIN * typical or best[0] > FIT_QUALITY * _spread(measured):
+        return None
+    return Diagnosis(
+        Finding.JOINT_CONVENTION,
+        f"the measured positions fit the robot with {best[1]} ({best[0]:.3g} mm median) far better than as sent "
+        f"({typical:.4g} mm): the controller's sign or zero of that joint differs from the description's; "
+        "convert the readings (or the description's joint offset and direction) before calibrating",
     )
 
 
@@ -289,6 +377,10 @@ def diagnose(
     # The median residual, not the RMS: a few far records must not hide what the rest says.
     residual = np.linalg.norm(model @ rigid.rotation.T + rigid.translation - measured, axis=1)
     typical = float(np.median(residual))
+    if typical > FIT_QUALITY * _spread(measured):
+        convention = check_joint_convention(desc, joints[usable], measured, params, typical=typical, runtime=runtime)
+        if convention is not None:
+            return (convention,)
     if typical > MISMATCH_SHARE * _spread(measured):
         return (
             Diagnosis(

@@ -31,11 +31,14 @@ from models.errors import (
     UnreachablePose,
 )
 from models.identifiability import (
+    REGAINED_RTOL,
     Identifiability,
     analyse_identifiability,
     condition_support,
     minimum_poses,
+    numerical_rank,
     scaled_jacobian,
+    structural_identifiability_at,
     structural_support,
     without_unsupported,
 )
@@ -55,14 +58,21 @@ from models.identification.result import (
     SolverReport,
     Status,
 )
-from models.identification.solver import solver_pool
+from models.identification.solver import IpoptRun, SolverPool, solver_pool
 from models.identification.statistics import Covariance, PoseErrors, correlated_pairs, covariance, outlier_threshold
 from models.identification.terms_check import missing_term_diagnoses
+from models.identification.trust_region import (
+    UNOBSERVABLE_SIGMA,
+    describe_unobservable,
+    on_observable_directions,
+    trust_region_finish,
+)
 from models.kinematics import forward_kinematics
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
+from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 
 INCONSISTENT_SIGMA = 100.0
 MAX_EXCLUDED_SHARE = 0.2
@@ -113,6 +123,7 @@ def identify(
     if blocking:
         return _not_fitted(desc, campaign, theta_nom, found, blocking, started=started, rt=rt, strict=strict)
     notes += [d.message for d in found]
+    theta_nom_used = _with_measured_tool_rotation(desc, theta_nom, found, candidates)
     # Records far off all the others (a wrong row, another point's name) would drag least squares to where the
     # hexapod does not assemble before any outlier test could see them: left out from the start, and reported.
     far = [r for d in found if d.finding is Finding.FAR_RECORDS for r in d.records]
@@ -121,7 +132,7 @@ def identify(
 
     # 1. the instrument frame, in closed form
     theta_start, seeds = _registered_start(
-        desc, campaign, theta_nom=theta_nom, candidates=candidates, notes=notes, rt=rt, active=active
+        desc, campaign, theta_nom=theta_nom_used, candidates=candidates, notes=notes, rt=rt, active=active
     )
     # 2. what these data can identify, at the start
     start = forward_kinematics(
@@ -151,7 +162,9 @@ def identify(
         platforms=start.platforms.copy(),
         prior=options.prior,
     )
-    problem, final, solver, outliers = _solve(problem, options, notes)
+    problem, final, solver, outliers, ident = _regained(
+        _solve(problem, options, notes), ident=ident, candidates=candidates, options=options, notes=notes
+    )
     if drop_far and final is not None:
         outliers = _far_outliers(problem, far, final.theta, options) + outliers
     # 4. what the fit says about itself (nothing, where the model is undefined at the solution)
@@ -166,12 +179,13 @@ def identify(
         found = found + missing_term_diagnoses(problem, final)
         notes += [d.message for d in found if d.finding in (Finding.TEMPERATURE_TERM, Finding.LOAD_TERM)]
     reason: str | None
-    if estimate is None:
+    if estimate is None or final is None:
         before = pose_errors(desc, campaign, theta_start, None, runtime=rt)
         status, reason, notes = Status.FAILED, UNDEFINED_MODEL, []
     else:
         before = pose_errors(desc, campaign, theta_start, start.platforms, runtime=rt)
-        status, reason = _verdict(solver, estimate.cov, notes)
+        unobservable, hold = describe_unobservable(final.jacobian, tuple(table.names[i] for i in problem.free))
+        status, reason = _verdict(solver, estimate.cov, notes, unobservable=unobservable, hold=hold)
     result = make_result(
         table,
         campaign,
@@ -254,6 +268,21 @@ def _registered_start(
     return theta_nom, fk.platforms
 
 
+def _with_measured_tool_rotation(
+    desc: RobotDescription, theta: Array, found: tuple[Diagnosis, ...], candidates: tuple[int, ...]
+) -> Array:
+    """`theta` with the tool's rotation the records show (a TOOL_ORIENTATION finding), where the fit estimates
+    the tool's rotation: started 90° or 180° off, the fit would end in another minimum or stop."""
+    tool = desc.slices["tool"]
+    rotation = list(range(tool.start + 3, tool.stop))
+    measured = next((d.tool_rotation for d in found if d.tool_rotation is not None), None)
+    if measured is None or not set(rotation) <= set(candidates):
+        return theta
+    out = theta.copy()
+    out[rotation] = matrix_to_rotvec_np(rotvec_to_matrix_np(theta[rotation]) @ measured)
+    return out
+
+
 def _with_prior(scaled: Array, table: ParameterTable, options: IdentificationOptions) -> Array:
     """The data's scaled rows, with a prior's rows beneath: what data and prior together determine."""
     if options.prior is None:
@@ -273,18 +302,22 @@ def _identifiable(
     """The structural subset if these data determine it; otherwise the data's own (smaller) subset."""
     support = structural_support(desc, scaled, candidates, campaign.kind, runtime=rt)
     full = analyse_identifiability(scaled, desc.parameters, candidates)
-    if support.supported:
-        structural = support.structural
-        full = replace(
-            full,
-            identifiable=structural.identifiable,
-            unidentifiable=structural.unidentifiable,
-            confounding=structural.confounding,
-        )
-    else:
+    structural = support.structural
+    # The structure's subset even where these poses do not determine all of it: dropping the columns a
+    # pivoted QR finds weakest in one campaign drops what it does see (measured: 40 records on a straight line
+    # kept 22 of 26 and lost the tool's offset, 2.7x the held-out error of a fit of every parameter). The
+    # directions the campaign cannot see are left where they start by the solver and named after the fit.
+    full = replace(
+        full,
+        identifiable=structural.identifiable,
+        unidentifiable=structural.unidentifiable,
+        confounding=structural.confounding,
+    )
+    if not support.supported:
         notes.append(
             f"these poses determine only {support.data_rank} of the {support.structural.rank} parameters rich "
-            "data would: the weakest directions stay at their nominal values (measure more varied poses)"
+            "data would: the directions they cannot see stay at their start values, and predictions along them "
+            "are extrapolation (measure more varied poses)"
         )
     unsupported = {i: m for i, m in condition_support(desc, campaign.conditions).items() if i in candidates}
     full = without_unsupported(full, unsupported)
@@ -307,7 +340,7 @@ def _solve(
     pool = solver_pool(problem.runtime)
     lower, upper = solver_bounds(problem, options)
     z0 = np.clip(np.zeros(problem.n_free), lower, upper)
-    runs = [pool.solve(problem, z0, lower, upper, options.max_iterations)]
+    runs = [_run(pool, problem, z0, lower, upper, max_iter=options.max_iterations)]
     evaluations = 0  # of the problems already left behind
     first = problem.evaluate(runs[0].z)
     robust = options.robust
@@ -322,7 +355,7 @@ def _solve(
         robust_problem = replace(
             problem, loss=Loss(RobustLoss.SOFT_L1, options.robust_scale), _last=None, evaluations=0
         )
-        robust_run = pool.solve(robust_problem, runs[0].z, lower, upper, options.max_iterations)
+        robust_run = _run(pool, robust_problem, runs[0].z, lower, upper, max_iter=options.max_iterations)
         found, dropped = find_outliers(robust_problem, robust_run.z, options, exclude=exclude)
         if robust_run.success and dropped.size <= MAX_EXCLUDED_SHARE * problem.campaign.size:
             evaluations += problem.evaluations
@@ -350,11 +383,16 @@ def _solve(
         evaluations += problem.evaluations
         keep = np.setdiff1d(problem.active_poses, excluded)
         problem = replace(problem, loss=Loss(), active=keep, _last=None, evaluations=0)
-        runs.append(pool.solve(problem, runs[-1].z, lower, upper, options.max_iterations))
-    polished, polish_steps = polish(problem, runs[-1].z, lower, upper)
+        runs.append(_run(pool, problem, runs[-1].z, lower, upper, max_iter=options.max_iterations))
+    if runs[-1].status.startswith(FINISHED_BY):
+        # The finish already tested the decrement on the observable directions; the polish's normal equations
+        # would square a condition number of ~1e9 and step along directions the campaign cannot see.
+        polished, polish_steps = runs[-1].z, 0
+    else:
+        polished, polish_steps = polish(problem, runs[-1].z, lower, upper)
     final = problem.evaluate(polished)
     solver = SolverReport(
-        name="ipopt",
+        name="ipopt+trust-region" if any(r.status.startswith(FINISHED_BY) for r in runs) else "ipopt",
         status=runs[-1].status,
         success=all(r.success for r in runs),
         iterations=sum(r.iterations for r in runs),
@@ -364,6 +402,114 @@ def _solve(
         polish_steps=polish_steps,
     )
     return problem, final, solver, outliers
+
+
+def _run(
+    pool: SolverPool, problem: CampaignProblem, z0: Array, lower: Array, upper: Array, *, max_iter: int
+) -> IpoptRun:
+    """IPOPT; where it stops short (its iteration limit, a stalled line search), a trust-region least-squares
+    finish from its end point (`trust_region.py`: at a Jacobian condition of ~1e9 the Gauss–Newton Hessian IPOPT
+    solves with is at ~1e18, past double precision; factoring the Jacobian itself is not). The run reports
+    both: the status names IPOPT's end and the finish's."""
+    run = pool.solve(problem, z0, lower, upper, max_iter)
+    if run.success:
+        # IPOPT too drifts along the directions the records do not see (a small region's campaign): put back.
+        z = on_observable_directions(problem, run.z)
+        return run if z is run.z else replace(run, z=z, objective=_objective(problem, z, run.objective))
+    finish = trust_region_finish(problem, run.z, lower, upper)
+    return IpoptRun(
+        z=finish.z if finish.success else run.z,
+        status=f"{FINISHED_BY}{finish.status} (IPOPT: {run.status})",
+        success=finish.success,
+        iterations=run.iterations + finish.iterations,
+        seconds=run.seconds + finish.seconds,
+        objective=finish.objective if finish.success else run.objective,
+    )
+
+
+FINISHED_BY = "trust-region finish: "
+
+
+def _objective(problem: CampaignProblem, z: Array, otherwise: float) -> float:
+    ev = problem.evaluate(z)
+    return otherwise if ev is None else ev.objective
+
+
+def _regained(
+    fit: tuple[CampaignProblem, Evaluation | None, SolverReport, tuple[Outlier, ...]],
+    *,
+    ident: Identifiability,
+    candidates: tuple[int, ...],
+    options: IdentificationOptions,
+    notes: list[str],
+) -> tuple[CampaignProblem, Evaluation | None, SolverReport, tuple[Outlier, ...], Identifiability]:
+    """The structure's subset chosen again at the fitted geometry, and the fit repeated from the solution with
+    it, when that geometry makes more parameters identifiable than the nominal one did.
+
+    Measured (ROS-Industrial's IRB 2400 URDF, `tool0` on joint 6's axis, the reflector 50 mm off it, 40 position
+    records, σ 30 µm): 25 parameters at the nominal geometry, 27 at the fitted one; the 25-parameter fit leaves
+    joint 6's offset and twist at nominal and 2-3× the held-out error of the 27-parameter one."""
+    problem, final, solver, outliers = fit
+    if final is None or options.prior is not None:  # with a prior, data and prior decide (see _identifiable)
+        return problem, final, solver, outliers, ident
+    desc = problem.desc
+    if desc.term_index:
+        # The terms' parameters are identifiable by the conditions the records span, which the structural
+        # analysis at rich conditions does not see (`_identifiable`'s `without_unsupported`).
+        return problem, final, solver, outliers, ident
+    try:
+        again = structural_identifiability_at(
+            desc, final.theta, candidates, problem.campaign.kind, runtime=problem.runtime
+        )
+    except CalibrationError:  # a workspace sample the fitted hexapod does not assemble: keep the nominal subset
+        return problem, final, solver, outliers, ident
+    gained = sorted(set(again.identifiable) - set(ident.identifiable))
+    if again.rank <= ident.rank or not gained:
+        return problem, final, solver, outliers, ident
+    # Only where these records see the larger subset too: a campaign of a small region (a line) leaves its
+    # unobservable directions wherever the solver did, and a geometry fitted there is no better guide.
+    campaign = problem.campaign.subset(problem.active_poses)  # without the records left out as outliers
+    try:
+        seen = forward_kinematics(
+            desc,
+            campaign.joints,
+            final.theta,
+            jacobian=True,
+            check_ranges=False,
+            runtime=problem.runtime,
+            conditions=campaign.conditions,
+        )
+    except CalibrationError:  # a record the fitted model cannot place (a blunder's hexapod pose): no regain
+        return problem, final, solver, outliers, ident
+    scaled = scaled_jacobian(seen.jacobians, desc.parameters, problem.noise, kind=campaign.kind)
+    if numerical_rank(scaled, again.identifiable, rtol=REGAINED_RTOL) < again.rank:
+        return problem, final, solver, outliers, ident
+    notes.append(
+        f"at the fitted geometry {again.rank} parameters are identifiable (at the nominal one: {ident.rank}, which "
+        "is special: a tool on the last joint's axis, exactly parallel or intersecting axes): fitted again with the "
+        f"subset chosen there ({', '.join(desc.parameters.names[i] for i in gained)} joined)"
+    )
+    regained = replace(
+        ident,
+        identifiable=again.identifiable,
+        unidentifiable=again.unidentifiable,
+        confounding=again.confounding,
+        rank=ident.rank + again.rank - len(ident.identifiable),
+    )
+    start = final.theta
+    refit = replace(problem, theta_start=start, free=np.array(again.identifiable), _last=None, evaluations=0)
+    refit.__post_init__()
+    problem2, final2, solver2, outliers2 = _solve(refit, options, notes)
+    if final2 is None:
+        return problem, final, solver, outliers, ident
+    total = replace(
+        solver2,
+        iterations=solver.iterations + solver2.iterations,
+        seconds=solver.seconds + solver2.seconds,
+        evaluations=solver.evaluations + solver2.evaluations,
+        success=solver.success and solver2.success,
+    )
+    return problem2, final2, total, outliers2, regained
 
 
 def _far_outliers(
@@ -431,15 +577,49 @@ def _estimate(
             f"at the solution {recheck.rank} parameters are identifiable (at the start: {ident.rank}); "
             "the estimate used the starting subset"
         )
-    accuracy = predicted_accuracy(desc, ev.theta, free, cov_theta, options.workspace_samples, runtime=rt)
+    accuracy = predicted_accuracy(
+        desc,
+        ev.theta,
+        free,
+        cov_theta,
+        options.workspace_samples,
+        runtime=rt,
+        measured=campaign.joints,
+        observable_cov_theta=None
+        if prior_rows is not None
+        else observable_covariance(ev, cov) * np.outer(scales, scales),
+    )
+    if accuracy.extrapolation is not None:
+        notes.append(accuracy.extrapolation)
     rechecked = recheck.rank == ident.rank
     return Estimate(ev.theta, free, cov, cov_theta, ident, rechecked, ResidualSummary.of(after), accuracy)
 
 
-def _verdict(solver: SolverReport, cov: Covariance, notes: list[str]) -> tuple[Status, str | None]:
+def observable_covariance(ev: Evaluation, cov: Covariance) -> Array:
+    """The a-posteriori covariance (z units) restricted to the directions the records observe
+    (`trust_region.UNOBSERVABLE_SIGMA`); equal to `cov.z` when every direction is observable."""
+    _, sv, vt = np.linalg.svd(ev.jacobian, full_matrices=False)
+    seen = sv > UNOBSERVABLE_SIGMA
+    factor = cov.variance_factor if np.isfinite(cov.variance_factor) else 1.0
+    return np.asarray(factor * (vt[seen].T / sv[seen] ** 2) @ vt[seen], dtype=float)
+
+
+def _verdict(
+    solver: SolverReport, cov: Covariance, notes: list[str], *, unobservable: str = "", hold: tuple[str, ...] = ()
+) -> tuple[Status, str | None]:
     rms_sigma = math.sqrt(cov.variance_factor) if np.isfinite(cov.variance_factor) else float("nan")
     if not solver.success:
-        return Status.FAILED, f"IPOPT did not converge: {solver.status}"
+        cause = (
+            f" {unobservable}. Hold {', '.join(hold)} (leave them out of `estimate`) or measure poses that move "
+            "them (other orientations, a wider region)"
+            if unobservable
+            else ""
+        )
+        return Status.FAILED, f"IPOPT did not converge: {solver.status}.{cause}"
+    if unobservable:
+        notes.append(
+            f"{unobservable}: they stay near their start values, and predictions that depend on them are extrapolation"
+        )
     if rms_sigma > INCONSISTENT_SIGMA:
         return Status.FAILED, (
             f"after the fit the residuals are still {rms_sigma:.0f} σ (RMS): these measurements cannot come from "

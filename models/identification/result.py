@@ -103,6 +103,11 @@ class PredictedAccuracy:
     rms_orientation_rad: float
     max_orientation_rad: float
     poses: int
+    region_rms_position_mm: float = float("nan")
+    """The same prediction at the campaign's own poses: what the calibration promises where it was measured."""
+    region_max_position_mm: float = float("nan")
+    extrapolation: str | None = None
+    """Why the workspace-wide figures are extrapolation (None when they agree with the measured region's)."""
 
     @staticmethod
     def undefined() -> PredictedAccuracy:

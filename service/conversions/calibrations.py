@@ -177,6 +177,9 @@ def report_out(
                 "rms_orientation_deg": rms_orientation_deg,
                 "max_orientation_deg": max_orientation_deg,
                 "workspace_poses": accuracy.poses,
+                "measured_region_rms_position_mm": accuracy.region_rms_position_mm,
+                "measured_region_max_position_mm": accuracy.region_max_position_mm,
+                "extrapolation": accuracy.extrapolation,
             },
             "measurement": result.kind.value,
             "measurements": result.measurements,
@@ -184,7 +187,9 @@ def report_out(
             "notes": list(result.notes),
             "start_version": start_version,
             "diagnoses": diagnoses_out(result),
-            "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail} for c in checks],
+            "checks": [
+                {"name": c.name, "passed": c.passed, "detail": c.detail, "blocks_apply": c.blocking} for c in checks
+            ],
             "correlation": _correlation(result),
             "noise": None
             if noise is None

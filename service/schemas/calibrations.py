@@ -253,6 +253,17 @@ class PredictedAccuracyPublic(Public):
     rms_orientation_deg: OptionalFloat
     max_orientation_deg: OptionalFloat
     workspace_poses: int
+    measured_region_rms_position_mm: OptionalFloat = Field(
+        default=None,
+        description="The same 1-σ prediction at the campaign's own poses: what the calibration promises where it "
+        "was measured (null for calibrations stored before it was reported)",
+    )
+    measured_region_max_position_mm: OptionalFloat = None
+    extrapolation: str | None = Field(
+        default=None,
+        description="Set when the workspace-wide figures exceed the measured region's by more than 3×: why, and "
+        "where was measured; poses away from that region are extrapolation",
+    )
 
 
 class DiagnosisPublic(Public):
@@ -267,9 +278,13 @@ class DiagnosisPublic(Public):
         "temperature_term",
         "load_term",
         "other_plane",
+        "tool_orientation",
+        "joint_convention",
     ] = Field(
         description="temperature_term / load_term: after a fit, the residuals follow the records' conditions; "
-        "other_plane: some touches of a plane lie on another face"
+        "other_plane: some touches of a plane lie on another face; tool_orientation (not blocking): the records' "
+        "orientations differ from the robot's by one constant tool-side rotation, which the fit starts from; "
+        "joint_convention: one joint's readings fit negated or shifted by ±90°/180° (a sign or zero convention)"
     )
     message: str
     records: list[int] = Field(description="The records concerned (0-based); empty: the whole campaign")
@@ -280,6 +295,11 @@ class CheckPublic(Public):
     name: Literal["fit", "noise", "identifiable", "residuals", "accuracy"]
     passed: bool
     detail: str
+    blocks_apply: bool = Field(
+        default=True,
+        description="Whether failing this check keeps the calibration from being applied; the noise check never "
+        "does (a stated σ the residuals contradict is reported, with σ estimated from them, and the result applied)",
+    )
 
 
 class NoisePublic(Public):

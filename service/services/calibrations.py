@@ -195,6 +195,7 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
         sigma_mm=body.noise.position_mm,
         held_accuracy_mm=start.accuracy_mm if partial else None,
         start_dof=start.dof,
+        sigma_stated=_sigma_stated(body),
     )
     decision = decide(checks, succeeded=result.succeeded, requested=body.apply, force=body.force_apply)
     report = report_out(
@@ -209,6 +210,14 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     )
     fleet = comparison_out(start.fleet, start.robot_id, start.own_nominal, result, prior_used=options.prior is not None)
     return _Fit(result, decision, report.model_copy(update={"fleet": fleet}))
+
+
+def _sigma_stated(body: CalibrationCreate) -> bool:
+    """Whether the request states the instrument's σ: its `noise`, or a `sigma_mm` on any record (a tracker
+    file's U95 / 2). Otherwise the default σ is a placeholder and σ is what the residuals say."""
+    if "noise" in body.model_fields_set:
+        return True
+    return any(getattr(m, "sigma_mm", None) is not None for m in body.measurements)
 
 
 def _tracker_fit(

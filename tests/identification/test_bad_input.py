@@ -15,7 +15,7 @@ from models.errors import (
     TooFewMeasurements,
     UnknownParameter,
 )
-from models.identification import IdentificationOptions, identify, minimum_poses
+from models.identification import IdentificationOptions, identify, minimum_poses, trust_region
 from models.simulation import measure, perturbed_robot
 
 
@@ -84,7 +84,18 @@ def test_bounds_hold(desc: RobotDescription, campaign: Campaign) -> None:
     assert lo - 1e-7 <= bounded.parameters[i] <= hi + 1e-7
 
 
-def test_solver_failure_gives_a_failed_result(desc: RobotDescription, campaign: Campaign) -> None:
+def test_solver_failure_gives_a_failed_result(
+    desc: RobotDescription, campaign: Campaign, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # IPOPT stopped at its limit is finished by the trust region, to the same optimum as without the limit.
+    limited = identify(desc, campaign, options=IdentificationOptions(max_iterations=1))
+    full = identify(desc, campaign)
+    assert limited.succeeded and limited.solver.name == "ipopt+trust-region"
+    assert "Maximum_Iterations_Exceeded" in limited.solver.status
+    assert limited.residuals_after.rms_mm == pytest.approx(full.residuals_after.rms_mm, rel=1e-6)
+    # Where the finish cannot close it either, the result fails and says so.
+    monkeypatch.setattr(trust_region, "MAX_EVALUATIONS", 1)
+    monkeypatch.setattr(trust_region, "CONVERGED_DECREMENT", 0.0)
     result = identify(desc, campaign, options=IdentificationOptions(max_iterations=1))
     assert result.status == "failed"
     assert result.reason is not None and "IPOPT did not converge" in result.reason
