@@ -8,8 +8,6 @@ two directions the records see unfitted: 2-3x the held-out error of a UR5 at the
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -20,8 +18,8 @@ from models.measurement import MeasurementKind
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from models.structure import description_from_document
 from models.urdf import document_from_urdf
+from tests.irb2400 import IRB2400_URDF
 
-URDF = Path(__file__).parent / "data" / "irb2400.urdf"
 NOISE = NoiseModel(position_mm=0.03)
 REFLECTOR_OFF_AXIS_MM = (40.0, -30.0, 10.0)
 """Where the reflector really is, from tool0 (the description says: at tool0)."""
@@ -34,7 +32,7 @@ def _rms(a: np.ndarray, b: np.ndarray) -> float:
 @pytest.mark.slow  # ~2 s: three campaigns
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_the_subset_is_chosen_again_at_the_fitted_geometry(seed: int) -> None:
-    desc = description_from_document(document_from_urdf(URDF.read_text(), "base_link", "tool0"), name="irb2400")
+    desc = description_from_document(document_from_urdf(IRB2400_URDF, "base_link", "tool0"), name="irb2400")
     groups = desc.parameters.indices(("base", "links", "tool"))
     assert structural_identifiability(desc, groups, MeasurementKind.POSITION).rank == 25
     sim = perturbed_robot(desc, seed=seed)
