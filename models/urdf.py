@@ -68,6 +68,12 @@ class UrdfSource:
 
 def urdf_chain(urdf: str, base_link: str, tip_link: str) -> list[Any]:
     """The URDF's joints (yourdfpy's) from `base_link` to `tip_link`, checked (`models.urdf_tree`)."""
+    return _chain(load_urdf(urdf), base_link, tip_link)
+
+
+def load_urdf(urdf: str) -> Any:
+    """yourdfpy's robot of a URDF text (links, joints, collision shapes), without its meshes or scene graphs:
+    checked for size and refused as xacro first, and anything yourdfpy cannot read an `InvalidInput`."""
     import yourdfpy  # a heavy import (trimesh), needed only by URDF requests
 
     check_size(urdf)
@@ -82,7 +88,7 @@ def urdf_chain(urdf: str, base_link: str, tip_link: str) -> list[Any]:
         )
     except Exception as exc:  # yourdfpy raises lxml's and its own errors alike: all mean "not a URDF"
         raise InvalidInput(f"not a readable URDF: {exc}", field="urdf") from exc
-    return _chain(model.robot, base_link, tip_link)
+    return model.robot
 
 
 XACRO_MARKS = ("xmlns:xacro", "<xacro:")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 from typing import Any
 
 import numpy as np
@@ -12,7 +11,7 @@ from models.cell.frames import frame_layout, stage_frames
 from models.cell.geometry import TOOL_RADIUS, Attached, LinkShape, RobotGeometry, Segment
 from models.cell.shapes import Box, Cylinder, Shape, Sphere
 from models.robot import RobotDescription
-from models.urdf import origin_mm, urdf_chain
+from models.urdf import load_urdf, origin_mm, urdf_chain
 
 MM_PER_M = 1000.0
 
@@ -70,16 +69,7 @@ def urdf_geometry(desc: RobotDescription, urdf: str, base_link: str, tip_link: s
 
 
 def _links_by_name(urdf: str) -> dict[str, Any]:
-    import yourdfpy  # noqa: PLC0415  (a heavy import, trimesh: needed only with a URDF)
-
-    model = yourdfpy.URDF.load(
-        io.BytesIO(urdf.encode()),
-        build_scene_graph=False,
-        build_collision_scene_graph=False,
-        load_meshes=False,
-        load_collision_meshes=False,
-    )
-    return {link.name: link for link in model.robot.links}
+    return {link.name: link for link in load_urdf(urdf).links}
 
 
 def _rows(m: Array) -> tuple[tuple[float, ...], ...]:

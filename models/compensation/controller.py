@@ -16,7 +16,6 @@ KUKA and ABB, a half turn about z for a UR's `base_link`), that `base`.
 
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any
@@ -25,8 +24,7 @@ import numpy as np
 
 from models._types import Array
 from models.transforms import quaternion_to_matrix
-from models.urdf import MM_PER_M, document_from_urdf
-from models.urdf_tree import check_size
+from models.urdf import MM_PER_M, document_from_urdf, load_urdf
 
 ROS_INDUSTRIAL_BASE = "base"
 """ROS-Industrial's name for the link that is the controller's base frame, a fixed child of base_link (REP-I0005
@@ -60,17 +58,7 @@ def _pose(doc: dict[str, Any]) -> Array:
 
 def _ros_industrial_base(urdf: str, base_link: str) -> Array | None:
     """base_link <- `base` (mm) where the URDF has a fixed joint from base_link to a link named `base`."""
-    import yourdfpy  # noqa: PLC0415  (heavy: trimesh; only URDF robots come here, as in models.urdf)
-
-    check_size(urdf)
-    model = yourdfpy.URDF.load(
-        io.BytesIO(urdf.encode()),
-        build_scene_graph=False,
-        build_collision_scene_graph=False,
-        load_meshes=False,
-        load_collision_meshes=False,
-    )
-    for joint in model.robot.joints:
+    for joint in load_urdf(urdf).joints:
         if joint.parent == base_link and joint.child == ROS_INDUSTRIAL_BASE and joint.type == "fixed":
             t = np.eye(4) if joint.origin is None else np.array(joint.origin, dtype=float)
             t[:3, 3] *= MM_PER_M
