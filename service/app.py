@@ -175,7 +175,10 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         runner = make_runner(settings, db, models, runtimes)
         app.state.db, app.state.models, app.state.registry, app.state.jobs = db, models, runtimes, runner
         # Processes build their own registries from the settings; without processes the app's serves the threads.
-        compute = ComputePool(db, models, runtimes, settings, slots=limits.SYNC_COMPUTE_SLOTS)
+        # Each computation may grow its process by the memory cap of any job at most (service.compute's watchdog).
+        compute = ComputePool(
+            db, models, runtimes, settings, slots=limits.SYNC_COMPUTE_SLOTS, memory_bytes=limits.JOB_MEMORY_BYTES
+        )
         await compute.start()
         app.state.compute = compute
         # New structures build in the background (service.builds): in the app's registry when requests compute
