@@ -377,6 +377,10 @@ class Requeuing:
     def recover(self) -> int:
         return 0
 
+    def unreachable(self) -> str | None:
+        """What of the engine's own dependencies does not answer (None: all answer); for `/readyz`."""
+        return None
+
     def shutdown(self) -> None:
         self._stop.set()
 
