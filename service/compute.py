@@ -27,9 +27,11 @@ and numpy's small calls hand it back rarely. Measured with threads (benchmarks/b
 - A ceiling while the work runs, whatever its estimate said (issue 48: a one-line program admitted at cost 0
   took 20 s and 3.4 GB in one process): a watchdog thread of the API process reads each busy lane's resident
   memory every `WATCH_S` and ends the process past `memory_bytes` above its idle size (422 work-too-large,
-  naming the ceiling and the size reached); and a computation told to stop (its deadline, or its client left)
-  that is still running `KILL_GRACE_S` later, inside code with no cancellation point (a parse), has its process
-  ended too (503). A structure's first build is exempt from the time kill, as from the deadline
+  naming the ceiling and the size reached); and a computation told to stop that is still running `KILL_GRACE_S`
+  later, inside code with no cancellation point (a parse), has its process ended too (503): at once when its
+  client left (nobody waits for it), and past its deadline only once it has also used the deadline's seconds of
+  CPU, so that a machine busy with other work (a report taking 7 s of wall time for 2 s of CPU at load 9) slows a
+  computation down without failing it. A structure's first build is exempt from the time kill, as from the deadline
   (models.cancellation): the process publishes its builds in shared memory. The parse process has the same
   memory ceiling; its time bound is the parse deadline.
 """
@@ -119,6 +121,8 @@ class _Process:
     models: ModelCache
     registry: Registry
     flags: Any  # multiprocessing shared array of bytes, one per slot
+    lanes: Any = None  # the shared array of integers the watchdog reads (`_LANE_FIELDS` per lane)
+    lane: int = 0
 
     def supplied(self) -> dict[str, Any]:
         return {"db": self.db, "models": self.models, "registry": self.registry}
@@ -128,21 +132,27 @@ _process: _Process | None = None
 """Set once per compute process by `start_process`."""
 
 
-def start_process(settings: Settings, flags: Any, parent: int, builds: Any = None, lane: int = 0) -> None:
+_LANE_FIELDS = 3
+"""What a compute process publishes for the watchdog, at [_LANE_FIELDS * lane + i]: i = 0 the structure builds
+it started, 1 those running now, 2 the slot whose computation it runs now, plus one (0: none; a slot may wait in
+the lane's queue behind another, and only the one running may be ended for what its process does)."""
+
+
+def start_process(settings: Settings, flags: Any, parent: int, lanes: Any = None, lane: int = 0) -> None:
     global _process  # noqa: PLW0603  (an initializer can leave its state only in the process's module)
     watch_parent(parent)
     _lower_priority()
-    if builds is not None:
-        # Published for the parent's watchdog: [2 * lane] builds started, [2 * lane + 1] builds running.
+    if lanes is not None:
+
         def publish(started: int, running: int) -> None:
-            builds[2 * lane], builds[2 * lane + 1] = started, running
+            lanes[_LANE_FIELDS * lane], lanes[_LANE_FIELDS * lane + 1] = started, running
 
         on_builds(publish)
     started = time.perf_counter()
     registry = build_registry(settings)  # the API's own factory: the same structures warmed, once per process
     log.info("compute process %d: models built in %.2f s", os.getpid(), time.perf_counter() - started)
     db = Database(settings.database_url)
-    _process = _Process(db, ModelCache(db), registry, flags)
+    _process = _Process(db, ModelCache(db), registry, flags, lanes, lane)
 
 
 def start_parser(parent: int) -> None:
@@ -179,12 +189,17 @@ def _in_process(task: Task, slot: int, request_id: str | None) -> Any:
     if state is None:
         raise RuntimeError("a compute task outside a compute process")  # a bug here, never the client's
     token = None if slot < 0 else exempt_builds(lambda: _REASONS[state.flags[slot]])
+    if state.lanes is not None:
+        state.lanes[_LANE_FIELDS * state.lane + 2] = slot + 1
     try:
         return _call(task, state.supplied(), token, request_id)
     except Exception as exc:
         if not hasattr(exc, "detail"):  # not a service or domain error: the API process logs it as a 500 too
             log.exception("compute task failed", extra={"request_id": request_id})
         return _Raised.of(exc)
+    finally:
+        if state.lanes is not None:
+            state.lanes[_LANE_FIELDS * state.lane + 2] = 0
 
 
 def resident_bytes(pid: int) -> int | None:
@@ -197,18 +212,32 @@ def resident_bytes(pid: int) -> int | None:
 
 
 _PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
+_TICKS = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+
+
+def cpu_seconds(pid: int) -> float | None:
+    """The CPU time (user and system) process `pid` has used (None when it is gone, or where /proc is not)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as stat:
+            fields = stat.read().rsplit(b")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / _TICKS  # utime, stime: fields 14 and 15 of stat(5)
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 @dataclass
 class _Running:
     """One computation in a lane, as the watchdog sees it."""
 
+    slot: int
     lane: int
     pid: int | None
     limit_rss: int | None  # the resident size at which its process is ended (None: no memory ceiling)
     builds: int  # the lane's builds started when it was submitted
     started: float = field(default_factory=time.monotonic)
     stop_since: float | None = None  # when it was told to stop (deadline, client gone)
+    stop_flag: int = 0  # 1 its client left, 2 its deadline passed (the slot's shared byte)
+    cpu_start: float | None = None  # its process's CPU seconds when the watchdog first saw it running
     peak: int = 0
     killed: str | None = None  # "memory" or "time" once the watchdog ended its process
 
@@ -234,7 +263,7 @@ class ComputePool:
         self._context = multiprocessing.get_context("spawn")
         self.flags = self._context.Array("b", max(slots, 1), lock=False)
         lanes = max(self.processes, 1)
-        self._builds = self._context.Array("i", 2 * lanes, lock=False)
+        self._shared = self._context.Array("i", _LANE_FIELDS * lanes, lock=False)
         self._lanes: list[ProcessPoolExecutor | None] = [None] * lanes
         self._idle_rss: list[int | None] = [None] * lanes
         self._free = list(range(max(slots, 1)))
@@ -253,7 +282,7 @@ class ComputePool:
                     max_workers=1,
                     mp_context=self._context,
                     initializer=start_process,
-                    initargs=(self.settings, self.flags, os.getpid(), self._builds, lane),
+                    initargs=(self.settings, self.flags, os.getpid(), self._shared, lane),
                 )
             return executor
 
@@ -396,7 +425,7 @@ class ComputePool:
         if self.memory_bytes is not None and pid is not None:
             idle = self._idle_rss[lane] or resident_bytes(pid) or 0
             limit = idle + self.memory_bytes
-        running = _Running(lane, pid, limit, self._builds[2 * lane])
+        running = _Running(slot, lane, pid, limit, self._shared[_LANE_FIELDS * lane])
         with self._lock:
             self._running[slot] = running
         self._start_watchdog()
@@ -429,7 +458,7 @@ class ComputePool:
         with self._lock:
             running = self._running.get(slot)
             if running is not None and running.stop_since is None:
-                running.stop_since = time.monotonic()
+                running.stop_since, running.stop_flag = time.monotonic(), flag
 
     def _lost(self, running: _Running) -> Exception:
         """The answer for a computation whose process ended under it: why, when the watchdog ended it."""
@@ -446,8 +475,8 @@ class ComputePool:
             )
         if killed == "time":
             return Overloaded(
-                f"the computation did not stop within {KILL_GRACE_S:g} s of being told to (its deadline passed) and "
-                "its process was ended; retry in 1 s",
+                f"the computation ran on past its deadline (more than {KILL_GRACE_S:g} s, and its deadline's seconds "
+                "of CPU) without stopping and its process was ended; retry in 1 s",
                 retry_after=1,
             )
         return Overloaded(
@@ -473,6 +502,8 @@ class ComputePool:
         with self._lock:
             broken, self._lanes[lane] = self._lanes[lane], None
             self._idle_rss[lane] = None
+            for i in range(_LANE_FIELDS):  # the dead process's last words (a killed one never said "done")
+                self._shared[_LANE_FIELDS * lane + i] = 0
         if broken is not None:
             broken.shutdown(wait=False, cancel_futures=True)
         if warm:
@@ -486,19 +517,28 @@ class ComputePool:
                 busy = [running for running in self._running.values() if running.killed is None]
             now = time.monotonic()
             for running in busy:
-                if running.pid is None:
-                    continue
+                base = _LANE_FIELDS * running.lane
+                if running.pid is None or self._shared[base + 2] != running.slot + 1:
+                    continue  # still queued behind another in its lane: its process is not yet its own
                 size = resident_bytes(running.pid)
                 if size is None:
                     continue
                 running.peak = max(running.peak, size)
                 if running.limit_rss is not None and size > running.limit_rss:
                     self._end(running, "memory", f"{size / 1e6:.0f} MB resident")
-                elif running.stop_since is not None and now - running.stop_since > KILL_GRACE_S:
-                    lane = running.lane
-                    building = self._builds[2 * lane + 1] > 0 or self._builds[2 * lane] != running.builds
-                    if not building:  # a structure's first build runs on, as the deadline allows it
-                        self._end(running, "time", f"{now - running.stop_since:.1f} s after it was told to stop")
+                    continue
+                cpu = cpu_seconds(running.pid)
+                if running.cpu_start is None:
+                    running.cpu_start = cpu
+                if running.stop_since is None or now - running.stop_since <= KILL_GRACE_S:
+                    continue
+                if self._shared[base + 1] > 0 or self._shared[base] != running.builds:
+                    continue  # a structure's first build runs on, as the deadline allows it
+                used = (cpu or 0.0) - (running.cpu_start or 0.0)
+                deadline = self.settings.compute_deadline_seconds
+                if running.stop_flag == 1 or (deadline is not None and used > deadline + KILL_GRACE_S):
+                    told = now - running.stop_since
+                    self._end(running, "time", f"{told:.1f} s after it was told to stop, {used:.1f} s of CPU")
 
     def _end(self, running: _Running, why: str, detail: str) -> None:
         if running.pid is None:

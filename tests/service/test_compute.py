@@ -75,6 +75,13 @@ def grow(*, step_bytes: int, steps: int) -> int:
     return len(held)
 
 
+def deaf_spin(*, cpu_seconds: float) -> str:
+    started = time.process_time()
+    while time.process_time() - started < cpu_seconds:
+        pass  # never reads its token
+    return "finished"
+
+
 def deaf(*, seconds: float) -> str:
     time.sleep(seconds)  # never reads its token
     return "finished"
@@ -243,23 +250,52 @@ def test_a_computation_past_its_memory_ceiling_is_ended_and_named(two: ComputePo
     assert len(set(anyio.run(after))) == 2  # both lanes serve again
 
 
-def test_a_computation_deaf_to_its_deadline_is_ended(two: ComputePool, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(compute, "KILL_GRACE_S", 0.3)
+def _deaf_run(pool: ComputePool, task: Task, reason: str) -> Overloaded:
     token = CancellationToken()
 
     async def main() -> Overloaded:
-        async def deadline() -> None:
+        async def tell() -> None:
             await anyio.sleep(0.3)
-            token.cancel(cancellation.DEADLINE)
+            token.cancel(reason)
 
         async with anyio.create_task_group() as tg:
-            tg.start_soon(deadline)
+            tg.start_soon(tell)
             with pytest.raises(Overloaded) as raised:
-                await two.run(Task(deaf, {"seconds": 60.0}), token)
+                await pool.run(task, token)
         return raised.value
 
-    refused = anyio.run(main)  # without the watchdog: the minute, then "finished" and no Overloaded
-    assert "did not stop" in str(refused) and refused.data == {"retry_after": 1}
+    return anyio.run(main)
+
+
+def test_a_computation_deaf_to_its_deadline_is_ended_once_it_used_the_deadlines_cpu(
+    two: ComputePool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(compute, "KILL_GRACE_S", 0.3)
+    monkeypatch.setattr(two.settings, "compute_deadline_seconds", 0.2)
+    # 60 s of CPU without a cancellation point: ended after ~0.5 s of it (deadline and grace), however busy the
+    # machine (without the watchdog: the minute, then "finished" and no Overloaded)
+    refused = _deaf_run(two, Task(deaf_spin, {"cpu_seconds": 60.0}), cancellation.DEADLINE)
+    assert "past its deadline" in str(refused) and refused.data == {"retry_after": 1}
+
+
+def test_a_deadline_passed_on_a_busy_machine_costs_no_kill(two: ComputePool, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Past its deadline in wall time but not in CPU (waiting for the cores, here for a sleep): it runs to its end,
+    and its answer is the deadline's (the token's), not an ended process's."""
+    monkeypatch.setattr(compute, "KILL_GRACE_S", 0.3)
+    monkeypatch.setattr(two.settings, "compute_deadline_seconds", 0.2)
+    token = CancellationToken()
+    token.cancel(cancellation.DEADLINE)
+
+    async def main() -> object:
+        return await two.run(Task(deaf, {"seconds": 1.5}), token)
+
+    assert anyio.run(main) == "finished"
+
+
+def test_a_computation_whose_client_left_is_ended(two: ComputePool, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(compute, "KILL_GRACE_S", 0.3)
+    refused = _deaf_run(two, Task(deaf, {"seconds": 60.0}), "stop")  # nobody waits for it: no CPU needed
+    assert "past its deadline" in str(refused) or "stopped" in str(refused)
 
 
 def test_threads_when_no_processes(tmp_path: Path) -> None:
@@ -305,7 +341,9 @@ def test_a_parse_past_its_deadline_is_refused_and_frees_the_parse_process(
             await pool.call(time.sleep, 60)  # a parse that would hold the process for a minute
         took = time.perf_counter() - started
         assert refused.value.data == {"limit_s": 0.5}
-        monkeypatch.setattr(pool.settings, "parse_deadline_seconds", 15.0)  # the next one starts a process
+        # the next one starts a process, whose start-up counts in its deadline: generous, so a loaded machine
+        # (a spawn and its imports took over 15 s at load 11) cannot fail it
+        monkeypatch.setattr(pool.settings, "parse_deadline_seconds", 120.0)
         fresh = int(await pool.call(pid))
         return stuck, took, fresh
 
