@@ -212,6 +212,12 @@ def _with_headers(start: Message, policy: str) -> Message:
     return {**start, "headers": headers}
 
 
+def _dispose_earlier(app: FastAPI) -> None:
+    earlier = getattr(app.state, "db", None)
+    if isinstance(earlier, Database):
+        earlier.dispose()
+
+
 def make_runner(settings: Settings, db: Database, models: ModelCache, registry: Registry) -> Requeuing:
     """Celery when a broker is configured, else the embedded pool (nothing else to install or run)."""
     context = WorkerContext(
@@ -236,6 +242,11 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         db = Database(settings.database_url)
+        # An app started again (schemathesis runs the lifespan once per test on one app) may have been called
+        # between two runs with the earlier run's Database, disposed then: its engine opened a fresh pool that
+        # nobody would close, whose connections were garbage-collected open later, a ResourceWarning failing
+        # whichever test ran then (issue 48). Closing that pool now leaves nothing to collect.
+        _dispose_earlier(app)
         await anyio.to_thread.run_sync(db.migrate)
         # With compute processes, every computation runs in them (each warms its own registry): the API process
         # builds nothing ahead but the IWR's kinematics its metric reads, ~140 MB less resident (issue 30).
