@@ -330,6 +330,7 @@ def _alive(process_id: int) -> bool:
     return Path(f"/proc/{process_id}/stat").read_text().split()[2] != "Z"  # a zombie is dead, not yet reaped
 
 
+@pytest.mark.serial  # refused within 2 s of wall time: alone on the cores
 def test_a_parse_past_its_deadline_is_refused_and_frees_the_parse_process(
     pool: ComputePool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
