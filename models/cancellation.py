@@ -87,6 +87,21 @@ _builds = [0]
 tables), and how many run now."""
 _building = [0]
 _build_lock = threading.Lock()
+_build_listeners: list[Callable[[int, int], None]] = []
+
+
+def on_builds(listener: Callable[[int, int], None]) -> None:
+    """Tell `listener(started, running)` of every build's start and end in this process: a server's compute
+    process publishes them to its parent, whose watchdog must not end a computation that pays a build (the
+    exemption `exempt_builds` makes for the deadline). `listener` must not raise."""
+    _build_listeners.append(listener)
+
+
+def _told() -> None:
+    with _build_lock:
+        counts = (_builds[0], _building[0])
+    for listener in _build_listeners:
+        listener(*counts)
 
 
 @contextmanager
@@ -95,11 +110,13 @@ def structure_build() -> Iterator[None]:
     with _build_lock:
         _builds[0] += 1
         _building[0] += 1
+    _told()
     try:
         yield
     finally:
         with _build_lock:
             _building[0] -= 1
+        _told()
 
 
 def builds_since(count: int) -> bool:

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import base64
+import hashlib
 import importlib
 import logging
+import re
 import time
 import uuid
 from collections.abc import AsyncIterator
@@ -137,6 +140,84 @@ class Observe:
             logs.request_id.reset(token)
 
 
+PAGE_POLICY = (
+    "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
+    "connect-src 'self'; object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'"
+)
+"""The Content-Security-Policy of the pages (/ui and everything not HTML): scripts only from the service's own
+files, never inline (the UI has none: its views are modules, its events listeners), so an injected `<script>` or
+`onerror=` does not run even if it reached the DOM. Inline styles stay allowed: the jobs view sets a progress
+bar's width by attribute, and the report (shown in the UI's `srcdoc` iframe, which inherits this policy) carries
+its own `<style>`; a style cannot run code. Nothing may frame the service (clickjacking)."""
+DOCUMENT_POLICY = (
+    "default-src 'none'; style-src 'unsafe-inline'; img-src data:; base-uri 'none'; form-action 'none'; "
+    "frame-ancestors 'self'; sandbox"
+)
+"""The policy of any other HTML the API answers (a calibration's report): no script at all, its own inline
+style and data images only, a sandbox (a unique origin: it cannot read the service's storage or call the API
+with the user's credentials)."""
+_INLINE_SCRIPT = re.compile(rb"<script>(.*?)</script>", re.DOTALL)
+
+
+class SecurityHeaders:
+    """Content-Security-Policy, X-Frame-Options, nosniff and no referrer on every response. Swagger UI's page
+    (/docs) starts itself with an inline script, which its policy allows by that script's hash (computed from
+    the page as sent, so it holds whatever FastAPI writes) and nothing else inline."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        docs = scope["path"] == "/docs"
+        held: list[Message] = []
+
+        async def send_with_headers(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                if docs:  # its policy depends on its body: sent with the body's first part
+                    held.append(message)
+                    return
+                await send(_with_headers(message, _policy(scope["path"], message)))
+                return
+            if held:
+                start = held.pop()
+                hashes = [_sha256(script) for script in _INLINE_SCRIPT.findall(message.get("body", b""))]
+                policy = PAGE_POLICY.replace("script-src 'self'", " ".join(["script-src 'self'", *hashes]))
+                await send(_with_headers(start, policy))
+            await send(message)
+
+        await self.app(scope, receive, send_with_headers)
+
+
+def _policy(path: str, start: Message) -> str:
+    """The page's policy for the UI and for what is not HTML; the document's for other HTML (a report)."""
+    content_type = dict(start.get("headers", [])).get(b"content-type", b"")
+    return DOCUMENT_POLICY if content_type.startswith(b"text/html") and path != "/ui" else PAGE_POLICY
+
+
+def _sha256(script: bytes) -> str:
+    return "'sha256-" + base64.b64encode(hashlib.sha256(script).digest()).decode() + "'"
+
+
+def _with_headers(start: Message, policy: str) -> Message:
+    headers = [(k, v) for k, v in start.get("headers", []) if k.lower() != b"content-security-policy"]
+    headers += [
+        (b"content-security-policy", policy.encode()),
+        (b"x-frame-options", b"DENY"),
+        (b"x-content-type-options", b"nosniff"),
+        (b"referrer-policy", b"no-referrer"),
+    ]
+    return {**start, "headers": headers}
+
+
+def _dispose_earlier(app: FastAPI) -> None:
+    earlier = getattr(app.state, "db", None)
+    if isinstance(earlier, Database):
+        earlier.dispose()
+
+
 def make_runner(settings: Settings, db: Database, models: ModelCache, registry: Registry) -> Requeuing:
     """Celery when a broker is configured, else the embedded pool (nothing else to install or run)."""
     context = WorkerContext(
@@ -161,6 +242,11 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         db = Database(settings.database_url)
+        # An app started again (schemathesis runs the lifespan once per test on one app) may have been called
+        # between two runs with the earlier run's Database, disposed then: its engine opened a fresh pool that
+        # nobody would close, whose connections were garbage-collected open later, a ResourceWarning failing
+        # whichever test ran then (issue 48). Closing that pool now leaves nothing to collect.
+        _dispose_earlier(app)
         await anyio.to_thread.run_sync(db.migrate)
         # With compute processes, every computation runs in them (each warms its own registry): the API process
         # builds nothing ahead but the IWR's kinematics its metric reads, ~140 MB less resident (issue 30).
@@ -175,7 +261,10 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         runner = make_runner(settings, db, models, runtimes)
         app.state.db, app.state.models, app.state.registry, app.state.jobs = db, models, runtimes, runner
         # Processes build their own registries from the settings; without processes the app's serves the threads.
-        compute = ComputePool(db, models, runtimes, settings, slots=limits.SYNC_COMPUTE_SLOTS)
+        # Each computation may grow its process by the memory cap of any job at most (service.compute's watchdog).
+        compute = ComputePool(
+            db, models, runtimes, settings, slots=limits.SYNC_COMPUTE_SLOTS, memory_bytes=limits.JOB_MEMORY_BYTES
+        )
         await compute.start()
         app.state.compute = compute
         # New structures build in the background (service.builds): in the app's registry when requests compute
@@ -243,6 +332,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
     app.add_middleware(BodyGuard, limit=settings.max_body_bytes, timeout_s=settings.body_timeout_seconds)
     app.add_middleware(RequestGuard)
     app.add_middleware(security.GuardedPaths, metrics=not settings.metrics_public, docs=not settings.docs_public)
+    app.add_middleware(SecurityHeaders)
     app.add_middleware(Observe, metrics=app.state.metrics)
     openapi.install(app)
     return app

@@ -20,6 +20,8 @@ from service.settings import Settings
 log = logging.getLogger("service.jobs")
 
 TASK = "iwr.run_job"
+BROKER_CHECK_S = 1.0
+"""How long `/readyz` waits for the broker to accept a connection."""
 HARD_LIMIT_GRACE = 30.0
 """Seconds between a kind's soft time limit (the job fails with the reason) and the hard one (the process is
 killed: only for a computation that ignores the soft limit inside native code)."""
@@ -84,6 +86,19 @@ class CeleryRunner(Requeuing):
 
     def recover(self) -> int:
         return 0  # queued jobs wait in the broker, not in this process
+
+    def unreachable(self) -> str | None:
+        """The broker, asked for a connection now (not the publisher's pooled one, which reconnects only on its
+        next publish): without it no job starts, so the API is not ready (issue 48: /readyz said 200 while
+        the broker was down). A refused connection fails in ~5 ms, a silent one after BROKER_CHECK_S."""
+        connection = self.app.connection_for_write()
+        where = connection.as_uri()  # the password masked
+        try:
+            with connection:
+                connection.ensure_connection(max_retries=1, interval_start=0, interval_step=0, timeout=BROKER_CHECK_S)
+        except Exception as exc:  # kombu's OperationalError, a socket error, a timeout: all mean the same here
+            return f"the job broker ({where}) does not answer: {exc}"
+        return None
 
     def shutdown(self) -> None:
         super().shutdown()

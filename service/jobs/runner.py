@@ -13,13 +13,17 @@ one CAS per job, periodically in each API process); no process ever fails anothe
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import multiprocessing
 import os
+import signal
 import socket
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,7 +31,10 @@ from sqlalchemy.orm import Session
 
 from models import Registry
 from models.cancellation import CancellationToken, Cancelled, Step, cancellable
+from service.compute import resident_bytes
+from service.errors import WorkTooLarge
 from service.faults import crash_point
+from service.limits import JOB_MEMORY_BYTES
 from service.model_cache import ModelCache
 from service.parent_watch import watch_parent
 from service.persistence import Database
@@ -46,6 +53,12 @@ SOLVE_FRACTION_CAP = 0.95
 PROGRESS_WRITE_SECONDS = 0.25
 """A progress point writes to the database at most this often (the heartbeat stores the latest anyway): a
 60-pose calibration takes ~30 ms, and three extra transactions would cost it ~10 % of its latency."""
+CEILING_WATCH_S = 0.1
+"""How often a job's process reads its own resident memory (a read of /proc/self/statm: ~20 us)."""
+HARD_MEMORY_FACTOR = 2
+"""A job past its memory ceiling is told to stop at its next step; one that keeps growing to this many times the
+ceiling is in code with no step (a parse): its row is failed and its process ends itself (the Celery pool, or
+the embedded runner, starts another)."""
 
 
 @dataclass(frozen=True)
@@ -58,6 +71,11 @@ class WorkerContext:
     registry: Registry
     lease: float = 10.0
     max_attempts: int = 3
+    memory_bytes: int | None = None
+    """How far one job may grow its process above the process's size when it started (None: no ceiling; only
+    a process of its own has one: in the API's threads, the API's other work would count as the job's)."""
+    time_limit: Callable[[str], float] | None = None
+    """A job kind's seconds (Settings.time_limit); past them, the job stops at its next step and fails."""
 
     @property
     def name(self) -> str:
@@ -152,6 +170,62 @@ class Lease:
         JobStore(session).succeed(self.job_id, self.worker, result_id)
 
 
+class Ceiling:
+    """A job's memory and time ceiling while it runs, watched by a thread of its own: past either, `exceeded`
+    holds the problem the job fails with, and the job's token stops it at its next step (models.cancellation).
+    Past `HARD_MEMORY_FACTOR` times the memory ceiling, `on_hard` fails the row and the process kills itself."""
+
+    def __init__(
+        self, memory_bytes: int | None, seconds: float | None, on_hard: Callable[[WorkTooLarge], None]
+    ) -> None:
+        idle = resident_bytes(os.getpid()) if memory_bytes is not None else None
+        self.memory_bytes, self.seconds, self.on_hard = memory_bytes, seconds, on_hard
+        self.limit = None if idle is None or memory_bytes is None else idle + memory_bytes
+        self.started = time.monotonic()
+        self.peak = 0
+        self.exceeded: WorkTooLarge | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._watch, name="job-ceiling", daemon=True)
+
+    def __enter__(self) -> Ceiling:
+        if self.limit is not None or self.seconds is not None:
+            self._thread.start()
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=5)
+
+    def _problem(self, what: str) -> WorkTooLarge:
+        return WorkTooLarge(
+            what,
+            estimated_s=round(time.monotonic() - self.started, 3),
+            estimated_bytes=self.peak or None,
+            limit_s=float(self.seconds or 0.0),
+            limit_bytes=self.memory_bytes,
+        )
+
+    def _watch(self) -> None:
+        while not self._stop.wait(CEILING_WATCH_S):
+            size = resident_bytes(os.getpid()) or 0
+            self.peak = max(self.peak, size)
+            over = self.limit is not None and size > self.limit
+            if self.exceeded is None and over:
+                self.exceeded = self._problem(
+                    f"the job grew its process by more than the memory ceiling of one job "
+                    f"({(self.memory_bytes or 0) / 1e6:.0f} MB; {size / 1e6:.0f} MB resident) and was stopped: split it"
+                )
+            if self.exceeded is None and self.seconds is not None and time.monotonic() - self.started > self.seconds:
+                self.exceeded = self._problem(
+                    f"the job ran past the time limit of its kind ({self.seconds:g} s) and was stopped: split it"
+                )
+            hard = None if self.limit is None else self.limit + (HARD_MEMORY_FACTOR - 1) * (self.memory_bytes or 0)
+            if self.exceeded is not None and hard is not None and size > hard:
+                self.on_hard(self.exceeded)
+                return
+
+
 def execute_job(job_id: str, context: WorkerContext | None = None) -> Outcome:
     """Deliver one job to this process: run it if it can be claimed, else report why not."""
     ctx = context or _worker
@@ -168,10 +242,21 @@ def execute_job(job_id: str, context: WorkerContext | None = None) -> Outcome:
 def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
     db = ctx.db
     started = time.perf_counter()
-    with Lease(ctx, claim.job_id, worker) as lease:
+
+    def hard_stop(problem: WorkTooLarge) -> None:
+        # Deaf to its token and still growing: fail the row now (a redelivery then finds it finished), end here.
+        log.error("job %s: %s; its process ends", claim.job_id, problem)
+        with contextlib.suppress(Exception), db.session() as s:
+            JobStore(s).fail(claim.job_id, worker, to_problem(problem))
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    seconds = ctx.time_limit(claim.kind) if ctx.time_limit is not None else None
+    with Lease(ctx, claim.job_id, worker) as lease, Ceiling(ctx.memory_bytes, seconds, hard_stop) as ceiling:
         # Between progress points too: the solvers and design loops check this token at each step
         # (models.cancellation), and the heartbeat sets `cancel` or `lost` within a third of the lease.
-        token = CancellationToken(probe=lambda: lease.cancel or lease.lost, on_step=lease.iterated)
+        token = CancellationToken(
+            probe=lambda: lease.cancel or lease.lost or ceiling.exceeded is not None, on_step=lease.iterated
+        )
         try:
             with cancellable(token):
                 run_job(
@@ -188,7 +273,11 @@ def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
             crash_point("job-committed")
             status = "succeeded"
         except (LeaseLost, Cancelled) as stopped:
-            if isinstance(stopped, Cancelled) and not lease.lost:
+            if isinstance(stopped, Cancelled) and ceiling.exceeded is not None and not lease.lost:
+                with db.session() as s:
+                    JobStore(s).fail(claim.job_id, worker, to_problem(ceiling.exceeded))
+                status = "failed"
+            elif isinstance(stopped, Cancelled) and not lease.lost:
                 with db.session() as s:
                     JobStore(s).cancelled(claim.job_id, worker)
                 status = "cancelled"
@@ -196,6 +285,8 @@ def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
                 log.warning("job %s: lease lost to another worker; nothing written", claim.job_id)
                 return Outcome("lost", ran=True)
         except Exception as exc:  # a job records every failure, as the synchronous request would have answered it
+            if isinstance(exc, MemoryError):
+                exc = ceiling._problem("the job ran out of memory and was stopped: split it")
             if lookup(exc)[0] >= 500:
                 log.exception("job %s failed", claim.job_id)
             with db.session() as s:
@@ -216,11 +307,14 @@ _worker: WorkerContext | None = None
 """Set once per worker process by `start_worker`; never in the API's process."""
 
 
-def start_worker(settings: Settings, parent: int | None = None) -> WorkerContext:
+def start_worker(
+    settings: Settings, parent: int | None = None, memory_bytes: int | None = JOB_MEMORY_BYTES
+) -> WorkerContext:
     """A worker process's initializer: one engine, one model cache and one registry of robot runtimes
     (`build_registry`: with `settings.warm_up`, every runtime built now), kept for its lifetime. With `parent`,
     the process exits as soon as that process is gone, so a pool never outlives its server (a server killed
-    with -9 cannot stop its pool itself)."""
+    with -9 cannot stop its pool itself). Each job runs under a ceiling (`Ceiling`): `memory_bytes` above the
+    process's size, the time limit of its kind."""
     global _worker  # noqa: PLW0603  (an initializer can leave its state only in the worker's module)
     if parent is not None:
         watch_parent(parent)
@@ -235,7 +329,13 @@ def start_worker(settings: Settings, parent: int | None = None) -> WorkerContext
         )
     db = Database(settings.database_url)
     _worker = WorkerContext(
-        db, ModelCache(db), registry, lease=settings.job_lease_seconds, max_attempts=settings.job_max_attempts
+        db,
+        ModelCache(db),
+        registry,
+        lease=settings.job_lease_seconds,
+        max_attempts=settings.job_max_attempts,
+        memory_bytes=memory_bytes,
+        time_limit=settings.time_limit,
     )
     return _worker
 
@@ -277,6 +377,10 @@ class Requeuing:
     def recover(self) -> int:
         return 0
 
+    def unreachable(self) -> str | None:
+        """What of the engine's own dependencies does not answer (None: all answer); for `/readyz`."""
+        return None
+
     def shutdown(self) -> None:
         self._stop.set()
 
@@ -287,21 +391,21 @@ class JobRunner(Requeuing):
 
     def __init__(self, context: WorkerContext, settings: Settings) -> None:
         super().__init__(context)
-        workers = settings.job_workers
-        self.executor: Executor = (
-            ProcessPoolExecutor(
-                max_workers=workers,
-                mp_context=multiprocessing.get_context("spawn"),
-                initializer=start_worker,
-                # Each pool process builds its own registry (with warm_up: 0.5 s here); the API's is not shared.
-                initargs=(settings.model_copy(update={"database_url": context.db.url}), os.getpid()),
-            )
-            if workers > 0
-            else ThreadPoolExecutor(max_workers=1)
-        )
+        self.workers = settings.job_workers
+        self.worker_settings = settings.model_copy(update={"database_url": context.db.url})
+        self.executor: Executor = self._processes() if self.workers > 0 else ThreadPoolExecutor(max_workers=1)
         self.queue_limit, self.retry_after = settings.job_queue_limit, settings.job_retry_after
         self.futures: set[Future[Outcome]] = set()
         self.start()
+
+    def _processes(self) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=start_worker,
+            # Each pool process builds its own registry (with warm_up: 0.5 s here); the API's is not shared.
+            initargs=(self.worker_settings, os.getpid()),
+        )
 
     def submit(self, job_id: str, kind: str = "") -> None:
         if self._stop.is_set():
@@ -309,7 +413,14 @@ class JobRunner(Requeuing):
         if isinstance(self.executor, ThreadPoolExecutor):
             future = self.executor.submit(execute_job, job_id, self.context)
         else:
-            future = self.executor.submit(execute_job, job_id)
+            try:
+                future = self.executor.submit(execute_job, job_id)
+            except BrokenProcessPool:
+                # A worker process died (killed, or ended itself past its memory ceiling): a new pool takes the
+                # jobs; those the dead pool held come back when their leases expire.
+                log.warning("job pool broken; starting a new one")
+                self.executor = self._processes()
+                future = self.executor.submit(execute_job, job_id)
         self.futures.add(future)
         future.add_done_callback(lambda f: self._done(f, job_id))
 

@@ -2,7 +2,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from fastapi import APIRouter, Response
+from fastapi import APIRouter, Request, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
 from service.deps import DatabaseDep, MetricsDep
@@ -24,11 +24,21 @@ async def healthz() -> Response:
     return Response('{"status":"ok"}', media_type="application/json")
 
 
-@router.get("/readyz", response_model=StatusPublic, responses={503: {"description": "The database does not answer"}})
-def readyz(db: DatabaseDep) -> Response:
-    if db.ping():
-        return Response('{"status":"ready"}', media_type="application/json")
-    raise NotReady("the database does not answer")
+@router.get(
+    "/readyz",
+    response_model=StatusPublic,
+    responses={503: {"description": "The database does not answer"}},
+)
+def readyz(db: DatabaseDep, request: Request) -> Response:
+    # Every dependency a request or a job needs, each named when it fails: the database, and the job broker
+    # when jobs run on Celery (the embedded engine has none).
+    failing = [] if db.ping() else ["the database does not answer"]
+    broker = request.app.state.jobs.unreachable()
+    if broker is not None:
+        failing.append(broker)
+    if failing:
+        raise NotReady("; ".join(failing))
+    return Response('{"status":"ready"}', media_type="application/json")
 
 
 @router.get("/metrics", include_in_schema=False)

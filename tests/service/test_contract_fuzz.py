@@ -8,10 +8,8 @@ keeps `make test` short; `make fuzz` sets 150.
 from __future__ import annotations
 
 import os
-import tempfile
 import uuid
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -71,16 +69,29 @@ def postgres_app() -> Iterator[TestClient]:
         with TestClient(_app(f"postgresql+psycopg://postgres@127.0.0.1:5432/{name}")) as client:
             client.post("/v1/robots", json={"name": "fuzz"})
             yield client
+        _close_last_database(client)
     finally:
         with psycopg.connect(POSTGRES_ADMIN, autocommit=True, connect_timeout=3) as admin:
             admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
 
 
+def _close_last_database(client: TestClient) -> None:
+    """The app's last Database, whichever lifespan made it (schemathesis starts one per test on this app, and a
+    call after a lifespan ended opens connections in a fresh pool of its disposed engine): closed here, by the
+    fixture, not collected open in some later test (issue 48: `iwr_fuzz_…`'s connection, a ResourceWarning that
+    failed test_limits.py)."""
+    db = getattr(client.app.state, "db", None)  # type: ignore[attr-defined]
+    if isinstance(db, Database):
+        db.dispose()
+
+
 @pytest.fixture(scope="module")
-def sqlite_app() -> Iterator[TestClient]:
-    with TestClient(_app(f"sqlite:///{Path(tempfile.mkdtemp()) / 'fuzz.db'}")) as client:
+def sqlite_app(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient]:
+    # Under pytest's temporary directory (cleaned by pytest), not a mkdtemp nobody removed.
+    with TestClient(_app(f"sqlite:///{tmp_path_factory.mktemp('fuzz') / 'fuzz.db'}")) as client:
         client.post("/v1/robots", json={"name": "fuzz"})
         yield client
+    _close_last_database(client)
 
 
 def _schema(client: TestClient) -> BaseSchema:

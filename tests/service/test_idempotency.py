@@ -81,7 +81,7 @@ def test_a_refusal_is_replayed_and_a_key_expires(api: ContractClient) -> None:
 @pytest.mark.parametrize("bad", ["", "x" * 201, "tab\there", "é"])
 @pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
 def test_a_malformed_key_is_a_400(api: ContractClient, bad: str) -> None:
-    r = api.post("/v1/robots", json={"name": "x"}, headers={"Idempotency-Key": bad.encode("utf-8")})  # type: ignore[arg-type]
+    r = api.post("/v1/robots", json={"name": "x"}, headers={"Idempotency-Key": bad.encode("utf-8")})
     assert r.status_code == 400 and "Idempotency-Key" in r.json()["detail"]
 
 

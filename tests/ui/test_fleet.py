@@ -12,6 +12,7 @@ from typing import Any
 
 import httpx
 import pytest
+from playwright.sync_api import expect
 
 from models import sample_workspace
 from models.examples import ur5_like, ur5_like_document
@@ -34,7 +35,8 @@ def page(browser: Any) -> Iterator[Any]:
 
 
 def _ready(page: Any, fragment: str) -> None:
-    page.wait_for_function("f => document.body.dataset.ready === f", arg=fragment, timeout=30_000)
+    # Attribute waits, not wait_for_function: the page's Content-Security-Policy forbids eval, which that uses.
+    expect(page.locator("body")).to_have_attribute("data-ready", fragment, timeout=30_000)
 
 
 def _unit_records(unit: int, poses: int, fleet_seed: int = 0) -> list[dict[str, object]]:

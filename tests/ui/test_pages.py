@@ -3,6 +3,7 @@ draw one mark per datum, the report shows the API's numbers, and a screenshot of
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -11,6 +12,7 @@ from urllib.parse import urlparse
 import httpx
 import numpy as np
 import pytest
+from playwright.sync_api import expect
 
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
@@ -68,7 +70,8 @@ def page(browser: Any, server: str) -> Iterator[tuple[Any, PageProblems, set[str
 
 def _open(page: Any, server: str, fragment: str) -> None:
     page.goto(f"{server}/ui{fragment}")
-    page.wait_for_function("ready => document.body.dataset.ready === ready", arg=fragment or "#/", timeout=20_000)
+    # Attribute waits, not wait_for_function: the page's Content-Security-Policy forbids eval, which that uses.
+    expect(page.locator("body")).to_have_attribute("data-ready", fragment or "#/", timeout=20_000)
 
 
 @pytest.mark.usefixtures("data")
@@ -110,7 +113,7 @@ def test_robot_page_history_drift_and_design(
     assert lines[0].startswith("at,kind,id,version,outcome,rms_mm") and len(lines) == 3
     screenshot(p, "robot-history")
     p.select_option("#drift-parameter", "base.x")
-    p.wait_for_function("document.querySelector('#drift-plot title').textContent.startsWith('base.x')")
+    expect(p.locator("#drift-plot title").first).to_have_text(re.compile(r"^base\.x"))
     assert p.locator("#drift-plot circle.point").count() == 4
     p.locator("#designs a", has_text="draw").click()
     p.wait_for_selector("#design-side")

@@ -9,6 +9,7 @@ refused program says where."""
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,7 @@ from urllib.parse import urlparse
 import httpx
 import numpy as np
 import pytest
+from playwright.sync_api import expect
 
 from harness.programs import FIXTURE, HOME_DEG, Cell, executed, joints, ur5_cell
 from models.examples import ur5_like_document
@@ -61,7 +63,8 @@ def page(browser: Any, server: str) -> Iterator[Any]:
 
 
 def _ready(page: Any, pattern: str) -> None:
-    page.wait_for_function("p => new RegExp(p).test(document.body.dataset.ready || '')", arg=pattern, timeout=20_000)
+    # An attribute wait: the page's Content-Security-Policy forbids eval, which wait_for_function uses.
+    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=20_000)
 
 
 def _open(page: Any, server: str, robot: str) -> None:

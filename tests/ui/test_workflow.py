@@ -18,6 +18,7 @@ from urllib.parse import urlparse
 import httpx
 import numpy as np
 import pytest
+from playwright.sync_api import expect
 from scipy.spatial.transform import Rotation
 
 from tests.models.test_urdf_hostile import joint, urdf
@@ -44,7 +45,8 @@ def page(browser: Any, server: str) -> Iterator[Any]:
 
 def _ready(page: Any, pattern: str) -> str:
     """Waits until the page drawn is one whose fragment matches `pattern`; returns the fragment."""
-    page.wait_for_function("p => new RegExp(p).test(document.body.dataset.ready || '')", arg=pattern, timeout=20_000)
+    # Attribute waits, not wait_for_function: the page's Content-Security-Policy forbids eval, which that uses.
+    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=20_000)
     fragment: str = page.evaluate("document.body.dataset.ready")
     return fragment
 
@@ -189,7 +191,7 @@ def test_a_refused_calibration_says_why_and_can_be_forced(page: Any, server: str
     assert "accuracy" in failed and "noise" not in failed  # the noise check never blocks
     screenshot(page, "calibration-not-applied")
     page.get_by_role("button", name="Force apply").click()
-    page.wait_for_function("old => location.hash !== old", arg=f"#/calibrations/{refused_id}")
+    expect(page).not_to_have_url(re.compile(re.escape(f"#/calibrations/{refused_id}") + "$"))
     forced_id = _ready(page, "^#/calibrations/[0-9a-f-]+$").split("/")[-1]
     page.wait_for_selector("#verdict.applied")
     assert forced_id != refused_id
@@ -201,10 +203,8 @@ def test_a_refused_calibration_says_why_and_can_be_forced(page: Any, server: str
     _ready(page, "^#/robots/[0-9a-f-]+$")
     page.get_by_role("button", name="restore 1").click()
     # The page redrawn with the restore (a fourth row, current): the forced version's row was current before it.
-    page.wait_for_function(
-        "() => document.querySelectorAll('#versions tbody tr').length === 4"
-        " && document.querySelector('#versions tbody tr:last-child b')?.textContent === 'current'"
-    )
+    expect(page.locator("#versions tbody tr")).to_have_count(4)
+    expect(page.locator("#versions tbody tr:last-child b")).to_have_text("current")
     versions = httpx.get(f"{server}/v1/robots/{robot_id}/parameter-versions").json()
     assert (versions[-1]["provenance"], versions[-1]["restored_from"], versions[-1]["current"]) == ("restore", 1, True)
 
@@ -245,7 +245,7 @@ def test_a_robot_from_a_urdf_file(page: Any, server: str, tmp_path: Path) -> Non
     page.get_by_label("Name").fill("arm-urdf")
     page.get_by_label("A URDF file").check()
     page.set_input_files("#urdf-file", str(path))
-    page.wait_for_function("document.querySelectorAll('#urdf-tip option').length === 5")
+    expect(page.locator("#urdf-tip option")).to_have_count(5)
     assert page.locator("#urdf-base").input_value() == "l0"  # the root, offered first
     page.select_option("#urdf-tip", "l3")
     page.get_by_role("button", name="Create the robot").click()
@@ -422,7 +422,7 @@ def test_a_xacro_file_is_named_with_its_command(page: Any, server: str, tmp_path
     page.get_by_label("Name").fill("arm-xacro")
     page.get_by_label("A URDF file").check()
     page.set_input_files("#urdf-file", str(path))
-    page.wait_for_function("document.querySelector('#urdf-info').textContent.includes('xacro')")
+    expect(page.locator("#urdf-info")).to_contain_text("xacro")
     assert "xacro robot.urdf.xacro > robot.urdf" in page.locator("#urdf-info").inner_text()
     page.get_by_role("button", name="Create the robot").click()
     text = page.locator("#create-error").inner_text()
