@@ -234,6 +234,10 @@ class _Running:
     pid: int | None
     limit_rss: int | None  # the resident size at which its process is ended (None: no memory ceiling)
     builds: int  # the lane's builds started when it was submitted
+    limit_on_start: bool = False
+    """Its lane's idle size was not known when it was submitted (a process started for it, still importing): the
+    ceiling is set above the size its process has when the watchdog first sees it running, after its start-up, so
+    the imports of a fresh process do not count against the request."""
     started: float = field(default_factory=time.monotonic)
     stop_since: float | None = None  # when it was told to stop (deadline, client gone)
     stop_flag: int = 0  # 1 its client left, 2 its deadline passed (the slot's shared byte)
@@ -421,11 +425,10 @@ class ComputePool:
             executor = self._lane(lane)
             future = executor.submit(_in_process, task, slot, rid)
         pid = next((process.pid for process in _processes_of(executor)), None)
-        limit = None
-        if self.memory_bytes is not None and pid is not None:
-            idle = self._idle_rss[lane] or resident_bytes(pid) or 0
-            limit = idle + self.memory_bytes
-        running = _Running(slot, lane, pid, limit, self._shared[_LANE_FIELDS * lane])
+        idle = self._idle_rss[lane]
+        limit = None if self.memory_bytes is None or idle is None else idle + self.memory_bytes
+        on_start = self.memory_bytes is not None and idle is None
+        running = _Running(slot, lane, pid, limit, self._shared[_LANE_FIELDS * lane], limit_on_start=on_start)
         with self._lock:
             self._running[slot] = running
         self._start_watchdog()
@@ -524,6 +527,8 @@ class ComputePool:
                 if size is None:
                     continue
                 running.peak = max(running.peak, size)
+                if running.limit_on_start and self.memory_bytes is not None:
+                    running.limit_rss, running.limit_on_start = size + self.memory_bytes, False
                 if running.limit_rss is not None and size > running.limit_rss:
                     self._end(running, "memory", f"{size / 1e6:.0f} MB resident")
                     continue
