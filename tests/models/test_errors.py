@@ -10,8 +10,9 @@ import pytest
 
 from models import errors
 from models.campaign import make_campaign
-from models.identification import identify
+from models.identification import identify, pipeline
 from models.identification.options import IdentificationOptions
+from models.identification.trust_region import TrustRegionRun
 from models.robot import RobotDescription
 from models.simulation import measure, perturbed_robot
 from models.workspace import sample_workspace
@@ -82,10 +83,19 @@ def test_workspace_errors_are_domain_errors(desc: RobotDescription) -> None:
 
 
 @pytest.mark.slow  # over a second here: outside the inner loop (make test-fast)
-def test_strict_identification_raises_what_a_failed_result_reports(desc: RobotDescription) -> None:
+def test_strict_identification_raises_what_a_failed_result_reports(
+    desc: RobotDescription, monkeypatch: pytest.MonkeyPatch
+) -> None:
     sim = perturbed_robot(desc, seed=5)
     campaign = measure(sim, sample_workspace(desc, 40, seed=6), seed=7)
     options = IdentificationOptions(max_iterations=1)
+
+    # IPOPT stopped after one iteration, and the trust-region finish (which converges from there on its own)
+    # stopped as well: a run that truly failed, whose report strict mode must raise.
+    def stopped(problem: Any, z0: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> TrustRegionRun:
+        return TrustRegionRun(z=z0, status="stopped (test)", success=False, iterations=0, seconds=0.0, objective=0.0)
+
+    monkeypatch.setattr(pipeline, "trust_region_finish", stopped)
     failed = identify(desc, campaign, options=options)
     assert failed.status == "failed" and not failed.solver.success
     with pytest.raises(errors.SolverFailed) as err:
