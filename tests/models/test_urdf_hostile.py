@@ -55,9 +55,10 @@ def _max_rss_kb() -> int:
 def test_a_cycle_is_refused_at_once_with_memory_flat() -> None:
     # l0 is the root; l1 <-> l2 is a loop hanging from nothing: the 600-byte request.
     text = urdf(["l0", "l1", "l2"], [joint("a", "l1", "l2"), joint("b", "l2", "l1")])
-    before, start = _max_rss_kb(), time.perf_counter()
+    # CPU time, not wall time: the refusal is computed in this process, and a busy machine must not fail it.
+    before, start = _max_rss_kb(), time.process_time()
     error = refused(text, base="l0", tip="l2")
-    assert time.perf_counter() - start < 1.0
+    assert time.process_time() - start < 1.0
     assert _max_rss_kb() - before < 20_000  # kB: the walk grew ~85 MB/s before
     assert error.reason == "cycle" and "'a', 'b'" in str(error) and "remove one joint" in str(error)
 
@@ -100,9 +101,9 @@ def test_a_tip_not_below_the_base_is_refused() -> None:
 
 @pytest.mark.parametrize("size", [MAX_LINKS + 1, 10_000])
 def test_too_many_links_are_refused_before_parsing(size: int) -> None:
-    start = time.perf_counter()
+    start = time.process_time()
     error = refused(chain(size), tip=f"l{size}")
-    assert time.perf_counter() - start < 1.0
+    assert time.process_time() - start < 1.0
     assert error.reason == "too_large" and error.max == MAX_LINKS and f"at most {MAX_LINKS}" in str(error)
 
 

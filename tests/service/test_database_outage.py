@@ -122,7 +122,9 @@ def test_an_outage_is_a_503_with_retry_after_then_the_same_process_recovers(
         method, path, body = calls[answered % len(calls)]
         start = time.perf_counter()
         answer = client.request(method, path, json=body)
-        assert time.perf_counter() - start < 6.0  # the connect timeout (5 s) at worst; refused: at once
+        # The connect timeout (5 s) at worst, refused at once mostly; the margin is for a busy machine (this test runs
+        # beside others): what it guards is that no call hangs past the timeout, not how fast the cores are.
+        assert time.perf_counter() - start < 10.0
         assert answer.status_code == 503, (method, path, answer.text)
         assert answer.headers["retry-after"] == "5"
         assert answer.json()["type"].endswith("/database-unavailable") and "retry in 5 s" in answer.json()["detail"]
