@@ -157,22 +157,7 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
         )
     data_lines = [t for _, t in lines[1:]]
     delimiter = _sniff(header, data_lines)
-    reader = csv.reader([t for _, t in lines], delimiter=delimiter)
-    parsed: list[list[str]] = []
-    try:
-        for cells in reader:
-            if reader.line_num != len(parsed) + 1:
-                # A quote left open runs the cell on into the next lines (the csv module joins them), so rows and
-                # lines no longer pair (found by tests/service/test_reader_fuzz.py: a 500).
-                line = lines[len(parsed)][0]
-                raise CampaignFileError(
-                    f"line {line}: a quoted cell is not closed on its line (a '\"' without its pair)", line=line
-                )
-            parsed.append(cells)
-    except csv.Error as exc:
-        raise CampaignFileError(
-            f"line {lines[reader.line_num - 1][0]}: {exc}", line=lines[reader.line_num - 1][0]
-        ) from exc
+    parsed = _cells(lines, delimiter)
     raw_names = parsed[0]
     names = [normalise(n) for n in raw_names]
     if len(lines) == 1 and expected_names and len(names) > len(expected_names) + 1:
@@ -205,6 +190,27 @@ def read_table(text: str, *, expected: Iterable[str] = (), comment: str = "#") -
         notes=_notes(skipped, preamble_unit, decimal_comma=decimal_comma),
         length_unit=preamble_unit,
     )
+
+
+def _cells(lines: list[tuple[int, str]], delimiter: str) -> list[list[str]]:
+    """Each content line's cells, one row a line: a CSV error or a quote left open names its line."""
+    reader = csv.reader([t for _, t in lines], delimiter=delimiter)
+    parsed: list[list[str]] = []
+    try:
+        for cells in reader:
+            if reader.line_num != len(parsed) + 1:
+                # A quote left open runs the cell on into the next lines (the csv module joins them), so rows and
+                # lines no longer pair (found by tests/service/test_reader_fuzz.py: a 500).
+                line = lines[len(parsed)][0]
+                raise CampaignFileError(
+                    f"line {line}: a quoted cell is not closed on its line (a '\"' without its pair)", line=line
+                )
+            parsed.append(cells)
+    except csv.Error as exc:
+        raise CampaignFileError(
+            f"line {lines[reader.line_num - 1][0]}: {exc}", line=lines[reader.line_num - 1][0]
+        ) from exc
+    return parsed
 
 
 def _notes(skipped: int, preamble_unit: str | None, *, decimal_comma: bool) -> tuple[str, ...]:
