@@ -1,0 +1,41 @@
+"""A point record: the TCP on the same unknown fixed point as every record of that name (a sphere in a socket,
+reached in several orientations): no reading at all."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+from models.measurements.references import FixedPoint
+from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
+from service.schemas.references import PointRecord, PointRecordPublic
+
+
+class PointKind(RecordKind):
+    name: ClassVar[str] = "point"
+    model: ClassVar[str] = FixedPoint.traits.kind
+    record = PointRecord
+    public = PointRecordPublic
+    named_by: ClassVar[str | None] = "point"
+    label: ClassVar[str] = "point"
+    file_kinds: ClassVar[tuple[str, ...]] = ("point",)
+    file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
+
+    def descriptions(self, described: Described) -> Mapping[str, Any]:
+        return described.points
+
+    def reference(self, described: Described, name: str) -> ModelReference:
+        point = described.points.get(name)
+        px, py, pz = (point.position_mm if point else None) or (0.0, 0.0, 0.0)
+        return FixedPoint(name, (px, py, pz))
+
+    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
+        rec: dict[str, Any] = {"kind": self.name, "joints": row.joints, "point": row.name}
+        row.sigma_mm(rec)
+        out.append(rec)
+
+    def file_rows(self, record: Any) -> list[dict[str, str]]:
+        return [{"kind": self.file_kinds[0], "reference": record.point, "sigma_mm": cell(record.sigma_mm)}]
+
+
+POINT = PointKind()
