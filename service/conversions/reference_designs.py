@@ -27,17 +27,17 @@ from optimal_design.problem import MAX_CANDIDATES
 from optimal_design.references import camera_candidates
 from service.conversions.designs import constraints_in
 from service.conversions.kinematics import joints_in
+from service.record_kinds import BY_REFERENCE, RECORD_KINDS
 from service.schemas.designs import PoseDesignCreate
 from service.schemas.references import CameraDescription, ReferenceCandidate
 
 Reference = Anchor | FixedPoint | Plane | Camera
-KIND_OF_MEASUREMENT = {"distance": "anchor", "point": "point", "plane": "plane", "image": "camera"}
+KIND_OF_MEASUREMENT = {kind.name: name for name, kind in BY_REFERENCE.items()}
 """The reference kind a record kind measures (records say `anchor`, `point`, `plane`, `camera`)."""
-PLURAL = {"anchor": "anchors", "point": "points", "plane": "planes", "camera": "cameras"}
+PLURAL = {name: str(kind.described_in) for name, kind in BY_REFERENCE.items()}
 """Where the body describes each kind."""
-SAMPLED_KINDS = ("anchor", "camera")
-"""What sampled poses are offered against: a ballbar reads wherever its range allows, a camera sees wherever its
-targets come into view; no sampled pose puts the TCP on a point or a plane."""
+SAMPLED_KINDS = tuple(name for name, kind in BY_REFERENCE.items() if kind.sampled)
+"""What sampled poses are offered against (`RecordKind.sampled`)."""
 DEFAULT_SIGMA_PX = 0.1
 """A camera's σ where its description gives none: what a calibration assumes for an image that states none."""
 
@@ -244,13 +244,7 @@ def _reference_of(
         kind, name = candidate.reference
         if (kind, name) not in references:
             plural = PLURAL[kind]
-            needs = {
-                "anchor": '{"position_mm": [x, y, z]}',
-                "point": "{}",
-                "plane": '{"normal": [nx, ny, nz]}',
-                "camera": '{"fx": …, "fy": …, "cx": …, "cy": …, "position_mm": [x, y, z], "rotation_vector_deg": '
-                '[rx, ry, rz], "targets_mm": [[x, y, z], …]}',
-            }[kind]
+            needs = BY_REFERENCE[kind].design_description
             raise InvalidInput(
                 f'candidate {index} names {kind} {name!r}, which the body does not describe: add "{plural}": '
                 f'{{"{name}": {needs}}}',
@@ -301,24 +295,22 @@ def _sampled(request: _Request) -> ReferenceCandidates:
 
 def _check_samplable(body: PoseDesignCreate, references: dict[tuple[str, str], Reference]) -> None:
     """Sampled candidates need references they can be offered against, and at most MAX_CANDIDATES of them."""
-    if body.measurement not in ("distance", "image") or any(kind not in SAMPLED_KINDS for kind, _ in references):
+    record_kind = RECORD_KINDS.get(str(body.measurement))
+    sampled = record_kind is not None and record_kind.sampled
+    if not sampled or any(kind not in SAMPLED_KINDS for kind, _ in references):
         raise InvalidInput(
             f"measurement {body.measurement!r}: sampled poses do not put the TCP on a point or a plane; give "
             'candidates, joint vectors that put the TCP on it ({"joints": [...], "point": "<name>"} or "plane")'
-            + (", or design distance and image records alone" if body.measurement in ("distance", "image") else ""),
+            + (", or design distance and image records alone" if sampled else ""),
             field="candidates",
             reason="candidates_needed",
         )
-    measured = KIND_OF_MEASUREMENT[str(body.measurement)]
+    assert record_kind is not None  # sampled
+    measured = KIND_OF_MEASUREMENT[record_kind.name]
     if not any(kind == measured for kind, _ in references):
         # Sampled poses offered to none of the measured kind would design records of another kind under its name.
-        describe = (
-            '"anchors": {"a1": {"position_mm": [x, y, z]}}'
-            if body.measurement == "distance"
-            else '"cameras": {"c1": {"fx": …, "fy": …, "cx": …, "cy": …, "position_mm": [x, y, z], '
-            '"rotation_vector_deg": [rx, ry, rz], "targets_mm": [[x, y, z], …]}}'
-        )
         plural = PLURAL[measured]
+        describe = f'"{plural}": {{"{record_kind.example_name}": {record_kind.design_description}}}'
         raise InvalidInput(
             f"measurement {body.measurement!r}: describe the {plural} the records would measure: {describe}",
             field=plural,
@@ -414,19 +406,9 @@ def _check_determined(found: ReferenceCandidates, references: dict[tuple[str, st
     for (kind, name), reference in references.items():
         have, needed = sizes.get(name, 0), reference.minimum_records
         if have < needed:
-            fix = (
-                "give more candidates naming it"
-                if given
-                else "raise candidate_count"
-                if kind == "camera"
-                else "widen its range_mm or raise candidate_count"
-            )
-            # A camera's records are the points its images would show, not its poses.
-            has = (
-                f"would see {have} targets over its candidate images"
-                if kind == "camera"
-                else f"has {have} admissible candidates"
-            )
+            record_kind = BY_REFERENCE[kind]
+            fix = "give more candidates naming it" if given else record_kind.more_candidates
+            has = record_kind.design_has(have)  # a camera's records are the points its images would show
             raise TooFewMeasurements(
                 f"{kind} {name!r} {has}: a design needs at least {needed} to determine its "
                 f"{len(reference.unknowns)} unknowns; {fix}",

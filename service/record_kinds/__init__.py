@@ -35,6 +35,12 @@ BY_FILE_KIND: Mapping[str, RecordKind] = MappingProxyType(
 )
 """Each kind by the values of a file's `kind` column that mean it."""
 
+BY_REFERENCE: Mapping[str, RecordKind] = MappingProxyType(
+    {kind.named_by: kind for kind in RECORD_KINDS.values() if kind.named_by is not None}
+)
+"""Each kind that measures a named reference by the field that names it: a design's candidate names "anchor",
+"point", "plane" or "camera"."""
+
 KIND_COLUMN = "kind"
 REFERENCE_COLUMNS = ("reference", "anchor", "plane", "feature", "camera")
 """Where a file names the reference a row measures (the first present is read)."""
@@ -70,6 +76,7 @@ def public_records(stored: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 __all__ = [
     "BY_FILE_KIND",
+    "BY_REFERENCE",
     "DISTANCE",
     "FILE_COLUMNS",
     "IMAGE",

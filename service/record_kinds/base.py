@@ -86,6 +86,17 @@ class RecordKind(ABC):
     """The record's field that names the reference it measures; none where it measures no named reference."""
     label: ClassVar[str]
     """How messages name what it measures ("anchor", "image", …)."""
+    described_in: ClassVar[str | None] = None
+    """The body's map that describes the references it measures ("anchors", …; `Described`)."""
+    example_name: ClassVar[str] = ""
+    """A name its reference takes in the messages' examples ("a1")."""
+    design_description: ClassVar[str] = "{}"
+    """What a pose design needs described of its reference, as a message shows it."""
+    sampled: ClassVar[bool] = False
+    """Whether a sampled pose can be one of its records (a ballbar reads wherever its range allows, a camera sees
+    wherever its targets come into view; no sampled pose puts the TCP on a point or a plane)."""
+    more_candidates: ClassVar[str] = "raise candidate_count"
+    """How a sampled design gets more of its records."""
     file_kinds: ClassVar[tuple[str, ...]]
     """Its values of a file's `kind` column, lower case; the first is the one written."""
     file_columns: ClassVar[tuple[str, ...]]
@@ -105,7 +116,11 @@ class RecordKind(ABC):
 
     def descriptions(self, described: Described) -> Mapping[str, Any]:
         """The references of this kind the body describes."""
-        return {}
+        return {} if self.described_in is None else getattr(described, self.described_in)
+
+    def design_has(self, have: int) -> str:
+        """A design's count of its candidate records, in its words (a camera's records are points seen)."""
+        return f"has {have} admissible candidates"
 
     def check_described(self, described: Described, name: str, record: int) -> None:  # noqa: B027  (optional)
         """A 4xx where the body must describe the reference `name` that record `record` measures and does not."""

@@ -3,7 +3,7 @@ origin)."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -27,11 +27,13 @@ class DistanceKind(RecordKind):
     public = DistanceRecordPublic
     named_by: ClassVar[str | None] = "anchor"
     label: ClassVar[str] = "anchor"
+    described_in: ClassVar[str | None] = "anchors"
+    example_name: ClassVar[str] = "a1"
+    design_description: ClassVar[str] = '{"position_mm": [x, y, z]}'
+    sampled: ClassVar[bool] = True
+    more_candidates: ClassVar[str] = "widen its range_mm or raise candidate_count"
     file_kinds: ClassVar[tuple[str, ...]] = ("distance",)
     file_columns: ClassVar[tuple[str, ...]] = ("distance_mm", "sigma_mm")
-
-    def descriptions(self, described: Described) -> Mapping[str, Any]:
-        return described.anchors
 
     def check_described(self, described: Described, name: str, record: int) -> None:
         if name not in described.anchors:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -32,11 +32,18 @@ class ImageKind(RecordKind):
     public = ImageRecordPublic
     named_by: ClassVar[str | None] = "camera"
     label: ClassVar[str] = "image"
+    described_in: ClassVar[str | None] = "cameras"
+    example_name: ClassVar[str] = "c1"
+    design_description: ClassVar[str] = (
+        '{"fx": …, "fy": …, "cx": …, "cy": …, "position_mm": [x, y, z], "rotation_vector_deg": [rx, ry, rz], '
+        '"targets_mm": [[x, y, z], …]}'
+    )
+    sampled: ClassVar[bool] = True
     file_kinds: ClassVar[tuple[str, ...]] = ("image",)
     file_columns: ClassVar[tuple[str, ...]] = (*SEEN_COLUMNS, "sigma_px")
 
-    def descriptions(self, described: Described) -> Mapping[str, Any]:
-        return described.cameras
+    def design_has(self, have: int) -> str:
+        return f"would see {have} targets over its candidate images"
 
     def check_described(self, described: Described, name: str, record: int) -> None:
         if name not in described.cameras:

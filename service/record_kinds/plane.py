@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 from models.measurements.references import Plane
@@ -22,11 +21,11 @@ class PlaneKind(RecordKind):
     public = PlaneRecordPublic
     named_by: ClassVar[str | None] = "plane"
     label: ClassVar[str] = "plane"
+    described_in: ClassVar[str | None] = "planes"
+    example_name: ClassVar[str] = "f1"
+    design_description: ClassVar[str] = '{"normal": [nx, ny, nz]}'
     file_kinds: ClassVar[tuple[str, ...]] = ("plane",)
     file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
-
-    def descriptions(self, described: Described) -> Mapping[str, Any]:
-        return described.planes
 
     def reference(self, described: Described, name: str) -> ModelReference:
         plane = described.planes.get(name)

@@ -3,7 +3,6 @@ reached in several orientations): no reading at all."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 from models.measurements.references import FixedPoint
@@ -18,11 +17,10 @@ class PointKind(RecordKind):
     public = PointRecordPublic
     named_by: ClassVar[str | None] = "point"
     label: ClassVar[str] = "point"
+    described_in: ClassVar[str | None] = "points"
+    example_name: ClassVar[str] = "p1"
     file_kinds: ClassVar[tuple[str, ...]] = ("point",)
     file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
-
-    def descriptions(self, described: Described) -> Mapping[str, Any]:
-        return described.points
 
     def reference(self, described: Described, name: str) -> ModelReference:
         point = described.points.get(name)

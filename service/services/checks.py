@@ -136,7 +136,7 @@ def design_check_poses(
     with db.reader() as s:
         current = _current(Repository(s), robot_id, body.against)
     desc = current.desc
-    position_only = body.measurement == "position"
+    position_only = MeasurementKind(body.measurement).position_only
     options = CheckOptions(alpha=body.alpha, register=body.fit_frame)
     design = design_check(
         desc,
