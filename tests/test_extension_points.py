@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import inspect
+import re
 from pathlib import Path
 
 import pytest
@@ -181,3 +182,23 @@ def test_the_record_kind_check_sees_what_it_forbids() -> None:
     fine = ['"position" in r', "kind is DISTANCE", 'name == "a1"', "isinstance(r, dict)"]
     for source in fine:
         assert not any(_asks_a_record_its_kind(n, classes, words) for n in ast.walk(ast.parse(source))), source
+
+
+def test_the_architecture_doc_states_the_record_kinds_and_the_allowed_modules() -> None:
+    """docs/architecture.md's counts match the code: the kinds it names, the modules still allowed to ask, and
+    every file it says a new record kind touches exists."""
+    from service.record_kinds import RECORD_KINDS  # noqa: PLC0415
+
+    doc = (ROOT / "docs" / "architecture.md").read_text()
+    section = doc[doc.index("**Record kinds**") : doc.index("**References**")]
+    stated = re.search(r"`tracker`\s+\(the models' pose and position kinds\),(.*?)each one", section, re.S)
+    assert stated is not None
+    assert ["tracker", *re.findall(r"`(\w+)`", stated.group(1))] == list(RECORD_KINDS)
+    allowed = re.search(r"\((\d+) now: (.*?)\)", section, re.S)
+    assert allowed is not None
+    assert int(allowed.group(1)) == len(RECORD_KIND_AWARE)
+    assert set(re.findall(r"`([\w/.]+)`", allowed.group(2))) == set(RECORD_KIND_AWARE)
+    listed = re.findall(r"^\d+\. `([\w/.]+)`", section, re.M)
+    assert len(listed) == 9 and f"That is {len(listed)} files" in section
+    for rel in listed:
+        assert (ROOT / rel).exists() or rel.endswith("<kind>.py"), rel
