@@ -198,7 +198,7 @@ def test_the_architecture_doc_states_the_record_kinds_and_the_allowed_modules() 
     assert allowed is not None
     assert int(allowed.group(1)) == len(RECORD_KIND_AWARE)
     assert set(re.findall(r"`([\w/.]+)`", allowed.group(2))) == set(RECORD_KIND_AWARE)
-    listed = re.findall(r"^\d+\. `([\w/.]+)`", section, re.M)
-    assert len(listed) == 9 and f"That is {len(listed)} files" in section
+    listed = re.findall(r"^\d+\. `([\w/.<>]+)`", section, re.M)
+    assert f"That is {len(listed)} files" in section
     for rel in listed:
         assert (ROOT / rel).exists() or rel.endswith("<kind>.py"), rel

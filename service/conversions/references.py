@@ -12,12 +12,10 @@ import numpy as np
 
 from models import RobotDescription
 from models.identification.result import ReferenceEstimate
-from models.measurements.camera import Camera
-from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords
+from models.measurements.references import ReferenceRecords
 from models.parameters import Kind
-from models.transforms import matrix_to_rotvec_np
 from service.errors import BadRequest
-from service.record_kinds import RECORD_KINDS, Described, RecordKind, has_references, kind_of
+from service.record_kinds import BY_MODEL, RECORD_KINDS, Described, RecordKind, has_references, kind_of
 from service.schemas.calibrations import CampaignRecord
 
 __all__ = ["Described", "has_references", "reference_groups_in", "references_out"]
@@ -77,19 +75,7 @@ def references_out(estimates: Sequence[ReferenceEstimate]) -> list[dict[str, Any
             "rms_residual_mm": estimate.rms_residual_mm,
             "unknowns": unknowns,
         }
-        if isinstance(ref, Anchor | FixedPoint):
-            entry["position_mm"] = [float(v) for v in estimate.values[:3]]
-        if isinstance(ref, Anchor) and ref.length_unknown:
-            entry["length_offset_mm"] = float(estimate.values[3])
-        if isinstance(ref, Plane):
-            normal, _, _ = ref.normal_at(float(estimate.values[0]), float(estimate.values[1]))
-            entry["normal"] = [float(v) for v in normal]
-            entry["offset_mm"] = float(estimate.values[2])
-        if isinstance(ref, Camera):
-            # The unknowns turn the start orientation; the report states the orientation itself.
-            entry["position_mm"] = [float(v) for v in estimate.values[:3]]
-            turned = matrix_to_rotvec_np(ref.orientation(estimate.values[3:6]))
-            entry["rotation_vector_deg"] = [float(v) * Kind.ANGLE.to_boundary for v in turned]
+        entry.update(BY_MODEL[ref.traits.kind].reported(ref, np.asarray(estimate.values, dtype=float)))
         out.append(entry)
     return out
 

@@ -41,6 +41,9 @@ BY_REFERENCE: Mapping[str, RecordKind] = MappingProxyType(
 """Each kind that measures a named reference by the field that names it: a design's candidate names "anchor",
 "point", "plane" or "camera"."""
 
+BY_MODEL: Mapping[str, RecordKind] = MappingProxyType({kind.model: kind for kind in RECORD_KINDS.values()})
+"""Each kind by the models' name of the reference its records measure (`Traits.kind`: an identified reference's)."""
+
 KIND_COLUMN = "kind"
 REFERENCE_COLUMNS = ("reference", "anchor", "plane", "feature", "camera")
 """Where a file names the reference a row measures (the first present is read)."""
@@ -76,6 +79,7 @@ def public_records(stored: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 __all__ = [
     "BY_FILE_KIND",
+    "BY_MODEL",
     "BY_REFERENCE",
     "DISTANCE",
     "FILE_COLUMNS",

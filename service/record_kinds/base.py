@@ -13,6 +13,7 @@ import numpy as np
 from pydantic import BaseModel
 
 from models import RobotDescription
+from models.errors import InvalidInput
 from models.measurement import MeasurementKind
 from models.measurements.camera import Camera
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
@@ -117,6 +118,25 @@ class RecordKind(ABC):
     def descriptions(self, described: Described) -> Mapping[str, Any]:
         """The references of this kind the body describes."""
         return {} if self.described_in is None else getattr(described, self.described_in)
+
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        """The reference a pose design plans its records against, from its description (where it stands, a
+        plane's normal, a camera's pose); a 422 naming what the design lacks (`lacking`)."""
+        raise NotImplementedError(f"{self.name} records measure no described reference")  # pragma: no cover
+
+    def lacking(self, name: str, key: str, what: str, example: str) -> InvalidInput:
+        """A described reference without what a design needs of it, and where to give it."""
+        plural = self.described_in
+        return InvalidInput(
+            f'{self.named_by} {name!r}: a design needs {what}: give "{plural}": {{"{name}": {{"{key}": {example}}}}}',
+            field=f"{plural}.{name}.{key}",
+            value=name,
+        )
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        """What the report states of an identified reference of this kind beside its unknowns (boundary units),
+        from its fitted unknowns `values` (internal units)."""
+        return {}
 
     def design_has(self, have: int) -> str:
         """A design's count of its candidate records, in its words (a camera's records are points seen)."""

@@ -44,6 +44,24 @@ class DistanceKind(RecordKind):
                 record=record,
             )
 
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        if description.position_mm is None:
+            # A tape's guess will do: the rows' directions hardly turn over centimetres.
+            raise self.lacking(
+                name,
+                "position_mm",
+                "where it stands (its records' rows depend on the direction to the TCP)",
+                "[x, y, z]",
+            )
+        x, y, z = description.position_mm
+        return Anchor(name, (x, y, z), length_unknown=description.length_unknown)
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        entry: dict[str, Any] = {"position_mm": [float(v) for v in values[:3]]}
+        if reference.length_unknown:
+            entry["length_offset_mm"] = float(values[3])
+        return entry
+
     def reference(self, described: Described, name: str) -> ModelReference:
         anchor = described.anchors[name]
         x, y, z = anchor.position_mm or (0.0, 0.0, 0.0)

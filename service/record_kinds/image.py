@@ -2,25 +2,50 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
 
 from models import RobotDescription
-from models.measurements.camera import Camera, read_images
+from models.measurements.camera import Camera, described_camera, read_images
 from models.measurements.references import ReferenceRecords
+from models.parameters import Kind
+from models.transforms import matrix_to_rotvec_np
 from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import length_factor
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
-from service.record_kinds.base import Described, FileRow, RecordKind, cell
+from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
 from service.schemas.references import ImageRecord, ImageRecordPublic
 
 SEEN_COLUMNS = ("x", "y", "z", "u", "v")
 """An image row's point (x, y, z in the frame it is given in) and its pixel (u, v)."""
 IMAGE_COLUMN = "image"
 """Where present, it separates two images of one camera taken at the same joints."""
+CAMERA_NEEDS = (
+    (
+        "position_mm",
+        "a guess of where it is, mm, in its parent frame (the world; the tool for mount tool)",
+        "[x, y, z]",
+    ),
+    (
+        "rotation_vector_deg",
+        "a guess of which way it looks: its frame's orientation in its parent frame as a rotation vector, deg "
+        "(OpenCV's camera frame: z forward, x right, y down)",
+        "[rx, ry, rz]",
+    ),
+    (
+        "targets_mm",
+        "the points it would see (markers in the tool frame for mount world, board points in the world frame for "
+        "mount tool)",
+        "[[x, y, z], ...]",
+    ),
+)
+"""What a design needs of a camera that a calibration does not: which targets a pose shows, and where on the
+image, depend on where the camera is."""
 _GROUPING = "_image"
 """The image id a record read from a file keeps until the file is read (`reference_table` drops it)."""
 
@@ -53,6 +78,24 @@ class ImageKind(RecordKind):
                 "intrinsics in px)",
                 record=record,
             )
+
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        """The described camera at the pose the body guesses for it."""
+        for key, what, example in CAMERA_NEEDS:
+            if getattr(description, key) is None:
+                raise self.lacking(name, key, what, example)
+        x, y, z = description.position_mm
+        rx, ry, rz = (math.radians(v) for v in description.rotation_vector_deg)
+        placed = described_camera(name, description.model_dump(exclude_none=True))
+        return replace(placed, position=(x, y, z), rotation=(rx, ry, rz))
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        # The unknowns turn the start orientation; the report states the orientation itself.
+        turned = matrix_to_rotvec_np(reference.orientation(values[3:6]))
+        return {
+            "position_mm": [float(v) for v in values[:3]],
+            "rotation_vector_deg": [float(v) * Kind.ANGLE.to_boundary for v in turned],
+        }
 
     def group(
         self,

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar
 
+import numpy as np
+
 from models.measurements.references import Plane
 from service.errors import BadRequest
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
@@ -26,6 +28,18 @@ class PlaneKind(RecordKind):
     design_description: ClassVar[str] = '{"normal": [nx, ny, nz]}'
     file_kinds: ClassVar[tuple[str, ...]] = ("plane",)
     file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
+
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        if description.normal is None or math.hypot(*description.normal) == 0.0:
+            raise self.lacking(
+                name, "normal", "its normal, not zero (a touch measures the TCP along it)", "[nx, ny, nz]"
+            )
+        nx, ny, nz = description.normal
+        return Plane(name, (nx, ny, nz), 0.0)
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        normal, _, _ = reference.normal_at(float(values[0]), float(values[1]))
+        return {"normal": [float(v) for v in normal], "offset_mm": float(values[2])}
 
     def reference(self, described: Described, name: str) -> ModelReference:
         plane = described.planes.get(name)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
+import numpy as np
+
 from models.measurements.references import FixedPoint
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
 from service.schemas.references import PointRecord, PointRecordPublic
@@ -21,6 +23,13 @@ class PointKind(RecordKind):
     example_name: ClassVar[str] = "p1"
     file_kinds: ClassVar[tuple[str, ...]] = ("point",)
     file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
+
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        px, py, pz = description.position_mm or (0.0, 0.0, 0.0)  # its rows do not depend on where it is
+        return FixedPoint(name, (px, py, pz))
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        return {"position_mm": [float(v) for v in values[:3]]}
 
     def reference(self, described: Described, name: str) -> ModelReference:
         point = described.points.get(name)
