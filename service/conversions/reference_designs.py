@@ -80,7 +80,7 @@ def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
     """Every described reference by (kind, name), as the design needs it: an anchor where it stands, a plane's
     normal, a camera's pose. A 422 naming the one that lacks what the design needs."""
     found: dict[tuple[str, str], Reference] = {}
-    described = Described(body.anchors, body.points, body.planes, body.cameras)
+    described = Described.of(body)
     for candidate, kind in BY_REFERENCE.items():
         for name, description in kind.descriptions(described).items():
             found[(candidate, name)] = cast(Reference, kind.design_reference(name, description))

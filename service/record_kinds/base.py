@@ -7,7 +7,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from pydantic import BaseModel
@@ -33,6 +33,19 @@ SIGMA_COLUMNS = ("sigma_mm", "sigma", "uncertainty")
 """Where a file gives a record's σ in mm (the first present is read)."""
 
 
+class DescribesReferences(Protocol):
+    """A request body that describes references (`ReferenceDescriptions`, a pose design's)."""
+
+    @property
+    def anchors(self) -> Mapping[str, AnchorDescription]: ...
+    @property
+    def points(self) -> Mapping[str, PointDescription]: ...
+    @property
+    def planes(self) -> Mapping[str, PlaneDescription]: ...
+    @property
+    def cameras(self) -> Mapping[str, CameraDescription]: ...
+
+
 @dataclass(frozen=True)
 class Described:
     """The references a body describes (its `anchors`, `points`, `planes`, `cameras`)."""
@@ -41,6 +54,11 @@ class Described:
     points: Mapping[str, PointDescription]
     planes: Mapping[str, PlaneDescription]
     cameras: Mapping[str, CameraDescription] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, body: DescribesReferences) -> Described:
+        """What a request body describes (a calibration's, a check's, a validation's, a pose design's)."""
+        return cls(body.anchors, body.points, body.planes, body.cameras)
 
 
 @dataclass(frozen=True)

@@ -97,7 +97,7 @@ def create_check(*, db: Database, registry: Registry, robot_id: str, body: Quick
     )
     noise, runtime = _noise(body.noise), registry.runtime(desc)
     if has_references(body.measurements):
-        described = Described(body.anchors, body.points, body.planes, body.cameras)
+        described = Described.of(body)
         groups, _ = reference_groups_in(desc, body.measurements, described, sigma_mm=body.noise.position_mm)
         result = check_references(
             desc, current.values, current.covariance, groups, noise=noise, options=options, runtime=runtime

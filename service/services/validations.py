@@ -78,7 +78,7 @@ def _against_references(
 ) -> dict[int, AccuracyReport]:
     """Each version against distance, point and plane records (and tracker positions beside them): the
     references placed under that version, the robot held (`models.identification.reference_fit.check_version`)."""
-    described = Described(body.anchors, body.points, body.planes, body.cameras)
+    described = Described.of(body)
     groups, _ = reference_groups_in(desc, body.measurements, described, sigma_mm=NoiseModel().position_mm)
     reports = {}
     for v, model in models.items():
