@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import inspect
+import re
 from pathlib import Path
 
 import pytest
@@ -109,3 +110,95 @@ def test_a_function_over_sixty_lines_says_why() -> None:
                     if len(body) > LONGEST_LINES and not any("# Long on purpose:" in line for line in body):
                         unexplained.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({len(body)} lines)")
     assert not unexplained, unexplained
+
+
+RECORD_KIND_AWARE = {
+    "service/schemas/designs.py": "a schema's validator (which design measurements sample poses): the schemas sit "
+    "below the registry, which imports them; it goes when the design's measurement is read from the registry",
+    "service/services/calibrations.py": "its tracker filter (isinstance on Record) becomes tracker_records once the "
+    "parallel work on the real-campaign calibration has landed",
+}
+"""The modules outside service/record_kinds/ still allowed to ask a record which kind it is, each with why: the
+list shrinks to empty (issue 43). models/ is not scanned: it knows no record kinds, only its own measurement
+and reference kinds (`test_every_measurement_kind_has_a_whole_model`)."""
+
+
+def _record_kind_words() -> tuple[set[str], set[str]]:
+    """The record classes (request and public) and every string that names a record kind or what it measures."""
+    from service.record_kinds import RECORD_KINDS  # noqa: PLC0415  (the service only where a test needs it)
+
+    classes = {cls.__name__ for kind in RECORD_KINDS.values() for cls in (kind.record, kind.public)}
+    words = {m.value for m in MeasurementKind}
+    for kind in RECORD_KINDS.values():
+        words |= {kind.name, kind.label, kind.model, *kind.file_kinds, *([kind.named_by] if kind.named_by else [])}
+    return classes, words - {""}
+
+
+def _asks_a_record_its_kind(node: ast.AST, classes: set[str], words: set[str]) -> bool:
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "isinstance":
+        named = {n.id for n in ast.walk(node.args[1]) if isinstance(n, ast.Name)}
+        return bool(named & classes)
+    if not isinstance(node, ast.Compare):
+        return False
+    for op, right in zip(node.ops, node.comparators, strict=True):
+        sides: tuple[ast.expr, ...]
+        if isinstance(op, ast.Eq | ast.NotEq):
+            sides = (node.left, right)
+        elif isinstance(op, ast.In | ast.NotIn) and isinstance(right, ast.Tuple | ast.List | ast.Set):
+            sides = tuple(right.elts)
+        else:
+            continue
+        if any(isinstance(s, ast.Constant) and s.value in words for s in sides):
+            return True
+    return False
+
+
+def test_no_module_outside_the_record_kinds_asks_a_record_its_kind() -> None:
+    classes, words = _record_kind_words()
+    found = []
+    for path in _sources(("service", "optimal_design")):
+        rel = str(path.relative_to(ROOT))
+        if rel.startswith("service/record_kinds/") or rel in RECORD_KIND_AWARE:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if _asks_a_record_its_kind(node, classes, words):
+                found.append(f"{rel}:{getattr(node, 'lineno', '?')} {ast.unparse(node)}")
+    assert not found, found
+
+
+@pytest.mark.parametrize("rel", sorted(RECORD_KIND_AWARE))
+def test_every_module_allowed_to_ask_a_record_its_kind_still_does(rel: str) -> None:
+    """An entry whose module no longer asks is removed, so that the list only shrinks."""
+    classes, words = _record_kind_words()
+    tree = ast.parse((ROOT / rel).read_text())
+    assert any(_asks_a_record_its_kind(node, classes, words) for node in ast.walk(tree)), rel
+
+
+def test_the_record_kind_check_sees_what_it_forbids() -> None:
+    classes, words = _record_kind_words()
+    asks = ['kind == "distance"', 'r.get("kind") != "image"', 'm in ("point", "x")', "isinstance(r, ImageRecord)"]
+    for source in asks:
+        assert any(_asks_a_record_its_kind(n, classes, words) for n in ast.walk(ast.parse(source))), source
+    fine = ['"position" in r', "kind is DISTANCE", 'name == "a1"', "isinstance(r, dict)"]
+    for source in fine:
+        assert not any(_asks_a_record_its_kind(n, classes, words) for n in ast.walk(ast.parse(source))), source
+
+
+def test_the_architecture_doc_states_the_record_kinds_and_the_allowed_modules() -> None:
+    """docs/architecture.md's counts match the code: the kinds it names, the modules still allowed to ask, and
+    every file it says a new record kind touches exists."""
+    from service.record_kinds import RECORD_KINDS  # noqa: PLC0415
+
+    doc = (ROOT / "docs" / "architecture.md").read_text()
+    section = doc[doc.index("**Record kinds**") : doc.index("**References**")]
+    stated = re.search(r"`tracker`\s+\(the models' pose and position kinds\),(.*?)each one", section, re.S)
+    assert stated is not None
+    assert ["tracker", *re.findall(r"`(\w+)`", stated.group(1))] == list(RECORD_KINDS)
+    allowed = re.search(r"\((\d+) now: (.*?)\)", section, re.S)
+    assert allowed is not None
+    assert int(allowed.group(1)) == len(RECORD_KIND_AWARE)
+    assert set(re.findall(r"`([\w/.]+)`", allowed.group(2))) == set(RECORD_KIND_AWARE)
+    listed = re.findall(r"^\d+\. `([\w/.<>]+)`", section, re.M)
+    assert f"That is {len(listed)} files" in section
+    for rel in listed:
+        assert (ROOT / rel).exists() or rel.endswith("<kind>.py"), rel

@@ -23,16 +23,18 @@ from collections.abc import Sequence
 from typing import Any
 
 from service.campaign_io.errors import CampaignFileError, listed
-from service.campaign_io.records import ImportOptions, joint_rows, joint_unit_notes, length_factor
-from service.campaign_io.tabular import Row, Table
-
-KIND_COLUMN = "kind"
-REFERENCE_COLUMNS = ("reference", "anchor", "plane", "feature", "camera")
-DISTANCE_COLUMNS = ("distance_mm", "distance", "length")
-SIGMA_COLUMNS = ("sigma_mm", "sigma", "uncertainty")
-NAMED_BY = {"distance": "anchor", "point": "point", "plane": "plane", "image": "camera"}
-"""A record kind → the field that names its reference in the API's record."""
-TRACKER_KINDS = ("", "tracker", "position")
+from service.campaign_io.records import ImportOptions, joint_rows, joint_unit_notes
+from service.campaign_io.tabular import Table
+from service.record_kinds import (
+    BY_FILE_KIND,
+    DISTANCE,
+    KIND_COLUMN,
+    RECORD_KINDS,
+    REFERENCE_COLUMNS,
+    FileRow,
+    file_kinds_listed,
+    kind_of,
+)
 
 
 def is_reference_table(table: Table) -> bool:
@@ -43,101 +45,34 @@ def is_reference_table(table: Table) -> bool:
 def reference_records(
     table: Table, joint_names: Sequence[str], options: ImportOptions
 ) -> tuple[list[dict[str, Any]], list[str]]:
-    """The API's records of each row (distance, point, plane or tracker), and the reader's notes."""
-    reference = _first(table, REFERENCE_COLUMNS)
-    distance = _first(table, DISTANCE_COLUMNS)
-    sigma = _first(table, SIGMA_COLUMNS)
+    """The API's records of each row (each its kind's, `service.record_kinds`), and the reader's notes."""
+    reference = next((n for n in REFERENCE_COLUMNS if n in table.columns), None)
     joints = joint_rows(table, joint_names)
     notes = [*table.notes, *joint_unit_notes(table, joint_names)]
-    scale = length_factor(table, distance, options) if distance else 1.0
-    if distance and scale != 1.0:
-        notes.append(f"distances converted to mm (×{scale:g})")
+    for each in RECORD_KINDS.values():
+        notes += each.table_notes(table, options)
     out: list[dict[str, Any]] = []
     for (_, _, q), row in zip(joints, table.rows, strict=True):
-        kind = row.cells.get(KIND_COLUMN, "").strip().lower()
-        if kind in TRACKER_KINDS:
-            out.append(_tracker(table, row, q, options))
-            continue
-        if kind not in NAMED_BY:
+        value = row.cells.get(KIND_COLUMN, "").strip().lower()
+        kind = BY_FILE_KIND.get(value)
+        if kind is None:
             raise CampaignFileError(
-                f"line {row.line}: kind {kind!r} is none of distance, point, plane, tracker",
+                f"line {row.line}: kind {value!r} is none of {file_kinds_listed()}",
                 line=row.line,
                 column=table.column_number(KIND_COLUMN),
             )
         name = row.cells.get(reference, "").strip() if reference else ""
-        if not name:
+        if kind.named_by is not None and not name:
             raise CampaignFileError(
-                f"line {row.line}: a {kind} record names its {NAMED_BY[kind]} in a column {listed(REFERENCE_COLUMNS)}",
+                f"line {row.line}: a {value} record names its {kind.named_by} in a column {listed(REFERENCE_COLUMNS)}",
                 line=row.line,
             )
-        if kind == "image":
-            _seen(table, row, q, name, out=out, options=options)
-            continue
-        rec: dict[str, Any] = {"kind": kind, "joints": q, NAMED_BY[kind]: name}
-        if kind == "distance":
-            if distance is None:
-                raise CampaignFileError(f"line {row.line}: a distance record needs a distance_mm column", line=1)
-            rec["distance_mm"] = table.number(row, distance) * scale
-        if sigma and row.cells.get(sigma, "").strip():
-            rec["sigma_mm"] = table.number(row, sigma) * length_factor(table, sigma, options)
-        out.append(rec)
+        kind.read_row(FileRow(table, row, q, name, options), out)
     for rec in out:
-        rec.pop("_image", None)  # the grouping key only
+        kind_of(rec).finish(rec)
     return out, notes
-
-
-def _seen(
-    table: Table, row: Row, joints: list[float], camera: str, *, out: list[dict[str, Any]], options: ImportOptions
-) -> None:
-    """An image row is one point a camera saw (x, y, z the point, u, v its pixel): consecutive rows of one camera
-    at the same joints (and the same `image` id, where the file has the column) are one image."""
-    missing = [c for c in ("x", "y", "z", "u", "v") if c not in table.columns]
-    if missing:
-        raise CampaignFileError(
-            f"line {row.line}: an image row needs the columns x, y, z (the point) and u, v (its pixel); missing: "
-            f"{listed(missing)}",
-            line=row.line,
-        )
-    scale = length_factor(table, "x", options)
-    point = {
-        "target_mm": [table.number(row, c) * scale for c in ("x", "y", "z")],
-        "pixel": [table.number(row, c) for c in ("u", "v")],
-    }
-    image_id = row.cells.get("image", "").strip()
-    last = out[-1] if out else None
-    if (
-        last is not None
-        and last.get("kind") == "image"
-        and last["camera"] == camera
-        and last["joints"] == joints
-        and last.get("_image", "") == image_id
-    ):
-        last["points"].append(point)
-        return
-    rec: dict[str, Any] = {"kind": "image", "joints": joints, "camera": camera, "points": [point], "_image": image_id}
-    if "sigma_px" in table.columns and row.cells.get("sigma_px", "").strip():
-        rec["sigma_px"] = table.number(row, "sigma_px")
-    out.append(rec)
 
 
 def anchor_names(records: Sequence[dict[str, Any]]) -> list[str]:
     """The anchors the records name, in order of first appearance."""
-    return list(dict.fromkeys(str(r["anchor"]) for r in records if r.get("kind") == "distance"))
-
-
-def _tracker(table: Table, row: Row, joints: list[float], options: ImportOptions) -> dict[str, Any]:
-    missing = [c for c in ("x", "y", "z") if c not in table.columns]
-    if missing:
-        raise CampaignFileError(
-            f"line {row.line}: a tracker record needs the columns x, y, z (missing: {listed(missing)})", line=row.line
-        )
-    scale = length_factor(table, "x", options)
-    rec: dict[str, Any] = {"joints": joints, "position": [table.number(row, c) * scale for c in ("x", "y", "z")]}
-    sigma = _first(table, SIGMA_COLUMNS)
-    if sigma and row.cells.get(sigma, "").strip():
-        rec["sigma_mm"] = table.number(row, sigma) * length_factor(table, sigma, options)
-    return rec
-
-
-def _first(table: Table, names: Sequence[str]) -> str | None:
-    return next((n for n in names if n in table.columns), None)
+    return list(dict.fromkeys(DISTANCE.reference_name(r) for r in records if kind_of(r) is DISTANCE))

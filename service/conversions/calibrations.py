@@ -20,14 +20,16 @@ from service.conversions.references import references_out
 from service.conversions.terms import record_conditions
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord
+from service.record_kinds import tracker_records
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic, Record
 from service.schemas.common import Payload, timestamp
 
 
 def campaign_in(desc: RobotDescription, body: CalibrationCreate) -> Campaign:
     """A tracker campaign (`has_references` is false: every record is a tracker's)."""
-    tracker = [r for r in body.measurements if isinstance(r, Record)]
-    return records_in(desc, tracker, default_sigma_mm=body.noise.position_mm, payload=body.payload)
+    return records_in(
+        desc, tracker_records(body.measurements), default_sigma_mm=body.noise.position_mm, payload=body.payload
+    )
 
 
 def records_in(

@@ -15,6 +15,7 @@ from models import RobotDescription
 from models.campaign import Campaign
 from models.identification.drift import DriftDriver, DriftEstimate, Timeline, find_reference
 from service.errors import BadRequest
+from service.record_kinds import tracker_records
 from service.schemas.calibrations import Record
 from service.schemas.common import ConditionsPublic, ConditionWarningPublic, Payload
 
@@ -102,7 +103,7 @@ def conditions_out(records: Sequence[object], payload: Payload | None) -> dict[s
     payload or a time count for none)."""
     temperatures = [t for r in records if (t := getattr(r, "temperature_c", None)) is not None]
     loads = [p for r in records if (p := getattr(r, "payload", None) or payload) is not None]
-    tracker = [r for r in records if isinstance(r, Record)]
+    tracker = tracker_records(records)
     times, instants = record_times(tracker) if len(tracker) == len(records) else (None, None)
     return ConditionsPublic.model_validate(
         {

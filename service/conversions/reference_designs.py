@@ -9,8 +9,8 @@ D-efficiency floor and no branch and bound, so those options are refused here wi
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,7 +19,7 @@ from models import RobotDescription, forward_kinematics, sample_workspace
 from models._types import Array
 from models.errors import InvalidInput, TooFewMeasurements
 from models.kinematics import check_joint_ranges
-from models.measurements.camera import Camera, described_camera
+from models.measurements.camera import Camera
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords
 from models.runtime import Runtime
 from optimal_design.constraints import KeepOut, joint_range_mask, keep_out_mask
@@ -27,17 +27,17 @@ from optimal_design.problem import MAX_CANDIDATES
 from optimal_design.references import camera_candidates
 from service.conversions.designs import constraints_in
 from service.conversions.kinematics import joints_in
+from service.record_kinds import BY_REFERENCE, RECORD_KINDS, Described
 from service.schemas.designs import PoseDesignCreate
-from service.schemas.references import CameraDescription, ReferenceCandidate
+from service.schemas.references import ReferenceCandidate
 
 Reference = Anchor | FixedPoint | Plane | Camera
-KIND_OF_MEASUREMENT = {"distance": "anchor", "point": "point", "plane": "plane", "image": "camera"}
+KIND_OF_MEASUREMENT = {kind.name: name for name, kind in BY_REFERENCE.items()}
 """The reference kind a record kind measures (records say `anchor`, `point`, `plane`, `camera`)."""
-PLURAL = {"anchor": "anchors", "point": "points", "plane": "planes", "camera": "cameras"}
+PLURAL = {name: str(kind.described_in) for name, kind in BY_REFERENCE.items()}
 """Where the body describes each kind."""
-SAMPLED_KINDS = ("anchor", "camera")
-"""What sampled poses are offered against: a ballbar reads wherever its range allows, a camera sees wherever its
-targets come into view; no sampled pose puts the TCP on a point or a plane."""
+SAMPLED_KINDS = tuple(name for name, kind in BY_REFERENCE.items() if kind.sampled)
+"""What sampled poses are offered against (`RecordKind.sampled`)."""
 DEFAULT_SIGMA_PX = 0.1
 """A camera's σ where its description gives none: what a calibration assumes for an image that states none."""
 
@@ -80,30 +80,10 @@ def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
     """Every described reference by (kind, name), as the design needs it: an anchor where it stands, a plane's
     normal, a camera's pose. A 422 naming the one that lacks what the design needs."""
     found: dict[tuple[str, str], Reference] = {}
-    for name, anchor in body.anchors.items():
-        if anchor.position_mm is None:
-            # A tape's guess will do: the rows' directions hardly turn over centimetres.
-            raise _lacking(
-                "anchor",
-                name,
-                "position_mm",
-                "where it stands (its records' rows depend on the direction to the TCP)",
-                "[x, y, z]",
-            )
-        x, y, z = anchor.position_mm
-        found[("anchor", name)] = Anchor(name, (x, y, z), length_unknown=anchor.length_unknown)
-    for name, point in body.points.items():
-        px, py, pz = point.position_mm or (0.0, 0.0, 0.0)  # its rows do not depend on where it is
-        found[("point", name)] = FixedPoint(name, (px, py, pz))
-    for name, plane in body.planes.items():
-        if plane.normal is None or math.hypot(*plane.normal) == 0.0:
-            raise _lacking(
-                "plane", name, "normal", "its normal, not zero (a touch measures the TCP along it)", "[nx, ny, nz]"
-            )
-        nx, ny, nz = plane.normal
-        found[("plane", name)] = Plane(name, (nx, ny, nz), 0.0)
-    for name, camera in body.cameras.items():
-        found[("camera", name)] = _placed_camera(name, camera)
+    described = Described.of(body)
+    for candidate, kind in BY_REFERENCE.items():
+        for name, description in kind.descriptions(described).items():
+            found[(candidate, name)] = cast(Reference, kind.design_reference(name, description))
     names = [name for _, name in found]
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
@@ -113,52 +93,6 @@ def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
             value=repeated[0],
         )
     return found
-
-
-CAMERA_NEEDS = (
-    (
-        "position_mm",
-        "a guess of where it is, mm, in its parent frame (the world; the tool for mount tool)",
-        "[x, y, z]",
-    ),
-    (
-        "rotation_vector_deg",
-        "a guess of which way it looks: its frame's orientation in its parent frame as a rotation vector, deg "
-        "(OpenCV's camera frame: z forward, x right, y down)",
-        "[rx, ry, rz]",
-    ),
-    (
-        "targets_mm",
-        "the points it would see (markers in the tool frame for mount world, board points in the world frame for "
-        "mount tool)",
-        "[[x, y, z], ...]",
-    ),
-)
-"""What a design needs of a camera that a calibration does not: which targets a pose shows, and where on the
-image, depend on where the camera is."""
-
-
-def _placed_camera(name: str, camera: CameraDescription) -> Camera:
-    """A described camera at the pose the body guesses for it; a 422 naming the field a design lacks."""
-    for key, what, example in CAMERA_NEEDS:
-        if getattr(camera, key) is None:
-            raise _lacking("camera", name, key, what, example)
-    assert camera.position_mm is not None and camera.rotation_vector_deg is not None
-    x, y, z = camera.position_mm
-    rx, ry, rz = (math.radians(v) for v in camera.rotation_vector_deg)
-    return replace(
-        described_camera(name, camera.model_dump(exclude_none=True)), position=(x, y, z), rotation=(rx, ry, rz)
-    )
-
-
-def _lacking(kind: str, name: str, key: str, what: str, example: str) -> InvalidInput:
-    """A described reference without what a design needs of it, and where to give it."""
-    plural = PLURAL[kind]
-    return InvalidInput(
-        f'{kind} {name!r}: a design needs {what}: give "{plural}": {{"{name}": {{"{key}": {example}}}}}',
-        field=f"{plural}.{name}.{key}",
-        value=name,
-    )
 
 
 @dataclass(frozen=True)
@@ -244,13 +178,7 @@ def _reference_of(
         kind, name = candidate.reference
         if (kind, name) not in references:
             plural = PLURAL[kind]
-            needs = {
-                "anchor": '{"position_mm": [x, y, z]}',
-                "point": "{}",
-                "plane": '{"normal": [nx, ny, nz]}',
-                "camera": '{"fx": …, "fy": …, "cx": …, "cy": …, "position_mm": [x, y, z], "rotation_vector_deg": '
-                '[rx, ry, rz], "targets_mm": [[x, y, z], …]}',
-            }[kind]
+            needs = BY_REFERENCE[kind].design_description
             raise InvalidInput(
                 f'candidate {index} names {kind} {name!r}, which the body does not describe: add "{plural}": '
                 f'{{"{name}": {needs}}}',
@@ -301,24 +229,22 @@ def _sampled(request: _Request) -> ReferenceCandidates:
 
 def _check_samplable(body: PoseDesignCreate, references: dict[tuple[str, str], Reference]) -> None:
     """Sampled candidates need references they can be offered against, and at most MAX_CANDIDATES of them."""
-    if body.measurement not in ("distance", "image") or any(kind not in SAMPLED_KINDS for kind, _ in references):
+    record_kind = RECORD_KINDS.get(str(body.measurement))
+    sampled = record_kind is not None and record_kind.sampled
+    if not sampled or any(kind not in SAMPLED_KINDS for kind, _ in references):
         raise InvalidInput(
             f"measurement {body.measurement!r}: sampled poses do not put the TCP on a point or a plane; give "
             'candidates, joint vectors that put the TCP on it ({"joints": [...], "point": "<name>"} or "plane")'
-            + (", or design distance and image records alone" if body.measurement in ("distance", "image") else ""),
+            + (", or design distance and image records alone" if sampled else ""),
             field="candidates",
             reason="candidates_needed",
         )
-    measured = KIND_OF_MEASUREMENT[str(body.measurement)]
+    assert record_kind is not None  # sampled
+    measured = KIND_OF_MEASUREMENT[record_kind.name]
     if not any(kind == measured for kind, _ in references):
         # Sampled poses offered to none of the measured kind would design records of another kind under its name.
-        describe = (
-            '"anchors": {"a1": {"position_mm": [x, y, z]}}'
-            if body.measurement == "distance"
-            else '"cameras": {"c1": {"fx": …, "fy": …, "cx": …, "cy": …, "position_mm": [x, y, z], '
-            '"rotation_vector_deg": [rx, ry, rz], "targets_mm": [[x, y, z], …]}}'
-        )
         plural = PLURAL[measured]
+        describe = f'"{plural}": {{"{record_kind.example_name}": {record_kind.design_description}}}'
         raise InvalidInput(
             f"measurement {body.measurement!r}: describe the {plural} the records would measure: {describe}",
             field=plural,
@@ -414,19 +340,9 @@ def _check_determined(found: ReferenceCandidates, references: dict[tuple[str, st
     for (kind, name), reference in references.items():
         have, needed = sizes.get(name, 0), reference.minimum_records
         if have < needed:
-            fix = (
-                "give more candidates naming it"
-                if given
-                else "raise candidate_count"
-                if kind == "camera"
-                else "widen its range_mm or raise candidate_count"
-            )
-            # A camera's records are the points its images would show, not its poses.
-            has = (
-                f"would see {have} targets over its candidate images"
-                if kind == "camera"
-                else f"has {have} admissible candidates"
-            )
+            record_kind = BY_REFERENCE[kind]
+            fix = "give more candidates naming it" if given else record_kind.more_candidates
+            has = record_kind.design_has(have)  # a camera's records are the points its images would show
             raise TooFewMeasurements(
                 f"{kind} {name!r} {has}: a design needs at least {needed} to determine its "
                 f"{len(reference.unknowns)} unknowns; {fix}",

@@ -156,7 +156,8 @@ class CalibrationReport:
         rows = []
         for ref in self.calibration.get("references") or []:
             where = ref.get("position_mm") or ref.get("normal")
-            extra = ref.get("length_offset_mm") if ref["kind"] == "anchor" else ref.get("offset_mm")
+            # an anchor's length offset or a plane's offset: each reference states at most one
+            extra = ref.get("length_offset_mm") if ref.get("length_offset_mm") is not None else ref.get("offset_mm")
             std = max((u["std_error"] or 0.0) for u in ref["unknowns"]) if ref["unknowns"] else None
             located = ", ".join(f"{v:.4f}" for v in where) if where else ""
             rows.append([ref["kind"], ref["name"], ref["records"], located, extra, std, ref["rms_residual_mm"]])

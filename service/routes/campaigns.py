@@ -3,7 +3,7 @@ from __future__ import annotations
 import csv
 import io
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, cast
 
 from fastapi import APIRouter, Query, Request, Response
 
@@ -11,14 +11,9 @@ from service.csv_codec import CAMPAIGN_HEADER, POSE_COLUMNS
 from service.deps import DatabaseDep, ModelCacheDep, negotiate
 from service.json_bodies import OffloopRoute
 from service.operations import operation
+from service.record_kinds import FILE_COLUMNS, has_references, kind_of, tracker_records
 from service.responses import model_json
 from service.schemas.campaigns import CampaignPublic, CampaignRecordPublic
-from service.schemas.references import (
-    DistanceRecordPublic,
-    ImageRecordPublic,
-    PlaneRecordPublic,
-    PointRecordPublic,
-)
 from service.security import Scope
 from service.services import campaigns
 
@@ -46,12 +41,14 @@ def campaign_csv(campaign: CampaignPublic, joint_names: Sequence[str]) -> str:
     (`service.campaign_io.reference_table`)."""
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    tracker = [r for r in campaign.measurements if isinstance(r, CampaignRecordPublic)]
-    if len(tracker) < len(campaign.measurements):
-        writer.writerow([*KIND_COLUMNS[:2], *joint_names, *KIND_COLUMNS[2:]])
+    if has_references(campaign.measurements):
+        writer.writerow([*FILE_COLUMNS[:2], *joint_names, *FILE_COLUMNS[2:]])
         for r in campaign.measurements:
-            writer.writerows(_kind_rows(r))
+            joints = [repr(float(v)) for v in r.joints]
+            for row in kind_of(r).file_rows(r):  # an image: a row per point it saw
+                writer.writerow([*(row.get(c, "") for c in FILE_COLUMNS[:2]), *joints, *_cells(row)])
         return out.getvalue()
+    tracker = cast(list[CampaignRecordPublic], tracker_records(campaign.measurements))
     with_orientation = any(r.orientation is not None for r in tracker)
     # A record's own σ and temperature (a tracker file's U(95) / 2, its Temperature column) go back out with it,
     # so the CSV fitted again is the same campaign.
@@ -66,28 +63,9 @@ def campaign_csv(campaign: CampaignPublic, joint_names: Sequence[str]) -> str:
     return out.getvalue()
 
 
-KIND_COLUMNS = ("kind", "reference", "distance_mm", "x", "y", "z", "u", "v", "sigma_mm", "sigma_px")
-"""The layout of several kinds (`service.campaign_io.reference_table`) around the joints: an image is a row per
-point it saw, x y z the point and u v its pixel."""
-
-
-def _kind_rows(
-    r: CampaignRecordPublic | DistanceRecordPublic | PointRecordPublic | PlaneRecordPublic | ImageRecordPublic,
-) -> list[list[str]]:
-    joints = [repr(float(v)) for v in r.joints]
-    if isinstance(r, CampaignRecordPublic):
-        return [["tracker", "", *joints, "", *(repr(float(v)) for v in r.position), "", "", "", ""]]
-    if isinstance(r, ImageRecordPublic):
-        sigma_px = "" if r.sigma_px is None else repr(float(r.sigma_px))
-        return [
-            ["image", r.camera, *joints, "", *(repr(float(v)) for v in (*p.target_mm, *p.pixel)), "", sigma_px]
-            for p in r.points
-        ]
-    sigma = "" if r.sigma_mm is None else repr(float(r.sigma_mm))
-    if isinstance(r, DistanceRecordPublic):
-        return [["distance", r.anchor, *joints, repr(float(r.distance_mm)), "", "", "", "", "", sigma, ""]]
-    name = r.point if isinstance(r, PointRecordPublic) else r.plane
-    return [[r.kind, name, *joints, "", "", "", "", "", "", sigma, ""]]
+def _cells(cells: dict[str, str]) -> list[str]:
+    """A kind's cells after the joints, in the layout's order (empty where the kind has none)."""
+    return [cells.get(c, "") for c in FILE_COLUMNS[2:]]
 
 
 @router.get("/v1/campaigns/{campaign_id}", response_model=CampaignPublic, responses=_CSV)

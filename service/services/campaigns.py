@@ -4,6 +4,7 @@ from typing import Any
 
 from service.persistence import Database
 from service.persistence.lifecycle import Lifecycle
+from service.record_kinds import kind_of
 from service.schemas.campaigns import CampaignPublic
 
 
@@ -20,24 +21,6 @@ def get_campaign(*, db: Database, campaign_id: str) -> CampaignPublic:
         )
 
 
-REFERENCE_FIELDS = {
-    "distance": ("anchor", "distance_mm", "sigma_mm"),
-    "point": ("point", "sigma_mm"),
-    "plane": ("plane", "sigma_mm"),
-    "image": ("camera", "points", "sigma_px"),
-}
-"""What a stored record of each kind shows beside its joints and σ (a tracker's: position and orientation)."""
-
-
 def _record(stored: dict[str, Any]) -> dict[str, Any]:
-    kind = stored.get("kind")
-    if kind is None:
-        return {
-            "joints": stored["joints"],
-            "position": stored["position"],
-            "orientation": stored.get("orientation"),
-            "sigma_mm": stored.get("sigma_mm"),
-            "temperature_c": stored.get("temperature_c"),
-        }
-    shown = ("kind", "joints", *REFERENCE_FIELDS[kind])
-    return {key: stored.get(key) for key in shown}
+    """A stored record in its public form: its kind's public fields (`service.record_kinds`)."""
+    return kind_of(stored).public_of(stored)

@@ -23,7 +23,8 @@ from service.conversions.robots import description
 from service.conversions.terms import stored_model
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
-from service.schemas.calibrations import Noise, Record
+from service.record_kinds import tracker_records
+from service.schemas.calibrations import Noise
 from service.schemas.checks import (
     Against,
     HistoryEventPublic,
@@ -96,22 +97,21 @@ def create_check(*, db: Database, registry: Registry, robot_id: str, body: Quick
     )
     noise, runtime = _noise(body.noise), registry.runtime(desc)
     if has_references(body.measurements):
-        described = Described(body.anchors, body.points, body.planes, body.cameras)
+        described = Described.of(body)
         groups, _ = reference_groups_in(desc, body.measurements, described, sigma_mm=body.noise.position_mm)
         result = check_references(
             desc, current.values, current.covariance, groups, noise=noise, options=options, runtime=runtime
         )
         kind, size = MeasurementKind.POSITION, len(body.measurements)
     else:
-        tracker = [r for r in body.measurements if isinstance(r, Record)]
-        campaign = records_in(desc, tracker, default_sigma_mm=body.noise.position_mm)
+        campaign = records_in(desc, tracker_records(body.measurements), default_sigma_mm=body.noise.position_mm)
         result = check_version(
             desc, current.values, current.covariance, campaign, noise=noise, options=options, runtime=runtime
         )
         kind, size = campaign.kind, campaign.size
     document = check_document(desc, current.number, body.against, result, kind=kind, size=size)
     # The check is answered all the same; a version calibrated under other conditions is said to be.
-    records = [r for r in body.measurements if isinstance(r, Record)]
+    records = tracker_records(body.measurements)
     warnings = condition_warnings(
         current.conditions,
         version=current.number,
@@ -136,7 +136,7 @@ def design_check_poses(
     with db.reader() as s:
         current = _current(Repository(s), robot_id, body.against)
     desc = current.desc
-    position_only = body.measurement == "position"
+    position_only = MeasurementKind(body.measurement).position_only
     options = CheckOptions(alpha=body.alpha, register=body.fit_frame)
     design = design_check(
         desc,

@@ -19,7 +19,7 @@ from service.conversions.terms import stored_model
 from service.conversions.validations import iso_poses_out, validation_public, version_result_out
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
-from service.schemas.calibrations import Record
+from service.record_kinds import tracker_records
 from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
 
 
@@ -50,7 +50,7 @@ def validate(*, db: Database, registry: Registry, robot_id: str, body: Validatio
         reports = _against_references(desc, body, models, values, registry)
         measurement, size = MeasurementKind.POSITION, len(body.measurements)
     else:
-        campaign = records_in(desc, [r for r in body.measurements if isinstance(r, Record)])
+        campaign = records_in(desc, tracker_records(body.measurements))
         if body.fit_frame and campaign.size < 3:
             raise InvalidInput("register: fitting the instrument frame needs at least 3 records", field="register")
         reports = {
@@ -78,7 +78,7 @@ def _against_references(
 ) -> dict[int, AccuracyReport]:
     """Each version against distance, point and plane records (and tracker positions beside them): the
     references placed under that version, the robot held (`models.identification.reference_fit.check_version`)."""
-    described = Described(body.anchors, body.points, body.planes, body.cameras)
+    described = Described.of(body)
     groups, _ = reference_groups_in(desc, body.measurements, described, sigma_mm=NoiseModel().position_mm)
     reports = {}
     for v, model in models.items():

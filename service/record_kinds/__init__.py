@@ -1,0 +1,102 @@
+"""The record kinds, one registry entry each: the tables the service reads and writes a campaign's records by
+(their schemas, their file columns, how they become the models' inputs, their public form) are derived from
+`RECORD_KINDS`, so the code that composes a campaign of several kinds looks a record's kind up (`kind_of`) and
+calls it instead of asking which one it holds.
+
+A new record kind is a module here (a `RecordKind`: its models' reference in `models.measurements`, its schemas in
+`service.schemas.references`), its entry in `RECORD_KINDS` and its member of the campaign record union
+(`service.schemas.calibrations.CampaignRecord`, `service.schemas.campaigns.CampaignPublic`);
+tests/service/test_record_kinds_registry.py checks that they agree with each other, with the models'
+`MeasurementKind` and with the OpenAPI document.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from types import MappingProxyType
+from typing import Any, cast
+
+from service.record_kinds.base import SIGMA_COLUMNS, Described, FileRow, RecordKind
+from service.record_kinds.distance import DISTANCE
+from service.record_kinds.image import IMAGE
+from service.record_kinds.plane import PLANE
+from service.record_kinds.point import POINT
+from service.record_kinds.tracker import TRACKER
+from service.schemas.calibrations import Record
+from service.schemas.references import record_tag
+
+RECORD_KINDS: Mapping[str, RecordKind] = MappingProxyType(
+    {kind.name: kind for kind in (TRACKER, DISTANCE, POINT, PLANE, IMAGE)}
+)
+"""Each record kind by its tag (a record's `kind`; a tracker's records name none: "tracker")."""
+
+BY_FILE_KIND: Mapping[str, RecordKind] = MappingProxyType(
+    {value: kind for kind in RECORD_KINDS.values() for value in kind.file_kinds}
+)
+"""Each kind by the values of a file's `kind` column that mean it."""
+
+BY_REFERENCE: Mapping[str, RecordKind] = MappingProxyType(
+    {kind.named_by: kind for kind in RECORD_KINDS.values() if kind.named_by is not None}
+)
+"""Each kind that measures a named reference by the field that names it: a design's candidate names "anchor",
+"point", "plane" or "camera"."""
+
+BY_MODEL: Mapping[str, RecordKind] = MappingProxyType({kind.model: kind for kind in RECORD_KINDS.values()})
+"""Each kind by the models' name of the reference its records measure (`Traits.kind`: an identified reference's)."""
+
+KIND_COLUMN = "kind"
+REFERENCE_COLUMNS = ("reference", "anchor", "plane", "feature", "camera")
+"""Where a file names the reference a row measures (the first present is read)."""
+FILE_COLUMNS = ("kind", "reference", "distance_mm", "x", "y", "z", "u", "v", "sigma_mm", "sigma_px")
+"""The layout of several kinds as the service writes it, the joints after `reference`: the union of the kinds'
+`file_columns` (tests/service/test_record_kinds_registry.py checks it), in the order the files have had."""
+
+
+def kind_of(record: Any) -> RecordKind:
+    """The kind of a record: a request's or a public schema's, or a stored or read record (a dict)."""
+    return RECORD_KINDS[record_tag(record)]
+
+
+def has_references(measurements: Iterable[Any]) -> bool:
+    """Whether a campaign holds any record of the instruments a cell owns (not only a tracker's)."""
+    return any(kind_of(r).measures_reference for r in measurements)
+
+
+def tracker_records(measurements: Iterable[Any]) -> list[Record]:
+    """A campaign's tracker records, in order (the records of the models' pose or position campaign)."""
+    return cast(list[Record], [r for r in measurements if kind_of(r) is TRACKER])
+
+
+def file_kinds_listed() -> str:
+    """The kinds a file's `kind` column may name, for messages."""
+    return ", ".join(RECORD_KINDS)
+
+
+def public_records(stored: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Stored records in their public form."""
+    return [kind_of(r).public_of(r) for r in stored]
+
+
+__all__ = [
+    "BY_FILE_KIND",
+    "BY_MODEL",
+    "BY_REFERENCE",
+    "DISTANCE",
+    "FILE_COLUMNS",
+    "IMAGE",
+    "KIND_COLUMN",
+    "PLANE",
+    "POINT",
+    "RECORD_KINDS",
+    "REFERENCE_COLUMNS",
+    "SIGMA_COLUMNS",
+    "TRACKER",
+    "Described",
+    "FileRow",
+    "RecordKind",
+    "file_kinds_listed",
+    "has_references",
+    "kind_of",
+    "public_records",
+    "tracker_records",
+]

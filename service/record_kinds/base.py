@@ -1,0 +1,214 @@
+"""What a record kind is (`RecordKind`): one object per instrument's record that the service's tables are derived
+from, so the code that composes a campaign of several kinds looks its records' kind up instead of asking which
+one it holds (the registry: `service.record_kinds`)."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+from pydantic import BaseModel
+
+from models import RobotDescription
+from models.errors import InvalidInput
+from models.measurement import MeasurementKind
+from models.measurements.camera import Camera
+from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
+from service.campaign_io.records import ImportOptions, length_factor
+from service.campaign_io.tabular import Row, Table
+from service.conversions.kinematics import joints_in
+from service.schemas.references import (
+    AnchorDescription,
+    CameraDescription,
+    PlaneDescription,
+    PointDescription,
+)
+
+ModelReference = Anchor | FixedPoint | Plane | TrackerPositions | Camera
+"""What a group of records measures in the models (`ReferenceRecords.reference`)."""
+SIGMA_COLUMNS = ("sigma_mm", "sigma", "uncertainty")
+"""Where a file gives a record's σ in mm (the first present is read)."""
+
+
+class DescribesReferences(Protocol):
+    """A request body that describes references (`ReferenceDescriptions`, a pose design's)."""
+
+    @property
+    def anchors(self) -> Mapping[str, AnchorDescription]: ...
+    @property
+    def points(self) -> Mapping[str, PointDescription]: ...
+    @property
+    def planes(self) -> Mapping[str, PlaneDescription]: ...
+    @property
+    def cameras(self) -> Mapping[str, CameraDescription]: ...
+
+
+@dataclass(frozen=True)
+class Described:
+    """The references a body describes (its `anchors`, `points`, `planes`, `cameras`)."""
+
+    anchors: Mapping[str, AnchorDescription]
+    points: Mapping[str, PointDescription]
+    planes: Mapping[str, PlaneDescription]
+    cameras: Mapping[str, CameraDescription] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, body: DescribesReferences) -> Described:
+        """What a request body describes (a calibration's, a check's, a validation's, a pose design's)."""
+        return cls(body.anchors, body.points, body.planes, body.cameras)
+
+
+@dataclass(frozen=True)
+class FileRow:
+    """One row of a campaign file in the layout of several kinds, as a kind reads it."""
+
+    table: Table
+    row: Row
+    joints: list[float]
+    name: str
+    """The reference column's cell, stripped ("" where the file has none)."""
+    options: ImportOptions
+
+    def sigma_mm(self, record: dict[str, Any]) -> None:
+        """The row's σ (mm) onto `record`, where the file gives one."""
+        sigma = first_column(self.table, SIGMA_COLUMNS)
+        if sigma and self.row.cells.get(sigma, "").strip():
+            record["sigma_mm"] = self.table.number(self.row, sigma) * length_factor(self.table, sigma, self.options)
+
+
+def first_column(table: Table, names: Sequence[str]) -> str | None:
+    return next((n for n in names if n in table.columns), None)
+
+
+def cell(value: float | None) -> str:
+    """A number as the campaign CSV writes it: exactly as stored (repr), empty for none."""
+    return "" if value is None else repr(float(value))
+
+
+class RecordKind(ABC):
+    """A kind of campaign record: its schemas, its file rows and how its records become the model's inputs."""
+
+    name: ClassVar[str]
+    """Its tag in the API (`kind`; a tracker's records carry none, their tag is "tracker")."""
+    model: ClassVar[str]
+    """The kind of the models' reference its records measure (`Traits.kind` in `models.measurements`)."""
+    measurement_kinds: ClassVar[tuple[MeasurementKind, ...]] = ()
+    """The models' `MeasurementKind`s its records are, where a whole campaign of them is one (a tracker's)."""
+    record: ClassVar[type[BaseModel]]
+    """Its request schema (a member of the campaign record union)."""
+    public: ClassVar[type[BaseModel]]
+    """Its stored, public schema (a member of `CampaignPublic.measurements`)."""
+    named_by: ClassVar[str | None] = None
+    """The record's field that names the reference it measures; none where it measures no named reference."""
+    label: ClassVar[str]
+    """How messages name what it measures ("anchor", "image", …)."""
+    described_in: ClassVar[str | None] = None
+    """The body's map that describes the references it measures ("anchors", …; `Described`)."""
+    example_name: ClassVar[str] = ""
+    """A name its reference takes in the messages' examples ("a1")."""
+    design_description: ClassVar[str] = "{}"
+    """What a pose design needs described of its reference, as a message shows it."""
+    sampled: ClassVar[bool] = False
+    """Whether a sampled pose can be one of its records (a ballbar reads wherever its range allows, a camera sees
+    wherever its targets come into view; no sampled pose puts the TCP on a point or a plane)."""
+    more_candidates: ClassVar[str] = "raise candidate_count"
+    """How a sampled design gets more of its records."""
+    file_kinds: ClassVar[tuple[str, ...]]
+    """Its values of a file's `kind` column, lower case; the first is the one written."""
+    file_columns: ClassVar[tuple[str, ...]]
+    """The columns of the layout of several kinds it fills beside `kind`, `reference` and the joints."""
+
+    @property
+    def measures_reference(self) -> bool:
+        """Whether its records measure a reference the cell owns (described beside the records)."""
+        return self.named_by is not None
+
+    def reference_name(self, record: Any) -> str:
+        """The name of the reference a record measures (its kind's where it names none)."""
+        if self.named_by is None:
+            return self.name
+        # a record read from a file or stored is a dict; a request's or a public one, a schema
+        return str(record[self.named_by] if isinstance(record, Mapping) else getattr(record, self.named_by))
+
+    def descriptions(self, described: Described) -> Mapping[str, Any]:
+        """The references of this kind the body describes."""
+        return {} if self.described_in is None else getattr(described, self.described_in)
+
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        """The reference a pose design plans its records against, from its description (where it stands, a
+        plane's normal, a camera's pose); a 422 naming what the design lacks (`lacking`)."""
+        raise NotImplementedError(f"{self.name} records measure no described reference")  # pragma: no cover
+
+    def lacking(self, name: str, key: str, what: str, example: str) -> InvalidInput:
+        """A described reference without what a design needs of it, and where to give it."""
+        plural = self.described_in
+        return InvalidInput(
+            f'{self.named_by} {name!r}: a design needs {what}: give "{plural}": {{"{name}": {{"{key}": {example}}}}}',
+            field=f"{plural}.{name}.{key}",
+            value=name,
+        )
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        """What the report states of an identified reference of this kind beside its unknowns (boundary units),
+        from its fitted unknowns `values` (internal units)."""
+        return {}
+
+    def design_has(self, have: int) -> str:
+        """A design's count of its candidate records, in its words (a camera's records are points seen)."""
+        return f"has {have} admissible candidates"
+
+    def check_described(self, described: Described, name: str, record: int) -> None:  # noqa: B027  (optional)
+        """A 4xx where the body must describe the reference `name` that record `record` measures and does not."""
+
+    def public_of(self, stored: Mapping[str, Any]) -> dict[str, Any]:
+        """A stored record in its public form: the public schema's fields, as stored."""
+        return {key: stored.get(key) for key in self.public.model_fields}
+
+    def group(
+        self,
+        desc: RobotDescription,
+        described: Described,
+        name: str,
+        records: Sequence[Any],
+        index: Sequence[int],
+        *,
+        sigma_mm: float,
+    ) -> ReferenceRecords:
+        """The records of one reference as the models' group (internal units), each keeping its place `index` in
+        the campaign (`sigma_mm`: a record's σ where it states none)."""
+        joints = joints_in(desc, [r.joints for r in records])
+        given = [r.sigma_mm for r in records]
+        sigma = None if all(g is None for g in given) else np.array([sigma_mm if g is None else g for g in given])
+        reference = self.reference(described, name)
+        return ReferenceRecords(reference, joints, self.values(records), sigma, np.asarray(index, dtype=np.intp))
+
+    def reference(self, described: Described, name: str) -> ModelReference:
+        """The reference with its description's guesses (the fit computes its start from the records)."""
+        raise NotImplementedError(f"{self.name} records build their own groups")  # pragma: no cover
+
+    def values(self, records: Sequence[Any]) -> np.ndarray:
+        """What each record measured (internal units): nothing for a touch."""
+        return np.zeros(len(records))
+
+    def notes(self, records: Sequence[Any]) -> list[str]:
+        """What the conversion of these records beside other kinds says."""
+        return []
+
+    def table_notes(self, table: Table, options: ImportOptions) -> list[str]:
+        """What reading a file's columns for this kind says (a unit converted)."""
+        return []
+
+    @abstractmethod
+    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
+        """A file row's record (the API's form) appended to `out`, or merged into the last one (an image's
+        points); a row it cannot read: a `CampaignFileError` naming its line."""
+
+    def finish(self, record: dict[str, Any]) -> None:  # noqa: B027  (optional)
+        """A record read from a file, once the whole file is read: the keys only reading needed dropped."""
+
+    @abstractmethod
+    def file_rows(self, record: Any) -> list[dict[str, str]]:
+        """A public record as rows of the layout of several kinds, each its cells by column (joints aside)."""

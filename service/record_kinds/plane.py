@@ -1,0 +1,60 @@
+"""A plane record: the TCP (a probe's ball centre, its radius already added) touching one unknown plane."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from models.measurements.references import Plane
+from service.errors import BadRequest
+from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
+from service.schemas.references import PlaneRecord, PlaneRecordPublic
+
+DEFAULT_PLANE_SIDE = (0.0, 0.0, 1.0)
+"""The side a plane is taken to be touched from when its description gives none (the fit's sign only)."""
+
+
+class PlaneKind(RecordKind):
+    name: ClassVar[str] = "plane"
+    model: ClassVar[str] = Plane.traits.kind
+    record = PlaneRecord
+    public = PlaneRecordPublic
+    named_by: ClassVar[str | None] = "plane"
+    label: ClassVar[str] = "plane"
+    described_in: ClassVar[str | None] = "planes"
+    example_name: ClassVar[str] = "f1"
+    design_description: ClassVar[str] = '{"normal": [nx, ny, nz]}'
+    file_kinds: ClassVar[tuple[str, ...]] = ("plane",)
+    file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
+
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        if description.normal is None or math.hypot(*description.normal) == 0.0:
+            raise self.lacking(
+                name, "normal", "its normal, not zero (a touch measures the TCP along it)", "[nx, ny, nz]"
+            )
+        nx, ny, nz = description.normal
+        return Plane(name, (nx, ny, nz), 0.0)
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        normal, _, _ = reference.normal_at(float(values[0]), float(values[1]))
+        return {"normal": [float(v) for v in normal], "offset_mm": float(values[2])}
+
+    def reference(self, described: Described, name: str) -> ModelReference:
+        plane = described.planes.get(name)
+        nx, ny, nz = (plane.normal if plane else None) or DEFAULT_PLANE_SIDE
+        if math.hypot(nx, ny, nz) == 0.0:
+            raise BadRequest(f"plane {name!r}: its normal is the zero vector; give the side it is touched from")
+        return Plane(name, (nx, ny, nz), 0.0)
+
+    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
+        rec: dict[str, Any] = {"kind": self.name, "joints": row.joints, "plane": row.name}
+        row.sigma_mm(rec)
+        out.append(rec)
+
+    def file_rows(self, record: Any) -> list[dict[str, str]]:
+        return [{"kind": self.file_kinds[0], "reference": record.plane, "sigma_mm": cell(record.sigma_mm)}]
+
+
+PLANE = PlaneKind()

@@ -1,0 +1,48 @@
+"""A point record: the TCP on the same unknown fixed point as every record of that name (a sphere in a socket,
+reached in several orientations): no reading at all."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from models.measurements.references import FixedPoint
+from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
+from service.schemas.references import PointRecord, PointRecordPublic
+
+
+class PointKind(RecordKind):
+    name: ClassVar[str] = "point"
+    model: ClassVar[str] = FixedPoint.traits.kind
+    record = PointRecord
+    public = PointRecordPublic
+    named_by: ClassVar[str | None] = "point"
+    label: ClassVar[str] = "point"
+    described_in: ClassVar[str | None] = "points"
+    example_name: ClassVar[str] = "p1"
+    file_kinds: ClassVar[tuple[str, ...]] = ("point",)
+    file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
+
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        px, py, pz = description.position_mm or (0.0, 0.0, 0.0)  # its rows do not depend on where it is
+        return FixedPoint(name, (px, py, pz))
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        return {"position_mm": [float(v) for v in values[:3]]}
+
+    def reference(self, described: Described, name: str) -> ModelReference:
+        point = described.points.get(name)
+        px, py, pz = (point.position_mm if point else None) or (0.0, 0.0, 0.0)
+        return FixedPoint(name, (px, py, pz))
+
+    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
+        rec: dict[str, Any] = {"kind": self.name, "joints": row.joints, "point": row.name}
+        row.sigma_mm(rec)
+        out.append(rec)
+
+    def file_rows(self, record: Any) -> list[dict[str, str]]:
+        return [{"kind": self.file_kinds[0], "reference": record.point, "sigma_mm": cell(record.sigma_mm)}]
+
+
+POINT = PointKind()
