@@ -115,8 +115,6 @@ def test_a_function_over_sixty_lines_says_why() -> None:
 RECORD_KIND_AWARE = {
     "service/schemas/designs.py": "a schema's validator (which design measurements sample poses): the schemas sit "
     "below the registry, which imports them; it goes when the design's measurement is read from the registry",
-    "service/services/calibrations.py": "its tracker filter (isinstance on Record) becomes tracker_records once the "
-    "parallel work on the real-campaign calibration has landed",
 }
 """The modules outside service/record_kinds/ still allowed to ask a record which kind it is, each with why: the
 list shrinks to empty (issue 43). models/ is not scanned: it knows no record kinds, only its own measurement

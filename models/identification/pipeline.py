@@ -466,23 +466,7 @@ def _regained(
     gained = sorted(set(again.identifiable) - set(ident.identifiable))
     if again.rank <= ident.rank or not gained:
         return problem, final, solver, outliers, ident
-    # Only where these records see the larger subset too: a campaign of a small region (a line) leaves its
-    # unobservable directions wherever the solver did, and a geometry fitted there is no better guide.
-    campaign = problem.campaign.subset(problem.active_poses)  # without the records left out as outliers
-    try:
-        seen = forward_kinematics(
-            desc,
-            campaign.joints,
-            final.theta,
-            jacobian=True,
-            check_ranges=False,
-            runtime=problem.runtime,
-            conditions=campaign.conditions,
-        )
-    except CalibrationError:  # a record the fitted model cannot place (a blunder's hexapod pose): no regain
-        return problem, final, solver, outliers, ident
-    scaled = scaled_jacobian(seen.jacobians, desc.parameters, problem.noise, kind=campaign.kind)
-    if numerical_rank(scaled, again.identifiable, rtol=REGAINED_RTOL) < again.rank:
+    if not _records_see(problem, final.theta, again):
         return problem, final, solver, outliers, ident
     notes.append(
         f"at the fitted geometry {again.rank} parameters are identifiable (at the nominal one: {ident.rank}, which "
@@ -510,6 +494,27 @@ def _regained(
         success=solver.success and solver2.success,
     )
     return problem2, final2, total, outliers2, regained
+
+
+def _records_see(problem: CampaignProblem, theta: Array, again: Identifiability) -> bool:
+    """Whether the campaign's own records (without those left out as outliers) have the rank of the subset chosen
+    at `theta`: a campaign of a small region (a line) leaves its unobservable directions wherever the solver did,
+    and a geometry fitted there is no better guide."""
+    campaign = problem.campaign.subset(problem.active_poses)
+    try:
+        seen = forward_kinematics(
+            problem.desc,
+            campaign.joints,
+            theta,
+            jacobian=True,
+            check_ranges=False,
+            runtime=problem.runtime,
+            conditions=campaign.conditions,
+        )
+    except CalibrationError:  # a record the fitted model cannot place (a blunder's hexapod pose): no regain
+        return False
+    scaled = scaled_jacobian(seen.jacobians, problem.desc.parameters, problem.noise, kind=campaign.kind)
+    return numerical_rank(scaled, again.identifiable, rtol=REGAINED_RTOL) >= again.rank
 
 
 def _far_outliers(

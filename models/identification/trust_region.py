@@ -79,10 +79,7 @@ def trust_region_finish(problem: CampaignProblem, z0: Array, lower: Array, upper
             return np.zeros((rows, problem.n_free))
         return ev.jacobian if prior is None else np.vstack([ev.jacobian, prior.jacobian])
 
-    x0 = np.clip(z0, lower, upper)
-    # 'trf' wants a start strictly inside finite bounds.
-    inside = np.isfinite(lower) & np.isfinite(upper) & (upper > lower)
-    x0[inside] = np.clip(x0[inside], lower[inside] + 1e-12 * (upper - lower)[inside], upper[inside])
+    x0 = _strictly_inside(z0, lower, upper)
     # MINPACK's Levenberg–Marquardt where it applies (no bounds, the plain loss): in the long flat valleys of
     # these campaigns (unknowns travelling hundreds of tolerances along a weak direction) it converges in a few
     # dozen evaluations where 'trf' spends its whole budget (measured: 40 records on a line, condition 6e8).
@@ -118,6 +115,14 @@ def trust_region_finish(problem: CampaignProblem, z0: Array, lower: Array, upper
         seconds=time.perf_counter() - started,
         objective=float("nan") if ev is None else ev.objective,
     )
+
+
+def _strictly_inside(z0: Array, lower: Array, upper: Array) -> Array:
+    """`z0` in the box, and strictly inside its finite bounds: where 'trf' wants its start."""
+    x0 = np.clip(z0, lower, upper)
+    inside = np.isfinite(lower) & np.isfinite(upper) & (upper > lower)
+    x0[inside] = np.clip(x0[inside], lower[inside] + 1e-12 * (upper - lower)[inside], upper[inside])
+    return x0
 
 
 def on_observable_directions(problem: CampaignProblem, z: Array) -> Array:

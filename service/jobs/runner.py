@@ -14,6 +14,7 @@ one CAS per job, periodically in each API process); no process ever fails anothe
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import multiprocessing
 import os
@@ -239,17 +240,20 @@ def execute_job(job_id: str, context: WorkerContext | None = None) -> Outcome:
     return _run(ctx, claim, worker)
 
 
+def _hard_stop(db: Database, job_id: str, worker: str, problem: WorkTooLarge) -> None:
+    """A job deaf to its token and still growing: its row failed now (a redelivery then finds it finished), and
+    its process ended here."""
+    log.error("job %s: %s; its process ends", job_id, problem)
+    with contextlib.suppress(Exception), db.session() as s:
+        JobStore(s).fail(job_id, worker, to_problem(problem))
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
 def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
     db = ctx.db
     started = time.perf_counter()
 
-    def hard_stop(problem: WorkTooLarge) -> None:
-        # Deaf to its token and still growing: fail the row now (a redelivery then finds it finished), end here.
-        log.error("job %s: %s; its process ends", claim.job_id, problem)
-        with contextlib.suppress(Exception), db.session() as s:
-            JobStore(s).fail(claim.job_id, worker, to_problem(problem))
-        os.kill(os.getpid(), signal.SIGKILL)
-
+    hard_stop = functools.partial(_hard_stop, db, claim.job_id, worker)
     seconds = ctx.time_limit(claim.kind) if ctx.time_limit is not None else None
     with Lease(ctx, claim.job_id, worker) as lease, Ceiling(ctx.memory_bytes, seconds, hard_stop) as ceiling:
         # Between progress points too: the solvers and design loops check this token at each step

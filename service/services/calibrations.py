@@ -37,7 +37,8 @@ from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import CalibrationRecord, ParameterVersion, Robot
-from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic, Record
+from service.record_kinds import tracker_records
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic
 from service.services.fleets import Fleet, calibration_prior, comparison_out, read_fleet
 from service.services.hooks import JobHooks
 
@@ -161,18 +162,10 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     everything = desc.parameters.indices(IdentificationOptions().estimate)
     drift: dict[str, Any] | None = None
     if has_references(body.measurements):
-        if body.options.drift is not None:
-            raise BadRequest(
-                "options.drift needs tracker records (positions in the instrument's frame): distance, point, plane "
-                "and image records carry no frame that could drift; calibrate them without options.drift"
-            )
-        if body.options.terms:
-            raise BadRequest(
-                f"options.terms {body.options.terms} need tracker records: distance, point and plane records "
-                "carry no temperature or load per record yet; calibrate the geometry from them without terms"
-            )
-        described = Described(body.anchors, body.points, body.planes, body.cameras)
-        groups, notes = reference_groups_in(desc, body.measurements, described, sigma_mm=body.noise.position_mm)
+        _refuse_tracker_options(body)
+        groups, notes = reference_groups_in(
+            desc, body.measurements, Described.of(body), sigma_mm=body.noise.position_mm
+        )
         result = identify_reference_campaign(
             desc, groups, noise=noise, nominal=start.values, options=options, runtime=runtime
         )
@@ -212,6 +205,20 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     return _Fit(result, decision, report.model_copy(update={"fleet": fleet}))
 
 
+def _refuse_tracker_options(body: CalibrationCreate) -> None:
+    """The options only tracker records can serve, refused for a campaign of references."""
+    if body.options.drift is not None:
+        raise BadRequest(
+            "options.drift needs tracker records (positions in the instrument's frame): distance, point, plane "
+            "and image records carry no frame that could drift; calibrate them without options.drift"
+        )
+    if body.options.terms:
+        raise BadRequest(
+            f"options.terms {body.options.terms} need tracker records: distance, point and plane records "
+            "carry no temperature or load per record yet; calibrate the geometry from them without terms"
+        )
+
+
 def _sigma_stated(body: CalibrationCreate) -> bool:
     """Whether the request states the instrument's σ: its `noise`, or a `sigma_mm` on any record (a tracker
     file's U95 / 2). Otherwise the default σ is a placeholder and σ is what the residuals say."""
@@ -234,7 +241,7 @@ def _tracker_fit(
     report's `drift`)."""
     if body.options.drift is None:
         return identify(desc, campaign, noise=noise, nominal=start.values, options=options, runtime=runtime), None
-    tracker = [r for r in body.measurements if isinstance(r, Record)]
+    tracker = tracker_records(body.measurements)
     fitted = identify_with_drift(
         desc,
         campaign,
