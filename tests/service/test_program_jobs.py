@@ -15,11 +15,10 @@ from alembic.config import Config
 from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, inspect
 
-from harness.programs import Cell, executed, joints, taught, ur5_cell, world_positions
+from harness.programs import Cell, executed, joints, taught, ur5_cell, urscript_approached, world_positions
 from models import Registry
 from models.examples import ur5_like_document
 from programs import read_program
-from programs.frames import matrix_rotvec
 from service import limits
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
@@ -55,18 +54,11 @@ def ur5(client: TestClient, cell: Cell) -> str:
 
 
 def _script(cell: Cell, n: int, seed: int) -> tuple[str, np.ndarray]:
-    """A script of `n` linear moves to taught poses, each after a joint move 0.5° away from the joints it was taught
-    at (an approach): the program itself fixes the branch of each target (UR: the joints of the previous move), as
-    the truth the test runs it at."""
+    """`n` linear moves to taught poses, each after a joint move 0.5° away from the joints it was taught at (an
+    approach): the program itself fixes each target's branch, the one the test runs it in."""
     q = joints(n, seed=seed)
     approach = q + np.radians(0.5) * np.sign(np.sin(np.arange(q.size).reshape(q.shape)))
-    lines = ["def weld():\n"]
-    for pose, near in zip(taught(cell, q), approach, strict=True):
-        x, y, z = pose[:3, 3] / 1e3
-        rx, ry, rz = matrix_rotvec(pose[:3, :3])
-        lines.append(f"  movej([{', '.join(f'{v:.6f}' for v in near)}], a=1.4, v=1.05)\n")
-        lines.append(f"  movel(p[{x:.9f}, {y:.9f}, {z:.9f}, {rx:.9f}, {ry:.9f}, {rz:.9f}], a=1.2, v=0.25)\n")
-    return "".join([*lines, "end\n"]), q
+    return urscript_approached(list(taught(cell, q)), approach), q
 
 
 def _landed_mm(cell: Cell, answer: dict[str, Any], q: np.ndarray, rows: np.ndarray | None = None) -> float:
