@@ -87,6 +87,18 @@ class Target:
     after: JointMove | None = None
     """The program's last joint move before the target (in the text's order): where the controller's solve
     starts, so the branch it will take (None: no joint move precedes it)."""
+    warning: str | None = None
+    """What the text leaves uncertain about the target's frames (a call before it of a routine not among the
+    files, which may set a base or a tool): compensated in the frames read, with this said."""
+
+
+def unfollowed_call(name: str, line: int, frames: str) -> str:
+    """The warning of a target after a call of a routine whose body was not sent."""
+    return (
+        f"after the call of {name} at line {line}, a routine not among the files: it may set the {frames}, which "
+        "could not be followed; the target was compensated in the frames set before the call (send the file that "
+        "defines it)"
+    )
 
 
 @dataclass(frozen=True)
@@ -186,6 +198,7 @@ def target_at(
     configuration: Configuration | None = None,
     style: str,
     after: JointMove | None = None,
+    warning: str | None = None,
 ) -> Target:
     """A target from its literal: `values` are its position then its rotation's numbers as written (None or
     Opaque where not a number: no slot), the rotation's also kept as `style` for writing it back nearby."""
@@ -206,4 +219,5 @@ def target_at(
         kept=kept,
         style={style: like},
         after=after,
+        warning=warning,
     )

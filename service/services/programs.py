@@ -98,6 +98,7 @@ def compensate_program(
                 held = t.configuration if t.configuration is not None and t.configuration.enforced else None
                 why = result.reasons[k] or kept(held, result.nominal_joints[k], result.joints[k], desc.joint_names)
                 branch, warning = branches[k]
+                warning = "; ".join(w for w in (t.warning, warning) if w) or None  # the frames', then the branch's
                 pose = None if why is not None else in_base[k]
                 outcomes[id(t)] = TargetOutcome(t, pose, why, branch, warning if pose is not None else None)
         ordered = tuple(outcomes[id(t)] for t in program.targets)
