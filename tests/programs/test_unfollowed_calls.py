@@ -81,3 +81,34 @@ def test_the_warning_goes_with_the_compensated_target() -> None:
     assert outcome.pose is not None, outcome.reason
     assert outcome.warning is not None and "SET_CELL_FRAMES( ) at line 10" in outcome.warning
     assert next(o for o in done.outcomes if o.target.name == "XP5").warning is None
+
+
+SCRIPT = (
+    "def prog():\n"  # line 1
+    "  global home_p=p[0.4, 0, 0.5, 0, 3.1416, 0]\n"
+    "  def my_tool():\n"
+    "    set_tcp(p[0, 0, 0.1, 0, 0, 0])\n"
+    "  end\n"  # 5
+    "  set_tool_voltage(24)\n"
+    "  movel(p[0.41, 0, 0.5, 0, 3.1416, 0])\n"
+    "  my_tool()\n"
+    "  movel(p[0.42, 0, 0.5, 0, 3.1416, 0])\n"
+    "  rg6_grip(40, 20)\n"  # 10
+    "  if (True):\n"
+    "    movel(home_p, a=1.2)\n"
+    "  end\n"
+    "  movel(p[0.43, 0, 0.5, 0, 3.1416, 0])\n"
+    "  set_tcp(p[0, 0, 0.12, 0, 0, 0])\n"  # 15
+    "  movel(p[0.44, 0, 0.5, 0, 3.1416, 0])\n"
+    "end\n"
+)
+
+
+def test_urscript_a_function_the_script_does_not_define_may_set_the_tcp() -> None:
+    """`rg6_grip(40, 20)` (a URCap's function, defined in the installation, not in the script) may call set_tcp:
+    the moves after it are warned until the script sets the TCP itself. URScript's own functions
+    (set_tool_voltage), the script's own (my_tool, read where written) and `if (…)` are not such calls."""
+    by_line = {t.line: t.warning for t in read_program("urscript", SCRIPT).targets}
+    call = "after the call of rg6_grip( ) at line 10, a routine not among the files: it may set the TCP"
+    assert by_line[7] is None and by_line[9] is None and by_line[16] is None
+    assert call in str(by_line[2]) and call in str(by_line[14])  # home_p is moved to at line 12, after the call
