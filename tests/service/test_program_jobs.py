@@ -71,6 +71,7 @@ def _landed_mm(cell: Cell, answer: dict[str, Any], q: np.ndarray, rows: np.ndarr
     return float(np.max(np.linalg.norm(landed - world_positions(cell, taught(cell, q[reached])), axis=1)))
 
 
+@pytest.mark.slow  # 10 000 targets as a job: ~8 s here
 def test_a_10000_target_program_is_refused_at_once_then_compensated_as_a_job(
     client: TestClient, ur5: str, cell: Cell
 ) -> None:
@@ -102,6 +103,7 @@ def test_a_10000_target_program_is_refused_at_once_then_compensated_as_a_job(
     assert [j["id"] for j in listed] == [job["id"]] and listed[0]["result"] is None  # a page carries no results
 
 
+@pytest.mark.slow  # 2 500 targets twice: ~3 s here
 def test_the_jobs_answer_equals_the_synchronous_one(client: TestClient, ur5: str, cell: Cell) -> None:
     """2 500 targets (three batches of the job): the same program text and the same per-target outcomes as
     one synchronous request, to the last digit."""
