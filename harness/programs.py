@@ -270,6 +270,18 @@ def urscript_program(poses: Sequence[Array]) -> str:
     return "".join(lines)
 
 
+def urscript_approached(poses: Sequence[Array], approach: Array) -> str:
+    """A script of linear moves to pose literals, each after a joint move (radians) to `approach[k]`: the
+    program fixes each target's branch itself (UR's controller starts from the joints of the previous move)."""
+    lines = ["def weld():\n"]
+    for pose, near in zip(poses, approach, strict=True):
+        x, y, z = pose[:3, 3] / 1e3
+        rx, ry, rz = matrix_rotvec(pose[:3, :3])
+        lines.append(f"  movej([{', '.join(f'{v:.6f}' for v in near)}], a=1.4, v=1.05)\n")
+        lines.append(f"  movel(p[{x:.9f}, {y:.9f}, {z:.9f}, {rx:.9f}, {ry:.9f}, {rz:.9f}], a=1.2, v=0.25)\n")
+    return "".join([*lines, "end\n"])
+
+
 def csv_table(poses: Sequence[Array]) -> str:
     rows = ["name,x,y,z,qw,qx,qy,qz\r\n"]
     for k, pose in enumerate(poses, start=1):

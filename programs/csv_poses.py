@@ -26,7 +26,7 @@ from programs.frames import (
     transform,
 )
 from programs.numbers import parse_number
-from programs.targets import PROGRAM, Frames, Program, Slot, Target, written
+from programs.targets import PROGRAM, Frames, Program, Slot, Target, absurd, written
 
 NAME = "csv"
 ORIENTATIONS: dict[str, tuple[str, ...]] = {
@@ -154,16 +154,19 @@ def read(program: str, files: Mapping[str, str]) -> Program:
                     f"{row[c].text!r} is not a number", line=line_no, column=row[c].column, reason="syntax"
                 ) from None
         slots = tuple(Slot(PROGRAM, row[c].start, row[c].start + len(row[c].text), row[c].text) for c in cols)
+        # An absurd number is kept before any pose is made of it (cos of a 1e300° rotation vector raises).
+        why = absurd(values[:3], [row[c].text for c in cols], values[3:], kind, degrees=True)
         targets.append(
             Target(
                 file=PROGRAM,
                 line=line_no,
                 column=1,
                 name=row[name_col].text if name_col is not None and name_col < len(row) else None,
-                pose=_pose(values, kind),
+                pose=_pose(values, kind) if why is None else np.full((4, 4), np.nan),
                 slots=slots,
                 frames=Frames(),
                 style={"kind": kind, "like": tuple(values[3:])},
+                kept=why,
             )
         )
     return Program(NAME, {PROGRAM: program}, tuple(targets))

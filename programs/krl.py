@@ -23,7 +23,17 @@ from programs.aggregates import Number, Opaque, Value, literal_or_expression
 from programs.errors import ProgramError
 from programs.frames import abc_matrix, abcs_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Configuration, Frames, JointMove, Program, Target, target_at, written
+from programs.targets import (
+    PROGRAM,
+    Configuration,
+    Frames,
+    JointMove,
+    Program,
+    Target,
+    target_at,
+    unfollowed_call,
+    written,
+)
 
 NAME = "krl"
 LEXER = Lexer(
@@ -54,6 +64,13 @@ SYSTEM_FILES = frozenset({"$config.dat", "$machine.dat", "$robcor.dat", "$option
 BASE_DATA, FRAME variables a program names as a base or tool), never for targets: their FRAME and POS values
 are reference points, corrections and machine data, and compensating them would move every program's frames."""
 SOURCE_SUFFIXES = (".src", ".sub")
+NOT_ROUTINES = frozenset(
+    {"if", "while", "until", "switch", "case", "for", "repeat", "loop", "return", "exit", "halt", "wait", "elseif"}
+    | {"interrupt", "trigger", "brake", "resume", "goto", "pulse", "cwrite", "cread", "swrite", "sread", "cast_to"}
+    | {"cast_from", "strclear", "strcopy", "strcomp", "strfind", "strlen", "strdecllen", "on_error_proceed"}
+    | {"err_clear", "err_raise", "varstate", "ir_stopm", "ptp_rel", "lin_rel", "circ_rel"}
+)
+"""Statements written `NAME (`…`)` that are KRL's own (control flow, system functions): they set no frame."""
 """Companion files whose motions count as uses (the .src of a .dat sent as the program, the other .src of a
 KRC/R1 folder): motions live in sources, data lists only declare."""
 MIN_DECIMALS = (3, 3, 3, 4, 4, 4)
@@ -391,6 +408,14 @@ class Walk:
     """Per inline aggregate: the last joint move before it, and whether its motion is a PTP."""
     ptp: set[tuple[str, str | None]] = field(default_factory=set)
     """Variables some PTP goes to: the controller holds their S and T."""
+    defined: set[str] = field(default_factory=set)
+    """The routines (DEF) among the program's sources, whether they set frames or not."""
+    unfollowed: dict[str, tuple[str, int]] = field(default_factory=dict)
+    """In the file being walked: per frame ("base", "tool") the last call of a routine not among the files since
+    that frame was last set (its name and line)."""
+    warnings: dict[tuple[str, str | None], str] = field(default_factory=dict)
+    """Per variable: the warning of its first motion after such a call."""
+    inline_warnings: list[str | None] = field(default_factory=list)
 
 
 def system_file(name: str | None) -> bool:
@@ -403,6 +428,7 @@ def _walk(sym: Symbols, statements: list[tuple[str | None, Statement]], program:
     walk = Walk()
     sources = [program, *sorted({f for f, _ in statements if f is not None and f.lower().endswith(SOURCE_SUFFIXES)})]
     walk.routines = _routines([(f, st) for f, st in statements if f in sources])
+    walk.defined = {st.first.text.lower() for f, st in statements if f in sources and st.kind == "def"}
     for source in sources:
         _walk_file(sym, [(f, st) for f, st in statements if f == source], walk)
     return walk
@@ -410,6 +436,7 @@ def _walk(sym: Symbols, statements: list[tuple[str | None, Statement]], program:
 
 def _walk_file(sym: Symbols, statements: list[tuple[str | None, Statement]], walk: Walk) -> None:
     state, kept = State(), None
+    walk.unfollowed = {}
     for file, st in statements:
         if st.kind == "motion":
             _motion(st, file, Frames(state.base[0], state.tool[0], state.base[1], state.tool[1]), kept, walk)
@@ -417,11 +444,36 @@ def _walk_file(sym: Symbols, statements: list[tuple[str | None, Statement]], wal
             if joints is not None:
                 walk.last_joints = joints
         elif st.kind == "call":
-            # A literal call of a routine among the files: the frames it sets hold after it, as on the controller
-            for routine_file, inner in walk.routines.get(st.first.text.lower(), ()):
-                kept = _frame_statement(sym, inner, routine_file, state, walk, kept=kept)
+            name = st.first.text.lower()
+            if name in walk.defined:
+                # A literal call of a routine among the files: the frames it sets hold after it, as on the controller
+                for routine_file, inner in walk.routines.get(name, ()):
+                    kept = _frame_statement(sym, inner, routine_file, state, walk, kept=kept)
+            elif name not in NOT_ROUTINES:
+                # Its body was not sent: it may set $BASE or $TOOL (a global system variable) for what follows.
+                walk.unfollowed = dict.fromkeys(("base", "tool"), (st.first.text, st.first.line))
+        elif st.kind == "def":
+            walk.unfollowed = {}  # a routine's own body starts from what its caller set, followed where called
         else:
             kept = _frame_statement(sym, st, file, state, walk, kept=kept)
+            _settled(st, walk)
+
+
+def _settled(st: Statement, walk: Walk) -> None:
+    """A frame set after a call not followed is known again from here."""
+    if st.kind == "assign" and st.items[0][0].name.text.lower() in ("$base", "$tool"):
+        walk.unfollowed.pop(st.items[0][0].name.text.lower()[1:], None)
+    elif st.kind == "assign" and st.items[0][0].name.text.lower() == "fdat_act":
+        walk.unfollowed = {}
+    elif st.kind == "bas" and st.type_name in ("#tool", "#base"):
+        walk.unfollowed.pop(st.type_name[1:], None)
+
+
+def _unfollowed_warning(walk: Walk) -> str | None:
+    if not walk.unfollowed:
+        return None
+    (name, line), frames = next(iter(walk.unfollowed.values())), sorted(walk.unfollowed)
+    return unfollowed_call(f"{name}( )", line, " or ".join(f"${f.upper()}" for f in frames))
 
 
 def _frame_statement(
@@ -462,12 +514,16 @@ def _motion(st: Statement, file: str | None, frames: Frames, kept: str | None, w
     why = "a relative motion: its value is an offset, not a pose" if st.relative else kept
     # KUKA reads S and T on a PTP only; a LIN or CIRC keeps the configuration it starts in.
     point_to_point = st.first.text.lower() in ("ptp", "sptp")
+    warning = _unfollowed_warning(walk)
     for _, operand in st.items:
         if isinstance(operand, Aggregate):
             walk.inline.append((file, operand, frames, why))
             walk.inline_after.append((walk.last_joints, point_to_point))
+            walk.inline_warnings.append(warning)
         elif isinstance(operand, Ref):
             key = (operand.name.text.lower(), operand.index)
+            if warning is not None:
+                walk.warnings.setdefault(key, warning)
             walk.uses.setdefault(key, []).append((frames, st.first.line, why))
             walk.after.setdefault(key, walk.last_joints)
             if point_to_point:
@@ -525,6 +581,7 @@ def _target(
     *,
     after: JointMove | None,
     held: bool = True,
+    warning: str | None = None,
 ) -> Target:
     pose, partial = _pose(agg)
     turn = _turn(agg)
@@ -542,6 +599,7 @@ def _target(
         configuration=turn,
         style="abc",
         after=after,
+        warning=warning,
     )
 
 
@@ -579,10 +637,17 @@ def read(program: str, files: Mapping[str, str]) -> Program:
         after = walk.after.get(assigned.key) or walk.after.get((assigned.key[0], "*"))
         key = assigned.key
         held = not _used(walk, key) or key in walk.ptp or (key[0], "*") in walk.ptp
-        targets.append(_target(assigned.file, assigned.name, assigned.aggregate, frames, why, after=after, held=held))
-    for (file, agg, frames, why), (after, ptp) in zip(walk.inline, walk.inline_after, strict=True):
+        warning = walk.warnings.get(key) or walk.warnings.get((key[0], "*"))
+        targets.append(
+            _target(
+                assigned.file, assigned.name, assigned.aggregate, frames, why, after=after, held=held, warning=warning
+            )
+        )
+    for (file, agg, frames, why), (after, ptp), warning in zip(
+        walk.inline, walk.inline_after, walk.inline_warnings, strict=True
+    ):
         if _is_cartesian(sym, "", agg):
-            targets.append(_target(file, None, agg, frames, why, after=after, held=ptp))
+            targets.append(_target(file, None, agg, frames, why, after=after, held=ptp, warning=warning))
     texts: dict[str | None, str] = {PROGRAM: program}
     texts.update(files)
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))

@@ -3,6 +3,7 @@ frames it is taught in and its configuration, and the rewrite that replaces thos
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -86,6 +87,18 @@ class Target:
     after: JointMove | None = None
     """The program's last joint move before the target (in the text's order): where the controller's solve
     starts, so the branch it will take (None: no joint move precedes it)."""
+    warning: str | None = None
+    """What the text leaves uncertain about the target's frames (a call before it of a routine not among the
+    files, which may set a base or a tool): compensated in the frames read, with this said."""
+
+
+def unfollowed_call(name: str, line: int, frames: str) -> str:
+    """The warning of a target after a call of a routine whose body was not sent."""
+    return (
+        f"after the call of {name} at line {line}, a routine not among the files: it may set the {frames}, which "
+        "could not be followed; the target was compensated in the frames set before the call (send the file that "
+        "defines it)"
+    )
 
 
 @dataclass(frozen=True)
@@ -115,6 +128,64 @@ def rewrite(texts: Mapping[str | None, str], edits: Sequence[tuple[Slot, str]]) 
     return out
 
 
+ABSURD_MM = 100_000.0
+"""A position farther than this (100 m) from its base: beyond any arm's reach by more than an order of magnitude
+(the largest industrial arms reach ~4 m), a typing or unit error, never a place a controller can go."""
+ABSURD_TURNS = 4.0
+"""An angle (or a rotation vector's length) of more than this many turns: controllers write orientations within
+half a turn (KUKA's A, B, C in ±180°, UR's rotation vectors up to π); beyond a few turns the number is a mistake
+and its meaning, an angle taken modulo a turn in floating point, is lost (cos(1e300°) is noise)."""
+
+_ANGLE_NAMES = {"abc": ("A", "B", "C"), "rotvec": ("rx", "ry", "rz"), "quaternion": ("q1", "q2", "q3", "q4")}
+
+
+def absurd(
+    position_mm: Sequence[float], written: Sequence[str], rotation: Sequence[float], kind: str, *, degrees: bool
+) -> str | None:
+    """Why a target's finite numbers are no pose to compensate, naming the number as written (None: plausible).
+
+    `position_mm`: x, y, z in mm; `written`: the target's numbers as written (position, then rotation);
+    `rotation`: its rotation's numbers, `kind` "abc" (angles), "rotvec" (a rotation vector) or "quaternion";
+    `degrees`: the angles' unit."""
+    for axis, value, text in zip("xyz", position_mm, written, strict=False):
+        if abs(value) > ABSURD_MM:
+            return (
+                f"{axis} = {text} is {abs(value) / 1e3:.3g} m from its base, beyond any robot's reach (more than "
+                f"{ABSURD_MM / 1e3:g} m): a typing or unit error? kept as written"
+            )
+    names, texts = _ANGLE_NAMES.get(kind, ()), written[3:]
+    turn = 360.0 if degrees else 2 * np.pi
+    unit = "°" if degrees else " rad"
+    if kind == "abc":
+        for name, value, text in zip(names, rotation, texts, strict=False):
+            if abs(value) > ABSURD_TURNS * turn:
+                return _turns(f"{name} = {text}{unit}", abs(value) / turn)
+    elif kind == "rotvec":
+        length = math.hypot(*rotation) / turn  # in turns (hypot: no square of 1e300 taken)
+        if length > ABSURD_TURNS:
+            shown = ", ".join(texts) if texts else ", ".join(f"{v:g}" for v in rotation)
+            return _turns(f"the rotation vector [{shown}] (length {length * turn:.3g}{unit})", length)
+    elif kind == "quaternion":
+        norm = math.hypot(*rotation)
+        if not 0.5 <= norm <= 2.0:
+            shown = ", ".join(texts) if texts else ", ".join(f"{v:g}" for v in rotation)
+            return f"the quaternion [{shown}] has norm {norm:.3g}, not 1: not an orientation; kept as written"
+    return None
+
+
+def _turns(what: str, turns: float) -> str:
+    return (
+        f"{what} is {turns:.3g} turns: no controller writes an orientation so (at most {ABSURD_TURNS:g} turns are "
+        "read), a typing or unit error? kept as written"
+    )
+
+
+def _written_mm(values: Sequence[Value | None], style: str) -> list[float]:
+    """A literal's position in mm: URScript writes metres, the others mm."""
+    scale = 1e3 if style == "rotvec" else 1.0
+    return [v.value * scale if isinstance(v, Number) else 0.0 for v in values[:3]]
+
+
 def target_at(
     file: str | None,
     name: str | None,
@@ -127,11 +198,15 @@ def target_at(
     configuration: Configuration | None = None,
     style: str,
     after: JointMove | None = None,
+    warning: str | None = None,
 ) -> Target:
     """A target from its literal: `values` are its position then its rotation's numbers as written (None or
     Opaque where not a number: no slot), the rotation's also kept as `style` for writing it back nearby."""
     slots = tuple(Slot(file, v.start, v.end, v.text) for v in values if isinstance(v, Number))
     like = tuple(v.value if isinstance(v, Number) else 0.0 for v in values[3:])
+    if kept is None and pose is not None and len(values) >= 6 and all(isinstance(v, Number) for v in values):
+        texts = [v.text for v in values if isinstance(v, Number)]
+        kept = absurd(_written_mm(values, style), texts, like, style, degrees=style == "abc")
     return Target(
         file=file,
         line=opening.line,
@@ -144,4 +219,5 @@ def target_at(
         kept=kept,
         style={style: like},
         after=after,
+        warning=warning,
     )

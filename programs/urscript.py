@@ -22,7 +22,7 @@ from programs.aggregates import Number, Value, literal_or_expression, plain_numb
 from programs.errors import UndeclaredFrame
 from programs.frames import rotvec_matrix, rotvecs_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Frames, JointMove, Program, Target, target_at, written
+from programs.targets import PROGRAM, Frames, JointMove, Program, Target, target_at, unfollowed_call, written
 
 NAME = "urscript"
 LEXER = Lexer(
@@ -136,6 +136,21 @@ class Event:
     assigned: str | None = None
     joints: JointMove | None = None
     """`movej([q1, ..., q6], ...)`: the joints of a joint move (radians)."""
+    call: Token | None = None
+    """A statement that calls a function URScript does not have (or, with `defines`, the script's own `def`)."""
+    defines: bool = False
+
+
+BUILTIN_PREFIXES = (
+    "move", "servo", "speed", "stop", "set_", "get_", "socket_", "modbus_", "rpc_", "read_", "write_", "track_",
+    "end_", "zero_", "force_", "freedrive", "teach_", "textmsg", "popup", "sleep", "sync", "halt", "conveyor_",
+    "enable_", "disable_", "position_deviation", "request_", "is_", "pose_", "interpolate_", "to_", "str_",
+    "tool_", "screw_", "path_", "payload_", "timer", "sqrt", "sin", "cos", "tan", "norm", "floor", "ceil",
+    "len", "log", "pow", "random", "binary_list", "integer_to", "d2r", "r2d", "abs", "point_dist", "wrench_",
+    "acos", "asin", "atan",
+)  # fmt: skip
+"""URScript's own functions (its manual's families): none of them sets the TCP but set_tcp, which is followed."""
+KEYWORDS = frozenset({"if", "elif", "while", "return", "not", "and", "or", "def", "thread", "run", "join", "kill"})
 
 
 def _joint_list(tokens: list[Token], i: int) -> tuple[JointMove, int] | None:
@@ -211,6 +226,16 @@ def _scan(tokens: list[Token], file: str | None) -> list[Event]:
                 events.append(Event(i, _snapshot(stack), pose=pose, assigned=assigned))
                 i = pose.end
                 continue
+            if (
+                not stack
+                and nxt is not None
+                and nxt.kind == "op"
+                and nxt.text == "("
+                and tok.text not in KEYWORDS
+                and not tok.text.startswith(BUILTIN_PREFIXES)
+            ):
+                header = prev is not None and prev.kind == "name" and prev.text in ("def", "thread")
+                events.append(Event(i, [], call=tok, defines=header))
             if stack and _whole_argument(prev, nxt):
                 if stack[-1].name == "pose_trans" and stack[-1].argument == 0:
                     stack[-1].feature = tok.text
@@ -261,6 +286,8 @@ def _motion_base(stack: list[Context]) -> tuple[bool, str | None]:
 class Reading:
     variables: dict[str, list[tuple[int, Pose]]] = field(default_factory=dict)
     targets: list[tuple[Pose, Frames, str | None, JointMove | None]] = field(default_factory=list)
+    warnings: dict[int, str] = field(default_factory=dict)
+    """By the token index of a pose's literal: the warning of its first motion after a call not followed."""
     uses: dict[int, list[tuple[Frames, int, str | None, JointMove | None]]] = field(default_factory=dict)
     """By the token index of a variable's literal: the frames of each motion naming it, and the line."""
 
@@ -307,14 +334,22 @@ def _read_events(events: list[Event], file: str | None) -> Reading:
     tool_unknown: str | None = None
     """Why the active tool cannot be read (`set_tcp(computed)`): the motions after it keep their targets."""
     after: JointMove | None = None
+    defined = {x.call.text for x in events if x.call is not None and x.defines}
+    unfollowed: Token | None = None
+    """The last call of a function neither the script nor URScript defines since the TCP was last set."""
     for e in events:
         if e.joints is not None:
             after = e.joints
+            continue
+        if e.call is not None:
+            # A function the script defines is read where it is written (its set_tcp in the text's order).
+            unfollowed = e.call if e.call.text not in defined else unfollowed
             continue
         in_tcp = bool(e.stack) and e.stack[-1].name == "set_tcp" and e.stack[-1].argument == 0
         motion, feature = _motion_base(e.stack)
         if in_tcp:
             tool, tool_name, tool_unknown = _tcp(reading, e, file, (tool, tool_name))
+            unfollowed = None
             continue
         if not motion:
             continue
@@ -329,12 +364,24 @@ def _read_events(events: list[Event], file: str | None) -> Reading:
                     f"placed by pose_trans({feature}, ...) in a feature computed at run time (line {token.line}): "
                     "its base is not known from the text"
                 )
-        frames = Frames(base, tool, feature, tool_name)
-        if e.pose is not None:
-            reading.targets.append((e.pose, frames, why, after))
-        elif e.name is not None and (pose := reading.latest(e.name.text, e.at)) is not None:
-            reading.uses.setdefault(pose.open.start, []).append((frames, e.name.line, why, after))
+        _record(reading, e, Frames(base, tool, feature, tool_name), why, after=after, unfollowed=unfollowed)
     return reading
+
+
+def _record(
+    reading: Reading, e: Event, frames: Frames, why: str | None, *, after: JointMove | None, unfollowed: Token | None
+) -> None:
+    """A motion's pose (a literal, or the variable it names) with its frames, and the warning of a call before it
+    that could not be followed."""
+    warning = None if unfollowed is None else unfollowed_call(f"{unfollowed.text}( )", unfollowed.line, "TCP")
+    if e.pose is not None:
+        reading.targets.append((e.pose, frames, why, after))
+        if warning is not None:
+            reading.warnings[e.pose.open.start] = warning
+    elif e.name is not None and (pose := reading.latest(e.name.text, e.at)) is not None:
+        reading.uses.setdefault(pose.open.start, []).append((frames, e.name.line, why, after))
+        if warning is not None:
+            reading.warnings.setdefault(pose.open.start, warning)
 
 
 def _matrices(poses: Sequence[Pose]) -> list[Array | None]:
@@ -392,6 +439,7 @@ def read(program: str, files: Mapping[str, str]) -> Program:
             kept=why or (None if matrix is not None else "not literal numbers: the pose is known only at run time"),
             style="rotvec",
             after=after,
+            warning=reading.warnings.get(pose.open.start),
         )
         for (pose, name, frames, why, after), matrix in zip(found, _matrices([f[0] for f in found]), strict=True)
     ]

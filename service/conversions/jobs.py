@@ -6,13 +6,14 @@ from service.persistence.tables import Job
 from service.schemas.calibrations import CalibrationPublic
 from service.schemas.designs import PoseDesignPublic
 from service.schemas.jobs import JobAccepted, JobPublic
+from service.schemas.programs import ProgramResponse
 
 
 def accepted_out(job: Job) -> JobAccepted:
     return JobAccepted(job_id=job.id, status_url=f"/v1/jobs/{job.id}", id=job.id)
 
 
-def job_out(job: Job, result: CalibrationPublic | PoseDesignPublic | None) -> JobPublic:
+def job_out(job: Job, result: CalibrationPublic | PoseDesignPublic | ProgramResponse | None) -> JobPublic:
     return JobPublic.model_validate(
         {
             "id": job.id,

@@ -14,6 +14,7 @@ from service.persistence.store import Store
 from service.persistence.tables import (
     CalibrationRecord,
     CampaignRecord,
+    CompensatedProgramRecord,
     Job,
     ParameterVersion,
     PoseDesignRecord,
@@ -102,7 +103,7 @@ class Repository(Store):
 
     def delete_robot(self, robot_id: str) -> None:
         robot = self.robot(robot_id)
-        for table in (CalibrationRecord, CampaignRecord, PoseDesignRecord, ParameterVersion):
+        for table in (CalibrationRecord, CampaignRecord, PoseDesignRecord, CompensatedProgramRecord, ParameterVersion):
             for row in self.s.scalars(select(table).where(table.robot_id == robot_id)):
                 self.s.delete(row)
         self.s.delete(robot)
@@ -150,6 +151,13 @@ class Repository(Store):
 
     def design(self, design_id: str) -> PoseDesignRecord:
         return self._by_id(PoseDesignRecord, design_id, "pose_design")
+
+    # ---------------------------------------------------------------- compensated programs (job results)
+    def add_compensated_program(self, robot_id: str, result: dict[str, Any]) -> CompensatedProgramRecord:
+        return self._insert(CompensatedProgramRecord(id=new_id(), robot_id=robot_id, result=result))
+
+    def compensated_program(self, record_id: str) -> CompensatedProgramRecord:
+        return self._by_id(CompensatedProgramRecord, record_id, "compensated_program")
 
     # ---------------------------------------------------------------- jobs
     def add_job(self, kind: str, robot_id: str, request: dict[str, Any]) -> Job:

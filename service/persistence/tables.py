@@ -187,6 +187,17 @@ class PoseDesignRecord(Base):
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
 
 
+class CompensatedProgramRecord(Base):
+    """What a program compensation run as a job answered (`ProgramResponse`), for its job's result: the request
+    is the job's own."""
+
+    __tablename__ = "compensated_programs"
+    id: Mapped[str] = mapped_column(String(36), primary_key=True)
+    robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id", ondelete="CASCADE"), index=True)
+    result: Mapped[dict[str, Any]] = mapped_column(JSON)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
+
+
 class Job(Base):
     __tablename__ = "jobs"
     id: Mapped[str] = mapped_column(String(36), primary_key=True)

@@ -1,20 +1,29 @@
 """Program compensation: POST a KRL, RAPID, URScript or CSV program, get it back with its targets corrected.
 
 The body is JSON (`ProgramRequest`), or the program itself as text (`text/plain`, any `text/*`, or
-`application/octet-stream`) with `?format=` or `?filename=` (its extension names the format) and `?version=`."""
+`application/octet-stream`) with `?format=` or `?filename=` (its extension names the format) and `?version=`.
+Either may be sent as a job (`?async=true`: 202, its result the same answer), as a program over the synchronous
+budget must be (422 `work-too-large` says so)."""
 
 from __future__ import annotations
 
+from typing import Any
+
 from fastapi import APIRouter, Query, Request, Response
+from fastapi.exceptions import RequestValidationError
 
 from service import limits
-from service.deps import DatabaseDep, MetricsDep, ModelCacheDep, RegistryDep, compute
+from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, RegistryDep, compute
 from service.dispatch import BodyComputation, computed
-from service.json_bodies import OffloopRoute, request_body
+from service.guards import OFFLOOP_BYTES
+from service.json_bodies import OffloopRoute, raw_json_body, request_body, validate_json
 from service.operations import PROGRAM_COMPENSATION, Runs, operation, program_targets
+from service.responses import model_json
+from service.schemas.jobs import JobAccepted
 from service.schemas.programs import ProgramFormat, ProgramRequest, ProgramResponse
 from service.security import Scope
 from service.services import programs
+from service.services.jobs import ENCODING, submit_job
 
 router = APIRouter(prefix="/v1/robots/{robot_id}", tags=["programs"], route_class=OffloopRoute)
 
@@ -29,9 +38,16 @@ COMPENSATE = BodyComputation("program_compensation", ProgramRequest, programs.co
 TEXT_TYPES = ("text/", "application/octet-stream")
 
 
+_RESPONSES: dict[int | str, dict[str, Any]] = {
+    202: {"model": JobAccepted, "description": "Accepted as a job (?async=true)"},
+    429: {"description": "Job queue full"},
+}
+
+
 @router.post(
     "/programs/compensate",
     response_model=ProgramResponse,
+    responses=_RESPONSES,
     openapi_extra={
         "requestBody": {
             "required": True,
@@ -42,7 +58,7 @@ TEXT_TYPES = ("text/", "application/octet-stream")
         }
     },
 )
-@operation(Scope.read, runs=Runs.COMPUTE, precount=PROGRAM_COMPENSATION)
+@operation(Scope.read, runs=Runs.COMPUTE, precount=PROGRAM_COMPENSATION, job="program_compensation")
 async def compensate(
     robot_id: str,
     *,
@@ -50,22 +66,42 @@ async def compensate(
     db: DatabaseDep,
     models: ModelCacheDep,
     registry: RegistryDep,
+    jobs: JobsDep,
     m: MetricsDep,
     format: ProgramFormat | None = Query(default=None, description="The format of a program sent as text"),
     filename: str | None = Query(
         default=None, max_length=255, description="Its file name (the extension names the format)"
     ),
     version: int | None = Query(default=None, ge=1, description="The parameter version (default: the current one)"),
+    run_async: bool = Query(
+        False,
+        alias="async",
+        description="Run as a job: 202 with a job id; the job's result is the answer (progress per batch of targets)",
+    ),
 ) -> Response:
     kind = request.headers.get("content-type", "application/json").split(";")[0].strip().lower()
-    if not kind.startswith(TEXT_TYPES):
+    text = kind.startswith(TEXT_TYPES)
+    if run_async:
+        body, encoding = await (_text_body(request, format, filename, version) if text else _json_body(request))
+        # Over the cap of any job (time or memory) it is refused here, before it is stored.
+        limits.admit(_estimate(body), run_async=True)
+        accepted = submit_job(
+            db=db,
+            jobs=jobs,
+            kind="program_compensation",
+            robot_id=robot_id,
+            body=body,
+            extra=None if encoding is None else {ENCODING: encoding},
+        )
+        return model_json(accepted, status_code=202)
+    if not text:
         out = await computed(m, COMPENSATE, request, db=db, models=models, registry=registry, robot_id=robot_id)
         return Response(out, media_type="application/json")
     raw = await request.body()
     # The guard counts JSON bodies (the operation's precount); a text body is counted here, before it is parsed.
     budget = request.app.state.settings.sync_budget_seconds
     estimate = limits.program_compensation(program_targets(raw), len(raw))
-    limits.admit(estimate, run_async=False, can_run_async=False, budget_s=budget)
+    limits.admit(estimate, run_async=False, budget_s=budget)
     answer = await compute(
         m,
         COMPENSATE.kind,
@@ -80,3 +116,29 @@ async def compensate(
         robot_id=robot_id,
     )
     return Response(answer.model_dump_json(), media_type="application/json")
+
+
+async def _json_body(request: Request) -> tuple[ProgramRequest, str | None]:
+    """A JSON body to store as a job's request, validated as the route's model (a large one in the parse process,
+    as `service.json_bodies` does for the declared bodies)."""
+    raw = await raw_json_body(request)
+    pool = getattr(request.app.state, "compute", None)
+    parsed = (
+        await pool.call(validate_json, ProgramRequest, raw)
+        if pool is not None and len(raw) > OFFLOOP_BYTES
+        else validate_json(ProgramRequest, raw)
+    )
+    if isinstance(parsed, list):
+        raise RequestValidationError(parsed)
+    return parsed, None
+
+
+async def _text_body(
+    request: Request, format_name: str | None, filename: str | None, version: int | None
+) -> tuple[ProgramRequest, str | None]:
+    """A program sent as text, to store as a job's request: decoded and its format named now, so a body the job
+    could never read is refused at once (`programs.request_from_text`); with the encoding it was read in."""
+    raw = await request.body()
+    if not raw:
+        raise RequestValidationError([{"type": "missing", "loc": ("body",), "msg": "Field required"}])
+    return programs.request_from_text(raw, format_name=format_name, filename=filename, version=version)

@@ -9,8 +9,9 @@ from service.schemas.calibrations import CalibrationPublic
 from service.schemas.common import Public
 from service.schemas.designs import PoseDesignPublic
 from service.schemas.problems import Problem
+from service.schemas.programs import ProgramResponse
 
-JobKind = Literal["calibration", "pose_design"]
+JobKind = Literal["calibration", "pose_design", "program_compensation"]
 JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
 
@@ -43,7 +44,10 @@ class JobPublic(Public):
     worker: str | None = Field(description="host:pid of the worker that holds (or last held) it")
     attempts: int = Field(description="Times a worker took it (more than 1 after a worker stopped mid-way)")
     cancel_requested: bool
-    result: CalibrationPublic | PoseDesignPublic | None = Field(description="When succeeded: what it created")
+    # A program compensation's result is the answer its synchronous request would have given (stored as is).
+    result: CalibrationPublic | PoseDesignPublic | ProgramResponse | None = Field(
+        description="When succeeded: what it created"
+    )
     error: Problem | None = Field(description="When failed: what the synchronous request would have answered")
     created_at: datetime
     started_at: datetime | None

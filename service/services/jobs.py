@@ -23,7 +23,8 @@ from service.problems import to_problem
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic
 from service.schemas.jobs import JobAccepted, JobKind, JobPublic, JobStatus
-from service.services import calibrations, designs
+from service.schemas.programs import ProgramRequest, ProgramResponse
+from service.services import calibrations, designs, programs
 from service.services.hooks import JobHooks
 
 
@@ -45,12 +46,13 @@ def submit_job(
     body: BaseModel,
     actor: Actor | None = None,
     if_match: str | None = None,
+    extra: dict[str, Any] | None = None,
 ) -> JobAccepted:
     """Store the validated request as a queued job of an existing robot and hand it to the engine; 429 when
     the engine's `queue_limit` jobs are already waiting. `actor` (who submitted it) goes with the job, so what the
     job changes is audited under the submitter's key name and request id. `if_match` (the robot's ETag) is
     checked now, and what the job starts from is fixed now (`_pinned`): a worker that starts it later works on
-    what the client saw when it submitted."""
+    what the client saw when it submitted. `extra`: stored with the request, for its use case (`ENCODING`)."""
     job_id, queue_limit = new_id(), jobs.queue_limit
     with db.session() as s:
         robot = Repository(s).robot(robot_id)
@@ -64,7 +66,7 @@ def submit_job(
                 limit=queue_limit,
                 retry_after=jobs.retry_after,
             )
-        request = body.model_dump(mode="json")
+        request = body.model_dump(mode="json") | (extra or {})
         if actor is not None:
             request[SUBMITTED_BY] = {"name": actor.name, "request_id": actor.request_id}
         job = store.add(job_id, kind, robot_id, request)
@@ -127,9 +129,30 @@ def _design(run: _Run) -> str:
     return found.id
 
 
+ENCODING = "_encoding"
+"""The key of a program compensation's stored request that names the encoding a program sent as text was read in
+(not part of the request's schema: the answer gives it back)."""
+
+
+def _program(run: _Run) -> str:
+    fields = _submitter(run.request)[0]
+    encoding = fields.pop(ENCODING, None)
+    body = ProgramRequest.model_validate(fields)
+    return programs.compensate_as_job(
+        db=run.db,
+        models=run.models,
+        registry=run.registry,
+        robot_id=run.robot_id,
+        body=body,
+        encoding=encoding,
+        job=run.job,
+    )
+
+
 RUNS: dict[str, Callable[[_Run], str]] = {
     "calibration": _calibration,
     "pose_design": _design,
+    "program_compensation": _program,
 }
 """Per job kind: the use case that runs it, returning the id of what it created."""
 
@@ -150,10 +173,12 @@ def run_job(
 
 
 def _public(repo: Repository, job: Job, *, with_result: bool = True) -> JobPublic:
-    result: CalibrationPublic | PoseDesignPublic | None = None
+    result: CalibrationPublic | PoseDesignPublic | ProgramResponse | None = None
     if with_result and job.status == "succeeded" and job.result_id:
         if job.kind == "calibration":
             result = calibration_public(repo.calibration(job.result_id))
+        elif job.kind == "program_compensation":
+            result = ProgramResponse.model_validate(repo.compensated_program(job.result_id).result)
         else:
             result = design_public(repo.design(job.result_id))
     return job_out(job, result)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,7 +14,7 @@ from models import Registry, RobotDescription
 from models._types import Array
 from models.compensation.controller import ZERO, ControllerFrame, urdf_controller_frame
 from models.compensation.pendant import check_pendant
-from models.compensation.poses import compensate_poses
+from models.compensation.poses import PoseCompensation, compensate_poses
 from models.errors import InvalidInput
 from models.inverse import default_seed
 from models.runtime import Runtime
@@ -32,6 +33,7 @@ from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.schemas.common import ConditionWarningPublic
 from service.schemas.programs import CompensatedTarget, PendantCheckPublic, ProgramRequest, ProgramResponse
+from service.services.hooks import JobHooks
 
 
 @dataclass(frozen=True)
@@ -62,12 +64,16 @@ def compensate_program(
     runtime: Runtime | None = None,
     controller: ControllerFrame = ZERO,
     deadline: float | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> CompensatedProgram:
     """Every target of `program` corrected so that the calibrated robot's TCP lands where the nominal one's would
     (`nominal`: default the description's nominal parameters); the ones that cannot be keep their text.
 
     The program's frames start at the controller's base frame (`controller`: {0} <- it, the nominal
-    geometry's), which for an imported robot is not the model's {0} (`models.compensation.controller`)."""
+    geometry's), which for an imported robot is not the model's {0} (`models.compensation.controller`).
+
+    `progress` (a job's): called with the fraction of the targets done after each batch of `JOB_BATCH` targets,
+    which are then solved batch by batch (each target's solution is its own: the same answer as in one batch)."""
     # Objects per target (outcomes, arrays, rewritten numbers): without the cycle collector's passes over
     # them, as in reading (`programs.collection`).
     with collector_paused():
@@ -76,7 +82,7 @@ def compensate_program(
         if active:
             starts, branches = _starts(desc, active, seed)
             bases = controller.zero_from_controller @ np.array([t.frames.base for t in active])
-            result = compensate_poses(
+            result = _solved(
                 desc,
                 calibrated,
                 desc.parameters.nominal if nominal is None else nominal,
@@ -85,17 +91,71 @@ def compensate_program(
                 seeds=np.array(starts),
                 runtime=runtime,
                 deadline=deadline,
+                progress=progress,
             )
             in_base = np.linalg.solve(bases, result.poses)  # back into each target's own base frame
             for k, t in enumerate(active):
                 held = t.configuration if t.configuration is not None and t.configuration.enforced else None
                 why = result.reasons[k] or kept(held, result.nominal_joints[k], result.joints[k], desc.joint_names)
                 branch, warning = branches[k]
+                warning = "; ".join(w for w in (t.warning, warning) if w) or None  # the frames', then the branch's
                 pose = None if why is not None else in_base[k]
                 outcomes[id(t)] = TargetOutcome(t, pose, why, branch, warning if pose is not None else None)
         ordered = tuple(outcomes[id(t)] for t in program.targets)
         changes = [(o.target, o.pose) for o in ordered if o.pose is not None]
         return CompensatedProgram(rewritten(program, changes), ordered)
+
+
+JOB_BATCH = 1000
+"""Targets solved between two progress points of a job: ~0.1 s of work each on this machine, so a cancellation
+is seen within a fraction of a second and the progress moves a few times a second."""
+
+
+def _solved(
+    desc: RobotDescription,
+    calibrated: ArrayLike,
+    nominal: ArrayLike,
+    targets: Array,
+    *,
+    tools: Sequence[ArrayLike | None],
+    seeds: Array,
+    runtime: Runtime | None,
+    deadline: float | None,
+    progress: Callable[[float], None] | None,
+) -> PoseCompensation:
+    """`compensate_poses` on all the targets at once, or for a job batch by batch with a progress point after each
+    (the batches' results joined in the targets' order)."""
+    n = len(targets)
+    if progress is None or n <= JOB_BATCH:
+        found = compensate_poses(
+            desc, calibrated, nominal, targets, tools=tools, seeds=seeds, runtime=runtime, deadline=deadline
+        )
+        if progress is not None:
+            progress(1.0)
+        return found
+    parts: list[PoseCompensation] = []
+    for start in range(0, n, JOB_BATCH):
+        end = min(start + JOB_BATCH, n)
+        parts.append(
+            compensate_poses(
+                desc,
+                calibrated,
+                nominal,
+                targets[start:end],
+                tools=tools[start:end],
+                seeds=seeds[start:end],
+                runtime=runtime,
+                deadline=deadline,
+            )
+        )
+        progress(end / n)
+    return PoseCompensation(
+        poses=np.concatenate([p.poses for p in parts]),
+        reached=np.concatenate([p.reached for p in parts]),
+        reasons=tuple(r for p in parts for r in p.reasons),
+        nominal_joints=np.concatenate([p.nominal_joints for p in parts]),
+        joints=np.concatenate([p.joints for p in parts]),
+    )
 
 
 UNDETERMINED = (
@@ -175,22 +235,42 @@ def _model(db: Database, models: ModelCache, robot_id: str, version: int | None)
 
 
 def compensate(
-    *, db: Database, models: ModelCache, registry: Registry, robot_id: str, body: ProgramRequest
+    *,
+    db: Database,
+    models: ModelCache,
+    registry: Registry,
+    robot_id: str,
+    body: ProgramRequest,
+    job: JobHooks | None = None,
 ) -> ProgramResponse:
+    """The program with its targets corrected; `job` (a worker's hooks): progress points while reading and after
+    each batch of targets, and the time of a job (`JOB_SOLVE_S`) rather than a request's for the slow targets."""
     started = time.monotonic()
+    if job is not None:
+        job.progress("reading", 0.0)
     desc, theta, version = _model(db, models, robot_id, body.version)
     frame = controller_frame(db, robot_id)
     pendant = _pendant(desc, body, registry.runtime(desc), frame) if body.pendant else None
     seed = joints_in(desc, [body.seed])[0] if body.seed is not None else None
     # The request's own time: Newton's answers for every target, the costly general route only while time is
     # left, so an ordinary file is answered (its slow targets listed) rather than dropped at the compute deadline.
-    deadline = started + limits.PROGRAM_SOLVE_S
+    deadline = started + (limits.PROGRAM_SOLVE_S if job is None else JOB_SOLVE_S)
+    progress = None if job is None else _stage(job, "compensating", 0.05, 0.95)
     # A zero quaternion or a 1e300 value makes NaN or inf on the way, not an error: compensate_poses lists
     # such a target as not a pose or out of reach (numpy's warnings about them are noise here).
     with np.errstate(all="ignore"):
         program = read_program(body.format, body.program, body.files)
+        if job is not None:
+            job.progress("compensating", 0.05)
         done = compensate_program(
-            desc, theta, program, seed=seed, runtime=registry.runtime(desc), controller=frame, deadline=deadline
+            desc,
+            theta,
+            program,
+            seed=seed,
+            runtime=registry.runtime(desc),
+            controller=frame,
+            deadline=deadline,
+            progress=progress,
         )
     changed = {o.target.file for o in done.outcomes if o.pose is not None}
     return ProgramResponse(
@@ -203,6 +283,42 @@ def compensate(
         warnings=_warnings(db, models, robot_id, version, body),
         controller_frame=frame.name,
     )
+
+
+JOB_SOLVE_S = 0.5 * limits.JOB_MAX_S
+"""A job's time for the targets Newton leaves to the general inverse kinematics (~0.3 s each): half of any job's
+cap, so a program of many slow targets answers with those left listed rather than failing at the cap."""
+
+
+def _stage(job: JobHooks, stage: str, low: float, high: float) -> Callable[[float], None]:
+    """A job's progress through one stage: the stage's fraction done, mapped into [low, high] of the job."""
+    return lambda done: job.progress(stage, low + (high - low) * done)
+
+
+def compensate_as_job(
+    *,
+    db: Database,
+    models: ModelCache,
+    registry: Registry,
+    robot_id: str,
+    body: ProgramRequest,
+    encoding: str | None,
+    job: JobHooks | None,
+) -> str:
+    """A program compensation run as a job: its answer (`compensate`, with the `encoding` a program sent as text
+    was read in) stored with the job's own `succeeded`; the stored answer's id."""
+    answer = compensate(db=db, models=models, registry=registry, robot_id=robot_id, body=body, job=job)
+    if encoding is not None:
+        answer = answer.model_copy(update={"encoding": encoding})
+    if job is not None:
+        job.progress("storing", 0.95)
+    with db.session() as s:
+        repo = Repository(s)
+        repo.robot(robot_id)  # still there
+        record = repo.add_compensated_program(robot_id, answer.model_dump(mode="json"))
+        if job is not None:
+            job.commit(s, record.id)
+        return record.id
 
 
 def controller_frame(db: Database, robot_id: str) -> ControllerFrame:

@@ -35,6 +35,7 @@ from harness.programs import (
     rapid_module,
     taught,
     ur5_cell,
+    urscript_approached,
 )
 from iwr_client import ApiError, Client, ProgramFile, summary
 from iwr_client.cli import main
@@ -224,6 +225,51 @@ def test_json_is_the_apis_own_answer(server: str, robot: str, cell: Cell, tmp_pa
         "files": {name: files[name].read_bytes().decode("cp1252") for name in ("weld.dat", "$config.dat")},
     }
     assert json.loads(run.stdout) == post(server, f"/v1/robots/{robot}/programs/compensate", body)
+
+
+def _approached(cell: Cell, n: int, seed: int) -> tuple[str, np.ndarray]:
+    """A URScript of `n` linear moves, each after a joint move 0.5° from the joints it was taught at."""
+    q = joints(n, seed=seed)
+    approach = q + np.radians(0.5) * np.sign(np.sin(np.arange(q.size).reshape(q.shape)))
+    return urscript_approached(list(taught(cell, q)), approach), q
+
+
+@pytest.mark.slow  # a live server, 10 000 targets as a job: ~20 s here
+def test_a_10000_target_script_goes_as_a_job_and_comes_back_compensated(
+    server: str, robot: str, cell: Cell, tmp_path: Path
+) -> None:
+    """Issue 44: a 10 000-target URScript is over one request's budget; the command is refused with
+    `work-too-large`, sends it again as a job, waits for it and writes the script. Re-read and run on the truth
+    (an independent Newton and forward kinematics), every 97th corrected target lands on its taught pose."""
+    script, q = _approached(cell, 10_000, seed=41)
+    source = tmp_path / "weld.script"
+    source.write_text(script)
+    out = tmp_path / "out"
+    run = iwr(server, "compensate", robot, str(source), "-o", str(out))
+    assert run.returncode in (0, 1), run.stderr + run.stdout  # 1: a target next to a singularity kept
+    corrected = int(re.search(r"(\d+) of 10000 targets corrected", run.stdout).group(1))  # type: ignore[union-attr]
+    assert corrected > 9_900, run.stdout[-2000:]
+    again = read_program("urscript", (out / "weld.script").read_text())
+    original = read_program("urscript", script)
+    assert skeleton((out / "weld.script").read_bytes()) == skeleton(source.read_bytes())
+    moved = [k for k in range(0, 10_000, 97) if not np.allclose(again.targets[k].pose, original.targets[k].pose)]
+    assert len(moved) > 95
+    landed = executed(cell, np.array([again.targets[k].pose for k in moved]), q[moved])
+    wanted = (cell.base @ np.array([original.targets[k].pose for k in moved]))[:, :3, 3]
+    assert np.linalg.norm(landed - wanted, axis=1).max() < 1e-3
+
+
+@pytest.mark.slow
+def test_a_job_writes_what_one_request_answers(server: str, robot: str, cell: Cell, tmp_path: Path) -> None:
+    """The same 1 500-target script (two batches of the job) through `--async` and as one request: the same
+    text, target for target."""
+    script, _ = _approached(cell, 1_500, seed=42)
+    source = tmp_path / "cell.script"
+    source.write_text(script)
+    run = iwr(server, "compensate", robot, str(source), "--async", "-o", str(tmp_path / "out"))
+    assert run.returncode in (0, 1), run.stderr + run.stdout
+    direct = post(server, f"/v1/robots/{robot}/programs/compensate", {"format": "urscript", "program": script})
+    assert (tmp_path / "out" / "cell.script").read_text() == direct["program"]
 
 
 @pytest.mark.slow

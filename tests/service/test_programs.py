@@ -284,17 +284,17 @@ def test_targets_the_general_solver_would_take_long_on_are_listed_not_timed_out(
 @pytest.mark.parametrize(
     ("fmt", "program", "reason"),
     [
-        ("krl", "DEF a()\nLIN {X 1e300, Y 0, Z 0, A 0, B 0, C 0}\nEND\n", "out of any arm's reach"),
-        ("csv", "x,y,z,a,b,c\n1e300,0,0,0,0,0\n", "out of any arm's reach"),
+        ("krl", "DEF a()\nLIN {X 1e300, Y 0, Z 0, A 0, B 0, C 0}\nEND\n", "x = 1e300 is 1e+297 m from its base"),
+        ("csv", "x,y,z,a,b,c\n1e300,0,0,0,0,0\n", "x = 1e300 is 1e+297 m from its base"),
         (
             "rapid",
             "MODULE M\n  CONST robtarget p:=[[400,0,300],[0,0,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
             "  PROC main()\n    MoveL p,v100,fine,tool0;\n  ENDPROC\nENDMODULE\n",
-            "not a rotation",
+            "the quaternion [0, 0, 0, 0] has norm 0, not 1",
         ),
-        ("urscript", "def f():\n  movel(p[0.4, 1e300, 0.3, 0, 3.14, 0])\nend\n", "out of any arm's reach"),
-        ("urscript", "def f():\n  movel(p[1e300, 0, 0, 0, 0, 1e300])\nend\n", "not a rotation"),
-        ("csv", "x,y,z,qw,qx,qy,qz\n400,0,300,0,0,0,0\n", "not a rotation"),
+        ("urscript", "def f():\n  movel(p[0.4, 1e300, 0.3, 0, 3.14, 0])\nend\n", "y = 1e300 is 1e+300 m from its base"),
+        ("urscript", "def f():\n  movel(p[1e300, 0, 0, 0, 0, 1e300])\nend\n", "x = 1e300 is 1e+300 m"),
+        ("csv", "x,y,z,qw,qx,qy,qz\n400,0,300,0,0,0,0\n", "the quaternion [0, 0, 0, 0] has norm 0, not 1"),
     ],
     ids=["krl-far", "csv-far", "rapid-zero-quaternion", "urscript-far", "urscript-overflow", "csv-zero-quaternion"],
 )
@@ -302,7 +302,8 @@ def test_finite_but_impossible_targets_are_listed_not_a_500(
     client: TestClient, ur5: str, fmt: str, program: str, reason: str
 ) -> None:
     """Found probing for the next 500s: a target 1e300 mm away overflowed the start table's distances (an
-    IndexError), a zero quaternion gave NaN. Each is listed with its reason; the answer is a 200."""
+    IndexError), a zero quaternion gave NaN. Each is listed with a reason naming the number as written (the
+    reader's plausibility check, `programs.targets.absurd`); the answer is a 200."""
     answer = _post(client, ur5, format=fmt, program=program)
     assert answer.status_code == 200, answer.text
     (target,) = answer.json()["targets"]
