@@ -107,21 +107,7 @@ def compensate_poses(
         joints=np.full((n, desc.n_joints), np.nan),
     )
     reasons: list[str | None] = list(out.reasons)
-    # Targets no solver should see: not a pose (a zero quaternion read as NaN) or kilometres away (1e300 mm
-    # overflowed the start table's distances, an IndexError). They keep their value with the reason.
-    finite = np.isfinite(t).all(axis=(1, 2))
-    rotations = np.where(finite[:, None, None], t[:, :3, :3], 0.0)
-    rotation_ok = finite & np.all(
-        np.abs(np.einsum("nij,nkj->nik", rotations, rotations) - np.eye(3)) < 1e-6, axis=(1, 2)
-    )
-    far = np.max(np.abs(np.nan_to_num(t[:, :3, 3], nan=np.inf)), axis=1) > FAR_MM  # no squares: 1e300 overflows
-    for i in np.flatnonzero(~rotation_ok | far):
-        reasons[i] = (
-            f"farther than {FAR_MM:g} mm from the base: out of any arm's reach"
-            if rotation_ok[i]
-            else "not a pose: its orientation is not a rotation (a zero or non-finite quaternion or angle)"
-        )
-    solvable = rotation_ok & ~far
+    solvable = _screened(t, reasons)
     for tool, group in _tool_groups(tools, n):
         idx = group[solvable[group]]
         if idx.size == 0:
@@ -139,6 +125,25 @@ def compensate_poses(
         for k, i in enumerate(idx):
             reasons[i] = why[k]
     return PoseCompensation(out.poses, out.reached, tuple(reasons), out.nominal_joints, out.joints)
+
+
+def _screened(t: Array, reasons: list[str | None]) -> NDArray[np.bool_]:
+    """Which targets a solver may see; the others' reasons written. Not a pose (a zero quaternion read as NaN) or
+    kilometres away (1e300 mm overflowed the start table's distances, an IndexError): they keep their value."""
+    finite = np.asarray(np.isfinite(t).all(axis=(1, 2)), dtype=np.bool_)
+    rotations = np.where(finite[:, None, None], t[:, :3, :3], 0.0)
+    rotation_ok = finite & np.all(
+        np.abs(np.einsum("nij,nkj->nik", rotations, rotations) - np.eye(3)) < 1e-6, axis=(1, 2)
+    )
+    far = np.max(np.abs(np.nan_to_num(t[:, :3, 3], nan=np.inf)), axis=1) > FAR_MM  # no squares: 1e300 overflows
+    for i in np.flatnonzero(~rotation_ok | far):
+        reasons[i] = (
+            f"farther than {FAR_MM:g} mm from the base: out of any arm's reach"
+            if rotation_ok[i]
+            else "not a pose: its orientation is not a rotation (a zero or non-finite quaternion or angle)"
+        )
+    solvable: NDArray[np.bool_] = rotation_ok & ~far
+    return solvable
 
 
 def _tool_groups(tools: Sequence[ArrayLike | None] | None, n: int) -> list[tuple[Array | None, NDArray[np.intp]]]:
