@@ -13,6 +13,7 @@ files ($config.dat) assign them; `$BASE` is taken relative to the robot's base (
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -492,8 +493,26 @@ def _frame_statement(
     elif st.kind == "bas" and st.type_name in ("#tool", "#base"):
         number = st.items[0][0].name
         if number.kind == "number":
-            setattr(state, st.type_name[1:], _table(sym, st.type_name[1:], int(number.text), st, file))
+            setattr(state, st.type_name[1:], _table(sym, st.type_name[1:], _table_index(number, file), st, file))
     return kept
+
+
+def _table_index(number: Token, file: str | None) -> int:
+    """BAS's second argument as a TOOL_DATA / BASE_DATA index: BAS.SRC declares it REAL, so `BAS(#TOOL, 1.0)` is
+    valid KRL (a fuzz found `0.0` answered a 500); a number that is not a whole index is refused, named."""
+    try:
+        value = float(number.text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value == int(value) and value >= 0):
+        raise ProgramError(
+            f"BAS's frame number {number.text} is not a whole table index",
+            reason="frame-partial",
+            file=file,
+            line=number.line,
+            column=number.column,
+        )
+    return int(value)
 
 
 def _routines(statements: list[tuple[str | None, Statement]]) -> dict[str, list[tuple[str | None, Statement]]]:

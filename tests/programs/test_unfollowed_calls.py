@@ -9,9 +9,11 @@ and KRL's own functions are not routine calls."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from harness.programs import HOME_DEG, ur5_cell
 from programs import read_program
+from programs.errors import ProgramError
 from service.services.programs import compensate_program
 
 SRC = (
@@ -112,3 +114,16 @@ def test_urscript_a_function_the_script_does_not_define_may_set_the_tcp() -> Non
     call = "after the call of rg6_grip( ) at line 10, a routine not among the files: it may set the TCP"
     assert by_line[7] is None and by_line[9] is None and by_line[16] is None
     assert call in str(by_line[2]) and call in str(by_line[14])  # home_p is moved to at line 12, after the call
+
+
+def test_bas_takes_its_frame_number_as_a_real_and_refuses_a_fraction() -> None:
+    """BAS.SRC declares its second argument REAL: `BAS(#BASE, 2.0)` is BASE_DATA[2] as `BAS(#BASE, 2)` is (the
+    program-reader fuzz found `0.0` answered a 500); `2.5` names no table entry and is a problem naming it."""
+    whole = CELL_FRAMES.replace("BAS (#BASE, 2)", "BAS (#BASE, 2.0)")
+    program = read_program("krl", SRC, {"weld.dat": DAT, "$config.dat": CONFIG, "cell_frames.src": whole})
+    xp3 = next(t for t in program.targets if t.name == "XP3")
+    assert xp3.frames.base_name == "BASE_DATA[2]" and xp3.frames.base[1, 3] == 50.0
+    fraction = CELL_FRAMES.replace("BAS (#BASE, 2)", "BAS (#BASE, 2.5)")
+    with pytest.raises(ProgramError, match=r"BAS's frame number 2\.5 is not a whole table index") as refused:
+        read_program("krl", SRC, {"weld.dat": DAT, "$config.dat": CONFIG, "cell_frames.src": fraction})
+    assert refused.value.line == 3

@@ -41,7 +41,9 @@ def test_fifty_clients_under_load(tmp_path: Path) -> None:
         def client(k: int) -> None:
             with httpx.Client(base_url=url, timeout=60) as http:
                 i = 0
-                while time.monotonic() < stop:
+                # For the time, and in any case until one calibration of its own was answered: a count of work,
+                # not a rate, so a busy machine (CI's cores shared) slows the test instead of failing it.
+                while time.monotonic() < stop or not (created[k] or not_applied[k]):
                     i += 1
                     if i % 15 == 0:
                         r = http.post(f"/v1/robots/{robot}/calibrations", json={"measurements": campaign})

@@ -11,6 +11,10 @@ import pytest
 from harness.live import running_server
 
 CHROMIUM = Path("/usr/bin/chromium")
+PAGE_WAIT_MS = 60_000
+"""How long a test waits for the page to show what the API answered: a wait, not a measure of speed. On a
+loaded 2-core machine (CI may be busy) a calibration's report took 16-25 s and a forced re-fit over 5 s,
+Playwright's default for `expect`; the tests must not depend on the machine's load."""
 ARTIFACTS = Path(__file__).resolve().parents[2] / "build" / "test-artifacts" / "ui"
 # Without the background-networking flags Chromium keeps trying Google's hosts, which this closed network refuses.
 CHROMIUM_FLAGS = [
@@ -35,6 +39,7 @@ def browser() -> Iterator[object]:
             pytest.fail(reason)
         pytest.skip(reason)
     sync_api = pytest.importorskip("playwright.sync_api")
+    sync_api.expect.set_options(timeout=PAGE_WAIT_MS)
     with sync_api.sync_playwright() as playwright:
         launched = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_FLAGS)
         yield launched

@@ -6,7 +6,7 @@ from urllib.parse import urlparse
 
 import pytest
 
-from tests.ui.conftest import PageProblems, screenshot
+from tests.ui.conftest import PAGE_WAIT_MS, PageProblems, screenshot
 
 pytestmark = pytest.mark.slow
 
@@ -18,7 +18,7 @@ def test_api_docs_render_offline(browser: object, server: str) -> None:
     hosts: set[str] = set()
     page.on("request", lambda r: hosts.add(urlparse(r.url).netloc))
     page.goto(server + path)
-    page.wait_for_selector(ready, timeout=20_000)
+    page.wait_for_selector(ready, timeout=PAGE_WAIT_MS)
     screenshot(page, path.strip("/"))
     assert hosts <= {urlparse(server).netloc, ""}, f"fetched from elsewhere: {hosts}"
     assert problems.messages == []

@@ -17,7 +17,7 @@ from playwright.sync_api import expect
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
 from tests.service.helpers import records
-from tests.ui.conftest import PageProblems, screenshot
+from tests.ui.conftest import PAGE_WAIT_MS, PageProblems, screenshot
 
 pytestmark = pytest.mark.slow  # a live server, two calibrations and a browser: ~13 s here
 DESC = iwr()
@@ -71,7 +71,7 @@ def page(browser: Any, server: str) -> Iterator[tuple[Any, PageProblems, set[str
 def _open(page: Any, server: str, fragment: str) -> None:
     page.goto(f"{server}/ui{fragment}")
     # Attribute waits, not wait_for_function: the page's Content-Security-Policy forbids eval, which that uses.
-    expect(page.locator("body")).to_have_attribute("data-ready", fragment or "#/", timeout=20_000)
+    expect(page.locator("body")).to_have_attribute("data-ready", fragment or "#/", timeout=PAGE_WAIT_MS)
 
 
 @pytest.mark.usefixtures("data")

@@ -24,7 +24,7 @@ from harness.programs import FIXTURE, HOME_DEG, Cell, executed, joints, ur5_cell
 from models.examples import ur5_like_document
 from programs import read_program
 from tests.cli.test_compensate import N_TARGETS, backup, skeleton
-from tests.ui.conftest import PageProblems, screenshot
+from tests.ui.conftest import PAGE_WAIT_MS, PageProblems, screenshot
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
 
@@ -64,7 +64,7 @@ def page(browser: Any, server: str) -> Iterator[Any]:
 
 def _ready(page: Any, pattern: str) -> None:
     # An attribute wait: the page's Content-Security-Policy forbids eval, which wait_for_function uses.
-    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=20_000)
+    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=PAGE_WAIT_MS)
 
 
 def _open(page: Any, server: str, robot: str) -> None:

@@ -22,7 +22,7 @@ from playwright.sync_api import expect
 from scipy.spatial.transform import Rotation
 
 from tests.models.test_urdf_hostile import joint, urdf
-from tests.ui.conftest import PageProblems, screenshot
+from tests.ui.conftest import PAGE_WAIT_MS, PageProblems, screenshot
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui: ~10 s here once it runs
 ROOT = Path(__file__).resolve().parents[2]
@@ -46,7 +46,7 @@ def page(browser: Any, server: str) -> Iterator[Any]:
 def _ready(page: Any, pattern: str) -> str:
     """Waits until the page drawn is one whose fragment matches `pattern`; returns the fragment."""
     # Attribute waits, not wait_for_function: the page's Content-Security-Policy forbids eval, which that uses.
-    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=20_000)
+    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=PAGE_WAIT_MS)
     fragment: str = page.evaluate("document.body.dataset.ready")
     return fragment
 
@@ -162,7 +162,7 @@ def test_a_campaign_refused_before_any_fit_says_why(page: Any, server: str, tmp_
     page.set_input_files("#campaign-file", str(path))
     page.get_by_role("button", name="Calibrate").click()
     refusal = page.locator("#calibration-refused")
-    refusal.wait_for(timeout=20_000)
+    refusal.wait_for(timeout=PAGE_WAIT_MS)
     jobs = httpx.get(f"{server}/v1/jobs", params={"robot_id": robot_id}).json()
     assert jobs[0]["status"] == "failed"
     assert jobs[0]["error"]["detail"] in refusal.inner_text() and "l1" in refusal.inner_text()
@@ -334,7 +334,7 @@ def test_a_running_job_is_cancelled_and_listed(page: Any, server: str) -> None:
     page.get_by_label("Poses", exact=True).fill("40")
     page.get_by_label("Candidate poses sampled").fill("20000")  # seconds of work: time to cancel it
     page.get_by_role("button", name="Design the poses").click()
-    page.wait_for_selector("#job-status .status-running", timeout=20_000)
+    page.wait_for_selector("#job-status .status-running", timeout=PAGE_WAIT_MS)
     page.get_by_role("button", name="Cancel").click()
     page.wait_for_selector("#job-cancelled", timeout=30_000)
     jobs = httpx.get(f"{server}/v1/jobs", params={"robot_id": robot_id}).json()
