@@ -84,6 +84,7 @@ def test_default_allowed_pairs_are_adjacent_or_always_touching() -> None:
     assert {("link1", "link2"), ("link5", "link6"), ("link6", "tool")} <= allowed
 
 
+@pytest.mark.slow  # ~6 s: 3 000 random poses against the hand-written check: outside the inner loop (make test-fast)
 def test_check_agrees_with_the_hand_written_check_on_random_poses() -> None:
     cell = ur5_cell()
     q = sample_workspace(UR5, 3000, seed=11)

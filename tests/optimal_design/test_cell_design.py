@@ -60,6 +60,7 @@ def test_every_designed_pose_is_collision_free_and_seen(
     assert design.efficiency is not None and design.efficiency > 0.9
 
 
+@pytest.mark.slow  # ~2.4 s: the reference check over every refused candidate: outside the inner loop (make test-fast)
 def test_refused_candidates_are_the_ones_the_reference_refuses() -> None:
     cell = ur5_cell()
     given = sample_workspace(UR5, 1500, seed=5)

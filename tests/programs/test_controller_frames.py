@@ -105,6 +105,7 @@ def test_the_controller_frame_is_the_one_the_robot_was_described_from(kind: str)
     assert ("Base" in frame.name) if kind == "ur10e-file" else ("'base'" in frame.name)
 
 
+@pytest.mark.slow  # up to ~3 s a robot (a calibration and the targets): outside make test-fast
 @pytest.mark.parametrize("kind", ROBOTS)
 @pytest.mark.parametrize("format_name", ["csv", "urscript"])
 def test_targets_taught_in_the_controller_frame_land_after_compensation(kind: str, format_name: str) -> None:

@@ -277,6 +277,7 @@ def _ur5_campaign(seed: int, n: int, noise: float) -> Campaign:
     return measure(sim, sample_workspace(UR5, n, seed=seed + 1), NoiseModel(noise, math.radians(0.01)), seed=seed + 2)
 
 
+@pytest.mark.slow  # over a second: a 6R calibration through the API: outside the inner loop (make test-fast)
 def test_a_leica_file_with_a_temperature_column_for_a_6r_arm_is_read_and_the_temperature_named_unused(
     client: TestClient,
 ) -> None:

@@ -9,6 +9,7 @@ import hashlib
 import re
 from pathlib import Path
 
+import pytest
 from fastapi.testclient import TestClient
 
 from models import iwr, sample_workspace
@@ -51,6 +52,7 @@ def test_api_answers_carry_the_headers_too(client: TestClient) -> None:
     _frame_headers_hold(client.get("/v1/robots").headers)
 
 
+@pytest.mark.slow  # ~2 s: a calibration and its report: outside the inner loop (make test-fast)
 def test_the_report_is_a_sandboxed_document_and_its_iframe_is_sandboxed(client: TestClient, robot_id: str) -> None:
     desc = iwr()
     sim = perturbed_robot(desc, seed=101)

@@ -177,6 +177,7 @@ class _Hooks:
         self.committed = result_id
 
 
+@pytest.mark.slow  # over a second: several batches of targets: outside the inner loop (make test-fast)
 def test_progress_is_reported_per_batch_and_a_stopped_job_stores_nothing(
     tmp_path: Path, registry: Registry, cell: Cell
 ) -> None:

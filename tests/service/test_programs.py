@@ -265,6 +265,7 @@ def test_a_module_of_1500_targets_is_compensated_in_one_request(client: TestClie
     assert all(t["reason"] for t in targets if not t["reached"])
 
 
+@pytest.mark.slow  # ~2 s: the solve runs to its deadline: outside the inner loop (make test-fast)
 def test_targets_the_general_solver_would_take_long_on_are_listed_not_timed_out(
     client: TestClient, ur5: str, cell: Cell, monkeypatch: pytest.MonkeyPatch
 ) -> None:
