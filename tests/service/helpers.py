@@ -5,13 +5,19 @@ from __future__ import annotations
 import os
 import socket
 import time
+import tracemalloc
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
 
+from harness.programs import Cell
+
 # The harness builds its campaigns from the same records; the service tests keep importing them from here.
 from harness.records import records
+from models.examples import ur5_like_document
 
 __all__ = ["SOAK", "broker", "finished_job", "records"]
 
@@ -43,3 +49,33 @@ def broker(url: str) -> str:
             pytest.fail(f"the broker {url} must be running for CI on this machine: {exc}")
         pytest.skip(f"no broker at {host}:{port} ({exc})")
     return url
+
+
+@contextmanager
+def cost() -> Iterator[dict[str, float]]:
+    """CPU seconds of this process and tracemalloc's peak (MB) over the block: bounds that hold on a busy machine."""
+    found: dict[str, float] = {}
+    tracemalloc.start()
+    started = time.process_time()
+    try:
+        yield found
+    finally:
+        found["cpu_s"] = time.process_time() - started
+        found["peak_mb"] = tracemalloc.get_traced_memory()[1] / 1e6
+        tracemalloc.stop()
+
+
+def ur5_with_truth(client: TestClient, cell: Cell) -> str:
+    """A UR5-like robot with the cell's perturbed truth as its version 2 (mm and degrees, as the parameters export
+    states them): what programs are compensated with in the tests."""
+    robot = client.post("/v1/robots", json={"name": "ur5-cell", "structure": ur5_like_document()})
+    assert robot.status_code == 201, robot.text
+    robot_id = str(robot.json()["id"])
+    export = client.get(f"/v1/robots/{robot_id}/parameters").json()
+    table = cell.desc.parameters
+    boundary = dict(zip(table.names, table.as_boundary(cell.truth), strict=True))
+    for row in export["parameters"]:
+        row["value"] = float(boundary[row["name"]])
+    imported = client.post(f"/v1/robots/{robot_id}/parameter-versions", json=export)
+    assert imported.status_code == 201, imported.text
+    return robot_id

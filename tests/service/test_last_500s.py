@@ -4,11 +4,6 @@ assertions hold on a busy machine; nothing is stored."""
 
 from __future__ import annotations
 
-import time
-import tracemalloc
-from collections.abc import Iterator
-from contextlib import contextmanager
-
 import pytest
 from fastapi.testclient import TestClient
 
@@ -17,6 +12,7 @@ from models.structure import description_from_document
 from models.ur_kinematics import MAX_FLOW_DEPTH, flow_depth, read_kinematics
 from models.urdf import MAX_OFFSET_M, document_from_urdf
 from tests.models.test_urdf_hostile import LIMIT, urdf
+from tests.service.helpers import cost
 
 UR_FILE = """kinematics:
   shoulder: {x: 0, y: 0, z: 0.1625, roll: 0, pitch: 0, yaw: 0}
@@ -28,19 +24,6 @@ UR_FILE = """kinematics:
   hash: calib_12345
 """
 """A UR5e's file in ur_description's flow style (`default_kinematics.yaml` writes the same numbers as blocks)."""
-
-
-@contextmanager
-def cost() -> Iterator[dict[str, float]]:
-    found: dict[str, float] = {}
-    tracemalloc.start()
-    started = time.process_time()
-    try:
-        yield found
-    finally:
-        found["cpu_s"] = time.process_time() - started
-        found["peak_mb"] = tracemalloc.get_traced_memory()[1] / 1e6
-        tracemalloc.stop()
 
 
 def _two_joints(origin: str = "0 0 0", axis: str = "0 0 1", kind: str = "revolute", limit: str = LIMIT) -> str:

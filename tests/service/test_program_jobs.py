@@ -28,7 +28,7 @@ from service.schemas.programs import ProgramRequest
 from service.schemas.robots import RobotCreate
 from service.services import programs
 from service.services.robots import create_robot
-from tests.service.helpers import finished_job
+from tests.service.helpers import finished_job, ur5_with_truth
 
 URL = "/v1/robots/{}/programs/compensate"
 
@@ -40,17 +40,7 @@ def cell() -> Cell:
 
 @pytest.fixture
 def ur5(client: TestClient, cell: Cell) -> str:
-    """A UR5-like robot with the perturbed truth as its version 2 (as tests/service/test_programs.py builds it)."""
-    robot = client.post("/v1/robots", json={"name": "ur5-cell", "structure": ur5_like_document()})
-    assert robot.status_code == 201, robot.text
-    robot_id = str(robot.json()["id"])
-    export = client.get(f"/v1/robots/{robot_id}/parameters").json()
-    table = cell.desc.parameters
-    boundary = dict(zip(table.names, table.as_boundary(cell.truth), strict=True))
-    for row in export["parameters"]:
-        row["value"] = float(boundary[row["name"]])
-    assert client.post(f"/v1/robots/{robot_id}/parameter-versions", json=export).status_code == 201
-    return robot_id
+    return ur5_with_truth(client, cell)
 
 
 def _script(cell: Cell, n: int, seed: int) -> tuple[str, np.ndarray]:

@@ -38,6 +38,7 @@ from service import limits
 from tests.programs.robots import UR10E_BOX, ur_file_fk
 from tests.programs.samples import KRL_CONFIG, KRL_DAT, KRL_SRC
 from tests.service.conftest import make_client
+from tests.service.helpers import ur5_with_truth
 
 N_TARGETS = 12
 
@@ -49,18 +50,7 @@ def cell() -> Cell:
 
 @pytest.fixture
 def ur5(client: TestClient, cell: Cell) -> str:
-    """A UR5-like robot with the truth as its version 2 (mm and degrees, as the parameters export states them)."""
-    robot = client.post("/v1/robots", json={"name": "ur5-cell", "structure": ur5_like_document()})
-    assert robot.status_code == 201, robot.text
-    robot_id = str(robot.json()["id"])
-    export = client.get(f"/v1/robots/{robot_id}/parameters").json()
-    table = cell.desc.parameters
-    boundary = dict(zip(table.names, table.as_boundary(cell.truth), strict=True))
-    for row in export["parameters"]:
-        row["value"] = float(boundary[row["name"]])
-    imported = client.post(f"/v1/robots/{robot_id}/parameter-versions", json=export)
-    assert imported.status_code == 201, imported.text
-    return robot_id
+    return ur5_with_truth(client, cell)
 
 
 def _post(client: TestClient, robot_id: str, **body: Any) -> Any:

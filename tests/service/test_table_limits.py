@@ -8,10 +8,7 @@ assertions hold on a busy machine."""
 
 from __future__ import annotations
 
-import time
-import tracemalloc
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 
 import httpx
 import pytest
@@ -21,23 +18,10 @@ from hypothesis import strategies as st
 
 from service import guards, limits, operations
 from service.csv_codec import joined_campaign, parse_campaign
+from tests.service.helpers import cost
 
 HEADER = "q1,q2,q3,q4,l1,l2,l3,l4,l5,l6,x,y,z"
 ROW = "400,150,90,45,420,420,420,420,420,420,1,2,3"
-
-
-@contextmanager
-def cost() -> Iterator[dict[str, float]]:
-    """CPU seconds of this process and tracemalloc's peak (MB) over the block."""
-    found: dict[str, float] = {}
-    tracemalloc.start()
-    started = time.process_time()
-    try:
-        yield found
-    finally:
-        found["cpu_s"] = time.process_time() - started
-        found["peak_mb"] = tracemalloc.get_traced_memory()[1] / 1e6
-        tracemalloc.stop()
 
 
 def _cr_lines(megabytes: int) -> str:
@@ -50,9 +34,12 @@ def _post(client: TestClient, robot_id: str) -> Callable[..., httpx.Response]:
         content: str | None = None, files: dict[str, tuple[str, bytes]] | None = None, path: str = "calibrations"
     ) -> httpx.Response:
         url = f"/v1/robots/{robot_id}/{path}"
-        if files is not None:
-            return client.post(url, files=files)
-        return client.post(url, content=content, headers={"content-type": "text/csv"})
+        answer: httpx.Response = (
+            client.post(url, files=files)
+            if files is not None
+            else client.post(url, content=content, headers={"content-type": "text/csv"})
+        )
+        return answer
 
     return post
 
