@@ -44,7 +44,8 @@ def _state(attribute: str, kind: type[T]) -> Callable[[Request], Awaitable[T]]:
 async def require_api_key(request: Request) -> None:
     """On the /v1 routers: with keys configured, a key whose scope covers the route (service.security), and
     `request.state.actor` set to the key's name."""
-    security.authorize(request, operations.required_scope(request.scope.get("route")))
+    as_job = request.query_params.get("async", "").lower() in ("true", "1", "yes", "on")
+    security.authorize(request, operations.required_scope(request.scope.get("route"), as_job=as_job))
 
 
 async def actor(request: Request) -> Actor:

@@ -12,6 +12,7 @@ from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 from pydantic import BaseModel
 
+from service.operations import job_scope
 from service.operations import table as operation_table
 from service.problems import PROBLEM_JSON
 from service.schemas.calibrations import CalibrationCreate
@@ -103,12 +104,15 @@ def build(app: FastAPI) -> dict[str, Any]:
                 operation["security"] = [{"ApiKey": []}]
                 policy = policies.get((method.upper(), path))
                 operation["x-scope"] = (Scope.admin if policy is None else policy.scope).name
+                if policy is not None and policy.job is not None:
+                    operation["x-async-scope"] = job_scope(policy).name  # `?async=true` stores a job
     schema["components"]["securitySchemes"] = {
         "ApiKey": {
             "type": "apiKey",
             "in": "header",
             "name": "X-API-Key",
-            "description": "Scopes read < write < admin; each operation's `x-scope` is the least it needs.",
+            "description": "Scopes read < write < admin; each operation's `x-scope` is the least it needs, "
+            "`x-async-scope` the least its `?async=true` form (a stored job) needs.",
         }
     }
     return schema

@@ -181,10 +181,19 @@ def of_route(route: object) -> Operation | None:
     return found if isinstance(found, Operation) else None
 
 
-def required_scope(route: object) -> Scope:
-    """The scope a route needs: its declaration's, or `admin` for a route that declares none."""
+def required_scope(route: object, *, as_job: bool = False) -> Scope:
+    """The scope a route needs: its declaration's, or `admin` for a route that declares none. Sent as a job
+    (`as_job`), at least `write`: a job is a record the service stores (its row, its answer), so a computation a
+    read key may ask for synchronously (a program's compensation) needs a write key to be queued."""
     found = of_route(route)
-    return Scope.admin if found is None else found.scope
+    if found is None:
+        return Scope.admin
+    return job_scope(found) if as_job and found.job is not None else found.scope
+
+
+def job_scope(found: Operation) -> Scope:
+    """The scope of an operation's `?async=true` form."""
+    return max(found.scope, Scope.write)
 
 
 def _v1_routes(app: FastAPI) -> Iterator[tuple[str, str, object]]:

@@ -84,20 +84,20 @@ def test_default_allowed_pairs_are_adjacent_or_always_touching() -> None:
     assert {("link1", "link2"), ("link5", "link6"), ("link6", "tool")} <= allowed
 
 
-@pytest.mark.slow  # ~6 s: 3 000 random poses against the hand-written check: outside the inner loop (make test-fast)
+@pytest.mark.slow  # ~2.5 s: 1 000 random poses against the hand-written check: outside the inner loop (make test-fast)
 def test_check_agrees_with_the_hand_written_check_on_random_poses() -> None:
     cell = ur5_cell()
-    q = sample_workspace(UR5, 3000, seed=11)
+    q = sample_workspace(UR5, 1000, seed=11)
     got = check_poses(UR5, cell, q)
     ref, ambiguous = reference_verdicts(UR5, cell, q, dh_frames(UR5, q))
     clear = ~ambiguous
-    assert clear.sum() > 2500  # ~10 % have some distance within 1.5 mm of its threshold
+    assert clear.sum() > 830  # ~10 % have some distance within 1.5 mm of its threshold
     mismatch = [k for k in np.flatnonzero(clear) if got.reasons[k] != ref[k]]
     assert mismatch == []
     counts = got.counts
     # every kind of refusal the cell can make shows up, and feasible poses remain
     assert {"incidence", "self_collision", "cell_collision"} <= set(counts)
-    assert got.feasible.sum() == len(q) - sum(counts.values()) > 100
+    assert got.feasible.sum() == len(q) - sum(counts.values()) > 30  # 82 of the 1 000
 
 
 def test_a_pose_into_the_table_is_refused_naming_the_table() -> None:

@@ -4,6 +4,7 @@ API tests. (The committed OpenAPI document and the error table: tests/service/te
 from __future__ import annotations
 
 import json
+import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -59,10 +60,16 @@ def contract_schema(running_app: TestClient) -> BaseSchema:
 schema = schemathesis.pytest.from_fixture("contract_schema")
 
 
+EXAMPLES = int(os.environ.get("IWR_CONTRACT_EXAMPLES", "6"))
+"""Per operation (read at import, like the other test knobs). 6 in `make test`: the schema's own examples and
+boundaries come first, then random bodies; 12 cost twice the CPU (~60 s here, the suite's longest test) for the
+random part alone. `make fuzz` runs 150, on SQLite here and on PostgreSQL in test_contract_fuzz.py."""
+
+
 # POST /v1/error-analysis is the slowest operation here: schemathesis sends requests of up to the budget's
 # 18 000 poses x draws (service.limits), seconds each.
 @schema.parametrize()
-@settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=list(HealthCheck))
 def test_api_contract(case: schemathesis.Case[Any]) -> None:
     """Every operation: no 5xx, responses conform to their schemas."""
     case.call_and_validate(checks=[not_a_server_error, response_schema_conformance, content_type_conformance])

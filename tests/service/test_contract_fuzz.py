@@ -33,7 +33,7 @@ from tests.service.contract_schema import asgi_schema
 pytestmark = pytest.mark.slow
 
 EXAMPLES = int(os.environ.get("IWR_FUZZ_EXAMPLES", "4"))
-"""Per operation on PostgreSQL in `make test`: what this module adds to test_contract.py's 12 per operation on
+"""Per operation on PostgreSQL in `make test`: what this module adds to test_contract.py's 6 per operation on
 SQLite is the database's own behaviour (its integer columns, constraints, transactions), not more generated
 bodies; 4 halves its ~50 s of CPU (`make fuzz` runs 150)."""
 STEPS = int(os.environ.get("IWR_FUZZ_STEPS", "6"))

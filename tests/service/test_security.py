@@ -163,3 +163,21 @@ def test_the_document_declares_the_scheme_and_every_scope() -> None:
         operation = doc["paths"][template][method.lower()]
         assert operation["security"] == [{"ApiKey": []}]
         assert operation["x-scope"] == DECLARED[(method, template)].scope.name
+
+
+@pytest.mark.parametrize(("method", "template"), [(m, t) for m, t in TABLE if DECLARED[(m, t)].job is not None])
+def test_a_job_needs_a_write_key_whatever_the_synchronous_form_needs(
+    api: ContractClient, method: str, template: str
+) -> None:
+    """`?async=true` stores a job (its row, its answer): a read key may compensate a program in one request,
+    never queue one (403 naming `write`); the document says so in `x-async-scope`."""
+    declared = DECLARED[(method, template)]
+    url = _url(template) + "?async=true"
+    refused = api.request(method, url, headers={"X-API-Key": KEYS[Scope.read]}, content=b"{}")
+    assert refused.status_code == 403 and refused.json()["required"] == "write", refused.text
+    past = api.request(method, url, headers={"X-API-Key": KEYS[Scope.write]}, content=b"{}")
+    assert past.status_code not in (401, 403, 500), past.text
+    if declared.scope is Scope.read:  # the synchronous form still takes a read key
+        direct = api.request(method, _url(template), headers={"X-API-Key": KEYS[Scope.read]}, content=b"{}")
+        assert direct.status_code not in (401, 403, 500), direct.text
+    assert APP.openapi()["paths"][template][method.lower()]["x-async-scope"] == "write"
