@@ -19,6 +19,7 @@ CASES = [
 ]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(("doc", "k", "code"), CASES)
 def test_the_snippet_runs(doc: Path, k: int, code: str, capsys: pytest.CaptureFixture[str]) -> None:
     exec(compile(code, f"{doc.name} snippet {k}", "exec"), {"__name__": f"snippet_{k}"})

@@ -151,6 +151,7 @@ def _asks_a_record_its_kind(node: ast.AST, classes: set[str], words: set[str]) -
     return False
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_no_module_outside_the_record_kinds_asks_a_record_its_kind() -> None:
     classes, words = _record_kind_words()
     found = []

@@ -60,7 +60,10 @@ def api(url: str, path: str) -> Any:
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     database = tmp_path_factory.mktemp("cli") / "cli.db"
-    with running_server(f"sqlite:///{database}", IWR_JOB_WORKERS="0", IWR_COMPUTE_PROCESSES="1") as url:
+    # A minute's compute deadline (default 5 s): the commands' stories, not the deadline, on shared cores.
+    with running_server(
+        f"sqlite:///{database}", IWR_JOB_WORKERS="0", IWR_COMPUTE_PROCESSES="1", IWR_COMPUTE_DEADLINE_SECONDS="60"
+    ) as url:
         yield url
 
 

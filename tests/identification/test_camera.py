@@ -208,6 +208,7 @@ def test_a_world_camera_calibrates_the_robot_and_finds_itself(seed: int) -> None
     assert after < 3.0 * bound and after < 0.15 * before, (after, bound, before)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_world_camera_recovers_each_parameter_within_its_errors() -> None:
     """Parameter by parameter: the truth in the full gauge of these records (every parameter the fit holds at
     its nominal value, so that none is absorbed by another), the same poses imaged again; every estimated
@@ -230,6 +231,7 @@ def test_a_world_camera_recovers_each_parameter_within_its_errors() -> None:
     assert distance < scipy.stats.chi2.ppf(0.999, est.size), (distance, est.size)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_camera_on_the_tool_finds_the_hand_eye_and_the_base() -> None:
     """Hand-eye: the camera's pose in the tool frame, with the robot's base in the board's frame. The constant
     transform after the last joint (link 6's constants, the tool) is held, since only its product with the

@@ -165,6 +165,7 @@ def test_a_temperature_driven_drift_beside_the_robots_thermal_term() -> None:
     assert abs(fit.result.parameters[kappa] - 20e-6) <= 3 * fit.result.std_errors[kappa]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_the_parameters_covariance_is_the_joint_problems_with_the_drift_unknowns(desc: RobotDescription) -> None:
     """The robot's σ count the drift's coefficients as unknowns of the same least squares: the θ block of the
     inverse normal matrix of the augmented rows [J T] (computed here as that block, not by projection), scaled by

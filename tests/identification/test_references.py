@@ -166,6 +166,7 @@ def test_a_plane_touched_along_a_line_is_refused() -> None:
     assert refused.value.reason == "collinear_touches"
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_narrowed_estimate_holds_the_rest() -> None:
     _, groups = _ballbar(2)
     fit = identify_references(DESC, groups, options=IdentificationOptions(estimate=("tool",)))

@@ -113,6 +113,7 @@ def test_a_known_joint_offset_change_comes_back_with_its_size() -> None:
     assert result.recommendation.parameters == ("link3.theta",)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_designed_check_detects_a_tenth_of_a_millimetre_on_axis_3(version: Calibrated, design: np.ndarray) -> None:
     delta = tcp_equivalent(DESC, version.params, AXIS3, 0.1)
     moved = changed(version.robot, AXIS3, delta)

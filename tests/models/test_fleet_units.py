@@ -60,6 +60,7 @@ def test_the_default_units_are_those_of_before_bit_for_bit(
     np.testing.assert_array_equal(same.truth, before)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_each_kind_scatters_by_its_own_spread_over_many_units() -> None:
     n = 1500
     truths = np.array([fleet_unit(DESC, k, fleet_seed=11, spread=0.2, spreads=ASSEMBLY).truth for k in range(n)])

@@ -88,6 +88,7 @@ def numeric_urdfs(draw: st.DrawFn) -> str:
     return f'<robot name="r">{links}{"".join(joints)}</robot>'
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @FUZZ
 @given(numeric_urdfs())
 def test_any_urdf_numbers_are_a_finite_document_or_an_invalid_input(text: str) -> None:

@@ -30,6 +30,7 @@ def _count(desc: RobotDescription, kind: MeasurementKind) -> int:
     return len(structural_identifiability(desc, tuple(range(desc.n_params)), kind).identifiable)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("kind", [MeasurementKind.POSE, MeasurementKind.POSITION])
 @pytest.mark.parametrize("make", [iiwa_like, track_arm, lambda: ur5_like("mdh")], ids=["7R", "track", "6R-mdh"])
 def test_serial_counts_match_everett_hsu_roth(make: Callable[[], RobotDescription], kind: MeasurementKind) -> None:

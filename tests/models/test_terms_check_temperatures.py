@@ -7,6 +7,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from models import iwr, sample_workspace
 from models.examples import track_arm, ur5_like
@@ -26,6 +27,7 @@ def test_only_legs_and_prismatic_axes_take_a_temperature() -> None:
     assert unused_temperature_note(ur5_like(), make_conditions(3)) is None
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_6r_fit_that_fails_its_variance_test_with_temperatures_ends_without_a_crash() -> None:
     desc = ur5_like()
     campaign = measure(

@@ -60,6 +60,7 @@ def _urdf_fk(text: str, joint_names: list[str], q: np.ndarray, base: str, tip: s
     return np.array(out)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_import_of_the_ur5_urdf_has_its_fk() -> None:
     desc = description_from_document(document_from_urdf(UR5_URDF, "world", "tool0"), name="ur5-urdf")
     assert desc.n_joints == 6 and all(link.convention.value == "mdh" for link in desc.links)

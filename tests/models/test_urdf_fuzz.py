@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from datetime import timedelta
 from typing import Any
 
+import pytest
 import yourdfpy  # noqa: F401  (imported here so that its first import is not inside an example's deadline)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -161,6 +162,7 @@ STAGE = st.fixed_dictionaries(
 )
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @FUZZ
 @given(
     st.one_of(

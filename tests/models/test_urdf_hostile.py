@@ -107,6 +107,7 @@ def test_too_many_links_are_refused_before_parsing(size: int) -> None:
     assert error.reason == "too_large" and error.max == MAX_LINKS and f"at most {MAX_LINKS}" in str(error)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_the_largest_accepted_chain_reads() -> None:
     doc = document_from_urdf(chain(MAX_LINKS - 1), "l0", f"l{MAX_LINKS - 1}")
     assert len(doc["stages"][0]["links"]) == MAX_LINKS - 1

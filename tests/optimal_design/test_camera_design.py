@@ -42,6 +42,7 @@ def _candidates(n: int = 300, seed: int = 42) -> ReferenceRecords:
     return camera_candidates(DESC, CAMERA, sample_workspace(DESC, n, seed=seed), MARKERS, sigma_px=0.1)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_candidate_image_is_the_points_it_would_see() -> None:
     joints = sample_workspace(DESC, 300, seed=42)
     candidates = camera_candidates(DESC, CAMERA, joints, MARKERS, sigma_px=0.1)

@@ -44,6 +44,7 @@ def frames_of(desc: RobotDescription, q: np.ndarray) -> np.ndarray:
     return dh_frames(desc, q) if desc is UR5 else stage_frames(desc, q)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(("desc", "make", "measurement"), [(UR5, ur5_cell, "position"), (IWR, iwr_cell, "pose")])
 def test_every_designed_pose_is_collision_free_and_seen(
     desc: RobotDescription, make: Callable[[], Cell], measurement: str
@@ -85,6 +86,7 @@ def test_a_cell_that_refuses_everything_says_why() -> None:
         design_poses(UR5, 30, "D", "position", candidates=sample_workspace(UR5, 200, seed=1), cell=cell)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_cell_that_sees_little_stops_sampling_at_the_cap() -> None:
     # A 4° cone sees ~0.1 % of random orientations: 2 000 feasible candidates would need ~2 million samples
     cell = cell_for(UR5, tracker=Tracker((2500.0, 0.0, 600.0), acceptance=np.radians(4.0)))

@@ -16,6 +16,7 @@ from optimal_design import design_poses
 DESC = iwr()
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("measurement", ["pose", "position"])
 def test_design_and_identification_share_the_minimum(measurement: str) -> None:
     kind = MeasurementKind(measurement)

@@ -123,6 +123,7 @@ def test_health_ready_metrics_and_request_id(client: TestClient) -> None:
     assert "iwr_jobs" in text
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_calibration_from_csv_applies_a_new_version(client: TestClient, robot_id: str) -> None:
     sim = perturbed_robot(DESC, seed=2)
     recs = records(DESC, sim, sample_workspace(DESC, 40, seed=5), seed=6)
@@ -144,6 +145,7 @@ def test_calibration_from_csv_applies_a_new_version(client: TestClient, robot_id
     assert [c["id"] for c in client.get(f"/v1/robots/{robot_id}/calibrations").json()] == [body["id"]]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_rejected_or_failed_calibrations_change_nothing(client: TestClient, robot_id: str) -> None:
     sim = perturbed_robot(DESC, seed=3)
     recs = records(DESC, sim, sample_workspace(DESC, 40, seed=7), seed=8)
@@ -191,6 +193,7 @@ def test_async_jobs(client: TestClient, robot_id: str) -> None:
     assert job["status"] == "succeeded" and len(job["result"]["poses"]) == 12
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_pose_design_json_and_csv(client: TestClient, robot_id: str) -> None:
     cands = _deg(sample_workspace(DESC, 80, seed=11))
     r = client.post(f"/v1/robots/{robot_id}/pose-designs", json={"count": 12, "criterion": "D", "candidates": cands})
@@ -263,6 +266,7 @@ def test_a_target_the_fixed_poses_already_reach_needs_none_and_names_the_measure
     assert design["fixed_mm"] is not None and design["fixed_mm"] <= 1.0
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_pose_design_constraints(client: TestClient, robot_id: str) -> None:
     url = f"/v1/robots/{robot_id}/pose-designs"
     r = client.post(

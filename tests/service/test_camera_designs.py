@@ -142,6 +142,7 @@ def test_an_i_design_of_20_images_is_the_librarys_and_calibrates_to_its_predicti
     assert predicted / 2 <= reached <= 2 * predicted, (reached, predicted)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_the_prediction_scales_with_the_cameras_sigma(client: TestClient, arm: str) -> None:
     joints = _joints(80, seed=7)
     plain = _design(client, arm, _body(joints, count=12))
@@ -208,6 +209,7 @@ def test_a_camera_on_the_tool_is_designed_against_a_board(client: TestClient, ar
     assert report["metrics"]["predicted_rms_tcp_mm"] < report["random_baseline"]["predicted_rms_tcp_mm"]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_images_are_designed_beside_a_ballbar(client: TestClient, arm: str) -> None:
     joints = _joints(60, seed=11)
     ballbar = sample_workspace(UR5, 30, seed=12) * UR5.joint_to_boundary

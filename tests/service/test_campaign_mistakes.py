@@ -154,6 +154,7 @@ def test_forward_kinematics_warns_of_radians(client: TestClient, robot_id: str) 
     assert len(slipped["poses"]) == 6 and "radians" in slipped["warnings"][0]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_an_excel_csv_calibrates_and_a_stripped_one_is_explained(client: TestClient, robot_id: str) -> None:
     recs = _campaign(7)
     names = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]

@@ -89,6 +89,7 @@ def test_a_designed_check_before_and_after_a_change(client: TestClient, robot_id
     assert client.get(f"/v1/checks/{check['id']}").status_code == 404
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_bad_checks_are_refused_and_store_nothing(client: TestClient, robot_id: str) -> None:
     sim = perturbed_robot(DESC, seed=5)
     recs = records(DESC, sim, sample_workspace(DESC, 6, seed=6), 7, position_only=True)

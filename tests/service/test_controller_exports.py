@@ -91,6 +91,7 @@ def _ur_file_fk(text: str, q: np.ndarray) -> list[np.ndarray]:
     return out
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_calibrated_ur5s_file_has_its_fk_and_imports_as_a_robot_with_it(client: TestClient) -> None:
     desc = description_from_document(ur5_like_document())
     robot = _robot(client, {"name": "ur5", "structure": ur5_like_document()})
@@ -146,6 +147,7 @@ def _dh_fk(table: dict[str, Any], q: np.ndarray) -> list[np.ndarray]:
     return out
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("document", [ur5_like_document("dh-beta"), iiwa_like_document()], ids=["dh", "mdh"])
 def test_the_dh_table_multiplies_out_to_the_fk(client: TestClient, document: dict[str, Any]) -> None:
     desc = description_from_document(document)
@@ -162,6 +164,7 @@ def test_the_dh_table_multiplies_out_to_the_fk(client: TestClient, document: dic
     assert nominal["version"] == 1 and nominal["base"]["x_mm"] == 0.0
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_what_an_export_cannot_hold_exactly_is_refused_with_the_reason(client: TestClient) -> None:
     hexapod = _robot(client, {"name": "hexapod", "structure": hexapod_alone_document()})
     arm7 = _robot(client, {"name": "iiwa", "structure": iiwa_like_document()})
@@ -194,6 +197,7 @@ def _without(tree: ET.Element, moving: set[str]) -> list[tuple[str, dict[str, st
     return [e for e, el in zip(out, tree.iter(), strict=True) if id(el) not in skip]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_an_imported_urdf_comes_back_with_only_its_joint_origins_calibrated(client: TestClient) -> None:
     text = ur5_full_urdf()
     robot = _robot(client, {"name": "ur5--urdf", "urdf": text, "base_link": "base_link", "tip_link": "tool0"})

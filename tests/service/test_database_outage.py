@@ -141,6 +141,7 @@ def test_an_outage_is_a_503_with_retry_after_then_the_same_process_recovers(
     assert client.post("/v1/robots", json={"name": "cell-2"}).status_code == 201
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_full_sqlite_disk_is_a_503_and_the_file_stays_sound(tmp_path: Path, registry: Registry) -> None:
     """SQLite's own 'database or disk is full' (SQLITE_FULL), made by capping the file's pages on every
     connection (`max_page_count`; a full file system gives SQLite the same error): 503 with Retry-After, the

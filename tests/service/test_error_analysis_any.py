@@ -28,6 +28,7 @@ def _rms(case: dict[str, Any], model: str = "exact") -> float:
     return float(case[model]["position"]["absolute"]["rms_mm"])
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_the_iwr_study_is_unchanged_by_naming_an_iwr_robot(client: TestClient, robot_id: str) -> None:
     plain, named = _study(client), _study(client, robot_id=robot_id)
     for answer in (plain, named):
@@ -38,6 +39,7 @@ def test_the_iwr_study_is_unchanged_by_naming_an_iwr_robot(client: TestClient, r
     assert plain["subsystems"]["whole"]["exact"]["position"]["absolute"]["rms_mm"] > 0.1
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_7r_arm_from_its_description(client: TestClient) -> None:
     arm = client.post("/v1/robots", json={"name": "arm-tolerances", "structure": iiwa_like_document()}).json()
     whole = _study(client, robot_id=arm["id"])

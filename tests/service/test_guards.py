@@ -157,6 +157,7 @@ def test_a_large_declared_body_is_validated_off_the_loop_as_the_routes_model(
     assert bad.status_code == 422 and bad.json()["field"] == "candidates[500][3]" and on_loop == [False, False]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_calibration_over_the_budget_is_refused_before_the_key_check(
     client: TestClient, robot_id: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -32,6 +32,7 @@ def _campaign(n: int = 40) -> list[dict[str, object]]:
     return records(DESC, perturbed_robot(DESC, seed=3), sample_workspace(DESC, n, seed=5), seed=6)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_same_key_same_body_replays_without_computing(api: ContractClient, monkeypatch: pytest.MonkeyPatch) -> None:
     key = {"Idempotency-Key": "robot-1"}
     first = api.post("/v1/robots", json={"name": "a"}, headers=key)

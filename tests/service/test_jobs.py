@@ -202,6 +202,7 @@ def test_the_lease_is_renewed_through_a_long_ipopt_solve(db: Database, registry:
         assert job_id not in [j for j, _ in requeued]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_queue_full_answers_429_with_retry_after(tmp_path: Path) -> None:
     with make_client(f"sqlite:///{tmp_path}/q.db", job_queue_limit=2, job_retry_after=7) as c:
         rid = c.post("/v1/robots", json={"name": "r"}).json()["id"]

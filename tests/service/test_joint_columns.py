@@ -88,6 +88,7 @@ def test_the_no_joint_message_speaks_of_a_serial_arm_first() -> None:
     assert detail.index("q1 … q_m") < detail.index("l1 … l6")  # a Panda user is told of joints before legs
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_kuka_style_campaign_in_radians_calibrates_through_the_api(client: TestClient, robot_id: str) -> None:
     desc = iwr()
     joints, poses = _measured(desc, 40, 2)
@@ -198,6 +199,7 @@ def _irb(client: TestClient) -> tuple[str, RobotDescription]:
     return made.json()["id"], description_from_document(document_from_urdf(IRB2400_URDF, "base_link", "tool0"))
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_an_irb2400_campaign_under_its_urdf_joint_names_calibrates_and_radians_are_named(client: TestClient) -> None:
     """Issue 45: ROS-Industrial's IRB 2400 names its joints joint_1 …: such a campaign was refused until renamed;
     and joints sent in radians to its ±200° and ±400° wrist were called a mismatch, not radians."""
@@ -224,6 +226,7 @@ def test_an_irb2400_campaign_under_its_urdf_joint_names_calibrates_and_radians_a
     assert r.status_code == 201 and r.json()["status"] == "succeeded", r.text
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_column_map_through_the_api_and_its_mistake_a_400(client: TestClient, robot_id: str) -> None:
     desc = iwr()
     joints, poses = _measured(desc, 40, 12)

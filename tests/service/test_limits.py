@@ -78,6 +78,7 @@ def test_over_the_budget_a_job_over_the_cap_nothing(client: TestClient, robot_id
     assert r.status_code == 422 and r.json()["use_async"] is True  # ~3.2 s of D design estimated: a job
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_inverse_kinematics_is_capped_at_the_budget(client: TestClient, robot_id: str) -> None:
     fk = forward_kinematics(DESC, sample_workspace(DESC, 1, seed=4))
     target = {"position": fk.positions[0].tolist(), "orientation": matrix_to_quaternion(fk.rotations)[0].tolist()}
@@ -87,6 +88,7 @@ def test_inverse_kinematics_is_capped_at_the_budget(client: TestClient, robot_id
     assert client.post(url, json={"targets": [target] * 3}).status_code == 200
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_validations_are_admitted_by_records_times_versions(client: TestClient, robot_id: str) -> None:
     # Issue 48: a validation had no estimate; 100 000 records x 50 versions (the schema's caps) ran until the
     # compute deadline. The budget holds 20 000 record-version comparisons.
@@ -107,6 +109,7 @@ def test_validations_are_admitted_by_records_times_versions(client: TestClient, 
     assert r.status_code == 201, r.text
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_design_of_100_000_candidates_is_refused_before_parsing(client: TestClient, robot_id: str) -> None:
     # Issue 48: 15 MB of candidates were parsed and validated in the parse process (2.9 s live, +160 MB) only to be
     # refused; now counted in the bytes against the least any design among them can cost.
@@ -122,6 +125,7 @@ def test_a_design_of_100_000_candidates_is_refused_before_parsing(client: TestCl
         assert time.process_time() - started < 1.0  # parsing and validating 100 000 took 2.9 s of one process
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @settings(max_examples=60, deadline=None, derandomize=True)
 @given(
     st.lists(st.one_of(st.lists(st.floats(-1e3, 1e3), max_size=3), st.fixed_dictionaries({"joints": st.just([1.0])}))),

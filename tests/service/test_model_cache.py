@@ -24,6 +24,7 @@ def db(tmp_path: Path) -> Iterator[Database]:
     database.dispose()
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_new_version_is_read_and_the_cache_stays_bounded(db: Database) -> None:
     cache = ModelCache(db, size=2)
     ids = [create_robot(db=db, body=RobotCreate(name=f"r{k}")).id for k in range(3)]

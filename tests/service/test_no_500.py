@@ -46,6 +46,7 @@ def test_a_design_of_every_candidate_and_of_none(api: ContractClient) -> None:
     assert none.status_code == 422 and "candidates is empty" in none.json()["detail"]  # was a 500 (CasADi map)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("version", [2**31, 2**63, 2**64 + 1])
 def test_a_version_beyond_the_integer_columns(api: ContractClient, version: int) -> None:
     rid = _robot(api)

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import inspect
 
+import pytest
+
 from models import errors as domain
 from service import errors
 from service.openapi_dump import SNAPSHOT, render
 from service.problems import PROBLEMS
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_committed_openapi_matches_the_app() -> None:
     assert SNAPSHOT.read_text() == render(), "run `python -m service.openapi_dump` and commit service/openapi.json"
 

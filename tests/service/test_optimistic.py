@@ -27,6 +27,7 @@ def api(database_url: str, registry: Registry) -> Iterator[ContractClient]:
         yield c
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_two_calibrations_in_flight_the_second_is_stored_not_applied(
     api: ContractClient, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -68,6 +69,7 @@ def test_two_calibrations_in_flight_the_second_is_stored_not_applied(
     assert api.get(f"/v1/robots/{rid}/parameters").json()["version"] == 2  # the first writer's version stands
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_stale_start_version_does_not_apply(api: ContractClient) -> None:
     rid = api.post("/v1/robots", json={"name": "cell"}).json()["id"]
     assert api.post(f"/v1/robots/{rid}/calibrations", json={"measurements": RECS}).json()["parameter_version"] == 2
@@ -99,6 +101,7 @@ class LateWorker:
             assert execute_job(job_id, ctx).ran
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_job_starts_from_the_version_current_at_submission(
     api: ContractClient, registry: Registry, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -119,6 +122,7 @@ def test_a_job_starts_from_the_version_current_at_submission(
     assert api.get(f"/v1/robots/{rid}/parameters").json()["version"] == 2  # the synchronous writer's stands
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_job_with_nothing_in_between_applies(
     api: ContractClient, registry: Registry, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -129,6 +133,7 @@ def test_a_job_with_nothing_in_between_applies(
     assert api.get(f"/v1/robots/{rid}/parameters").json()["version"] == 2
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("run_async", [False, True])
 def test_calibrations_honour_if_match(
     api: ContractClient, registry: Registry, monkeypatch: pytest.MonkeyPatch, run_async: bool

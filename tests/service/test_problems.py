@@ -79,6 +79,7 @@ def test_a_description_documents_fields_are_named_as_robots_md_names_them() -> N
     assert other["field"] == "measurements[4].serial"  # a tag is only dropped inside a document's stages
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_failed_job_stores_what_the_synchronous_request_answers(client: TestClient, robot_id: str) -> None:
     recs = records(DESC, perturbed_robot(DESC, seed=7), sample_workspace(DESC, 30, seed=8), seed=9)
     out_of_range = [400, 150, 190, 45, 420, 420, 420, 420, 420, 420]  # q3 beyond its range

@@ -123,6 +123,7 @@ def test_the_jobs_answer_equals_the_synchronous_one(client: TestClient, ur5: str
     assert _landed_mm(cell, job["result"], q) < 1e-3
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_program_sent_as_text_runs_as_a_job_and_keeps_its_encoding(client: TestClient, ur5: str, cell: Cell) -> None:
     """The body itself (text/plain, UTF-8 with a byte order mark) with `?filename=`: the job's answer names the
     encoding and keeps the mark, as the synchronous answer does."""

@@ -57,6 +57,7 @@ def _post(client: TestClient, robot_id: str, **body: Any) -> Any:
     return client.post(f"/v1/robots/{robot_id}/programs/compensate", json=body)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_urscript_program_is_corrected_for_the_current_version(client: TestClient, ur5: str, cell: Cell) -> None:
     q = joints(N_TARGETS, seed=11)
     poses = taught(cell, q)
@@ -97,6 +98,7 @@ def test_krl_with_its_dat_and_config_dat_comes_back_as_files(client: TestClient,
         assert t["reached"] or t["reason"]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_the_program_may_be_the_body_itself(client: TestClient, ur5: str, cell: Cell) -> None:
     text = urscript_program(list(taught(cell, joints(3, seed=13))))
     url = f"/v1/robots/{ur5}/programs/compensate"
@@ -132,6 +134,7 @@ def _versions(client: TestClient, robot_id: str) -> int:
         ({"format": "csv", "program": "x,y,z,a,b,c\n1,2,3,4,5,six\n"}, "program-syntax", {"line": 2, "column": 11}),
     ],
 )
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_mistakes_are_problems_that_say_where(
     client: TestClient, ur5: str, body: dict[str, Any], slug: str, where: dict[str, Any]
 ) -> None:
@@ -156,6 +159,7 @@ def test_bytes_that_are_no_controller_encoding_and_unknown_formats_are_refused(c
     assert client.post(url + "?format=fanuc", content=b"x", headers={"Content-Type": "text/plain"}).status_code == 422
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_programs_in_the_encodings_controllers_write_are_read(client: TestClient, ur5: str, cell: Cell) -> None:
     """Issue 44: KUKA writes Windows-1252 (ß, ° in comments), RobotStudio exports UTF-16 with a byte order mark,
     editors add a UTF-8 BOM. Each is read, compensated, and the answer says the encoding to write it back in."""
@@ -213,6 +217,7 @@ def _rss_peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     ("what", "body"),
     [
@@ -241,6 +246,7 @@ def test_a_program_is_admitted_by_its_real_cost(client: TestClient, ur5: str, wh
     assert _rss_peak_mb() - before < 300, what
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_module_of_1500_targets_is_compensated_in_one_request(client: TestClient, ur5: str, cell: Cell) -> None:
     """Issue 44: a 245 kB RAPID module of 1 488 targets was a 503. Its cost (bytes and targets) is under the
     budget: it is compensated, every target answered."""
@@ -337,6 +343,7 @@ def test_an_unknown_version_or_robot_is_not_found(client: TestClient, ur5: str) 
     assert _post(client, "00000000-0000-0000-0000-000000000000", **body).status_code == 404
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_pendant_readings_the_nominal_model_does_not_reproduce_stop_the_compensation(
     client: TestClient, ur5: str, cell: Cell
 ) -> None:
@@ -363,6 +370,7 @@ def test_pendant_readings_the_nominal_model_does_not_reproduce_stop_the_compensa
     assert "tool is not the model's" in refused.json()["detail"]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_ur_file_robot_reads_targets_and_pendant_in_ur_base(client: TestClient) -> None:
     """A UR10e imported from its kinematics file: the pendant's readings and the program's targets are in UR's
     Base (the file's origin, 180.7 mm below the model's {0}); the answer names that frame. Version 1 is the

@@ -148,6 +148,7 @@ def _as_body(measurements: list[dict[str, object]], notes: list[str]) -> None:
         CalibrationCreate.model_validate(_file_payload(measurements, notes, query))
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @FUZZ
 @given(tables())
 def test_any_campaign_csv_is_records_or_a_4xx(text: str) -> None:
@@ -196,6 +197,7 @@ def test_any_spatial_analyzer_export_is_points_or_a_4xx(joints: str, points: str
 PARAMETER_COLUMNS = ["name", "value", "unit", "std_error", "nominal", "identifiable", "extra", ""]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @FUZZ
 @given(tables(PARAMETER_COLUMNS), st.booleans())
 def test_any_parameter_csv_is_an_import_or_a_4xx(text: str, ordered: bool) -> None:

@@ -109,6 +109,7 @@ def test_a_misread_distance_is_named_by_its_place_in_the_campaign(
     assert report["residuals"]["before"]["per_pose_mm"][blunder] > 0.3
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_the_csv_layout_of_several_kinds_gives_the_json_answer(
     client: TestClient, arm: str, campaign: Campaign
 ) -> None:
@@ -135,6 +136,7 @@ def test_the_csv_layout_of_several_kinds_gives_the_json_answer(
     assert table[0].startswith("kind,reference,") and table[1].startswith("distance,a1,")
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_points_and_planes_beside_tracker_positions_fix_the_frame(client: TestClient, arm: str) -> None:
     truth = ur5_like().parameters.nominal.copy()
     rng = np.random.default_rng(5)
@@ -219,6 +221,7 @@ def test_a_ballbar_calibration_runs_as_a_job_and_reports_its_anchors(
     assert pdf.status_code == 200 and pdf.content.startswith(b"%PDF")
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_ballbar_validation_tells_the_calibrated_version_from_the_nominal(
     client: TestClient, arm: str, campaign: Campaign
 ) -> None:
@@ -310,6 +313,7 @@ def test_bad_image_campaigns_are_refused_and_nothing_is_stored(
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "instruments"
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_the_example_files_calibrate_the_example_robot(client: TestClient) -> None:
     robot = client.post("/v1/robots", json=json.loads((EXAMPLES / "ur5_robot.json").read_text())).json()["id"]
     ballbar = client.post(

@@ -85,6 +85,7 @@ def _calibrated_error(client: TestClient, arm: str, design: dict[str, Any], seed
     )
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_d_design_of_30_ballbar_records_is_the_librarys_and_reaches_its_prediction(
     client: TestClient, arm: str
 ) -> None:
@@ -183,6 +184,7 @@ def test_joint_sub_ranges_filter_the_given_candidates_and_indices_stay_theirs(cl
     assert [c["anchor"] for c in chosen] == report["references"]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_reference_design_runs_as_a_job_and_is_the_synchronous_one(client: TestClient, arm: str) -> None:
     body = _ballbar(criterion="D", noise=NOISE)
     accepted = client.post(f"/v1/robots/{arm}/pose-designs?async=true", json=body)
@@ -204,6 +206,7 @@ def test_an_unreachable_target_is_said_in_the_records_words(client: TestClient, 
     assert client.get(f"/v1/robots/{arm}/pose-designs").json() == []
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_socket_and_plate_records_are_designed_beside_a_ballbar(client: TestClient, arm: str) -> None:
     nominal = UR5.parameters.nominal
     socket = reaching(UR5, nominal, np.tile([350.0, 100.0, 200.0], (14, 1)), seed=2)[:10]
@@ -305,6 +308,7 @@ def test_the_documented_request_bodies_are_valid_designs() -> None:
         PoseDesignCreate.model_validate(body)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_rounding_that_loses_rank_starts_the_exchange_from_the_greedy_design(client: TestClient, arm: str) -> None:
     """An I design of 30 ballbar distances from 1 340 candidates per anchor (seed 1): its rounded relaxation was
     singular and the exchange's inverse of it answered 500. The design starts from the greedy one instead."""

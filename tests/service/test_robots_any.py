@@ -15,6 +15,7 @@ from models.simulation import measure, perturbed_robot
 from tests.models.test_urdf import UR5_URDF
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_7r_arm_from_its_document(client: TestClient) -> None:
     made = client.post("/v1/robots", json={"name": "arm", "structure": iiwa_like_document()})
     assert made.status_code == 201, made.text
@@ -66,6 +67,7 @@ def test_the_iwr_is_described_too(client: TestClient, robot_id: str) -> None:
     assert [s["kind"] for s in robot["structure"]["stages"]] == ["serial", "hexapod"]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_csv_campaign_with_the_robots_header(client: TestClient) -> None:
 
     robot = client.post("/v1/robots", json={"name": "arm", "structure": iiwa_like_document()}).json()

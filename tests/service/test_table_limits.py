@@ -44,6 +44,7 @@ def _post(client: TestClient, robot_id: str) -> Callable[..., httpx.Response]:
     return post
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_10_mb_csv_of_cr_lines_is_refused_before_parsing(client: TestClient, robot_id: str) -> None:
     body = _cr_lines(10)
     post = _post(client, robot_id)
@@ -126,6 +127,7 @@ def _csv_texts(draw: st.DrawFn) -> str:
     return "".join(line + draw(_line_end) for line in lines)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @settings(max_examples=100, deadline=None, derandomize=True)
 @given(_csv_texts())
 def test_the_line_count_is_the_readers(text: str) -> None:

@@ -208,6 +208,7 @@ def test_calibrations_and_restores_are_in_the_trail(client: TestClient, robot_id
     assert trail[2]["details"] == {"from_version": 2, "restored_from": 1}
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_the_campaign_behind_a_calibration(client: TestClient, robot_id: str) -> None:
     sim = perturbed_robot(DESC, seed=81)
     recs = records(DESC, sim, sample_workspace(DESC, 30, seed=82), seed=83)
