@@ -404,3 +404,24 @@ async def run_gated(task: Task) -> Any:
         # the retry replays its answer (service.idempotency) instead of computing again. The deadline still holds.
         return await gate.run(lambda token: pool.run(task, token), None)
     return await gate.run(lambda token: pool.run(task, token), receive)
+
+
+CELL_OBSTACLES_MAX = 200
+"""Obstacles in one cell: a cell's table, fixtures, guards and fences are tens; each is tested against every link
+shape of every candidate a design or a check weighs (the pre-pass keeps most pairs from the library)."""
+CELL_MESH_FACES_MAX = 20_000
+"""Triangles over all of a cell's meshes: the library builds each mesh's bounding-volume tree at every check
+(about 1 µs a triangle), and a fixture's envelope needs hundreds, not a CAD model's millions."""
+CELL_LINK_SHAPES_MAX = 20
+"""Shapes one link's override may give (a link is a few boxes or cylinders)."""
+CELL_CHECK_POSES_MAX = 10_000
+"""Joint vectors one `POST …/cell/check` takes: 10 000 are ~2 s by `CELL_CHECK_S_PER_POSE`."""
+CELL_CHECK_S_PER_POSE = 2.0e-4
+"""One candidate through `models.cell.check_poses`: measured 20 µs (a 60° reflector cone that refuses most poses
+first) to 82 µs (a cone that sees every pose, so each reaches the collision tests) on the UR5-like arm in a cell
+of a table and a fixture; x2.5 for meshes and load."""
+CELL_CHECK_BYTES_PER_POSE = 20_000  # 16 frames of 4x4 doubles, the placed shapes and their spheres, rounded up
+
+
+def cell_check(poses: int) -> Estimate:
+    return Estimate(f"a cell check of {poses} poses", poses * CELL_CHECK_S_PER_POSE, poses * CELL_CHECK_BYTES_PER_POSE)
