@@ -15,6 +15,8 @@ from alembic.config import Config
 from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, inspect
 
+from iwr_client.client import Answer, Client
+from iwr_client.errors import ApiError
 from models.cell import Box, Cell, Obstacle, Tracker, cell_for
 from models.examples import UR5_DH, ur5_like_document
 from models.robot import RobotDescription
@@ -169,7 +171,7 @@ def test_the_check_answers_each_pose_as_the_independent_check(
     robot_id, desc = ur5
     assert client.put(f"/v1/robots/{robot_id}/cell", json=CELL).status_code == 200
     q = sample_workspace(desc, 60, seed=4)
-    poses = np.degrees(q).tolist() + [[0, 0, 0, 0, 0, 200]]  # the last: q6 past its 180°
+    poses = [*np.degrees(q).tolist(), [0, 0, 0, 0, 0, 200]]  # the last: q6 past its 180°
     answer = client.post(f"/v1/robots/{robot_id}/cell/check", json={"poses": poses})
     assert answer.status_code == 200, answer.text
     found = answer.json()
@@ -218,6 +220,41 @@ def test_a_design_with_the_stored_cell_chooses_only_feasible_poses(
     reference, _ = reference_verdicts(desc, the_same_cell(desc), q, dh_frames(desc, q))
     assert reference == [""] * 30
     assert report["bound"]["certified"] and report["efficiency"] > 0.9
+
+
+class InProcess(Client):
+    """The client's requests sent to the test's app instead of a socket (its paths, queries, bodies and
+    headers are what is under test)."""
+
+    def __init__(self, app: TestClient) -> None:
+        super().__init__("")
+        self.app = app
+
+    def request(self, method: str, path: str, **options: Any) -> Answer:
+        headers = {} if options.get("if_match") is None else {"If-Match": options["if_match"]}
+        query = {k: v for k, v in (options.get("query") or {}).items() if v is not None}
+        body = options.get("json_body")
+        answer = self.app.request(method, path, params=query, json=body, headers=headers)
+        if answer.status_code >= 400:
+            raise ApiError(answer.json())
+        return Answer(answer.status_code, answer.headers.get("content-type", ""), answer.content)
+
+
+def test_the_client_has_a_method_per_endpoint(client: TestClient, ur5: tuple[str, RobotDescription]) -> None:
+    robot_id, desc = ur5
+    iwr = InProcess(client)
+    etag = client.get(f"/v1/robots/{robot_id}").headers["ETag"]
+    assert iwr.put_cell(robot_id, CELL, if_match=etag)["version"] == 1
+    with pytest.raises(ApiError) as stale:
+        iwr.put_cell(robot_id, CELL, if_match=etag)
+    assert stale.value.status == 412
+    assert iwr.cell(robot_id)["cell"]["tracker"]["acceptance_deg"] == 60
+    poses = np.degrees(sample_workspace(desc, 5, seed=1)).tolist()
+    checked = iwr.check_cell(robot_id, poses)
+    assert checked["cell_version"] == 1 and len(checked["poses"]) == 5
+    iwr.delete_cell(robot_id)
+    assert [v["ended"] for v in iwr.cell_versions(robot_id)] == [False, True]
+    assert iwr.cell(robot_id, version=1)["version"] == 1
 
 
 def test_migration_0010_adds_the_table_of_cells_and_removes_it(tmp_path: Path) -> None:
