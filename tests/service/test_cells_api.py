@@ -200,6 +200,18 @@ def test_a_check_or_design_with_the_stored_cell_needs_one(
     assert design.status_code == 422 and "has no cell" in design.text
 
 
+def test_a_design_in_a_cell_counts_the_checks_in_its_cost(
+    client: TestClient, ur5: tuple[str, RobotDescription]
+) -> None:
+    # 2 000 feasible candidates are ~20 000 sampled and checked: over the synchronous budget, a job's work
+    url = f"/v1/robots/{ur5[0]}/pose-designs"
+    body = {"count": 30, "measurement": "position", "cell": CELL}
+    answer = client.post(url, json=body)
+    assert answer.status_code == 422 and answer.json()["use_async"] is True, answer.text
+    assert "in a cell (20000 candidates checked)" in answer.json()["detail"]
+    assert client.post(url, json={**body, "candidate_count": 300}).status_code == 201
+
+
 @pytest.mark.slow  # ~1.5 s of CPU: a design of 30 poses among 300 feasible candidates and their reference check
 def test_a_design_with_the_stored_cell_chooses_only_feasible_poses(
     client: TestClient, ur5: tuple[str, RobotDescription]
