@@ -93,8 +93,10 @@ class Client:
         data: bytes | None = None,
         content_type: str | None = None,
         accept: str = "application/json",
+        if_match: str | None = None,
     ) -> Answer:
-        """One request; an error status raises `ApiError`, no answer `ServiceUnreachable`."""
+        """One request; an error status raises `ApiError`, no answer `ServiceUnreachable`. `if_match`: the
+        robot's ETag as last read (a 412 `ApiError` when it has changed since)."""
         url = self.base_url + path
         if query:
             pairs = {k: str(v).lower() if isinstance(v, bool) else str(v) for k, v in query.items() if v is not None}
@@ -106,6 +108,8 @@ class Client:
             data, content_type = json.dumps(json_body).encode(), "application/json"
         if content_type:
             headers["Content-Type"] = content_type
+        if if_match is not None:
+            headers["If-Match"] = if_match
         request = urllib.request.Request(url, data=data, headers=headers, method=method)
         try:
             with urllib.request.urlopen(request, timeout=self.timeout) as response:
@@ -207,15 +211,17 @@ class Client:
         measurement: str = "pose",
         candidate_count: int | None = None,
         seed: int | None = None,
+        cell: str | Json | None = None,
         async_: bool = False,
         on_progress: Callable[[Progress], None] | None = None,
     ) -> Json:
-        """The `count` poses worth measuring, or the fewest that reach `target_rms_mm` (give one). `async_` runs it
-        as a job (what designs over the synchronous budget need) and waits for it."""
+        """The `count` poses worth measuring, or the fewest that reach `target_rms_mm` (give one). `cell`: design
+        only among the poses a cell can measure, "stored" (the robot's) or a cell document. `async_` runs it as a
+        job (what designs over the synchronous budget need) and waits for it."""
         if (count is None) == (target_rms_mm is None):
             raise ValueError("give count or target_rms_mm, not both")
         body: Json = {"measurement": measurement}
-        extra = {"count": count, "criterion": criterion, "candidate_count": candidate_count, "seed": seed}
+        extra = {"count": count, "criterion": criterion, "candidate_count": candidate_count, "seed": seed, "cell": cell}
         body.update({k: v for k, v in extra.items() if v is not None})
         if target_rms_mm is not None:
             body["target"] = {"rms_tcp_mm": target_rms_mm}
@@ -223,6 +229,29 @@ class Client:
         if async_:
             return self.result(self._post(path, body, **{"async": True})["job_id"], on_progress)
         return dict(self._post(path, body))
+
+    # -- the cell -----------------------------------------------------------------------------------------------
+
+    def cell(self, robot_id: str, *, version: int | None = None) -> Json:
+        """The robot's current cell (or a past version) with its effective geometry and allowed pairs."""
+        return dict(self._get(f"/v1/robots/{_segment(robot_id)}/cell", version=version))
+
+    def put_cell(self, robot_id: str, cell: Json, *, if_match: str | None = None) -> Json:
+        """A new version of the robot's cell (mm and degrees: docs/pose-design.md, "The cell")."""
+        path = f"/v1/robots/{_segment(robot_id)}/cell"
+        return dict(self.request("PUT", path, json_body=cell, if_match=if_match).json())
+
+    def cell_versions(self, robot_id: str, limit: int = 100, offset: int = 0) -> list[Json]:
+        return list(self._get(f"/v1/robots/{_segment(robot_id)}/cell/versions", limit=limit, offset=offset))
+
+    def delete_cell(self, robot_id: str, *, if_match: str | None = None) -> None:
+        """Ends the robot's cell (its versions stay readable)."""
+        self.request("DELETE", f"/v1/robots/{_segment(robot_id)}/cell", if_match=if_match)
+
+    def check_cell(self, robot_id: str, poses: Sequence[Sequence[float]], cell: str | Json = "stored") -> Json:
+        """Each pose (joints in mm and degrees) feasible or not in the cell, with its reason and detail."""
+        body = {"poses": [list(map(float, p)) for p in poses], "cell": cell}
+        return dict(self._post(f"/v1/robots/{_segment(robot_id)}/cell/check", body))
 
     def design_csv(self, design_id: str) -> str:
         """A design's poses as CSV, the robot's joint names as header (what a pendant or a controller takes)."""

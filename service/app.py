@@ -33,6 +33,7 @@ from service.routes import (
     audit,
     calibrations,
     campaigns,
+    cells,
     checks,
     designs,
     error_analysis,
@@ -318,6 +319,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         programs,
         checks,
         fleets,
+        cells,
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)

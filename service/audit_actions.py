@@ -6,7 +6,8 @@ from enum import StrEnum
 
 
 class AuditAction(StrEnum):
-    """The robot's own changes, then every way its current parameter version changes (the contract's order)."""
+    """The robot's own changes, then every way its current parameter version changes, then its cell's (the
+    contract's order)."""
 
     ROBOT_CREATED = "robot.created"
     ROBOT_UPDATED = "robot.updated"
@@ -15,3 +16,5 @@ class AuditAction(StrEnum):
     VERSION_RESTORED = "version.restored"
     VERSION_IMPORTED = "version.imported"
     VERSION_EDITED = "version.edited"
+    CELL_UPDATED = "cell.updated"
+    CELL_ENDED = "cell.ended"

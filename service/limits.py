@@ -404,3 +404,44 @@ async def run_gated(task: Task) -> Any:
         # the retry replays its answer (service.idempotency) instead of computing again. The deadline still holds.
         return await gate.run(lambda token: pool.run(task, token), None)
     return await gate.run(lambda token: pool.run(task, token), receive)
+
+
+CELL_OBSTACLES_MAX = 200
+"""Obstacles in one cell: a cell's table, fixtures, guards and fences are tens; each is tested against every link
+shape of every candidate a design or a check weighs (the pre-pass keeps most pairs from the library)."""
+CELL_MESH_FACES_MAX = 20_000
+"""Triangles over all of a cell's meshes: the library builds each mesh's bounding-volume tree at every check
+(about 1 µs a triangle), and a fixture's envelope needs hundreds, not a CAD model's millions."""
+CELL_LINK_SHAPES_MAX = 20
+"""Shapes one link's override may give (a link is a few boxes or cylinders)."""
+CELL_CHECK_POSES_MAX = 10_000
+"""Joint vectors one `POST …/cell/check` takes: 10 000 are ~2 s by `CELL_CHECK_S_PER_POSE`."""
+CELL_CHECK_S_PER_POSE = 2.0e-4
+"""One candidate through `models.cell.check_poses`: measured 20 µs (a 60° reflector cone that refuses most poses
+first) to 82 µs (a cone that sees every pose, so each reaches the collision tests) on the UR5-like arm in a cell
+of a table and a fixture; x2.5 for meshes and load."""
+CELL_CHECK_BYTES_PER_POSE = 20_000  # 16 frames of 4x4 doubles, the placed shapes and their spheres, rounded up
+
+
+def cell_check(poses: int) -> Estimate:
+    return Estimate(f"a cell check of {poses} poses", poses * CELL_CHECK_S_PER_POSE, poses * CELL_CHECK_BYTES_PER_POSE)
+
+
+CELL_SAMPLED_PER_CANDIDATE = 10
+"""A design with a cell samples until `candidate_count` candidates are feasible: about 14 offered per feasible
+one in the UR5-like arm's cell of a table, a fixture and a tracker with a 60° reflector cone (33 659 checked for
+2 403 kept at M = 2 000), fewer with a wider cone or no tracker; more with a 30° cone, up to `MAX_CANDIDATES` in
+all. Ten is the estimate's middle: a design that samples past it is stopped by the compute deadline, not by
+this estimate."""
+CELL_DESIGN_S_PER_CHECK = 1.0e-4
+"""A candidate checked inside a design (its batch of thousands amortises the frames): measured 42 µs, the
+design of 30 of 2 000 above taking 2.73 s with the cell and 1.33 s without; doubled for load."""
+
+
+def with_cell(estimate: Estimate, checked: int) -> Estimate:
+    """A design's estimate with the cell's check of `checked` candidates on top."""
+    return Estimate(
+        f"{estimate.what} in a cell ({checked} candidates checked)",
+        estimate.seconds + checked * CELL_DESIGN_S_PER_CHECK,
+        estimate.bytes + checked * CELL_CHECK_BYTES_PER_POSE // 10,  # checked in batches, not held together
+    )

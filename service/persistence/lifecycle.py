@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import select
+from sqlalchemy import func, select
 
 from service.audit_actions import AuditAction
 from service.errors import PreconditionFailed
@@ -25,6 +25,7 @@ from service.persistence.tables import (
     ParameterVersion,
     PoseDesignRecord,
     Robot,
+    RobotCellRecord,
     ValidationRecord,
 )
 
@@ -146,6 +147,36 @@ class Lifecycle(Store):
         robot.current_version = version
         self.s.flush()
         return version
+
+    # ---------------------------------------------------------------- the cell
+    def add_cell(self, robot: Robot, document: dict[str, Any] | None, actor: Actor) -> RobotCellRecord:
+        """A new version of the robot's cell (`document` None: the version that ends it), audited and the robot's
+        revision bumped: a cell changes what the robot's designs may choose, so If-Match guards it like the
+        robot's own fields."""
+        latest = self.s.scalar(select(func.max(RobotCellRecord.version)).where(RobotCellRecord.robot_id == robot.id))
+        row = self._insert(
+            RobotCellRecord(robot_id=robot.id, version=(latest or 0) + 1, document=document, actor=actor.name)
+        )
+        action = AuditAction.CELL_UPDATED if document is not None else AuditAction.CELL_ENDED
+        self.changed(robot, action, actor, version=robot.current_version, details={"cell_version": row.version})
+        return row
+
+    def cell(self, robot_id: str, version: int | None = None) -> RobotCellRecord | None:
+        """A version of the robot's cell, the latest without `version` (None: no such version)."""
+        query = select(RobotCellRecord).where(RobotCellRecord.robot_id == robot_id)
+        if version is not None:
+            query = query.where(RobotCellRecord.version == version)
+        return self.s.scalars(query.order_by(RobotCellRecord.version.desc()).limit(1)).first()
+
+    def cells(self, robot_id: str, limit: int, offset: int) -> list[RobotCellRecord]:
+        query = (
+            select(RobotCellRecord)
+            .where(RobotCellRecord.robot_id == robot_id)
+            .order_by(RobotCellRecord.version)
+            .limit(limit)
+            .offset(offset)
+        )
+        return list(self.s.scalars(query))
 
     # ---------------------------------------------------------------- campaigns, validations, designs
     def campaign(self, campaign_id: str) -> CampaignRecord:

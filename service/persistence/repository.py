@@ -19,6 +19,7 @@ from service.persistence.tables import (
     ParameterVersion,
     PoseDesignRecord,
     Robot,
+    RobotCellRecord,
     fleet_key_of,
 )
 
@@ -103,7 +104,15 @@ class Repository(Store):
 
     def delete_robot(self, robot_id: str) -> None:
         robot = self.robot(robot_id)
-        for table in (CalibrationRecord, CampaignRecord, PoseDesignRecord, CompensatedProgramRecord, ParameterVersion):
+        tables = (
+            CalibrationRecord,
+            CampaignRecord,
+            PoseDesignRecord,
+            CompensatedProgramRecord,
+            RobotCellRecord,
+            ParameterVersion,
+        )
+        for table in tables:
             for row in self.s.scalars(select(table).where(table.robot_id == robot_id)):
                 self.s.delete(row)
         self.s.delete(robot)

@@ -187,6 +187,20 @@ class PoseDesignRecord(Base):
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
 
 
+class RobotCellRecord(Base):
+    """One version of a robot's cell (`CellDocument` as sent, boundary units); a version whose document is null
+    ended the cell (DELETE). Versions are never changed: each PUT and each DELETE adds one."""
+
+    __tablename__ = "robot_cells"
+    __table_args__ = (UniqueConstraint("robot_id", "version"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id", ondelete="CASCADE"), index=True)
+    version: Mapped[int] = mapped_column(Integer)
+    document: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    actor: Mapped[str | None] = mapped_column(String(100), nullable=True)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
+
+
 class CompensatedProgramRecord(Base):
     """What a program compensation run as a job answered (`ProgramResponse`), for its job's result: the request
     is the job's own."""

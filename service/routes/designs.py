@@ -5,6 +5,7 @@ from typing import Any
 from fastapi import APIRouter, Query, Request, Response
 from pydantic import TypeAdapter
 
+from optimal_design.problem import MAX_CANDIDATES
 from service import limits
 from service.csv_codec import joints_csv
 from service.deps import (
@@ -75,6 +76,10 @@ async def create_design(
         if body.count is None
         else limits.pose_design(candidates, body.count, fixed, body.criterion.value, bound_seconds=body.bound_seconds)
     )
+    if body.cell is not None:
+        # Given candidates are each checked once; sampled ones until candidate_count are feasible.
+        checked = candidates if body.candidates is not None else candidates * limits.CELL_SAMPLED_PER_CANDIDATE
+        cost = limits.with_cell(cost, min(checked, MAX_CANDIDATES))
     limits.admit(cost, run_async=run_async, budget_s=settings.sync_budget_seconds)
     if run_async:
         accepted = submit_job(db=db, jobs=jobs, kind="pose_design", robot_id=robot_id, body=body)

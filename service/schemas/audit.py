@@ -33,6 +33,9 @@ class AuditDetailsPublic(Public):
     forced: bool | None = Field(
         default=None, exclude_if=_absent_if_none, description="A calibration applied although a check failed"
     )
+    cell_version: int | None = Field(
+        default=None, exclude_if=_absent_if_none, description="The cell version a cell change made"
+    )
 
 
 class AuditEventPublic(Public):

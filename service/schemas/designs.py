@@ -11,6 +11,7 @@ from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from optimal_design.design import MAX_CANDIDATES
 from service.schemas.calibrations import Noise
+from service.schemas.cells import CellDocument, DesignCellPublic
 from service.schemas.common import (
     JointVector,
     OptionalFloat,
@@ -166,6 +167,12 @@ class PoseDesignCreate(Strict):
     )
     payload_levels: list[Payload] | None = Field(
         default=None, min_length=1, max_length=20, description="With terms: the payloads the user can mount"
+    )
+    cell: Literal["stored"] | CellDocument | None = Field(
+        default=None,
+        description="Design only among the poses a cell can measure (collision-free, seen by its instrument): "
+        "stored (the robot's current cell, PUT …/cell) or a cell document; absent: no cell. Tracker "
+        "measurements only",
     )
     prior: Literal["none", "fleet"] = Field(
         default="none",
@@ -337,6 +344,7 @@ class PoseDesignReportPublic(Public):
         default=None,
         description="Against references: the anchor, point, plane or camera each chosen pose's record measures",
     )
+    cell: DesignCellPublic | None = Field(default=None, description="With a cell: what it checked and refused")
 
 
 class PoseDesignPublic(PoseDesignReportPublic):

@@ -17,6 +17,7 @@ from service.conversions.terms import design_levels, requested_model, start_valu
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
+from service.schemas.cells import DesignCellPublic
 from service.schemas.designs import (
     REFERENCE_MEASUREMENTS,
     PoseDesignCreate,
@@ -24,6 +25,7 @@ from service.schemas.designs import (
     PoseDesignReportPublic,
     PoseDesignSummaryPublic,
 )
+from service.services.cells import UsedCell, used_cell
 from service.services.fleets import calibration_prior, read_fleet
 from service.services.hooks import JobHooks
 from service.services.reference_designs import reference_report
@@ -43,6 +45,12 @@ def create_design(
     if job is not None:
         job.progress("reading", 0.0)
     if body.measurement in REFERENCE_MEASUREMENTS:
+        if body.cell is not None:
+            raise InvalidInput(
+                "cell: designs among the poses a cell can measure are of a tracker's records (pose or position) "
+                "for now",
+                field="cell",
+            )
         if body.prior != "none":
             raise InvalidInput(
                 "prior fleet designs tracker poses: a reference campaign's fit takes no prior yet", field="prior"
@@ -76,6 +84,10 @@ def _tracker_report(
 ) -> PoseDesignReportPublic:
     """A design of a tracker's poses (pose or position), count or target."""
     desc, common = _problem(models, registry, robot_id, body)
+    cell = None
+    if body.cell is not None:
+        cell = used_cell(db=db, models=models, registry=registry, robot_id=robot_id, cell=body.cell)
+        common["cell"] = cell.cell
     if body.prior == "fleet":
         with db.reader() as s:
             fleet = read_fleet(s, Repository(s).robot(robot_id))
@@ -92,7 +104,8 @@ def _tracker_report(
             measurement=body.measurement,
             **common,
         )
-        return target_report_out(desc, found, candidates_given=body.candidates is not None, criterion=body.criterion)
+        report = target_report_out(desc, found, candidates_given=body.candidates is not None, criterion=body.criterion)
+        return _with_cell(report, cell)
     assert body.count is not None  # the schema asks for count or target
     design = design_poses(
         desc,
@@ -103,7 +116,22 @@ def _tracker_report(
         bound_seconds=body.bound_seconds,
         **common,
     )
-    return report_out(desc, design, candidates_given=body.candidates is not None)
+    return _with_cell(report_out(desc, design, candidates_given=body.candidates is not None), cell)
+
+
+def _with_cell(report: PoseDesignReportPublic, cell: UsedCell | None) -> PoseDesignReportPublic:
+    """The report with what the cell refused: its reasons among the filters' counts (the joint sub-ranges and
+    the keep-out box run first, so the cell checked what they passed)."""
+    if cell is None:
+        return report
+    constraints = report.constraints
+    offered = constraints.offered if constraints is not None else 0
+    excluded = dict(constraints.excluded) if constraints is not None else {}
+    checked = offered - excluded.pop("joint_ranges", 0) - excluded.pop("keep_out", 0)
+    found = DesignCellPublic(
+        version=cell.version, checked=checked, feasible=checked - sum(excluded.values()), refused=excluded
+    )
+    return report.model_copy(update={"cell": found})
 
 
 def _problem(

@@ -1,0 +1,111 @@
+"""A robot's cell: PUT a new version, GET the current one (or a past one) with its effective geometry, its
+versions, DELETE (ends it; a version records that), and a check of poses against it."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Header, Query, Response
+from pydantic import TypeAdapter
+
+from service import limits
+from service.deps import (
+    ActorDep,
+    DatabaseDep,
+    Limit,
+    MetricsDep,
+    ModelCacheDep,
+    Offset,
+    RegistryDep,
+    SettingsDep,
+    compute,
+)
+from service.json_bodies import OffloopRoute
+from service.operations import Runs, operation
+from service.responses import model_json, models_json
+from service.schemas.cells import CellCheckCreate, CellCheckPublic, CellDocument, CellPublic, CellVersionPublic
+from service.security import Scope
+from service.services import cells
+
+router = APIRouter(prefix="/v1/robots/{robot_id}/cell", tags=["cells"], route_class=OffloopRoute)
+_VERSIONS = TypeAdapter(list[CellVersionPublic])
+IfMatch = Annotated[str | None, Header(description="The robot's ETag as last read: 412 when it has changed since")]
+_PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}
+_NOT_FOUND: dict[int | str, dict[str, Any]] = {404: {"description": "No such robot, no cell, or the cell ended"}}
+
+
+@router.put("", response_model=CellPublic, responses=_PRECONDITION)
+@operation(Scope.write)
+def put_cell(
+    robot_id: str,
+    *,
+    body: CellDocument,
+    db: DatabaseDep,
+    models: ModelCacheDep,
+    registry: RegistryDep,
+    actor: ActorDep,
+    if_match: IfMatch = None,
+) -> Response:
+    """A new version of the robot's cell (the earlier ones stay readable); the answer's ETag is the robot's."""
+    cell, etag = cells.put_cell(
+        db=db, models=models, registry=registry, robot_id=robot_id, body=body, actor=actor, if_match=if_match
+    )
+    response = model_json(cell)
+    response.headers["ETag"] = etag
+    return response
+
+
+@router.get("", response_model=CellPublic, responses=_NOT_FOUND)
+@operation(Scope.read)
+def get_cell(
+    robot_id: str,
+    db: DatabaseDep,
+    models: ModelCacheDep,
+    registry: RegistryDep,
+    version: int | None = Query(None, ge=1, le=2**31 - 1, description="A past version (default: current)"),
+) -> Response:
+    """The cell as stored, with what the checks use on the robot now: its shapes (defaults, a URDF's, the
+    overrides) and the pairs of solids allowed to touch, each with why."""
+    return model_json(cells.get_cell(db=db, models=models, registry=registry, robot_id=robot_id, version=version))
+
+
+@router.get("/versions", response_model=list[CellVersionPublic])
+@operation(Scope.read)
+def list_cell_versions(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
+    """Every version of the robot's cell, oldest first, those that ended it included."""
+    return models_json(cells.cell_versions(db=db, robot_id=robot_id, limit=limit, offset=offset), _VERSIONS)
+
+
+@router.delete("", status_code=204, responses={**_PRECONDITION, **_NOT_FOUND})
+@operation(Scope.admin)
+def delete_cell(robot_id: str, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None) -> Response:
+    """Ends the cell: designs and checks have none after it; its versions stay readable."""
+    etag = cells.delete_cell(db=db, robot_id=robot_id, actor=actor, if_match=if_match)
+    return Response(status_code=204, headers={"ETag": etag})
+
+
+@router.post("/check", response_model=CellCheckPublic)
+@operation(Scope.read, runs=Runs.COMPUTE)
+async def check_cell(
+    robot_id: str,
+    *,
+    body: CellCheckCreate,
+    db: DatabaseDep,
+    models: ModelCacheDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+    settings: SettingsDep,
+) -> Response:
+    """Each pose (joints in mm and degrees) feasible or not, with the first reason and what caused it: a
+    plant engineer checks a pose list before running it. Joints outside their ranges are refused, not a 422."""
+    # Counted after parsing: a body's brackets would count a mesh's triangles as poses.
+    limits.admit(
+        limits.cell_check(len(body.poses)),
+        run_async=False,
+        can_run_async=False,
+        budget_s=settings.sync_budget_seconds,
+    )
+    found = await compute(
+        m, "cell_check", cells.check_cell, db=db, models=models, registry=registry, robot_id=robot_id, body=body
+    )
+    return model_json(found)
