@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,7 +24,18 @@ from models._types import Array
 from programs.aggregates import Number, Opaque, Value, literal_or_expression
 from programs.frames import quaternion_matrix, quaternions_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Configuration, Frames, JointMove, Program, Target, target_at, written
+from programs.rapid_statements import FRAME_SETTERS, INSTRUCTIONS, Param, Split, params, path_end, split
+from programs.targets import (
+    PROGRAM,
+    Configuration,
+    Frames,
+    JointMove,
+    Program,
+    Target,
+    target_at,
+    unfollowed_call,
+    written,
+)
 
 NAME = "rapid"
 LEXER = Lexer(
@@ -191,15 +203,45 @@ def wobjdata(value: Agg | Value, cur: Cursor) -> FrameData:
     return FrameData(pose, None if pose is not None else "the work object's frames are not literal numbers")
 
 
+class Use(NamedTuple):
+    """A motion to a named robtarget: its frames, why its target is kept, its line, the program displacement in
+    force there and the warning of a routine's call before it (in the text's order)."""
+
+    frames: Frames
+    why: str | None
+    line: int
+    displaced: str | None
+    warning: str | None
+
+
 @dataclass
 class Symbols:
+    texts: Mapping[str | None, str] = field(default_factory=dict)
     types: dict[str, str] = field(default_factory=dict)
     robtargets: list[tuple[str | None, str, tuple[str, str | None], Robtarget]] = field(default_factory=list)
     """(file, name as written, (name, index), value) of every robtarget given a value."""
     frames: dict[str, FrameData] = field(default_factory=dict)
     arrays: set[str] = field(default_factory=set)
-    uses: dict[tuple[str, str | None], list[tuple[Frames, str | None, int]]] = field(default_factory=dict)
+    given: dict[str, tuple[FrameData, str]] = field(default_factory=dict)
+    """Per tooldata and wobjdata: its literal value and where it was given (`line 3`, `line 2 of cell.sys`)."""
+    unknown: dict[str, str] = field(default_factory=dict)
+    """Per tooldata and wobjdata the program changes other than by one literal value: why its frame is unknown."""
+    routines: dict[str, list[Param]] = field(default_factory=dict)
+    """The routines (PROC, FUNC, TRAP) the sent modules define, by name, with their parameters."""
+    writes: dict[str, set[str]] = field(default_factory=dict)
+    """Per routine the names it assigns or passes to an instruction that writes them."""
+    calls: list[tuple[str, str, list[Token], str | None]] = field(default_factory=list)
+    """(caller, callee, statement, file) of every call of a routine in a routine."""
+    unsent: dict[str, str] = field(default_factory=dict)
+    """Per routine of the files: the routine not among the files it calls, itself or through the ones it calls."""
+    routine: str | None = None
+    displaced: tuple[str, int] | None = None
+    """The PDispOn or PDispSet in force in the text's order (the instruction as written, its line)."""
+    unfollowed: tuple[str, int] | None = None
+    """The last call, in the routine being read, of a routine not among the files (its name, its line)."""
+    uses: dict[tuple[str, str | None], list[Use]] = field(default_factory=dict)
     inline: list[tuple[str | None, Robtarget, Frames, str | None]] = field(default_factory=list)
+    inline_warnings: list[str | None] = field(default_factory=list)
     jointtargets: dict[str, JointMove] = field(default_factory=dict)
     last_joints: JointMove | None = None
     after: dict[tuple[str, str | None], JointMove | None] = field(default_factory=dict)
@@ -211,24 +253,6 @@ class Symbols:
     relative: dict[tuple[str, str | None], tuple[str, int]] = field(default_factory=dict)
     """Robtargets a motion reaches only through a function of them (Offs, RelTool): the function, its line."""
     motions: int = 0
-
-
-def _start(run: list[Token]) -> int:
-    """Where the statement begins in a run: after a block's header (PROC main(), IF c THEN, MODULE m ...)."""
-    for k, tok in enumerate(run):
-        word = tok.text.lower()
-        if tok.kind != "name":
-            continue
-        if word in ("local", "task"):
-            # LOCAL PERS ...: a declaration; LOCAL PROC / FUNC / TRAP / RECORD: a block's header, skipped
-            if k + 1 < len(run) and run[k + 1].text.lower() in (*STORAGE, "local", "task"):
-                return k
-            continue
-        if word in STORAGE or word in MOTIONS or word in ("confl", "confj", "moveabsj"):
-            return k
-        if k + 1 < len(run) and (run[k + 1].is_("op", ":=") or run[k + 1].is_("op", "{")):
-            return k
-    return len(run)
 
 
 def _index(cur: Cursor) -> str | None:
@@ -271,10 +295,8 @@ def _given(
             index = str(k) if array else None
             written_name = name.text + (f"{{{k}}}" if array else "")
             sym.robtargets.append((file, written_name, (key, index), robtarget(element, cur)))
-    elif type_name == "tooldata":
-        sym.frames[key] = tooldata(value, cur)
-    elif type_name == "wobjdata":
-        sym.frames[key] = wobjdata(value, cur)
+    elif type_name in ("tooldata", "wobjdata"):
+        _frame_given(sym, key, (tooldata if type_name == "tooldata" else wobjdata)(value, cur), _where(file, name))
     elif type_name == "jointtarget" and not array:
         found = _joints(value, name.line)
         if found is not None:
@@ -304,6 +326,48 @@ def _arguments(tokens: list[Token]) -> tuple[list[list[Token]], dict[str, list[T
     return [p for p in positional if p], optional
 
 
+def _where(file: str | None, tok: Token) -> str:
+    return f"line {tok.line}" + (f" of {file}" if file is not None else "")
+
+
+def _quote(sym: Symbols, file: str | None, body: list[Token]) -> str:
+    """The statement as written (its spaces collapsed, cut at 80 characters), for a reason naming it."""
+    text = " ".join(sym.texts.get(file, "")[body[0].start : body[-1].end].split()) + ";"
+    return text if len(text) <= 80 else text[:77] + "...;"
+
+
+def _frame_given(sym: Symbols, key: str, data: FrameData, where: str) -> None:
+    """A literal value given to a tooldata or wobjdata; a second, different one leaves its frame unknown (which
+    one a motion uses depends on the order the controller runs them). The same value twice is one value."""
+    before = sym.given.get(key)
+    sym.frames[key] = data
+    if before is None:
+        sym.given[key] = (data, where)
+        return
+    old, old_where = before
+    same = old.kept == data.kept and (
+        (old.matrix is None and data.matrix is None)
+        or (old.matrix is not None and data.matrix is not None and np.allclose(old.matrix, data.matrix, atol=1e-9))
+    )
+    if not same:
+        sym.unknown.setdefault(
+            key,
+            f"{sym.types.get(key, 'the frame')} {key} is given two different values ({old_where} and {where}): "
+            "which one the controller uses when it moves depends on the order it runs them, so the target is kept "
+            "as written",
+        )
+
+
+def _changed(sym: Symbols, name: str, file: str | None, body: list[Token], how: str = "") -> None:
+    """A tooldata or wobjdata changed at run time other than by a literal: its frame is known only then."""
+    sym.unknown.setdefault(
+        name.lower(),
+        f"{sym.types.get(name.lower(), 'the frame')} {name} is changed at run time by "
+        f"`{_quote(sym, file, body)}` ({_where(file, body[0])}){how}: the frame the controller moves in is known "
+        "only then, so the target is kept as written",
+    )
+
+
 def _frame(sym: Symbols, tokens: list[Token], default: str, file: str | None) -> tuple[Array | None, str, str | None]:
     """A motion's tool or work object by its name: (matrix, name, kept-reason); UndeclaredFrame if unknown."""
     if not tokens:
@@ -313,10 +377,33 @@ def _frame(sym: Symbols, tokens: list[Token], default: str, file: str | None) ->
     if len(tokens) == 1 and word in ("tool0", "wobj0"):
         return np.eye(4), name.text, None
     found = sym.frames.get(word) if len(tokens) == 1 else None
+    unknown = sym.unknown.get(word) if len(tokens) == 1 else None
+    if found is None and unknown is not None:
+        return np.eye(4), name.text, unknown  # declared without a value and set at run time
     if found is None:
         what = "".join(t.text for t in tokens)
         raise undeclared(f"{what} is not a tooldata or wobjdata the program or its files declare", file, name)
-    return found.matrix if found.matrix is not None else np.eye(4), name.text, found.kept
+    return found.matrix if found.matrix is not None else np.eye(4), name.text, unknown or found.kept
+
+
+def _in_force(sym: Symbols, frames: Frames) -> tuple[str | None, str | None]:
+    """The program displacement in force at a motion (its reason), and the warning of a call before it that may
+    have set its tool or work object."""
+    displaced = None
+    if sym.displaced is not None:
+        what, line = sym.displaced
+        displaced = (
+            f"under the program displacement of {what} (line {line}), in force until PDispOff in the text's order: "
+            "the controller moves the target by a displacement known only at run time, so it is kept as written"
+        )
+    named = [
+        f"{kind} {name}"
+        for kind, name in (("tooldata", frames.tool_name), ("wobjdata", frames.base_name))
+        if name is not None and name.lower() not in ("tool0", "wobj0")
+    ]
+    if sym.unfollowed is None or not named:
+        return displaced, None
+    return displaced, unfollowed_call(sym.unfollowed[0], sym.unfollowed[1], " or the ".join(named))
 
 
 def _motion(run: list[Token], sym: Symbols, file: str | None) -> None:
@@ -329,17 +416,19 @@ def _motion(run: list[Token], sym: Symbols, file: str | None) -> None:
     wobj, wobj_name, wobj_kept = _frame(sym, optional.get("wobj", []), "wobj0", file)
     frames = Frames(wobj if wobj is not None else np.eye(4), tool, wobj_name, tool_name)
     why = tool_kept or wobj_kept
+    displaced, warning = _in_force(sym, frames)
     held = not sym.conf_off["movel" if run[0].text.lower().startswith(("movel", "movec")) else "movej"]
     for arg in positional[:points]:
         if arg[0].is_("op", "["):
             inner = Cursor(arg, file, "the robtarget")
-            sym.inline.append((file, robtarget(parse_aggregate(inner), inner), frames, why))
+            sym.inline.append((file, robtarget(parse_aggregate(inner), inner), frames, why or displaced))
             sym.inline_after.append((sym.last_joints, held))
+            sym.inline_warnings.append(warning)
         elif arg[0].kind == "name" and (len(arg) == 1 or arg[1].is_("op", "{")):
             ref = Cursor(arg, file, "the robtarget")
             ref.next()
             key = (arg[0].text.lower(), _index(ref))
-            sym.uses.setdefault(key, []).append((frames, why, arg[0].line))
+            sym.uses.setdefault(key, []).append(Use(frames, why, arg[0].line, displaced, warning))
             sym.after.setdefault(key, sym.last_joints)
             if held:
                 sym.held.add(key)
@@ -365,33 +454,78 @@ def _joint_motion(run: list[Token], sym: Symbols) -> None:
         sym.last_joints = sym.jointtargets.get(arg[0].text.lower())
 
 
-def _statement(run: list[Token], sym: Symbols, file: str | None, declarations: bool) -> None:
-    run = run[_start(run) :]
-    if not run:
-        return
-    word = run[0].text.lower()
-    cur = Cursor(run, file, "the statement")
+def _kind(body: list[Token], sym: Symbols) -> str:
+    """What a statement is: a declaration, a motion, an assignment, an instruction, a call (of a routine of the
+    files, of one not among them, or late bound) or something the reader has no use for."""
+    if body[0].is_("op", "%"):
+        return "late"
+    if body[0].kind != "name":
+        return "other"
+    word = body[0].text.lower()
     if word in STORAGE or word in ("local", "task"):
-        if declarations:
-            _declaration(cur, sym, file)
-    elif word in MOTIONS:
-        if not declarations:
-            _motion(run, sym, file)
-    elif word in ("confl", "confj"):
-        if not declarations:  # ConfL \Off: the controller takes the solution nearest the current joints
-            sym.conf_off["movel" if word == "confl" else "movej"] = any(t.text.lower() == "off" for t in run[1:])
-    elif word == "moveabsj":
-        if not declarations:
-            _joint_motion(run, sym)
-    elif declarations:
-        _assignment(cur, sym, file)
+        return "declaration"
+    if word in MOTIONS or word in ("confl", "confj", "moveabsj", "pdispon", "pdispset", "pdispoff", "callbyvar"):
+        return word if word not in MOTIONS else "motion"
+    if path_end(body) is not None:
+        return "assignment"
+    if word in FRAME_SETTERS or word in ("setdataval", "setalldataval"):
+        return "setter"
+    if word in INSTRUCTIONS or (len(body) > 1 and body[1].is_("op", "(")):
+        return "other"  # RAPID's own, or `f(...)` alone: no procedure call is written with parentheses
+    return "routine" if word in sym.routines else "unsent"
 
 
-def _assignment(cur: Cursor, sym: Symbols, file: str | None) -> None:
-    """`p10 := [...]`, `path{2} := [...]`: a literal given to declared data in a routine."""
+def _declare(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """The declarations pass: data declared, literal values given, frames changed, routines' calls noted."""
+    kind = _kind(body, sym)
+    if kind == "declaration":
+        _declaration(Cursor(body, file, "the statement"), sym, file)
+    elif kind == "assignment":
+        if sym.routine is not None:
+            sym.writes.setdefault(sym.routine, set()).add(body[0].text.lower())
+        _assignment(body, sym, file)
+    elif kind == "setter":
+        _setter(body, sym, file)
+    elif kind in ("routine", "unsent", "late", "callbyvar") and sym.routine is not None:
+        callee = body[0].text.lower() if kind == "routine" else _call_name(body, sym, file, kind)
+        sym.calls.append((sym.routine, callee, body, file))
+
+
+def _walk(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """The motions pass, in the text's order: motions, Conf, MoveAbsJ, program displacement, calls."""
+    kind = _kind(body, sym)
+    word = body[0].text.lower()
+    if kind == "motion":
+        _motion(body, sym, file)
+    elif kind in ("confl", "confj"):  # ConfL \Off: the controller takes the solution nearest the current joints
+        sym.conf_off["movel" if word == "confl" else "movej"] = any(t.text.lower() == "off" for t in body[1:])
+    elif kind == "moveabsj":
+        _joint_motion(body, sym)
+    elif kind in ("pdispon", "pdispset"):
+        sym.displaced = (body[0].text, body[0].line)
+    elif kind == "pdispoff":
+        sym.displaced = None
+    elif kind in ("unsent", "late", "callbyvar"):
+        sym.unfollowed = (_call_name(body, sym, file, kind), body[0].line)
+    elif kind == "routine" and word in sym.unsent:
+        sym.unfollowed = (f"{sym.unsent[word]} (through {body[0].text})", body[0].line)
+
+
+def _call_name(body: list[Token], sym: Symbols, file: str | None, kind: str) -> str:
+    """A call's routine as written: its name, or the late-bound expression (`%"proc" + s%`, CallByVar)."""
+    return body[0].text if kind == "unsent" else _quote(sym, file, body).rstrip(";")
+
+
+def _assignment(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """`p10 := [...]`, `path{2} := [...]`: a literal given to declared data in a routine; a tooldata or wobjdata
+    given anything else (a field, an expression, a function's value) is changed at run time."""
+    cur = Cursor(body, file, "the statement")
     name = cur.next()
-    index = _index(cur)
     type_name = sym.types.get(name.text.lower())
+    if type_name in ("tooldata", "wobjdata"):
+        _frame_assignment(body, sym, file)
+        return
+    index = _index(cur)
     if type_name not in FRAME_TYPES or not cur.accept("op", ":="):
         return
     nxt = cur.peek()
@@ -406,16 +540,94 @@ def _assignment(cur: Cursor, sym: Symbols, file: str | None) -> None:
     _given(sym, file, cur, type_name, name, array=name.text.lower() in sym.arrays, value=value)
 
 
-def _frames_of(sym: Symbols, key: tuple[str, str | None]) -> tuple[Frames, str | None]:
+def _frame_assignment(body: list[Token], sym: Symbols, file: str | None) -> None:
+    name, at = body[0], path_end(body)
+    if at is None:
+        return
+    if at > 1:
+        if sym.types[name.text.lower()] == "tooldata" and body[1].is_("op", ".") and body[2].is_("name", "tload"):
+            return  # the tool's load: where the TCP is does not change
+        _changed(sym, name.text, file, body)
+        return
+    if at + 1 < len(body) and body[at + 1].is_("op", "[") and name.text.lower() not in sym.arrays:
+        cur = Cursor(body, file, "the statement")
+        cur.i = at + 1
+        _given(sym, file, cur, sym.types[name.text.lower()], name, array=False, value=_item(cur))
+        if cur.peek() is None:
+            return
+    _changed(sym, name.text, file, body)
+
+
+def _setter(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """`MToolTCPCalib p1, p2, p3, p4, tool1, max, mean;` and the other instructions that write an argument,
+    `SetDataVal "wobj1", w;` (the datum named by a string), `SetAllDataVal "tooldata", ...` (every one)."""
+    word = body[0].text.lower()
+    positional, optional = _arguments(body[1:])
+    args = [*positional, *optional.values()]
+    if word in ("setdataval", "setalldataval"):
+        first = positional[0] if positional else []
+        named = first[0].text.strip('"').lower() if len(first) == 1 and first[0].kind == "string" else ""
+        names = [n for n, t in sym.types.items() if t == named] if word == "setalldataval" else [named]
+        for key in names:
+            if _is_frame(sym, key):
+                _changed(sym, key, file, body)
+        return
+    for arg in args:
+        if len(arg) == 1 and arg[0].kind == "name":
+            if sym.routine is not None:
+                sym.writes.setdefault(sym.routine, set()).add(arg[0].text.lower())
+            if _is_frame(sym, arg[0].text.lower()):
+                _changed(sym, arg[0].text, file, body)
+
+
+def _follow_calls(sym: Symbols) -> None:
+    """After the declarations pass: a call of a routine of the files that writes one of its INOUT, VAR or PERS
+    parameters changes the tooldata or wobjdata passed there; and which routines call, themselves or through
+    others, a routine not among the files (their calls are warned as its call is)."""
+    for _, callee, body, file in sym.calls:
+        if callee not in sym.routines:
+            continue
+        positional, optional = _arguments(body[1:])
+        declared = sym.routines[callee]
+        pairs = list(zip([p for p in declared if not p.optional], positional, strict=False))
+        pairs += [(p, optional[p.name]) for p in declared if p.optional and p.name in optional]
+        for param, arg in pairs:
+            key = arg[0].text.lower() if len(arg) == 1 and arg[0].kind == "name" else ""
+            if param.writable and param.name in sym.writes.get(callee, ()) and _is_frame(sym, key):
+                _changed(sym, arg[0].text, file, body, f", where {body[0].text} writes its parameter {param.name}")
+    changed = True
+    while changed:
+        changed = False
+        for caller, callee, _, _ in sym.calls:
+            found = sym.unsent.get(callee) if callee in sym.routines else callee
+            if found is not None and caller not in sym.unsent:
+                sym.unsent[caller] = found
+                changed = True
+
+
+def _is_frame(sym: Symbols, key: str) -> bool:
+    return sym.types.get(key) in ("tooldata", "wobjdata")
+
+
+def _frames_of(sym: Symbols, key: tuple[str, str | None]) -> tuple[Frames, str | None, str | None]:
+    """A named robtarget's frames, why it is kept and its warning, from the motions that go to it."""
     uses = sym.uses.get(key, []) + (sym.uses.get((key[0], "*"), []) if key[1] is not None else [])
     if not uses:
-        return Frames(), None
-    first, why, line = uses[0]
-    for frames, other_why, other_line in uses[1:]:
-        if frames.base_name != first.base_name or frames.tool_name != first.tool_name:
-            return first, f"used with different tools or work objects (lines {line} and {other_line})"
-        why = why or other_why
-    return first, why
+        return Frames(), None, None
+    first = uses[0]
+    warning = next((u.warning for u in uses if u.warning is not None), None)
+    for use in uses[1:]:
+        if use.frames.base_name != first.frames.base_name or use.frames.tool_name != first.frames.tool_name:
+            return first.frames, f"used with different tools or work objects (lines {first.line} and {use.line})", None
+    why = next((u.why for u in uses if u.why is not None), None)
+    displaced = next((u for u in uses if u.displaced is not None), None)
+    plain = next((u for u in uses if u.displaced is None), None)
+    if why is None and displaced is not None:
+        why = f"moved to at line {displaced.line} {displaced.displaced}"
+        if plain is not None:
+            # One value serves both motions: the correction of the plain one would move the displaced one too
+            why += f"; also moved to without it (line {plain.line}), and its one value cannot carry both corrections"
+    return first.frames, why, warning
 
 
 def _held(rt: Robtarget, held: bool) -> Robtarget:
@@ -426,7 +638,14 @@ def _held(rt: Robtarget, held: bool) -> Robtarget:
 
 
 def _target(
-    file: str | None, name: str | None, rt: Robtarget, frames: Frames, why: str | None, *, after: JointMove | None
+    file: str | None,
+    name: str | None,
+    rt: Robtarget,
+    frames: Frames,
+    why: str | None,
+    *,
+    after: JointMove | None,
+    warning: str | None = None,
 ) -> Target:
     literal = None if rt.pose is not None else "not literal numbers: the target is known only at run time"
     return target_at(
@@ -440,21 +659,43 @@ def _target(
         configuration=rt.configuration,
         style="quaternion",
         after=after,
+        warning=warning if why is None else None,
     )
+
+
+def _passes(splits: list[tuple[str | None, Split]], sym: Symbols) -> None:
+    """The declarations pass, then the motions pass, each over every file in the text's order. A file's start
+    ends the program displacement and the warning of a call; a routine's start ends the warning (its body
+    starts from what its caller set, and a call of it that matters is warned where it is called)."""
+    for declarations in (True, False):
+        last: object = object()
+        record = False
+        for file, part in splits:
+            if file != last:
+                last, sym.displaced, sym.unfollowed, sym.routine = file, None, None, None
+            if part.routine is not None:
+                sym.routine, sym.unfollowed = part.routine.text.lower(), None
+            record = part.record if part.record is not None else record
+            if record or not part.body:
+                continue  # a RECORD's fields are no statements
+            (_declare if declarations else _walk)(part.body, sym, file)
+        if declarations:
+            _follow_calls(sym)
 
 
 def read(program: str, files: Mapping[str, str]) -> Program:
     """The robtargets of a module and of the modules in `files` (where its tools and work objects may be)."""
     texts: dict[str | None, str] = {PROGRAM: program}
     texts.update(files)
-    runs = [(name, run) for name, text in texts.items() for run in statements(LEXER.tokens(text, name))]
-    sym = Symbols()
-    for declarations in (True, False):
-        for name, run in runs:
-            _statement(run, sym, name, declarations)
+    splits = [(name, split(run)) for name, text in texts.items() for run in statements(LEXER.tokens(text, name))]
+    sym = Symbols(texts=texts)
+    sym.routines = {p.routine.text.lower(): params(p.params) for _, p in splits if p.routine is not None}
+    for _, part in splits:
+        _declared_type(part.body, sym)
+    _passes(splits, sym)
     targets = []
     for file, written_name, key, rt in sym.robtargets:
-        frames, why = _frames_of(sym, key)
+        frames, why, warning = _frames_of(sym, key)
         used = key in sym.uses or (key[1] is not None and (key[0], "*") in sym.uses)
         if file is not None and file.lower().endswith(SYSTEM_SUFFIX):
             why = SYSTEM_DATA  # read for its tooldata and wobjdata, never for targets
@@ -467,12 +708,24 @@ def read(program: str, files: Mapping[str, str]) -> Program:
         elif not used and sym.motions:
             why = DATA
         held = _held(rt, not used or key in sym.held or (key[0], "*") in sym.held)
-        targets.append(_target(file, written_name, held, frames, why, after=sym.after.get(key)))
+        targets.append(_target(file, written_name, held, frames, why, after=sym.after.get(key), warning=warning))
     targets += [
-        _target(file, None, _held(rt, held), frames, why, after=after)
-        for (file, rt, frames, why), (after, held) in zip(sym.inline, sym.inline_after, strict=True)
+        _target(file, None, _held(rt, held), frames, why, after=after, warning=warning)
+        for (file, rt, frames, why), (after, held), warning in zip(
+            sym.inline, sym.inline_after, sym.inline_warnings, strict=True
+        )
     ]
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))
+
+
+def _declared_type(body: list[Token], sym: Symbols) -> None:
+    """A declaration's type, known before any statement is read (a module may assign a tooldata that a module
+    read after it declares)."""
+    names = [t for t in body[:5] if t.kind == "name"]
+    while names and names[0].text.lower() in ("local", "task"):
+        names = names[1:]
+    if len(names) >= 3 and names[0].text.lower() in STORAGE:
+        sym.types[names[2].text.lower()] = names[1].text.lower()
 
 
 def numbers(targets: Sequence[Target], poses: Array) -> list[list[str]]:
