@@ -296,7 +296,9 @@ def _given(
             written_name = name.text + (f"{{{k}}}" if array else "")
             sym.robtargets.append((file, written_name, (key, index), robtarget(element, cur)))
     elif type_name in ("tooldata", "wobjdata"):
-        _frame_given(sym, key, (tooldata if type_name == "tooldata" else wobjdata)(value, cur), _where(file, name))
+        _frame_given(
+            sym, name.text, (tooldata if type_name == "tooldata" else wobjdata)(value, cur), _where(file, name)
+        )
     elif type_name == "jointtarget" and not array:
         found = _joints(value, name.line)
         if found is not None:
@@ -336,9 +338,10 @@ def _quote(sym: Symbols, file: str | None, body: list[Token]) -> str:
     return text if len(text) <= 80 else text[:77] + "...;"
 
 
-def _frame_given(sym: Symbols, key: str, data: FrameData, where: str) -> None:
+def _frame_given(sym: Symbols, name: str, data: FrameData, where: str) -> None:
     """A literal value given to a tooldata or wobjdata; a second, different one leaves its frame unknown (which
     one a motion uses depends on the order the controller runs them). The same value twice is one value."""
+    key = name.lower()
     before = sym.given.get(key)
     sym.frames[key] = data
     if before is None:
@@ -352,7 +355,7 @@ def _frame_given(sym: Symbols, key: str, data: FrameData, where: str) -> None:
     if not same:
         sym.unknown.setdefault(
             key,
-            f"{sym.types.get(key, 'the frame')} {key} is given two different values ({old_where} and {where}): "
+            f"{sym.types.get(key, 'the frame')} {name} is given two different values ({old_where} and {where}): "
             "which one the controller uses when it moves depends on the order it runs them, so the target is kept "
             "as written",
         )
@@ -566,11 +569,11 @@ def _setter(body: list[Token], sym: Symbols, file: str | None) -> None:
     args = [*positional, *optional.values()]
     if word in ("setdataval", "setalldataval"):
         first = positional[0] if positional else []
-        named = first[0].text.strip('"').lower() if len(first) == 1 and first[0].kind == "string" else ""
-        names = [n for n, t in sym.types.items() if t == named] if word == "setalldataval" else [named]
-        for key in names:
-            if _is_frame(sym, key):
-                _changed(sym, key, file, body)
+        named = first[0].text.strip('"') if len(first) == 1 and first[0].kind == "string" else ""
+        names = [n for n, t in sym.types.items() if t == named.lower()] if word == "setalldataval" else [named]
+        for name in names:
+            if _is_frame(sym, name.lower()):
+                _changed(sym, name, file, body)
         return
     for arg in args:
         if len(arg) == 1 and arg[0].kind == "name":
