@@ -235,8 +235,12 @@ class Symbols:
     unsent: dict[str, str] = field(default_factory=dict)
     """Per routine of the files: the routine not among the files it calls, itself or through the ones it calls."""
     routine: str | None = None
+    displaced_routines: dict[str, tuple[str, int]] = field(default_factory=dict)
+    """Routines of the files called (in the text's order) under a program displacement, or called by such a
+    routine: their motions are displaced too, from their start."""
     displaced: tuple[str, int] | None = None
-    """The PDispOn or PDispSet in force in the text's order (the instruction as written, its line)."""
+    """The PDispOn or PDispSet in force in the text's order within a routine, or the one the routine is called
+    under (the instruction as written, its line)."""
     unfollowed: tuple[str, int] | None = None
     """The last call, in the routine being read, of a routine not among the files (its name, its line)."""
     uses: dict[tuple[str, str | None], list[Use]] = field(default_factory=dict)
@@ -396,7 +400,7 @@ def _in_force(sym: Symbols, frames: Frames) -> tuple[str | None, str | None]:
     if sym.displaced is not None:
         what, line = sym.displaced
         displaced = (
-            f"under the program displacement of {what} (line {line}), in force until PDispOff in the text's order: "
+            f"under the program displacement of {what} (line {line}), in force until PDispOff: "
             "the controller moves the target by a displacement known only at run time, so it is kept as written"
         )
     named = [
@@ -492,6 +496,10 @@ def _declare(body: list[Token], sym: Symbols, file: str | None) -> None:
     elif kind in ("routine", "unsent", "late", "callbyvar") and sym.routine is not None:
         callee = body[0].text.lower() if kind == "routine" else _call_name(body, sym, file, kind)
         sym.calls.append((sym.routine, callee, body, file))
+        if kind == "routine" and sym.displaced is not None:
+            sym.displaced_routines.setdefault(callee, sym.displaced)
+    elif kind in ("pdispon", "pdispset", "pdispoff"):
+        sym.displaced = None if kind == "pdispoff" else (body[0].text, body[0].line)
 
 
 def _walk(body: list[Token], sym: Symbols, file: str | None) -> None:
@@ -606,6 +614,10 @@ def _follow_calls(sym: Symbols) -> None:
             if found is not None and caller not in sym.unsent:
                 sym.unsent[caller] = found
                 changed = True
+            displaced = sym.displaced_routines.get(caller)
+            if displaced is not None and callee in sym.routines and callee not in sym.displaced_routines:
+                sym.displaced_routines[callee] = displaced
+                changed = True
 
 
 def _is_frame(sym: Symbols, key: str) -> bool:
@@ -667,9 +679,10 @@ def _target(
 
 
 def _passes(splits: list[tuple[str | None, Split]], sym: Symbols) -> None:
-    """The declarations pass, then the motions pass, each over every file in the text's order. A file's start
-    ends the program displacement and the warning of a call; a routine's start ends the warning (its body
-    starts from what its caller set, and a call of it that matters is warned where it is called)."""
+    """The declarations pass, then the motions pass, each over every file in the text's order. A routine's
+    start ends the warning of a call (its body starts from what its caller set, and a call of it that matters
+    is warned where it is called) and starts the program displacement it is called under (none if it is never
+    called under one)."""
     for declarations in (True, False):
         last: object = object()
         record = False
@@ -678,6 +691,7 @@ def _passes(splits: list[tuple[str | None, Split]], sym: Symbols) -> None:
                 last, sym.displaced, sym.unfollowed, sym.routine = file, None, None, None
             if part.routine is not None:
                 sym.routine, sym.unfollowed = part.routine.text.lower(), None
+                sym.displaced = sym.displaced_routines.get(sym.routine)
             record = part.record if part.record is not None else record
             if record or not part.body:
                 continue  # a RECORD's fields are no statements

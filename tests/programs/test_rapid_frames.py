@@ -4,9 +4,10 @@ program runs is never returned silently (issue 44).
 - A tooldata or wobjdata the program changes other than by one literal value (a field, an expression, a tool
   calibration, SetDataVal, a routine of the files writing its INOUT parameter) or gives two different literal
   values: every target moved to with it is kept, the reason naming the datum, the line and the statement.
-- Program displacement (PDispOn, PDispSet) in force in the text's order until PDispOff: the targets moved to
-  under it are kept; a named robtarget moved to both under it and without it is kept too (its one value cannot
-  carry both corrections). EOffsOn/EOffsSet move the external axes only: nothing is kept for them.
+- Program displacement (PDispOn, PDispSet) in force in the text's order until PDispOff, and in the routines
+  called under it: the targets moved to under it are kept; a named robtarget moved to both under it and
+  without it is kept too (its one value cannot carry both corrections). EOffsOn/EOffsSet move the external
+  axes only: nothing is kept for them.
 - A call of a routine no sent module defines (`MyProc;`, `%"late" + s%;`, CallByVar) may change PERS tooldata
   or wobjdata: the motions after it in the same routine with a tool or work object other than tool0/wobj0 are
   warned, compensated in the frames read. RAPID's own instructions and routines of the sent modules are no
@@ -157,6 +158,31 @@ def test_program_displacement_keeps_the_targets_moved_to_until_pdispoff() -> Non
     assert on in str(found["p40"].kept) and "also moved to without it (line 21)" in str(found["p40"].kept)
     assert "program displacement of pdispset (line 22)" in str(found["p50"].kept)
     assert "program displacement of pdispset (line 22)" in str(found["line 23"].kept)
+
+
+def test_a_routine_called_under_a_displacement_is_displaced_from_its_start() -> None:
+    """The shape of a real drawing program: PDispOn in main (line 16), then calls of the routines that move
+    (Draw, and Stroke which Draw calls), written after main's PDispOff. Their motions run displaced: kept.
+    Finish, called after PDispOff only, is not."""
+    module = _module(
+        "PDispOn \\ExeP:=p10, p10, tProbe \\WObj:=wFixture;",
+        "Draw;",
+        "PDispOff;",
+        "Finish;",
+        "ENDPROC",
+        "PROC Draw()",
+        "{1} Stroke;",
+        "ENDPROC",
+        "PROC Stroke()",
+        "{2}",
+        "ENDPROC",
+        "PROC Finish()",
+        "{3}",
+    ).replace("    ENDPROC\r\n    PROC", "  ENDPROC\r\n  PROC")
+    found = _read(module)
+    on = "under the program displacement of PDispOn (line 16)"
+    assert on in str(found["p20"].kept) and on in str(found["p30"].kept)
+    assert found["p40"].kept is None
 
 
 ROUTINES = (
