@@ -7,6 +7,9 @@ robtarget data (CONST, PERS or VAR; LOCAL or TASK; arrays `{n}` by element; valu
 declaration or an assignment) and the robtargets written inside motions (MoveL, MoveJ, MoveC and their DO,
 Sync and AO variants). A motion's tool (`tooldata`, its tframe) and its work object (`\\WObj:=`, uframe ·
 oframe of the `wobjdata`) are the frames it is taught in; `tool0` is the flange and `wobj0` the robot's base.
+A tooldata or wobjdata the program changes at run time (other than by one literal value), and a program
+displacement in force (PDispOn, PDispSet), keep the targets moved to with them; a call of a routine no sent
+module defines warns the motions after it (docs/controller.md, "Frames").
 jointtargets, speeds, zones and every other datum are kept as written. `!` starts a comment; statements end
 with `;` and may span lines.
 """
