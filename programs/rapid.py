@@ -19,15 +19,26 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 
 from models._types import Array
 from programs.aggregates import Number, Opaque, Value, literal_or_expression
+from programs.errors import ProgramSyntaxError
 from programs.frames import quaternion_matrix, quaternions_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.rapid_statements import FRAME_SETTERS, INSTRUCTIONS, Param, Split, params, path_end, split
+from programs.rapid_statements import (
+    FRAME_SETTERS,
+    INSTRUCTIONS,
+    LAYOUTS,
+    UNREAD_MOTIONS,
+    Param,
+    Split,
+    params,
+    path_end,
+    split,
+)
 from programs.targets import (
     PROGRAM,
     Configuration,
@@ -56,19 +67,11 @@ LEXER = Lexer(
 STORAGE = frozenset({"const", "pers", "var"})
 FRAME_TYPES = frozenset({"robtarget", "tooldata", "wobjdata", "jointtarget"})
 """The data this reader reads the values of: the targets and the frames they are taught in."""
-MOTIONS = {
-    name: points
-    for points, names in (
-        (1, ("movel", "movej", "moveldo", "movejdo", "movelsync", "movejsync", "movelao", "movejao")),
-        (2, ("movec", "movecdo", "movecsync", "movecao")),
-    )
-    for name in names
-}
-"""Each motion's number of robtarget arguments; its tool is the positional argument two after them."""
 SYSTEM_SUFFIX = ".sys"
 """System modules (user.sys, base.sys, a cell's tool and wobj declarations) are read for what they declare."""
 DATA = "data, left alone: no motion of the program goes to it"
 SYSTEM_DATA = "data, left alone: a system module (.sys), read for what it declares (tooldata, wobjdata)"
+K = TypeVar("K")
 MIN_DECIMALS = (3, 3, 3, 6, 6, 6, 6)
 """mm to 1 µm, quaternions to 1e-6 (2e-6 rad): the correction survives its printing."""
 
@@ -229,6 +232,13 @@ class Symbols:
     """Per tooldata and wobjdata: its literal value and where it was given (`line 3`, `line 2 of cell.sys`)."""
     unknown: dict[str, str] = field(default_factory=dict)
     """Per tooldata and wobjdata the program changes other than by one literal value: why its frame is unknown."""
+    robtarget_given: dict[tuple[str, str | None], tuple[Robtarget, str]] = field(default_factory=dict)
+    """Per robtarget (array element): its first literal value and where it was given."""
+    moved: dict[tuple[str, str | None], str] = field(default_factory=dict)
+    """Per robtarget (an array's element, None: all of it, `*`: one the text does not say) the program changes
+    other than by one literal value: why the point the robot goes to is known only at run time."""
+    unread: dict[tuple[str, str | None], str] = field(default_factory=dict)
+    """Robtargets named in a motion whose argument layout the reader does not know: why they are kept."""
     routines: dict[str, list[Param]] = field(default_factory=dict)
     """The routines (PROC, FUNC, TRAP) the sent modules define, by name, with their parameters."""
     writes: dict[str, set[str]] = field(default_factory=dict)
@@ -301,7 +311,7 @@ def _given(
         for k, element in enumerate(elements, start=1):
             index = str(k) if array else None
             written_name = name.text + (f"{{{k}}}" if array else "")
-            sym.robtargets.append((file, written_name, (key, index), robtarget(element, cur)))
+            _robtarget_given(sym, file, written_name, (key, index), robtarget(element, cur))
     elif type_name in ("tooldata", "wobjdata"):
         _frame_given(
             sym, name.text, (tooldata if type_name == "tooldata" else wobjdata)(value, cur), _where(file, name)
@@ -355,27 +365,75 @@ def _frame_given(sym: Symbols, name: str, data: FrameData, where: str) -> None:
         sym.given[key] = (data, where)
         return
     old, old_where = before
-    same = old.kept == data.kept and (
-        (old.matrix is None and data.matrix is None)
-        or (old.matrix is not None and data.matrix is not None and np.allclose(old.matrix, data.matrix, atol=1e-9))
-    )
-    if not same:
-        sym.unknown.setdefault(
-            key,
-            f"{sym.types.get(key, 'the frame')} {name} is given two different values ({old_where} and {where}): "
-            "which one the controller uses when it moves depends on the order it runs them, so the target is kept "
-            "as written",
-        )
+    if old.kept != data.kept or not _same(old.matrix, data.matrix):
+        _second_value(sym.unknown, key, f"{sym.types.get(key, 'the frame')} {name}", old_where, where)
 
 
-def _changed(sym: Symbols, name: str, file: str | None, body: list[Token], how: str = "") -> None:
-    """A tooldata or wobjdata changed at run time other than by a literal: its frame is known only then."""
-    sym.unknown.setdefault(
-        name.lower(),
-        f"{sym.types.get(name.lower(), 'the frame')} {name} is changed at run time by "
-        f"`{_quote(sym, file, body)}` ({_where(file, body[0])}){how}: the frame the controller moves in is known "
-        "only then, so the target is kept as written",
+def _robtarget_given(
+    sym: Symbols, file: str | None, written_name: str, key: tuple[str, str | None], rt: Robtarget
+) -> None:
+    """A literal value given to a robtarget (or an array's element); a second, different one leaves the point
+    the robot goes to unknown, as for a frame."""
+    sym.robtargets.append((file, written_name, key, rt))
+    where = _where(file, rt.open)
+    old, old_where = sym.robtarget_given.setdefault(key, (rt, where))
+    same_conf = (old.configuration and old.configuration.values) == (rt.configuration and rt.configuration.values)
+    if old is not rt and not (same_conf and _same(old.pose, rt.pose) and (old.pose is not None or old == rt)):
+        _second_value(sym.moved, key, f"robtarget {written_name}", old_where, where)
+
+
+def _same(a: Array | None, b: Array | None) -> bool:
+    """The same literal value (`0` and `0.0`, within 1e-9 mm)."""
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.allclose(a, b, atol=1e-9, equal_nan=True))
+
+
+def _second_value(found: dict[K, str], key: K, what: str, before: str, where: str) -> None:
+    found.setdefault(
+        key,
+        f"{what} is given two different values ({before} and {where}): which one the controller uses when it "
+        "moves depends on the order it runs them, so the target is kept as written",
     )
+
+
+def _changed(
+    sym: Symbols, name: str, file: str | None, body: list[Token], how: str = "", *, index: str | None = None
+) -> None:
+    """A tooldata or wobjdata changed at run time other than by a literal: its frame is known only then; a
+    robtarget (or an array's element, `index`) so changed: the point the robot goes to is known only then."""
+    key = name.lower()
+    point = sym.types.get(key) == "robtarget"
+    shown = name + (f"{{{index}}}" if index not in (None, "*") else "")
+    why = (
+        f"{sym.types.get(key, 'the frame')} {shown} is changed at run time by `{_quote(sym, file, body)}` "
+        f"({_where(file, body[0])}){how}: "
+        f"{'the point the robot goes to' if point else 'the frame the controller moves in'} is known only then, "
+        "so the target is kept as written"
+    )
+    if point:
+        sym.moved.setdefault((key, index), why)
+    else:
+        sym.unknown.setdefault(key, why)
+
+
+def _written(sym: Symbols, arg: list[Token], file: str | None, body: list[Token]) -> None:
+    """A datum an instruction writes (an INOUT argument): noted for the routine writing it (a parameter it
+    writes changes what its callers pass), and a robtarget, tooldata or wobjdata so changed at run time."""
+    if not arg or arg[0].kind != "name" or (len(arg) > 1 and not arg[1].is_("op", "{")):
+        return
+    name, index = _named(arg, file)
+    if sym.routine is not None:
+        sym.writes.setdefault(sym.routine, set()).add(name)
+    if _tracked(sym, name):
+        _changed(sym, arg[0].text, file, body, index=index)
+
+
+def _named(arg: list[Token], file: str | None) -> tuple[str, str | None]:
+    """A datum named in an argument, `p10` or `path{2}`: its name and index (`*` where not a literal)."""
+    ref = Cursor(arg, file, "the argument")
+    ref.next()
+    return arg[0].text.lower(), _index(ref)
 
 
 def _frame(sym: Symbols, tokens: list[Token], default: str, file: str | None) -> tuple[Array | None, str, str | None]:
@@ -413,42 +471,95 @@ def _in_force(sym: Symbols, frames: Frames) -> tuple[str | None, str | None]:
     ]
     if sym.unfollowed is None or not named:
         return displaced, None
-    return displaced, unfollowed_call(sym.unfollowed[0], sym.unfollowed[1], " or the ".join(named))
+    return displaced, unfollowed_call(sym.unfollowed[0], sym.unfollowed[1], " or the ".join(named), compensated="read")
 
 
 def _motion(run: list[Token], sym: Symbols, file: str | None) -> None:
-    points = MOTIONS[run[0].text.lower()]
+    """A motion: its targets taught in its tool and its work object (`\\WObj:=`), where its layout says."""
+    word = run[0].text.lower()
+    layout = LAYOUTS.get(word)
     positional, optional = _arguments(run[1:])
-    cur = Cursor(run, file, f"the {run[0].text} instruction")
-    if len(positional) < points + 3:
-        raise cur.error(f"{run[0].text} needs {points} target(s), a speed, a zone and a tool", run[0])
-    tool, tool_name, tool_kept = _frame(sym, positional[points + 2], "tool0", file)
+    if layout is None:
+        _unread_motion(run, positional, optional, sym, file)
+        return
+    if len(positional) < layout.shape.count(",") + 1:
+        cur = Cursor(run, file, f"the {run[0].text} instruction")
+        raise cur.error(f"{run[0].text} takes {layout.shape} (then its optional arguments)", run[0])
+    tool_arg = positional[layout.tool]
+    declared = sym.types.get(tool_arg[0].text.lower(), "tooldata") if len(tool_arg) == 1 else ""
+    if layout.tool < 0 and declared != "tooldata":
+        # The argument taken for the tool is another datum: a version of the instruction the reader does not know
+        _unread_motion(run, positional, optional, sym, file)
+        return
+    tool, tool_name, tool_kept = _frame(sym, tool_arg, "tool0", file)
     wobj, wobj_name, wobj_kept = _frame(sym, optional.get("wobj", []), "wobj0", file)
     frames = Frames(wobj if wobj is not None else np.eye(4), tool, wobj_name, tool_name)
     why = tool_kept or wobj_kept
     displaced, warning = _in_force(sym, frames)
-    held = not sym.conf_off["movel" if run[0].text.lower().startswith(("movel", "movec")) else "movej"]
-    for arg in positional[:points]:
-        if arg[0].is_("op", "["):
-            inner = Cursor(arg, file, "the robtarget")
-            sym.inline.append((file, robtarget(parse_aggregate(inner), inner), frames, why or displaced))
-            sym.inline_after.append((sym.last_joints, held))
-            sym.inline_warnings.append(warning)
-        elif arg[0].kind == "name" and (len(arg) == 1 or arg[1].is_("op", "{")):
-            ref = Cursor(arg, file, "the robtarget")
-            ref.next()
-            key = (arg[0].text.lower(), _index(ref))
-            sym.uses.setdefault(key, []).append(Use(frames, why, arg[0].line, displaced, warning))
-            sym.after.setdefault(key, sym.last_joints)
-            if held:
-                sym.held.add(key)
-        elif arg[0].kind == "name" and len(arg) > 3 and arg[1].is_("op", "(") and arg[2].kind == "name":
-            # Offs(p10, ...), RelTool(...): a function of a target, computed by the controller at run time
-            inner = Cursor(arg[2:], file, "the robtarget")
-            inner.next()
-            key = (arg[2].text.lower(), _index(inner))
-            sym.relative.setdefault(key, (arg[0].text, arg[0].line))
+    held = not sym.conf_off["movej" if layout.joint else "movel"]
+    for k in layout.targets:
+        arg = positional[k]
+        _motion_target(arg, sym, file, Use(frames, why, arg[0].line, displaced, warning), held=held)
     sym.motions += 1
+
+
+def _motion_target(arg: list[Token], sym: Symbols, file: str | None, use: Use, *, held: bool) -> None:
+    """A robtarget a motion goes to: written in it, named (`p10`, `path{2}`), or a function of one (Offs)."""
+    if arg[0].is_("op", "["):
+        inner = Cursor(arg, file, "the robtarget")
+        sym.inline.append((file, robtarget(parse_aggregate(inner), inner), use.frames, use.why or use.displaced))
+        sym.inline_after.append((sym.last_joints, held))
+        sym.inline_warnings.append(use.warning)
+    elif arg[0].kind == "name" and (len(arg) == 1 or arg[1].is_("op", "{")):
+        key = _named(arg, file)
+        sym.uses.setdefault(key, []).append(use)
+        sym.after.setdefault(key, sym.last_joints)
+        if held:
+            sym.held.add(key)
+    elif arg[0].kind == "name" and len(arg) > 3 and arg[1].is_("op", "(") and arg[2].kind == "name":
+        # Offs(p10, ...), RelTool(...): a function of a target, computed by the controller at run time
+        sym.relative.setdefault(_named(arg[2:], file), (arg[0].text, arg[0].line))
+
+
+def _unread_motion(
+    run: list[Token], positional: list[list[Token]], optional: dict[str, list[Token]], sym: Symbols, file: str | None
+) -> None:
+    """A motion whose argument layout the reader does not know: every robtarget it names or writes is kept
+    (where its tool and work object are is not known, so no frame is guessed)."""
+    why = (
+        f"moved to by `{_quote(sym, file, run)}` ({_where(file, run[0])}), a motion the reader does not know the "
+        "layout of: its tool and work object are not read, so the target is kept as written"
+    )
+    for arg in [*positional, *optional.values()]:
+        if arg and arg[0].is_("op", "["):
+            literal = _maybe_robtarget(arg, file)
+            if literal is not None:
+                sym.inline.append((file, literal, Frames(), why))
+                sym.inline_after.append((sym.last_joints, True))
+                sym.inline_warnings.append(None)
+        elif arg and arg[0].kind == "name" and sym.types.get(arg[0].text.lower()) == "robtarget":
+            sym.unread.setdefault(_named(arg, file), why)
+    sym.motions += 1
+
+
+def _maybe_robtarget(arg: list[Token], file: str | None) -> Robtarget | None:
+    """An aggregate argument read as a robtarget, None where it is another datum (a speeddata written out)."""
+    inner = Cursor(arg, file, "the robtarget")
+    try:
+        return robtarget(parse_aggregate(inner), inner)
+    except ProgramSyntaxError:
+        return None
+
+
+def _written_by_motion(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """The robtargets a motion writes (SearchL's SearchPoint): changed at run time."""
+    layout = LAYOUTS.get(body[0].text.lower())
+    if layout is None or not layout.written:
+        return
+    positional, _ = _arguments(body[1:])
+    for k in layout.written:
+        if k < len(positional):
+            _written(sym, positional[k], file, body)
 
 
 def _joint_motion(run: list[Token], sym: Symbols) -> None:
@@ -474,8 +585,10 @@ def _kind(body: list[Token], sym: Symbols) -> str:
     word = body[0].text.lower()
     if word in STORAGE or word in ("local", "task"):
         return "declaration"
-    if word in MOTIONS or word in ("confl", "confj", "moveabsj", "pdispon", "pdispset", "pdispoff", "callbyvar"):
-        return word if word not in MOTIONS else "motion"
+    if word in LAYOUTS or word in UNREAD_MOTIONS:
+        return "motion"
+    if word in ("confl", "confj", "moveabsj", "pdispon", "pdispset", "pdispoff", "callbyvar"):
+        return word
     if path_end(body) is not None:
         return "assignment"
     if word in FRAME_SETTERS or word in ("setdataval", "setalldataval"):
@@ -496,6 +609,8 @@ def _declare(body: list[Token], sym: Symbols, file: str | None) -> None:
         _assignment(body, sym, file)
     elif kind == "setter":
         _setter(body, sym, file)
+    elif kind == "motion":
+        _written_by_motion(body, sym, file)
     elif kind in ("routine", "unsent", "late", "callbyvar") and sym.routine is not None:
         callee = body[0].text.lower() if kind == "routine" else _call_name(body, sym, file, kind)
         sym.calls.append((sym.routine, callee, body, file))
@@ -540,18 +655,24 @@ def _assignment(body: list[Token], sym: Symbols, file: str | None) -> None:
         _frame_assignment(body, sym, file)
         return
     index = _index(cur)
+    point = type_name == "robtarget"
     if type_name not in FRAME_TYPES or not cur.accept("op", ":="):
+        if point:  # a part of it: `p10.trans.z := p10.trans.z + 5;`
+            _changed(sym, name.text, file, body, index=index)
         return
     nxt = cur.peek()
     if nxt is None or not nxt.is_("op", "["):
-        return  # an expression: Offs(...), another variable
-    value = _item(cur)
-    if type_name == "robtarget" and index is not None:
-        if index != "*":
-            written_name = f"{name.text}{{{index}}}"
-            sym.robtargets.append((file, written_name, (name.text.lower(), index), robtarget(value, cur)))
+        if point:  # CRobT(...), Offs(p20, ...), another robtarget: the point is known at run time only
+            _changed(sym, name.text, file, body, index=index)
         return
-    _given(sym, file, cur, type_name, name, array=name.text.lower() in sym.arrays, value=value)
+    value = _item(cur)
+    if point and (index == "*" or cur.peek() is not None):
+        _changed(sym, name.text, file, body, index=index)  # `path{i} := [...]`: the text does not say which one
+    elif point and index is not None:
+        written_name = f"{name.text}{{{index}}}"
+        _robtarget_given(sym, file, written_name, (name.text.lower(), index), robtarget(value, cur))
+    else:
+        _given(sym, file, cur, type_name, name, array=name.text.lower() in sym.arrays, value=value)
 
 
 def _frame_assignment(body: list[Token], sym: Symbols, file: str | None) -> None:
@@ -583,15 +704,11 @@ def _setter(body: list[Token], sym: Symbols, file: str | None) -> None:
         named = first[0].text.strip('"') if len(first) == 1 and first[0].kind == "string" else ""
         names = [n for n, t in sym.types.items() if t == named.lower()] if word == "setalldataval" else [named]
         for name in names:
-            if _is_frame(sym, name.lower()):
+            if _tracked(sym, name.lower()):
                 _changed(sym, name, file, body)
         return
     for arg in args:
-        if len(arg) == 1 and arg[0].kind == "name":
-            if sym.routine is not None:
-                sym.writes.setdefault(sym.routine, set()).add(arg[0].text.lower())
-            if _is_frame(sym, arg[0].text.lower()):
-                _changed(sym, arg[0].text, file, body)
+        _written(sym, arg, file, body)
 
 
 def _follow_calls(sym: Symbols) -> None:
@@ -606,9 +723,11 @@ def _follow_calls(sym: Symbols) -> None:
         pairs = list(zip([p for p in declared if not p.optional], positional, strict=False))
         pairs += [(p, optional[p.name]) for p in declared if p.optional and p.name in optional]
         for param, arg in pairs:
-            key = arg[0].text.lower() if len(arg) == 1 and arg[0].kind == "name" else ""
-            if param.writable and param.name in sym.writes.get(callee, ()) and _is_frame(sym, key):
-                _changed(sym, arg[0].text, file, body, f", where {body[0].text} writes its parameter {param.name}")
+            named = arg[0].kind == "name" and (len(arg) == 1 or arg[1].is_("op", "{"))
+            key, index = _named(arg, file) if named else ("", None)
+            if param.writable and param.name in sym.writes.get(callee, ()) and _tracked(sym, key):
+                how = f", where {body[0].text} writes its parameter {param.name}"
+                _changed(sym, arg[0].text, file, body, how, index=index)
     changed = True
     while changed:
         changed = False
@@ -625,6 +744,11 @@ def _follow_calls(sym: Symbols) -> None:
 
 def _is_frame(sym: Symbols, key: str) -> bool:
     return sym.types.get(key) in ("tooldata", "wobjdata")
+
+
+def _tracked(sym: Symbols, key: str) -> bool:
+    """A datum whose change at run time keeps targets: a robtarget, a tooldata, a wobjdata."""
+    return sym.types.get(key) in ("tooldata", "wobjdata", "robtarget")
 
 
 def _frames_of(sym: Symbols, key: tuple[str, str | None]) -> tuple[Frames, str | None, str | None]:
@@ -716,17 +840,7 @@ def read(program: str, files: Mapping[str, str]) -> Program:
     targets = []
     for file, written_name, key, rt in sym.robtargets:
         frames, why, warning = _frames_of(sym, key)
-        used = key in sym.uses or (key[1] is not None and (key[0], "*") in sym.uses)
-        if file is not None and file.lower().endswith(SYSTEM_SUFFIX):
-            why = SYSTEM_DATA  # read for its tooldata and wobjdata, never for targets
-        elif not used and key in sym.relative:
-            function, line = sym.relative[key]
-            why = (
-                f"data, left alone: reached only through {function}(...) (line {line}), an offset the controller "
-                "computes from it at run time"
-            )
-        elif not used and sym.motions:
-            why = DATA
+        why, used = _kept(sym, file, key, why)
         held = _held(rt, not used or key in sym.held or (key[0], "*") in sym.held)
         targets.append(_target(file, written_name, held, frames, why, after=sym.after.get(key), warning=warning))
     targets += [
@@ -736,6 +850,26 @@ def read(program: str, files: Mapping[str, str]) -> Program:
         )
     ]
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))
+
+
+def _kept(sym: Symbols, file: str | None, key: tuple[str, str | None], why: str | None) -> tuple[str | None, bool]:
+    """Why a robtarget is kept (None: it is compensated; `why` is its frames' reason) and whether a motion
+    goes to it. Its value changed at run time, or a motion of an unknown layout, keep it before its frames."""
+    near = (key, (key[0], None), (key[0], "*"))
+    moved = next((sym.moved[k] for k in near if k in sym.moved), None)
+    unread = next((sym.unread[k] for k in near if k in sym.unread), None)
+    used = key in sym.uses or (key[1] is not None and (key[0], "*") in sym.uses) or unread is not None
+    if file is not None and file.lower().endswith(SYSTEM_SUFFIX):
+        return SYSTEM_DATA, used  # read for its tooldata and wobjdata, never for targets
+    if not used and key in sym.relative:
+        function, line = sym.relative[key]
+        return (
+            f"data, left alone: reached only through {function}(...) (line {line}), an offset the controller "
+            "computes from it at run time"
+        ), used
+    if not used:
+        return (DATA if sym.motions else why), used
+    return moved or unread or why, used
 
 
 def _declared_type(body: list[Token], sym: Symbols) -> None:

@@ -8,6 +8,7 @@ and block ends written before its statement: `ENDPROC PROC main() MoveL ...`, `I
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from programs.lexer import Token
 
@@ -214,3 +215,61 @@ def params(tokens: list[Token]) -> list[Param]:
             out.append(Param(names[-1].text.lower(), mode, group[0].is_("op", "\\")))
         group = []
     return out
+
+
+class Layout(NamedTuple):
+    """Where a motion instruction's positional arguments are (the optional ones, `\\WObj:=`, `\\T2:=`,
+    `\\Weave:=`, are named and not counted)."""
+
+    shape: str
+    """Its positional arguments as the RAPID manuals name them: an error names the one missing."""
+    targets: tuple[int, ...]
+    """The robtargets the robot moves to (a circle's CirPoint, then its ToPoint)."""
+    tool: int
+    """The tooldata: its index, or counted from the end where process arguments stand between the zone and
+    the tool in one version and not in another (ArcL's Weave, SpotWare's Gun): the tool is the last."""
+    written: tuple[int, ...] = ()
+    """The robtargets the instruction writes: SearchL's SearchPoint is where the signal came."""
+    joint: bool = False
+    """An axis-wise motion (ConfJ applies) rather than a linear or circular one (ConfL)."""
+
+
+def _layouts() -> dict[str, Layout]:
+    """The motions whose argument layout is read (the RAPID Instructions reference manual; the Arc, Spot and
+    Paint options' manuals; checked against modules as robot cells save them)."""
+    out: dict[str, Layout] = {}
+    for kind in ("", "do", "ao", "go", "sync"):
+        extra = {"": "", "sync": ", ProcName"}.get(kind, ", Signal, Value")
+        out["movel" + kind] = Layout("ToPoint, Speed, Zone, Tool" + extra, (0,), 3)
+        out["movej" + kind] = Layout("ToPoint, Speed, Zone, Tool" + extra, (0,), 3, joint=True)
+        out["movec" + kind] = Layout("CirPoint, ToPoint, Speed, Zone, Tool" + extra, (0, 1), 4)
+    out["triggl"] = Layout("ToPoint, Speed, Trigg_1, Zone, Tool", (0,), -1)
+    out["triggj"] = out["triggl"]._replace(joint=True)
+    out["triggc"] = Layout("CirPoint, ToPoint, Speed, Trigg_1, Zone, Tool", (0, 1), -1)
+    out["trigglios"] = Layout("ToPoint, Speed, Zone, Tool", (0,), -1)
+    out["triggjios"] = out["trigglios"]._replace(joint=True)
+    out["searchl"] = Layout("Signal, SearchPoint, ToPoint, Speed, Tool", (2,), -1, written=(1,))
+    out["searchc"] = Layout("Signal, SearchPoint, CirPoint, ToPoint, Speed, Tool", (2, 3), -1, written=(1,))
+    for end in ("", "start", "end"):
+        out["arcl" + end] = Layout("ToPoint, Speed, Seam, Weld, Zone, Tool", (0,), -1)
+        out["arcc" + end] = Layout("CirPoint, ToPoint, Speed, Seam, Weld, Zone, Tool", (0, 1), -1)
+    out["paintl"] = Layout("ToPoint, Speed, Zone, Tool", (0,), -1)
+    out["paintc"] = Layout("CirPoint, ToPoint, Speed, Zone, Tool", (0, 1), -1)
+    out["spotl"] = Layout("ToPoint, Speed, Spot, Tool", (0,), -1)
+    out["spotj"] = out["spotl"]._replace(joint=True)
+    return out
+
+
+LAYOUTS = _layouts()
+UNREAD_MOTIONS = frozenset(
+    {"spotml", "spotmj", "displ", "dispc", "capl", "capc", "contactl", "cssdeactmovel", "calibl", "calibj"}
+    | {"measurewearl", "nutl", "nutj", "paintlsig", "paintldo", "egmmovel", "egmmovec", "movepnp", "arcrepl"}
+    | {"arcl1", "arcl2", "arcc1", "arcc2", "arcl1start", "arcl2start", "arcc1start", "arcc2start", "arcl1end"}
+    | {"arcl2end", "arcc1end", "arcc2end", "arcadaptlstart", "arcadaptl", "arcadaptc", "arcadaptlend"}
+    | {"arcadaptcend", "arcadaptrepl", "arccalclstart", "arccalcl", "arccalcc", "arccalclend", "arccalccend"}
+    | {"smovel", "smoveldo", "smovelgo", "smovelsync", "smovej", "smovejdo", "smovejgo", "smovejsync"}
+    | {"ssearchl", "striggl", "striggj", "daprocml", "daprocmj"}
+)
+"""Motions of RobotWare options (dispense, continuous application platform, multi-gun spot, Weldguide,
+home-position running, ...) whose argument layout the reader has not confirmed: their robtargets are kept,
+never read as data nor compensated in a tool or work object guessed."""
