@@ -4,12 +4,13 @@ A robtarget is `[[x, y, z], [q1, q2, q3, q4], [cf1, cf4, cf6, cfx], [eax_a, ...,
 work object's object frame, a unit quaternion with q1 the scalar, the configuration (quarter turns of axes 1,
 4 and 6, and the arm's configuration number) and the external axes (9E9 where none). The targets are the
 robtarget data (CONST, PERS or VAR; LOCAL or TASK; arrays `{n}` by element; values given with `:=` in a
-declaration or an assignment) and the robtargets written inside motions (MoveL, MoveJ, MoveC and their DO,
-Sync and AO variants). A motion's tool (`tooldata`, its tframe) and its work object (`\\WObj:=`, uframe ·
-oframe of the `wobjdata`) are the frames it is taught in; `tool0` is the flange and `wobj0` the robot's base.
-A tooldata or wobjdata the program changes at run time (other than by one literal value), and a program
-displacement in force (PDispOn, PDispSet), keep the targets moved to with them; a call of a routine no sent
-module defines warns the motions after it (docs/controller.md, "Frames").
+declaration or an assignment) and the robtargets written inside motions (Move*, and the Trigg, Search, Arc,
+Spot and Paint motions, each where `rapid_statements.LAYOUTS` puts its targets and its tool). A motion's tool
+(`tooldata`, its tframe) and its work object (`\\WObj:=`, uframe · oframe of the `wobjdata`) are the frames it is
+taught in; `tool0` is the flange and `wobj0` the robot's base. A tooldata, wobjdata or robtarget the program
+changes at run time (other than by one literal value), a program displacement in force (PDispOn, PDispSet)
+and a motion whose layout the reader does not know keep the targets moved to with them; a call of a routine
+no sent module defines warns the motions after it (docs/controller.md, "Frames").
 jointtargets, speeds, zones and every other datum are kept as written. `!` starts a comment; statements end
 with `;` and may span lines.
 """
