@@ -4,9 +4,13 @@ A robtarget is `[[x, y, z], [q1, q2, q3, q4], [cf1, cf4, cf6, cfx], [eax_a, ...,
 work object's object frame, a unit quaternion with q1 the scalar, the configuration (quarter turns of axes 1,
 4 and 6, and the arm's configuration number) and the external axes (9E9 where none). The targets are the
 robtarget data (CONST, PERS or VAR; LOCAL or TASK; arrays `{n}` by element; values given with `:=` in a
-declaration or an assignment) and the robtargets written inside motions (MoveL, MoveJ, MoveC and their DO,
-Sync and AO variants). A motion's tool (`tooldata`, its tframe) and its work object (`\\WObj:=`, uframe ·
-oframe of the `wobjdata`) are the frames it is taught in; `tool0` is the flange and `wobj0` the robot's base.
+declaration or an assignment) and the robtargets written inside motions (Move*, and the Trigg, Search, Arc,
+Spot and Paint motions, each where `rapid_statements.LAYOUTS` puts its targets and its tool). A motion's tool
+(`tooldata`, its tframe) and its work object (`\\WObj:=`, uframe · oframe of the `wobjdata`) are the frames it is
+taught in; `tool0` is the flange and `wobj0` the robot's base. A tooldata, wobjdata or robtarget the program
+changes at run time (other than by one literal value), a program displacement in force (PDispOn, PDispSet)
+and a motion whose layout the reader does not know keep the targets moved to with them; a call of a routine
+no sent module defines warns the motions after it (docs/controller.md, "Frames").
 jointtargets, speeds, zones and every other datum are kept as written. `!` starts a comment; statements end
 with `;` and may span lines.
 """
@@ -16,14 +20,37 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 
 from models._types import Array
 from programs.aggregates import Number, Opaque, Value, literal_or_expression
+from programs.errors import ProgramSyntaxError
 from programs.frames import quaternion_matrix, quaternions_like, transform
 from programs.lexer import Cursor, Lexer, Token, undeclared
-from programs.targets import PROGRAM, Configuration, Frames, JointMove, Program, Target, target_at, written
+from programs.rapid_statements import (
+    FRAME_SETTERS,
+    INSTRUCTIONS,
+    LAYOUTS,
+    UNREAD_MOTIONS,
+    Param,
+    Split,
+    params,
+    path_end,
+    split,
+)
+from programs.targets import (
+    PROGRAM,
+    Configuration,
+    Frames,
+    JointMove,
+    Program,
+    Target,
+    target_at,
+    unfollowed_call,
+    written,
+)
 
 NAME = "rapid"
 LEXER = Lexer(
@@ -41,19 +68,11 @@ LEXER = Lexer(
 STORAGE = frozenset({"const", "pers", "var"})
 FRAME_TYPES = frozenset({"robtarget", "tooldata", "wobjdata", "jointtarget"})
 """The data this reader reads the values of: the targets and the frames they are taught in."""
-MOTIONS = {
-    name: points
-    for points, names in (
-        (1, ("movel", "movej", "moveldo", "movejdo", "movelsync", "movejsync", "movelao", "movejao")),
-        (2, ("movec", "movecdo", "movecsync", "movecao")),
-    )
-    for name in names
-}
-"""Each motion's number of robtarget arguments; its tool is the positional argument two after them."""
 SYSTEM_SUFFIX = ".sys"
 """System modules (user.sys, base.sys, a cell's tool and wobj declarations) are read for what they declare."""
 DATA = "data, left alone: no motion of the program goes to it"
 SYSTEM_DATA = "data, left alone: a system module (.sys), read for what it declares (tooldata, wobjdata)"
+K = TypeVar("K")
 MIN_DECIMALS = (3, 3, 3, 6, 6, 6, 6)
 """mm to 1 µm, quaternions to 1e-6 (2e-6 rad): the correction survives its printing."""
 
@@ -191,15 +210,56 @@ def wobjdata(value: Agg | Value, cur: Cursor) -> FrameData:
     return FrameData(pose, None if pose is not None else "the work object's frames are not literal numbers")
 
 
+class Use(NamedTuple):
+    """A motion to a named robtarget: its frames, why its target is kept, its line, the program displacement in
+    force there and the warning of a routine's call before it (in the text's order)."""
+
+    frames: Frames
+    why: str | None
+    line: int
+    displaced: str | None
+    warning: str | None
+
+
 @dataclass
 class Symbols:
+    texts: Mapping[str | None, str] = field(default_factory=dict)
     types: dict[str, str] = field(default_factory=dict)
     robtargets: list[tuple[str | None, str, tuple[str, str | None], Robtarget]] = field(default_factory=list)
     """(file, name as written, (name, index), value) of every robtarget given a value."""
     frames: dict[str, FrameData] = field(default_factory=dict)
     arrays: set[str] = field(default_factory=set)
-    uses: dict[tuple[str, str | None], list[tuple[Frames, str | None, int]]] = field(default_factory=dict)
+    given: dict[str, tuple[FrameData, str]] = field(default_factory=dict)
+    """Per tooldata and wobjdata: its literal value and where it was given (`line 3`, `line 2 of cell.sys`)."""
+    unknown: dict[str, str] = field(default_factory=dict)
+    """Per tooldata and wobjdata the program changes other than by one literal value: why its frame is unknown."""
+    robtarget_given: dict[tuple[str, str | None], tuple[Robtarget, str]] = field(default_factory=dict)
+    """Per robtarget (array element): its first literal value and where it was given."""
+    moved: dict[tuple[str, str | None], str] = field(default_factory=dict)
+    """Per robtarget (an array's element, None: all of it, `*`: one the text does not say) the program changes
+    other than by one literal value: why the point the robot goes to is known only at run time."""
+    unread: dict[tuple[str, str | None], str] = field(default_factory=dict)
+    """Robtargets named in a motion whose argument layout the reader does not know: why they are kept."""
+    routines: dict[str, list[Param]] = field(default_factory=dict)
+    """The routines (PROC, FUNC, TRAP) the sent modules define, by name, with their parameters."""
+    writes: dict[str, set[str]] = field(default_factory=dict)
+    """Per routine the names it assigns or passes to an instruction that writes them."""
+    calls: list[tuple[str, str, list[Token], str | None]] = field(default_factory=list)
+    """(caller, callee, statement, file) of every call of a routine in a routine."""
+    unsent: dict[str, str] = field(default_factory=dict)
+    """Per routine of the files: the routine not among the files it calls, itself or through the ones it calls."""
+    routine: str | None = None
+    displaced_routines: dict[str, tuple[str, int]] = field(default_factory=dict)
+    """Routines of the files called (in the text's order) under a program displacement, or called by such a
+    routine: their motions are displaced too, from their start."""
+    displaced: tuple[str, int] | None = None
+    """The PDispOn or PDispSet in force in the text's order within a routine, or the one the routine is called
+    under (the instruction as written, its line)."""
+    unfollowed: tuple[str, int] | None = None
+    """The last call, in the routine being read, of a routine not among the files (its name, its line)."""
+    uses: dict[tuple[str, str | None], list[Use]] = field(default_factory=dict)
     inline: list[tuple[str | None, Robtarget, Frames, str | None]] = field(default_factory=list)
+    inline_warnings: list[str | None] = field(default_factory=list)
     jointtargets: dict[str, JointMove] = field(default_factory=dict)
     last_joints: JointMove | None = None
     after: dict[tuple[str, str | None], JointMove | None] = field(default_factory=dict)
@@ -211,24 +271,6 @@ class Symbols:
     relative: dict[tuple[str, str | None], tuple[str, int]] = field(default_factory=dict)
     """Robtargets a motion reaches only through a function of them (Offs, RelTool): the function, its line."""
     motions: int = 0
-
-
-def _start(run: list[Token]) -> int:
-    """Where the statement begins in a run: after a block's header (PROC main(), IF c THEN, MODULE m ...)."""
-    for k, tok in enumerate(run):
-        word = tok.text.lower()
-        if tok.kind != "name":
-            continue
-        if word in ("local", "task"):
-            # LOCAL PERS ...: a declaration; LOCAL PROC / FUNC / TRAP / RECORD: a block's header, skipped
-            if k + 1 < len(run) and run[k + 1].text.lower() in (*STORAGE, "local", "task"):
-                return k
-            continue
-        if word in STORAGE or word in MOTIONS or word in ("confl", "confj", "moveabsj"):
-            return k
-        if k + 1 < len(run) and (run[k + 1].is_("op", ":=") or run[k + 1].is_("op", "{")):
-            return k
-    return len(run)
 
 
 def _index(cur: Cursor) -> str | None:
@@ -270,11 +312,11 @@ def _given(
         for k, element in enumerate(elements, start=1):
             index = str(k) if array else None
             written_name = name.text + (f"{{{k}}}" if array else "")
-            sym.robtargets.append((file, written_name, (key, index), robtarget(element, cur)))
-    elif type_name == "tooldata":
-        sym.frames[key] = tooldata(value, cur)
-    elif type_name == "wobjdata":
-        sym.frames[key] = wobjdata(value, cur)
+            _robtarget_given(sym, file, written_name, (key, index), robtarget(element, cur))
+    elif type_name in ("tooldata", "wobjdata"):
+        _frame_given(
+            sym, name.text, (tooldata if type_name == "tooldata" else wobjdata)(value, cur), _where(file, name)
+        )
     elif type_name == "jointtarget" and not array:
         found = _joints(value, name.line)
         if found is not None:
@@ -304,6 +346,97 @@ def _arguments(tokens: list[Token]) -> tuple[list[list[Token]], dict[str, list[T
     return [p for p in positional if p], optional
 
 
+def _where(file: str | None, tok: Token) -> str:
+    return f"line {tok.line}" + (f" of {file}" if file is not None else "")
+
+
+def _quote(sym: Symbols, file: str | None, body: list[Token]) -> str:
+    """The statement as written (its spaces collapsed, cut at 80 characters), for a reason naming it."""
+    text = " ".join(sym.texts.get(file, "")[body[0].start : body[-1].end].split()) + ";"
+    return text if len(text) <= 80 else text[:77] + "...;"
+
+
+def _frame_given(sym: Symbols, name: str, data: FrameData, where: str) -> None:
+    """A literal value given to a tooldata or wobjdata; a second, different one leaves its frame unknown (which
+    one a motion uses depends on the order the controller runs them). The same value twice is one value."""
+    key = name.lower()
+    before = sym.given.get(key)
+    sym.frames[key] = data
+    if before is None:
+        sym.given[key] = (data, where)
+        return
+    old, old_where = before
+    if old.kept != data.kept or not _same(old.matrix, data.matrix):
+        _second_value(sym.unknown, key, f"{sym.types.get(key, 'the frame')} {name}", old_where, where)
+
+
+def _robtarget_given(
+    sym: Symbols, file: str | None, written_name: str, key: tuple[str, str | None], rt: Robtarget
+) -> None:
+    """A literal value given to a robtarget (or an array's element); a second, different one leaves the point
+    the robot goes to unknown, as for a frame."""
+    sym.robtargets.append((file, written_name, key, rt))
+    where = _where(file, rt.open)
+    old, old_where = sym.robtarget_given.setdefault(key, (rt, where))
+    same_conf = (old.configuration and old.configuration.values) == (rt.configuration and rt.configuration.values)
+    if old is not rt and not (same_conf and _same(old.pose, rt.pose) and (old.pose is not None or old == rt)):
+        _second_value(sym.moved, key, f"robtarget {written_name}", old_where, where)
+
+
+def _same(a: Array | None, b: Array | None) -> bool:
+    """The same literal value (`0` and `0.0`, within 1e-9 mm)."""
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.allclose(a, b, atol=1e-9, equal_nan=True))
+
+
+def _second_value(found: dict[K, str], key: K, what: str, before: str, where: str) -> None:
+    found.setdefault(
+        key,
+        f"{what} is given two different values ({before} and {where}): which one the controller uses when it "
+        "moves depends on the order it runs them, so the target is kept as written",
+    )
+
+
+def _changed(
+    sym: Symbols, name: str, file: str | None, body: list[Token], how: str = "", *, index: str | None = None
+) -> None:
+    """A tooldata or wobjdata changed at run time other than by a literal: its frame is known only then; a
+    robtarget (or an array's element, `index`) so changed: the point the robot goes to is known only then."""
+    key = name.lower()
+    point = sym.types.get(key) == "robtarget"
+    shown = name + (f"{{{index}}}" if index not in (None, "*") else "")
+    why = (
+        f"{sym.types.get(key, 'the frame')} {shown} is changed at run time by `{_quote(sym, file, body)}` "
+        f"({_where(file, body[0])}){how}: "
+        f"{'the point the robot goes to' if point else 'the frame the controller moves in'} is known only then, "
+        "so the target is kept as written"
+    )
+    if point:
+        sym.moved.setdefault((key, index), why)
+    else:
+        sym.unknown.setdefault(key, why)
+
+
+def _written(sym: Symbols, arg: list[Token], file: str | None, body: list[Token]) -> None:
+    """A datum an instruction writes (an INOUT argument): noted for the routine writing it (a parameter it
+    writes changes what its callers pass), and a robtarget, tooldata or wobjdata so changed at run time."""
+    if not arg or arg[0].kind != "name" or (len(arg) > 1 and not arg[1].is_("op", "{")):
+        return
+    name, index = _named(arg, file)
+    if sym.routine is not None:
+        sym.writes.setdefault(sym.routine, set()).add(name)
+    if _tracked(sym, name):
+        _changed(sym, arg[0].text, file, body, index=index)
+
+
+def _named(arg: list[Token], file: str | None) -> tuple[str, str | None]:
+    """A datum named in an argument, `p10` or `path{2}`: its name and index (`*` where not a literal)."""
+    ref = Cursor(arg, file, "the argument")
+    ref.next()
+    return arg[0].text.lower(), _index(ref)
+
+
 def _frame(sym: Symbols, tokens: list[Token], default: str, file: str | None) -> tuple[Array | None, str, str | None]:
     """A motion's tool or work object by its name: (matrix, name, kept-reason); UndeclaredFrame if unknown."""
     if not tokens:
@@ -313,43 +446,121 @@ def _frame(sym: Symbols, tokens: list[Token], default: str, file: str | None) ->
     if len(tokens) == 1 and word in ("tool0", "wobj0"):
         return np.eye(4), name.text, None
     found = sym.frames.get(word) if len(tokens) == 1 else None
+    unknown = sym.unknown.get(word) if len(tokens) == 1 else None
+    if found is None and unknown is not None:
+        return np.eye(4), name.text, unknown  # declared without a value and set at run time
     if found is None:
         what = "".join(t.text for t in tokens)
         raise undeclared(f"{what} is not a tooldata or wobjdata the program or its files declare", file, name)
-    return found.matrix if found.matrix is not None else np.eye(4), name.text, found.kept
+    return found.matrix if found.matrix is not None else np.eye(4), name.text, unknown or found.kept
+
+
+def _in_force(sym: Symbols, frames: Frames) -> tuple[str | None, str | None]:
+    """The program displacement in force at a motion (its reason), and the warning of a call before it that may
+    have set its tool or work object."""
+    displaced = None
+    if sym.displaced is not None:
+        what, line = sym.displaced
+        displaced = (
+            f"under the program displacement of {what} (line {line}), in force until PDispOff: "
+            "the controller moves the target by a displacement known only at run time, so it is kept as written"
+        )
+    named = [
+        f"{kind} {name}"
+        for kind, name in (("tooldata", frames.tool_name), ("wobjdata", frames.base_name))
+        if name is not None and name.lower() not in ("tool0", "wobj0")
+    ]
+    if sym.unfollowed is None or not named:
+        return displaced, None
+    return displaced, unfollowed_call(sym.unfollowed[0], sym.unfollowed[1], " or the ".join(named), compensated="read")
 
 
 def _motion(run: list[Token], sym: Symbols, file: str | None) -> None:
-    points = MOTIONS[run[0].text.lower()]
+    """A motion: its targets taught in its tool and its work object (`\\WObj:=`), where its layout says."""
+    word = run[0].text.lower()
+    layout = LAYOUTS.get(word)
     positional, optional = _arguments(run[1:])
-    cur = Cursor(run, file, f"the {run[0].text} instruction")
-    if len(positional) < points + 3:
-        raise cur.error(f"{run[0].text} needs {points} target(s), a speed, a zone and a tool", run[0])
-    tool, tool_name, tool_kept = _frame(sym, positional[points + 2], "tool0", file)
+    if layout is None:
+        _unread_motion(run, positional, optional, sym, file)
+        return
+    if len(positional) < layout.shape.count(",") + 1:
+        cur = Cursor(run, file, f"the {run[0].text} instruction")
+        raise cur.error(f"{run[0].text} takes {layout.shape} (then its optional arguments)", run[0])
+    tool_arg = positional[layout.tool]
+    declared = sym.types.get(tool_arg[0].text.lower(), "tooldata") if len(tool_arg) == 1 else ""
+    if layout.tool < 0 and declared != "tooldata":
+        # The argument taken for the tool is another datum: a version of the instruction the reader does not know
+        _unread_motion(run, positional, optional, sym, file)
+        return
+    tool, tool_name, tool_kept = _frame(sym, tool_arg, "tool0", file)
     wobj, wobj_name, wobj_kept = _frame(sym, optional.get("wobj", []), "wobj0", file)
     frames = Frames(wobj if wobj is not None else np.eye(4), tool, wobj_name, tool_name)
     why = tool_kept or wobj_kept
-    held = not sym.conf_off["movel" if run[0].text.lower().startswith(("movel", "movec")) else "movej"]
-    for arg in positional[:points]:
-        if arg[0].is_("op", "["):
-            inner = Cursor(arg, file, "the robtarget")
-            sym.inline.append((file, robtarget(parse_aggregate(inner), inner), frames, why))
-            sym.inline_after.append((sym.last_joints, held))
-        elif arg[0].kind == "name" and (len(arg) == 1 or arg[1].is_("op", "{")):
-            ref = Cursor(arg, file, "the robtarget")
-            ref.next()
-            key = (arg[0].text.lower(), _index(ref))
-            sym.uses.setdefault(key, []).append((frames, why, arg[0].line))
-            sym.after.setdefault(key, sym.last_joints)
-            if held:
-                sym.held.add(key)
-        elif arg[0].kind == "name" and len(arg) > 3 and arg[1].is_("op", "(") and arg[2].kind == "name":
-            # Offs(p10, ...), RelTool(...): a function of a target, computed by the controller at run time
-            inner = Cursor(arg[2:], file, "the robtarget")
-            inner.next()
-            key = (arg[2].text.lower(), _index(inner))
-            sym.relative.setdefault(key, (arg[0].text, arg[0].line))
+    displaced, warning = _in_force(sym, frames)
+    held = not sym.conf_off["movej" if layout.joint else "movel"]
+    for k in layout.targets:
+        arg = positional[k]
+        _motion_target(arg, sym, file, Use(frames, why, arg[0].line, displaced, warning), held=held)
     sym.motions += 1
+
+
+def _motion_target(arg: list[Token], sym: Symbols, file: str | None, use: Use, *, held: bool) -> None:
+    """A robtarget a motion goes to: written in it, named (`p10`, `path{2}`), or a function of one (Offs)."""
+    if arg[0].is_("op", "["):
+        inner = Cursor(arg, file, "the robtarget")
+        sym.inline.append((file, robtarget(parse_aggregate(inner), inner), use.frames, use.why or use.displaced))
+        sym.inline_after.append((sym.last_joints, held))
+        sym.inline_warnings.append(use.warning)
+    elif arg[0].kind == "name" and (len(arg) == 1 or arg[1].is_("op", "{")):
+        key = _named(arg, file)
+        sym.uses.setdefault(key, []).append(use)
+        sym.after.setdefault(key, sym.last_joints)
+        if held:
+            sym.held.add(key)
+    elif arg[0].kind == "name" and len(arg) > 3 and arg[1].is_("op", "(") and arg[2].kind == "name":
+        # Offs(p10, ...), RelTool(...): a function of a target, computed by the controller at run time
+        sym.relative.setdefault(_named(arg[2:], file), (arg[0].text, arg[0].line))
+
+
+def _unread_motion(
+    run: list[Token], positional: list[list[Token]], optional: dict[str, list[Token]], sym: Symbols, file: str | None
+) -> None:
+    """A motion whose argument layout the reader does not know: every robtarget it names or writes is kept
+    (where its tool and work object are is not known, so no frame is guessed)."""
+    why = (
+        f"moved to by `{_quote(sym, file, run)}` ({_where(file, run[0])}), a motion the reader does not know the "
+        "layout of: its tool and work object are not read, so the target is kept as written"
+    )
+    for arg in [*positional, *optional.values()]:
+        if arg and arg[0].is_("op", "["):
+            literal = _maybe_robtarget(arg, file)
+            if literal is not None:
+                sym.inline.append((file, literal, Frames(), why))
+                sym.inline_after.append((sym.last_joints, True))
+                sym.inline_warnings.append(None)
+        elif arg and arg[0].kind == "name" and sym.types.get(arg[0].text.lower()) == "robtarget":
+            sym.unread.setdefault(_named(arg, file), why)
+    sym.motions += 1
+
+
+def _maybe_robtarget(arg: list[Token], file: str | None) -> Robtarget | None:
+    """An aggregate argument read as a robtarget, None where it is another datum (a speeddata written out)."""
+    inner = Cursor(arg, file, "the robtarget")
+    try:
+        return robtarget(parse_aggregate(inner), inner)
+    except ProgramSyntaxError:
+        return None
+
+
+def _written_by_motion(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """The robtargets a motion writes (SearchL's SearchPoint): changed at run time."""
+    layout = LAYOUTS.get(body[0].text.lower())
+    if layout is None or not layout.written:
+        return
+    positional, _ = _arguments(body[1:])
+    for k in layout.written:
+        if k < len(positional):
+            _written(sym, positional[k], file, body)
 
 
 def _joint_motion(run: list[Token], sym: Symbols) -> None:
@@ -365,57 +576,201 @@ def _joint_motion(run: list[Token], sym: Symbols) -> None:
         sym.last_joints = sym.jointtargets.get(arg[0].text.lower())
 
 
-def _statement(run: list[Token], sym: Symbols, file: str | None, declarations: bool) -> None:
-    run = run[_start(run) :]
-    if not run:
-        return
-    word = run[0].text.lower()
-    cur = Cursor(run, file, "the statement")
+def _kind(body: list[Token], sym: Symbols) -> str:
+    """What a statement is: a declaration, a motion, an assignment, an instruction, a call (of a routine of the
+    files, of one not among them, or late bound) or something the reader has no use for."""
+    if body[0].is_("op", "%"):
+        return "late"
+    if body[0].kind != "name":
+        return "other"
+    word = body[0].text.lower()
     if word in STORAGE or word in ("local", "task"):
-        if declarations:
-            _declaration(cur, sym, file)
-    elif word in MOTIONS:
-        if not declarations:
-            _motion(run, sym, file)
-    elif word in ("confl", "confj"):
-        if not declarations:  # ConfL \Off: the controller takes the solution nearest the current joints
-            sym.conf_off["movel" if word == "confl" else "movej"] = any(t.text.lower() == "off" for t in run[1:])
-    elif word == "moveabsj":
-        if not declarations:
-            _joint_motion(run, sym)
-    elif declarations:
-        _assignment(cur, sym, file)
+        return "declaration"
+    if word in LAYOUTS or word in UNREAD_MOTIONS:
+        return "motion"
+    if word in ("confl", "confj", "moveabsj", "pdispon", "pdispset", "pdispoff", "callbyvar"):
+        return word
+    if path_end(body) is not None:
+        return "assignment"
+    if word in FRAME_SETTERS or word in ("setdataval", "setalldataval"):
+        return "setter"
+    if word in INSTRUCTIONS or (len(body) > 1 and body[1].is_("op", "(")):
+        return "other"  # RAPID's own, or `f(...)` alone: no procedure call is written with parentheses
+    return "routine" if word in sym.routines else "unsent"
 
 
-def _assignment(cur: Cursor, sym: Symbols, file: str | None) -> None:
-    """`p10 := [...]`, `path{2} := [...]`: a literal given to declared data in a routine."""
+def _declare(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """The declarations pass: data declared, literal values given, frames changed, routines' calls noted."""
+    kind = _kind(body, sym)
+    if kind == "declaration":
+        _declaration(Cursor(body, file, "the statement"), sym, file)
+    elif kind == "assignment":
+        if sym.routine is not None:
+            sym.writes.setdefault(sym.routine, set()).add(body[0].text.lower())
+        _assignment(body, sym, file)
+    elif kind == "setter":
+        _setter(body, sym, file)
+    elif kind == "motion":
+        _written_by_motion(body, sym, file)
+    elif kind in ("routine", "unsent", "late", "callbyvar") and sym.routine is not None:
+        callee = body[0].text.lower() if kind == "routine" else _call_name(body, sym, file, kind)
+        sym.calls.append((sym.routine, callee, body, file))
+        if kind == "routine" and sym.displaced is not None:
+            sym.displaced_routines.setdefault(callee, sym.displaced)
+    elif kind in ("pdispon", "pdispset", "pdispoff"):
+        sym.displaced = None if kind == "pdispoff" else (body[0].text, body[0].line)
+
+
+def _walk(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """The motions pass, in the text's order: motions, Conf, MoveAbsJ, program displacement, calls."""
+    kind = _kind(body, sym)
+    word = body[0].text.lower()
+    if kind == "motion":
+        _motion(body, sym, file)
+    elif kind in ("confl", "confj"):  # ConfL \Off: the controller takes the solution nearest the current joints
+        sym.conf_off["movel" if word == "confl" else "movej"] = any(t.text.lower() == "off" for t in body[1:])
+    elif kind == "moveabsj":
+        _joint_motion(body, sym)
+    elif kind in ("pdispon", "pdispset"):
+        sym.displaced = (body[0].text, body[0].line)
+    elif kind == "pdispoff":
+        sym.displaced = None
+    elif kind in ("unsent", "late", "callbyvar"):
+        sym.unfollowed = (_call_name(body, sym, file, kind), body[0].line)
+    elif kind == "routine" and word in sym.unsent:
+        sym.unfollowed = (f"{sym.unsent[word]} (through {body[0].text})", body[0].line)
+
+
+def _call_name(body: list[Token], sym: Symbols, file: str | None, kind: str) -> str:
+    """A call's routine as written: its name, or the late-bound expression (`%"proc" + s%`, CallByVar)."""
+    return body[0].text if kind == "unsent" else _quote(sym, file, body).rstrip(";")
+
+
+def _assignment(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """`p10 := [...]`, `path{2} := [...]`: a literal given to declared data in a routine; a tooldata or wobjdata
+    given anything else (a field, an expression, a function's value) is changed at run time."""
+    cur = Cursor(body, file, "the statement")
     name = cur.next()
-    index = _index(cur)
     type_name = sym.types.get(name.text.lower())
+    if type_name in ("tooldata", "wobjdata"):
+        _frame_assignment(body, sym, file)
+        return
+    index = _index(cur)
+    point = type_name == "robtarget"
     if type_name not in FRAME_TYPES or not cur.accept("op", ":="):
+        if point:  # a part of it: `p10.trans.z := p10.trans.z + 5;`
+            _changed(sym, name.text, file, body, index=index)
         return
     nxt = cur.peek()
     if nxt is None or not nxt.is_("op", "["):
-        return  # an expression: Offs(...), another variable
-    value = _item(cur)
-    if type_name == "robtarget" and index is not None:
-        if index != "*":
-            written_name = f"{name.text}{{{index}}}"
-            sym.robtargets.append((file, written_name, (name.text.lower(), index), robtarget(value, cur)))
+        if point:  # CRobT(...), Offs(p20, ...), another robtarget: the point is known at run time only
+            _changed(sym, name.text, file, body, index=index)
         return
-    _given(sym, file, cur, type_name, name, array=name.text.lower() in sym.arrays, value=value)
+    value = _item(cur)
+    if point and (index == "*" or cur.peek() is not None):
+        _changed(sym, name.text, file, body, index=index)  # `path{i} := [...]`: the text does not say which one
+    elif point and index is not None:
+        written_name = f"{name.text}{{{index}}}"
+        _robtarget_given(sym, file, written_name, (name.text.lower(), index), robtarget(value, cur))
+    else:
+        _given(sym, file, cur, type_name, name, array=name.text.lower() in sym.arrays, value=value)
 
 
-def _frames_of(sym: Symbols, key: tuple[str, str | None]) -> tuple[Frames, str | None]:
+def _frame_assignment(body: list[Token], sym: Symbols, file: str | None) -> None:
+    name, at = body[0], path_end(body)
+    if at is None:
+        return
+    if at > 1:
+        if sym.types[name.text.lower()] == "tooldata" and body[1].is_("op", ".") and body[2].is_("name", "tload"):
+            return  # the tool's load: where the TCP is does not change
+        _changed(sym, name.text, file, body)
+        return
+    if at + 1 < len(body) and body[at + 1].is_("op", "[") and name.text.lower() not in sym.arrays:
+        cur = Cursor(body, file, "the statement")
+        cur.i = at + 1
+        _given(sym, file, cur, sym.types[name.text.lower()], name, array=False, value=_item(cur))
+        if cur.peek() is None:
+            return
+    _changed(sym, name.text, file, body)
+
+
+def _setter(body: list[Token], sym: Symbols, file: str | None) -> None:
+    """`MToolTCPCalib p1, p2, p3, p4, tool1, max, mean;` and the other instructions that write an argument,
+    `SetDataVal "wobj1", w;` (the datum named by a string), `SetAllDataVal "tooldata", ...` (every one)."""
+    word = body[0].text.lower()
+    positional, optional = _arguments(body[1:])
+    args = [*positional, *optional.values()]
+    if word in ("setdataval", "setalldataval"):
+        first = positional[0] if positional else []
+        named = first[0].text.strip('"') if len(first) == 1 and first[0].kind == "string" else ""
+        names = [n for n, t in sym.types.items() if t == named.lower()] if word == "setalldataval" else [named]
+        for name in names:
+            if _tracked(sym, name.lower()):
+                _changed(sym, name, file, body)
+        return
+    for arg in args:
+        _written(sym, arg, file, body)
+
+
+def _follow_calls(sym: Symbols) -> None:
+    """After the declarations pass: a call of a routine of the files that writes one of its INOUT, VAR or PERS
+    parameters changes the tooldata or wobjdata passed there; and which routines call, themselves or through
+    others, a routine not among the files (their calls are warned as its call is)."""
+    for _, callee, body, file in sym.calls:
+        if callee not in sym.routines:
+            continue
+        positional, optional = _arguments(body[1:])
+        declared = sym.routines[callee]
+        pairs = list(zip([p for p in declared if not p.optional], positional, strict=False))
+        pairs += [(p, optional[p.name]) for p in declared if p.optional and p.name in optional]
+        for param, arg in pairs:
+            named = arg[0].kind == "name" and (len(arg) == 1 or arg[1].is_("op", "{"))
+            key, index = _named(arg, file) if named else ("", None)
+            if param.writable and param.name in sym.writes.get(callee, ()) and _tracked(sym, key):
+                how = f", where {body[0].text} writes its parameter {param.name}"
+                _changed(sym, arg[0].text, file, body, how, index=index)
+    changed = True
+    while changed:
+        changed = False
+        for caller, callee, _, _ in sym.calls:
+            found = sym.unsent.get(callee) if callee in sym.routines else callee
+            if found is not None and caller not in sym.unsent:
+                sym.unsent[caller] = found
+                changed = True
+            displaced = sym.displaced_routines.get(caller)
+            if displaced is not None and callee in sym.routines and callee not in sym.displaced_routines:
+                sym.displaced_routines[callee] = displaced
+                changed = True
+
+
+def _is_frame(sym: Symbols, key: str) -> bool:
+    return sym.types.get(key) in ("tooldata", "wobjdata")
+
+
+def _tracked(sym: Symbols, key: str) -> bool:
+    """A datum whose change at run time keeps targets: a robtarget, a tooldata, a wobjdata."""
+    return sym.types.get(key) in ("tooldata", "wobjdata", "robtarget")
+
+
+def _frames_of(sym: Symbols, key: tuple[str, str | None]) -> tuple[Frames, str | None, str | None]:
+    """A named robtarget's frames, why it is kept and its warning, from the motions that go to it."""
     uses = sym.uses.get(key, []) + (sym.uses.get((key[0], "*"), []) if key[1] is not None else [])
     if not uses:
-        return Frames(), None
-    first, why, line = uses[0]
-    for frames, other_why, other_line in uses[1:]:
-        if frames.base_name != first.base_name or frames.tool_name != first.tool_name:
-            return first, f"used with different tools or work objects (lines {line} and {other_line})"
-        why = why or other_why
-    return first, why
+        return Frames(), None, None
+    first = uses[0]
+    warning = next((u.warning for u in uses if u.warning is not None), None)
+    for use in uses[1:]:
+        if use.frames.base_name != first.frames.base_name or use.frames.tool_name != first.frames.tool_name:
+            return first.frames, f"used with different tools or work objects (lines {first.line} and {use.line})", None
+    why = next((u.why for u in uses if u.why is not None), None)
+    displaced = next((u for u in uses if u.displaced is not None), None)
+    plain = next((u for u in uses if u.displaced is None), None)
+    if why is None and displaced is not None:
+        why = f"moved to at line {displaced.line} {displaced.displaced}"
+        if plain is not None:
+            # One value serves both motions: the correction of the plain one would move the displaced one too
+            why += f"; also moved to without it (line {plain.line}), and its one value cannot carry both corrections"
+    return first.frames, why, warning
 
 
 def _held(rt: Robtarget, held: bool) -> Robtarget:
@@ -426,7 +781,14 @@ def _held(rt: Robtarget, held: bool) -> Robtarget:
 
 
 def _target(
-    file: str | None, name: str | None, rt: Robtarget, frames: Frames, why: str | None, *, after: JointMove | None
+    file: str | None,
+    name: str | None,
+    rt: Robtarget,
+    frames: Frames,
+    why: str | None,
+    *,
+    after: JointMove | None,
+    warning: str | None = None,
 ) -> Target:
     literal = None if rt.pose is not None else "not literal numbers: the target is known only at run time"
     return target_at(
@@ -440,39 +802,85 @@ def _target(
         configuration=rt.configuration,
         style="quaternion",
         after=after,
+        warning=warning if why is None else None,
     )
+
+
+def _passes(splits: list[tuple[str | None, Split]], sym: Symbols) -> None:
+    """The declarations pass, then the motions pass, each over every file in the text's order. A routine's
+    start ends the warning of a call (its body starts from what its caller set, and a call of it that matters
+    is warned where it is called) and starts the program displacement it is called under (none if it is never
+    called under one)."""
+    for declarations in (True, False):
+        last: object = object()
+        record = False
+        for file, part in splits:
+            if file != last:
+                last, sym.displaced, sym.unfollowed, sym.routine = file, None, None, None
+            if part.routine is not None:
+                sym.routine, sym.unfollowed = part.routine.text.lower(), None
+                sym.displaced = sym.displaced_routines.get(sym.routine)
+            record = part.record if part.record is not None else record
+            if record or not part.body:
+                continue  # a RECORD's fields are no statements
+            (_declare if declarations else _walk)(part.body, sym, file)
+        if declarations:
+            _follow_calls(sym)
 
 
 def read(program: str, files: Mapping[str, str]) -> Program:
     """The robtargets of a module and of the modules in `files` (where its tools and work objects may be)."""
     texts: dict[str | None, str] = {PROGRAM: program}
     texts.update(files)
-    runs = [(name, run) for name, text in texts.items() for run in statements(LEXER.tokens(text, name))]
-    sym = Symbols()
-    for declarations in (True, False):
-        for name, run in runs:
-            _statement(run, sym, name, declarations)
+    splits = [(name, split(run)) for name, text in texts.items() for run in statements(LEXER.tokens(text, name))]
+    sym = Symbols(texts=texts)
+    sym.routines = {p.routine.text.lower(): params(p.params) for _, p in splits if p.routine is not None}
+    for _, part in splits:
+        _declared_type(part.body, sym)
+    _passes(splits, sym)
     targets = []
     for file, written_name, key, rt in sym.robtargets:
-        frames, why = _frames_of(sym, key)
-        used = key in sym.uses or (key[1] is not None and (key[0], "*") in sym.uses)
-        if file is not None and file.lower().endswith(SYSTEM_SUFFIX):
-            why = SYSTEM_DATA  # read for its tooldata and wobjdata, never for targets
-        elif not used and key in sym.relative:
-            function, line = sym.relative[key]
-            why = (
-                f"data, left alone: reached only through {function}(...) (line {line}), an offset the controller "
-                "computes from it at run time"
-            )
-        elif not used and sym.motions:
-            why = DATA
+        frames, why, warning = _frames_of(sym, key)
+        why, used = _kept(sym, file, key, why)
         held = _held(rt, not used or key in sym.held or (key[0], "*") in sym.held)
-        targets.append(_target(file, written_name, held, frames, why, after=sym.after.get(key)))
+        targets.append(_target(file, written_name, held, frames, why, after=sym.after.get(key), warning=warning))
     targets += [
-        _target(file, None, _held(rt, held), frames, why, after=after)
-        for (file, rt, frames, why), (after, held) in zip(sym.inline, sym.inline_after, strict=True)
+        _target(file, None, _held(rt, held), frames, why, after=after, warning=warning)
+        for (file, rt, frames, why), (after, held), warning in zip(
+            sym.inline, sym.inline_after, sym.inline_warnings, strict=True
+        )
     ]
     return Program(NAME, texts, tuple(sorted(targets, key=lambda t: (t.file or "", t.line, t.column))))
+
+
+def _kept(sym: Symbols, file: str | None, key: tuple[str, str | None], why: str | None) -> tuple[str | None, bool]:
+    """Why a robtarget is kept (None: it is compensated; `why` is its frames' reason) and whether a motion
+    goes to it. Its value changed at run time, or a motion of an unknown layout, keep it before its frames."""
+    near = (key, (key[0], None), (key[0], "*"))
+    moved = next((sym.moved[k] for k in near if k in sym.moved), None)
+    unread = next((sym.unread[k] for k in near if k in sym.unread), None)
+    used = key in sym.uses or (key[1] is not None and (key[0], "*") in sym.uses) or unread is not None
+    if file is not None and file.lower().endswith(SYSTEM_SUFFIX):
+        return SYSTEM_DATA, used  # read for its tooldata and wobjdata, never for targets
+    if not used and key in sym.relative:
+        function, line = sym.relative[key]
+        return (
+            f"data, left alone: reached only through {function}(...) (line {line}), an offset the controller "
+            "computes from it at run time"
+        ), used
+    if not used:
+        return (DATA if sym.motions else why), used
+    return moved or unread or why, used
+
+
+def _declared_type(body: list[Token], sym: Symbols) -> None:
+    """A declaration's type, known before any statement is read (a module may assign a tooldata that a module
+    read after it declares)."""
+    names = [t for t in body[:5] if t.kind == "name"]
+    while names and names[0].text.lower() in ("local", "task"):
+        names = names[1:]
+    if len(names) >= 3 and names[0].text.lower() in STORAGE:
+        sym.types[names[2].text.lower()] = names[1].text.lower()
 
 
 def numbers(targets: Sequence[Target], poses: Array) -> list[list[str]]:

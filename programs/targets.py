@@ -92,11 +92,13 @@ class Target:
     files, which may set a base or a tool): compensated in the frames read, with this said."""
 
 
-def unfollowed_call(name: str, line: int, frames: str) -> str:
-    """The warning of a target after a call of a routine whose body was not sent."""
+def unfollowed_call(name: str, line: int, frames: str, *, compensated: str = "set before the call") -> str:
+    """The warning of a target after a call of a routine whose body was not sent. KRL and URScript set their
+    frames in the order of the text ("set before the call"); RAPID's are data, whose values are read from the
+    files ("read")."""
     return (
         f"after the call of {name} at line {line}, a routine not among the files: it may set the {frames}, which "
-        "could not be followed; the target was compensated in the frames set before the call (send the file that "
+        f"could not be followed; the target was compensated in the frames {compensated} (send the file that "
         "defines it)"
     )
 
