@@ -12,7 +12,7 @@ from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 from pydantic import BaseModel
 
-from service.operations import job_scope
+from service.operations import Operation, job_scope
 from service.operations import table as operation_table
 from service.problems import PROBLEM_JSON
 from service.schemas.calibrations import CalibrationCreate
@@ -65,6 +65,15 @@ DECLARED_PROBLEMS = {
 """Problem responses of the operations that declare them (their routes list the status)."""
 
 
+def _secured(operation: dict[str, Any], policy: Operation | None) -> None:
+    """A /v1 operation's key: declared whether or not this instance has keys, so generated clients always send
+    one; the least scope it needs, and the least its `?async=true` form (a stored job) needs."""
+    operation["security"] = [{"ApiKey": []}]
+    operation["x-scope"] = (Scope.admin if policy is None else policy.scope).name
+    if policy is not None and policy.job is not None:
+        operation["x-async-scope"] = job_scope(policy).name
+
+
 def build(app: FastAPI) -> dict[str, Any]:
     schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
     components = schema.setdefault("components", {}).setdefault("schemas", {})
@@ -100,12 +109,7 @@ def build(app: FastAPI) -> dict[str, Any]:
             if path.startswith("/v1") and method == "post":
                 operation.setdefault("parameters", []).append(IDEMPOTENCY_KEY)
             if path.startswith("/v1"):
-                # Declared whether or not this instance has keys, so generated clients always send one.
-                operation["security"] = [{"ApiKey": []}]
-                policy = policies.get((method.upper(), path))
-                operation["x-scope"] = (Scope.admin if policy is None else policy.scope).name
-                if policy is not None and policy.job is not None:
-                    operation["x-async-scope"] = job_scope(policy).name  # `?async=true` stores a job
+                _secured(operation, policies.get((method.upper(), path)))
     schema["components"]["securitySchemes"] = {
         "ApiKey": {
             "type": "apiKey",

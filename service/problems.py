@@ -98,16 +98,16 @@ UNION_TAG_ERRORS = ("union_tag_invalid", "union_tag_not_found")
 """Pydantic places a wrong or missing discriminator at the union's location; the field at fault is the tag."""
 
 
-RECORD_TAGS = frozenset({"tracker", "distance", "point", "plane", "image"})
-"""The member tags of a campaign's record union (`service.schemas.calibrations.CampaignRecord`)."""
-
-
 def _union_member(part: object) -> bool:
-    """Whether a location part names the union member pydantic tried rather than a field: a record's tag, or
-    pydantic's own label of an untagged member (`list[constrained-float]`, `ReferenceCandidate`)."""
+    """Whether a location part names the union member pydantic tried rather than a field: a record's tag (the
+    record kinds' registry, `service.record_kinds.CampaignRecord`), or pydantic's own label of an untagged member
+    (`list[constrained-float]`, `ReferenceCandidate`)."""
+    # Imported here, not above: the record kinds raise this module's problems (service.errors).
+    from service.record_kinds import RECORD_KINDS  # noqa: PLC0415
+
     if not isinstance(part, str):
         return False
-    return part in RECORD_TAGS or "[" in part or part[:1].isupper()
+    return part in RECORD_KINDS or "[" in part or part[:1].isupper()
 
 
 def field_name(loc: list[Any], error_type: str = "") -> str:

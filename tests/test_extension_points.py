@@ -112,15 +112,6 @@ def test_a_function_over_sixty_lines_says_why() -> None:
     assert not unexplained, unexplained
 
 
-RECORD_KIND_AWARE = {
-    "service/schemas/designs.py": "a schema's validator (which design measurements sample poses): the schemas sit "
-    "below the registry, which imports them; it goes when the design's measurement is read from the registry",
-}
-"""The modules outside service/record_kinds/ still allowed to ask a record which kind it is, each with why: the
-list shrinks to empty (issue 43). models/ is not scanned: it knows no record kinds, only its own measurement
-and reference kinds (`test_every_measurement_kind_has_a_whole_model`)."""
-
-
 def _record_kind_words() -> tuple[set[str], set[str]]:
     """The record classes (request and public) and every string that names a record kind or what it measures."""
     from service.record_kinds import RECORD_KINDS  # noqa: PLC0415  (the service only where a test needs it)
@@ -153,24 +144,20 @@ def _asks_a_record_its_kind(node: ast.AST, classes: set[str], words: set[str]) -
 
 @pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_no_module_outside_the_record_kinds_asks_a_record_its_kind() -> None:
+    """Outside service/record_kinds/, no module of the service or of pose design asks a record which kind it is
+    (a string compared with a kind's name, an isinstance of a kind's schema): it looks the kind up in the registry
+    and asks it. (models/ knows no record kinds, only its own measurement and reference kinds:
+    `test_every_measurement_kind_has_a_whole_model`.)"""
     classes, words = _record_kind_words()
     found = []
     for path in _sources(("service", "optimal_design")):
         rel = str(path.relative_to(ROOT))
-        if rel.startswith("service/record_kinds/") or rel in RECORD_KIND_AWARE:
+        if rel.startswith("service/record_kinds/"):
             continue
         for node in ast.walk(ast.parse(path.read_text())):
             if _asks_a_record_its_kind(node, classes, words):
                 found.append(f"{rel}:{getattr(node, 'lineno', '?')} {ast.unparse(node)}")
     assert not found, found
-
-
-@pytest.mark.parametrize("rel", sorted(RECORD_KIND_AWARE))
-def test_every_module_allowed_to_ask_a_record_its_kind_still_does(rel: str) -> None:
-    """An entry whose module no longer asks is removed, so that the list only shrinks."""
-    classes, words = _record_kind_words()
-    tree = ast.parse((ROOT / rel).read_text())
-    assert any(_asks_a_record_its_kind(node, classes, words) for node in ast.walk(tree)), rel
 
 
 def test_the_record_kind_check_sees_what_it_forbids() -> None:
@@ -184,8 +171,8 @@ def test_the_record_kind_check_sees_what_it_forbids() -> None:
 
 
 def test_the_architecture_doc_states_the_record_kinds_and_the_allowed_modules() -> None:
-    """docs/architecture.md's counts match the code: the kinds it names, the modules still allowed to ask, and
-    every file it says a new record kind touches exists."""
+    """docs/architecture.md's counts match the code: the kinds it names, that none is allowed to ask, and every
+    file it says a new record kind touches exists."""
     from service.record_kinds import RECORD_KINDS  # noqa: PLC0415
 
     doc = (ROOT / "docs" / "architecture.md").read_text()
@@ -193,10 +180,7 @@ def test_the_architecture_doc_states_the_record_kinds_and_the_allowed_modules() 
     stated = re.search(r"`tracker`\s+\(the models' pose and position kinds\),(.*?)each one", section, re.S)
     assert stated is not None
     assert ["tracker", *re.findall(r"`(\w+)`", stated.group(1))] == list(RECORD_KINDS)
-    allowed = re.search(r"\((\d+) now: (.*?)\)", section, re.S)
-    assert allowed is not None
-    assert int(allowed.group(1)) == len(RECORD_KIND_AWARE)
-    assert set(re.findall(r"`([\w/.]+)`", allowed.group(2))) == set(RECORD_KIND_AWARE)
+    assert "(0 now:" in section  # no module outside the registry is allowed to ask (the test above)
     listed = re.findall(r"^\d+\. `([\w/.<>]+)`", section, re.M)
     assert f"That is {len(listed)} files" in section
     for rel in listed:

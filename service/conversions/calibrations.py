@@ -21,7 +21,8 @@ from service.conversions.terms import record_conditions
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord
 from service.record_kinds import tracker_records
-from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic, Record
+from service.record_kinds.tracker import Record
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic
 from service.schemas.common import Payload, timestamp
 
 

@@ -16,7 +16,7 @@ from models.campaign import Campaign
 from models.identification.drift import DriftDriver, DriftEstimate, Timeline, find_reference
 from service.errors import BadRequest
 from service.record_kinds import tracker_records
-from service.schemas.calibrations import Record
+from service.record_kinds.tracker import Record
 from service.schemas.common import ConditionsPublic, ConditionWarningPublic, Payload
 
 HOUR_S = 3600.0

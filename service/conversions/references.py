@@ -15,8 +15,7 @@ from models.identification.result import ReferenceEstimate
 from models.measurements.references import ReferenceRecords
 from models.parameters import Kind
 from service.errors import BadRequest
-from service.record_kinds import BY_MODEL, RECORD_KINDS, Described, RecordKind, has_references, kind_of
-from service.schemas.calibrations import CampaignRecord
+from service.record_kinds import BY_MODEL, RECORD_KINDS, CampaignRecord, Described, RecordKind, has_references, kind_of
 
 __all__ = ["Described", "has_references", "reference_groups_in", "references_out"]
 

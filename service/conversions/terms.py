@@ -16,7 +16,7 @@ from models import RobotDescription
 from models._types import Array
 from models.errors import InvalidInput
 from models.terms import Conditions, ModelTerms, make_conditions
-from service.schemas.calibrations import Record
+from service.record_kinds.tracker import Record
 from service.schemas.common import Payload
 
 _COMBINATIONS = (ModelTerms(thermal=True), ModelTerms(compliance=True), ModelTerms(thermal=True, compliance=True))

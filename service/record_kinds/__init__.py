@@ -3,9 +3,9 @@
 `RECORD_KINDS`, so the code that composes a campaign of several kinds looks a record's kind up (`kind_of`) and
 calls it instead of asking which one it holds.
 
-A new record kind is a module here (a `RecordKind`: its models' reference in `models.measurements`, its schemas in
-`service.schemas.references`), its entry in `RECORD_KINDS` and its member of the campaign record union
-(`service.schemas.calibrations.CampaignRecord`, `service.schemas.campaigns.CampaignPublic`);
+A new record kind is a module here (a `RecordKind` with its request and public schemas; its models' reference in
+`models.measurements`) and its entry in `RECORD_KINDS`: the campaign record unions (`CampaignRecord`,
+`PublicRecord`), the tags a problem's location may carry, the kinds a pose design may plan are derived from it.
 tests/service/test_record_kinds_registry.py checks that they agree with each other, with the models'
 `MeasurementKind` and with the OpenAPI document.
 """
@@ -14,15 +14,16 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from types import MappingProxyType
-from typing import Any, cast
+from typing import TYPE_CHECKING, Annotated, Any, Union, cast
+
+from pydantic import Discriminator, Tag
 
 from service.record_kinds.base import SIGMA_COLUMNS, Described, FileRow, RecordKind
 from service.record_kinds.distance import DISTANCE
 from service.record_kinds.image import IMAGE
 from service.record_kinds.plane import PLANE
 from service.record_kinds.point import POINT
-from service.record_kinds.tracker import TRACKER
-from service.schemas.calibrations import Record
+from service.record_kinds.tracker import TRACKER, Record
 from service.schemas.references import record_tag
 
 RECORD_KINDS: Mapping[str, RecordKind] = MappingProxyType(
@@ -43,6 +44,28 @@ BY_REFERENCE: Mapping[str, RecordKind] = MappingProxyType(
 
 BY_MODEL: Mapping[str, RecordKind] = MappingProxyType({kind.model: kind for kind in RECORD_KINDS.values()})
 """Each kind by the models' name of the reference its records measure (`Traits.kind`: an identified reference's)."""
+
+REFERENCE_KINDS: tuple[str, ...] = tuple(name for name, kind in RECORD_KINDS.items() if kind.measures_reference)
+"""The kinds whose records measure a reference the cell owns: what a pose design may plan beside a tracker's."""
+
+RECORD_KIND_ERROR = {
+    "custom_error_type": "record_kind",
+    "custom_error_message": "a record's kind is one of "
+    + ", ".join(repr(name) for name in REFERENCE_KINDS)
+    + ", or absent (a tracker's)",
+}
+
+if TYPE_CHECKING:
+    CampaignRecord = Any
+    PublicRecord = Any
+else:
+    # Built from the registry, in its order (the OpenAPI document's): a record's schema is its kind's.
+    CampaignRecord = Annotated[
+        Union[tuple(Annotated[kind.record, Tag(name)] for name, kind in RECORD_KINDS.items())],  # noqa: UP007
+        Discriminator(record_tag, **RECORD_KIND_ERROR),
+    ]
+    PublicRecord = Union[tuple(kind.public for kind in RECORD_KINDS.values())]  # noqa: UP007
+"""A campaign's record as a request carries it (a tracker's names no `kind`), and as the service gives it back."""
 
 KIND_COLUMN = "kind"
 REFERENCE_COLUMNS = ("reference", "anchor", "plane", "feature", "camera")
@@ -88,11 +111,16 @@ __all__ = [
     "PLANE",
     "POINT",
     "RECORD_KINDS",
+    "RECORD_KIND_ERROR",
     "REFERENCE_COLUMNS",
+    "REFERENCE_KINDS",
     "SIGMA_COLUMNS",
     "TRACKER",
+    "CampaignRecord",
     "Described",
     "FileRow",
+    "PublicRecord",
+    "Record",
     "RecordKind",
     "file_kinds_listed",
     "has_references",

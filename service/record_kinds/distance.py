@@ -4,9 +4,10 @@ origin)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
+from pydantic import Field
 
 from models.measurements.references import Anchor
 from service.campaign_io.errors import CampaignFileError
@@ -14,10 +15,29 @@ from service.campaign_io.records import ImportOptions, length_factor
 from service.campaign_io.tabular import Table
 from service.errors import BadRequest
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell, first_column
-from service.schemas.references import DistanceRecord, DistanceRecordPublic
+from service.schemas.common import JointVector, Public, Strict
+from service.schemas.references import RecordSigma, ReferenceName
 
 DISTANCE_COLUMNS = ("distance_mm", "distance", "length")
 """Where a file gives the distance (the first present is read; a unit in its header is converted)."""
+
+
+class DistanceRecord(Strict):
+    """The TCP's distance to a fixed anchor: a ballbar's centre pivot, a wire or laser sensor's origin."""
+
+    kind: Literal["distance"]
+    joints: JointVector
+    anchor: ReferenceName
+    distance_mm: float = Field(gt=0, le=1e5, description="mm; with the anchor's length_unknown, up to an offset")
+    sigma_mm: RecordSigma | None = None
+
+
+class DistanceRecordPublic(Public):
+    kind: Literal["distance"]
+    joints: list[float]
+    anchor: str
+    distance_mm: float
+    sigma_mm: float | None = None
 
 
 class DistanceKind(RecordKind):

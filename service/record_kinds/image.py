@@ -5,9 +5,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any, ClassVar
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
+from pydantic import Field
 
 from models import RobotDescription
 from models.measurements.camera import Camera, described_camera, read_images
@@ -19,7 +20,8 @@ from service.campaign_io.records import length_factor
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
-from service.schemas.references import ImageRecord, ImageRecordPublic
+from service.schemas.common import JointVector, Position, Public, Strict
+from service.schemas.references import ReferenceName
 
 SEEN_COLUMNS = ("x", "y", "z", "u", "v")
 """An image row's point (x, y, z in the frame it is given in) and its pixel (u, v)."""
@@ -44,10 +46,44 @@ CAMERA_NEEDS = (
         "[[x, y, z], ...]",
     ),
 )
+
 """What a design needs of a camera that a calibration does not: which targets a pose shows, and where on the
 image, depend on where the camera is."""
 _GROUPING = "_image"
 """The image id a record read from a file keeps until the file is read (`reference_table` drops it)."""
+
+
+class SeenPoint(Strict):
+    target_mm: Position = Field(
+        description="The point in the frame the camera sees it in: the tool's (a world-mounted camera, markers on "
+        "the tool) or the world's (a tool-mounted camera, a board in the cell)"
+    )
+    pixel: Annotated[list[Annotated[float, Field(ge=-1e5, le=1e5)]], Field(min_length=2, max_length=2)] = Field(
+        description="[u, v] in px: u across the image, v down it (OpenCV's convention)"
+    )
+
+
+class ImageRecord(Strict):
+    """Where a calibrated camera saw known points at these joints."""
+
+    kind: Literal["image"]
+    joints: JointVector
+    camera: ReferenceName
+    points: list[SeenPoint] = Field(min_length=1, max_length=10_000)
+    sigma_px: float | None = Field(default=None, gt=0, le=100, description="Per pixel coordinate; default 0.1 px")
+
+
+class SeenPointPublic(Public):
+    target_mm: list[float]
+    pixel: list[float]
+
+
+class ImageRecordPublic(Public):
+    kind: Literal["image"]
+    joints: list[float]
+    camera: str
+    points: list[SeenPointPublic]
+    sigma_px: float | None = None
 
 
 class ImageKind(RecordKind):

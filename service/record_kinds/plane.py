@@ -3,17 +3,34 @@
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
 from models.measurements.references import Plane
 from service.errors import BadRequest
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
-from service.schemas.references import PlaneRecord, PlaneRecordPublic
+from service.schemas.common import JointVector, Public, Strict
+from service.schemas.references import RecordSigma, ReferenceName
 
 DEFAULT_PLANE_SIDE = (0.0, 0.0, 1.0)
 """The side a plane is taken to be touched from when its description gives none (the fit's sign only)."""
+
+
+class PlaneRecord(Strict):
+    """The TCP (a probe's ball centre, its radius already added) touching one unknown plane."""
+
+    kind: Literal["plane"]
+    joints: JointVector
+    plane: ReferenceName
+    sigma_mm: RecordSigma | None = None
+
+
+class PlaneRecordPublic(Public):
+    kind: Literal["plane"]
+    joints: list[float]
+    plane: str
+    sigma_mm: float | None = None
 
 
 class PlaneKind(RecordKind):

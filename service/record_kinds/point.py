@@ -3,13 +3,31 @@ reached in several orientations): no reading at all."""
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
 from models.measurements.references import FixedPoint
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
-from service.schemas.references import PointRecord, PointRecordPublic
+from service.schemas.common import JointVector, Public, Strict
+from service.schemas.references import RecordSigma, ReferenceName
+
+
+class PointRecord(Strict):
+    """The TCP on the same unknown fixed point as every record of that name (a sphere in a socket, reached in
+    several orientations): no reading at all."""
+
+    kind: Literal["point"]
+    joints: JointVector
+    point: ReferenceName
+    sigma_mm: RecordSigma | None = None
+
+
+class PointRecordPublic(Public):
+    kind: Literal["point"]
+    joints: list[float]
+    point: str
+    sigma_mm: float | None = None
 
 
 class PointKind(RecordKind):

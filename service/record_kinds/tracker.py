@@ -8,16 +8,52 @@ from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
+from pydantic import Field
 
 from models.measurement import MeasurementKind
 from models.measurements.references import TrackerPositions
 from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import length_factor
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
-from service.schemas.calibrations import Record
-from service.schemas.campaigns import CampaignRecordPublic
+from service.schemas.common import JointVector, Payload, Position, Public, Quaternion, RecordTime, Strict, TemperatureC
 
 POSITION_COLUMNS = ("x", "y", "z")
+
+
+class Record(Strict):
+    joints: JointVector
+    position: Position
+    orientation: Quaternion | None = None
+    sigma_mm: float | None = Field(
+        default=None,
+        gt=0,
+        le=100,
+        description="This record's position uncertainty (1 σ, mm; a tracker's U95 / 2); default: noise.position_mm",
+    )
+    temperature_c: TemperatureC | None = Field(
+        default=None, description="The robot's temperature at this record (°C); required by the thermal term"
+    )
+    payload: Payload | None = Field(default=None, description="This record's payload (default: the campaign's)")
+    time: RecordTime | None = Field(
+        default=None,
+        description="When the record was measured: seconds from any origin, or an ISO 8601 time (without an offset: "
+        "UTC); a drift-aware calibration fits the instrument's drift over it (default: the record order)",
+    )
+    reference: bool = Field(
+        default=False,
+        description="This record measures the campaign's reference pose, the one pose measured again every few "
+        "records of a drift-aware calibration (options.drift); none marked: the pose measured most often",
+    )
+
+
+class CampaignRecordPublic(Public):
+    joints: list[float] = Field(description="[q1 (mm), q2 (mm), q3 (deg), q4 (deg), l1 … l6 (mm)]")
+    position: list[float] = Field(description="mm")
+    orientation: list[float] | None = Field(description="unit quaternion [w, x, y, z]; null when not measured")
+    sigma_mm: float | None = Field(
+        default=None, description="The record's own position σ (mm; a file's U(95) / 2); null: the campaign's noise"
+    )
+    temperature_c: float | None = Field(default=None, description="The record's temperature (°C); null: none given")
 
 
 class TrackerKind(RecordKind):

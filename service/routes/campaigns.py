@@ -12,8 +12,9 @@ from service.deps import DatabaseDep, ModelCacheDep, negotiate
 from service.json_bodies import OffloopRoute
 from service.operations import operation
 from service.record_kinds import FILE_COLUMNS, has_references, kind_of, tracker_records
+from service.record_kinds.tracker import CampaignRecordPublic
 from service.responses import model_json
-from service.schemas.campaigns import CampaignPublic, CampaignRecordPublic
+from service.schemas.campaigns import CampaignPublic
 from service.security import Scope
 from service.services import campaigns
 

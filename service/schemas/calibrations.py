@@ -3,82 +3,32 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Literal
+from typing import Literal
 
-from pydantic import ConfigDict, Discriminator, Field, Tag
+from pydantic import ConfigDict, Field
 
 from models.identification import IdentificationOptions, RobustLoss
 from models.identification.drift import MAX_DEGREE, DriftDriver
 from models.identification.options import DEFAULT_GROUPS
 from models.noise import NoiseModel
 from service.conversions.units import degrees_default
+from service.record_kinds import CampaignRecord
 from service.schemas.common import (
     ConditionsPublic,
     FreeText,
-    JointVector,
     Measurement,
     OptionalFloat,
     Payload,
-    Position,
     Public,
-    Quaternion,
-    RecordTime,
     Strict,
-    TemperatureC,
 )
 from service.schemas.fleets import FLEET_KEY, FleetComparisonPublic
-from service.schemas.references import (
-    RECORD_KIND_ERROR,
-    DistanceRecord,
-    ImageRecord,
-    PlaneRecord,
-    PointRecord,
-    ReferenceDescriptions,
-    ReferencePublic,
-    record_tag,
-)
+from service.schemas.references import ReferenceDescriptions, ReferencePublic
 from service.schemas.robots import ParameterPublic
 
 _NOISE = NoiseModel()
 _OPTIONS = IdentificationOptions()
 MAX_MEASUREMENTS = 100_000
-
-
-class Record(Strict):
-    joints: JointVector
-    position: Position
-    orientation: Quaternion | None = None
-    sigma_mm: float | None = Field(
-        default=None,
-        gt=0,
-        le=100,
-        description="This record's position uncertainty (1 σ, mm; a tracker's U95 / 2); default: noise.position_mm",
-    )
-    temperature_c: TemperatureC | None = Field(
-        default=None, description="The robot's temperature at this record (°C); required by the thermal term"
-    )
-    payload: Payload | None = Field(default=None, description="This record's payload (default: the campaign's)")
-    time: RecordTime | None = Field(
-        default=None,
-        description="When the record was measured: seconds from any origin, or an ISO 8601 time (without an offset: "
-        "UTC); a drift-aware calibration fits the instrument's drift over it (default: the record order)",
-    )
-    reference: bool = Field(
-        default=False,
-        description="This record measures the campaign's reference pose, the one pose measured again every few "
-        "records of a drift-aware calibration (options.drift); none marked: the pose measured most often",
-    )
-
-
-CampaignRecord = Annotated[
-    Annotated[Record, Tag("tracker")]
-    | Annotated[DistanceRecord, Tag("distance")]
-    | Annotated[PointRecord, Tag("point")]
-    | Annotated[PlaneRecord, Tag("plane")]
-    | Annotated[ImageRecord, Tag("image")],
-    Discriminator(record_tag, **RECORD_KIND_ERROR),
-]
-"""A campaign's record: a tracker's (no `kind`) or one of the instruments a cell owns (`kind`)."""
 
 
 class Noise(Strict):

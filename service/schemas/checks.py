@@ -10,7 +10,8 @@ from pydantic import ConfigDict, Field
 
 from models.checks import CheckAction, CheckOptions, Verdict
 from optimal_design.checks import MAX_CHECK_POSES, MIN_CHECK_POSES
-from service.schemas.calibrations import CampaignRecord, Instrument, InstrumentPublic, Noise
+from service.record_kinds import CampaignRecord
+from service.schemas.calibrations import Instrument, InstrumentPublic, Noise
 from service.schemas.common import ConditionWarningPublic, FreeText, JointVector, Measurement, Public, Strict
 from service.schemas.references import ReferenceDescriptions
 

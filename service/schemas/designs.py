@@ -10,6 +10,7 @@ from pydantic import AfterValidator, Field, model_validator
 from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from optimal_design.design import MAX_CANDIDATES
+from service.record_kinds import RECORD_KINDS, REFERENCE_KINDS
 from service.schemas.calibrations import Noise
 from service.schemas.cells import CellDocument, DesignCellPublic
 from service.schemas.common import (
@@ -35,9 +36,9 @@ BOUND_SECONDS_MAX = 60.0
 """Branch and bound past a minute buys little here (K = 30 of 2 000, D: 0.9851 at 3 s, 0.9878 at 20 s)."""
 
 
-ReferenceMeasurement = Literal["distance", "point", "plane", "image"]
-REFERENCE_MEASUREMENTS: tuple[ReferenceMeasurement, ...] = ("distance", "point", "plane", "image")
-"""The records of the instruments a cell owns that a design can plan (service/schemas/references.py)."""
+ReferenceMeasurement = str
+REFERENCE_MEASUREMENTS: tuple[ReferenceMeasurement, ...] = REFERENCE_KINDS
+"""The records of the instruments a cell owns that a design can plan (the record kinds': service.record_kinds)."""
 
 
 def _kind(value: str) -> MeasurementKind | str:
@@ -212,7 +213,7 @@ class PoseDesignCreate(Strict):
         offered against every anchor and camera in a distance or image design."""
         if self.candidates is not None:
             return len(self.candidates)
-        if self.measurement in ("distance", "image"):
+        if self.measurement in RECORD_KINDS and RECORD_KINDS[self.measurement].sampled:
             return self.candidate_count * max(1, len(self.anchors) + len(self.cameras))
         return self.candidate_count
 

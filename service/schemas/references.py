@@ -33,55 +33,6 @@ RotationVectorDeg = Annotated[
 ]
 
 
-class DistanceRecord(Strict):
-    """The TCP's distance to a fixed anchor: a ballbar's centre pivot, a wire or laser sensor's origin."""
-
-    kind: Literal["distance"]
-    joints: JointVector
-    anchor: ReferenceName
-    distance_mm: float = Field(gt=0, le=1e5, description="mm; with the anchor's length_unknown, up to an offset")
-    sigma_mm: RecordSigma | None = None
-
-
-class PointRecord(Strict):
-    """The TCP on the same unknown fixed point as every record of that name (a sphere in a socket, reached in
-    several orientations): no reading at all."""
-
-    kind: Literal["point"]
-    joints: JointVector
-    point: ReferenceName
-    sigma_mm: RecordSigma | None = None
-
-
-class PlaneRecord(Strict):
-    """The TCP (a probe's ball centre, its radius already added) touching one unknown plane."""
-
-    kind: Literal["plane"]
-    joints: JointVector
-    plane: ReferenceName
-    sigma_mm: RecordSigma | None = None
-
-
-class SeenPoint(Strict):
-    target_mm: Position = Field(
-        description="The point in the frame the camera sees it in: the tool's (a world-mounted camera, markers on "
-        "the tool) or the world's (a tool-mounted camera, a board in the cell)"
-    )
-    pixel: Annotated[list[Annotated[float, Field(ge=-1e5, le=1e5)]], Field(min_length=2, max_length=2)] = Field(
-        description="[u, v] in px: u across the image, v down it (OpenCV's convention)"
-    )
-
-
-class ImageRecord(Strict):
-    """Where a calibrated camera saw known points at these joints."""
-
-    kind: Literal["image"]
-    joints: JointVector
-    camera: ReferenceName
-    points: list[SeenPoint] = Field(min_length=1, max_length=10_000)
-    sigma_px: float | None = Field(default=None, gt=0, le=100, description="Per pixel coordinate; default 0.1 px")
-
-
 class CameraDescription(Strict):
     """A calibrated pinhole camera (OpenCV's model): its intrinsics are known, its pose is identified."""
 
@@ -228,15 +179,6 @@ def record_tag(value: Any) -> str:
     return str(kind)
 
 
-RECORD_KIND_ERROR = {
-    "custom_error_type": "record_kind",
-    "custom_error_message": "a record's kind is one of 'distance', 'point', 'plane', 'image', or absent (a tracker's)",
-}
-
-
-ReferenceRecord = DistanceRecord | PointRecord | PlaneRecord | ImageRecord
-
-
 class ReferenceUnknownPublic(Public):
     name: str = Field(description="anchor.<name>.x …, point.<name>.x …, plane.<name>.alpha …")
     value: float
@@ -259,38 +201,3 @@ class ReferencePublic(Public):
     rotation_vector_deg: list[float] | None = Field(
         default=None, description="A camera's orientation (camera frame → its parent frame) as a rotation vector"
     )
-
-
-class DistanceRecordPublic(Public):
-    kind: Literal["distance"]
-    joints: list[float]
-    anchor: str
-    distance_mm: float
-    sigma_mm: float | None = None
-
-
-class PointRecordPublic(Public):
-    kind: Literal["point"]
-    joints: list[float]
-    point: str
-    sigma_mm: float | None = None
-
-
-class PlaneRecordPublic(Public):
-    kind: Literal["plane"]
-    joints: list[float]
-    plane: str
-    sigma_mm: float | None = None
-
-
-class SeenPointPublic(Public):
-    target_mm: list[float]
-    pixel: list[float]
-
-
-class ImageRecordPublic(Public):
-    kind: Literal["image"]
-    joints: list[float]
-    camera: str
-    points: list[SeenPointPublic]
-    sigma_px: float | None = None

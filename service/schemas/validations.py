@@ -6,9 +6,9 @@ from datetime import datetime
 
 from pydantic import ConfigDict, Field
 
+from service.record_kinds import CampaignRecord
 from service.schemas.calibrations import (
     MAX_MEASUREMENTS,
-    CampaignRecord,
     Instrument,
     InstrumentPublic,
 )

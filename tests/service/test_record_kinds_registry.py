@@ -20,13 +20,13 @@ from service.record_kinds import (
     BY_FILE_KIND,
     FILE_COLUMNS,
     RECORD_KINDS,
+    CampaignRecord,
     Described,
     has_references,
     kind_of,
     tracker_records,
 )
 from service.routes.campaigns import campaign_csv
-from service.schemas.calibrations import CampaignRecord
 from service.schemas.campaigns import CampaignPublic
 
 OPENAPI = json.loads((Path(__file__).parents[2] / "service" / "openapi.json").read_text())["components"]["schemas"]
