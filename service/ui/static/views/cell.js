@@ -61,7 +61,8 @@ function versionsTable(robotId, versions) {
     v.ended ? "" : link(`#/robots/${robotId}/cell?version=${v.version}`, "draw")]), "cell-versions");
 }
 
-// Mid-range joints (degrees and mm, the API's units): a pose every robot can take, to draw before any check.
+// Mid-range joints (degrees and mm, the API's units): something to draw before any pose is checked; the page
+// does not claim the cell allows it (the check does).
 function middlePose(robot) { return jointRanges(robot).map(([lo, hi]) => (lo + hi) / 2); }
 
 async function drawingSection(container, robot, stored) {
