@@ -176,6 +176,7 @@ def _upload(page: Any, server: str, robot_id: str, tmp_path: Path) -> None:
     page.click("#cell-save")
     expect(page.locator("#cell-error li")).to_have_text(fields)
     assert page.locator("#cell-error p").inner_text() == f"422: {said['detail']}"
+    screenshot(page, "cell-refused")
     assert httpx.get(f"{server}/v1/robots/{robot_id}/cell/versions").json() == []
 
     document = tmp_path / "cell.json"
