@@ -89,13 +89,15 @@ export function obstaclePrimitives(cell) {
     cls: `obstacle obstacle-${o.kind}`, data: { name: o.name, kind: o.kind } }));
 }
 
-// The robot's effective shapes at one pose: a default capsule between two frames' origins, a rigid solid in its
-// frame. `frames`: name → {position, orientation}, one joint vector's answer of the forward kinematics.
+// The robot's effective shapes at one pose: a default capsule between points of two frames (their origins, or a
+// hexapod leg's joints), a rigid solid in its frame. `frames`: name → {position, orientation}, one joint vector's answer of the forward kinematics.
 export function linkPrimitives(geometry, frames) {
   return geometry.map((shape, k) => {
     const data = { body: shape.body, shape: k, origin: shape.origin };
     if (shape.from_frame) {
-      return { kind: "capsule", a: frames[shape.from_frame].position, b: frames[shape.to_frame].position, r: shape.radius_mm,
+      const a = pointIn(framePlacement(frames[shape.from_frame]), shape.from_point_mm || [0, 0, 0]);
+      const b = pointIn(framePlacement(frames[shape.to_frame]), shape.to_point_mm || [0, 0, 0]);
+      return { kind: "capsule", a, b, r: shape.radius_mm,
         cls: `link link-${shape.origin}`, data: { ...data, from: shape.from_frame, to: shape.to_frame } };
     }
     const place = within(framePlacement(frames[shape.frame]), placement(shape.position_mm, shape.rotation_vector_deg));
