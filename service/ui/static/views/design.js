@@ -9,6 +9,7 @@ import { fleetOrNull, fleetRefusal, priorSentence } from "./fleet.js";
 import { framesOf, readCell } from "./cell.js";
 import { watchJob } from "./jobs.js";
 
+const FRAMES_MAX = 1000;
 const PRIOR_OPTION = "Design for a calibration with the fleet's prior";
 const CRITERIA = [["D", "D: the identified parameters' joint uncertainty"], ["A", "A: their mean variance"],
   ["I", "I: the predicted TCP error over the workspace"], ["E", "E: the worst-determined direction"], ["condition", "condition number"]];
@@ -133,8 +134,8 @@ async function cellSection(container, robot, design) {
   container.append(section);
   const stored = c.version == null ? null : await readCell(robot.id, c.version);
   if (!stored) return section.append(muted("The cell was sent with the request, not stored: it is not drawn here.", "design-cell-undrawn"));
-  const frames = await framesOf(robot.id, design.poses);
-  const choose = h("select", { id: "design-cell-pose", "aria-label": "pose drawn" }, design.poses.map((_, k) => h("option", { value: k }, `pose ${k + 1}`)));
+  const frames = await framesOf(robot.id, design.poses.slice(0, FRAMES_MAX));  // the API's bound on frames
+  const choose = h("select", { id: "design-cell-pose", "aria-label": "pose drawn" }, frames.map((_, k) => h("option", { value: k }, `pose ${k + 1}`)));
   const views = h("div", { class: "row", id: "design-cell-views" });
   const points = frames.map((f) => f.tcp.position);
   const draw = () => drawCell(views, sceneOf(stored, frames[Number(choose.value)], { points, beamClass: "feasible" }), `design in cell version ${c.version}`);
