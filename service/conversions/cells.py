@@ -217,6 +217,8 @@ def _shape_out(shape: LinkShape, origin: str) -> CellShapePublic:
                 "radius_mm": shape.radius,
                 "from_frame": shape.frame_a,
                 "to_frame": shape.frame_b,
+                "from_point_mm": list(shape.a),
+                "to_point_mm": list(shape.b),
             }
         )
     m = shape.matrix

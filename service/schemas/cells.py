@@ -249,6 +249,10 @@ class CellShapePublic(Public):
     radius_mm: float | None = None
     from_frame: str | None = Field(default=None, description="A segment's start (its capsule runs between frames)")
     to_frame: str | None = None
+    from_point_mm: list[float] | None = Field(
+        default=None, description="Where a segment starts in from_frame (a hexapod leg's base joint; else its origin)"
+    )
+    to_point_mm: list[float] | None = Field(default=None, description="Where a segment ends in to_frame")
     frame: str | None = Field(default=None, description="The frame a rigid solid is given in")
     size_mm: list[float] | None = None
     length_mm: float | None = None

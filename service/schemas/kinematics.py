@@ -1,6 +1,6 @@
 from __future__ import annotations
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from service.schemas.common import (
     ConditionWarningPublic,
@@ -21,10 +21,32 @@ TEMPERATURE = (
 PAYLOAD = "Used where the robot's current version has the compliance term (default: none)"
 
 
+FRAMES_MAX = 1000
+"""Joint vectors a request may ask every frame for: each brings a dozen poses (a drawing's few, not a batch)."""
+
+
+def _absent_if_none(value: object) -> bool:
+    return value is None
+
+
 class ForwardRequest(Strict):
     joints: list[JointVector] = Field(min_length=1, max_length=100_000)
     temperature_c: TemperatureC | list[TemperatureC] | None = Field(default=None, description=TEMPERATURE)
     payload: Payload | None = Field(default=None, description=PAYLOAD)
+    frames: bool = Field(
+        default=False,
+        description=f"Also every frame of the structure (base, each link's middle and end, each platform, the "
+        f"TCP: the frames GET …/cell names its shapes by), for at most {FRAMES_MAX} joint vectors",
+    )
+
+    @model_validator(mode="after")
+    def _few_frames(self) -> ForwardRequest:
+        if self.frames and len(self.joints) > FRAMES_MAX:
+            raise ValueError(
+                f"frames: every frame is given for at most {FRAMES_MAX} joint vectors, not {len(self.joints)}: "
+                "ask for the TCP alone (frames false) or send fewer"
+            )
+        return self
 
 
 class ForwardResponse(Public):
@@ -32,6 +54,12 @@ class ForwardResponse(Public):
     warnings: list[str] = Field(
         default_factory=list,
         description="Slips the joints betray although they lie inside the ranges (revolute joints in radians)",
+    )
+    frames: list[dict[str, PosePublic]] | None = Field(
+        default=None,
+        exclude_if=_absent_if_none,
+        description="With frames: per joint vector, each frame's pose in the world frame by name, base to TCP "
+        "(the geometric model's, as the cell's checks use; absent otherwise)",
     )
 
 

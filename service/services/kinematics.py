@@ -3,12 +3,13 @@ from __future__ import annotations
 import numpy as np
 
 from models import Registry, forward_kinematics
+from models.cell import frame_layout, stage_frames
 from models.compensation import inverse_kinematics
 from models.compensation.terms import terms_inverse_kinematics
 from models.identification.diagnosis import check_radians
 from models.terms import Conditions
 from service.conversions.drift import condition_warnings
-from service.conversions.kinematics import forward_out, inverse_out, joints_in, targets_in
+from service.conversions.kinematics import forward_out, frames_out, inverse_out, joints_in, targets_in
 from service.conversions.terms import request_conditions
 from service.model_cache import ModelCache
 from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
@@ -25,7 +26,13 @@ def forward(*, models: ModelCache, registry: Registry, robot_id: str, body: Forw
     fk = forward_kinematics(
         desc, joints, theta, conditions=conditions if desc.terms.any else None, runtime=registry.runtime(desc)
     )
-    return forward_out(fk, [radians.message] if radians else [])
+    frames = None
+    if body.frames:
+        # The frames the cell's shapes hang on, from the same Function its checks use: a drawing of the links
+        # agrees with the verdicts shown beside it.
+        found = stage_frames(desc, joints, theta, runtime=registry.runtime(desc))
+        frames = frames_out(frame_layout(desc).names, found)
+    return forward_out(fk, [radians.message] if radians else [], frames)
 
 
 def inverse(*, models: ModelCache, registry: Registry, robot_id: str, body: InverseRequest) -> InverseResponse:

@@ -39,7 +39,8 @@ async function readProblem(response) {
   try { return JSON.parse(text); } catch (_) { return { detail: text.trim() || response.statusText }; }
 }
 
-// options: method, json (a body to send as JSON), body + type (any other body), accept, raw (the Response).
+// options: method, json (a body to send as JSON), body + type (any other body), accept, headers (more of them),
+// raw (the Response).
 export async function api(path, options = {}) {
   const headers = { Accept: options.accept || "application/json" };
   let body = options.body;
@@ -49,6 +50,7 @@ export async function api(path, options = {}) {
   } else if (options.type) {
     headers["Content-Type"] = options.type;
   }
+  Object.assign(headers, options.headers || {});  // If-Match on a write that must not overwrite another's
   if (apiKey()) headers["X-API-Key"] = apiKey();
   const response = await fetch(path, { method: options.method || "GET", headers, body });
   if (!response.ok) throw new ApiError(response.status, await readProblem(response));

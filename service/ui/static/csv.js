@@ -163,3 +163,50 @@ export function trackerRecords(table) {
 export function jointsCsv(names, poses) {
   return [names.join(","), ...poses.map((q) => q.map((v) => Number(v).toFixed(6)).join(","))].join("\n") + "\n";
 }
+
+// Joint vectors typed, pasted or dropped, in the API's units (mm and degrees): JSON (an array of vectors, or an
+// object whose `poses` or `joints` is one) or CSV, with or without a header. A header's joint columns are the
+// robot's names or the campaign reader's (q1…, a1…, joint_1…); a column stating radians is turned into degrees.
+export function readJointVectors(text, names) {
+  const trimmed = text.replace(/^\ufeff/, "").trim();
+  if (!trimmed) throw new Error("no joints: paste one joint vector a line, or a JSON array of them");
+  const rows = /^[[{]/.test(trimmed) ? jsonVectors(trimmed) : csvVectors(trimmed, names);
+  rows.forEach((q, k) => {
+    if (!Array.isArray(q) || q.length !== names.length || q.some((v) => typeof v !== "number" || !Number.isFinite(v))) {
+      throw new Error(`pose ${k + 1}: ${names.length} numbers are needed (${names.join(", ")}), got ${JSON.stringify(q)}`);
+    }
+  });
+  return rows;
+}
+
+function jsonVectors(text) {
+  let data;
+  try { data = JSON.parse(text); } catch (error) { throw new Error(`the joints are not valid JSON: ${error.message}`); }
+  const rows = Array.isArray(data) ? data : (data.poses || data.joints);
+  if (!Array.isArray(rows)) throw new Error("JSON joints: an array of joint vectors, or an object with `poses` or `joints`");
+  return rows;
+}
+
+function csvVectors(text, names) {
+  const lines = text.split(/\r\n|\r|\n/).filter((l) => l.trim() && !l.trim().startsWith("#"));
+  const delimiter = DELIMITERS.reduce((best, d) => (lines[0].split(d).length > lines[0].split(best).length ? d : best), ",");
+  const cellsOf = (line) => splitLine(line, delimiter).map((c) => c.trim());
+  const decimal = (c) => (delimiter === "," ? c : c.replace(",", "."));
+  const numeric = (c) => c !== "" && Number.isFinite(Number(decimal(c)));
+  const first = cellsOf(lines[0]);
+  if (first.every(numeric)) return lines.map((l) => cellsOf(l).map((c) => Number(decimal(c))));
+  const columns = first.map(normalise);
+  const byName = names.map((n) => columns.indexOf(normalise(n)));
+  const picked = byName.every((i) => i >= 0) ? byName : jointColumns(columns).map((c) => columns.indexOf(c));
+  if (picked.length !== names.length) {
+    throw new Error(`the header names ${picked.length} joint columns, the robot has ${names.length} (${names.join(", ")}); found: ${first.join(", ")}`);
+  }
+  const factor = picked.map((i) => (nameAndUnit(first[i])[1] === "rad" ? 180 / Math.PI : 1));
+  return lines.slice(1).map((l, k) => {
+    const cells = cellsOf(l);
+    return picked.map((i, j) => {
+      if (!numeric(cells[i] ?? "")) throw new Error(`line ${k + 2}, column ${first[i]}: '${cells[i] ?? ""}' is not a number`);
+      return Number(decimal(cells[i])) * factor[j];
+    });
+  });
+}

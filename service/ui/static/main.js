@@ -1,10 +1,11 @@
 // The calibration workbench in the browser: robots, pose design, campaign upload and calibration as a job,
-// the result, validations, versions and jobs. Every number comes from the public /v1 API, so the page shows
+// the result, validations, versions, the cell and jobs. Every number comes from the public /v1 API, so the page shows
 // exactly what a client sees. Routing is the URL fragment (#/robots/…), one view module per page.
 import { apiKey, setApiKey } from "./api.js";
 import { errorBox, fill } from "./dom.js";
 import { calibrationView } from "./views/calibration.js";
 import { campaignView } from "./views/campaign.js";
+import { cellView } from "./views/cell.js";
 import { designView } from "./views/design.js";
 import { jobsView, stopJobTimers } from "./views/jobs.js";
 import { programsIndex, programsView } from "./views/programs.js";
@@ -35,6 +36,7 @@ function pick(parts, params) {
   if (first === "robots" && id && sub === "calibrate") return () => campaignView(view, id);
   if (first === "robots" && id && sub === "validate") return () => validationView(view, id);
   if (first === "robots" && id && sub === "programs") return () => programsView(view, id);
+  if (first === "robots" && id && sub === "cell") return () => cellView(view, id, params);
   if (first === "robots" && id) return () => robotView(view, id);
   if (first === "calibrations" && id && sub === "report") return () => reportView(view, id);
   if (first === "calibrations" && id) return () => calibrationView(view, id);

@@ -3,10 +3,13 @@
 // and their TCP positions, and a CSV for the pendant (the robot's joint names as header).
 import { api, query } from "../api.js";
 import { jointsCsv } from "../csv.js";
+import { drawCell, sceneOf } from "../cellplot.js";
 import { download, errorBox, field, fill, h, link, muted, num, numCell, table, when } from "../dom.js";
 import { fleetOrNull, fleetRefusal, priorSentence } from "./fleet.js";
+import { framesOf, readCell } from "./cell.js";
 import { watchJob } from "./jobs.js";
 
+const FRAMES_MAX = 1000;
 const PRIOR_OPTION = "Design for a calibration with the fleet's prior";
 const CRITERIA = [["D", "D: the identified parameters' joint uncertainty"], ["A", "A: their mean variance"],
   ["I", "I: the predicted TCP error over the workspace"], ["E", "E: the worst-determined direction"], ["condition", "condition number"]];
@@ -35,12 +38,15 @@ function designForm(robot, result, fleetNote) {
   const candidates = h("input", { id: "design-candidates", type: "number", min: 10, step: 1, value: 2000 });
   const seed = h("input", { id: "design-seed", type: "number", step: 1, value: 0 });
   const prior = h("input", { type: "checkbox", id: "design-prior" });
+  const inCell = h("input", { type: "checkbox", id: "design-cell" });
   const message = h("div", { id: "design-message" });
   const form = h("form", { id: "design-form" }, h("fieldset", {}, h("legend", {}, "Design"),
     h("div", { class: "row" }, field("Choose", mode), field("Poses", count), field("Predicted TCP error, RMS (mm)", target, "target mode"),
       field("Criterion", criterion), field("Measurement", measurement), field("Candidate poses sampled", candidates), field("Seed", seed)),
     h("label", {}, prior, ` ${PRIOR_OPTION} (its information joins the poses': a target counts the poses that calibration needs)`),
-    muted(fleetNote, "design-prior-note")),
+    muted(fleetNote, "design-prior-note"),
+    h("label", {}, inCell, " In the robot's cell: only poses it can measure, collision-free and seen by its tracker (",
+      link(`#/robots/${robot.id}/cell`, "the cell"), "; each check costs: a large design runs as a job)")),
   muted("Ballbar, point and plane designs need their anchors, points or planes: send those through the API (/docs)."),
   h("p", {}, h("button", { type: "submit", id: "design-submit" }, "Design the poses")), message);
   form.addEventListener("submit", async (event) => {
@@ -50,6 +56,7 @@ function designForm(robot, result, fleetNote) {
     if (mode.value === "count") body.count = Number(count.value);
     else body.target = { rms_tcp_mm: Number(target.value) };
     if (prior.checked) body.prior = "fleet";
+    if (inCell.checked) body.cell = "stored";
     try {
       const accepted = await api(`/v1/robots/${robot.id}/pose-designs${query({ async: true })}`, { method: "POST", json: body });
       const job = await watchJob(accepted.job_id, message);
@@ -64,7 +71,7 @@ function designForm(robot, result, fleetNote) {
 }
 
 // Each joint's reading range from the structure document: the serial links' `range`, a hexapod's strokes.
-function jointRanges(robot) {
+export function jointRanges(robot) {
   return robot.structure.stages.flatMap((stage) => {
     if (stage.kind === "serial") return stage.links.filter((l) => l.joint !== "fixed").map((l) => l.range);
     const strokes = Array.isArray(stage.strokes[0]) ? stage.strokes : Array(6).fill(stage.strokes);
@@ -89,6 +96,7 @@ export async function showDesign(robot, design, container) {
   container.append(plots);
   coveragePlot(plots, robot, design.poses);
   await tcpPlots(plots, robot, design.poses);
+  if (design.cell) await cellSection(container, robot, design);
   container.append(h("div", { class: "scroll" }, table(["#", ...names.map((n, i) => `${n} (${robot.joint_units[i]})`)],
     design.poses.map((q, i) => [numCell(i + 1), ...q.map((v) => numCell(v, 6))]), "design-poses")));
 }
@@ -113,3 +121,26 @@ async function tcpPlots(container, robot, poses) {
   Plot.scatter(container, { id: "design-side", title: "TCP seen from the side", xlabel: "x (mm)", ylabel: "z (mm)", x: p.map((v) => v[0]), y: p.map((v) => v[2]) });
 }
 
+
+// A design in the robot's cell: what the cell refused (counts by reason) among the candidates it checked, and the
+// designed poses drawn in the cell (every TCP; the robot at the pose chosen).
+async function cellSection(container, robot, design) {
+  const c = design.cell;
+  const refused = Object.entries(c.refused).sort((a, b) => b[1] - a[1]);
+  const section = h("section", { id: "design-cell-result" }, h("h2", {}, "In the cell"),
+    h("p", { id: "design-cell-summary" }, `${c.checked} candidates checked against ${c.version == null ? "the cell sent with the request" : `cell version ${c.version}`}: `
+      + `${c.feasible} it can measure, ${c.checked - c.feasible} refused; the design chose among the feasible ones.`),
+    refused.length ? table(["reason", "candidates refused"], refused.map(([r, n]) => [r, numCell(n)]), "design-refused", "Refused, by the first check each candidate fails") : null);
+  container.append(section);
+  const stored = c.version == null ? null : await readCell(robot.id, c.version);
+  if (!stored) return section.append(muted("The cell was sent with the request, not stored: it is not drawn here.", "design-cell-undrawn"));
+  const frames = await framesOf(robot.id, design.poses.slice(0, FRAMES_MAX));  // the API's bound on frames
+  const choose = h("select", { id: "design-cell-pose", "aria-label": "pose drawn" }, frames.map((_, k) => h("option", { value: k }, `pose ${k + 1}`)));
+  const views = h("div", { class: "row", id: "design-cell-views" });
+  const points = frames.map((f) => f.tcp.position);
+  const draw = () => drawCell(views, sceneOf(stored, frames[Number(choose.value)], { points, beamClass: "feasible" }), `design in cell version ${c.version}`);
+  choose.addEventListener("change", draw);
+  section.append(h("div", { class: "row" }, field("The robot drawn at", choose)), views,
+    muted("Red dots: the TCP of every designed pose; the robot and the tracker's beam at the pose chosen."));
+  draw();
+}
