@@ -10,12 +10,19 @@ from typing import Any
 
 import numpy as np
 import pytest
+from alembic import command
+from alembic.config import Config
 from fastapi.testclient import TestClient
+from sqlalchemy import create_engine, inspect
 
 from harness.records import records
 from models import Registry, forward_kinematics, sample_workspace
 from models.examples import ur5_like, ur5_like_document
 from models.simulation import perturbed_robot
+from service.errors import Conflict
+from service.persistence import Database, Repository
+from service.persistence.adaptive import AdaptiveStore
+from service.persistence.database import MIGRATIONS
 from tests.service.conftest import fresh_sqlite, make_client
 
 DESC = ur5_like()
@@ -134,3 +141,44 @@ def _robot_named(client: TestClient, name: str) -> str:
     made = client.post("/v1/robots", json={"name": name, "structure": ur5_like_document()})
     assert made.status_code == 201, made.text
     return str(made.json()["id"])
+
+
+def test_two_posts_for_one_step_store_one(tmp_path: Path, migrated_sqlite: Path) -> None:
+    """The step number is checked under the campaign's lock and unique per campaign: the slower of two posts
+    that read the same state is refused (409) rather than stored beside the other."""
+    db = Database(fresh_sqlite(migrated_sqlite, tmp_path))
+    try:
+        with db.session() as s:
+            robot = Repository(s).add_robot("r", "iwr", [0.0] * 6, [0.0] * 6, [0.0])
+            store = AdaptiveStore(s)
+            row = store.add(robot.id, 1, {}, {"joints": []}, {"status": "measuring"})
+            store.add_step(row, 0, [], {})
+            with pytest.raises(Conflict, match="moved on"):
+                store.add_step(row, 0, [], {})
+            assert [step.number for step in store.steps(row.id)] == [1]
+            Repository(s).delete_robot(robot.id)  # its campaigns and steps go with it
+            assert store.steps(row.id) == []
+    finally:
+        db.dispose()
+
+
+def test_migration_0011_adds_the_adaptive_tables_and_removes_them(tmp_path: Path) -> None:
+    url = f"sqlite:///{tmp_path}/old.db"
+    config = Config()
+    config.set_main_option("script_location", str(MIGRATIONS))
+    config.set_main_option("sqlalchemy.url", url)
+    engine = create_engine(url)
+
+    def step(move: Any, revision: str) -> set[str]:
+        with engine.begin() as connection:
+            config.attributes["connection"] = connection
+            move(config, revision)
+        with engine.connect() as connection:
+            return {t for t in inspect(connection).get_table_names() if t.startswith("adaptive")}
+
+    try:
+        assert step(command.upgrade, "0009_compensated_programs") == set()
+        assert step(command.upgrade, "0011_adaptive_campaigns") == {"adaptive_campaigns", "adaptive_steps"}
+        assert step(command.downgrade, "0009_compensated_programs") == set()
+    finally:
+        engine.dispose()
