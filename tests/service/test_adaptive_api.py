@@ -182,3 +182,14 @@ def test_migration_0011_adds_the_adaptive_tables_and_removes_them(tmp_path: Path
         assert step(command.downgrade, "0009_compensated_programs") == set()
     finally:
         engine.dispose()
+
+
+def test_a_campaign_started_from_records_already_measured(client: TestClient) -> None:
+    robot_id = _robot(client)
+    measured = records(DESC, TRUTH, sample_workspace(DESC, 8, seed=12), 13)
+    campaign = _start(client, robot_id, candidate_count=40, target_mm=0.03, measurements=measured)
+    (first,) = campaign["steps"]
+    assert first["number"] == 1 and first["posted"] == 8 and first["identified"] and not first["done"]
+    assert first["predicted"]["rms_tcp_mm"] > 0.03 and campaign["records"] == 8
+    (pose,) = campaign["next"]
+    assert pose["candidate"] is not None and pose == first["next"][0] and len(pose["joints"]) == 6
