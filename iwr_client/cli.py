@@ -260,6 +260,55 @@ def program_exit(answer: Json) -> int:
     return OK if all(t.get("reached") for t in answer.get("targets") or []) else NOT_APPLIED
 
 
+def campaign_start(client: Client, args: argparse.Namespace, console: Console) -> int:
+    noise = None if args.noise_mm is None else {"position_mm": args.noise_mm}
+    found = client.adaptive_start(
+        args.robot,
+        args.target_mm,
+        target="max_tcp_mm" if args.worst else None,
+        budget=args.budget,
+        measurement=args.measurement,
+        criterion=args.criterion,
+        candidate_count=args.candidates,
+        seed=args.seed,
+        noise=noise,
+    )
+    _poses_csv(client, args, found["next"])
+    console.document(found, lambda: summary.adaptive_summary(found))
+    return OK
+
+
+def _poses_csv(client: Client, args: argparse.Namespace, poses: list[Json]) -> None:
+    """The poses to measure as CSV (the robot's joint names), where --csv asks for it."""
+    if getattr(args, "csv", None):
+        names = client.robot(args.robot)["joint_names"]
+        lines = [",".join(names)] + [",".join(repr(float(v)) for v in pose["joints"]) for pose in poses]
+        Path(args.csv).write_text("\n".join(lines) + "\n")
+
+
+def campaign_show(client: Client, args: argparse.Namespace, console: Console) -> int:
+    found = client.adaptive_campaign(args.robot, args.campaign)
+    _poses_csv(client, args, found["next"])
+    if args.command_name == "next":
+        console.document(found["next"], lambda: summary.adaptive_summary(found))
+    else:
+        console.document(found, lambda: summary.adaptive_summary(found))
+    return OK
+
+
+def campaign_post(client: Client, args: argparse.Namespace, console: Console) -> int:
+    step = client.adaptive_records(args.robot, args.campaign, args.records)
+    _poses_csv(client, args, step["next"])
+    console.document(step, lambda: summary.adaptive_step_summary(step))
+    return OK
+
+
+def campaign_finish(client: Client, args: argparse.Namespace, console: Console) -> int:
+    found = client.adaptive_finish(args.robot, args.campaign, calibrate=args.calibrate, apply=args.apply)
+    console.document(found, lambda: summary.adaptive_summary(found))
+    return OK
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """The console script `iwr` (and `python -m iwr_client`)."""
     parser = build_parser()
@@ -316,6 +365,7 @@ def build_parser() -> argparse.ArgumentParser:
     _export_commands(commands)
     _check_commands(commands)
     _program_command(commands)
+    _campaign_commands(commands)
     return parser
 
 
@@ -432,3 +482,37 @@ def _program_command(commands: Any) -> None:
     parser.add_argument(
         "--async", dest="use_async", action="store_true", help="as a job with progress (large programs)"
     )
+
+
+def _campaign_commands(commands: Any) -> None:
+    group = commands.add_parser(
+        "campaign", help="an adaptive campaign: a pose at a time until the target"
+    ).add_subparsers(dest="campaign_command", required=True, metavar="ACTION")
+    start = _command(group, "start", campaign_start, "start one: its first poses to measure")
+    start.add_argument("robot", metavar="ROBOT")
+    start.add_argument("--target-mm", type=float, required=True, help="the predicted RMS TCP error to reach (mm)")
+    start.add_argument("--worst", action="store_true", help="the target is the worst workspace pose's error")
+    start.add_argument("--budget", type=int, help="at most this many records (default 60)")
+    start.add_argument("--measurement", choices=["pose", "position"], help="default pose")
+    start.add_argument("--criterion", choices=["D", "I", "worst"], help="what each pose improves (default I)")
+    start.add_argument("--candidates", type=int, help="candidate poses sampled (default 500)")
+    start.add_argument("--seed", type=int)
+    start.add_argument("--noise-mm", type=float, help="the instrument's position σ (default 0.025)")
+    for name, run, text in (
+        ("next", campaign_show, "the poses to measure now"),
+        ("show", campaign_show, "the campaign's state and every step"),
+        ("post", campaign_post, "post measured records: the estimate, predicted accuracy and next pose"),
+        ("finish", campaign_finish, "end it, by default storing a calibration of its records"),
+    ):
+        parser = _command(group, name, run, text)
+        parser.set_defaults(command_name=name)
+        parser.add_argument("robot", metavar="ROBOT")
+        parser.add_argument("campaign", metavar="CAMPAIGN")
+        if name == "post":
+            parser.add_argument("records", type=_readable, metavar="RECORDS.csv")
+        if name == "finish":
+            parser.add_argument("--no-calibrate", dest="calibrate", action="store_false", help="only end it")
+            parser.add_argument("--no-apply", dest="apply", action="store_false", help="calibrate, keep the parameters")
+        else:
+            parser.add_argument("--csv", metavar="OUT", help="write the poses to measure as CSV (joint names)")
+    start.add_argument("--csv", metavar="OUT", help="write the poses to measure as CSV (joint names)")

@@ -435,6 +435,33 @@ class Client:
             body["notes"] = notes
         return dict(self._post(f"/v1/robots/{_segment(robot_id)}/checks", body))
 
+    # -- adaptive campaigns ------------------------------------------------------------------------------------
+
+    def adaptive_start(self, robot_id: str, target_mm: float, **options: object) -> Json:
+        """An adaptive campaign (docs/pose-design.md "Adaptive campaigns"): its first poses to measure in `next`.
+        `options` are the request's other fields (budget, measurement, criterion, candidate_count, seed, noise,
+        blunder_sigma, measurements, notes); None ones are left out."""
+        body: Json = {"target_mm": target_mm, **{k: v for k, v in options.items() if v is not None}}
+        return dict(self._post(f"/v1/robots/{_segment(robot_id)}/adaptive-campaigns", body))
+
+    def adaptive_records(self, robot_id: str, campaign_id: str, records: Campaign) -> Json:
+        """Post measured records (a file is read here, its joint columns named as the robot's joints): the step
+        (estimate, predicted accuracy, blunders, the next pose or done with why)."""
+        body = {"measurements": self._records(robot_id, records)}
+        return dict(self._post(self._adaptive(robot_id, campaign_id) + "/records", body))
+
+    def adaptive_campaign(self, robot_id: str, campaign_id: str) -> Json:
+        return dict(self._get(self._adaptive(robot_id, campaign_id)))
+
+    def adaptive_finish(self, robot_id: str, campaign_id: str, *, calibrate: bool = True, apply: bool = True) -> Json:
+        """End the campaign; with `calibrate`, store a calibration of its records (blunders left out)."""
+        body = {"calibrate": calibrate, "apply": apply}
+        return dict(self._post(self._adaptive(robot_id, campaign_id) + "/finish", body))
+
+    @staticmethod
+    def _adaptive(robot_id: str, campaign_id: str) -> str:
+        return f"/v1/robots/{_segment(robot_id)}/adaptive-campaigns/{_segment(campaign_id)}"
+
     @overload
     def history(self, robot_id: str, fmt: Literal["json"] = "json", *, limit: int = 100) -> list[Json]: ...
 

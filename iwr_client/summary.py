@@ -242,3 +242,43 @@ def program_summary(answer: Mapping[str, Any], program: str, written: Sequence[s
     else:
         lines.append("  (-o DIR writes the compensated files)")
     return "\n".join(lines)
+
+
+def _predicted(predicted: Mapping[str, Any] | None) -> str:
+    if not predicted:
+        return "not identified yet"
+    return f"predicted RMS {_mm(predicted['rms_tcp_mm'])} mm, worst {_mm(predicted['max_tcp_mm'])} mm"
+
+
+def _next_poses(poses: Sequence[Mapping[str, Any]]) -> list[str]:
+    lines = []
+    for pose in poses:
+        again = f" (again, for blunder record {pose['replaces']})" if pose.get("replaces") is not None else ""
+        lines.append("  measure " + ", ".join(f"{v:.4f}" for v in pose["joints"]) + again)
+    return lines
+
+
+def adaptive_summary(campaign: Mapping[str, Any]) -> str:
+    lines = [
+        f"adaptive campaign {campaign['id']}: {campaign['status']}, {campaign['records']} records of "
+        f"{campaign['budget']}, target {campaign['target']} {campaign['target_mm']} mm",
+        f"  {_predicted(campaign.get('predicted'))}",
+    ]
+    if campaign.get("excluded"):
+        lines.append(f"  blunders excluded: records {', '.join(str(i) for i in campaign['excluded'])}")
+    if campaign.get("reason"):
+        lines.append(f"  {campaign['reason']}")
+    if campaign.get("calibration_id"):
+        lines.append(f"  calibration {campaign['calibration_id']}")
+    return "\n".join(lines + _next_poses(campaign.get("next") or []))
+
+
+def adaptive_step_summary(step: Mapping[str, Any]) -> str:
+    lines = [f"step {step['number']}: {step['records']} records, {_predicted(step.get('predicted'))}"]
+    lines += [
+        f"  blunder: record {b['record']} off by {b['position_mm']:.3f} mm (statistic {b['statistic']:.1f} > "
+        f"{b['threshold']:.1f}), excluded"
+        for b in step.get("blunders") or []
+    ]
+    lines.append(f"  done: {step['reason']}" if step["done"] else f"  next ({len(step['next'])} poses):")
+    return "\n".join(lines + _next_poses(step.get("next") or []))

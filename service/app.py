@@ -30,6 +30,7 @@ from service.model_cache import ModelCache
 from service.persistence import Database
 from service.registry import build_registry, native_functions
 from service.routes import (
+    adaptive,
     audit,
     calibrations,
     campaigns,
@@ -320,6 +321,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         checks,
         fleets,
         cells,
+        adaptive,
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)

@@ -6,12 +6,14 @@ import uuid
 from datetime import UTC, datetime
 from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import delete, func, select
 
 from models.urdf import UrdfSource
 from service.errors import NotFound
 from service.persistence.store import Store
 from service.persistence.tables import (
+    AdaptiveCampaignRecord,
+    AdaptiveStepRecord,
     CalibrationRecord,
     CampaignRecord,
     CompensatedProgramRecord,
@@ -104,6 +106,9 @@ class Repository(Store):
 
     def delete_robot(self, robot_id: str) -> None:
         robot = self.robot(robot_id)
+        adaptive = select(AdaptiveCampaignRecord.id).where(AdaptiveCampaignRecord.robot_id == robot_id)
+        self.s.execute(delete(AdaptiveStepRecord).where(AdaptiveStepRecord.campaign_id.in_(adaptive)))
+        self.s.execute(delete(AdaptiveCampaignRecord).where(AdaptiveCampaignRecord.robot_id == robot_id))
         tables = (
             CalibrationRecord,
             CampaignRecord,

@@ -212,6 +212,41 @@ class CompensatedProgramRecord(Base):
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
 
 
+class AdaptiveCampaignRecord(Base):
+    """An adaptive campaign (optimal_design.adaptive): what was asked, the candidate pool it chooses from (drawn
+    once, so a restart resumes on the same pool), and its state after the last step."""
+
+    __tablename__ = "adaptive_campaigns"
+    id: Mapped[str] = mapped_column(String(36), primary_key=True)
+    robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id", ondelete="CASCADE"), index=True)
+    version: Mapped[int] = mapped_column(Integer)
+    """The robot's version the campaign started from (its values are the first estimate)."""
+    request: Mapped[dict[str, Any]] = mapped_column(JSON)
+    pool: Mapped[dict[str, Any]] = mapped_column(JSON)
+    """The candidates (internal units), the first batch's indices, the reachable error, the refusals."""
+    state: Mapped[dict[str, Any]] = mapped_column(JSON)
+    """Status, the estimate, the excluded records, the poses asked for and the next ones, why it ended."""
+    steps: Mapped[int] = mapped_column(Integer, default=0)
+    calibration_id: Mapped[str | None] = mapped_column(String(36), nullable=True)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
+    updated_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
+
+
+class AdaptiveStepRecord(Base):
+    """One post of records to an adaptive campaign and what it answered; (campaign, number) is unique, so two
+    posts racing for one step cannot both be stored."""
+
+    __tablename__ = "adaptive_steps"
+    __table_args__ = (UniqueConstraint("campaign_id", "number", name="uq_adaptive_steps_campaign_number"),)
+    id: Mapped[str] = mapped_column(String(36), primary_key=True)
+    campaign_id: Mapped[str] = mapped_column(ForeignKey("adaptive_campaigns.id", ondelete="CASCADE"), index=True)
+    number: Mapped[int] = mapped_column(Integer)
+    records: Mapped[list[Any]] = mapped_column(JSON)
+    """The records posted (as the request gave them: mm, degrees)."""
+    result: Mapped[dict[str, Any]] = mapped_column(JSON)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
+
+
 class Job(Base):
     __tablename__ = "jobs"
     id: Mapped[str] = mapped_column(String(36), primary_key=True)

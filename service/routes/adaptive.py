@@ -1,0 +1,90 @@
+"""Adaptive campaigns: start, post records, read, finish (docs/api.md, docs/pose-design.md)."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Response
+
+from service.deps import ActorDep, DatabaseDep, MetricsDep, ModelCacheDep, RegistryDep, compute
+from service.json_bodies import OffloopRoute
+from service.operations import Runs, operation
+from service.responses import model_json
+from service.schemas.adaptive import (
+    AdaptiveCampaignCreate,
+    AdaptiveCampaignPublic,
+    AdaptiveFinish,
+    AdaptiveRecordsCreate,
+    AdaptiveStepPublic,
+)
+from service.security import Scope
+from service.services import adaptive
+
+router = APIRouter(tags=["adaptive campaigns"], route_class=OffloopRoute)
+_PATH = "/v1/robots/{robot_id}/adaptive-campaigns"
+
+
+@router.post(_PATH, status_code=201, response_model=AdaptiveCampaignPublic)
+@operation(Scope.write, runs=Runs.COMPUTE)
+async def create_adaptive_campaign(
+    robot_id: str,
+    body: AdaptiveCampaignCreate,
+    *,
+    db: DatabaseDep,
+    models: ModelCacheDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+) -> Response:
+    """A campaign that asks for one pose at a time, re-identifies after each record and stops when the
+    predicted accuracy reaches the target (or the budget is spent): its candidate pool and the first poses to
+    measure (the identifiable minimum and two spare, D-optimal)."""
+    kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "body": body}
+    result = await compute(m, "adaptive", adaptive.create_campaign, **kwargs)
+    return model_json(result, status_code=201)
+
+
+@router.post(_PATH + "/{campaign_id}/records", response_model=AdaptiveStepPublic)
+@operation(Scope.write, runs=Runs.COMPUTE)
+async def post_adaptive_records(
+    robot_id: str,
+    campaign_id: str,
+    body: AdaptiveRecordsCreate,
+    *,
+    db: DatabaseDep,
+    models: ModelCacheDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+) -> Response:
+    """Records measured (tracker records, as a calibration takes them): the updated estimate, the predicted
+    accuracy, the blunders flagged, and the next pose or `done` with why. With an Idempotency-Key a retry replays
+    the answer instead of posting the records twice."""
+    kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "campaign_id": campaign_id}
+    result = await compute(m, "adaptive", adaptive.post_records, body=body, **kwargs)
+    return model_json(result)
+
+
+@router.get(_PATH + "/{campaign_id}", response_model=AdaptiveCampaignPublic)
+@operation(Scope.read)
+def get_adaptive_campaign(robot_id: str, campaign_id: str, db: DatabaseDep, models: ModelCacheDep) -> Response:
+    """The campaign's state and every step."""
+    return model_json(adaptive.get_campaign(db=db, models=models, robot_id=robot_id, campaign_id=campaign_id))
+
+
+@router.post(_PATH + "/{campaign_id}/finish", response_model=AdaptiveCampaignPublic)
+@operation(Scope.write, runs=Runs.COMPUTE)
+async def finish_adaptive_campaign(
+    robot_id: str,
+    campaign_id: str,
+    *,
+    db: DatabaseDep,
+    models: ModelCacheDep,
+    registry: RegistryDep,
+    actor: ActorDep,
+    m: MetricsDep,
+    body: AdaptiveFinish | None = None,
+) -> Response:
+    """End the campaign; by default store a calibration of its records (blunders left out) through the
+    calibration path, whose checks decide whether it is applied."""
+    kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "campaign_id": campaign_id}
+    result = await compute(
+        m, "adaptive", adaptive.finish_campaign, body=body or AdaptiveFinish(), actor=actor, **kwargs
+    )
+    return model_json(result)
