@@ -149,12 +149,26 @@ def _program(run: _Run) -> str:
     )
 
 
-RUNS: dict[str, Callable[[_Run], str]] = {
-    "calibration": _calibration,
-    "pose_design": _design,
-    "program_compensation": _program,
+JobResult = CalibrationPublic | PoseDesignPublic | ProgramResponse
+
+
+@dataclass(frozen=True)
+class JobType:
+    """A job kind: the use case that runs it (returning the id of what it created) and that result's public form."""
+
+    run: Callable[[_Run], str]
+    result: Callable[[Repository, str], JobResult]
+
+
+JOB_TYPES: dict[str, JobType] = {
+    "calibration": JobType(_calibration, lambda repo, rid: calibration_public(repo.calibration(rid))),
+    "pose_design": JobType(_design, lambda repo, rid: design_public(repo.design(rid))),
+    "program_compensation": JobType(
+        _program, lambda repo, rid: ProgramResponse.model_validate(repo.compensated_program(rid).result)
+    ),
 }
-"""Per job kind: the use case that runs it, returning the id of what it created."""
+"""Every job kind by its name (`JobKind`, an operation's `job=`): tests/service/test_jobs.py checks that the three
+agree, so a new kind is its operation's declaration, its schema name and its entry here."""
 
 
 def run_job(
@@ -167,20 +181,15 @@ def run_job(
     request: dict[str, Any],
     job: JobHooks | None = None,
 ) -> str:
-    if kind not in RUNS:
+    if kind not in JOB_TYPES:
         raise ValueError(f"no such job kind {kind!r}")
-    return RUNS[kind](_Run(db, models, registry, robot_id, request, job))
+    return JOB_TYPES[kind].run(_Run(db, models, registry, robot_id, request, job))
 
 
 def _public(repo: Repository, job: Job, *, with_result: bool = True) -> JobPublic:
-    result: CalibrationPublic | PoseDesignPublic | ProgramResponse | None = None
+    result: JobResult | None = None
     if with_result and job.status == "succeeded" and job.result_id:
-        if job.kind == "calibration":
-            result = calibration_public(repo.calibration(job.result_id))
-        elif job.kind == "program_compensation":
-            result = ProgramResponse.model_validate(repo.compensated_program(job.result_id).result)
-        else:
-            result = design_public(repo.design(job.result_id))
+        result = JOB_TYPES[job.kind].result(repo, job.result_id)
     return job_out(job, result)
 
 
