@@ -12,8 +12,7 @@ from models.identifiability import Confounding
 from models.identification.diagnosis import Diagnosis
 from models.identification.statistics import PoseErrors
 from models.measurement import MeasurementKind
-from models.measurements.camera import Camera
-from models.measurements.references import Anchor, FixedPoint, Plane, TrackerPositions
+from models.measurements.references import AnyReference
 from models.parameters import ParameterTable
 
 
@@ -119,7 +118,7 @@ class PredictedAccuracy:
 class ReferenceEstimate:
     """One reference's unknowns as identified (internal units: mm, rad) with their standard errors."""
 
-    reference: Anchor | FixedPoint | Plane | TrackerPositions | Camera
+    reference: AnyReference
     """As the fit started it (its closed-form start)."""
     values: Array
     """Its unknowns at the solution, in `reference.unknowns` order."""

@@ -9,8 +9,12 @@ position to an unknown feature that the fit identifies with the robot's paramete
 - `Plane` (a probe's ball centre, its radius already added, touching one plate): r = n · p − h, with the unit
   normal n turned from its start n₀ by two small angles (α about e₁, β about e₂, both ⟂ n₀) so that three
   numbers describe it without a constraint. Unknowns: α, β (rad), h (mm).
+- `Reflector` (a second or third tracker reflector on the tool, beside the one the TCP is): the tracker's
+  reading of a point fixed in the TCP frame at an unknown offset o, r = p + R o − m (3 rows). Unknowns: o (3).
+  Unlike the others it sees the tracker's frame, and with the TCP's own records it sees the tool's orientation:
+  three reflectors read at once give what a 6-DOF probe gives.
 
-Each of these depends on the TCP position p(q, θ) alone, so its rows and their θ-derivatives come from the
+Each of the first three depends on the TCP position p(q, θ) alone, so its rows and their θ-derivatives come from the
 position rows of the forward kinematics and its Jacobian; the derivatives by its own unknowns are written out
 here (a test checks them against finite differences). None of them fixes a frame: the base transform moves
 every anchor, point and plane with it (`fixes_frame`). A reference receives the whole TCP pose (positions,
@@ -21,7 +25,7 @@ rotations and the 6-row Jacobian of `forward_kinematics(..., jacobian=True)`), b
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, ClassVar, Protocol
+from typing import TYPE_CHECKING, ClassVar, Protocol, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
@@ -291,6 +295,51 @@ class TrackerPositions:
 
 
 @dataclass(frozen=True)
+class Reflector:
+    """A tracker reflector fixed on the tool at `offset` from the TCP (mm, in the TCP frame: its start), read by
+    the tracker in its own frame like the TCP's records (`TrackerPositions`)."""
+
+    name: str
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    traits: ClassVar[Traits] = Traits("reflector", rows=3, value_columns=3, fixes_frame=True, fixes_scale=True)
+
+    @property
+    def unknowns(self) -> tuple[ParameterSpec, ...]:
+        return _position_specs(f"reflector.{self.name}", np.asarray(self.offset))
+
+    @property
+    def minimum_records(self) -> int:
+        return 2
+
+    def residuals(self, tcp: ForwardJacobianResult, u: Array, values: Array) -> tuple[Array, Array, Array]:
+        # p + R o: its θ-derivative is ∂p/∂θ + [dω]× (R o) = ∂p/∂θ − [R o]× ∂ω/∂θ (rows 3-5 of the jacobian).
+        rotations = tcp.rotations
+        arm = np.einsum("nij,j->ni", rotations, u[:3])
+        d_theta = tcp.jacobians[:, :3, :] - np.einsum("nij,njp->nip", _cross_matrices(arm), tcp.jacobians[:, 3:6, :])
+        return tcp.positions + arm - values, d_theta, rotations.copy()
+
+    def started(self, tcp: ForwardResult, values: Array) -> Reflector:
+        # R o = m − p in every record: o is the mean of Rᵀ (m − p) under the start model (the tracker's frame
+        # registered from the TCP's records; where it is off, the fit moves o with it).
+        x, y, z = (float(v) for v in np.einsum("nji,nj->ni", tcp.rotations, values - tcp.positions).mean(axis=0))
+        return Reflector(self.name, (x, y, z))
+
+
+def _cross_matrices(v: Array) -> Array:
+    """[v]× for each row of v (n, 3): [v]× w = v × w."""
+    out = np.zeros((v.shape[0], 3, 3))
+    out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
+    out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
+    out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
+    return out
+
+
+AnyReference: TypeAlias = "Anchor | FixedPoint | Plane | TrackerPositions | Reflector | Camera"
+"""Every kind of reference a group of records measures (`ReferenceRecords.reference`)."""
+
+
+@dataclass(frozen=True)
 class ReferenceRecords:
     """The records measured against one reference: joints (n, n_joints, internal units), each record's
     measured value (an anchor's distance, mm; a tracker's position (n, 3), mm; a camera's point and pixel (n, 7),
@@ -299,7 +348,7 @@ class ReferenceRecords:
     in the campaign as the user gave it (None: 0, 1, … within this group), so that a record is named as the
     user knows it."""
 
-    reference: Anchor | FixedPoint | Plane | TrackerPositions | Camera
+    reference: AnyReference
     joints: Array
     values: Array
     sigma_mm: Array | None = None
@@ -318,7 +367,7 @@ class ReferenceRecords:
         sigma = None if self.sigma_mm is None else self.sigma_mm[index]
         return ReferenceRecords(self.reference, self.joints[index], self.values[index], sigma, self.positions[index])
 
-    def with_reference(self, reference: Anchor | FixedPoint | Plane | TrackerPositions | Camera) -> ReferenceRecords:
+    def with_reference(self, reference: AnyReference) -> ReferenceRecords:
         return replace(self, reference=reference)
 
     def check(self) -> None:

@@ -20,7 +20,7 @@ from models._types import Array
 from models.errors import InvalidInput, TooFewMeasurements
 from models.kinematics import check_joint_ranges
 from models.measurements.camera import Camera
-from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords
+from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, Reflector
 from models.runtime import Runtime
 from optimal_design.constraints import KeepOut, joint_range_mask, keep_out_mask
 from optimal_design.problem import MAX_CANDIDATES
@@ -31,7 +31,7 @@ from service.record_kinds import BY_REFERENCE, RECORD_KINDS, Described
 from service.schemas.designs import PoseDesignCreate
 from service.schemas.references import ReferenceCandidate
 
-Reference = Anchor | FixedPoint | Plane | Camera
+Reference = Anchor | FixedPoint | Plane | Reflector | Camera
 KIND_OF_MEASUREMENT = {kind.name: name for name, kind in BY_REFERENCE.items()}
 """The reference kind a record kind measures (records say `anchor`, `point`, `plane`, `camera`)."""
 PLURAL = {name: str(kind.described_in) for name, kind in BY_REFERENCE.items()}
@@ -307,7 +307,10 @@ def _group(
     """One reference's candidate records at the poses `index` (of `joints`), and each record's candidate: an
     anchor's, point's or plane's one per pose; a camera's one per target it would see there (its images)."""
     if not isinstance(reference, Camera):
-        return ReferenceRecords(reference, joints[index], np.zeros(index.size)), index
+        # What a record would read does not enter its rows: zeros in the shape its kind reads (a reflector: 3).
+        columns = reference.traits.value_columns
+        values = np.zeros(index.size) if columns <= 1 else np.zeros((index.size, columns))
+        return ReferenceRecords(reference, joints[index], values), index
     described = request.body.cameras[reference.name]
     assert described.targets_mm is not None  # `references_in` refused a camera without them
     targets = np.asarray(described.targets_mm, dtype=float)

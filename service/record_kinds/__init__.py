@@ -23,11 +23,12 @@ from service.record_kinds.distance import DISTANCE
 from service.record_kinds.image import IMAGE
 from service.record_kinds.plane import PLANE
 from service.record_kinds.point import POINT
+from service.record_kinds.reflector import REFLECTOR
 from service.record_kinds.tracker import TRACKER, Record
 from service.schemas.references import record_tag
 
 RECORD_KINDS: Mapping[str, RecordKind] = MappingProxyType(
-    {kind.name: kind for kind in (TRACKER, DISTANCE, POINT, PLANE, IMAGE)}
+    {kind.name: kind for kind in (TRACKER, DISTANCE, POINT, PLANE, IMAGE, REFLECTOR)}
 )
 """Each record kind by its tag (a record's `kind`; a tracker's records name none: "tracker")."""
 
@@ -114,6 +115,7 @@ __all__ = [
     "RECORD_KIND_ERROR",
     "REFERENCE_COLUMNS",
     "REFERENCE_KINDS",
+    "REFLECTOR",
     "SIGMA_COLUMNS",
     "TRACKER",
     "CampaignRecord",

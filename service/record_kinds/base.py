@@ -15,8 +15,7 @@ from pydantic import BaseModel
 from models import RobotDescription
 from models.errors import InvalidInput
 from models.measurement import MeasurementKind
-from models.measurements.camera import Camera
-from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, TrackerPositions
+from models.measurements.references import AnyReference, ReferenceRecords
 from service.campaign_io.records import ImportOptions, length_factor
 from service.campaign_io.tabular import Row, Table
 from service.conversions.kinematics import joints_in
@@ -25,9 +24,10 @@ from service.schemas.references import (
     CameraDescription,
     PlaneDescription,
     PointDescription,
+    ReflectorDescription,
 )
 
-ModelReference = Anchor | FixedPoint | Plane | TrackerPositions | Camera
+ModelReference = AnyReference
 """What a group of records measures in the models (`ReferenceRecords.reference`)."""
 SIGMA_COLUMNS = ("sigma_mm", "sigma", "uncertainty")
 """Where a file gives a record's σ in mm (the first present is read)."""
@@ -44,21 +44,24 @@ class DescribesReferences(Protocol):
     def planes(self) -> Mapping[str, PlaneDescription]: ...
     @property
     def cameras(self) -> Mapping[str, CameraDescription]: ...
+    @property
+    def reflectors(self) -> Mapping[str, ReflectorDescription]: ...
 
 
 @dataclass(frozen=True)
 class Described:
-    """The references a body describes (its `anchors`, `points`, `planes`, `cameras`)."""
+    """The references a body describes (its `anchors`, `points`, `planes`, `cameras`, `reflectors`)."""
 
     anchors: Mapping[str, AnchorDescription]
     points: Mapping[str, PointDescription]
     planes: Mapping[str, PlaneDescription]
     cameras: Mapping[str, CameraDescription] = field(default_factory=dict)
+    reflectors: Mapping[str, ReflectorDescription] = field(default_factory=dict)
 
     @classmethod
     def of(cls, body: DescribesReferences) -> Described:
         """What a request body describes (a calibration's, a check's, a validation's, a pose design's)."""
-        return cls(body.anchors, body.points, body.planes, body.cameras)
+        return cls(body.anchors, body.points, body.planes, body.cameras, body.reflectors)
 
 
 @dataclass(frozen=True)

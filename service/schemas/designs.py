@@ -10,7 +10,7 @@ from pydantic import AfterValidator, Field, model_validator
 from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from optimal_design.design import MAX_CANDIDATES
-from service.record_kinds import RECORD_KINDS, REFERENCE_KINDS
+from service.record_kinds import RECORD_KINDS, REFERENCE_KINDS, Described
 from service.schemas.calibrations import Noise
 from service.schemas.cells import CellDocument, DesignCellPublic
 from service.schemas.common import (
@@ -22,14 +22,7 @@ from service.schemas.common import (
     Strict,
     TemperatureC,
 )
-from service.schemas.references import (
-    AnchorDescription,
-    CameraDescription,
-    PlaneDescription,
-    PointDescription,
-    ReferenceCandidate,
-    ReferenceName,
-)
+from service.schemas.references import ReferenceCandidate, ReferenceDescriptions
 
 MAX_FIXED = 10_000
 BOUND_SECONDS_MAX = 60.0
@@ -78,7 +71,7 @@ class KeepOutBox(Strict):
     upper: Position
 
 
-class PoseDesignCreate(Strict):
+class PoseDesignCreate(ReferenceDescriptions):
     count: int | None = Field(
         default=None, ge=1, le=10_000, description="K, the number of poses to measure (or give `target`)", examples=[30]
     )
@@ -88,34 +81,16 @@ class PoseDesignCreate(Strict):
     criterion: Criterion = Field(default=Criterion.D, description="With a target: D or I (default there: I)")
     measurement: DesignMeasurement = Field(
         default=MeasurementKind.POSE,
-        description="pose or position: a tracker's records; distance, point, plane or image: records against the "
-        "anchors, points, planes or cameras the body describes (the kind of bare joint vectors among the "
-        "candidates; sampled ones: distance and image only)",
+        description="pose or position: a tracker's records; distance, point, plane, image or reflector: records "
+        "against the anchors, points, planes, cameras or reflectors the body describes (the kind of bare joint "
+        "vectors among the candidates; sampled ones: distance, image and reflector only)",
     )
     candidates: list[DesignCandidate] | None = Field(
         default=None,
         max_length=MAX_CANDIDATES,
         description="Joint vectors; against references, each may name the one its record measures: "
-        '{"joints": [...], "anchor": "a1"} (or "point", "plane", "camera"), which a design of several references '
-        "needs",
-    )
-    anchors: dict[ReferenceName, AnchorDescription] = Field(
-        default_factory=dict,
-        max_length=100,
-        description="distance: the anchors records would measure; each needs position_mm, optionally range_mm",
-    )
-    points: dict[ReferenceName, PointDescription] = Field(
-        default_factory=dict, max_length=100, description="point: the fixed points records would be on"
-    )
-    planes: dict[ReferenceName, PlaneDescription] = Field(
-        default_factory=dict, max_length=100, description="plane: the plates records would touch; each needs normal"
-    )
-    cameras: dict[ReferenceName, CameraDescription] = Field(
-        default_factory=dict,
-        max_length=20,
-        description="image: the cameras whose images records would be, described as for a calibration; each needs "
-        "position_mm, rotation_vector_deg (a guess of its pose) and targets_mm (what it would see), optionally "
-        "sigma_px",
+        '{"joints": [...], "anchor": "a1"} (or "point", "plane", "camera", "reflector"), which a design of several '
+        "references needs",
     )
     noise: Noise | None = Field(
         default=None,
@@ -191,11 +166,11 @@ class PoseDesignCreate(Strict):
         if self.target is not None and "criterion" not in self.model_fields_set:
             self.criterion = Criterion.I  # the criterion that minimises the predicted RMS TCP error
         if isinstance(self.measurement, MeasurementKind) and (
-            self.anchors or self.points or self.planes or self.cameras or any(self._tied())
+            self.anchors or self.points or self.planes or self.cameras or self.reflectors or any(self._tied())
         ):
             raise ValueError(
-                f"measurement {self.measurement.value!r} is a tracker's: anchors, points, planes, cameras and "
-                "candidates that name one belong to measurement distance, point, plane or image"
+                f"measurement {self.measurement.value!r} is a tracker's: anchors, points, planes, cameras, reflectors "
+                f"and candidates that name one belong to measurement {', '.join(REFERENCE_KINDS)}"
             )
         return self
 
@@ -213,8 +188,9 @@ class PoseDesignCreate(Strict):
         offered against every anchor and camera in a distance or image design."""
         if self.candidates is not None:
             return len(self.candidates)
-        if self.measurement in RECORD_KINDS and RECORD_KINDS[self.measurement].sampled:
-            return self.candidate_count * max(1, len(self.anchors) + len(self.cameras))
+        kind = RECORD_KINDS.get(str(self.measurement))
+        if kind is not None and kind.sampled:  # each sampled pose offered against each of its references
+            return self.candidate_count * max(1, len(kind.descriptions(Described.of(self))))
         return self.candidate_count
 
 

@@ -122,27 +122,53 @@ class PlaneDescription(Strict):
     )
 
 
+class ReflectorDescription(Strict):
+    """A reflector on the tool beside the TCP's (a calibration finds its offset from the records; a pose design
+    needs a guess of it: its rows turn with the tool by the offset)."""
+
+    offset_mm: Position | None = Field(
+        default=None,
+        description="A guess of where it sits from the TCP, mm, in the TCP frame; default: found from the records",
+    )
+
+
 class ReferenceDescriptions(Strict):
-    """The references a campaign's records measure, described (a base of the bodies that carry records)."""
+    """The references a campaign's records measure, or a pose design's records would, described (a base of the
+    bodies that carry records, and of the pose design's)."""
 
     anchors: dict[ReferenceName, AnchorDescription] = Field(
         default_factory=dict,
         max_length=100,
         description="Every anchor a distance record names (a ballbar pivot, a sensor's origin), with an optional "
-        "guess of its position and whether the bar's length offset is unknown",
+        "guess of its position and whether the bar's length offset is unknown; a pose design needs each one's "
+        "position_mm, optionally range_mm",
     )
     points: dict[ReferenceName, PointDescription] = Field(
-        default_factory=dict, max_length=100, description="Optional guesses of the fixed points' positions"
+        default_factory=dict,
+        max_length=100,
+        description="Optional guesses of the fixed points' positions (a pose design: the points records would be on)",
     )
     planes: dict[ReferenceName, PlaneDescription] = Field(
-        default_factory=dict, max_length=100, description="Optional: the side each plane is touched from"
+        default_factory=dict,
+        max_length=100,
+        description="Optional: the side each plane is touched from (a pose design needs each one's normal)",
     )
     cameras: dict[ReferenceName, CameraDescription] = Field(
-        default_factory=dict, max_length=20, description="Every camera an image record names, with its intrinsics"
+        default_factory=dict,
+        max_length=20,
+        description="Every camera an image record names, with its intrinsics; a pose design needs each one's "
+        "position_mm, rotation_vector_deg (a guess of its pose) and targets_mm (what it would see), optionally "
+        "sigma_px",
+    )
+    reflectors: dict[ReferenceName, ReflectorDescription] = Field(
+        default_factory=dict,
+        max_length=20,
+        description="Optional guesses of where the reflectors that reflector records name sit from the TCP (a pose "
+        "design needs each one's offset_mm)",
     )
 
 
-CANDIDATE_KINDS = ("anchor", "point", "plane", "camera")
+CANDIDATE_KINDS = ("anchor", "point", "plane", "camera", "reflector")
 """What a design's candidate may name: the reference its record would measure."""
 
 
@@ -155,17 +181,19 @@ class ReferenceCandidate(Strict):
     point: ReferenceName | None = None
     plane: ReferenceName | None = None
     camera: ReferenceName | None = None
+    reflector: ReferenceName | None = None
 
     @model_validator(mode="after")
     def _one(self) -> ReferenceCandidate:
         named = [k for k in CANDIDATE_KINDS if getattr(self, k) is not None]
         if len(named) != 1:
-            raise ValueError(f"a candidate names exactly one of anchor, point, plane or camera, not {named or 'none'}")
+            listed = ", ".join(CANDIDATE_KINDS[:-1]) + " or " + CANDIDATE_KINDS[-1]
+            raise ValueError(f"a candidate names exactly one of {listed}, not {named or 'none'}")
         return self
 
     @property
     def reference(self) -> tuple[str, str]:
-        """(kind as the models name it: anchor, point, plane, camera; its name)."""
+        """(kind as the models name it: anchor, point, plane, camera, reflector; its name)."""
         for kind in CANDIDATE_KINDS:
             name = getattr(self, kind)
             if name is not None:
@@ -189,7 +217,7 @@ class ReferenceUnknownPublic(Public):
 class ReferencePublic(Public):
     """A reference as the calibration identified it, in the frame the report's `frame` names."""
 
-    kind: Literal["anchor", "point", "plane", "position", "image"]
+    kind: Literal["anchor", "point", "plane", "position", "image", "reflector"]
     name: str
     records: int
     rms_residual_mm: float
@@ -200,4 +228,7 @@ class ReferencePublic(Public):
     offset_mm: float | None = Field(default=None, description="A plane's distance from the origin along its normal")
     rotation_vector_deg: list[float] | None = Field(
         default=None, description="A camera's orientation (camera frame → its parent frame) as a rotation vector"
+    )
+    tool_offset_mm: list[float] | None = Field(
+        default=None, description="A reflector's offset from the TCP, mm, in the TCP frame"
     )

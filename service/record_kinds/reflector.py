@@ -1,0 +1,106 @@
+"""A reflector record: the tracker's reading, in its frame, of a second or third reflector fixed on the tool at an
+unknown offset from the TCP (a three-reflector nest, a probe with several targets), beside the TCP's own
+tracker records. Its offset is identified with the robot; with the TCP's records it shows the tool's turn, as a
+6-DOF probe would."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from pydantic import Field
+
+from models.measurements.references import Reflector
+from service.campaign_io.errors import CampaignFileError, listed
+from service.campaign_io.records import length_factor
+from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
+from service.schemas.common import JointVector, Position, Public, Strict
+from service.schemas.references import RecordSigma, ReferenceName
+
+POSITION_COLUMNS = ("x", "y", "z")
+
+
+class ReflectorRecord(Strict):
+    """Where the tracker read the reflector named `reflector` at these joints (its frame, mm)."""
+
+    kind: Literal["reflector"]
+    joints: JointVector
+    reflector: ReferenceName
+    position: Position = Field(description="mm, in the tracker's frame (as a tracker record's position)")
+    sigma_mm: RecordSigma | None = None
+
+
+class ReflectorRecordPublic(Public):
+    kind: Literal["reflector"]
+    joints: list[float]
+    reflector: str
+    position: list[float]
+    sigma_mm: float | None = None
+
+
+class ReflectorKind(RecordKind):
+    name: ClassVar[str] = "reflector"
+    model: ClassVar[str] = Reflector.traits.kind
+    record = ReflectorRecord
+    public = ReflectorRecordPublic
+    named_by: ClassVar[str | None] = "reflector"
+    label: ClassVar[str] = "reflector"
+    described_in: ClassVar[str | None] = "reflectors"
+    example_name: ClassVar[str] = "r2"
+    design_description: ClassVar[str] = '{"offset_mm": [x, y, z]}'
+    sampled: ClassVar[bool] = True
+    file_kinds: ClassVar[tuple[str, ...]] = ("reflector",)
+    file_columns: ClassVar[tuple[str, ...]] = (*POSITION_COLUMNS, "sigma_mm")
+
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        if description.offset_mm is None:
+            # Its rows turn with the tool by the offset: a ruler's guess will do, none will not.
+            raise self.lacking(name, "offset_mm", "where it sits on the tool (from the TCP, mm)", "[x, y, z]")
+        x, y, z = description.offset_mm
+        return Reflector(name, (x, y, z))
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        return {"tool_offset_mm": [float(v) for v in values[:3]]}
+
+    def reference(self, described: Described, name: str) -> ModelReference:
+        found = described.reflectors.get(name)
+        x, y, z = (found.offset_mm if found else None) or (0.0, 0.0, 0.0)  # the fit starts from the records
+        return Reflector(name, (x, y, z))
+
+    def values(self, records: Sequence[Any]) -> np.ndarray:
+        return np.array([r.position for r in records], dtype=float)
+
+    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
+        table = row.table
+        missing = [c for c in POSITION_COLUMNS if c not in table.columns]
+        if missing:
+            raise CampaignFileError(
+                f"line {row.row.line}: a reflector record needs the columns x, y, z (missing: {listed(missing)})",
+                line=row.row.line,
+            )
+        scale = length_factor(table, "x", row.options)
+        rec: dict[str, Any] = {
+            "kind": self.name,
+            "joints": row.joints,
+            "reflector": row.name,
+            "position": [table.number(row.row, c) * scale for c in POSITION_COLUMNS],
+        }
+        row.sigma_mm(rec)
+        out.append(rec)
+
+    def file_rows(self, record: Any) -> list[dict[str, str]]:
+        x, y, z = (cell(v) for v in record.position)
+        return [
+            {
+                "kind": self.file_kinds[0],
+                "reference": record.reflector,
+                "x": x,
+                "y": y,
+                "z": z,
+                "sigma_mm": cell(record.sigma_mm),
+            }
+        ]
+
+
+REFLECTOR = ReflectorKind()
