@@ -197,7 +197,15 @@ def check_poses(client: Client, args: argparse.Namespace, console: Console) -> i
 
 
 def check(client: Client, args: argparse.Namespace, console: Console) -> int:
-    found = client.check(args.robot, args.records, noise_mm=args.noise_mm, alpha=args.alpha, notes=args.notes)
+    found = client.check(
+        args.robot,
+        args.records,
+        noise_mm=args.noise_mm,
+        alpha=args.alpha,
+        notes=args.notes,
+        columns=args.columns,
+        joint_unit=args.joint_unit,
+    )
     console.document(found, lambda: summary.check_summary(found))
     return OK if found["verdict"] == "fine" else NOT_APPLIED
 
@@ -212,7 +220,14 @@ def history(client: Client, args: argparse.Namespace, console: Console) -> int:
 
 
 def validate(client: Client, args: argparse.Namespace, console: Console) -> int:
-    found = client.validate(args.robot, args.records, versions=args.version, register=args.register)
+    found = client.validate(
+        args.robot,
+        args.records,
+        versions=args.version,
+        register=args.register,
+        columns=args.columns,
+        joint_unit=args.joint_unit,
+    )
     console.document(found, lambda: summary.validation_summary(found))
     return OK
 
@@ -408,6 +423,17 @@ def _calibration_commands(commands: Any) -> None:
     parser.add_argument(
         "--prior", choices=["none", "fleet"], help="fleet: with the population of the robot's fleet (fewer poses)"
     )
+    _file_options(parser)
+    check = _command(commands, "validate", validate, "versions against records they were not fitted to")
+    check.add_argument("robot", metavar="ROBOT")
+    check.add_argument("records", type=_readable, metavar="RECORDS.csv")
+    check.add_argument("--version", type=int, action="append", help="a version to evaluate (repeatable)")
+    check.add_argument("--register", action="store_true", help="fit the instrument frame first")
+    _file_options(check)
+
+
+def _file_options(parser: argparse.ArgumentParser) -> None:
+    """How the service reads the campaign file (sent as it is): the same options for every command that sends one."""
     parser.add_argument(
         "--columns",
         metavar="MAP",
@@ -417,11 +443,6 @@ def _calibration_commands(commands: Any) -> None:
     parser.add_argument(
         "--joint-unit", choices=["deg", "rad"], help="the revolute joint columns' unit where the header has none"
     )
-    check = _command(commands, "validate", validate, "versions against records they were not fitted to")
-    check.add_argument("robot", metavar="ROBOT")
-    check.add_argument("records", type=_readable, metavar="RECORDS.csv")
-    check.add_argument("--version", type=int, action="append", help="a version to evaluate (repeatable)")
-    check.add_argument("--register", action="store_true", help="fit the instrument frame first")
 
 
 def _check_commands(commands: Any) -> None:
@@ -437,6 +458,7 @@ def _check_commands(commands: Any) -> None:
     parser.add_argument("--noise-mm", type=float, help="the instrument's position σ (default 0.025)")
     parser.add_argument("--alpha", type=float, help="the false-alarm rate (default 0.01)")
     parser.add_argument("--notes", help="stored with the check (what happened to the robot)")
+    _file_options(parser)
     timeline = _command(commands, "history", history, "the robot's calibrations and checks, oldest first")
     timeline.add_argument("robot", metavar="ROBOT")
     timeline.add_argument("--csv", action="store_true", help="the CSV export (with -o FILE, else stdout)")

@@ -99,8 +99,7 @@ class Client:
         robot's ETag as last read (a 412 `ApiError` when it has changed since)."""
         url = self.base_url + path
         if query:
-            pairs = {k: str(v).lower() if isinstance(v, bool) else str(v) for k, v in query.items() if v is not None}
-            url += "?" + urllib.parse.urlencode(pairs)
+            url += "?" + urllib.parse.urlencode(_query_pairs(query))
         headers = {"Accept": accept + ", application/problem+json"}
         if self.api_key:
             headers["X-API-Key"] = self.api_key
@@ -284,15 +283,10 @@ class Client:
         if async_:
             query["async"] = True
         if isinstance(campaign, str | Path):
-            # The file goes as it is: the service's reader knows the instruments' column and unit variants.
-            query["noise_position_mm"] = noise_mm
-            query["columns"] = columns
-            query["joint_unit"] = joint_unit
-            data = Path(campaign).read_bytes()
-            answer = self.request("POST", path, query=query, data=data, content_type="text/csv").json()
+            query.update(noise_position_mm=noise_mm, columns=columns, joint_unit=joint_unit)
+            answer = self._post_file(path, campaign, query)
         else:
-            if columns is not None or joint_unit is not None:
-                raise ValueError("columns and joint_unit say how to read a campaign file; records are the API's own")
+            _records_only(columns, joint_unit)
             body: Json = {"measurements": list(campaign), "apply": apply}
             if noise_mm is not None:
                 body["noise"] = {"position_mm": noise_mm}
@@ -302,6 +296,12 @@ class Client:
         if async_:
             return self.result(answer["job_id"], on_progress)
         return dict(answer)
+
+    def _post_file(self, path: str, campaign: str | Path, query: Mapping[str, object]) -> Any:
+        """A campaign file sent as it is (`text/csv`): the service's reader knows the instruments' column and
+        unit variants, and the query's `columns` and `joint_unit` say what its header does not."""
+        data = Path(campaign).read_bytes()
+        return self.request("POST", path, query=query, data=data, content_type="text/csv").json()
 
     def calibration(self, calibration_id: str) -> Json:
         return dict(self._get(f"/v1/calibrations/{_segment(calibration_id)}"))
@@ -388,19 +388,27 @@ class Client:
         *,
         versions: Sequence[int] | None = None,
         register: bool = False,
+        columns: str | None = None,
+        joint_unit: str | None = None,
     ) -> Json:
         """Each version (default: the current one) against records it was not fitted to: errors, percentiles and
-        ISO 9283 characteristics. A file is read here (a validation takes JSON), its joint columns named as the
-        robot's joints (GET of the robot first)."""
-        body: Json = {"measurements": self._records(robot_id, records)}
+        ISO 9283 characteristics. A campaign file is sent as it is and read by the service as a calibration's is
+        (`columns`, `joint_unit`: as for `calibrate`); records are sent as JSON."""
+        path = f"/v1/robots/{_segment(robot_id)}/validations"
+        if isinstance(records, str | Path):
+            query = {"versions": list(versions or []), "register": register or None}
+            return dict(self._post_file(path, records, {**query, "columns": columns, "joint_unit": joint_unit}))
+        _records_only(columns, joint_unit)
+        body: Json = {"measurements": list(records)}
         if versions is not None:
             body["versions"] = list(versions)
         if register:
             body["register"] = True
-        return dict(self._post(f"/v1/robots/{_segment(robot_id)}/validations", body))
+        return dict(self._post(path, body))
 
     def _records(self, robot_id: str, records: Campaign) -> list[Any]:
-        """Records as JSON: a file read here, its joint columns named as the robot's joints (GET of the robot)."""
+        """Records as JSON for a request that takes JSON only (an adaptive campaign's): a file read here, its
+        joint columns named as the robot's joints (GET of the robot)."""
         if isinstance(records, str | Path):
             return records_from_csv(Path(records).read_text(), self.robot(robot_id)["joint_names"])
         return list(records)
@@ -423,17 +431,24 @@ class Client:
         noise_mm: float | None = None,
         alpha: float | None = None,
         notes: str | None = None,
+        columns: str | None = None,
+        joint_unit: str | None = None,
     ) -> Json:
         """A quick check of the current version: the verdict (fine, drifted, changed), what best explains a
-        change, and what to do. A file is read here, as for `validate` (a check takes JSON)."""
-        body: Json = {"measurements": self._records(robot_id, records)}
+        change, and what to do. A campaign file is sent as it is, as for `validate`; records as JSON."""
+        path = f"/v1/robots/{_segment(robot_id)}/checks"
+        if isinstance(records, str | Path):
+            query = {"noise_position_mm": noise_mm, "alpha": alpha, "notes": notes}
+            return dict(self._post_file(path, records, {**query, "columns": columns, "joint_unit": joint_unit}))
+        _records_only(columns, joint_unit)
+        body: Json = {"measurements": list(records)}
         if noise_mm is not None:
             body["noise"] = {"position_mm": noise_mm}
         if alpha is not None:
             body["alpha"] = alpha
         if notes is not None:
             body["notes"] = notes
-        return dict(self._post(f"/v1/robots/{_segment(robot_id)}/checks", body))
+        return dict(self._post(path, body))
 
     # -- adaptive campaigns ------------------------------------------------------------------------------------
 
@@ -474,6 +489,22 @@ class Client:
         path = f"/v1/robots/{_segment(robot_id)}/history"
         answer = self.request("GET", path, query={"format": fmt, "limit": limit}, accept=accept)
         return answer.body.decode() if fmt == "csv" else list(answer.json())
+
+
+def _query_pairs(query: Mapping[str, object]) -> list[tuple[str, str]]:
+    """The query's pairs: None left out, booleans as the API spells them, a list as its key repeated
+    (`versions=1&versions=2`)."""
+    pairs = []
+    for key, value in query.items():
+        for item in value if isinstance(value, list | tuple) else [value]:
+            if item is not None:
+                pairs.append((key, str(item).lower() if isinstance(item, bool) else str(item)))
+    return pairs
+
+
+def _records_only(columns: str | None, joint_unit: str | None) -> None:
+    if columns is not None or joint_unit is not None:
+        raise ValueError("columns and joint_unit say how to read a campaign file; records are the API's own")
 
 
 def _program_file(source: ProgramSource) -> ProgramFile:

@@ -1,9 +1,10 @@
-"""Tracker records from a CSV file, for the requests that take JSON only (validations).
+"""Tracker records from a CSV file, for the one request that takes JSON only (an adaptive campaign's records).
 
 The columns are the campaign file's (examples/campaign.csv): the robot's joint names, then x, y, z (mm) and,
-optionally, the orientation qw, qx, qy, qz and a per-record `sigma_mm` and `temperature_c`. Calibrations send
-the file itself (`text/csv`), read by the service's tolerant reader; this reader is the strict subset a
-validation needs, so a file that calibrates also validates."""
+optionally, the orientation qw, qx, qy, qz and a per-record `sigma_mm` and `temperature_c`. Calibrations,
+validations and quick checks send the file itself (`text/csv`), read by the service's tolerant reader (column
+maps, units, tracker exports); this reader is only the strict subset of it that an adaptive campaign's posted
+records need."""
 
 from __future__ import annotations
 

@@ -83,7 +83,12 @@ def validation_summary(validation: Mapping[str, Any]) -> str:
             f"  version {result['version']}: position error {_mm(position['rms'])} RMS, "
             f"{_mm(position['max'])} max{registered}"
         )
-    return "\n".join(lines)
+    return "\n".join(lines + _read_as(validation))
+
+
+def _read_as(answer: Mapping[str, Any]) -> list[str]:
+    """What the service's file reader noted (columns mapped, units converted): how the file was understood."""
+    return [f"  file: {note}" for note in answer.get("import_notes") or []]
 
 
 def check_summary(check: Mapping[str, Any]) -> str:
@@ -102,6 +107,7 @@ def check_summary(check: Mapping[str, Any]) -> str:
         lines.append(f"  explained by {explanation['name']}: {changes}")
     lines.append(f"  to do: {check['recommendation']['message']}")
     lines += [f"  warning: {w.get('message') or w}" for w in check.get("warnings") or []]
+    lines += _read_as(check)
     return "\n".join(lines)
 
 

@@ -1,5 +1,7 @@
-"""A calibration's campaign read from its request: JSON, one CSV, or a joint file and a point file (multipart),
-with what the query adds to a file (`CampaignQuery`). Large bodies parse off the event loop."""
+"""A campaign read from its request, for every operation that takes one (calibrations, validations, quick
+checks): JSON, one CSV, or a joint file and a point file (multipart), read with the same options
+(`file_options`), with what each operation's query adds to a file (a calibration's: `CampaignQuery`). Large bodies
+parse off the event loop."""
 
 from __future__ import annotations
 
@@ -7,12 +9,12 @@ import functools
 import json
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, TypeVar
 
 import anyio
-from fastapi import Query, Request
+from fastapi import Depends, Query, Request
 from fastapi.exceptions import RequestValidationError
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 from python_multipart.exceptions import FormParserError
 
 from models.identification.drift import MAX_DEGREE, DriftDriver
@@ -24,12 +26,16 @@ from service.campaign_io.encoding import decode_text
 from service.campaign_io.reference_table import anchor_names
 from service.campaign_io.tabular import normalise
 from service.conversions.robots import description, urdf_source
-from service.csv_codec import joined_campaign, parse_campaign
+from service.csv_codec import CAMPAIGN_HEADER, joined_campaign, parse_campaign
 from service.errors import BadRequest, UnsupportedMediaType
 from service.guards import MAX_DEPTH, OFFLOOP_BYTES, too_deep
+from service.json_bodies import validate_json
 from service.persistence.database import Database
 from service.persistence.repository import Repository
 from service.schemas.calibrations import CalibrationCreate
+
+M = TypeVar("M", bound=BaseModel)
+FILE_TYPES = ("text/csv", "multipart/form-data")
 
 
 @dataclass(frozen=True)
@@ -50,17 +56,47 @@ class CampaignQuery:
     prior: Literal["none", "fleet"] | None = None
 
 
-def campaign_query(  # Long on purpose: one FastAPI dependency, a Query declaration per parameter a file needs
+def file_options(
     *,
-    apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
-    noise_position_mm: float | None = Query(None, gt=0, le=1000, description="σ position, CSV bodies"),
-    noise_orientation_deg: float | None = Query(None, gt=0, le=180, description="σ orientation, CSV bodies"),
     length_unit: Literal["mm", "m", "cm", "um", "in"] = Query(
         "mm", description="CSV bodies: unit of x, y, z and sigma where the header does not state one ('X [m]')"
     ),
     quaternion_order: QuaternionOrder = Query(
         QuaternionOrder.WXYZ, description="CSV bodies: of q0…q3 columns (Leica-style); qw/qx/qy/qz name themselves"
     ),
+    columns: str | None = Query(
+        None,
+        max_length=10_000,
+        description="CSV and multipart bodies: the column map, FILE_COLUMN=MEANING entries separated by commas "
+        "(J1=joint_1,J2=joint_2,X_m=x): a meaning is a joint of the robot (q1 … or its URDF's joint names, which a "
+        "header may also use unmapped) or x, y, z, qw, qx, qy, qz, pose_id, sigma_mm, u95, temperature_c, time, "
+        "reference, reflector",
+    ),
+    joint_unit: Literal["deg", "rad"] | None = Query(
+        None,
+        description="CSV and multipart bodies: the revolute joint columns' unit where the header states none "
+        "(a header says it as 'A1 [rad]', 'A1 (rad)' or 'a1_rad'); default deg",
+    ),
+) -> ImportOptions:
+    """How a campaign file is read (a FastAPI dependency): the same options wherever a campaign may be a file
+    (calibrations, validations, quick checks)."""
+    return ImportOptions(
+        length_unit=length_unit,
+        quaternion_order=quaternion_order,
+        columns=parse_column_map(columns),
+        joint_unit=joint_unit,
+    )
+
+
+FileOptions = Annotated[ImportOptions, Depends(file_options)]
+
+
+def campaign_query(  # Long on purpose: one FastAPI dependency, a Query declaration per parameter a file needs
+    *,
+    apply: bool | None = Query(None, description="Override the body's 'apply' (useful with CSV)"),
+    noise_position_mm: float | None = Query(None, gt=0, le=1000, description="σ position, CSV bodies"),
+    noise_orientation_deg: float | None = Query(None, gt=0, le=180, description="σ orientation, CSV bodies"),
+    options: FileOptions,
     terms: list[Literal["thermal", "compliance"]] | None = Query(
         None, description="CSV bodies: options.terms (the temperature_c column feeds the thermal term)"
     ),
@@ -81,30 +117,12 @@ def campaign_query(  # Long on purpose: one FastAPI dependency, a Query declarat
     prior: Literal["none", "fleet"] | None = Query(
         None, description="CSV bodies: options.prior (fleet: calibrate with the robot's fleet's population)"
     ),
-    columns: str | None = Query(
-        None,
-        max_length=10_000,
-        description="CSV and multipart bodies: the column map, FILE_COLUMN=MEANING entries separated by commas "
-        "(J1=joint_1,J2=joint_2,X_m=x): a meaning is a joint of the robot (q1 … or its URDF's joint names, which a "
-        "header may also use unmapped) or x, y, z, qw, qx, qy, qz, pose_id, sigma_mm, u95, temperature_c, time, "
-        "reference, reflector",
-    ),
-    joint_unit: Literal["deg", "rad"] | None = Query(
-        None,
-        description="CSV and multipart bodies: the revolute joint columns' unit where the header states none "
-        "(a header says it as 'A1 [rad]', 'A1 (rad)' or 'a1_rad'); default deg",
-    ),
 ) -> CampaignQuery:
     return CampaignQuery(
         apply,
         noise_position_mm,
         noise_orientation_deg,
-        ImportOptions(
-            length_unit=length_unit,
-            quaternion_order=quaternion_order,
-            columns=parse_column_map(columns),
-            joint_unit=joint_unit,
-        ),
+        options,
         list(terms) if terms else None,
         payload_kg,
         payload_cog_mm,
@@ -118,49 +136,85 @@ def campaign_query(  # Long on purpose: one FastAPI dependency, a Query declarat
 async def campaign_body(
     request: Request, query: CampaignQuery, robot: Callable[[], RobotColumns] | None = None
 ) -> CalibrationCreate:
-    """The campaign as JSON, as one CSV, or as the controller's joint file and the instrument's point file
-    (multipart: `joints`, `points`, optional `points_format`), with noise and apply from the query. `robot`
-    gives the robot's joint names (its URDF's too) when a file is to be read: a JSON body never needs them."""
+    """A calibration's campaign (`campaign_request`), with noise, apply, terms, payload, anchors, drift and prior
+    from the query; `apply` overrides a JSON body's too."""
+    body = await campaign_request(
+        request, CalibrationCreate, query.file_options, functools.partial(calibration_fields, query=query), robot
+    )
+    return body.model_copy(update={"apply": query.apply}) if query.apply is not None else body
+
+
+async def campaign_request(
+    request: Request,
+    model: type[M],
+    options: ImportOptions,
+    fields: Callable[[list[dict[str, object]]], dict[str, Any]],
+    robot: Callable[[], RobotColumns] | None = None,
+) -> M:
+    """A request whose body is a campaign (a calibration, a validation, a quick check): `model` as JSON, or its
+    records read from one CSV, or from the controller's joint file and the instrument's point file (multipart:
+    `joints`, `points`, optional `points_format`), or from a `records` file in the layout of several kinds with
+    its `descriptions`. A file's body is its records, what the reader noted (`import_notes`) and `fields` (what
+    the query adds, from the records read). `robot` gives the robot's joint names (its URDF's too) when a file is
+    to be read: a JSON body never needs them."""
     content_type = request.headers.get("content-type", "application/json").split(";")[0].strip().lower()
-    raw = await request.body()
     try:
-        if content_type in ("text/csv", "multipart/form-data"):
-            if content_type == "text/csv":
-                text, decoded = decode_text(raw, "the CSV body")
-                # Off the event loop, like the JSON body below: a large file parses for seconds.
-                columns = None if robot is None else await anyio.to_thread.run_sync(robot)
-                measurements, notes = await request.app.state.compute.call(
-                    functools.partial(parse_campaign, text, options=query.file_options, robot=columns)
-                )
-                notes = [*([decoded] if decoded else []), *notes]
-                described: dict[str, Any] = {}
-            else:
-                columns = None if robot is None else await anyio.to_thread.run_sync(robot)
-                measurements, notes, described = await _files(request, query.file_options, columns)
-            payload = _file_payload(measurements, notes, query)
+        if content_type in FILE_TYPES:
+            columns = None if robot is None else await anyio.to_thread.run_sync(robot)
+            measurements, notes, described = await _read_files(request, content_type, options, columns)
+            payload = {"measurements": measurements, "import_notes": notes, **fields(measurements)}
             payload.update({k: {**payload.get(k, {}), **v} for k, v in described.items()})
-            return await anyio.to_thread.run_sync(CalibrationCreate.model_validate, payload)
+            return await anyio.to_thread.run_sync(model.model_validate, payload)
         if content_type in ("application/json", ""):
+            raw = await request.body()
             # A large body in the parse process (100 000 records validate in 2.2 s here, in a thread holding the
             # GIL the event loop needs); a small one here, where a hop would cost more (64 kB: ~5 ms).
-            parsed: CalibrationCreate | list[Any] = (
-                await request.app.state.compute.call(_validate_json, raw)
+            parsed = (
+                await request.app.state.compute.call(validate_json, model, raw)
                 if len(raw) > OFFLOOP_BYTES
-                else _validate_json(raw or b"null")
+                else validate_json(model, raw or b"null")
             )
             if isinstance(parsed, list):
                 raise RequestValidationError(parsed)
-            return parsed.model_copy(update={"apply": query.apply}) if query.apply is not None else parsed
+            return parsed
     except ValidationError as exc:
         raise RequestValidationError(exc.errors(include_url=False, include_context=False)) from exc
     raise UnsupportedMediaType(
-        f"send the campaign as application/json or text/csv, not {content_type!r}", content_type=content_type
+        f"send the campaign as application/json, text/csv or multipart/form-data, not {content_type!r}",
+        content_type=content_type,
     )
 
 
-def _file_payload(measurements: list[dict[str, object]], notes: list[str], query: CampaignQuery) -> dict[str, Any]:
-    """A file's records as a calibration body, with what the query adds (noise, apply, terms, payload, anchors)."""
-    payload: dict[str, Any] = {"measurements": measurements, "import_notes": notes}
+async def _read_files(
+    request: Request, content_type: str, options: ImportOptions, robot: RobotColumns | None
+) -> tuple[list[dict[str, object]], list[str], dict[str, Any]]:
+    """A file body's records, the reader's notes and its references' descriptions (a multipart `descriptions`)."""
+    if content_type == "multipart/form-data":
+        return await _files(request, options, robot)
+    text, decoded = decode_text(await request.body(), "the CSV body")
+    # Off the event loop, like a large JSON body: a large file parses for seconds.
+    measurements, notes = await request.app.state.compute.call(
+        functools.partial(parse_campaign, text, options=options, robot=robot)
+    )
+    return measurements, [*([decoded] if decoded else []), *notes], {}
+
+
+def query_fields(fields: dict[str, Any]) -> Callable[[list[dict[str, object]]], dict[str, Any]]:
+    """What the query adds to a validation or a quick check read from a file (`fields`: the body's fields a file
+    has no column for) and the anchors its records name, described as unknown (their place is fitted, as a
+    calibration's file's anchors are; a multipart `descriptions` part says more)."""
+
+    def fields_of(measurements: list[dict[str, object]]) -> dict[str, Any]:
+        anchors = anchor_names(measurements)
+        return {**({"anchors": {a: {} for a in anchors}} if anchors else {}), **fields}
+
+    return fields_of
+
+
+def calibration_fields(measurements: list[dict[str, object]], query: CampaignQuery) -> dict[str, Any]:
+    """What the query adds to a calibration read from a file: noise, apply, terms, payload, drift, prior, and the
+    anchors its records name."""
+    payload: dict[str, Any] = {}
     anchors = anchor_names(measurements)
     if anchors or query.length_unknown:
         # A file names its anchors in its rows; the query says which bars' lengths are unknown.
@@ -184,14 +238,6 @@ def _file_payload(measurements: list[dict[str, object]], notes: list[str], query
     if query.payload_kg is not None:
         payload["payload"] = {"mass_kg": query.payload_kg, "cog_mm": query.payload_cog_mm or [0.0, 0.0, 0.0]}
     return payload
-
-
-def _validate_json(raw: bytes) -> CalibrationCreate | list[Any]:
-    """The body as a CalibrationCreate, or its validation errors (plain data: this runs in a compute process)."""
-    try:
-        return CalibrationCreate.model_validate_json(raw)
-    except ValidationError as exc:
-        return list(exc.errors(include_url=False, include_context=False))
 
 
 async def _files(
@@ -284,3 +330,39 @@ def robot_columns(db: Database, robot_id: str) -> RobotColumns:
     if len(urdf) != len(names):  # a URDF robot is its chain's joints; should it ever differ, read q1 … only
         return RobotColumns(names, {}, revolute)
     return RobotColumns(names, {normalise(u): n for u, n in zip(urdf, names, strict=True)}, revolute)
+
+
+def campaign_request_body(model: type[BaseModel]) -> dict[str, Any]:
+    """`openapi_extra` of a route that reads a campaign itself (`campaign_request`): its body as JSON (`model`,
+    added to the components by service.openapi), one CSV, or multipart files."""
+    return {
+        "requestBody": {
+            "required": True,
+            "content": {
+                "application/json": {"schema": {"$ref": f"#/components/schemas/{model.__name__}"}},
+                "text/csv": {
+                    "schema": {"type": "string", "description": "header " + ",".join(CAMPAIGN_HEADER)},
+                    "example": ",".join(CAMPAIGN_HEADER) + "\n400,150,90,45,420,420,420,420,420,420,1,2,3,1,0,0,0\n",
+                },
+                "multipart/form-data": {
+                    "schema": {
+                        "type": "object",
+                        "required": ["joints", "points"],
+                        "properties": {
+                            "joints": {
+                                "type": "string",
+                                "format": "binary",
+                                "description": "pose id + joint columns",
+                            },
+                            "points": {
+                                "type": "string",
+                                "format": "binary",
+                                "description": "pose id + x, y, z (CSV, Leica-style) or a SpatialAnalyzer export",
+                            },
+                            "points_format": {"type": "string", "enum": ["csv", "spatial-analyzer"], "default": "csv"},
+                        },
+                    }
+                },
+            },
+        }
+    }

@@ -198,6 +198,20 @@ def validation(evaluations: int, records: int | None = None) -> Estimate:
     )
 
 
+CHECK_S_PER_RECORD = 1e-3
+"""A quick check's record, its reading included: 200 pose records against the IWR's tolerances took 0.19-0.20 s
+of wall, 50 took 0.05 s (warm, one request at a time, this machine at load ~6). A check takes at most 200
+records (`schemas.checks.MAX_CHECK_RECORDS`, 0.2 s); the estimate matters for a file of many more lines, refused
+from its line count before it is read (2 000 lines fill the budget) rather than parsed only to be refused."""
+CHECK_BYTES_PER_RECORD = VALIDATION_BYTES_PER_RECORD  # the records held as a validation holds them
+
+
+def quick_check(records: int) -> Estimate:
+    return Estimate(
+        f"a quick check of {records} measurements", records * CHECK_S_PER_RECORD, records * CHECK_BYTES_PER_RECORD
+    )
+
+
 PROGRAM_S_PER_TARGET = 2.0e-4
 """Compensating and rewriting one target once it is read: 10 000 URScript targets took 1.06 s of CPU (0.87 s
 compensating, 0.19 s rewriting) at load 2 to 3 on the 2-core machine (benchmarks/bench_programs.py); doubled

@@ -16,10 +16,12 @@ from service.operations import Operation, job_scope
 from service.operations import table as operation_table
 from service.problems import PROBLEM_JSON
 from service.schemas.calibrations import CalibrationCreate
+from service.schemas.checks import QuickCheckCreate
 from service.schemas.exports import DhTablePublic
 from service.schemas.jobs import JobAccepted
 from service.schemas.kinematics import ForwardRequest, InverseRequest
 from service.schemas.problems import Problem
+from service.schemas.validations import ValidationCreate
 from service.schemas.versions import ParameterVersionImport
 from service.security import Scope
 
@@ -52,9 +54,11 @@ EXTRA_MODELS: tuple[type[BaseModel], ...] = (
     Problem,
     ParameterVersionImport,
     DhTablePublic,
+    ValidationCreate,
+    QuickCheckCreate,
 )
-"""Referenced from `openapi_extra` (the calibration and kinematics routes read their bodies themselves) or from
-the error responses added below, so FastAPI does not see them all."""
+"""Referenced from `openapi_extra` (the calibration, validation, check and kinematics routes read their bodies
+themselves) or from the error responses added below, so FastAPI does not see them all."""
 PUBLISHED_BY_EXTRA = ("AnchorDescription", "Noise", "PlaneDescription", "PointDescription")
 """Components the calibration body published before a route's body (the pose design's) shared them: they stay
 as published (FastAPI words the same model a little otherwise: no `"default": null`, bounds as floats)."""

@@ -153,7 +153,10 @@ FORWARD_KINEMATICS = Precount(_joint_vectors, limits.forward_kinematics)
 INVERSE_KINEMATICS = Precount(_targets, limits.inverse_kinematics)
 CALIBRATION = Precount(_records, limits.calibration, count_table=_table_records)
 PROGRAM_COMPENSATION = Precount(program_targets, limits.program_compensation, sized=True)
-VALIDATION = Precount(_evaluations, limits.validation)
+# A validation's or a check's file is counted as a calibration's (its records from its lines); the versions a
+# validation's query adds are counted once the file is read.
+VALIDATION = Precount(_evaluations, limits.validation, count_table=_table_records)
+QUICK_CHECK = Precount(_records, limits.quick_check, count_table=_table_records)
 POSE_DESIGN = Precount(_candidates, limits.pose_design_at_least)
 
 

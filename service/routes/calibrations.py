@@ -7,8 +7,13 @@ from fastapi import APIRouter, Depends, Query, Request, Response
 from pydantic import TypeAdapter
 
 from service import limits
-from service.campaign_requests import CampaignQuery, campaign_body, campaign_query, robot_columns
-from service.csv_codec import CAMPAIGN_HEADER
+from service.campaign_requests import (
+    CampaignQuery,
+    campaign_body,
+    campaign_query,
+    campaign_request_body,
+    robot_columns,
+)
 from service.deps import (
     ActorDep,
     DatabaseDep,
@@ -25,7 +30,7 @@ from service.json_bodies import OffloopRoute
 from service.operations import CALIBRATION, Runs, operation
 from service.responses import model_json, models_json
 from service.routes.robots import IfMatch
-from service.schemas.calibrations import CalibrationPublic
+from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
 from service.security import Scope
 from service.services import calibrations
 from service.services.jobs import submit_job
@@ -37,31 +42,7 @@ router = APIRouter(tags=["calibrations"], route_class=OffloopRoute)
 _CALIBRATIONS = TypeAdapter(list[CalibrationPublic])
 
 _BODY = {
-    "requestBody": {
-        "required": True,
-        "content": {
-            "application/json": {"schema": {"$ref": "#/components/schemas/CalibrationCreate"}},
-            "text/csv": {
-                "schema": {"type": "string", "description": "header " + ",".join(CAMPAIGN_HEADER)},
-                "example": ",".join(CAMPAIGN_HEADER) + "\n400,150,90,45,420,420,420,420,420,420,1,2,3,1,0,0,0\n",
-            },
-            "multipart/form-data": {
-                "schema": {
-                    "type": "object",
-                    "required": ["joints", "points"],
-                    "properties": {
-                        "joints": {"type": "string", "format": "binary", "description": "pose id + joint columns"},
-                        "points": {
-                            "type": "string",
-                            "format": "binary",
-                            "description": "pose id + x, y, z (CSV, Leica-style) or a SpatialAnalyzer export",
-                        },
-                        "points_format": {"type": "string", "enum": ["csv", "spatial-analyzer"], "default": "csv"},
-                    },
-                }
-            },
-        },
-    },
+    **campaign_request_body(CalibrationCreate),
     "responses": {
         "202": {
             "description": "Accepted as a job (?async=true)",

@@ -1,22 +1,33 @@
 from __future__ import annotations
 
+import functools
 from typing import Any
 
-from fastapi import APIRouter, Query, Request, Response
+from fastapi import APIRouter, Depends, Query, Request, Response
 from pydantic import TypeAdapter
 
+from service import limits
+from service.campaign_requests import (
+    FileOptions,
+    campaign_request,
+    campaign_request_body,
+    query_fields,
+    robot_columns,
+)
 from service.conversions.checks import HISTORY_COLUMNS, history_csv
-from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, compute, negotiate
+from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute, negotiate
 from service.json_bodies import OffloopRoute
-from service.operations import Runs, operation
+from service.operations import QUICK_CHECK, Runs, operation
 from service.responses import model_json, models_json
 from service.schemas.checks import (
+    Against,
     HistoryEventPublic,
     QuickCheckCreate,
     QuickCheckDesignCreate,
     QuickCheckDesignPublic,
     QuickCheckPublic,
 )
+from service.schemas.common import NOTES_MAX
 from service.security import Scope
 from service.services import checks
 
@@ -32,14 +43,54 @@ _HISTORY_CSV: dict[int | str, dict[str, Any]] = {
 }
 
 
-@router.post("/v1/robots/{robot_id}/checks", status_code=201, response_model=QuickCheckPublic)
-@operation(Scope.write, runs=Runs.COMPUTE)
+def check_fields(  # one FastAPI dependency: a Query declaration per body field a file has no column for
+    *,
+    noise_position_mm: float | None = Query(None, gt=0, le=1000, description="CSV and multipart bodies: noise's"),
+    noise_orientation_deg: float | None = Query(None, gt=0, le=180, description="CSV and multipart bodies: noise's"),
+    alpha: float | None = Query(None, gt=0, lt=0.5, description="CSV and multipart bodies: the body's alpha"),
+    register: bool | None = Query(None, description="CSV and multipart bodies: the body's register"),
+    against: Against | None = Query(None, description="CSV and multipart bodies: the body's against"),
+    notes: str | None = Query(None, max_length=NOTES_MAX, description="CSV and multipart bodies: the body's notes"),
+) -> dict[str, Any]:
+    """What the query adds to a quick check read from a file: the body's fields a file has no column for."""
+    noise = {"position_mm": noise_position_mm, "orientation_deg": noise_orientation_deg}
+    given = {
+        "noise": {k: v for k, v in noise.items() if v is not None} or None,
+        "alpha": alpha,
+        "register": register,
+        "against": against,
+        "notes": notes,
+    }
+    return {k: v for k, v in given.items() if v is not None}
+
+
+@router.post(
+    "/v1/robots/{robot_id}/checks",
+    status_code=201,
+    response_model=QuickCheckPublic,
+    openapi_extra=campaign_request_body(QuickCheckCreate),
+)
+@operation(Scope.write, runs=Runs.COMPUTE, precount=QUICK_CHECK, tables=True)
 async def create_check(
-    robot_id: str, body: QuickCheckCreate, db: DatabaseDep, registry: RegistryDep, m: MetricsDep
+    robot_id: str,
+    request: Request,
+    db: DatabaseDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+    *,
+    settings: SettingsDep,
+    options: FileOptions,
+    fields: dict[str, Any] = Depends(check_fields),
 ) -> Response:
     """A quick check (docs/checks.md): a few tracker records against the current version, tested against its
     predicted uncertainty at the false-alarm rate `alpha`; the verdict (fine, drifted, changed), what best
-    explains a change, and what to do."""
+    explains a change, and what to do. The records as JSON, or a campaign file as a calibration takes it
+    (text/csv or multipart, the same query options)."""
+    body = await campaign_request(
+        request, QuickCheckCreate, options, query_fields(fields), functools.partial(robot_columns, db, robot_id)
+    )
+    cost = limits.quick_check(len(body.measurements))
+    limits.admit(cost, run_async=False, can_run_async=False, budget_s=settings.sync_budget_seconds)
     result = await compute(m, "check", checks.create_check, db=db, registry=registry, robot_id=robot_id, body=body)
     return model_json(result, status_code=201)
 

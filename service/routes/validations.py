@@ -1,14 +1,31 @@
 from __future__ import annotations
 
-from fastapi import APIRouter, Response
+import functools
+from typing import Any
+
+from fastapi import APIRouter, Depends, Query, Request, Response
 from pydantic import TypeAdapter
 
 from service import limits
+from service.campaign_requests import (
+    FileOptions,
+    campaign_request,
+    campaign_request_body,
+    query_fields,
+    robot_columns,
+)
 from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute
 from service.json_bodies import OffloopRoute
 from service.operations import VALIDATION, Runs, operation
 from service.responses import model_json, models_json
-from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
+from service.schemas.common import NOTES_MAX
+from service.schemas.validations import (
+    MAX_VERSIONS,
+    IsoPosesCreate,
+    IsoPosesPublic,
+    ValidationCreate,
+    ValidationPublic,
+)
 from service.security import Scope
 from service.services import validations
 
@@ -16,21 +33,48 @@ router = APIRouter(tags=["validations"], route_class=OffloopRoute)
 _VALIDATIONS = TypeAdapter(list[ValidationPublic])
 
 
-@router.post("/v1/robots/{robot_id}/validations", status_code=201, response_model=ValidationPublic)
-@operation(Scope.write, runs=Runs.COMPUTE, precount=VALIDATION)
+def validation_fields(
+    versions: list[int] | None = Query(
+        None, max_length=MAX_VERSIONS, description="CSV and multipart bodies: the body's versions (repeatable)"
+    ),
+    register: bool | None = Query(None, description="CSV and multipart bodies: the body's register"),
+    notes: str | None = Query(None, max_length=NOTES_MAX, description="CSV and multipart bodies: the body's notes"),
+) -> dict[str, Any]:
+    """What the query adds to a validation read from a file: the body's fields a file has no column for."""
+    given = {"versions": versions, "register": register, "notes": notes}
+    return {k: v for k, v in given.items() if v is not None}
+
+
+@router.post(
+    "/v1/robots/{robot_id}/validations",
+    status_code=201,
+    response_model=ValidationPublic,
+    openapi_extra=campaign_request_body(ValidationCreate),
+)
+@operation(Scope.write, runs=Runs.COMPUTE, precount=VALIDATION, tables=True)
 async def create_validation(
     robot_id: str,
-    body: ValidationCreate,
+    request: Request,
     *,
     db: DatabaseDep,
     registry: RegistryDep,
     m: MetricsDep,
     settings: SettingsDep,
+    options: FileOptions,
+    fields: dict[str, Any] = Depends(validation_fields),
 ) -> Response:
     """Measurements that are not fitted, against parameter versions: per-pose errors, RMS, max, percentiles, and
-    ISO 9283 AP/RP (and AD/RD) where joint commands repeat."""
+    ISO 9283 AP/RP (and AD/RD) where joint commands repeat. The records as JSON, or a campaign file as a
+    calibration takes it (text/csv or multipart, the same query options)."""
+    body = await campaign_request(
+        request,
+        ValidationCreate,
+        options,
+        query_fields(fields),
+        functools.partial(robot_columns, db, robot_id),
+    )
     # A large body was counted in its bytes (its precount); a small one can still ask for much (600 records × 50
-    # versions), counted here. No job form: over the budget, fewer at a time.
+    # versions), counted here, as a file once read. No job form: over the budget, fewer at a time.
     records = len(body.measurements)
     cost = limits.validation(records * len(body.versions or [None]), records)
     limits.admit(cost, run_async=False, can_run_async=False, budget_s=settings.sync_budget_seconds)

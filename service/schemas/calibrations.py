@@ -16,6 +16,7 @@ from service.record_kinds import CampaignRecord
 from service.schemas.common import (
     ConditionsPublic,
     FreeText,
+    ImportNotes,
     Measurement,
     OptionalFloat,
     Payload,
@@ -99,11 +100,7 @@ class CalibrationCreate(ReferenceDescriptions):
     measurements: list[CampaignRecord] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
     noise: Noise = Noise()
     apply: bool = True
-    import_notes: list[str] = Field(
-        default_factory=list,
-        max_length=100,
-        description="What the file reader noted (columns ignored, units converted); set by the service for CSV",
-    )
+    import_notes: ImportNotes
     force_apply: bool = Field(
         default=False,
         description="Apply even if a check fails (the variance-factor test, the identifiable count, accuracy "

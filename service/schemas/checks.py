@@ -12,7 +12,15 @@ from models.checks import CheckAction, CheckOptions, Verdict
 from optimal_design.checks import MAX_CHECK_POSES, MIN_CHECK_POSES
 from service.record_kinds import CampaignRecord
 from service.schemas.calibrations import Instrument, InstrumentPublic, Noise
-from service.schemas.common import ConditionWarningPublic, FreeText, JointVector, Measurement, Public, Strict
+from service.schemas.common import (
+    ConditionWarningPublic,
+    FreeText,
+    ImportNotes,
+    JointVector,
+    Measurement,
+    Public,
+    Strict,
+)
 from service.schemas.references import ReferenceDescriptions
 
 _OPTIONS = CheckOptions()
@@ -61,6 +69,7 @@ class QuickCheckCreate(ReferenceDescriptions):
     )
     notes: FreeText | None = None
     instrument: Instrument | None = None
+    import_notes: ImportNotes
 
 
 class CheckStatisticPublic(Public):
@@ -126,6 +135,10 @@ class QuickCheckPublic(Public):
     warnings: list[ConditionWarningPublic] = Field(
         default_factory=list,
         description="The records' temperature or payload outside what the version was calibrated under",
+    )
+    import_notes: list[str] = Field(
+        default_factory=list,
+        description="What the file reader noted (columns mapped, units converted); empty for records sent as JSON",
     )
 
 

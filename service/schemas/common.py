@@ -49,6 +49,17 @@ FreeText = Annotated[
 """Free text (notes): lines and tabs, no other control character. PostgreSQL text cannot hold NUL (psycopg's
 DataError was a 500, where SQLite stored it), and the others are nobody's notes but a terminal's escapes."""
 
+ImportNotes = Annotated[
+    list[str],
+    Field(
+        default_factory=list,
+        max_length=100,
+        description="What the file reader noted (columns ignored, units converted); set by the service for CSV",
+    ),
+]
+"""A campaign request's notes from the file its records were read from (service.campaign_requests): the same
+field in every body that may come as a file (a calibration, a validation, a quick check)."""
+
 
 def _finite_or_none(value: Any) -> Any:
     # The one place NaN and infinities become null: strict JSON (and PostgreSQL's JSON type) has no such numbers.

@@ -12,7 +12,7 @@ from service.schemas.calibrations import (
     Instrument,
     InstrumentPublic,
 )
-from service.schemas.common import FreeText, Measurement, Public, Strict
+from service.schemas.common import FreeText, ImportNotes, Measurement, Public, Strict
 from service.schemas.references import ReferenceDescriptions
 
 
@@ -45,6 +45,7 @@ class ValidationCreate(ReferenceDescriptions):
     )
     notes: FreeText | None = None
     instrument: Instrument | None = None
+    import_notes: ImportNotes
 
 
 class PercentilesPublic(Public):
@@ -126,6 +127,10 @@ class ValidationPublic(Public):
     notes: str | None
     instrument: InstrumentPublic | None
     results: list[VersionResultPublic]
+    import_notes: list[str] = Field(
+        default_factory=list,
+        description="What the file reader noted (columns mapped, units converted); empty for records sent as JSON",
+    )
 
 
 class IsoPosesCreate(Strict):

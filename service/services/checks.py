@@ -119,6 +119,7 @@ def create_check(*, db: Database, registry: Registry, robot_id: str, body: Quick
         payloads_kg=[r.payload.mass_kg for r in records if r.payload is not None],
     )
     document["warnings"] = [w.model_dump(mode="json") for w in warnings]
+    document["import_notes"] = body.import_notes
     with db.session() as s:
         repo, life = Repository(s), Lifecycle(s)
         repo.robot(robot_id, lock=True)  # still there

@@ -59,7 +59,12 @@ def validate(*, db: Database, registry: Registry, robot_id: str, body: Validatio
         }
         measurement, size = campaign.kind, campaign.size
     results = [version_result_out(models[v], v, reports[v]).model_dump(mode="json") for v in versions]
-    document = {"measurement": measurement.value, "measurements": size, "results": results}
+    document = {
+        "measurement": measurement.value,
+        "measurements": size,
+        "results": results,
+        "import_notes": body.import_notes,
+    }
     records = [r.model_dump() for r in body.measurements]
     instrument = None if body.instrument is None else body.instrument.model_dump()
     with db.session() as s:

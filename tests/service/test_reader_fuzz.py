@@ -23,7 +23,7 @@ from pydantic import ValidationError
 
 from service import problems
 from service.campaign_io import read_spatial_analyzer
-from service.campaign_requests import CampaignQuery, _file_payload
+from service.campaign_requests import CampaignQuery, calibration_fields
 from service.csv_codec import joined_campaign, parse_campaign
 from service.parameters_csv import parse_parameters
 from service.schemas.calibrations import CalibrationCreate
@@ -144,8 +144,9 @@ def _answered(exc: BaseException) -> None:
 
 def _as_body(measurements: list[dict[str, object]], notes: list[str]) -> None:
     query = CampaignQuery(None, None, None, None, None, None, None, [])  # type: ignore[arg-type]
+    payload = {"measurements": measurements, "import_notes": notes, **calibration_fields(measurements, query)}
     with contextlib.suppress(ValidationError):  # a 422 naming the field
-        CalibrationCreate.model_validate(_file_payload(measurements, notes, query))
+        CalibrationCreate.model_validate(payload)
 
 
 @pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
@@ -225,4 +226,5 @@ def test_the_edges_of_floats_in_a_campaign_are_named(cell: str) -> None:
     assert cell == "1e308"
     with pytest.raises(ValidationError):
         query = CampaignQuery(None, None, None, None, None, None, None, [])  # type: ignore[arg-type]
-        CalibrationCreate.model_validate(_file_payload(measurements, notes, query))
+        payload = {"measurements": measurements, "import_notes": notes, **calibration_fields(measurements, query)}
+        CalibrationCreate.model_validate(payload)
