@@ -293,17 +293,34 @@ def _robot_of(page: Any) -> str:
     return found.group(1)
 
 
+def _as_a_controller_writes_it() -> tuple[str, str]:
+    """The campaign under a cell's own column names (Achse 1…4, Bein 1…6) with its wrist angles (q3, q4) in
+    radians, as a controller exports it; and the column map that names them."""
+    rows = list(csv.reader(CAMPAIGN.read_text().splitlines()))
+    names = [f"Achse {k + 1}" for k in range(4)] + [f"Bein {k}" for k in range(1, 7)]
+    mapping = ",".join(f"{name}={joint}" for name, joint in zip(names, rows[0][:10], strict=True))
+    lines = [",".join([*names, *rows[0][10:]])]
+    for row in rows[1:]:
+        lines.append(",".join([*row[:2], *(repr(math.radians(float(v))) for v in row[2:4]), *row[4:]]))
+    return "\n".join(lines) + "\n", mapping
+
+
 def test_validation_of_the_current_version(page: Any, server: str) -> None:
+    """The file is sent as it is with the column map and the joints' unit, as a calibration's is: the answer is
+    the JSON form's for the campaign's records."""
     robot_id = _create_iwr(page, server, "cell-validate")
     page.get_by_role("link", name="3. Validate").click()
     _ready(page, "/validate$")
+    text, mapping = _as_a_controller_writes_it()
     # Dropped on the zone this time (the campaign test uses the file picker).
     transfer = page.evaluate_handle(
         """text => { const t = new DataTransfer(); t.items.add(new File([text], "validation.csv")); return t; }""",
-        CAMPAIGN.read_text(),
+        text,
     )
     page.dispatch_event("#validation-file-zone", "drop", {"dataTransfer": transfer})
     page.wait_for_selector("#validation-preview table")
+    page.fill("#validation-column-map", mapping)
+    page.select_option("#validation-joint-unit", "rad")
     page.get_by_role("button", name="Validate").click()
     page.wait_for_selector("#validation-results")
     screenshot(page, "validation")
@@ -312,6 +329,23 @@ def test_validation_of_the_current_version(page: Any, server: str) -> None:
     rms = validations[0]["results"][0]["position_mm"]["rms"]
     shown = page.locator("#validation-results tbody tr td:nth-child(2)").inner_text()
     assert float(shown) == pytest.approx(rms, rel=1e-3)
+    notes = page.locator("#validation-notes").inner_text()
+    assert "achse_1 → q1" in notes and "q3 is in rad" in notes
+    records = list(csv.DictReader(CAMPAIGN.read_text().splitlines()))
+    as_json = httpx.post(
+        f"{server}/v1/robots/{robot_id}/validations",
+        json={
+            "measurements": [
+                {
+                    "joints": [float(r[j]) for j in list(r)[:10]],
+                    "position": [float(r[k]) for k in "xyz"],
+                    "orientation": [float(r[k]) for k in ("qw", "qx", "qy", "qz")],
+                }
+                for r in records
+            ]
+        },
+    ).json()
+    assert rms == pytest.approx(as_json["results"][0]["position_mm"]["rms"], abs=1e-9)
 
 
 def test_a_401_is_said_in_words(page: Any, server: str) -> None:

@@ -1,9 +1,9 @@
-// Validations: records that are not fitted, judged against chosen parameter versions. The route takes JSON, so
-// the CSV is read here (csv.js, the service reader's rules for tracker records) and its records are sent; the
-// answer per version is shown with ISO 9283 AP/RP where the campaign repeats joint commands.
-import { api } from "../api.js";
-import { trackerRecords } from "../csv.js";
-import { errorBox, fill, h, link, muted, num, numCell, table, when } from "../dom.js";
+// Validations: records that are not fitted, judged against chosen parameter versions. The file itself is sent
+// (text/csv), with the column map and the joints' unit, as a calibration's is: the service's reader decides, so a
+// file that calibrates validates. The answer per version is shown with ISO 9283 AP/RP where the campaign repeats
+// joint commands, and what the reader noted.
+import { api, query } from "../api.js";
+import { errorBox, field, fill, h, link, muted, num, numCell, table, when } from "../dom.js";
 import { filePicker, showPreview } from "./campaign.js";
 
 export async function validationView(view, robotId) {
@@ -20,8 +20,13 @@ export async function validationView(view, robotId) {
     versions.map((v) => h("label", { class: "choice" }, h("input", { type: "checkbox", value: v.version, checked: v.current }),
       ` ${v.version} (${v.provenance}${v.current ? ", current" : ""})`)));
   const register = h("input", { type: "checkbox", id: "validation-register" });
+  const columns = h("input", { id: "validation-column-map", size: 50, autocomplete: "off", placeholder: "Achse 1=joint_1, Achse 2=joint_2, X_m=x" });
+  const jointUnit = h("select", { id: "validation-joint-unit" }, [["", "as the header says (default degrees)"], ["deg", "degrees"], ["rad", "radians"]]
+    .map(([value, text]) => h("option", { value }, text)));
   const result = h("div", { id: "validation-result" });
   const form = h("form", { id: "validation-form" }, picker, preview, choices,
+    h("div", { class: "row" }, field("Column map (file column = joint or coordinate)", columns),
+      field("Revolute joints' unit where the header states none", jointUnit)),
     h("label", {}, register, " Fit the instrument frame to each version first (register)"),
     h("p", {}, h("button", { type: "submit", id: "validate" }, "Validate")), result);
   form.addEventListener("submit", async (event) => {
@@ -29,8 +34,10 @@ export async function validationView(view, robotId) {
     try {
       if (!state.csv) throw new Error("choose or drop a validation CSV first");
       const chosen = [...choices.querySelectorAll("input:checked")].map((i) => Number(i.value));
-      const answer = await api(`/v1/robots/${robotId}/validations`, { method: "POST",
-        json: { measurements: trackerRecords(state.csv), versions: chosen, register: register.checked, notes: `from the browser: ${state.name}` } });
+      const options = { versions: chosen, register: register.checked, notes: `from the browser: ${state.name}`,
+        columns: columns.value.trim() || null, joint_unit: jointUnit.value || null };
+      const answer = await api(`/v1/robots/${robotId}/validations${query(options)}`,
+        { method: "POST", body: state.text, type: "text/csv" });
       fill(result, validationResult(answer));
     } catch (error) {
       fill(result, errorBox(error, "validation-error"));
@@ -59,6 +66,7 @@ function validationResult(v) {
       table(["pose", "cycles", "AP (mm)", "RP (mm)", "AP orientation (deg)", "RP orientation (deg)"], r.iso9283.poses.map((p, i) => [
         numCell(i + 1), numCell(p.cycles), numCell(p.AP_mm), numCell(p.RP_mm),
         p.AP_abc_deg ? p.AP_abc_deg.map((x) => num(x, 3)).join(", ") : "—", p.RP_abc_deg ? p.RP_abc_deg.map((x) => num(x, 3)).join(", ") : "—"]),
-      `iso-${r.version}`))));
+      `iso-${r.version}`))),
+    (v.import_notes || []).length ? h("ul", { id: "validation-notes" }, v.import_notes.map((n) => h("li", {}, n))) : null);
 }
 
