@@ -66,7 +66,7 @@ def _rows(page: Any, selector: str) -> list[list[str]]:
 
 def _shown(text: str) -> float:
     """A number as the page prints it (4 significant digits unless told), back to a float."""
-    return float(text.split()[0])
+    return float(text.split(maxsplit=1)[0])
 
 
 def _measure(joints_deg: list[list[float]], seed: int, blunder: bool = False) -> list[dict[str, Any]]:
@@ -126,6 +126,8 @@ def _start(page: Any, server: str, robot_id: str) -> str:
 def _first_batch_from_the_download(page: Any, campaign: dict[str, Any], tmp_path: Path) -> None:
     """The downloaded CSV is the calibration upload's layout with the measurements empty: filled in, uploaded."""
     assert page.locator("#adaptive-measure h2").inner_text() == "Measure now: 7 poses"  # 36 parameters: 34 + 2
+    page.click("#adaptive-copy")
+    expect(page.locator("#adaptive-copied")).to_have_text("7 poses copied")
     with page.expect_download() as got:
         page.click("#adaptive-download")
     table = list(csv.reader(io.StringIO(Path(got.value.path()).read_text())))
