@@ -123,8 +123,10 @@ def _start(page: Any, server: str, robot_id: str) -> str:
     return page.evaluate("location.hash").rsplit("/", 1)[1]  # type: ignore[no-any-return]
 
 
-def _first_batch_from_the_download(page: Any, campaign: dict[str, Any], tmp_path: Path) -> None:
-    """The downloaded CSV is the calibration upload's layout with the measurements empty: filled in, uploaded."""
+def _first_batch_from_the_download(page: Any, server: str, path: str, tmp_path: Path) -> None:
+    """The downloaded CSV is the calibration upload's layout with the measurements empty: posted so, the page
+    names the empty cell; filled in and uploaded, it is the first step."""
+    campaign = httpx.get(server + path).json()
     assert page.locator("#adaptive-measure h2").inner_text() == "Measure now: 7 poses"  # 36 parameters: 34 + 2
     page.click("#adaptive-copy")
     expect(page.locator("#adaptive-copied")).to_have_text("7 poses copied")
@@ -134,6 +136,10 @@ def _first_batch_from_the_download(page: Any, campaign: dict[str, Any], tmp_path
     assert table[0] == LAYOUT and all(row[6:] == [""] * 7 for row in table[1:])
     joints = [[float(c) for c in row[:6]] for row in table[1:]]
     assert np.allclose(joints, [p["joints"] for p in campaign["next"]], atol=5e-7)
+    page.set_input_files("#adaptive-file", got.value.path())  # posted as downloaded: nothing measured yet
+    page.click("#adaptive-post")
+    expect(page.locator("#adaptive-post-error")).to_have_text("line 2, column 7 (x): '' is not a number")
+    assert httpx.get(f"{server}{path}").json()["steps"] == []  # nothing sent
     filled = tmp_path / "measured.csv"
     filled.write_text(_as_csv(_measure(joints, 1)))
     page.set_input_files("#adaptive-file", str(filled))
@@ -186,7 +192,7 @@ def test_an_adaptive_campaign_measured_through_the_browser(page: Any, server: st
     campaign = httpx.get(server + path).json()
     _next_shown(page, campaign)
     screenshot(page, "adaptive-start")
-    _first_batch_from_the_download(page, campaign, tmp_path)
+    _first_batch_from_the_download(page, server, path, tmp_path)
     campaign = _blunder_flagged(page, server, path)
 
     page.reload()  # the page is drawn from the API's stored campaign alone: a reload resumes it
