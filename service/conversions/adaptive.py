@@ -20,6 +20,7 @@ from service.record_kinds.tracker import Record
 from service.schemas.adaptive import (
     AdaptiveCampaignCreate,
     AdaptiveCampaignPublic,
+    AdaptiveCampaignSummaryPublic,
     AdaptiveStepPublic,
     BlunderPublic,
     EstimatePublic,
@@ -191,6 +192,31 @@ def campaign_public(
         reason=state["reason"],
         calibration_id=row.calibration_id,
         steps=[step_public(desc, s.result, s) for s in steps],
+        created_at=row.created_at,
+        updated_at=row.updated_at,
+    )
+
+
+def campaign_summary(row: AdaptiveCampaignRecord) -> AdaptiveCampaignSummaryPublic:
+    """The list's row: read from the campaign's request and state alone (no step, no pool read)."""
+    request, state = row.request, row.state
+    predicted = state["predicted"]
+    return AdaptiveCampaignSummaryPublic(
+        id=row.id,
+        robot_id=row.robot_id,
+        version=row.version,
+        status=state["status"],
+        target_mm=request["target_mm"],
+        target=request["target"],
+        budget=request["budget"],
+        measurement=request["measurement"],
+        criterion=request["criterion"],
+        records=state["records"],
+        predicted=None if predicted is None else PredictedPublic.model_validate(predicted),
+        excluded=state["excluded"],
+        steps=row.steps,
+        reason=state["reason"],
+        calibration_id=row.calibration_id,
         created_at=row.created_at,
         updated_at=row.updated_at,
     )

@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 from fastapi import APIRouter, Response
+from pydantic import TypeAdapter
 
-from service.deps import ActorDep, DatabaseDep, MetricsDep, ModelCacheDep, RegistryDep, compute
+from service.deps import ActorDep, DatabaseDep, Limit, MetricsDep, ModelCacheDep, Offset, RegistryDep, compute
 from service.json_bodies import OffloopRoute
 from service.operations import Runs, operation
-from service.responses import model_json
+from service.responses import model_json, models_json
 from service.schemas.adaptive import (
     AdaptiveCampaignCreate,
     AdaptiveCampaignPublic,
+    AdaptiveCampaignSummaryPublic,
     AdaptiveFinish,
     AdaptiveRecordsCreate,
     AdaptiveStepPublic,
@@ -20,6 +22,7 @@ from service.services import adaptive
 
 router = APIRouter(tags=["adaptive campaigns"], route_class=OffloopRoute)
 _PATH = "/v1/robots/{robot_id}/adaptive-campaigns"
+_SUMMARIES = TypeAdapter(list[AdaptiveCampaignSummaryPublic])
 
 
 @router.post(_PATH, status_code=201, response_model=AdaptiveCampaignPublic)
@@ -59,6 +62,15 @@ async def post_adaptive_records(
     kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "campaign_id": campaign_id}
     result = await compute(m, "adaptive", adaptive.post_records, body=body, **kwargs)
     return model_json(result)
+
+
+@router.get(_PATH, response_model=list[AdaptiveCampaignSummaryPublic])
+@operation(Scope.read)
+def list_adaptive_campaigns(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
+    """The robot's adaptive campaigns, oldest first: each one's settings, status, records and predicted accuracy
+    (its steps by its id)."""
+    result = adaptive.list_campaigns(db=db, robot_id=robot_id, limit=limit, offset=offset)
+    return models_json(result, _SUMMARIES)
 
 
 @router.get(_PATH + "/{campaign_id}", response_model=AdaptiveCampaignPublic)

@@ -118,6 +118,28 @@ class AdaptiveStepPublic(Public):
     created_at: datetime | None = None
 
 
+class AdaptiveCampaignSummaryPublic(Public):
+    """A campaign in a robot's list: its settings and where it stands, without its steps (GET it for those)."""
+
+    id: str
+    robot_id: str
+    version: int = Field(description="The robot's version the campaign started from")
+    status: AdaptiveStatus
+    target_mm: float
+    target: TargetKey
+    budget: int
+    measurement: Literal["pose", "position"]
+    criterion: AdaptiveCriterion
+    records: int
+    predicted: PredictedPublic | None
+    excluded: list[int]
+    steps: int = Field(description="Steps stored (records posted so many times)")
+    reason: str | None
+    calibration_id: str | None
+    created_at: datetime
+    updated_at: datetime
+
+
 class AdaptiveCampaignPublic(Public):
     id: str
     robot_id: str

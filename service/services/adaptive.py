@@ -17,6 +17,7 @@ from optimal_design.adaptive import Pool, Progress, advance
 from service.conversions.adaptive import (
     campaign_in,
     campaign_public,
+    campaign_summary,
     estimate_in,
     pool_document,
     pool_in,
@@ -35,6 +36,7 @@ from service.record_kinds.tracker import Record
 from service.schemas.adaptive import (
     AdaptiveCampaignCreate,
     AdaptiveCampaignPublic,
+    AdaptiveCampaignSummaryPublic,
     AdaptiveFinish,
     AdaptiveRecordsCreate,
     AdaptiveStepPublic,
@@ -124,6 +126,12 @@ def get_campaign(*, db: Database, models: ModelCache, robot_id: str, campaign_id
         store = AdaptiveStore(s)
         row = store.campaign(robot_id, campaign_id)
         return campaign_public(desc, row, store.steps(row.id))
+
+
+def list_campaigns(*, db: Database, robot_id: str, limit: int, offset: int) -> list[AdaptiveCampaignSummaryPublic]:
+    with db.reader() as s:
+        Repository(s).robot(robot_id)  # a 404 for a robot that is not there, not an empty list
+        return [campaign_summary(row) for row in AdaptiveStore(s).campaigns(robot_id, limit, offset)]
 
 
 def finish_campaign(

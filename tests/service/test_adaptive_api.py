@@ -193,3 +193,23 @@ def test_a_campaign_started_from_records_already_measured(client: TestClient) ->
     assert first["predicted"]["rms_tcp_mm"] > 0.03 and campaign["records"] == 8
     (pose,) = campaign["next"]
     assert pose["candidate"] is not None and pose == first["next"][0] and len(pose["joints"]) == 6
+
+
+def test_a_robots_campaigns_are_listed_with_where_each_stands(client: TestClient) -> None:
+    robot_id = _robot(client)
+    base = f"/v1/robots/{robot_id}/adaptive-campaigns"
+    assert client.get(base).json() == []
+    first = _start(client, robot_id, candidate_count=20, target_mm=1.0)
+    second = _start(client, robot_id, candidate_count=20, target_mm=2.0, measurement="position")
+    assert client.post(f"{base}/{first['id']}/finish", json={"calibrate": False}).status_code == 200
+    listed = client.get(base).json()
+    assert [c["id"] for c in listed] == [first["id"], second["id"]]  # oldest first
+    assert [c["status"] for c in listed] == ["ended", "measuring"]
+    assert [(c["target_mm"], c["measurement"], c["records"], c["steps"]) for c in listed] == [
+        (1.0, "pose", 0, 0),
+        (2.0, "position", 0, 0),
+    ]
+    assert "next" not in listed[0] and listed[1]["predicted"] is None  # nothing measured, nothing predicted
+    assert [c["id"] for c in client.get(base, params={"offset": 1}).json()] == [second["id"]]
+    missing = client.get("/v1/robots/no-such-robot/adaptive-campaigns")
+    assert missing.status_code == 404 and "no-such-robot" in missing.json()["detail"]
