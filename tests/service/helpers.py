@@ -24,7 +24,7 @@ from harness.records import records
 from models.examples import ur5_like_document
 from service.persistence.database import MIGRATIONS
 
-__all__ = ["SOAK", "MigratedFile", "broker", "finished_job", "migrated_file", "records"]
+__all__ = ["SOAK", "MigratedFile", "assert_design_kept", "broker", "finished_job", "migrated_file", "records"]
 
 SOAK = os.environ.get("IWR_SOAK") == "1"
 """`make soak`: the load and fleet tests at their full length (50 clients for 10 s, 12 s of mixed load, 200 jobs
@@ -68,6 +68,14 @@ def cost() -> Iterator[dict[str, float]]:
         found["cpu_s"] = time.process_time() - started
         found["peak_mb"] = tracemalloc.get_traced_memory()[1] / 1e6
         tracemalloc.stop()
+
+
+def assert_design_kept(client: TestClient, robot_id: str, design: dict[str, Any], measurement: str) -> None:
+    """A design just made reads back with its references and measurement, and is the robot's one listed design."""
+    stored = client.get(f"/v1/pose-designs/{design['id']}").json()
+    assert stored["references"] == design["references"] and stored["measurement"] == measurement
+    listed = client.get(f"/v1/robots/{robot_id}/pose-designs").json()
+    assert [(d["id"], d["measurement"]) for d in listed] == [(design["id"], measurement)]
 
 
 def ur5_with_truth(client: TestClient, cell: Cell) -> str:
