@@ -241,6 +241,18 @@ def rapid_robtarget(pose: Array, q: Array, decimals: int = 4) -> str:
     return f"{rapid_pose(pose, decimals)[:-1]},[{cf[0]},{cf[1]},{cf[2]},0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
 
 
+def rapid_cell_module(cell: Cell, *data: str) -> str:
+    """The cell's system module as a controller keeps one: the probe's tooldata tProbe and the fixture's wobjdata
+    wFixture, then the `data` lines."""
+    return (
+        "MODULE CellData(SYSMODULE)\r\n"
+        f"  PERS tooldata tProbe:=[TRUE,{rapid_pose(cell.tool)},[0.5,[0,0,50],[1,0,0,0],0,0,0]];\r\n"
+        f'  TASK PERS wobjdata wFixture:=[FALSE,TRUE,"",{rapid_pose(FIXTURE)},[[0,0,0],[1,0,0,0]]];\r\n'
+        + "".join(data)
+        + "ENDMODULE\r\n"
+    )
+
+
 def rapid_module(poses: Sequence[Array], q: Array, *, base: Array, tool: Array) -> str:
     """A module as RobotStudio writes one: a tooldata and a wobjdata, CONST robtargets, MoveJ then MoveL."""
     lines = [

@@ -27,6 +27,7 @@ from harness.programs import (
     HOME_DEG,
     executed,
     joints,
+    rapid_cell_module,
     rapid_pose,
     rapid_robtarget,
     taught,
@@ -52,13 +53,10 @@ def _robtarget(k: int) -> str:
     return rapid_robtarget(_taught(k), Q[k])
 
 
-CELL_SYS = (
-    "MODULE CellData(SYSMODULE)\r\n"
-    f"  PERS tooldata tProbe:=[TRUE,{rapid_pose(CELL.tool)},[0.5,[0,0,50],[1,0,0,0],0,0,0]];\r\n"
-    f'  TASK PERS wobjdata wFixture:=[FALSE,TRUE,"",{rapid_pose(FIXTURE)},[[0,0,0],[1,0,0,0]]];\r\n'
-    '  PERS wobjdata wCalib:=[FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];\r\n'
-    "  PERS loaddata load2:=[2,[0,0,60],[1,0,0,0],0,0,0];\r\n"
-    "ENDMODULE\r\n"
+CELL_SYS = rapid_cell_module(
+    CELL,
+    '  PERS wobjdata wCalib:=[FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];\r\n',
+    "  PERS loaddata load2:=[2,[0,0,60],[1,0,0,0],0,0,0];\r\n",
 )
 HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\nMODULE Weld\r\n"
 DATA = "".join(f"  CONST robtarget p{10 * (k + 1)}:={_robtarget(k)};\r\n" for k in range(5)) + (

@@ -24,7 +24,7 @@ from harness.programs import (
     HOME_DEG,
     executed,
     joints,
-    rapid_pose,
+    rapid_cell_module,
     rapid_robtarget,
     taught,
     ur5_cell,
@@ -65,13 +65,10 @@ def _robtarget(k: int) -> str:
     return rapid_robtarget(_taught(k), Q[k])
 
 
-CELL_SYS = (
-    "MODULE CellData(SYSMODULE)\r\n"
-    f"  PERS tooldata tProbe:=[TRUE,{rapid_pose(CELL.tool)},[0.5,[0,0,50],[1,0,0,0],0,0,0]];\r\n"
-    f'  TASK PERS wobjdata wFixture:=[FALSE,TRUE,"",{rapid_pose(FIXTURE)},[[0,0,0],[1,0,0,0]]];\r\n'
-    "  PERS seamdata seam1:=[0.5,0.5,[5,0,24,120,0,0,0,0,0],0.5,1,2,0,0,[5,0,24,120,0,0,0,0,0]];\r\n"
-    '  PERS gundata gun1:=["gun1",1,2,0.5,0.5,FALSE,0,0,0];\r\n'
-    "ENDMODULE\r\n"
+CELL_SYS = rapid_cell_module(
+    CELL,
+    "  PERS seamdata seam1:=[0.5,0.5,[5,0,24,120,0,0,0,0,0],0.5,1,2,0,0,[5,0,24,120,0,0,0,0,0]];\r\n",
+    '  PERS gundata gun1:=["gun1",1,2,0.5,0.5,FALSE,0,0,0];\r\n',
 )
 HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\nMODULE Process\r\n"
 
