@@ -19,7 +19,7 @@ import numpy as np
 import scipy.optimize
 
 from benchmarks.numpy_arm import VectorisedArm
-from benchmarks.timing import target
+from benchmarks.timing import aligned_fit_targets
 from harness.ballbar import PIVOTS, SeedErrors, aligned_errors, gauge_truth, reaching
 from models import NoiseModel, forward_kinematics, sample_workspace
 from models.examples import ur5_like
@@ -118,16 +118,7 @@ def run() -> dict[str, object]:
         truth, groups = campaign(seed)
         fit = identify_references(DESC, groups, noise=NOISE)
         errors.add(seed, fit, **aligned_errors(DESC, fit, truth, fresh, _reference_estimator(fit, groups)))
-    ratio, better, agree = errors.medians()
     return {
         **errors.summary(),
-        "targets": [
-            target("probe + sockets: TCP error after alignment / Cramér–Rao bound (median of 5 seeds)", ratio, 1.3),
-            target("probe + sockets: TCP error / the nominal model's", better, 0.3),
-            target(
-                "probe + sockets: TCP error / scipy + numpy reference estimator's",
-                agree,
-                1.05,
-            ),
-        ],
+        "targets": aligned_fit_targets("probe + sockets", errors.medians(), (1.3, 0.3, 1.05), len(SEEDS)),
     }

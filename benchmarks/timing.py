@@ -34,3 +34,18 @@ def median_of(fn: Callable[[], Any], repeat: int, *, clock: Clock = time.perf_co
 def target(name: str, value: float, limit: float, op: str = "<=") -> dict[str, object]:
     met = value <= limit if op == "<=" else value >= limit
     return {"name": name, "value": float(value), "limit": float(limit), "op": op, "met": bool(met)}
+
+
+def aligned_fit_targets(
+    label: str, medians: tuple[float, float, float], limits: tuple[float, float, float], seeds: int
+) -> list[dict[str, object]]:
+    """A reference benchmark's three targets on its fits' TCP errors after alignment (medians over `seeds`): over
+    the Cramér–Rao bound, over the nominal model's, over the scipy + numpy reference estimator's."""
+    over_bound, over_nominal, over_reference = medians
+    return [
+        target(
+            f"{label}: TCP error after alignment / Cramér–Rao bound (median of {seeds} seeds)", over_bound, limits[0]
+        ),
+        target(f"{label}: TCP error / the nominal model's", over_nominal, limits[1]),
+        target(f"{label}: TCP error / scipy + numpy reference estimator's", over_reference, limits[2]),
+    ]
