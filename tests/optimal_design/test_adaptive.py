@@ -10,6 +10,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -19,7 +21,7 @@ from models.examples import ur5_like
 from models.identification import IdentificationOptions, RobustLoss, identify
 from models.runtime import runtime_for
 from models.simulation import measure, perturbed_robot
-from optimal_design.adaptive import AdaptiveSettings, blunder_threshold, studentized
+from optimal_design.adaptive import AdaptiveSettings, Pool, Progress, advance, blunder_threshold, studentized
 from optimal_design.adaptive_scores import AdaptiveCriterion, scores
 from optimal_design.information import candidate_information, max_tcp_error
 
@@ -98,3 +100,29 @@ def test_no_more_records_than_the_fixed_design_median_over_seeds() -> None:
     actual = [a.actual_rms_mm for a in adaptive]
     assert np.median(actual) <= 1.1 * 0.03
     assert all(0.6 < a.actual_rms_mm / a.predicted["rms_tcp_mm"] < 1.4 for a in adaptive)
+
+
+def test_in_a_cell_a_blunder_s_pose_is_asked_again_only_when_the_cell_checked_it() -> None:
+    """A record posted at the start may have been measured anywhere: in a cell, its pose is not asked again (the
+    cell never checked it); the best pool candidate is, and the steps build nothing new for the structure."""
+    truth = perturbed_robot(DESC, seed=4)
+    settings = AdaptiveSettings(target_mm=0.03, candidate_count=40, seed=1)
+    pool = Pool.build(DESC, settings)
+    records = measure(truth, sample_workspace(DESC, 9, seed=5), seed=6)
+    records.positions[8, 1] += 0.5
+    rt = runtime_for(DESC)
+    advance(DESC, pool, settings, Progress(records), runtime=rt)
+    built = rt.builds
+    anywhere = advance(DESC, pool, settings, Progress(records), runtime=rt)
+    assert [b.record for b in anywhere.blunders] == [8] and anywhere.next_pool == (-1,)
+    assert anywhere.replaces == (8,) and np.array_equal(anywhere.next_joints[0], records.joints[8])
+    in_cell = advance(DESC, replace(pool, in_cell=True), settings, Progress(records), runtime=rt)
+    assert [b.record for b in in_cell.blunders] == [8] and in_cell.replaces == ()
+    (index,) = in_cell.next_pool
+    assert index >= 0 and np.array_equal(in_cell.next_joints[0], pool.joints[index])
+    # measured at a pool candidate (as a controller reports it back, within 0.06°), that candidate again
+    cell_pool = replace(pool, in_cell=True)
+    assert np.array_equal(cell_pool.again(pool.joints[index] + 1e-4), pool.joints[index])
+    assert cell_pool.again(records.joints[8]) is None
+    assert np.array_equal(pool.again(records.joints[8]), records.joints[8])  # type: ignore[arg-type]
+    assert rt.builds == built, (rt.builds, built)  # the later steps built nothing: all was kept by the structure
