@@ -122,7 +122,11 @@ def test_in_a_cell_a_blunder_s_pose_is_asked_again_only_when_the_cell_checked_it
     assert index >= 0 and np.array_equal(in_cell.next_joints[0], pool.joints[index])
     # measured at a pool candidate (as a controller reports it back, within 0.06°), that candidate again
     cell_pool = replace(pool, in_cell=True)
-    assert np.array_equal(cell_pool.again(pool.joints[index] + 1e-4), pool.joints[index])
-    assert cell_pool.again(records.joints[8]) is None
-    assert np.array_equal(pool.again(records.joints[8]), records.joints[8])  # type: ignore[arg-type]
+    near, far, free = (
+        cell_pool.again(pool.joints[index] + 1e-4),
+        cell_pool.again(records.joints[8]),
+        pool.again(records.joints[8]),
+    )
+    assert near is not None and np.array_equal(near, pool.joints[index]) and far is None
+    assert free is not None and np.array_equal(free, records.joints[8])
     assert rt.builds == built, (rt.builds, built)  # the later steps built nothing: all was kept by the structure
