@@ -20,7 +20,8 @@ normal deviate (5.7e-7): dividing by I − Hᵢᵢ undoes the pull of the record
 campaign near its minimum is otherwise absorbed by the fit and its raw residual looks clean). At that tail a
 clean campaign of 100 records is flagged once in ~17 000 campaigns, while a 0.5 mm blunder at σ 0.025 mm
 (20σ) is still far out. The worst record beyond the threshold is excluded, the estimate recomputed, and the
-test repeated; the excluded record's pose is asked for again (its information is what the design wanted).
+test repeated; the excluded record's pose is asked for again (its information is what the design wanted;
+in a cell, only when it is a pool candidate, which the cell checked).
 """
 
 from __future__ import annotations
