@@ -5,7 +5,18 @@ from __future__ import annotations
 from fastapi import APIRouter, Response
 from pydantic import TypeAdapter
 
-from service.deps import ActorDep, DatabaseDep, Limit, MetricsDep, ModelCacheDep, Offset, RegistryDep, compute
+from service import limits
+from service.deps import (
+    ActorDep,
+    DatabaseDep,
+    Limit,
+    MetricsDep,
+    ModelCacheDep,
+    Offset,
+    RegistryDep,
+    SettingsDep,
+    compute,
+)
 from service.json_bodies import OffloopRoute
 from service.operations import Runs, operation
 from service.responses import model_json, models_json
@@ -35,10 +46,14 @@ async def create_adaptive_campaign(
     models: ModelCacheDep,
     registry: RegistryDep,
     m: MetricsDep,
+    settings: SettingsDep,
 ) -> Response:
     """A campaign that asks for one pose at a time, re-identifies after each record and stops when the
     predicted accuracy reaches the target (or the budget is spent): its candidate pool and the first poses to
-    measure (the identifiable minimum and two spare, D-optimal)."""
+    measure (the identifiable minimum and two spare, D-optimal). With a cell, only poses it can measure."""
+    # no job form: a start over the synchronous budget (a cell's checks of many candidates) asks for fewer
+    cost = limits.adaptive_start(body.candidate_count, in_cell=body.cell is not None)
+    limits.admit(cost, run_async=False, can_run_async=False, budget_s=settings.sync_budget_seconds)
     kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "body": body}
     result = await compute(m, "adaptive", adaptive.create_campaign, **kwargs)
     return model_json(result, status_code=201)

@@ -9,6 +9,7 @@ in one; a post that raced another for the same step is refused (409) rather than
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 from models import Registry
@@ -43,6 +44,7 @@ from service.schemas.adaptive import (
 )
 from service.schemas.calibrations import CalibrationCreate
 from service.services import calibrations
+from service.services.cells import used_cell
 
 
 def create_campaign(
@@ -55,6 +57,11 @@ def create_campaign(
         version = Repository(s).version(robot_id).version
     request = body.model_dump(mode="json", exclude={"measurements"})
     settings = settings_in(request)
+    cell = None
+    if body.cell is not None:
+        # the pool is checked once, here: every pose the campaign asks for later is one of it
+        cell = used_cell(db=db, models=models, registry=registry, robot_id=robot_id, cell=body.cell)
+        settings = replace(settings, cell=cell.cell)
     runtime = registry.runtime(desc)
     pool = Pool.build(desc, settings, params=theta, runtime=runtime)
     records = [r.model_dump(mode="json") for r in body.measurements or []]
@@ -64,7 +71,8 @@ def create_campaign(
     with db.session() as s:
         Repository(s).robot(robot_id, lock=True)  # still there
         store = AdaptiveStore(s)
-        row = store.add(robot_id, version, request, pool_document(pool), state_document(step, asked, len(records)))
+        pool_json = pool_document(pool, None if cell is None else cell.version)
+        row = store.add(robot_id, version, request, pool_json, state_document(step, asked, len(records)))
         if records:
             seconds = time.perf_counter() - started
             document = step_document(step, number=1, posted=len(records), records=len(records), seconds=seconds)
