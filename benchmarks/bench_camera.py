@@ -24,7 +24,7 @@ import scipy.optimize
 
 from benchmarks.numpy_arm import VectorisedArm, _rodrigues
 from benchmarks.timing import target
-from harness.ballbar import aligned_rms, predicted_rms, seed_row
+from harness.ballbar import SeedErrors, aligned_rms, predicted_rms
 from harness.camera import INTRINSICS, MARKERS, project, world_camera_campaign
 from models import NoiseModel, forward_kinematics, sample_workspace
 from models.examples import ur5_like
@@ -88,7 +88,7 @@ def _design() -> dict[str, float]:
 
 def run() -> dict[str, object]:
     fresh = sample_workspace(DESC, 300, seed=999)
-    ratios, improvement, agreement, times, tracker_times, per_seed = [], [], [], [], [], []
+    errors, times, tracker_times = SeedErrors(), [], []
     for seed in SEEDS:
         campaign = world_camera_campaign(DESC, seed, images=IMAGES, sigma_px=SIGMA_PX)
         identify_references(DESC, campaign.groups, noise=NOISE)  # warm: the solver for this many unknowns
@@ -107,25 +107,19 @@ def run() -> dict[str, object]:
             error = forward_kinematics(DESC, fresh, theta).positions - true_p
             return float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
 
-        after = rms(fit.parameters)
-        before = aligned_rms(forward_kinematics(DESC, fresh).positions, true_p)
-        bound = predicted_rms(DESC, fit, fresh, stated=True)
-        reference = rms(_reference_estimator(fit, campaign.groups[0]))
-        ratios.append(after / bound)
-        improvement.append(after / before)
-        agreement.append(after / reference)
-        per_seed.append(
-            seed_row(seed, fit, tcp_after=after, bound=bound, nominal=before, reference_estimator=reference)
+        errors.add(
+            seed,
+            fit,
+            tcp_after=rms(fit.parameters),
+            bound=predicted_rms(DESC, fit, fresh, stated=True),
+            nominal=aligned_rms(forward_kinematics(DESC, fresh).positions, true_p),
+            reference_estimator=rms(_reference_estimator(fit, campaign.groups[0])),
         )
     design = _design()
-    ratio, better = statistics.median(ratios), statistics.median(improvement)
-    agree = statistics.median(agreement)
+    ratio, better, agree = errors.medians()
     designed = design["predicted_rms_tcp_um"] / design["random_median_um"]
     return {
-        "per_seed": per_seed,
-        "tcp_over_bound_median": ratio,
-        "tcp_over_nominal_median": better,
-        "tcp_over_reference_estimator_median": agree,
+        **errors.summary(),
         "identify_references_s": statistics.median(times),
         "tracker_identify_s": statistics.median(tracker_times),
         "design_20_images": design,

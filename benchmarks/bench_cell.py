@@ -11,7 +11,6 @@ capsule-box distance (python-fcl).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 
 import fcl  # type: ignore[import-untyped]
 import numpy as np
@@ -44,17 +43,6 @@ def _iwr() -> tuple[RobotDescription, Cell, str]:
     return desc, cell_for(desc, obstacles=(table, fixture), tracker=tracker), "pose"
 
 
-def _cpu_best_of(fn: Callable[[], object], repeat: int = 3) -> float:
-    """Least CPU seconds of `repeat` calls (this process, every thread): what the machine's other load does not
-    inflate, unlike the wall time beside it."""
-    times = []
-    for _ in range(repeat):
-        started = time.process_time()
-        fn()
-        times.append(time.process_time() - started)
-    return min(times)
-
-
 def _library_distance_us(repeat: int = 20000) -> float:
     capsule = fcl.CollisionObject(fcl.Capsule(40.0, 400.0), fcl.Transform())
     box = fcl.CollisionObject(fcl.Box(800.0, 600.0, 20.0), fcl.Transform())
@@ -81,7 +69,8 @@ def _robot(name: str, make: object) -> tuple[dict[str, object], list[dict[str, o
         return design_poses(desc, K, "D", measurement, candidate_count=M, seed=1, cell=cell)
 
     plain_s, cell_s = best_of(plain), best_of(in_cell)
-    plain_cpu, cell_cpu = _cpu_best_of(plain), _cpu_best_of(in_cell)
+    # CPU seconds beside the wall time: what the machine's other load does not inflate.
+    plain_cpu, cell_cpu = best_of(plain, clock=time.process_time), best_of(in_cell, clock=time.process_time)
     d = design_poses(desc, K, "D", measurement, candidate_count=M, seed=1, cell=cell)
     chosen = check_poses(desc, cell, d.joints)
     out = {

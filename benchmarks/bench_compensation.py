@@ -9,7 +9,6 @@ import statistics
 import tempfile
 import time
 from collections import Counter
-from collections.abc import Callable
 
 import httpx
 import numpy as np
@@ -63,17 +62,6 @@ def api_times(positions: np.ndarray, quats: np.ndarray, joints: np.ndarray) -> d
     return out
 
 
-def _median_cpu(fn: Callable[[], object], repeats: int) -> float:
-    """Median CPU seconds of the process (every thread) over `repeats` calls: on a shared machine the wall time
-    measures the others' load as well."""
-    times = []
-    for _ in range(repeats):
-        started = time.process_time()
-        fn()
-        times.append(time.process_time() - started)
-    return statistics.median(times)
-
-
 def run() -> dict[str, object]:
     desc = iwr()
     sim = perturbed_robot(desc, seed=1)
@@ -85,7 +73,8 @@ def run() -> dict[str, object]:
     first = inverse_kinematics(desc, positions[:1], quats[:1], theta)  # builds the table of this calibration
     first_s = time.perf_counter() - started
     batch_s = median_of(lambda: inverse_kinematics(desc, positions, quats, theta), 5)
-    batch_cpu_s = _median_cpu(lambda: inverse_kinematics(desc, positions, quats, theta), 5)
+    # CPU seconds too: on a shared machine the wall time measures the others' load as well.
+    batch_cpu_s = median_of(lambda: inverse_kinematics(desc, positions, quats, theta), 5, clock=time.process_time)
     answer = inverse_kinematics(desc, positions, quats, theta)
     single_ms = 1e3 * median_of(lambda: inverse_kinematics(desc, positions[7], quats[7], theta), 50)
     methods = Counter(answer.methods)

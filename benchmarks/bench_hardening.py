@@ -187,30 +187,27 @@ def _tree(pid: int) -> list[int]:
     return found
 
 
-def _peak_rss(pid: int | None) -> int:
-    """The sum of the peak RSS (VmHWM) of the server's processes: an upper bound of what they held at once."""
-    if pid is None:
-        return -1
+def _summed_kb(pid: int, file: str, key: str) -> int:
+    """Bytes: the sum over the server's processes of the kB field `key` of /proc/<pid>/`file` (a process gone
+    meanwhile counts nothing)."""
     total = 0
     for member in _tree(pid):
         try:
-            lines = Path(f"/proc/{member}/status").read_text().splitlines()
+            lines = Path(f"/proc/{member}/{file}").read_text().splitlines()
         except OSError:
             continue
-        total += sum(int(line.split()[1]) * 1024 for line in lines if line.startswith("VmHWM:"))
+        total += sum(int(line.split()[1]) * 1024 for line in lines if line.startswith(key))
     return total
+
+
+def _peak_rss(pid: int | None) -> int:
+    """The sum of the peak RSS (VmHWM) of the server's processes: an upper bound of what they held at once."""
+    return -1 if pid is None else _summed_kb(pid, "status", "VmHWM:")
 
 
 def _pss(pid: int) -> int:
     """The sum of the proportional set sizes (smaps_rollup's Pss) of the server's processes, now."""
-    total = 0
-    for member in _tree(pid):
-        try:
-            lines = Path(f"/proc/{member}/smaps_rollup").read_text().splitlines()
-        except OSError:
-            continue
-        total += sum(int(line.split()[1]) * 1024 for line in lines if line.startswith("Pss:"))
-    return total
+    return _summed_kb(pid, "smaps_rollup", "Pss:")
 
 
 class _PssPeak:

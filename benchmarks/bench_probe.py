@@ -15,14 +15,12 @@ refuses them alone; one ballbar pivot × 20 records (σ 5 µm) gives the length,
 
 from __future__ import annotations
 
-import statistics
-
 import numpy as np
 import scipy.optimize
 
 from benchmarks.numpy_arm import VectorisedArm
-from benchmarks.timing import target
-from harness.ballbar import PIVOTS, aligned_rms, gauge_truth, predicted_rms, reaching, seed_row
+from benchmarks.timing import aligned_fit_targets
+from harness.ballbar import PIVOTS, SeedErrors, aligned_errors, gauge_truth, reaching
 from models import NoiseModel, forward_kinematics, sample_workspace
 from models.examples import ur5_like
 from models.identification.reference_fit import ReferenceFit, identify_references
@@ -115,32 +113,12 @@ def _start(p: np.ndarray, group: ReferenceRecords) -> np.ndarray:
 
 def run() -> dict[str, object]:
     fresh = sample_workspace(DESC, 300, seed=999)
-    ratios, improvement, agreement, per_seed = [], [], [], []
+    errors = SeedErrors()
     for seed in SEEDS:
         truth, groups = campaign(seed)
         fit = identify_references(DESC, groups, noise=NOISE)
-        true_p = forward_kinematics(DESC, fresh, truth).positions
-        after = aligned_rms(forward_kinematics(DESC, fresh, fit.parameters).positions, true_p)
-        before = aligned_rms(forward_kinematics(DESC, fresh).positions, true_p)
-        bound = predicted_rms(DESC, fit, fresh, stated=True)
-        reference = aligned_rms(forward_kinematics(DESC, fresh, _reference_estimator(fit, groups)).positions, true_p)
-        ratios.append(after / bound)
-        improvement.append(after / before)
-        agreement.append(after / reference)
-        per_seed.append(
-            seed_row(seed, fit, tcp_after=after, bound=bound, nominal=before, reference_estimator=reference)
-        )
-    ratio = statistics.median(ratios)
+        errors.add(seed, fit, **aligned_errors(DESC, fit, truth, fresh, _reference_estimator(fit, groups)))
     return {
-        "per_seed": per_seed,
-        "tcp_over_bound_median": ratio,
-        "tcp_over_nominal_median": statistics.median(improvement),
-        "tcp_over_reference_estimator_median": statistics.median(agreement),
-        "targets": [
-            target("probe + sockets: TCP error after alignment / Cramér–Rao bound (median of 5 seeds)", ratio, 1.3),
-            target("probe + sockets: TCP error / the nominal model's", statistics.median(improvement), 0.3),
-            target(
-                "probe + sockets: TCP error / scipy + numpy reference estimator's", statistics.median(agreement), 1.05
-            ),
-        ],
+        **errors.summary(),
+        "targets": aligned_fit_targets("probe + sockets", errors.medians(), (1.3, 0.3, 1.05), len(SEEDS)),
     }

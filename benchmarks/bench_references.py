@@ -21,9 +21,9 @@ import numpy as np
 import scipy.optimize
 
 from benchmarks.numpy_arm import VectorisedArm
-from benchmarks.timing import target
-from harness.ballbar import aligned_rms, ballbar_campaign, predicted_rms, seed_row
-from models import NoiseModel, forward_kinematics, sample_workspace
+from benchmarks.timing import aligned_fit_targets, target
+from harness.ballbar import SeedErrors, aligned_errors, ballbar_campaign
+from models import NoiseModel, sample_workspace
 from models.examples import ur5_like
 from models.identification import identify
 from models.identification.reference_fit import ReferenceFit, identify_references
@@ -82,25 +82,14 @@ def _reference_estimator(fit: ReferenceFit, groups: tuple[ReferenceRecords, ...]
 
 def run() -> dict[str, object]:
     fresh = sample_workspace(DESC, 300, seed=999)
-    ratios, improvement, agreement, times, tracker_times = [], [], [], [], []
-    per_seed = []
+    errors, times, tracker_times = SeedErrors(), [], []
     for seed in SEEDS:
         truth, groups = _campaign(seed)
         identify_references(DESC, groups, noise=NOISE)  # warm: the solver for this many unknowns
         started = time.perf_counter()
         fit = identify_references(DESC, groups, noise=NOISE)
         times.append(time.perf_counter() - started)
-        true_p = forward_kinematics(DESC, fresh, truth).positions
-        after = aligned_rms(forward_kinematics(DESC, fresh, fit.parameters).positions, true_p)
-        before = aligned_rms(forward_kinematics(DESC, fresh).positions, true_p)
-        bound = predicted_rms(DESC, fit, fresh, stated=True)
-        reference = aligned_rms(forward_kinematics(DESC, fresh, _reference_estimator(fit, groups)).positions, true_p)
-        ratios.append(after / bound)
-        improvement.append(after / before)
-        agreement.append(after / reference)
-        per_seed.append(
-            seed_row(seed, fit, tcp_after=after, bound=bound, nominal=before, reference_estimator=reference)
-        )
+        errors.add(seed, fit, **aligned_errors(DESC, fit, truth, fresh, _reference_estimator(fit, groups)))
         # The same number of position records from a tracker, through the tracker pipeline.
         robot, joints = perturbed_robot(DESC, seed=seed), sample_workspace(DESC, 3 * PER_ANCHOR, seed=seed)
         position_only = measure(robot, joints, NOISE, seed, position_only=True)
@@ -117,13 +106,9 @@ def run() -> dict[str, object]:
     design = design_reference_records(DESC, candidates, 30, "I", noise=NOISE, seed=1)
     design_s = time.perf_counter() - started
     designed = design.metrics["predicted_rms_tcp_mm"] / design.random_baseline["predicted_rms_tcp_mm"]
-    ratio = statistics.median(ratios)
     time_ratio = statistics.median(times) / statistics.median(tracker_times)
     return {
-        "per_seed": per_seed,
-        "tcp_over_bound_median": ratio,
-        "tcp_over_nominal_median": statistics.median(improvement),
-        "tcp_over_reference_estimator_median": statistics.median(agreement),
+        **errors.summary(),
         "identify_references_s": statistics.median(times),
         "tracker_identify_s": statistics.median(tracker_times),
         "design_30_of_450": {
@@ -132,9 +117,7 @@ def run() -> dict[str, object]:
             "seconds": design_s,
         },
         "targets": [
-            target("ballbar: TCP error after alignment / Cramér–Rao bound (median of 5 seeds)", ratio, 1.3),
-            target("ballbar: TCP error / the nominal model's", statistics.median(improvement), 0.2),
-            target("ballbar: TCP error / scipy + numpy reference estimator's", statistics.median(agreement), 1.05),
+            *aligned_fit_targets("ballbar", errors.medians(), (1.3, 0.2, 1.05), len(SEEDS)),
             target("ballbar identification time / a tracker campaign's of as many records", time_ratio, 3.0),
             target("30 designed ballbar records: predicted TCP error / random sets of 30", designed, 0.8),
         ],

@@ -3,6 +3,9 @@ their results are judged: the TCP error after the best rigid motion, and the fit
 
 from __future__ import annotations
 
+import statistics
+from dataclasses import dataclass, field
+
 import numpy as np
 
 from models import RobotDescription, forward_kinematics, sample_workspace
@@ -84,3 +87,55 @@ def seed_row(seed: int, fit: ReferenceFit, **errors_mm: float) -> dict[str, obje
         "estimated": len(fit.estimated),
         "unidentifiable": list(fit.unidentifiable),
     }
+
+
+def aligned_errors(
+    desc: RobotDescription, fit: ReferenceFit, truth: np.ndarray, fresh: np.ndarray, reference: np.ndarray
+) -> dict[str, float]:
+    """A fit's TCP errors at the `fresh` joints against the `truth`, each after the best rigid motion (mm): its
+    own, the Cramér–Rao bound's, the nominal model's and those of the parameters `reference` (another
+    estimator's), named as `SeedErrors.add` takes them."""
+    true_p = forward_kinematics(desc, fresh, truth).positions
+    return {
+        "tcp_after": aligned_rms(forward_kinematics(desc, fresh, fit.parameters).positions, true_p),
+        "bound": predicted_rms(desc, fit, fresh, stated=True),
+        "nominal": aligned_rms(forward_kinematics(desc, fresh).positions, true_p),
+        "reference_estimator": aligned_rms(forward_kinematics(desc, fresh, reference).positions, true_p),
+    }
+
+
+@dataclass
+class SeedErrors:
+    """A benchmark's fits, one simulated campaign (seed) after another: each one's row, and the medians over the
+    seeds of its TCP error against the bound, the nominal model's and the reference estimator's."""
+
+    rows: list[dict[str, object]] = field(default_factory=list)
+    over_bound: list[float] = field(default_factory=list)
+    over_nominal: list[float] = field(default_factory=list)
+    over_reference: list[float] = field(default_factory=list)
+
+    def add(self, seed: int, fit: ReferenceFit, **errors_mm: float) -> None:
+        """One seed's fit and its TCP errors (mm): tcp_after, bound, nominal and reference_estimator."""
+        after = errors_mm["tcp_after"]
+        self.over_bound.append(after / errors_mm["bound"])
+        self.over_nominal.append(after / errors_mm["nominal"])
+        self.over_reference.append(after / errors_mm["reference_estimator"])
+        self.rows.append(seed_row(seed, fit, **errors_mm))
+
+    def medians(self) -> tuple[float, float, float]:
+        """Over the seeds: the TCP error over the bound, over the nominal model's, over the reference's."""
+        return (
+            statistics.median(self.over_bound),
+            statistics.median(self.over_nominal),
+            statistics.median(self.over_reference),
+        )
+
+    def summary(self) -> dict[str, object]:
+        """The rows as `per_seed`, then the three medians."""
+        over_bound, over_nominal, over_reference = self.medians()
+        return {
+            "per_seed": self.rows,
+            "tcp_over_bound_median": over_bound,
+            "tcp_over_nominal_median": over_nominal,
+            "tcp_over_reference_estimator_median": over_reference,
+        }

@@ -227,27 +227,41 @@ def krl_pair(poses: Sequence[Array], q: Array, *, name: str = "weld") -> tuple[s
     return "".join(src), "".join(dat)
 
 
-def _rapid_pose(frame: Array) -> str:
+def rapid_pose(frame: Array, decimals: int = 4) -> str:
+    """A pose's RAPID literal: [[x, y, z] mm with `decimals` places], [qw, qx, qy, qz]]."""
     x, y, z = frame[:3, 3]
     w, qx, qy, qz = matrix_quaternion(frame[:3, :3])
-    return f"[[{x:.4f},{y:.4f},{z:.4f}],[{w:.9f},{qx:.9f},{qy:.9f},{qz:.9f}]]"
+    return f"[[{x:.{decimals}f},{y:.{decimals}f},{z:.{decimals}f}],[{w:.9f},{qx:.9f},{qy:.9f},{qz:.9f}]]"
+
+
+def rapid_robtarget(pose: Array, q: Array, decimals: int = 4) -> str:
+    """A robtarget's literal: the pose, the confdata of the joints `q` it was taught at (the quarter turns of
+    axes 1, 4 and 6), no external axes."""
+    cf = [int(np.floor(q[j] / (np.pi / 2))) for j in (0, 3, 5)]
+    return f"{rapid_pose(pose, decimals)[:-1]},[{cf[0]},{cf[1]},{cf[2]},0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
+
+
+def rapid_cell_module(cell: Cell, *data: str) -> str:
+    """The cell's system module as a controller keeps one: the probe's tooldata tProbe and the fixture's wobjdata
+    wFixture, then the `data` lines."""
+    return (
+        "MODULE CellData(SYSMODULE)\r\n"
+        f"  PERS tooldata tProbe:=[TRUE,{rapid_pose(cell.tool)},[0.5,[0,0,50],[1,0,0,0],0,0,0]];\r\n"
+        f'  TASK PERS wobjdata wFixture:=[FALSE,TRUE,"",{rapid_pose(FIXTURE)},[[0,0,0],[1,0,0,0]]];\r\n'
+        + "".join(data)
+        + "ENDMODULE\r\n"
+    )
 
 
 def rapid_module(poses: Sequence[Array], q: Array, *, base: Array, tool: Array) -> str:
     """A module as RobotStudio writes one: a tooldata and a wobjdata, CONST robtargets, MoveJ then MoveL."""
     lines = [
         "MODULE Module1\r\n",
-        f"    PERS tooldata tProbe:=[TRUE,{_rapid_pose(tool)},[0.5,[0,0,50],[1,0,0,0],0,0,0]];\r\n",
-        f'    TASK PERS wobjdata wFixture:=[FALSE,TRUE,"",{_rapid_pose(base)},[[0,0,0],[1,0,0,0]]];\r\n',
+        f"    PERS tooldata tProbe:=[TRUE,{rapid_pose(tool)},[0.5,[0,0,50],[1,0,0,0],0,0,0]];\r\n",
+        f'    TASK PERS wobjdata wFixture:=[FALSE,TRUE,"",{rapid_pose(base)},[[0,0,0],[1,0,0,0]]];\r\n',
     ]
     for k, (pose, qk) in enumerate(zip(poses, q, strict=True), start=1):
-        x, y, z = pose[:3, 3]
-        w, qx, qy, qz = matrix_quaternion(pose[:3, :3])
-        cf = [int(np.floor(qk[j] / (np.pi / 2))) for j in (0, 3, 5)]
-        lines.append(
-            f"    CONST robtarget Target_{k * 10}:=[[{x:.6f},{y:.6f},{z:.6f}],[{w:.9f},{qx:.9f},{qy:.9f},{qz:.9f}],"
-            f"[{cf[0]},{cf[1]},{cf[2]},0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];\r\n"
-        )
+        lines.append(f"    CONST robtarget Target_{k * 10}:={rapid_robtarget(pose, qk, decimals=6)};\r\n")
     lines.append("    PROC Path_10()\r\n")
     for k in range(1, len(poses) + 1):
         move = "MoveJ" if k == 1 else "MoveL"

@@ -88,33 +88,20 @@ def make_campaign(
     q = as_joint_array(desc, joints)
     if check_ranges:
         check_joint_ranges(desc, q)
-    p = np.array(positions, dtype=float)
-    if p.ndim == 1:
-        p = p[None, :]
-    if p.shape != (q.shape[0], 3):
-        raise WrongShape(
-            f"expected {q.shape[0]} positions of 3 numbers, got shape {p.shape}",
-            field="positions",
-            expected=[q.shape[0], 3],
-            got=list(p.shape),
-        )
-    _check_finite(p, "position")
+    p = _rows(positions, q.shape[0], 3, field="positions", rows_are="positions of 3 numbers", what="position")
     sigma = None if sigma_mm is None else _sigmas(sigma_mm, q.shape[0])
     if conditions is not None:
         _check_conditions(conditions, q.shape[0])
     if quaternions is None:
         return Campaign(q, p, None, sigma, conditions)
-    quat = np.array(quaternions, dtype=float)
-    if quat.ndim == 1:
-        quat = quat[None, :]
-    if quat.shape != (q.shape[0], 4):
-        raise WrongShape(
-            f"expected {q.shape[0]} orientations of 4 numbers [w, x, y, z], got shape {quat.shape}",
-            field="quaternions",
-            expected=[q.shape[0], 4],
-            got=list(quat.shape),
-        )
-    _check_finite(quat, "orientation")
+    quat = _rows(
+        quaternions,
+        q.shape[0],
+        4,
+        field="quaternions",
+        rows_are="orientations of 4 numbers [w, x, y, z]",
+        what="orientation",
+    )
     norms = np.linalg.norm(quat, axis=1)
     bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
     if bad.size:
@@ -163,6 +150,20 @@ def _sigmas(sigma_mm: ArrayLike, n: int) -> Array:
             min=0.0,
         )
     return sigma
+
+
+def _rows(values: ArrayLike, n: int, width: int, *, field: str, rows_are: str, what: str) -> Array:
+    """`values` as (n, width) finite numbers, one row a record (a single record may come flat), or the error
+    naming the shape expected (`n` `rows_are`) or the first record that is not finite (its `what`)."""
+    rows = np.array(values, dtype=float)
+    if rows.ndim == 1:
+        rows = rows[None, :]
+    if rows.shape != (n, width):
+        raise WrongShape(
+            f"expected {n} {rows_are}, got shape {rows.shape}", field=field, expected=[n, width], got=list(rows.shape)
+        )
+    _check_finite(rows, what)
+    return rows
 
 
 def _check_finite(a: Array, what: str) -> None:

@@ -23,6 +23,7 @@ parameter vector, its names and its structure; with it the DH arm's count is Eve
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -165,11 +166,11 @@ def mdh_transform(theta: Sym, d: Sym, a: Sym, alpha: Sym, beta: Sym | None = Non
     return first @ second
 
 
-def chain_transform(links: tuple[DHLink, ...], q: Sym, params: Sym) -> Sym:
-    """Transform {0} -> {n} for the moving links' joint values `q` and the links' parameters (in order)."""
-    if not links:
-        return ca.SX.eye(4) if isinstance(q, ca.SX) else ca.MX.eye(4)
-    t = None
+def joint_link_values(
+    links: tuple[DHLink, ...], q: Sym, params: Sym
+) -> Iterator[tuple[DHLink, Sym, Sym, Sym, Sym, Sym | None]]:
+    """Each link with its θ, d, a, α and β (None where it has none) from the links' parameters (in order), its
+    joint value `q` added to θ (revolute) or d (prismatic): what every walk down the chain starts from."""
     at = 0
     k = 0
     for link in links:
@@ -181,6 +182,15 @@ def chain_transform(links: tuple[DHLink, ...], q: Sym, params: Sym) -> Sym:
         elif link.joint is JointType.PRISMATIC:
             d = d + q[k]
         k += link.joint.moves
+        yield link, theta, d, a, alpha, beta
+
+
+def chain_transform(links: tuple[DHLink, ...], q: Sym, params: Sym) -> Sym:
+    """Transform {0} -> {n} for the moving links' joint values `q` and the links' parameters (in order)."""
+    if not links:
+        return ca.SX.eye(4) if isinstance(q, ca.SX) else ca.MX.eye(4)
+    t = None
+    for link, theta, d, a, alpha, beta in joint_link_values(links, q, params):
         if link.convention is Convention.DH:
             a_i = dh_transform(theta, d, a, alpha, beta)
         else:

@@ -151,21 +151,14 @@ def kinematic_functions(desc: RobotDescription) -> dict[str, ca.Function]:
     residual = at(residual_of)
     d_res = at(d(residual_of, params) + d(residual_of, x) @ dx_dparams)
     position, rotation, t = at(position), at(rotation), at(t)
-    fn["pose_at"] = ca.Function("pose_at", ins_at, [position, rotation], names_at, ["position", "rotation"])
-    fn["pose_jacobian_at"] = ca.Function(
-        "pose_jacobian_at",
-        ins_at,
-        [position, rotation, j_params],
-        names_at,
-        ["position", "rotation", "J"],
-    )
-    fn["joint_jacobian_at"] = ca.Function(
-        "joint_jacobian_at",
-        ins_at,
-        [position, rotation, j_q],
-        names_at,
-        ["position", "rotation", "J_q"],
-    )
+    # The TCP pose at solved platforms, alone or with its parameter or joint Jacobian: one input list for all.
+    for name, outputs in (
+        ("pose_at", {}),
+        ("pose_jacobian_at", {"J": j_params}),
+        ("joint_jacobian_at", {"J_q": j_q}),
+    ):
+        named = {"position": position, "rotation": rotation, **outputs}
+        fn[name] = ca.Function(name, ins_at, list(named.values()), names_at, list(named))
 
     res_names = ["q", "params", "platform", "position_meas", "rotation_meas", *extra_names]
     res_ins = [q, params, x, p_meas, r_meas, *extra]

@@ -20,7 +20,8 @@ normal deviate (5.7e-7): dividing by I − Hᵢᵢ undoes the pull of the record
 campaign near its minimum is otherwise absorbed by the fit and its raw residual looks clean). At that tail a
 clean campaign of 100 records is flagged once in ~17 000 campaigns, while a 0.5 mm blunder at σ 0.025 mm
 (20σ) is still far out. The worst record beyond the threshold is excluded, the estimate recomputed, and the
-test repeated; the excluded record's pose is asked for again (its information is what the design wanted).
+test repeated; the excluded record's pose is asked for again (its information is what the design wanted;
+in a cell, only when it is a pool candidate, which the cell checked).
 """
 
 from __future__ import annotations
@@ -104,6 +105,11 @@ class Pool:
     """The predicted error with every candidate measured (at the nominal): no campaign on this pool goes lower."""
     excluded: dict[str, int]
     """Candidates the filters refused, by reason (the cell's)."""
+    offered: int = 0
+    """Candidates sampled and checked to keep `joints` (more than kept where a cell refused some)."""
+    in_cell: bool = False
+    """Whether a cell filtered the pool: then only its poses are asked for (a blunder's pose again only when it is
+    one of them: a record posted at the start may have been measured anywhere)."""
 
     @classmethod
     def build(
@@ -139,7 +145,17 @@ class Pool:
                 candidates=int(info.size),
             )
         count = min(info.size, problem.minimum_count() + INITIAL_SPARE)
-        return cls(info.joints, _greedy_start(info, count), reachable, dict(problem.excluded))
+        start = _greedy_start(info, count)
+        return cls(info.joints, start, reachable, dict(problem.excluded), problem.offered, settings.cell is not None)
+
+    def again(self, joints: Array) -> Array | None:
+        """The pose to measure again for a blunder at `joints`: itself, or in a cell the pool's candidate it was
+        measured at (None when it is none of them: the cell never checked it)."""
+        if not self.in_cell:
+            return joints
+        gap = np.abs(self.joints - joints).max(axis=1)
+        best = int(np.argmin(gap))
+        return self.joints[best] if gap[best] <= SAME_POSE_RAD else None
 
 
 def _greedy_start(info: CandidateInformation, count: int) -> tuple[int, ...]:
@@ -208,6 +224,8 @@ class Step:
     reason: str | None
     result: IdentificationResult | None = None
     notes: tuple[str, ...] = ()
+    replaces: tuple[int, ...] = ()
+    """The blunder records whose poses the -1 entries of `next_pool` measure again, in their order."""
 
 
 def advance(
@@ -241,11 +259,12 @@ def advance(
     if done:
         empty = np.empty((0, desc.n_joints))
         return Step(True, theta, errors, blunders, frozenset(excluded), empty, (), True, reason, result)
-    joints, chosen = _next(settings, pool, progress, blunders, _Now(info, m, active.size))
+    joints, chosen, again = _next(settings, pool, progress, blunders, _Now(info, m, active.size))
     if not joints.shape[0]:
         reason = "every candidate has been asked for: the pool is spent before the target"
         return Step(True, theta, errors, blunders, frozenset(excluded), joints, (), True, reason, result)
-    return Step(True, theta, errors, blunders, frozenset(excluded), joints, chosen, False, None, result)
+    kept = frozenset(excluded)
+    return Step(True, theta, errors, blunders, kept, joints, chosen, False, None, result, replaces=again)
 
 
 def _active(records: Campaign, excluded: set[int]) -> NDArray[np.intp]:
@@ -320,26 +339,29 @@ class _Now:
 
 def _next(
     settings: AdaptiveSettings, pool: Pool, progress: Progress, blunders: tuple[Blunder, ...], now: _Now
-) -> tuple[Array, tuple[int, ...]]:
-    """A blunder's pose again (its information is what the design wanted), else pending asked poses, else the
-    candidate not asked for yet that improves the criterion most.
+) -> tuple[Array, tuple[int, ...], tuple[int, ...]]:
+    """A blunder's pose again (its information is what the design wanted; in a cell only a pose of the pool),
+    else pending asked poses, else the candidate not asked for yet that improves the criterion most; and the
+    blunders whose poses are asked again.
 
     One pose ahead, not a plan of the rest: relaxing the D or I design that completes the records at each step
     and asking for its best pose changed no count on three seeds from this start (17 records each), at 0.1-2.5 s
     a step."""
-    if blunders:
-        return progress.records.joints[[b.record for b in blunders]], tuple(-1 for _ in blunders)
+    again = [(b.record, pool.again(progress.records.joints[b.record])) for b in blunders]
+    poses = [(record, q) for record, q in again if q is not None]
+    if poses:
+        return np.vstack([q for _, q in poses]), tuple(-1 for _ in poses), tuple(r for r, _ in poses)
     pending = _pending(pool, progress)
     if pending:
-        return pool.joints[pending], tuple(pending)
+        return pool.joints[pending], tuple(pending), ()
     asked = set(progress.asked)
     free = np.array([i for i in range(pool.joints.shape[0]) if i not in asked], dtype=np.intp)
     if not free.size:
-        return np.empty((0, pool.joints.shape[1])), ()
+        return np.empty((0, pool.joints.shape[1])), (), ()
     part = now.pool_part(free)
     value = scores(settings.criterion, now.m, part.blocks, task=part.task, task_rows=part.task_rows)
     best = int(free[int(np.argmax(value))])
-    return pool.joints[[best]], (best,)
+    return pool.joints[[best]], (best,), ()
 
 
 def _identify_clean(

@@ -100,6 +100,8 @@ class DesignCriterion(ABC):
     """What every criterion provides; the two families below add their algorithms' hooks."""
 
     name: Criterion
+    summary: str
+    """What it makes small, in a user's words (the API lists it: GET /v1/design-criteria)."""
     cost_factor: float
     """Its design time relative to D's (service.limits' estimate): the largest ratio of three runs of the library
     at M = 2 000, K = 30 (medians of seeds 1-3, the shared 2-core machine at load 2.5-3.1), rounded up. After the
@@ -222,6 +224,7 @@ class SmoothCriterion(DesignCriterion):
 
 class DOptimal(SmoothCriterion):
     name = Criterion.D
+    summary = "the identified parameters' joint uncertainty (the volume of their confidence ellipsoid)"
     cost_factor = 1.0
     # Scoring every candidate at every swap was half of the D exchange's time; the same designs at K = 30 of
     # 2 000 (seeds 1-5). A and I took other paths with it (seed 2: efficiency 0.9598 -> 0.9591 and 0.928 -> 0.926).
@@ -300,6 +303,7 @@ class TraceCriterion(SmoothCriterion):
 
 class AOptimal(TraceCriterion):
     name = Criterion.A
+    summary = "the identified parameters' mean variance"
     cost_factor = 1.9
     power = 1.5
 
@@ -317,6 +321,7 @@ class IOptimal(TraceCriterion):
     """The mean predicted TCP position variance over the workspace, tr(L M⁻¹) with L the task matrix."""
 
     name = Criterion.I
+    summary = "the predicted TCP position error, averaged over the workspace"
     cost_factor = 2.8
     targetable = True
     power = 2.0
@@ -377,6 +382,7 @@ class SpectralCriterion(DesignCriterion):
 
 class EOptimal(SpectralCriterion):
     name = Criterion.E
+    summary = "the uncertainty of the worst-determined combination of parameters"
     cost_factor = 3.5
 
     def _utility(self, ev: Array, m: Array, task: Array) -> float:
@@ -409,6 +415,7 @@ class ConditionNumber(SpectralCriterion):
     """The condition number of the stacked scaled Jacobian, √(λ_max/λ_min) of M; utility −cond(J)."""
 
     name = Criterion.CONDITION
+    summary = "the condition number of the identification's scaled Jacobian"
     cost_factor = 3.9
     default_d_floor = CONDITION_D_FLOOR
     strong_side = True

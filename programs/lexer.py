@@ -63,13 +63,8 @@ class Lexer:
         covered = int(ends[stop - 1]) if stop else 0  # the text up to here is tiled by tokens
         newlines = np.array([m.start() for m in _NEWLINE.finditer(text)], dtype=np.int64)
         if covered < len(text):
-            line, column = _line_column(newlines, np.array([covered], dtype=np.int64))
-            raise ProgramSyntaxError(
-                f"unexpected character {text[covered]!r}",
-                file=file,
-                line=int(line[0]),
-                column=int(column[0]),
-                reason="unexpected-character",
+            raise _syntax_error(
+                f"unexpected character {text[covered]!r}", "unexpected-character", newlines, covered, file
             )
         if _HUGE.search(text):  # C speed; only a text with a 3-digit exponent or 309 digits is checked by token
             _finite_numbers(kinds, texts, starts, newlines, file)
@@ -102,14 +97,21 @@ def _finite_numbers(
     """A number token that overflows a double (`1e400`) is a syntax error at its place, not an infinity."""
     for k, (kind, text) in enumerate(zip(kinds, texts, strict=True)):
         if kind == "number" and not math.isfinite(float(text)):
-            line, column = _line_column(newlines, np.array([starts[k]], dtype=np.int64))
-            raise ProgramSyntaxError(
+            raise _syntax_error(
                 f"the number {text[:40]!r} is out of range (beyond ±1.8e308): a value a controller cannot hold",
-                file=file,
-                line=int(line[0]),
-                column=int(column[0]),
-                reason="number-out-of-range",
+                "number-out-of-range",
+                newlines,
+                int(starts[k]),
+                file,
             )
+
+
+def _syntax_error(
+    detail: str, reason: str, newlines: NDArray[np.int64], offset: int, file: str | None
+) -> ProgramSyntaxError:
+    """The error at character `offset` of the text, named by its line and column."""
+    line, column = _line_column(newlines, np.array([offset], dtype=np.int64))
+    return ProgramSyntaxError(detail, file=file, line=int(line[0]), column=int(column[0]), reason=reason)
 
 
 def _line_column(

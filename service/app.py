@@ -47,6 +47,7 @@ from service.routes import (
     robots,
     validations,
     versions,
+    vocabulary,
 )
 from service.settings import Settings, get_settings
 
@@ -322,6 +323,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         fleets,
         cells,
         adaptive,
+        vocabulary,
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])
     app.include_router(health.router)

@@ -288,16 +288,22 @@ class BodyGuard:
         except (ServiceError, RequestValidationError) as exc:  # 413 counted chunk by chunk, 422 too much work
             await problems.response(problems.to_problem(exc))(scope, receive, send)
             return
-        sent = False
+        await self.app(scope, replaying(body, receive), send)
 
-        async def replay() -> Message:
-            nonlocal sent
-            if not sent:
-                sent = True
-                return {"type": "http.request", "body": body, "more_body": False}
-            return await receive()
 
-        await self.app(scope, replay, send)
+def replaying(body: bytes, receive: Receive) -> Receive:
+    """The `receive` of an app behind a middleware that has read the whole `body`: the body once, as one message,
+    then the client's own messages (its disconnect, when it comes)."""
+    sent = False
+
+    async def replay() -> Message:
+        nonlocal sent
+        if not sent:
+            sent = True
+            return {"type": "http.request", "body": body, "more_body": False}
+        return await receive()
+
+    return replay
 
 
 async def _shape_check(scope: Scope, body: bytes) -> tuple[int | None, int | None]:

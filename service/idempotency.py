@@ -27,6 +27,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service import problems, security
 from service.errors import BadRequest, Conflict, IdempotencyKeyReused, ServiceError, Unauthorized
+from service.guards import replaying
 from service.persistence import idempotency as store
 from service.persistence.database import Database
 
@@ -132,15 +133,6 @@ class Idempotency:
     async def _run_and_store(
         self, scope: Scope, receive: Receive, send: Send, body: bytes, *, db: Database, actor: str, key: str
     ) -> None:
-        replayed = False
-
-        async def replay_receive() -> Message:
-            nonlocal replayed
-            if not replayed:
-                replayed = True
-                return {"type": "http.request", "body": body, "more_body": False}
-            return await receive()  # after the body: the client's disconnect, when it comes
-
         status = 500
         content_type: str | None = None
         chunks: list[bytes] = []
@@ -158,7 +150,7 @@ class Idempotency:
                 await send(message)
 
         try:
-            await self.app(scope, replay_receive, capture)
+            await self.app(scope, replaying(body, receive), capture)
         except BaseException:
             with anyio.CancelScope(shield=True):
                 await anyio.to_thread.run_sync(lambda: store.release(db, actor=actor, key=key))

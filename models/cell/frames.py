@@ -22,7 +22,7 @@ from models.batch import BatchFunctions
 from models.kinematics import solve_platforms
 from models.robot import RobotDescription, pose_transform
 from models.runtime import Runtime, runtime_for
-from models.serial_chain import Convention, JointType
+from models.serial_chain import Convention, joint_link_values
 from models.stages import SerialStage
 from models.transforms import homogeneous, rot_x, rot_y, rot_z
 
@@ -76,17 +76,7 @@ def _frames_function(desc: RobotDescription) -> ca.Function:
             t = t @ stage.transform(q[at.joints], x[at.unknowns], params[at.params])
             frames.append(t)
             continue
-        qs, ps = q[at.joints], params[at.params]
-        j = p = 0
-        for link in stage.links:
-            theta, d, a, alpha = (ps[p + i] for i in range(4))
-            beta = ps[p + 4] if link.has_beta else None
-            p += link.n_params
-            if link.joint is JointType.REVOLUTE:
-                theta = theta + qs[j]
-            elif link.joint is JointType.PRISMATIC:
-                d = d + qs[j]
-            j += link.joint.moves
+        for link, theta, d, a, alpha, beta in joint_link_values(stage.links, q[at.joints], params[at.params]):
             rotation = rot_x(alpha) if beta is None else rot_x(alpha) @ rot_y(beta)
             if link.convention is Convention.DH:
                 mid = homogeneous(rot_z(theta), ca.vertcat(0, 0, d))

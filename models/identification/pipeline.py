@@ -58,7 +58,7 @@ from models.identification.result import (
     SolverReport,
     Status,
 )
-from models.identification.solver import IpoptRun, SolverPool, solver_pool
+from models.identification.solver import SolverPool, SolverRun, solver_pool
 from models.identification.statistics import Covariance, PoseErrors, correlated_pairs, covariance, outlier_threshold
 from models.identification.terms_check import missing_term_diagnoses
 from models.identification.trust_region import (
@@ -406,7 +406,7 @@ def _solve(
 
 def _run(
     pool: SolverPool, problem: CampaignProblem, z0: Array, lower: Array, upper: Array, *, max_iter: int
-) -> IpoptRun:
+) -> SolverRun:
     """IPOPT; where it stops short (its iteration limit, a stalled line search), a trust-region least-squares
     finish from its end point (`trust_region.py`: at a Jacobian condition of ~1e9 the Gauss–Newton Hessian IPOPT
     solves with is at ~1e18, past double precision; factoring the Jacobian itself is not). The run reports
@@ -417,7 +417,7 @@ def _run(
         z = on_observable_directions(problem, run.z)
         return run if z is run.z else replace(run, z=z, objective=_objective(problem, z, run.objective))
     finish = trust_region_finish(problem, run.z, lower, upper)
-    return IpoptRun(
+    return SolverRun(
         z=finish.z if finish.success else run.z,
         status=f"{FINISHED_BY}{finish.status} (IPOPT: {run.status})",
         success=finish.success,

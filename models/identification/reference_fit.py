@@ -26,7 +26,7 @@ from models.identification.polish import polish
 from models.identification.registration import registered_base, rigid_fit
 from models.identification.residuals import EvaluatedOnce, Evaluation
 from models.identification.result import ReferenceEstimate
-from models.identification.solver import IpoptRun, solver_pool
+from models.identification.solver import SolverRun, solver_pool
 from models.identification.statistics import Covariance, covariance, outlier_threshold
 from models.kinematics import ForwardJacobianResult, as_joint_array, check_joint_ranges, forward_kinematics
 from models.measurements.camera import Camera
@@ -154,7 +154,7 @@ class ReferenceFit:
     """A-posteriori covariance of the estimated robot parameters (`estimated` order), internal units."""
     covariance: Covariance
     """Of every unknown, in scale units, with the variance factor and its χ² interval."""
-    solver: IpoptRun
+    solver: SolverRun
     outliers: tuple[ReferenceOutlier, ...]
     """Records no clean one would show, worst first; left out of the fit where `excluded`."""
     seconds: float
@@ -214,7 +214,7 @@ def _fit_without_blunders(
     theta: Array,
     options: IdentificationOptions,
     rt: Runtime,
-) -> tuple[ReferenceProblem, Array, Evaluation, IpoptRun, tuple[ReferenceOutlier, ...]]:
+) -> tuple[ReferenceProblem, Array, Evaluation, SolverRun, tuple[ReferenceOutlier, ...]]:
     """The fit, refitted without its worst failing record while a few fail the outlier test (least squares
     smears a blunder over the others, so one at a time); with more than a few, every record back in and the
     failing ones named, none dropped: the model or the stated noise misfits the campaign as a whole (as for a
@@ -225,7 +225,7 @@ def _fit_without_blunders(
     given = groups
     first = reference_problem(desc, given, noise=noise, theta=theta, estimate=options.estimate, runtime=rt)
 
-    def fitted(records: tuple[ReferenceRecords, ...]) -> tuple[ReferenceProblem, Array, Evaluation, IpoptRun]:
+    def fitted(records: tuple[ReferenceRecords, ...]) -> tuple[ReferenceProblem, Array, Evaluation, SolverRun]:
         problem = (
             first if records is given else replace(first, groups=records, _last=None, evaluations=0, polish_steps=0)
         )
@@ -255,7 +255,7 @@ def _fit_without_blunders(
         check_references(groups)
 
 
-def _solved(problem: ReferenceProblem, options: IdentificationOptions) -> tuple[Array, Evaluation, IpoptRun]:
+def _solved(problem: ReferenceProblem, options: IdentificationOptions) -> tuple[Array, Evaluation, SolverRun]:
     lower, upper = np.full(problem.n_free, -np.inf), np.full(problem.n_free, np.inf)
     run = solver_pool(problem.runtime).solve(problem, np.zeros(problem.n_free), lower, upper, options.max_iterations)
     z, problem.polish_steps = polish(problem, run.z, lower, upper)
@@ -342,7 +342,7 @@ def _result(
     problem: ReferenceProblem,
     z: Array,
     final: Evaluation,
-    run: IpoptRun,
+    run: SolverRun,
     *,
     held: list[int],
     started: float,

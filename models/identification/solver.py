@@ -189,7 +189,7 @@ class _Solver:
             raise RuntimeError("solver called without a problem")  # a bug here, never the user's data
         return self._problem
 
-    def solve(self, problem: FitProblem, z0: Array, lower: Array, upper: Array) -> IpoptRun:
+    def solve(self, problem: FitProblem, z0: Array, lower: Array, upper: Array) -> SolverRun:
         self._problem = problem
         started = time.perf_counter()
         self._iterations.begin(self._past)
@@ -200,7 +200,7 @@ class _Solver:
         cancellation.check()  # stopped by the iteration callback (or cancelled just after): no result
         stats = self.nlp.stats()
         self._past = [*self._past[-(PAST_SOLVES - 1) :], int(stats.get("iter_count", 0))]
-        return IpoptRun(
+        return SolverRun(
             z=np.asarray(out["x"], dtype=float).reshape(-1),
             status=str(stats.get("return_status", "unknown")),
             success=bool(stats.get("success", False)),
@@ -211,8 +211,9 @@ class _Solver:
 
 
 @dataclass(frozen=True)
-class IpoptRun:
-    """One IPOPT run: where it ended (`z`) and how. The result reports their sum as a `SolverReport`."""
+class SolverRun:
+    """One solver's run (IPOPT's, the trust-region finish's, or the two in turn): where it ended (`z`) and how.
+    The result reports their sum as a `SolverReport`."""
 
     z: Array
     status: str
@@ -233,7 +234,7 @@ class SolverPool:
         self._idle: dict[tuple[int, int], list[_Solver]] = {}
         self._lock = threading.Lock()
 
-    def solve(self, problem: FitProblem, z0: Array, lower: Array, upper: Array, max_iter: int = 100) -> IpoptRun:
+    def solve(self, problem: FitProblem, z0: Array, lower: Array, upper: Array, max_iter: int = 100) -> SolverRun:
         solver = self._take(problem.n_free, max_iter)
         try:
             return solver.solve(problem, z0, lower, upper)

@@ -15,7 +15,6 @@ rows join the residuals as rows of their own, so the minimum is the one IPOPT wa
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -24,6 +23,7 @@ import scipy.optimize
 from models._types import Array
 from models.identification.options import RobustLoss
 from models.identification.residuals import CampaignProblem
+from models.identification.solver import SolverRun
 
 UNOBSERVABLE_SIGMA = 1e-2
 """A direction of the unknowns (tolerance units) along which one tolerance moves the standardised residuals by
@@ -47,17 +47,7 @@ SCIPY_LOSS: dict[RobustLoss, Literal["linear", "soft_l1", "huber"]] = {
 }
 
 
-@dataclass(frozen=True)
-class TrustRegionRun:
-    z: Array
-    status: str
-    success: bool
-    iterations: int
-    seconds: float
-    objective: float
-
-
-def trust_region_finish(problem: CampaignProblem, z0: Array, lower: Array, upper: Array) -> TrustRegionRun:
+def trust_region_finish(problem: CampaignProblem, z0: Array, lower: Array, upper: Array) -> SolverRun:
     """scipy 'trf' on the problem's residuals and exact Jacobian from `z0` (IPOPT's end point)."""
     started = time.perf_counter()
     prior = problem.prior_rows
@@ -107,7 +97,7 @@ def trust_region_finish(problem: CampaignProblem, z0: Array, lower: Array, upper
     # scipy's tests are relative to round-off that a 1e9 condition number makes noisy (it can end on its
     # evaluation limit at the optimum): the decrement is the test that matters.
     converged = ev is not None and (fit.status > 0 or gauss_newton_decrement(problem, z) < CONVERGED_DECREMENT)
-    return TrustRegionRun(
+    return SolverRun(
         z=z,
         status=f"trust_region_{'converged' if converged else 'stopped'}",
         success=converged,

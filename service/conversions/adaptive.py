@@ -20,12 +20,14 @@ from service.record_kinds.tracker import Record
 from service.schemas.adaptive import (
     AdaptiveCampaignCreate,
     AdaptiveCampaignPublic,
+    AdaptiveCampaignSummaryPublic,
     AdaptiveStepPublic,
     BlunderPublic,
     EstimatePublic,
     PoseToMeasurePublic,
     PredictedPublic,
 )
+from service.schemas.cells import DesignCellPublic
 
 
 def settings_in(request: dict[str, Any]) -> AdaptiveSettings:
@@ -66,24 +68,36 @@ def campaign_in(desc: RobotDescription, records: list[dict[str, Any]], settings:
     return records_in(desc, parsed, default_sigma_mm=settings.noise.position_mm)
 
 
-def pool_document(pool: Pool) -> dict[str, Any]:
+def pool_document(pool: Pool, cell_version: int | None = None) -> dict[str, Any]:
+    """The pool as stored; in a cell, also what the cell checked and refused (`cell`, DesignCellPublic's form)."""
+    cell = None
+    if pool.in_cell:
+        refused = dict(pool.excluded)
+        # every candidate sampled went to the cell's check (a campaign has no joint sub-ranges or keep-out box)
+        feasible = pool.offered - sum(refused.values())
+        cell = {"version": cell_version, "checked": pool.offered, "feasible": feasible, "refused": refused}
     return {
         "joints": pool.joints.tolist(),
         "initial": list(pool.initial),
         "reachable_mm": pool.reachable_mm,
         "excluded": dict(pool.excluded),
+        "offered": pool.offered,
+        "cell": cell,
     }
 
 
 def pool_in(document: dict[str, Any]) -> Pool:
+    """The stored pool (a campaign stored before cells had none: `offered` and `cell` absent)."""
     joints = np.asarray(document["joints"], dtype=float)
-    return Pool(joints, tuple(document["initial"]), float(document["reachable_mm"]), dict(document["excluded"]))
+    initial, reachable = tuple(document["initial"]), float(document["reachable_mm"])
+    in_cell = document.get("cell") is not None
+    return Pool(joints, initial, reachable, dict(document["excluded"]), document.get("offered", 0), in_cell)
 
 
 def next_document(step: Step) -> list[dict[str, Any]]:
     """The poses asked for next (internal units), each with its pool index or the blunder it replaces."""
     out = []
-    blunders = iter(b.record for b in step.blunders)
+    blunders = iter(step.replaces)
     for joints, index in zip(step.next_joints.tolist(), step.next_pool, strict=True):
         replaces = next(blunders) if index < 0 else None
         out.append({"joints": joints, "candidate": None if index < 0 else index, "replaces": replaces})
@@ -182,6 +196,7 @@ def campaign_public(
         budget=request["budget"],
         measurement=request["measurement"],
         criterion=request["criterion"],
+        cell=_cell(row.pool.get("cell")),
         candidates=len(row.pool["joints"]),
         reachable_mm=row.pool["reachable_mm"],
         records=state["records"],
@@ -194,6 +209,35 @@ def campaign_public(
         created_at=row.created_at,
         updated_at=row.updated_at,
     )
+
+
+def campaign_summary(row: AdaptiveCampaignRecord) -> AdaptiveCampaignSummaryPublic:
+    """The list's row: read from the campaign's request and state alone (no step, no pool read)."""
+    request, state = row.request, row.state
+    predicted = state["predicted"]
+    return AdaptiveCampaignSummaryPublic(
+        id=row.id,
+        robot_id=row.robot_id,
+        version=row.version,
+        status=state["status"],
+        target_mm=request["target_mm"],
+        target=request["target"],
+        budget=request["budget"],
+        measurement=request["measurement"],
+        criterion=request["criterion"],
+        records=state["records"],
+        predicted=None if predicted is None else PredictedPublic.model_validate(predicted),
+        excluded=state["excluded"],
+        steps=row.steps,
+        reason=state["reason"],
+        calibration_id=row.calibration_id,
+        created_at=row.created_at,
+        updated_at=row.updated_at,
+    )
+
+
+def _cell(stored: dict[str, Any] | None) -> DesignCellPublic | None:
+    return None if stored is None else DesignCellPublic.model_validate(stored)
 
 
 def estimate_in(state: dict[str, Any]) -> Array | None:

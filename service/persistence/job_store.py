@@ -72,6 +72,14 @@ class JobStore:
         assert isinstance(result, CursorResult)
         return int(result.rowcount) == 1
 
+    def _held(self, job_id: str, holder: str, **values: Any) -> bool:
+        """Move a job `holder` still runs: False once another worker has taken it over (its lease lost)."""
+        return self._cas(job_id, Job.status == "running", Job.worker == holder, **values)
+
+    def _end(self, job_id: str, holder: str, status: str, **values: Any) -> bool:
+        """End a job `holder` still runs: its lease let go, finished now."""
+        return self._held(job_id, holder, status=status, lease_expires_at=None, finished_at=utcnow(), **values)
+
     # ---------------------------------------------------------------- submission and reads
     def add(self, job_id: str, kind: str, robot_id: str, request: dict[str, Any]) -> Job:
         job = Job(id=job_id, kind=kind, robot_id=robot_id, request=request, status="queued", attempts=0)
@@ -176,54 +184,29 @@ class JobStore:
         values: dict[str, Any] = {"lease_expires_at": utcnow() + timedelta(seconds=lease)}
         if progress is not None:
             values["progress"] = progress
-        if not self._cas(job_id, Job.status == "running", Job.worker == worker, **values):
+        if not self._held(job_id, worker, **values):
             return None
         return bool(self.s.scalar(select(Job.cancel_requested).where(Job.id == job_id)))
 
     def succeed(self, job_id: str, worker: str, result_id: str) -> None:
         """In the transaction that writes the result: raises `LeaseLost` (rolling it all back) unless this
         worker still holds the job."""
-        done = self._cas(
-            job_id,
-            Job.status == "running",
-            Job.worker == worker,
-            status="succeeded",
-            result_id=result_id,
-            lease_expires_at=None,
-            finished_at=utcnow(),
-            progress={"stage": "done", "fraction": 1.0},
-        )
+        done = self._end(job_id, worker, "succeeded", result_id=result_id, progress={"stage": "done", "fraction": 1.0})
         if not done:
             raise LeaseLost(f"job {job_id} is no longer held by {worker}")
 
     def fail(self, job_id: str, worker: str, error: dict[str, Any]) -> bool:
-        return self._cas(
-            job_id,
-            Job.status == "running",
-            Job.worker == worker,
-            status="failed",
-            error=error,
-            lease_expires_at=None,
-            finished_at=utcnow(),
-        )
+        return self._end(job_id, worker, "failed", error=error)
 
     def cancelled(self, job_id: str, worker: str) -> bool:
         """A running job stopped at a progress point after its cancellation was requested."""
-        return self._cas(
-            job_id,
-            Job.status == "running",
-            Job.worker == worker,
-            status="cancelled",
-            lease_expires_at=None,
-            finished_at=utcnow(),
-        )
+        return self._end(job_id, worker, "cancelled")
 
     def release(self, job_id: str, worker: str) -> bool:
         """Give a job back without counting the attempt (its worker is shutting down, not crashing)."""
-        return self._cas(
+        return self._held(
             job_id,
-            Job.status == "running",
-            Job.worker == worker,
+            worker,
             status="queued",
             worker=None,
             lease_expires_at=None,

@@ -3,14 +3,27 @@
 from __future__ import annotations
 
 from fastapi import APIRouter, Response
+from pydantic import TypeAdapter
 
-from service.deps import ActorDep, DatabaseDep, MetricsDep, ModelCacheDep, RegistryDep, compute
+from service import limits
+from service.deps import (
+    ActorDep,
+    DatabaseDep,
+    Limit,
+    MetricsDep,
+    ModelCacheDep,
+    Offset,
+    RegistryDep,
+    SettingsDep,
+    compute,
+)
 from service.json_bodies import OffloopRoute
 from service.operations import Runs, operation
-from service.responses import model_json
+from service.responses import model_json, models_json
 from service.schemas.adaptive import (
     AdaptiveCampaignCreate,
     AdaptiveCampaignPublic,
+    AdaptiveCampaignSummaryPublic,
     AdaptiveFinish,
     AdaptiveRecordsCreate,
     AdaptiveStepPublic,
@@ -20,6 +33,7 @@ from service.services import adaptive
 
 router = APIRouter(tags=["adaptive campaigns"], route_class=OffloopRoute)
 _PATH = "/v1/robots/{robot_id}/adaptive-campaigns"
+_SUMMARIES = TypeAdapter(list[AdaptiveCampaignSummaryPublic])
 
 
 @router.post(_PATH, status_code=201, response_model=AdaptiveCampaignPublic)
@@ -32,10 +46,14 @@ async def create_adaptive_campaign(
     models: ModelCacheDep,
     registry: RegistryDep,
     m: MetricsDep,
+    settings: SettingsDep,
 ) -> Response:
     """A campaign that asks for one pose at a time, re-identifies after each record and stops when the
     predicted accuracy reaches the target (or the budget is spent): its candidate pool and the first poses to
-    measure (the identifiable minimum and two spare, D-optimal)."""
+    measure (the identifiable minimum and two spare, D-optimal). With a cell, only poses it can measure."""
+    # no job form: a start over the synchronous budget (a cell's checks of many candidates) asks for fewer
+    cost = limits.adaptive_start(body.candidate_count, in_cell=body.cell is not None)
+    limits.admit(cost, run_async=False, can_run_async=False, budget_s=settings.sync_budget_seconds)
     kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "body": body}
     result = await compute(m, "adaptive", adaptive.create_campaign, **kwargs)
     return model_json(result, status_code=201)
@@ -59,6 +77,15 @@ async def post_adaptive_records(
     kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "campaign_id": campaign_id}
     result = await compute(m, "adaptive", adaptive.post_records, body=body, **kwargs)
     return model_json(result)
+
+
+@router.get(_PATH, response_model=list[AdaptiveCampaignSummaryPublic])
+@operation(Scope.read)
+def list_adaptive_campaigns(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
+    """The robot's adaptive campaigns, oldest first: each one's settings, status, records and predicted accuracy
+    (its steps by its id)."""
+    result = adaptive.list_campaigns(db=db, robot_id=robot_id, limit=limit, offset=offset)
+    return models_json(result, _SUMMARIES)
 
 
 @router.get(_PATH + "/{campaign_id}", response_model=AdaptiveCampaignPublic)

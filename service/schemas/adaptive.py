@@ -14,6 +14,7 @@ from optimal_design.adaptive_scores import AdaptiveCriterion
 from optimal_design.problem import MAX_CANDIDATES
 from service.record_kinds.tracker import Record
 from service.schemas.calibrations import Noise
+from service.schemas.cells import CellDocument, DesignCellPublic
 from service.schemas.common import FreeText, Public, Strict
 
 MAX_ADAPTIVE_BUDGET = 1000
@@ -50,6 +51,11 @@ class AdaptiveCampaignCreate(Strict):
         le=100,
         description="A record whose studentized residual is beyond this many σ (as rarely as a normal deviate) "
         "is a blunder: excluded, reported, and its pose asked for again",
+    )
+    cell: Literal["stored"] | CellDocument | None = Field(
+        default=None,
+        description="Ask only for poses a cell can measure (collision-free, seen by its instrument): stored (the "
+        "robot's current cell, PUT …/cell) or a cell document; absent: no cell. As a pose design's `cell`",
     )
     measurements: list[Record] | None = Field(
         default=None,
@@ -118,6 +124,28 @@ class AdaptiveStepPublic(Public):
     created_at: datetime | None = None
 
 
+class AdaptiveCampaignSummaryPublic(Public):
+    """A campaign in a robot's list: its settings and where it stands, without its steps (GET it for those)."""
+
+    id: str
+    robot_id: str
+    version: int = Field(description="The robot's version the campaign started from")
+    status: AdaptiveStatus
+    target_mm: float
+    target: TargetKey
+    budget: int
+    measurement: Literal["pose", "position"]
+    criterion: AdaptiveCriterion
+    records: int
+    predicted: PredictedPublic | None
+    excluded: list[int]
+    steps: int = Field(description="Steps stored (records posted so many times)")
+    reason: str | None
+    calibration_id: str | None
+    created_at: datetime
+    updated_at: datetime
+
+
 class AdaptiveCampaignPublic(Public):
     id: str
     robot_id: str
@@ -128,6 +156,9 @@ class AdaptiveCampaignPublic(Public):
     budget: int
     measurement: Literal["pose", "position"]
     criterion: AdaptiveCriterion
+    cell: DesignCellPublic | None = Field(
+        default=None, description="With a cell: its stored version used, what it checked and refused by reason"
+    )
     candidates: int = Field(description="Candidates in the pool")
     reachable_mm: float = Field(description="The predicted error with every candidate measured")
     records: int

@@ -9,6 +9,7 @@ in one; a post that raced another for the same step is refused (409) rather than
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 from models import Registry
@@ -17,6 +18,7 @@ from optimal_design.adaptive import Pool, Progress, advance
 from service.conversions.adaptive import (
     campaign_in,
     campaign_public,
+    campaign_summary,
     estimate_in,
     pool_document,
     pool_in,
@@ -35,12 +37,14 @@ from service.record_kinds.tracker import Record
 from service.schemas.adaptive import (
     AdaptiveCampaignCreate,
     AdaptiveCampaignPublic,
+    AdaptiveCampaignSummaryPublic,
     AdaptiveFinish,
     AdaptiveRecordsCreate,
     AdaptiveStepPublic,
 )
 from service.schemas.calibrations import CalibrationCreate
 from service.services import calibrations
+from service.services.cells import used_cell
 
 
 def create_campaign(
@@ -53,6 +57,11 @@ def create_campaign(
         version = Repository(s).version(robot_id).version
     request = body.model_dump(mode="json", exclude={"measurements"})
     settings = settings_in(request)
+    cell = None
+    if body.cell is not None:
+        # the pool is checked once, here: every pose the campaign asks for later is one of it
+        cell = used_cell(db=db, models=models, registry=registry, robot_id=robot_id, cell=body.cell)
+        settings = replace(settings, cell=cell.cell)
     runtime = registry.runtime(desc)
     pool = Pool.build(desc, settings, params=theta, runtime=runtime)
     records = [r.model_dump(mode="json") for r in body.measurements or []]
@@ -62,7 +71,8 @@ def create_campaign(
     with db.session() as s:
         Repository(s).robot(robot_id, lock=True)  # still there
         store = AdaptiveStore(s)
-        row = store.add(robot_id, version, request, pool_document(pool), state_document(step, asked, len(records)))
+        pool_json = pool_document(pool, None if cell is None else cell.version)
+        row = store.add(robot_id, version, request, pool_json, state_document(step, asked, len(records)))
         if records:
             seconds = time.perf_counter() - started
             document = step_document(step, number=1, posted=len(records), records=len(records), seconds=seconds)
@@ -124,6 +134,12 @@ def get_campaign(*, db: Database, models: ModelCache, robot_id: str, campaign_id
         store = AdaptiveStore(s)
         row = store.campaign(robot_id, campaign_id)
         return campaign_public(desc, row, store.steps(row.id))
+
+
+def list_campaigns(*, db: Database, robot_id: str, limit: int, offset: int) -> list[AdaptiveCampaignSummaryPublic]:
+    with db.reader() as s:
+        Repository(s).robot(robot_id)  # a 404 for a robot that is not there, not an empty list
+        return [campaign_summary(row) for row in AdaptiveStore(s).campaigns(robot_id, limit, offset)]
 
 
 def finish_campaign(

@@ -33,6 +33,7 @@ from service.schemas.checks import (
     QuickCheckDesignPublic,
     QuickCheckPublic,
 )
+from service.services.pages import robot_page
 
 HISTORY_MAX = 10_000
 
@@ -163,9 +164,7 @@ def get_check(*, db: Database, check_id: str) -> QuickCheckPublic:
 
 
 def list_checks(*, db: Database, robot_id: str, limit: int, offset: int) -> list[QuickCheckPublic]:
-    with db.reader() as s:
-        Repository(s).robot(robot_id)
-        return [check_public(r) for r in Lifecycle(s).checks(robot_id, limit, offset)]
+    return robot_page(db, robot_id, Lifecycle.checks, check_public, limit=limit, offset=offset)
 
 
 def history(*, db: Database, robot_id: str, limit: int, offset: int) -> list[HistoryEventPublic]:

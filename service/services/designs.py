@@ -28,6 +28,7 @@ from service.schemas.designs import (
 from service.services.cells import UsedCell, used_cell
 from service.services.fleets import calibration_prior, read_fleet
 from service.services.hooks import JobHooks
+from service.services.pages import robot_page
 from service.services.reference_designs import reference_report
 
 
@@ -173,6 +174,4 @@ def get_design(*, db: Database, design_id: str) -> PoseDesignPublic:
 
 
 def list_designs(*, db: Database, robot_id: str, limit: int, offset: int) -> list[PoseDesignSummaryPublic]:
-    with db.reader() as s:
-        Repository(s).robot(robot_id)
-        return [design_summary(r) for r in Lifecycle(s).designs(robot_id, limit, offset)]
+    return robot_page(db, robot_id, Lifecycle.designs, design_summary, limit=limit, offset=offset)

@@ -21,6 +21,7 @@ from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
 from service.record_kinds import tracker_records
 from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
+from service.services.pages import robot_page
 
 
 def _checked_versions(repo: Repository, robot_id: str, wanted: list[int] | None) -> list[int]:
@@ -104,9 +105,7 @@ def get_validation(*, db: Database, validation_id: str) -> ValidationPublic:
 
 
 def list_validations(*, db: Database, robot_id: str, limit: int, offset: int) -> list[ValidationPublic]:
-    with db.reader() as s:
-        Repository(s).robot(robot_id)
-        return [validation_public(r) for r in Lifecycle(s).validations(robot_id, limit, offset)]
+    return robot_page(db, robot_id, Lifecycle.validations, validation_public, limit=limit, offset=offset)
 
 
 def iso_poses(*, db: Database, registry: Registry, robot_id: str, body: IsoPosesCreate) -> IsoPosesPublic:

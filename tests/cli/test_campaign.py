@@ -18,7 +18,7 @@ import pytest
 from harness.live import running_server
 from models.examples import ur5_like, ur5_like_document
 from models.simulation import measure, perturbed_robot
-from tests.cli.test_session import api, iwr
+from tests.cli.helpers import api, iwr
 
 pytestmark = pytest.mark.slow  # a live server and a few identifications
 

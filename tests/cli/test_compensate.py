@@ -9,10 +9,7 @@ allows one, from a stand-in; the encodings written back."""
 from __future__ import annotations
 
 import json
-import os
 import re
-import subprocess
-import sys
 import threading
 import urllib.request
 from collections.abc import Iterator
@@ -23,7 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 
-from harness.live import ROOT, running_server
+from harness.live import running_server
 from harness.programs import (
     FIXTURE,
     HOME_DEG,
@@ -42,6 +39,7 @@ from iwr_client.cli import main
 from iwr_client.programs import compensated_bytes, format_of
 from models.examples import ur5_like_document
 from programs import read_program
+from tests.cli.helpers import iwr
 
 N_TARGETS = 8
 UNREACHABLE = (
@@ -64,22 +62,6 @@ EXTERNAL = (
     "EXT  BAS (BAS_COMMAND  :IN,REAL  :IN )\r\nDECL INT SUCCESS\r\n;ENDFOLD (BASISTECH EXT)\r\n"
 )
 """The .dat's external declarations, as a backup holds them."""
-
-
-def _environment() -> dict[str, str]:
-    return {k: v for k, v in os.environ.items() if not k.startswith("IWR_")}
-
-
-def iwr(url: str, *args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "iwr_client", "--url", url, *args],
-        cwd=ROOT,
-        env=_environment(),
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
 
 
 def post(url: str, path: str, body: object) -> Any:

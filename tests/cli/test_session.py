@@ -25,6 +25,7 @@ from harness.checks import changed
 from harness.live import ROOT, free_port, running_server
 from models import iwr as iwr_description
 from models.simulation import SimulatedRobot, measure, perturbed_robot
+from tests.cli.helpers import api, environment, iwr
 
 # One live server for the module, then a few seconds of calibrations and a design.
 pytestmark = pytest.mark.slow
@@ -32,29 +33,6 @@ pytestmark = pytest.mark.slow
 CAMPAIGN = ROOT / "examples" / "campaign.csv"
 JOINTS = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
 IWR = iwr_description()
-
-
-def _environment() -> dict[str, str]:
-    """The user's shell without IWR_URL or IWR_API_KEY: each run names its service with --url."""
-    return {k: v for k, v in os.environ.items() if not k.startswith("IWR_")}
-
-
-def iwr(url: str, *args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "iwr_client", "--url", url, *args],
-        cwd=ROOT,
-        env=_environment(),
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
-
-
-def api(url: str, path: str) -> Any:
-    """The API's own answer, read without the client under test."""
-    with urllib.request.urlopen(url + path, timeout=30) as answer:
-        return json.load(answer)
 
 
 @pytest.fixture(scope="module")
@@ -116,7 +94,7 @@ def test_on_a_terminal_the_progress_is_one_bar_redrawn(server: str, robot: dict[
     process = subprocess.Popen(
         [sys.executable, "-m", "iwr_client", "--url", server, "calibrate", robot["id"], str(CAMPAIGN), "--no-apply"],
         cwd=ROOT,
-        env=_environment(),
+        env=environment(),
         stdout=subprocess.PIPE,
         stderr=secondary,
         text=True,

@@ -25,7 +25,7 @@ OFFSETS = {"r2": (80.0, 0.0, -20.0), "r3": (0.0, 70.0, -20.0)}
 def _read(truth: np.ndarray, joints: np.ndarray, offset: tuple[float, float, float]) -> np.ndarray:
     """Where the tracker sees a reflector at `offset` from the TCP of the truth robot (no noise)."""
     fk = forward_kinematics(DESC, joints, truth)
-    return fk.positions + np.einsum("nij,j->ni", fk.rotations, np.asarray(offset))
+    return np.asarray(fk.positions + np.einsum("nij,j->ni", fk.rotations, np.asarray(offset)), dtype=float)
 
 
 def test_the_residuals_derivatives_are_those_of_the_forward_kinematics() -> None:
@@ -87,7 +87,7 @@ def test_three_reflectors_calibrate_the_arm_and_find_their_offsets() -> None:
     assert rms < 2.0 * bound, (rms, bound)
     # What the other two reflectors add: the TCP's reflector alone, the same 30 poses, predicts it worse.
     alone = identify_references(DESC, (groups[0],), noise=NoiseModel(SIGMA_MM, 1e-5))
-    error = forward_kinematics(DESC, fresh, alone.parameters).positions - forward_kinematics(DESC, fresh, truth).positions
+    tcp_alone = forward_kinematics(DESC, fresh, alone.parameters).positions
+    error = tcp_alone - forward_kinematics(DESC, fresh, truth).positions
     rms_alone = float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
-    print(rms, rms_alone, predicted_rms(DESC, alone, fresh))
-    assert rms < rms_alone
+    assert rms < rms_alone  # measured: 0.0058 against 0.0120 mm

@@ -12,7 +12,7 @@ from models import errors
 from models.campaign import make_campaign
 from models.identification import identify, pipeline
 from models.identification.options import IdentificationOptions
-from models.identification.trust_region import TrustRegionRun
+from models.identification.solver import SolverRun
 from models.robot import RobotDescription
 from models.simulation import measure, perturbed_robot
 from models.workspace import sample_workspace
@@ -92,8 +92,8 @@ def test_strict_identification_raises_what_a_failed_result_reports(
 
     # IPOPT stopped after one iteration, and the trust-region finish (which converges from there on its own)
     # stopped as well: a run that truly failed, whose report strict mode must raise.
-    def stopped(problem: Any, z0: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> TrustRegionRun:
-        return TrustRegionRun(z=z0, status="stopped (test)", success=False, iterations=0, seconds=0.0, objective=0.0)
+    def stopped(problem: Any, z0: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> SolverRun:
+        return SolverRun(z=z0, status="stopped (test)", success=False, iterations=0, seconds=0.0, objective=0.0)
 
     monkeypatch.setattr(pipeline, "trust_region_finish", stopped)
     failed = identify(desc, campaign, options=options)

@@ -4,22 +4,28 @@
 - The studentized test: a record's deleted residual equals its residual against a fit without it (a second
   identification), and a 0.5 mm blunder's is its size.
 - The loop stops at the target with the actual error (against the truth, held-out poses) near it, flags and
-  excludes a blunder and asks its pose again, and needs no more records than the fixed D design that reaches
-  the same target, median over seeds.
+  excludes a blunder and asks its pose again.
+- Against fixed designs sized at the nominal (benchmarks/bench_adaptive.py's seeds): where the design misses the
+  target at the truth, the loop reaches it with one pose more; where a blunder costs the design a record and
+  its target, the loop flags it and reaches the target. In a cell, a blunder's pose is asked again only when
+  the cell checked it.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from harness.adaptive import run_adaptive, run_fixed
+from harness.adaptive import Blunders, fixed_at_count, run_adaptive
 from models import forward_kinematics, sample_workspace
 from models.examples import ur5_like
 from models.identification import IdentificationOptions, RobustLoss, identify
 from models.runtime import runtime_for
 from models.simulation import measure, perturbed_robot
-from optimal_design.adaptive import AdaptiveSettings, blunder_threshold, studentized
+from optimal_design import design_for_target
+from optimal_design.adaptive import AdaptiveSettings, Pool, Progress, advance, blunder_threshold, studentized
 from optimal_design.adaptive_scores import AdaptiveCriterion, scores
 from optimal_design.information import candidate_information, max_tcp_error
 
@@ -84,17 +90,71 @@ def test_the_loop_stops_at_the_target_and_survives_a_blunder() -> None:
     assert any(len(s.next_pool) == 1 and s.next_pool[0] == -1 for s in run.steps)  # the blunder's pose again
 
 
-@pytest.mark.slow  # three campaigns and three target-mode designs: ~25 s
-def test_no_more_records_than_the_fixed_design_median_over_seeds() -> None:
-    adaptive, fixed = [], []
-    for seed in range(3):
+def _sized_at_the_nominal(seed: int) -> int:
+    """The count of the I design whose prediction at the nominal reaches 0.03 mm: what a plant would measure."""
+    return design_for_target(DESC, rms_tcp_mm=0.03, criterion="I", candidate_count=300, seed=seed).count
+
+
+@pytest.mark.slow  # two campaigns, two target-mode designs and four fixed campaigns: 14 s beside a benchmark
+def test_the_loop_reaches_the_target_at_the_truth_where_the_design_sized_at_the_nominal_misses() -> None:
+    """Seeds 1 and 2 of benchmarks/bench_adaptive.py (3 of its 20 robots): the 16-pose design sized at the nominal
+    misses 0.03 mm at the truth; the loop, which stops on its estimate, reaches it with one pose more, as many as
+    the fixed design needs on 90 % of the robots (the bench's median: 17 against 17, equal, not fewer)."""
+    for seed in (1, 2):
         truth = perturbed_robot(DESC, seed=seed)
         settings = AdaptiveSettings(target_mm=0.03, candidate_count=300, seed=seed)
-        adaptive.append(run_adaptive(DESC, truth, settings, seed=seed))
-        fixed.append(run_fixed(DESC, truth, settings, seed=seed))
-    assert np.median([a.records for a in adaptive]) <= np.median([f.count for f in fixed])
-    assert all(a.predicted["rms_tcp_mm"] <= 0.03 for a in adaptive)
-    # the realised errors scatter about the predicted RMS (measured 0.025, 0.030, 0.030 mm): the median within 10 %
-    actual = [a.actual_rms_mm for a in adaptive]
-    assert np.median(actual) <= 1.1 * 0.03
-    assert all(0.6 < a.actual_rms_mm / a.predicted["rms_tcp_mm"] < 1.4 for a in adaptive)
+        count = _sized_at_the_nominal(seed)
+        sized = fixed_at_count(DESC, truth, settings, count, seed=seed)
+        assert sized.nominal_mm <= 0.03 < sized.at_truth_mm
+        assert fixed_at_count(DESC, truth, settings, count + 1, seed=seed).at_truth_mm <= 0.03
+        run = run_adaptive(DESC, truth, settings, seed=seed)
+        assert run.at_truth_mm <= 0.03 and run.records == count + 1
+        # its prediction at its estimate is the truth's within 0.1 % (the nominal's is 0.3 % off)
+        assert run.predicted["rms_tcp_mm"] == pytest.approx(run.at_truth_mm, rel=1e-3)
+        # the realised error is one draw about the prediction (36 parameters: ±25 % at 2σ)
+        assert 0.6 < run.actual_rms_mm / run.at_truth_mm < 1.4
+
+
+@pytest.mark.slow  # a campaign, a target-mode design and a fixed campaign: ~2 s
+def test_a_blunder_costs_the_fixed_design_its_target_and_the_loop_one_record() -> None:
+    """Seed 0 with blunders (a record in 20 off by 0.3-2 mm): the calibration of the design sized at the nominal
+    excludes the bad record and misses 0.03 mm at the truth; the loop flags exactly the bad record, measures its
+    pose again and reaches the target at the truth."""
+    truth, gross = perturbed_robot(DESC, seed=0), Blunders(seed=0)
+    settings = AdaptiveSettings(target_mm=0.03, candidate_count=300, seed=0)
+    count = _sized_at_the_nominal(0)
+    fixed = fixed_at_count(DESC, truth, settings, count, blunders=gross, seed=0)
+    assert fixed.excluded == 1 and fixed.at_truth_mm > 0.03
+    run = run_adaptive(DESC, truth, settings, blunders=gross, seed=0)
+    assert len(run.corrupted) == 1 and run.blunders == run.corrupted
+    assert run.at_truth_mm <= 0.03 and run.records == count + 2
+
+
+def test_in_a_cell_a_blunder_s_pose_is_asked_again_only_when_the_cell_checked_it() -> None:
+    """A record posted at the start may have been measured anywhere: in a cell, its pose is not asked again (the
+    cell never checked it); the best pool candidate is, and the steps build nothing new for the structure."""
+    truth = perturbed_robot(DESC, seed=4)
+    settings = AdaptiveSettings(target_mm=0.03, candidate_count=40, seed=1)
+    pool = Pool.build(DESC, settings)
+    records = measure(truth, sample_workspace(DESC, 9, seed=5), seed=6)
+    records.positions[8, 1] += 0.5
+    rt = runtime_for(DESC)
+    advance(DESC, pool, settings, Progress(records), runtime=rt)
+    built = rt.builds
+    anywhere = advance(DESC, pool, settings, Progress(records), runtime=rt)
+    assert [b.record for b in anywhere.blunders] == [8] and anywhere.next_pool == (-1,)
+    assert anywhere.replaces == (8,) and np.array_equal(anywhere.next_joints[0], records.joints[8])
+    in_cell = advance(DESC, replace(pool, in_cell=True), settings, Progress(records), runtime=rt)
+    assert [b.record for b in in_cell.blunders] == [8] and in_cell.replaces == ()
+    (index,) = in_cell.next_pool
+    assert index >= 0 and np.array_equal(in_cell.next_joints[0], pool.joints[index])
+    # measured at a pool candidate (as a controller reports it back, within 0.06°), that candidate again
+    cell_pool = replace(pool, in_cell=True)
+    near, far, free = (
+        cell_pool.again(pool.joints[index] + 1e-4),
+        cell_pool.again(records.joints[8]),
+        pool.again(records.joints[8]),
+    )
+    assert near is not None and np.array_equal(near, pool.joints[index]) and far is None
+    assert free is not None and np.array_equal(free, records.joints[8])
+    assert rt.builds == built, (rt.builds, built)  # the later steps built nothing: all was kept by the structure

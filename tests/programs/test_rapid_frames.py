@@ -22,10 +22,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness.programs import FIXTURE, HOME_DEG, executed, joints, taught, ur5_cell, world_positions
+from harness.programs import (
+    FIXTURE,
+    HOME_DEG,
+    executed,
+    joints,
+    rapid_cell_module,
+    rapid_pose,
+    rapid_robtarget,
+    taught,
+    ur5_cell,
+    world_positions,
+)
 from models._types import Array
 from programs import PROGRAM, Target, read_program
-from programs.frames import matrix_quaternion
 from service.services.programs import compensate_program
 
 CELL = ur5_cell()
@@ -34,29 +44,19 @@ FRAMES = ("wFixture", "wFixture", None, "wFixture", "wFixture")
 """Each target's work object (None: wobj0, the robot's base); all are taught with the tooldata tProbe."""
 
 
-def _pose(frame: Array) -> str:
-    w, qx, qy, qz = matrix_quaternion(frame[:3, :3])
-    x, y, z = frame[:3, 3]
-    return f"[[{x:.4f},{y:.4f},{z:.4f}],[{w:.9f},{qx:.9f},{qy:.9f},{qz:.9f}]]"
-
-
 def _taught(k: int) -> Array:
     base = FIXTURE if FRAMES[k] else None
     return np.asarray(taught(CELL, Q[k : k + 1], base=base, tool=CELL.tool)[0])
 
 
 def _robtarget(k: int) -> str:
-    cf = [int(np.floor(Q[k][j] / (np.pi / 2))) for j in (0, 3, 5)]
-    return f"{_pose(_taught(k))[:-1]},[{cf[0]},{cf[1]},{cf[2]},0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
+    return rapid_robtarget(_taught(k), Q[k])
 
 
-CELL_SYS = (
-    "MODULE CellData(SYSMODULE)\r\n"
-    f"  PERS tooldata tProbe:=[TRUE,{_pose(CELL.tool)},[0.5,[0,0,50],[1,0,0,0],0,0,0]];\r\n"
-    f'  TASK PERS wobjdata wFixture:=[FALSE,TRUE,"",{_pose(FIXTURE)},[[0,0,0],[1,0,0,0]]];\r\n'
-    '  PERS wobjdata wCalib:=[FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];\r\n'
-    "  PERS loaddata load2:=[2,[0,0,60],[1,0,0,0],0,0,0];\r\n"
-    "ENDMODULE\r\n"
+CELL_SYS = rapid_cell_module(
+    CELL,
+    '  PERS wobjdata wCalib:=[FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];\r\n',
+    "  PERS loaddata load2:=[2,[0,0,60],[1,0,0,0],0,0,0];\r\n",
 )
 HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\nMODULE Weld\r\n"
 DATA = "".join(f"  CONST robtarget p{10 * (k + 1)}:={_robtarget(k)};\r\n" for k in range(5)) + (
@@ -132,7 +132,7 @@ def test_two_different_literal_values_keep_the_targets_and_the_same_value_twice_
     expected = "wobjdata wFixture is given two different values (line 16 and line 3 of celldata.sys)"
     for k, target_name in enumerate(f"p{10 * (k + 1)}" for k in range(5)):
         assert (expected in str(found[target_name].kept)) == (FRAMES[k] == "wFixture"), found[target_name].kept
-    same = f'wFixture := [FALSE,TRUE,"",{_pose(FIXTURE)},[[0.0,0,0.000],[1,0,0,0]]];'
+    same = f'wFixture := [FALSE,TRUE,"",{rapid_pose(FIXTURE)},[[0.0,0,0.000],[1,0,0,0]]];'
     assert all(t.kept is None for t in _read(_module(same, *MOVES)).values())
 
 

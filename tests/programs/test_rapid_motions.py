@@ -19,10 +19,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness.programs import FIXTURE, HOME_DEG, executed, joints, taught, ur5_cell, world_positions
+from harness.programs import (
+    FIXTURE,
+    HOME_DEG,
+    executed,
+    joints,
+    rapid_cell_module,
+    rapid_robtarget,
+    taught,
+    ur5_cell,
+    world_positions,
+)
 from models._types import Array
 from programs import PROGRAM, ProgramError, Target, read_program
-from programs.frames import matrix_quaternion
 from service.services.programs import compensate_program
 
 CELL = ur5_cell()
@@ -48,28 +57,18 @@ Q = joints(COUNT, seed=33)
 IN_FIXTURE = [fixture for text, fixture in MOTIONS for _ in range(text.count("{"))]
 
 
-def _pose(frame: Array) -> str:
-    w, qx, qy, qz = matrix_quaternion(frame[:3, :3])
-    x, y, z = frame[:3, 3]
-    return f"[[{x:.4f},{y:.4f},{z:.4f}],[{w:.9f},{qx:.9f},{qy:.9f},{qz:.9f}]]"
-
-
 def _taught(k: int) -> Array:
     return np.asarray(taught(CELL, Q[k : k + 1], base=FIXTURE if IN_FIXTURE[k] else None, tool=CELL.tool)[0])
 
 
 def _robtarget(k: int) -> str:
-    cf = [int(np.floor(Q[k][j] / (np.pi / 2))) for j in (0, 3, 5)]
-    return f"{_pose(_taught(k))[:-1]},[{cf[0]},{cf[1]},{cf[2]},0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
+    return rapid_robtarget(_taught(k), Q[k])
 
 
-CELL_SYS = (
-    "MODULE CellData(SYSMODULE)\r\n"
-    f"  PERS tooldata tProbe:=[TRUE,{_pose(CELL.tool)},[0.5,[0,0,50],[1,0,0,0],0,0,0]];\r\n"
-    f'  TASK PERS wobjdata wFixture:=[FALSE,TRUE,"",{_pose(FIXTURE)},[[0,0,0],[1,0,0,0]]];\r\n'
-    "  PERS seamdata seam1:=[0.5,0.5,[5,0,24,120,0,0,0,0,0],0.5,1,2,0,0,[5,0,24,120,0,0,0,0,0]];\r\n"
-    '  PERS gundata gun1:=["gun1",1,2,0.5,0.5,FALSE,0,0,0];\r\n'
-    "ENDMODULE\r\n"
+CELL_SYS = rapid_cell_module(
+    CELL,
+    "  PERS seamdata seam1:=[0.5,0.5,[5,0,24,120,0,0,0,0,0],0.5,1,2,0,0,[5,0,24,120,0,0,0,0,0]];\r\n",
+    '  PERS gundata gun1:=["gun1",1,2,0.5,0.5,FALSE,0,0,0];\r\n',
 )
 HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\nMODULE Process\r\n"
 

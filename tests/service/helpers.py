@@ -6,20 +6,25 @@ import os
 import socket
 import time
 import tracemalloc
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 import pytest
+from alembic import command
+from alembic.config import Config
 from fastapi.testclient import TestClient
+from sqlalchemy import create_engine, inspect
 
 from harness.programs import Cell
 
 # The harness builds its campaigns from the same records; the service tests keep importing them from here.
 from harness.records import records
 from models.examples import ur5_like_document
+from service.persistence.database import MIGRATIONS
 
-__all__ = ["SOAK", "broker", "finished_job", "records"]
+__all__ = ["SOAK", "MigratedFile", "assert_design_kept", "broker", "finished_job", "migrated_file", "records"]
 
 SOAK = os.environ.get("IWR_SOAK") == "1"
 """`make soak`: the load and fleet tests at their full length (50 clients for 10 s, 12 s of mixed load, 200 jobs
@@ -65,6 +70,14 @@ def cost() -> Iterator[dict[str, float]]:
         tracemalloc.stop()
 
 
+def assert_design_kept(client: TestClient, robot_id: str, design: dict[str, Any], measurement: str) -> None:
+    """A design just made reads back with its references and measurement, and is the robot's one listed design."""
+    stored = client.get(f"/v1/pose-designs/{design['id']}").json()
+    assert stored["references"] == design["references"] and stored["measurement"] == measurement
+    listed = client.get(f"/v1/robots/{robot_id}/pose-designs").json()
+    assert [(d["id"], d["measurement"]) for d in listed] == [(design["id"], measurement)]
+
+
 def ur5_with_truth(client: TestClient, cell: Cell) -> str:
     """A UR5-like robot with the cell's perturbed truth as its version 2 (mm and degrees, as the parameters export
     states them): what programs are compensated with in the tests."""
@@ -79,3 +92,54 @@ def ur5_with_truth(client: TestClient, cell: Cell) -> str:
     imported = client.post(f"/v1/robots/{robot_id}/parameter-versions", json=export)
     assert imported.status_code == 201, imported.text
     return robot_id
+
+
+TableShape = tuple[frozenset[str], tuple[tuple[str, ...], ...]]
+"""A table's index names and its unique constraints' columns: what a migration declares beyond the columns."""
+
+
+class MigratedFile:
+    """A SQLite file moved revision by revision with alembic's own commands (what `alembic upgrade <rev>` does),
+    where the app's `Database.migrate` only ever goes to head: how the old schemas a migration starts from are
+    made."""
+
+    def __init__(self, path: Path) -> None:
+        self.url = f"sqlite:///{path}"
+        self.config = Config()
+        self.config.set_main_option("script_location", str(MIGRATIONS))
+        self.config.set_main_option("sqlalchemy.url", self.url)
+        self.engine = create_engine(self.url)
+
+    def upgrade(self, revision: str) -> None:
+        self._move(command.upgrade, revision)
+
+    def downgrade(self, revision: str) -> None:
+        self._move(command.downgrade, revision)
+
+    def _move(self, move: Callable[[Config, str], None], revision: str) -> None:
+        with self.engine.begin() as connection:
+            self.config.attributes["connection"] = connection
+            move(self.config, revision)
+
+    def tables(self) -> dict[str, TableShape]:
+        """Every table (alembic's own bookkeeping left out) with its indexes and unique constraints."""
+        with self.engine.connect() as connection:
+            found = inspect(connection)
+            return {
+                name: (
+                    frozenset(str(i["name"]) for i in found.get_indexes(name)),
+                    tuple(tuple(u["column_names"]) for u in found.get_unique_constraints(name)),
+                )
+                for name in found.get_table_names()
+                if name != "alembic_version"
+            }
+
+
+@contextmanager
+def migrated_file(path: Path) -> Iterator[MigratedFile]:
+    """A `MigratedFile` at `path`, its engine disposed afterwards."""
+    file = MigratedFile(path)
+    try:
+        yield file
+    finally:
+        file.engine.dispose()

@@ -18,12 +18,16 @@ from sqlalchemy import create_engine, inspect
 from harness.records import records
 from models import Registry, forward_kinematics, sample_workspace
 from models.examples import ur5_like, ur5_like_document
+from models.robot import RobotDescription
 from models.simulation import perturbed_robot
+from models.structure import description_from_document
 from service.errors import Conflict
 from service.persistence import Database, Repository
 from service.persistence.adaptive import AdaptiveStore
 from service.persistence.database import MIGRATIONS
+from tests.models.cell_reference import dh_frames, reference_verdicts
 from tests.service.conftest import fresh_sqlite, make_client
+from tests.service.test_cells_api import CELL, the_same_cell
 
 DESC = ur5_like()
 TRUTH = perturbed_robot(DESC, seed=5)
@@ -193,3 +197,72 @@ def test_a_campaign_started_from_records_already_measured(client: TestClient) ->
     assert first["predicted"]["rms_tcp_mm"] > 0.03 and campaign["records"] == 8
     (pose,) = campaign["next"]
     assert pose["candidate"] is not None and pose == first["next"][0] and len(pose["joints"]) == 6
+
+
+def test_a_robots_campaigns_are_listed_with_where_each_stands(client: TestClient) -> None:
+    robot_id = _robot(client)
+    base = f"/v1/robots/{robot_id}/adaptive-campaigns"
+    assert client.get(base).json() == []
+    first = _start(client, robot_id, candidate_count=20, target_mm=1.0)
+    second = _start(client, robot_id, candidate_count=20, target_mm=2.0, measurement="position")
+    assert client.post(f"{base}/{first['id']}/finish", json={"calibrate": False}).status_code == 200
+    listed = client.get(base).json()
+    assert [c["id"] for c in listed] == [first["id"], second["id"]]  # oldest first
+    assert [c["status"] for c in listed] == ["ended", "measuring"]
+    assert [(c["target_mm"], c["measurement"], c["records"], c["steps"]) for c in listed] == [
+        (1.0, "pose", 0, 0),
+        (2.0, "position", 0, 0),
+    ]
+    assert "next" not in listed[0] and listed[1]["predicted"] is None  # nothing measured, nothing predicted
+    assert [c["id"] for c in client.get(base, params={"offset": 1}).json()] == [second["id"]]
+    missing = client.get("/v1/robots/no-such-robot/adaptive-campaigns")
+    assert missing.status_code == 404 and "no-such-robot" in missing.json()["detail"]
+
+
+def _cell_robot(client: TestClient) -> tuple[str, RobotDescription]:
+    """A UR5-like robot and its description as the service states it (its structure document read back)."""
+    robot_id = _robot(client)
+    return robot_id, description_from_document(client.get(f"/v1/robots/{robot_id}/structure").json())
+
+
+def _feasible(desc: RobotDescription, poses_deg: list[list[float]]) -> list[str]:
+    """The independent, hand-written verdicts (tests/models/cell_reference.py) of poses in degrees: '' is feasible."""
+    q = np.radians(np.asarray(poses_deg, dtype=float))
+    return reference_verdicts(desc, the_same_cell(desc), q, dh_frames(desc, q))[0]
+
+
+@pytest.mark.slow  # a campaign of ~12 identifications in a cell: ~5 s
+def test_a_campaign_in_the_stored_cell_asks_only_for_poses_it_can_measure(client: TestClient) -> None:
+    robot_id, desc = _cell_robot(client)
+    assert client.put(f"/v1/robots/{robot_id}/cell", json=CELL).status_code == 200
+    campaign = _start(client, robot_id, cell="stored")
+    cell = campaign["cell"]
+    assert cell["version"] == 1 and {"incidence", "cell_collision"} <= set(cell["refused"])
+    assert cell["checked"] - sum(cell["refused"].values()) == cell["feasible"] >= campaign["candidates"] == 150
+    path = f"/v1/robots/{robot_id}/adaptive-campaigns/{campaign['id']}"
+    state, asked, seed = campaign, list[list[float]](), 20
+    while state["status"] == "measuring":
+        asked += [p["joints"] for p in state["next"]]
+        # the 8th record is a 0.5 mm blunder: its pose (a pool candidate) is asked again
+        step = client.post(path + "/records", json={"measurements": _measured(state["next"], seed, blunder=seed == 21)})
+        assert step.status_code == 200, step.text
+        state, seed = client.get(path).json(), seed + 1
+    assert state["excluded"] == [7] and any(p["replaces"] == 7 for s in state["steps"] for p in s["next"])
+    assert state["predicted"]["rms_tcp_mm"] <= TARGET_MM and state["cell"] == cell
+    assert len(asked) == state["records"] and _feasible(desc, asked) == [""] * len(asked)
+
+
+def test_a_campaign_in_a_cell_sent_with_it_and_its_refusals(client: TestClient) -> None:
+    robot_id, desc = _cell_robot(client)
+    base = f"/v1/robots/{robot_id}/adaptive-campaigns"
+    none = client.post(base, json={"target_mm": 1.0, "candidate_count": 20, "cell": "stored"})
+    assert none.status_code == 422 and "has no cell" in none.json()["detail"]
+    # 2 000 feasible candidates are ~20 000 checked: over the synchronous budget, and a campaign has no job form
+    large = client.post(base, json={"target_mm": 1.0, "candidate_count": 2000, "cell": CELL})
+    assert large.status_code == 422 and "on 2000 candidates (candidate_count) in a cell" in large.json()["detail"]
+    campaign = _start(client, robot_id, candidate_count=20, target_mm=1.0, cell=CELL)
+    assert campaign["cell"]["version"] is None and campaign["cell"]["feasible"] >= 20
+    assert _feasible(desc, [p["joints"] for p in campaign["next"]]) == [""] * 7
+    # without a cell the same seed's first poses are not all measurable in it (what the cell is for)
+    free = _start(client, robot_id, candidate_count=20, target_mm=1.0)
+    assert free["cell"] is None and any(_feasible(desc, [p["joints"] for p in free["next"]]))

@@ -35,6 +35,7 @@ from models.measurements.camera import Camera, Intrinsics
 from models.noise import NoiseModel
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 from optimal_design.references import camera_candidates, design_reference_records
+from tests.service.helpers import assert_design_kept
 
 UR5 = ur5_like()
 SIGMA_PX = 0.1
@@ -132,10 +133,7 @@ def test_an_i_design_of_20_images_is_the_librarys_and_calibrates_to_its_predicti
     assert report["value"] == pytest.approx(library.value, abs=1e-9)
     assert metrics["predicted_rms_tcp_mm"] == pytest.approx(library.metrics["predicted_rms_tcp_mm"], abs=1e-9)
     np.testing.assert_allclose(report["poses"], joints[report["indices"]] * UR5.joint_to_boundary, atol=1e-9)
-    stored = client.get(f"/v1/pose-designs/{report['id']}").json()
-    assert stored["references"] == report["references"] and stored["measurement"] == "image"
-    listed = client.get(f"/v1/robots/{arm}/pose-designs").json()
-    assert [(d["id"], d["measurement"]) for d in listed] == [(report["id"], "image")]
+    assert_design_kept(client, arm, report, "image")
     # Close the loop: a calibration of those images reaches what the design predicts.
     reached = _calibrated_error(client, arm, report, seed=3)
     predicted = metrics["predicted_rms_tcp_mm"]

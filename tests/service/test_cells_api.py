@@ -5,15 +5,11 @@ independent, hand-written check of tests/models/cell_reference.py (no collision 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from alembic import command
-from alembic.config import Config
 from fastapi.testclient import TestClient
-from sqlalchemy import create_engine, inspect
 
 from iwr_client.client import Answer, Client
 from iwr_client.errors import ApiError
@@ -25,7 +21,6 @@ from models.workspace import sample_workspace
 from service import limits
 from tests.models.cell_reference import dh_frames, reference_verdicts
 
-MIGRATIONS = Path(__file__).resolve().parents[2] / "service" / "migrations"
 TABLE: dict[str, Any] = {"name": "table", "kind": "box", "size_mm": [1500, 1500, 40], "position_mm": [0, 0, -21]}
 FIXTURE: dict[str, Any] = {
     "name": "fixture",
@@ -267,32 +262,3 @@ def test_the_client_has_a_method_per_endpoint(client: TestClient, ur5: tuple[str
     iwr.delete_cell(robot_id)
     assert [v["ended"] for v in iwr.cell_versions(robot_id)] == [False, True]
     assert iwr.cell(robot_id, version=1)["version"] == 1
-
-
-def test_migration_0010_adds_the_table_of_cells_and_removes_it(tmp_path: Path) -> None:
-    url = f"sqlite:///{tmp_path}/old.db"
-    config = Config()
-    config.set_main_option("script_location", str(MIGRATIONS))
-    config.set_main_option("sqlalchemy.url", url)
-    engine = create_engine(url)
-
-    def step(move: Any, revision: str) -> bool:
-        with engine.begin() as connection:
-            config.attributes["connection"] = connection
-            move(config, revision)
-        with engine.connect() as connection:
-            found = inspect(connection)
-            present = found.has_table("robot_cells")
-            if present:
-                assert "ix_robot_cells_robot_id" in {i["name"] for i in found.get_indexes("robot_cells")}
-                assert [c["column_names"] for c in found.get_unique_constraints("robot_cells")] == [
-                    ["robot_id", "version"]
-                ]
-            return present
-
-    try:
-        assert not step(command.upgrade, "0009_compensated_programs")
-        assert step(command.upgrade, "0010_robot_cells")
-        assert not step(command.downgrade, "0009_compensated_programs")
-    finally:
-        engine.dispose()

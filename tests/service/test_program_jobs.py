@@ -1,7 +1,7 @@
 """Program compensation as a job (`POST …/programs/compensate?async=true`): a program over the synchronous budget
 is compensated through the API, JSON or text, its answer the job's result, the progress
 reported per batch of targets; the job's answer equals the synchronous one; over the cap of any job it is refused
-before it is stored; migration 0009 adds (and removes) the table of the stored answers."""
+before it is stored (migration 0009, which adds the table of the stored answers: tests/service/test_schema.py)."""
 
 from __future__ import annotations
 
@@ -11,10 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from alembic import command
-from alembic.config import Config
 from fastapi.testclient import TestClient
-from sqlalchemy import create_engine, inspect
 
 from harness.programs import Cell, executed, joints, taught, ur5_cell, urscript_approached, world_positions
 from models import Registry
@@ -23,7 +20,6 @@ from programs import read_program
 from service import limits
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
-from service.persistence.database import MIGRATIONS
 from service.persistence.tables import CompensatedProgramRecord
 from service.schemas.programs import ProgramRequest
 from service.schemas.robots import RobotCreate
@@ -220,31 +216,3 @@ def test_progress_is_reported_per_batch_and_a_stopped_job_stores_nothing(
             assert s.query(CompensatedProgramRecord).count() == 1
     finally:
         db.dispose()
-
-
-def test_migration_0009_adds_the_table_of_compensated_programs_and_removes_it(tmp_path: Path) -> None:
-    url = f"sqlite:///{tmp_path}/old.db"
-    config = Config()
-    config.set_main_option("script_location", str(MIGRATIONS))
-    config.set_main_option("sqlalchemy.url", url)
-    engine = create_engine(url)
-
-    def step(move: Any, revision: str) -> bool:
-        with engine.begin() as connection:
-            config.attributes["connection"] = connection
-            move(config, revision)
-        with engine.connect() as connection:
-            found = inspect(connection)
-            present = found.has_table("compensated_programs")
-            if present:
-                assert "ix_compensated_programs_robot_id" in {
-                    i["name"] for i in found.get_indexes("compensated_programs")
-                }
-            return present
-
-    try:
-        assert not step(command.upgrade, "0008_robot_fleet_key")
-        assert step(command.upgrade, "0009_compensated_programs")
-        assert not step(command.downgrade, "0008_robot_fleet_key")
-    finally:
-        engine.dispose()

@@ -22,7 +22,7 @@ from models.measurements.references import Anchor, ReferenceRecords
 from models.noise import NoiseModel
 from optimal_design.references import design_reference_records
 from service.schemas.designs import PoseDesignCreate
-from tests.service.helpers import finished_job
+from tests.service.helpers import assert_design_kept, finished_job
 
 UR5 = ur5_like()
 SIGMA_MM = 0.002
@@ -114,10 +114,7 @@ def test_a_d_design_of_30_ballbar_records_is_the_librarys_and_reaches_its_predic
     assert metrics["predicted_rms_tcp_mm"] == pytest.approx(library.metrics["predicted_rms_tcp_mm"], abs=1e-9)
     assert report["references"] == [NAMES[i // PER_ANCHOR] for i in library.indices]
     assert report["constraints"]["offered"] == 3 * PER_ANCHOR and report["constraints"]["excluded"] == {}
-    stored = client.get(f"/v1/pose-designs/{report['id']}").json()
-    assert stored["references"] == report["references"] and stored["measurement"] == "distance"
-    listed = client.get(f"/v1/robots/{arm}/pose-designs").json()
-    assert [(d["id"], d["measurement"]) for d in listed] == [(report["id"], "distance")]
+    assert_design_kept(client, arm, report, "distance")
     # Close the loop: what the design predicts is what a calibration of those records reaches.
     reached = _calibrated_error(client, arm, report, seed=5)
     predicted = metrics["predicted_rms_tcp_mm"]

@@ -37,7 +37,7 @@ def _truth(seed: int) -> np.ndarray:
 
 def _read(truth: np.ndarray, joints: np.ndarray, offset: tuple[float, ...]) -> np.ndarray:
     fk = forward_kinematics(UR5, joints, truth)
-    return fk.positions + np.einsum("nij,j->ni", fk.rotations, np.asarray(offset))
+    return np.asarray(fk.positions + np.einsum("nij,j->ni", fk.rotations, np.asarray(offset)), dtype=float)
 
 
 def _records(truth: np.ndarray, joints: np.ndarray, reflectors: list[str], seed: int) -> list[dict[str, Any]]:

@@ -1,21 +1,20 @@
 """The migrations build exactly the schema the ORM declares, on SQLite and on PostgreSQL; 0008 fills the robots' fleet
-keys."""
+keys; 0009 and 0010 add their tables (and indexes, unique constraints) and their downgrades remove them."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
-from alembic import command
+import pytest
 from alembic.autogenerate import compare_metadata
-from alembic.config import Config
 from alembic.migration import MigrationContext
-from sqlalchemy import create_engine, text
+from sqlalchemy import text
 
 from models.examples import ur5_like_document
 from service.persistence import Database
-from service.persistence.database import MIGRATIONS
 from service.persistence.tables import Base, Robot, fleet_key_of
+from tests.service.helpers import TableShape, migrated_file
 
 
 def test_migrations_match_the_declared_tables(db: Database) -> None:
@@ -28,14 +27,6 @@ def test_migrations_match_the_declared_tables(db: Database) -> None:
 def test_migration_0008_fills_each_robots_fleet_key_as_new_robots_get_theirs(tmp_path: Path) -> None:
     """Robots stored before 0008 (the IWR, two UR5-like arms with their own base and tool guesses, a 3R arm) get
     the key a robot created now gets: one key for the two arms, whatever their base and tool."""
-    url = f"sqlite:///{tmp_path}/old.db"
-    engine = create_engine(url)
-    config = Config()
-    config.set_main_option("script_location", str(MIGRATIONS))
-    config.set_main_option("sqlalchemy.url", url)
-    with engine.begin() as connection:
-        config.attributes["connection"] = connection
-        command.upgrade(config, "0007_version_conditions")
     arm = ur5_like_document()
     documents = {
         "iwr": None,
@@ -47,12 +38,14 @@ def test_migration_0008_fills_each_robots_fleet_key_as_new_robots_get_theirs(tmp
         "INSERT INTO robots (id, name, model, base, tool, current_version, created_at, revision, structure) "
         "VALUES (:id, :id, 'custom', '[]', '[]', 1, '2026-01-01 00:00:00', 1, :structure)"
     )
-    with engine.begin() as connection:
-        for name, document in documents.items():
-            connection.execute(insert, {"id": name, "structure": None if document is None else json.dumps(document)})
-    engine.dispose()
+    with migrated_file(tmp_path / "old.db") as old:
+        old.upgrade("0007_version_conditions")
+        with old.engine.begin() as connection:
+            for name, document in documents.items():
+                structure = None if document is None else json.dumps(document)
+                connection.execute(insert, {"id": name, "structure": structure})
 
-    db = Database(url)
+    db = Database(old.url)
     try:
         db.migrate()
         with db.reader() as s:
@@ -61,3 +54,31 @@ def test_migration_0008_fills_each_robots_fleet_key_as_new_robots_get_theirs(tmp
         db.dispose()
     assert keys == {name: fleet_key_of(document) for name, document in documents.items()}
     assert keys["arm-a"] == keys["arm-b"] != keys["3r"] != keys["iwr"]
+
+
+@pytest.mark.parametrize(
+    ("before", "revision", "added"),
+    [
+        (
+            "0008_robot_fleet_key",
+            "0009_compensated_programs",
+            {"compensated_programs": (frozenset({"ix_compensated_programs_robot_id"}), ())},
+        ),
+        (
+            "0009_compensated_programs",
+            "0010_robot_cells",
+            {"robot_cells": (frozenset({"ix_robot_cells_robot_id"}), (("robot_id", "version"),))},
+        ),
+    ],
+)
+def test_a_migration_adds_its_tables_and_its_downgrade_leaves_the_schema_before_it(
+    tmp_path: Path, before: str, revision: str, added: dict[str, TableShape]
+) -> None:
+    with migrated_file(tmp_path / "old.db") as old:
+        old.upgrade(before)
+        tables = old.tables()
+        old.upgrade(revision)
+        upgraded = old.tables()
+        old.downgrade(before)
+        assert {name: upgraded[name] for name in upgraded.keys() - tables.keys()} == added
+        assert old.tables() == tables

@@ -269,6 +269,9 @@ def test_pose_design_table_plots_and_pendant_csv(page: Any, server: str) -> None
     _create_iwr(page, server, "cell-design")
     page.get_by_role("link", name="1. Design poses").click()
     _ready(page, "/design$")
+    # The criteria are the service's list, not a copy in the page (GET /v1/design-criteria)
+    offered = page.locator("#design-criterion option").evaluate_all("(os) => os.map((o) => o.value)")
+    assert offered == [c["name"] for c in httpx.get(f"{server}/v1/design-criteria").json()]
     page.get_by_label("Poses", exact=True).fill("12")
     page.get_by_label("Candidate poses sampled").fill("300")
     page.get_by_role("button", name="Design the poses").click()

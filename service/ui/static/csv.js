@@ -34,7 +34,7 @@ function nameAndUnit(raw) {
   }
   return [raw, null];
 }
-const normalise = (raw) => nameAndUnit(raw)[0].replace(/[[\]()]/g, "").trim().toLowerCase().replace(/[\s-]+/g, "_");
+export const normalise = (raw) => nameAndUnit(raw)[0].replace(/[[\]()]/g, "").trim().toLowerCase().replace(/[\s-]+/g, "_");
 
 // One line into cells, with "quoted, cells" as csv writers make them.
 function splitLine(line, delimiter) {

@@ -1,8 +1,9 @@
 // The calibration workbench in the browser: robots, pose design, campaign upload and calibration as a job,
-// the result, validations, versions, the cell and jobs. Every number comes from the public /v1 API, so the page shows
+// the result, validations, versions, the cell, adaptive campaigns and jobs. Every number comes from the public /v1 API, so the page shows
 // exactly what a client sees. Routing is the URL fragment (#/robots/…), one view module per page.
 import { apiKey, setApiKey } from "./api.js";
 import { errorBox, fill } from "./dom.js";
+import { adaptiveCampaignView, adaptiveStartView } from "./views/adaptive.js";
 import { calibrationView } from "./views/calibration.js";
 import { campaignView } from "./views/campaign.js";
 import { cellView } from "./views/cell.js";
@@ -31,7 +32,9 @@ function parse(hash) {
 }
 
 function pick(parts, params) {
-  const [first, id, sub] = parts;
+  const [first, id, sub, item] = parts;
+  if (first === "robots" && id && sub === "adaptive" && item) return () => adaptiveCampaignView(view, id, item);
+  if (first === "robots" && id && sub === "adaptive") return () => adaptiveStartView(view, id);
   if (first === "robots" && id && sub === "design") return () => designView(view, id, params);
   if (first === "robots" && id && sub === "calibrate") return () => campaignView(view, id);
   if (first === "robots" && id && sub === "validate") return () => validationView(view, id);

@@ -11,15 +11,14 @@ import { watchJob } from "./jobs.js";
 
 const FRAMES_MAX = 1000;
 const PRIOR_OPTION = "Design for a calibration with the fleet's prior";
-const CRITERIA = [["D", "D: the identified parameters' joint uncertainty"], ["A", "A: their mean variance"],
-  ["I", "I: the predicted TCP error over the workspace"], ["E", "E: the worst-determined direction"], ["condition", "condition number"]];
 
 export async function designView(view, robotId, params) {
-  const [robot, designs, fleet] = await Promise.all([api(`/v1/robots/${robotId}`), api(`/v1/robots/${robotId}/pose-designs`),
-    fleetOrNull(robotId)]);
+  // The criteria as the service lists them (GET /v1/design-criteria), never a copy kept here.
+  const [robot, designs, fleet, criteria] = await Promise.all([api(`/v1/robots/${robotId}`), api(`/v1/robots/${robotId}/pose-designs`),
+    fleetOrNull(robotId), api("/v1/design-criteria")]);
   const result = h("div", { id: "design-result" });
   fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)), h("h1", {}, `Pose design for ${robot.name}`),
-    designForm(robot, result, priorSentence(fleet, robotId)),
+    designForm(robot, result, priorSentence(fleet, robotId), criteria),
     designs.length === 0 ? null : h("section", {}, h("h2", {}, "Earlier designs"),
       table(["when", "criterion", "poses", "measurement", ""], designs.map((d) => [when(d.created_at), d.criterion, numCell(d.count, 3), d.measurement,
         link(`#/robots/${robotId}/design?design=${d.id}`, "open")]), "earlier-designs")),
@@ -28,11 +27,12 @@ export async function designView(view, robotId, params) {
 }
 
 // `fleetNote`: whether the robot's fleet can give it a prior (docs/fleet.md); the service decides either way.
-function designForm(robot, result, fleetNote) {
+function designForm(robot, result, fleetNote, criteria) {
   const mode = h("select", { id: "design-mode" }, h("option", { value: "count" }, "a number of poses"), h("option", { value: "target" }, "a target accuracy"));
   const count = h("input", { id: "design-count", type: "number", min: 1, step: 1, value: 30 });
   const target = h("input", { id: "design-target", type: "number", min: 0, step: "any", value: 0.05 });
-  const criterion = h("select", { id: "design-criterion" }, CRITERIA.map(([v, t]) => h("option", { value: v }, t)));
+  const criterion = h("select", { id: "design-criterion" },
+    criteria.map((c) => h("option", { value: c.name }, `${c.name}: ${c.summary}`)));
   const measurement = h("select", { id: "design-measurement" },
     [["pose", "full pose (tracker with 6-DoF probe)"], ["position", "position only (tracker reflector)"]].map(([v, t]) => h("option", { value: v }, t)));
   const candidates = h("input", { id: "design-candidates", type: "number", min: 10, step: 1, value: 2000 });

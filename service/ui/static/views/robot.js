@@ -1,6 +1,7 @@
 // One robot: what to do next (design poses, calibrate, validate), its calibrations, parameter versions (restore,
-// export, the difference of two: versions.js), validations, its fleet (fleet.js), its accuracy over time (history), a parameter's drift over the versions, and its pose designs.
+// export, the difference of two: versions.js), its adaptive campaigns (adaptive.js), validations, its fleet (fleet.js), its accuracy over time (history), a parameter's drift over the versions, and its pose designs.
 import { api } from "../api.js";
+import { campaignsTable } from "./adaptive.js";
 import { fill, h, link, muted, numCell, statusBadge, table, when } from "../dom.js";
 import { fleetSection } from "./fleet.js";
 import { historySection } from "./history.js";
@@ -8,9 +9,9 @@ import { validationsTable } from "./validation.js";
 import { versionsSection } from "./versions.js";
 
 export async function robotView(view, id) {
-  const [robot, calibrations, versions, designs, validations] = await Promise.all([
+  const [robot, calibrations, versions, designs, validations, adaptive] = await Promise.all([
     api(`/v1/robots/${id}`), api(`/v1/robots/${id}/calibrations`), api(`/v1/robots/${id}/parameter-versions`),
-    api(`/v1/robots/${id}/pose-designs`), api(`/v1/robots/${id}/validations`)]);
+    api(`/v1/robots/${id}/pose-designs`), api(`/v1/robots/${id}/validations`), api(`/v1/robots/${id}/adaptive-campaigns`)]);
   const drift = h("div", { id: "drift" });
   const choose = h("select", { id: "drift-parameter", "aria-label": "parameter" });
   const first = await api(`/v1/robots/${id}/parameters?version=1`);
@@ -24,8 +25,10 @@ export async function robotView(view, id) {
       link(`#/robots/${id}/design`, "1. Design poses", { id: "go-design" }),
       link(`#/robots/${id}/calibrate`, "2. Calibrate from a campaign", { id: "go-calibrate" }),
       link(`#/robots/${id}/validate`, "3. Validate", { id: "go-validate" }),
-      link(`#/robots/${id}/cell`, "The cell: obstacles, tracker, check poses", { id: "go-cell" })),
+      link(`#/robots/${id}/cell`, "The cell: obstacles, tracker, check poses", { id: "go-cell" }),
+      link(`#/robots/${id}/adaptive`, "Adaptive campaign: one pose at a time to a target", { id: "go-adaptive" })),
     h("h2", {}, "Calibrations"), calibrationsTable(calibrations),
+    h("h2", {}, "Adaptive campaigns"), campaignsTable(id, adaptive),
     h("h2", {}, "Parameter versions"), versionsSection(robot, versions),
     h("h2", {}, "Validations"), validationsTable(validations),
     h("h2", {}, "Fleet"), fleet,

@@ -1,0 +1,33 @@
+"""Cells of several chains: a robot as a tree of branches (`RobotTree`), its tools' kinematics absolute and
+relative, identification over the whole tree, and URDF trees (docs/models.md, "Cells of several chains")."""
+
+from models.tree.accuracy import ToolAccuracy, tree_accuracy, tree_joint_samples
+from models.tree.identification import TreeFit, identify_tree
+from models.tree.kinematics import TreePoses, relative_of, relative_poses, tool_poses, tree_joints
+from models.tree.mount import MountStage
+from models.tree.records import ToolRecords
+from models.tree.simulation import SimulatedTree, measure_tree, perturbed_tree
+from models.tree.tree import Branch, RobotTree, TipMap
+from models.tree.urdf import tree_from_urdf
+
+__all__ = [
+    "Branch",
+    "MountStage",
+    "RobotTree",
+    "SimulatedTree",
+    "TipMap",
+    "ToolAccuracy",
+    "ToolRecords",
+    "TreeFit",
+    "TreePoses",
+    "identify_tree",
+    "measure_tree",
+    "perturbed_tree",
+    "relative_of",
+    "relative_poses",
+    "tool_poses",
+    "tree_accuracy",
+    "tree_from_urdf",
+    "tree_joint_samples",
+    "tree_joints",
+]

@@ -1,0 +1,30 @@
+"""What the service knows by name: clients list these instead of keeping their own copies."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Response
+from pydantic import TypeAdapter
+
+from service.operations import operation
+from service.responses import models_json
+from service.schemas.vocabulary import CriterionPublic, RecordKindPublic
+from service.security import Scope
+from service.services import vocabulary
+
+router = APIRouter(tags=["vocabulary"])
+_CRITERIA = TypeAdapter(list[CriterionPublic])
+_KINDS = TypeAdapter(list[RecordKindPublic])
+
+
+@router.get("/v1/design-criteria", response_model=list[CriterionPublic])
+@operation(Scope.read)
+def design_criteria() -> Response:
+    """Every pose-design criterion, in the order messages list them."""
+    return models_json(vocabulary.design_criteria(), _CRITERIA)
+
+
+@router.get("/v1/record-kinds", response_model=list[RecordKindPublic])
+@operation(Scope.read)
+def record_kinds() -> Response:
+    """Every kind of record a campaign may hold (a tracker's first), and what a pose design can do with it."""
+    return models_json(vocabulary.record_kinds(), _KINDS)

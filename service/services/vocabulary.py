@@ -1,0 +1,29 @@
+"""The registries' entries in their public form (`GET /v1/design-criteria`, `GET /v1/record-kinds`)."""
+
+from __future__ import annotations
+
+from optimal_design.criteria import CRITERIA
+from service.record_kinds import RECORD_KINDS, REFERENCE_KINDS, TRACKER
+from service.schemas.vocabulary import CriterionPublic, RecordKindPublic
+
+
+def design_criteria() -> list[CriterionPublic]:
+    return [
+        CriterionPublic(name=c.name.value, summary=c.summary, targetable=c.targetable, branchable=c.branchable)
+        for c in CRITERIA.values()
+    ]
+
+
+def record_kinds() -> list[RecordKindPublic]:
+    return [
+        RecordKindPublic(
+            name=name,
+            measures=kind.model,
+            named_by=kind.named_by,
+            described_in=kind.described_in,
+            file_kinds=[k for k in kind.file_kinds if k],
+            designable=name in REFERENCE_KINDS or kind is TRACKER,
+            sampled=kind.sampled or kind is TRACKER,
+        )
+        for name, kind in RECORD_KINDS.items()
+    ]

@@ -1,0 +1,36 @@
+"""What the `iwr` tests share: the command run as a user runs it (a subprocess, `python -m iwr_client`), in a
+shell without the IWR_ variables, and the API's own answer read without the client under test."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import urllib.request
+from typing import Any
+
+from harness.live import ROOT
+
+
+def environment() -> dict[str, str]:
+    """The user's shell without IWR_URL or IWR_API_KEY: each run names its service with --url."""
+    return {k: v for k, v in os.environ.items() if not k.startswith("IWR_")}
+
+
+def iwr(url: str, *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "iwr_client", "--url", url, *args],
+        cwd=ROOT,
+        env=environment(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+
+
+def api(url: str, path: str) -> Any:
+    """The API's own answer, read without the client under test."""
+    with urllib.request.urlopen(url + path, timeout=30) as answer:
+        return json.load(answer)

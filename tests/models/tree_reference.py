@@ -1,0 +1,69 @@
+"""A hand-written numpy model of the example trees (`models.tree.examples`), independent of the models' code:
+standard DH links, poses as (translation, rotation vector) through scipy's Rotation, and the global parameter
+layout written out by hand. The tree tests check the models' FK, Jacobians and fits against it."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from models._types import Array
+
+Segment = tuple[str, int, int]
+"""("pose", first parameter, -1) or ("dh", first parameter, global joint index)."""
+
+
+def dh(theta: Array, d: Array, a: Array, alpha: Array) -> Array:
+    """(N, 4, 4) Rz(θ) Tz(d) Tx(a) Rx(α)."""
+    n = np.broadcast(theta, d, a, alpha).shape[0]
+    ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+    t = np.zeros((n, 4, 4))
+    t[:, 0] = np.stack([ct, -st * ca, st * sa, a * ct], axis=1)
+    t[:, 1] = np.stack([st, ct * ca, -ct * sa, a * st], axis=1)
+    t[:, 2] = np.stack([np.zeros(n), sa * np.ones(n), ca * np.ones(n), d * np.ones(n)], axis=1)
+    t[:, 3, 3] = 1.0
+    return t
+
+
+def pose(p: Array) -> Array:
+    t = np.eye(4)
+    t[:3, :3] = Rotation.from_rotvec(p[3:6]).as_matrix()
+    t[:3, 3] = p[:3]
+    return t
+
+
+def chain_fk(segments: list[Segment], theta: Array, q: Array) -> Array:
+    """(N, 4, 4) world <- tool: the product of the segments for parameters `theta` and global joints `q`."""
+    t = np.broadcast_to(np.eye(4), (q.shape[0], 4, 4)).copy()
+    for kind, p, j in segments:
+        if kind == "pose":
+            t = t @ pose(theta[p : p + 6])
+        else:
+            t = t @ dh(theta[p] + q[:, j], theta[p + 1], theta[p + 2], theta[p + 3])
+    return t
+
+
+def arm(first_param: int, first_joint: int) -> list[Segment]:
+    return [("dh", first_param + 4 * k, first_joint + k) for k in range(6)]
+
+
+TORSO: dict[str, list[Segment]] = {
+    # base 0:6, waist 6:10, left mount 10:16, left links 16:40, right mount 40:46, right links 46:70,
+    # left tool 70:76, right tool 76:82; joints: waist 0, left 1..6, right 7..12.
+    "left": [("pose", 0, -1), ("dh", 6, 0), ("pose", 10, -1), *arm(16, 1), ("pose", 70, -1)],
+    "right": [("pose", 0, -1), ("dh", 6, 0), ("pose", 40, -1), *arm(46, 7), ("pose", 76, -1)],
+}
+TORSO_NAMES = {0: "base.x", 6: "waist.link1.theta", 10: "left.mount.x", 16: "left.link1.theta", 40: "right.mount.x"}
+TORSO_NAMES |= {46: "right.link1.theta", 70: "left.tool.x", 76: "right.tool.x", 81: "right.tool.rz"}
+
+POSITIONER: dict[str, list[Segment]] = {
+    # base 0:6, arm links 6:30, positioner mount 30:36, its links 36:44, arm tool 44:50, part 50:56.
+    "arm": [("pose", 0, -1), *arm(6, 0), ("pose", 44, -1)],
+    "positioner": [("pose", 0, -1), ("pose", 30, -1), ("dh", 36, 6), ("dh", 40, 7), ("pose", 50, -1)],
+}
+POSITIONER_NAMES = {30: "positioner.mount.x", 36: "positioner.link1.theta", 44: "arm.tool.x", 55: "positioner.tool.rz"}
+
+
+def relative(a: Array, b: Array) -> Array:
+    """(N, 4, 4) A in B's frame."""
+    return np.linalg.inv(b) @ a
