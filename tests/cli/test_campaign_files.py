@@ -25,7 +25,7 @@ from iwr_client.cli import main
 from models import iwr as iwr_description
 from models import sample_workspace
 from models.simulation import measure, perturbed_robot
-from tests.cli.test_session import api, iwr
+from tests.cli.helpers import api, iwr
 
 DESC = iwr_description()
 NAMES = [f"Achse {k + 1}" for k in range(4)] + [f"Bein {k}" for k in range(1, 7)]
