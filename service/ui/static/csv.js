@@ -1,10 +1,12 @@
 // Reading a campaign CSV in the browser, by the rules of the service's tolerant reader (service/campaign_io):
 // a BOM, `#` comments and blank lines dropped; `,` `;` or tab, whichever the header uses most; decimal commas
 // with `;` or tab; names lowered, spaces to `_`, a trailing unit `X [m]` read. The preview shows which columns the
-// service will read; calibrations and validations send the file itself: the service's reader is the one that
-// counts (no records are built here).
+// service will read. Calibrations and validations send the file itself: there the service's reader is the one
+// that counts; an adaptive campaign's records (a JSON-only route) are the ones built here.
 
 const DELIMITERS = [",", ";", "\t"];
+const MM_PER = { mm: 1, m: 1000, cm: 10, um: 1e-3, "µm": 1e-3, in: 25.4, inch: 25.4 };
+const DEG_PER = { deg: 1, "°": 1, degree: 1, degrees: 1, rad: 180 / Math.PI };
 const ALIASES = {
   pose_id: ["pose_id", "pose", "id", "point_id", "point", "name", "point_name", "feature_name", "feature", "label",
     "nr", "nr.", "no", "no.", "point_no", "point_no."],
@@ -118,6 +120,43 @@ function roles(columns) {
     if (IGNORED_KNOWN.includes(c)) return [c, "known, not used"];
     return [c, "ignored"];
   }));
+}
+
+function numberOf(table, row, column) {
+  let text = (row.cells[table.columns.indexOf(column)] || "").trim();
+  if (table.decimalComma) text = text.replace(",", ".");
+  const value = Number(text);
+  if (text === "" || !Number.isFinite(value)) {
+    throw new Error(`line ${row.line}, column ${table.columns.indexOf(column) + 1} (${column}): '${text}' is not a number`);
+  }
+  return value;
+}
+
+const lengthFactor = (table, column) => MM_PER[table.units[column] || "mm"] ?? 1;
+
+// The API's tracker records (joints, position, orientation, sigma_mm, temperature_c) from a table; the joints in
+// the robot's units, where a header states degrees or radians for a revolute joint.
+export function trackerRecords(table) {
+  const byRole = Object.fromEntries(Object.entries(canonical(table.columns)).map(([c, r]) => [r, c]));
+  for (const needed of ["x", "y", "z"]) {
+    if (!byRole[needed]) throw new Error(`the header has no column ${needed} (found: ${table.columns.join(", ")})`);
+  }
+  if (table.joints.length === 0) throw new Error(`the header names no joint column (found: ${table.columns.join(", ")})`);
+  const hasOrientation = ["qw", "qx", "qy", "qz"].every((q) => byRole[q]);
+  return table.rows.map((row) => {
+    if (row.cells.length !== table.columns.length) {
+      throw new Error(`line ${row.line}: ${row.cells.length} cells for the ${table.columns.length} columns of the header`);
+    }
+    const record = {
+      joints: table.joints.map((j) => numberOf(table, row, j) * (DEG_PER[table.units[j]] ?? MM_PER[table.units[j]] ?? 1)),
+      position: ["x", "y", "z"].map((k) => numberOf(table, row, byRole[k]) * lengthFactor(table, byRole[k])),
+    };
+    if (hasOrientation) record.orientation = ["qw", "qx", "qy", "qz"].map((k) => numberOf(table, row, byRole[k]));
+    if (byRole.u95) record.sigma_mm = numberOf(table, row, byRole.u95) * lengthFactor(table, byRole.u95) / 2;
+    else if (byRole.sigma_mm) record.sigma_mm = numberOf(table, row, byRole.sigma_mm) * lengthFactor(table, byRole.sigma_mm);
+    if (byRole.temperature_c) record.temperature_c = numberOf(table, row, byRole.temperature_c);
+    return record;
+  });
 }
 
 // Joint vectors as CSV, the robot's joint names as header (what a pendant program or the campaign file starts from).
