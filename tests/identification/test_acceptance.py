@@ -53,6 +53,7 @@ def test_calibrated_model_reaches_the_cramer_rao_accuracy(
     assert result.residuals_after.rms_mm < 0.1 * result.residuals_before.rms_mm
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("loss", [RobustLoss.AUTO, RobustLoss.HUBER, RobustLoss.SOFT_L1])
 def test_robust_fit_flags_and_survives_a_broken_beam(
     desc: RobotDescription, sim: SimulatedRobot, check_joints: np.ndarray, loss: RobustLoss

@@ -34,6 +34,7 @@ ROBOTS: dict[str, Callable[[], RobotDescription]] = {
 }
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("position_only", [False, True], ids=["pose", "position"])
 @pytest.mark.parametrize("name", list(ROBOTS))
 def test_identification_reaches_the_cramer_rao_accuracy(name: str, position_only: bool) -> None:
@@ -138,6 +139,7 @@ def test_ik_from_the_default_seed_reaches_every_target_of_the_truth(name: str) -
     assert np.all(answer.joints >= desc.joint_min - 1e-9) and np.all(answer.joints <= desc.joint_max + 1e-9)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("name", ["iiwa-mdh", "hexapod"])
 def test_a_pose_design_beats_random_poses(name: str) -> None:
 

@@ -24,6 +24,7 @@ def campaign(desc: RobotDescription) -> Campaign:
     return measure(perturbed_robot(desc, seed=2), sample_workspace(desc, 40, seed=3), seed=4)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_too_few_measurements_says_how_many_more(desc: RobotDescription, campaign: Campaign) -> None:
     rank, needed = minimum_poses(desc, tuple(range(desc.n_params)), False)
     assert (rank, needed) == (54, 10)

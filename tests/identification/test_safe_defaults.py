@@ -25,6 +25,7 @@ def _with_blunders(campaign: Campaign, poses: list[int], seed: int) -> Campaign:
     return Campaign(campaign.joints, positions, campaign.quaternions)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_three_blunders_among_sixty_poses_cost_at_most_thirty_percent(seed: int) -> None:
     sim: SimulatedRobot = perturbed_robot(DESC, seed=seed)

@@ -39,6 +39,7 @@ def test_the_cube_poses_put_the_tcp_on_the_cube_points(setting: tuple[SimulatedR
     assert cube.cube.edge_mm > 50
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_the_true_parameters_have_only_the_noise_left(setting: tuple[SimulatedRobot, CubePoses, Campaign]) -> None:
     sim, _, campaign = setting
     report = evaluate(DESC, sim.truth, campaign)

@@ -102,6 +102,7 @@ SERIAL: dict[str, Callable[[], RobotDescription]] = {
 }
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("name", list(SERIAL))
 def test_export_fk_equals_the_model(name: str) -> None:
     desc = SERIAL[name]()

@@ -78,6 +78,7 @@ def test_augmentation_keeps_what_was_measured(desc: RobotDescription) -> None:
     assert len(design_poses(desc, 1, "D", candidates=joints, fixed=measured).indices) == 1
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_position_only_designs(desc: RobotDescription) -> None:
     design = design_poses(desc, 25, "D", "position", candidate_count=400, seed=66)
     assert len(design.identifiable) == 51 and design.position_only

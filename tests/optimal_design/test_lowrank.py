@@ -74,6 +74,7 @@ def test_swap_values_match_direct_evaluation_even_where_removal_alone_is_singula
         assert np.allclose(crit.swap_values(info, pairs), truth[rows, cols], rtol=1e-8, atol=0)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("criterion", SMOOTH)
 def test_bounds_hold_and_pruned_evaluation_keeps_every_swap_above_the_threshold(criterion: Criterion) -> None:
     info = _info(215, seed=7)  # a pool over exchange.BOUNDED_POOL: the bounds are used

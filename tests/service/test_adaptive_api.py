@@ -117,6 +117,7 @@ def test_a_campaign_flags_a_blunder_survives_a_restart_and_finishes_as_a_calibra
     assert actual <= 1.3 * TARGET_MM, actual
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_bad_adaptive_requests_are_refused_naming_what_to_fix(client: TestClient) -> None:
     robot_id = _robot(client)
     base = f"/v1/robots/{robot_id}/adaptive-campaigns"

@@ -229,6 +229,7 @@ def _facing_away(body: dict[str, Any]) -> None:
     body["cameras"]["c1"]["rotation_vector_deg"] = [math.degrees(v) for v in matrix_to_rotvec_np(away)]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     ("change", "words"),
     [

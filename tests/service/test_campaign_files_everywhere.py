@@ -204,6 +204,7 @@ HEADER = ",".join([*DESC.joint_names, "x", "y", "z"])
 ROW = "400,150,90,45,420,420,420,420,420,420,1,2,3"
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_bad_files_are_4xx_naming_the_line_the_column_or_the_map_entry(client: TestClient, robot_id: str) -> None:
     csv = {"content-type": "text/csv"}
     for path in ("validations", "checks"):

@@ -78,6 +78,7 @@ def test_a_wrong_or_missing_sigma_is_said_with_the_estimate_and_the_calibration_
     assert all(c["blocks_apply"] for c in honest["checks"] if c["name"] != "noise")
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     ("mistake", "finding", "words"),
     [
@@ -222,6 +223,7 @@ def test_robot_names_are_unique(client: TestClient, robot_id: str) -> None:
     assert renamed.status_code == 409
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     "body",
     [

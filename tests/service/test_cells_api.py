@@ -120,6 +120,7 @@ BAD: list[tuple[dict[str, Any], str]] = [
 ]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(("body", "named"), BAD)
 def test_bad_cells_are_422s_naming_the_field(
     client: TestClient, ur5: tuple[str, RobotDescription], body: dict[str, Any], named: str

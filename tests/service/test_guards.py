@@ -110,6 +110,7 @@ def _where(calls: list[bool], original: Callable[[type[BaseModel], bytes], objec
     return spy
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_large_kinematics_body_is_validated_in_the_compute_task_not_on_the_loop(
     client: TestClient, robot_id: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -95,6 +95,7 @@ def any_db_client(request: pytest.FixtureRequest, tmp_path: Path, registry: Regi
     next(urls, None)  # drops the PostgreSQL database
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     ("field", "value"),
     [("name", "cell\x003"), ("name", "cell-3\nFORGED log line"), ("name", "bell\x07"), ("notes", "a\x00b")],

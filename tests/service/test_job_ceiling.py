@@ -60,6 +60,7 @@ def test_the_time_limit_of_its_kind() -> None:
     assert "time limit" in str(exceeded)
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_calibration_job_past_its_ceiling_fails_with_the_problem(
     db: Database, registry: Registry, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -81,6 +81,7 @@ def test_one_claim_wins_among_concurrent_workers(db: Database) -> None:
     assert all(a.status == "running" and 0 < a.held_for <= 35 for a in held), held
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_duplicate_delivery_changes_nothing(db: Database, registry: Registry) -> None:
     robot_id = _robot(db)
     job_id = _queued(db, robot_id)

@@ -55,6 +55,7 @@ def test_a_version_beyond_the_integer_columns(api: ContractClient, version: int)
     assert api.get(f"/v1/robots/{rid}/parameters", params={"version": 2**31 - 1}).status_code == 404
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     "path",
     [

@@ -193,6 +193,7 @@ def test_programs_in_the_encodings_controllers_write_are_read(client: TestClient
             assert out["program"].startswith("\ufeff")  # every character kept, the BOM too
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_program_over_the_body_limit_is_refused(tmp_path: Path, registry: Registry) -> None:
     with make_client(f"sqlite:///{tmp_path}/small.db", registry, max_body_bytes=2_000) as small:
         robot = small.post("/v1/robots", json={"name": "ur5", "structure": ur5_like_document()}).json()["id"]
@@ -278,6 +279,7 @@ def test_targets_the_general_solver_would_take_long_on_are_listed_not_timed_out(
     assert any("request's time" in t["reason"] for t in targets[10:])
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     ("fmt", "program", "reason"),
     [
@@ -307,6 +309,7 @@ def test_finite_but_impossible_targets_are_listed_not_a_500(
     assert not target["reached"] and reason in target["reason"], target
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     ("fmt", "program", "line"),
     [

@@ -163,6 +163,7 @@ def test_points_and_planes_beside_tracker_positions_fix_the_frame(client: TestCl
     assert plane["offset_mm"] == pytest.approx(120.0, abs=4 * plane["unknowns"][2]["std_error"])
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     ("change", "status", "words"),
     [
@@ -289,6 +290,7 @@ def test_a_world_camera_calibrates_the_arm_and_finds_its_own_pose(client: TestCl
     )
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize(
     ("change", "words"),
     [
@@ -337,6 +339,7 @@ def test_the_example_files_calibrate_the_example_robot(client: TestClient) -> No
     assert all(c["passed"] for c in images.json()["checks"]), images.json()["checks"]
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_urdf_imported_arm_calibrates_from_a_ballbar(client: TestClient) -> None:
     """Any structure: the arm imported from a URDF (its chain re-described from the joint axes) takes the
     same records; the calibrated model predicts the true TCP at fresh poses to micrometres after alignment."""

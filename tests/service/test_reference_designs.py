@@ -285,6 +285,7 @@ def _few(body: dict[str, Any]) -> None:
         ),
     ],
 )
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_bad_reference_designs_are_refused_naming_the_fix_and_nothing_is_stored(
     client: TestClient, arm: str, change: Any, words: str
 ) -> None:

@@ -89,6 +89,7 @@ def test_scope_on_route(api: ContractClient, method: str, template: str, scope: 
         assert r.status_code not in (401, 403, 500), r.text
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_a_new_route_is_caught_and_the_actor_is_the_key_name(tmp_path: Path) -> None:
     app = create_app(
         Settings(database_url=f"sqlite:///{tmp_path}/n.db", api_keys=ENTRIES, job_workers=0, warm_up=False)
@@ -108,6 +109,7 @@ def test_a_new_route_is_caught_and_the_actor_is_the_key_name(tmp_path: Path) -> 
         assert answer.json() == {"actor": "admin-key"}  # the key's name, never the key
 
 
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 def test_admin_alone_deletes_a_robot(api: ContractClient) -> None:
     rid = api.post("/v1/robots", json={"name": "r"}, headers={"X-API-Key": KEYS[Scope.write]}).json()["id"]
     assert api.delete(f"/v1/robots/{rid}", headers={"X-API-Key": KEYS[Scope.write]}).status_code == 403
