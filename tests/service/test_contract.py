@@ -60,10 +60,12 @@ def contract_schema(running_app: TestClient) -> BaseSchema:
 schema = schemathesis.pytest.from_fixture("contract_schema")
 
 
-EXAMPLES = int(os.environ.get("IWR_CONTRACT_EXAMPLES", "6"))
-"""Per operation (read at import, like the other test knobs). 6 in `make test`: the schema's own examples and
-boundaries come first, then random bodies; 12 cost twice the CPU (~60 s here, the suite's longest test) for the
-random part alone. `make fuzz` runs 150, on SQLite here and on PostgreSQL in test_contract_fuzz.py."""
+EXAMPLES = int(os.environ.get("IWR_CONTRACT_EXAMPLES", "3"))
+"""Per operation (read at import, like the other test knobs). 3 in `make test`: the schema's own examples and
+boundaries come first (schemathesis' explicit and coverage phases, whatever this number), then random bodies. At 6
+this was the suite's longest test (98 s of CPU, 140 s on a worker, on 2026-12-07's 60 operations: the designs,
+checks, calibrations and cells compute on every body); `make fuzz` runs 150, on SQLite here and on PostgreSQL in
+test_contract_fuzz.py."""
 
 
 # POST /v1/error-analysis is the slowest operation here: schemathesis sends requests of up to the budget's
