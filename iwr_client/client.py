@@ -125,6 +125,16 @@ class Client:
     def _post(self, path: str, body: object, **query: object) -> Any:
         return self.request("POST", path, query=query, json_body=body).json()
 
+    # -- what the service knows by name ------------------------------------------------------------------------
+
+    def design_criteria(self) -> list[Json]:
+        """The pose-design criteria, each with what it makes small and what it may be used for."""
+        return list(self._get("/v1/design-criteria"))
+
+    def record_kinds(self) -> list[Json]:
+        """The kinds of record a campaign may hold (a tracker's first), and what a design can do with each."""
+        return list(self._get("/v1/record-kinds"))
+
     # -- robots -----------------------------------------------------------------------------------------------
 
     def robots(self, limit: int = 100, offset: int = 0) -> list[Json]:

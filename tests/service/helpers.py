@@ -21,6 +21,8 @@ from harness.programs import Cell
 
 # The harness builds its campaigns from the same records; the service tests keep importing them from here.
 from harness.records import records
+from iwr_client.client import Answer, Client
+from iwr_client.errors import ApiError
 from models.examples import ur5_like_document
 from service.persistence.database import MIGRATIONS
 
@@ -143,3 +145,21 @@ def migrated_file(path: Path) -> Iterator[MigratedFile]:
         yield file
     finally:
         file.engine.dispose()
+
+
+class InProcess(Client):
+    """The client's requests sent to the test's app instead of a socket (its paths, queries, bodies and
+    headers are what is under test)."""
+
+    def __init__(self, app: TestClient) -> None:
+        super().__init__("")
+        self.app = app
+
+    def request(self, method: str, path: str, **options: Any) -> Answer:
+        headers = {} if options.get("if_match") is None else {"If-Match": options["if_match"]}
+        query = {k: v for k, v in (options.get("query") or {}).items() if v is not None}
+        body = options.get("json_body")
+        answer = self.app.request(method, path, params=query, json=body, headers=headers)
+        if answer.status_code >= 400:
+            raise ApiError(answer.json())
+        return Answer(answer.status_code, answer.headers.get("content-type", ""), answer.content)

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from iwr_client.client import Answer, Client
 from iwr_client.errors import ApiError
 from models.cell import Box, Cell, Obstacle, Tracker, cell_for
 from models.examples import UR5_DH, ur5_like_document
@@ -20,6 +19,7 @@ from models.structure import description_from_document
 from models.workspace import sample_workspace
 from service import limits
 from tests.models.cell_reference import dh_frames, reference_verdicts
+from tests.service.helpers import InProcess
 
 TABLE: dict[str, Any] = {"name": "table", "kind": "box", "size_mm": [1500, 1500, 40], "position_mm": [0, 0, -21]}
 FIXTURE: dict[str, Any] = {
@@ -228,24 +228,6 @@ def test_a_design_with_the_stored_cell_chooses_only_feasible_poses(
     reference, _ = reference_verdicts(desc, the_same_cell(desc), q, dh_frames(desc, q))
     assert reference == [""] * 30
     assert report["bound"]["certified"] and report["efficiency"] > 0.9
-
-
-class InProcess(Client):
-    """The client's requests sent to the test's app instead of a socket (its paths, queries, bodies and
-    headers are what is under test)."""
-
-    def __init__(self, app: TestClient) -> None:
-        super().__init__("")
-        self.app = app
-
-    def request(self, method: str, path: str, **options: Any) -> Answer:
-        headers = {} if options.get("if_match") is None else {"If-Match": options["if_match"]}
-        query = {k: v for k, v in (options.get("query") or {}).items() if v is not None}
-        body = options.get("json_body")
-        answer = self.app.request(method, path, params=query, json=body, headers=headers)
-        if answer.status_code >= 400:
-            raise ApiError(answer.json())
-        return Answer(answer.status_code, answer.headers.get("content-type", ""), answer.content)
 
 
 def test_the_client_has_a_method_per_endpoint(client: TestClient, ur5: tuple[str, RobotDescription]) -> None:

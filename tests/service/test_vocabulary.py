@@ -7,6 +7,7 @@ from fastapi.testclient import TestClient
 
 from optimal_design.criteria import Criterion
 from service.record_kinds import RECORD_KINDS
+from tests.service.helpers import InProcess
 
 
 def test_the_criteria_are_the_enums_in_its_order_each_with_what_it_makes_small(client: TestClient) -> None:
@@ -23,3 +24,10 @@ def test_the_record_kinds_are_the_registrys_and_say_what_a_design_can_do(client:
     assert listed["reflector"]["sampled"] and not listed["point"]["sampled"]  # no sampled pose is on a point
     assert all(k["designable"] for k in listed.values())
     assert listed["tracker"]["file_kinds"] == ["tracker", "position"]
+
+
+def test_the_client_reads_both_lists(client: TestClient) -> None:
+    """The Python client's methods return the API's lists as they are (requests made through the test client)."""
+    iwr = InProcess(client)
+    assert iwr.design_criteria() == client.get("/v1/design-criteria").json()
+    assert iwr.record_kinds() == client.get("/v1/record-kinds").json()
