@@ -9,10 +9,14 @@ each its `Placement`, so the same stage value can sit anywhere, and twice.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Hashable, Mapping
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any, ClassVar, Protocol
+
+import casadi as ca
+import numpy as np
 
 from models._types import Array
 from models.parameters import Kind, ParameterScales, ParameterSpec
@@ -146,3 +150,30 @@ class StageReader(Protocol):
     """Reads one stage's document, raising `InvalidInput` with the field's path (`where`)."""
 
     def __call__(self, raw: Mapping[str, Any], where: str) -> Stage: ...
+
+
+class WithoutClosure:
+    """The closure half of `Stage` for a stage whose end frame follows from its joints in closed form (a serial
+    chain, a fixed mount): no closure equations, no unknowns, nothing to condition."""
+
+    def closure(self, q: Sym, x: Sym, p: Sym) -> Sym | None:
+        return None
+
+    def unknown_home(self) -> tuple[float, ...]:
+        return ()
+
+    def unknown_limits(self) -> tuple[Array, Array]:
+        return np.zeros(0), np.zeros(0)
+
+    def joint_expressions(self, x: Sym, p: Sym) -> Sym:
+        return ca.SX(0, 1) if isinstance(p, ca.SX) else ca.MX(0, 1)
+
+    def joints_of_unknowns(self, x: Array, p: Array) -> Array:
+        return np.zeros((x.shape[0], 0))
+
+    def conditioning(self, x: Array, p: Array) -> Array:
+        return np.ones(x.shape[0])
+
+    @property
+    def max_condition(self) -> float:
+        return math.inf

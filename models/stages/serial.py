@@ -7,14 +7,13 @@ from collections.abc import Hashable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-import casadi as ca
 import numpy as np
 
 from models._types import Array
 from models.errors import InvalidInput
 from models.parameters import Kind, ParameterScales, ParameterSpec
 from models.serial_chain import Convention, DHLink, JointType, chain_transform, dh_parameter_specs, is_nearly_parallel
-from models.stages.base import Section
+from models.stages.base import Section, WithoutClosure
 from models.stages.document import DEG, interval, mapping, number
 from models.transforms import Sym
 
@@ -25,7 +24,7 @@ _LINK_KEYS = {"joint", "a", "alpha", "d", "theta", "beta", "range"}
 
 
 @dataclass(frozen=True)
-class SerialStage:
+class SerialStage(WithoutClosure):
     """Links in order; its joints are the moving links' readings, its parameters the links' DH numbers."""
 
     links: tuple[DHLink, ...]
@@ -82,28 +81,6 @@ class SerialStage:
 
     def transform(self, q: Sym, x: Sym, p: Sym) -> Sym:
         return chain_transform(self.links, q, p)
-
-    def closure(self, q: Sym, x: Sym, p: Sym) -> Sym | None:
-        return None
-
-    def unknown_home(self) -> tuple[float, ...]:
-        return ()
-
-    def unknown_limits(self) -> tuple[Array, Array]:
-        return np.zeros(0), np.zeros(0)
-
-    def joint_expressions(self, x: Sym, p: Sym) -> Sym:
-        return ca.SX(0, 1) if isinstance(p, ca.SX) else ca.MX(0, 1)
-
-    def joints_of_unknowns(self, x: Array, p: Array) -> Array:
-        return np.zeros((x.shape[0], 0))
-
-    def conditioning(self, x: Array, p: Array) -> Array:
-        return np.ones(x.shape[0])
-
-    @property
-    def max_condition(self) -> float:
-        return math.inf
 
     def usable(self, q: Array, x: Array, p: Array) -> Array:
         lo, hi = self.joint_limits()

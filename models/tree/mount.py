@@ -15,18 +15,16 @@ A stage of the `models.stages.base.Stage` protocol that no robots.md document na
 
 from __future__ import annotations
 
-import math
 from collections.abc import Hashable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-import casadi as ca
 import numpy as np
 
 from models._types import Array, Pose6
 from models.parameters import Kind, ParameterScales, ParameterSpec
 from models.serial_chain import DHLink
-from models.stages.base import Section
+from models.stages.base import Section, WithoutClosure
 from models.stages.document import pose_document
 from models.transforms import Sym, homogeneous, rotvec_to_matrix
 
@@ -34,7 +32,7 @@ MOUNT_FIELDS = ("x", "y", "z", "rx", "ry", "rz")
 
 
 @dataclass(frozen=True)
-class MountStage:
+class MountStage(WithoutClosure):
     """The fixed transform parent frame <- branch frame 0: (x, y, z mm, rotation vector rad)."""
 
     pose: Pose6
@@ -97,28 +95,6 @@ class MountStage:
 
     def transform(self, q: Sym, x: Sym, p: Sym) -> Sym:
         return homogeneous(rotvec_to_matrix(p[3:6]), p[0:3])
-
-    def closure(self, q: Sym, x: Sym, p: Sym) -> Sym | None:
-        return None
-
-    def unknown_home(self) -> tuple[float, ...]:
-        return ()
-
-    def unknown_limits(self) -> tuple[Array, Array]:
-        return np.zeros(0), np.zeros(0)
-
-    def joint_expressions(self, x: Sym, p: Sym) -> Sym:
-        return ca.SX(0, 1) if isinstance(p, ca.SX) else ca.MX(0, 1)
-
-    def joints_of_unknowns(self, x: Array, p: Array) -> Array:
-        return np.zeros((x.shape[0], 0))
-
-    def conditioning(self, x: Array, p: Array) -> Array:
-        return np.ones(x.shape[0])
-
-    @property
-    def max_condition(self) -> float:
-        return math.inf
 
     def usable(self, q: Array, x: Array, p: Array) -> Array:
         return np.ones(q.shape[0], dtype=bool)

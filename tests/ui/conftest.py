@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
+from urllib.parse import urlparse
 
 import pytest
 
@@ -73,3 +75,16 @@ def screenshot(page: object, name: str) -> Path:
     path = ARTIFACTS / f"{name}.png"
     page.screenshot(path=str(path), full_page=True)  # type: ignore[attr-defined]
     return path
+
+
+def watched_page(browser: Any, server: str, **options: Any) -> Iterator[Any]:
+    """A page of the server's (for a `page` fixture to yield from): at its end, it fetched from no other host and
+    logged no console error or failed request but the API's own 4xx answers, which these stories include."""
+    page = browser.new_page(**options)
+    problems = PageProblems(page)
+    hosts: set[str] = set()
+    page.on("request", lambda r: hosts.add(urlparse(r.url).netloc))
+    yield page
+    assert hosts <= {urlparse(server).netloc, ""}, f"fetched from elsewhere: {hosts}"
+    assert [m for m in problems.messages if "status of 4" not in m] == []
+    page.close()

@@ -14,7 +14,6 @@ import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlparse
 
 import httpx
 import numpy as np
@@ -24,7 +23,7 @@ from playwright.sync_api import expect
 from harness.records import records
 from models.examples import ur5_like, ur5_like_document
 from models.simulation import perturbed_robot
-from tests.ui.conftest import PAGE_WAIT_MS, PageProblems, screenshot
+from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
 from tests.ui.test_cell import CELL
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
@@ -37,14 +36,7 @@ LAYOUT = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z", "qw", "qx", "qy", "
 
 @pytest.fixture
 def page(browser: Any, server: str) -> Iterator[Any]:
-    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-    problems = PageProblems(page)
-    hosts: set[str] = set()
-    page.on("request", lambda r: hosts.add(urlparse(r.url).netloc))
-    yield page
-    assert hosts <= {urlparse(server).netloc, ""}, f"fetched from elsewhere: {hosts}"
-    assert [m for m in problems.messages if "status of 4" not in m] == []  # the API's refusals are part of it
-    page.close()
+    yield from watched_page(browser, server, viewport={"width": 1400, "height": 1000})
 
 
 def _robot(server: str, name: str) -> str:

@@ -11,7 +11,6 @@ import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlparse
 
 import httpx
 import numpy as np
@@ -20,7 +19,7 @@ from playwright.sync_api import expect
 from scipy.spatial.transform import Rotation
 
 from models.examples import ur5_like_document
-from tests.ui.conftest import PAGE_WAIT_MS, PageProblems, screenshot
+from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
 
@@ -47,14 +46,7 @@ VIEWS = {"cell-top": (0, 1), "cell-side": (0, 2), "cell-front": (1, 2)}
 
 @pytest.fixture
 def page(browser: Any, server: str) -> Iterator[Any]:
-    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-    problems = PageProblems(page)
-    hosts: set[str] = set()
-    page.on("request", lambda r: hosts.add(urlparse(r.url).netloc))
-    yield page
-    assert hosts <= {urlparse(server).netloc, ""}, f"fetched from elsewhere: {hosts}"
-    assert [m for m in problems.messages if "status of 4" not in m] == []  # the API's refusals are part of it
-    page.close()
+    yield from watched_page(browser, server, viewport={"width": 1400, "height": 1000})
 
 
 def _robot(server: str, name: str) -> str:

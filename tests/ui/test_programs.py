@@ -24,7 +24,7 @@ from harness.programs import FIXTURE, HOME_DEG, Cell, executed, joints, ur5_cell
 from models.examples import ur5_like_document
 from programs import read_program
 from tests.cli.test_compensate import N_TARGETS, backup, skeleton
-from tests.ui.conftest import PAGE_WAIT_MS, PageProblems, screenshot
+from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
 
@@ -52,14 +52,7 @@ def robot(server: str, cell: Cell) -> str:
 
 @pytest.fixture
 def page(browser: Any, server: str) -> Iterator[Any]:
-    page = browser.new_page(viewport={"width": 1400, "height": 900}, accept_downloads=True)
-    problems = PageProblems(page)
-    hosts: set[str] = set()
-    page.on("request", lambda r: hosts.add(urlparse(r.url).netloc))
-    yield page
-    assert hosts <= {urlparse(server).netloc, ""}, f"fetched from elsewhere: {hosts}"
-    assert [m for m in problems.messages if "status of 4" not in m] == []  # the API's refusals are part of it
-    page.close()
+    yield from watched_page(browser, server, viewport={"width": 1400, "height": 900}, accept_downloads=True)
 
 
 def _ready(page: Any, pattern: str) -> None:

@@ -13,7 +13,6 @@ import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlparse
 
 import httpx
 import numpy as np
@@ -22,7 +21,7 @@ from playwright.sync_api import expect
 from scipy.spatial.transform import Rotation
 
 from tests.models.test_urdf_hostile import joint, urdf
-from tests.ui.conftest import PAGE_WAIT_MS, PageProblems, screenshot
+from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui: ~10 s here once it runs
 ROOT = Path(__file__).resolve().parents[2]
@@ -32,15 +31,7 @@ RECORDS = 40
 
 @pytest.fixture
 def page(browser: Any, server: str) -> Iterator[Any]:
-    page = browser.new_page(viewport={"width": 1200, "height": 900}, accept_downloads=True)
-    problems = PageProblems(page)
-    hosts: set[str] = set()
-    page.on("request", lambda r: hosts.add(urlparse(r.url).netloc))
-    yield page
-    assert hosts <= {urlparse(server).netloc, ""}, f"fetched from elsewhere: {hosts}"
-    # The API's own 4xx answers are part of these stories; the browser logs each failed fetch as a console error.
-    assert [m for m in problems.messages if "status of 4" not in m] == []
-    page.close()
+    yield from watched_page(browser, server, viewport={"width": 1200, "height": 900}, accept_downloads=True)
 
 
 def _ready(page: Any, pattern: str) -> str:
