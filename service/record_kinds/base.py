@@ -16,6 +16,7 @@ from models import RobotDescription
 from models.errors import InvalidInput
 from models.measurement import MeasurementKind
 from models.measurements.references import AnyReference, ReferenceRecords
+from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import ImportOptions, length_factor
 from service.campaign_io.tabular import Row, Table
 from service.conversions.kinematics import joints_in
@@ -30,6 +31,8 @@ from service.schemas.references import (
 ModelReference = AnyReference
 """What a group of records measures in the models (`ReferenceRecords.reference`)."""
 SIGMA_COLUMNS = ("sigma_mm", "sigma", "uncertainty")
+POSITION_COLUMNS = ("x", "y", "z")
+"""A tracker reading's columns in the layout of several kinds."""
 """Where a file gives a record's σ in mm (the first present is read)."""
 
 
@@ -74,6 +77,18 @@ class FileRow:
     name: str
     """The reference column's cell, stripped ("" where the file has none)."""
     options: ImportOptions
+
+    def position_mm(self, what: str) -> list[float]:
+        """The row's x, y, z in mm (a tracker's reading of a reflector); a `CampaignFileError` naming the missing
+        columns and `what` needs them otherwise."""
+        missing = [c for c in POSITION_COLUMNS if c not in self.table.columns]
+        if missing:
+            raise CampaignFileError(
+                f"line {self.row.line}: {what} needs the columns x, y, z (missing: {listed(missing)})",
+                line=self.row.line,
+            )
+        scale = length_factor(self.table, "x", self.options)
+        return [self.table.number(self.row, c) * scale for c in POSITION_COLUMNS]
 
     def sigma_mm(self, record: dict[str, Any]) -> None:
         """The row's σ (mm) onto `record`, where the file gives one."""

@@ -12,13 +12,9 @@ import numpy as np
 from pydantic import Field
 
 from models.measurements.references import Reflector
-from service.campaign_io.errors import CampaignFileError, listed
-from service.campaign_io.records import length_factor
-from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
+from service.record_kinds.base import POSITION_COLUMNS, Described, FileRow, ModelReference, RecordKind, cell
 from service.schemas.common import JointVector, Position, Public, Strict
 from service.schemas.references import RecordSigma, ReferenceName
-
-POSITION_COLUMNS = ("x", "y", "z")
 
 
 class ReflectorRecord(Strict):
@@ -72,19 +68,11 @@ class ReflectorKind(RecordKind):
         return np.array([r.position for r in records], dtype=float)
 
     def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
-        table = row.table
-        missing = [c for c in POSITION_COLUMNS if c not in table.columns]
-        if missing:
-            raise CampaignFileError(
-                f"line {row.row.line}: a reflector record needs the columns x, y, z (missing: {listed(missing)})",
-                line=row.row.line,
-            )
-        scale = length_factor(table, "x", row.options)
         rec: dict[str, Any] = {
             "kind": self.name,
             "joints": row.joints,
             "reflector": row.name,
-            "position": [table.number(row.row, c) * scale for c in POSITION_COLUMNS],
+            "position": row.position_mm("a reflector record"),
         }
         row.sigma_mm(rec)
         out.append(rec)

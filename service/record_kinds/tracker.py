@@ -12,12 +12,8 @@ from pydantic import Field
 
 from models.measurement import MeasurementKind
 from models.measurements.references import TrackerPositions
-from service.campaign_io.errors import CampaignFileError, listed
-from service.campaign_io.records import length_factor
-from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
+from service.record_kinds.base import POSITION_COLUMNS, Described, FileRow, ModelReference, RecordKind, cell
 from service.schemas.common import JointVector, Payload, Position, Public, Quaternion, RecordTime, Strict, TemperatureC
-
-POSITION_COLUMNS = ("x", "y", "z")
 
 
 class Record(Strict):
@@ -81,18 +77,7 @@ class TrackerKind(RecordKind):
         return []
 
     def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
-        table = row.table
-        missing = [c for c in POSITION_COLUMNS if c not in table.columns]
-        if missing:
-            raise CampaignFileError(
-                f"line {row.row.line}: a tracker record needs the columns x, y, z (missing: {listed(missing)})",
-                line=row.row.line,
-            )
-        scale = length_factor(table, "x", row.options)
-        rec: dict[str, Any] = {
-            "joints": row.joints,
-            "position": [table.number(row.row, c) * scale for c in POSITION_COLUMNS],
-        }
+        rec: dict[str, Any] = {"joints": row.joints, "position": row.position_mm("a tracker record")}
         row.sigma_mm(rec)
         out.append(rec)
 
