@@ -405,7 +405,9 @@ def _design_command(commands: Any) -> None:
     size = design_parser.add_mutually_exclusive_group(required=True)
     size.add_argument("--count", type=int, help="the number of poses")
     size.add_argument("--target-rms-mm", type=float, help="instead: the fewest poses reaching this TCP RMS")
-    design_parser.add_argument("--criterion", choices=["D", "A", "I", "E", "condition"], help="default D")
+    # No list of criteria here: the service's is the one (GET /v1/design-criteria); a name it does not know is its
+    # 422, which lists them.
+    design_parser.add_argument("--criterion", help="a criterion of `GET /v1/design-criteria` (default D)")
     design_parser.add_argument("--measurement", default="pose", choices=["pose", "position"])
     design_parser.add_argument("--candidates", type=int, help="sampled candidates (default 2000)")
     design_parser.add_argument("--seed", type=int)

@@ -81,6 +81,15 @@ def test_ten_poses_are_designed_into_a_csv_a_pendant_takes(server: str, robot: d
     assert "done" in run.stderr and "100%" in run.stderr and "\r" not in run.stderr  # not a terminal: lines
 
 
+def test_a_criterion_the_service_does_not_know_is_its_refusal_naming_its_criteria(
+    server: str, robot: dict[str, Any]
+) -> None:
+    """The command keeps no list of criteria: the service's 422 names every one it has (GET /v1/design-criteria)."""
+    run = iwr(server, "design", robot["id"], "--count", "10", "--criterion", "Z")
+    assert run.returncode == 3, run.stderr
+    assert all(f"'{c['name']}'" in run.stderr for c in api(server, "/v1/design-criteria")), run.stderr
+
+
 def test_the_calibration_json_is_the_apis_document(server: str, calibration: tuple[Any, dict[str, Any]]) -> None:
     run, document = calibration
     assert document == api(server, f"/v1/calibrations/{document['id']}")
