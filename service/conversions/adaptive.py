@@ -184,56 +184,44 @@ def step_public(desc: RobotDescription, document: dict[str, Any], row: AdaptiveS
 def campaign_public(
     desc: RobotDescription, row: AdaptiveCampaignRecord, steps: list[AdaptiveStepRecord]
 ) -> AdaptiveCampaignPublic:
-    request, state = row.request, row.state
-    predicted = state["predicted"]
+    state = row.state
     return AdaptiveCampaignPublic(
-        id=row.id,
-        robot_id=row.robot_id,
-        version=row.version,
-        status=state["status"],
-        target_mm=request["target_mm"],
-        target=request["target"],
-        budget=request["budget"],
-        measurement=request["measurement"],
-        criterion=request["criterion"],
+        **_settings_and_state(row),
         cell=_cell(row.pool.get("cell")),
         candidates=len(row.pool["joints"]),
         reachable_mm=row.pool["reachable_mm"],
-        records=state["records"],
-        predicted=None if predicted is None else PredictedPublic.model_validate(predicted),
-        excluded=state["excluded"],
         next=_poses(desc, state["next"]) if state["status"] == "measuring" else [],
-        reason=state["reason"],
-        calibration_id=row.calibration_id,
         steps=[step_public(desc, s.result, s) for s in steps],
-        created_at=row.created_at,
-        updated_at=row.updated_at,
     )
 
 
 def campaign_summary(row: AdaptiveCampaignRecord) -> AdaptiveCampaignSummaryPublic:
     """The list's row: read from the campaign's request and state alone (no step, no pool read)."""
+    return AdaptiveCampaignSummaryPublic(**_settings_and_state(row), steps=row.steps)
+
+
+def _settings_and_state(row: AdaptiveCampaignRecord) -> dict[str, Any]:
+    """What a campaign's full answer and its list row both say: its settings and where it stands."""
     request, state = row.request, row.state
     predicted = state["predicted"]
-    return AdaptiveCampaignSummaryPublic(
-        id=row.id,
-        robot_id=row.robot_id,
-        version=row.version,
-        status=state["status"],
-        target_mm=request["target_mm"],
-        target=request["target"],
-        budget=request["budget"],
-        measurement=request["measurement"],
-        criterion=request["criterion"],
-        records=state["records"],
-        predicted=None if predicted is None else PredictedPublic.model_validate(predicted),
-        excluded=state["excluded"],
-        steps=row.steps,
-        reason=state["reason"],
-        calibration_id=row.calibration_id,
-        created_at=row.created_at,
-        updated_at=row.updated_at,
-    )
+    return {
+        "id": row.id,
+        "robot_id": row.robot_id,
+        "version": row.version,
+        "status": state["status"],
+        "target_mm": request["target_mm"],
+        "target": request["target"],
+        "budget": request["budget"],
+        "measurement": request["measurement"],
+        "criterion": request["criterion"],
+        "records": state["records"],
+        "predicted": None if predicted is None else PredictedPublic.model_validate(predicted),
+        "excluded": state["excluded"],
+        "reason": state["reason"],
+        "calibration_id": row.calibration_id,
+        "created_at": row.created_at,
+        "updated_at": row.updated_at,
+    }
 
 
 def _cell(stored: dict[str, Any] | None) -> DesignCellPublic | None:
