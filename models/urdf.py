@@ -26,6 +26,7 @@ from __future__ import annotations
 import functools
 import io
 import math
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from typing import Any
@@ -91,13 +92,18 @@ def load_urdf(urdf: str) -> Any:
     return model.robot
 
 
-XACRO_MARKS = ("xmlns:xacro", "<xacro:")
+XACRO_ELEMENT = re.compile(r"<xacro:|\$\{")
+"""What only a xacro has outside its comments: a xacro element (`<xacro:macro>`, `<xacro:include>`, a macro's
+call) or a `${…}` substitution. Not the `xmlns:xacro` declaration: xacro keeps it on the root of the URDF it
+writes (TIAGo's, every ROS description package's expanded URDF), which is the file the refusal asks for."""
+XML_COMMENT = re.compile(r"<!--.*?-->", re.DOTALL)
 
 
 def refuse_xacro(text: str, field: str = "urdf") -> None:
     """A xacro file (a URDF macro, which ROS expands at launch) named as such with the command that expands it:
-    read as a URDF it has no links at the top level, and the answer was "the URDF has no link ''"."""
-    if any(mark in text for mark in XACRO_MARKS):
+    read as a URDF it has no links at the top level, and the answer was "the URDF has no link ''". An expanded
+    URDF's comments may quote xacro (`<!--xacro:caster_transmission …-->`): they are not read."""
+    if "xacro" in text and XACRO_ELEMENT.search(XML_COMMENT.sub("", text)):
         raise InvalidInput(
             "this is a xacro file (a URDF with xacro macros), not a URDF: expand it first with "
             "`xacro robot.urdf.xacro > robot.urdf` (ROS 2: `ros2 run xacro xacro robot.urdf.xacro > robot.urdf`; "

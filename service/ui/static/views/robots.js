@@ -156,7 +156,9 @@ function urdfPicker() {
   let text = null;
   file.addEventListener("change", async () => {
     text = await file.files[0].text();
-    if (/xmlns:xacro|<xacro:/.test(text)) {  // a xacro's links are inside its macros: there is nothing to offer
+    // A xacro's links are inside its macros: there is nothing to offer. Its elements or ${…}, outside comments (an
+    // expanded URDF keeps the xmlns:xacro declaration and may quote xacro in comments: it is a URDF).
+    if (/<xacro:|\$\{/.test(text.replace(/<!--[\s\S]*?-->/g, ""))) {
       fill(base); fill(tip);
       info.textContent = "This is a xacro file, not a URDF: expand it first with `xacro robot.urdf.xacro > robot.urdf` "
         + "(ROS 2: `ros2 run xacro xacro robot.urdf.xacro > robot.urdf`) and choose the URDF it writes.";
