@@ -87,7 +87,7 @@ def make_campaign(
     """Validate raw arrays (internal units) into a Campaign; domain errors name the offending record."""
     q = as_joint_array(desc, joints)
     if check_ranges:
-        check_joint_ranges(desc, q)
+        check_joint_ranges(desc, q, measured=True)
     p = _rows(positions, q.shape[0], 3, field="positions", rows_are="positions of 3 numbers", what="position")
     sigma = None if sigma_mm is None else _sigmas(sigma_mm, q.shape[0])
     if conditions is not None:

@@ -23,6 +23,11 @@ from models.terms import Conditions, condition_inputs
 
 JOINT_RANGE_SLACK = 1e-9
 """Joints may exceed their range by this much (mm or rad) before they are rejected: float round-off."""
+MEASURED_OVERSHOOT = 0.01
+"""A measured joint reading may pass its range by this share of the span (1 %: 3.5 mm of TIAGo's 350 mm torso,
+1.6° of a 157° joint). A URDF's limits are the controller's command limits, and a reading at the stop can pass
+them: TIAGo's torso read 350.18 mm against its URDF's 350 in a real campaign, which was refused whole. Beyond
+this a reading is a slip (units, another robot's file) and is still refused with its pose and joint."""
 CLOSURE_TOLERANCE_MM = 1e-8
 """A hexapod pose counts as assembled when every leg equation holds to this (mm)."""
 ENVELOPE_MARGIN_MM = 20.0
@@ -58,10 +63,15 @@ def as_joint_array(desc: RobotDescription, joints: ArrayLike) -> Array:
     return arr
 
 
-def check_joint_ranges(desc: RobotDescription, joints: Array) -> None:
-    """Raise JointOutOfRange for the first joint outside its range (internal units)."""
-    low = joints < desc.joint_min - JOINT_RANGE_SLACK
-    high = joints > desc.joint_max + JOINT_RANGE_SLACK
+def check_joint_ranges(desc: RobotDescription, joints: Array, *, measured: bool = False) -> None:
+    """Raise JointOutOfRange for the first joint outside its range (internal units). `measured`: the joints are
+    readings of where the robot was (a campaign's records), which may pass the description's limits by
+    MEASURED_OVERSHOOT of the span; commands (targets, designs, compensation) may not."""
+    slack = JOINT_RANGE_SLACK
+    if measured:
+        slack = np.maximum(JOINT_RANGE_SLACK, MEASURED_OVERSHOOT * (desc.joint_max - desc.joint_min))
+    low = joints < desc.joint_min - slack
+    high = joints > desc.joint_max + slack
     bad = np.argwhere(low | high)
     if bad.size:
         i, j = (int(v) for v in bad[0])

@@ -454,7 +454,7 @@ def _validated(desc: RobotDescription, group: ReferenceRecords) -> ReferenceReco
     record otherwise (`models.errors`)."""
     ref = group.reference
     joints = as_joint_array(desc, group.joints)
-    check_joint_ranges(desc, joints)
+    check_joint_ranges(desc, joints, measured=True)
     values = np.asarray(group.values, dtype=float)
     finite = np.isfinite(values.reshape(group.size, -1)).all(axis=1) if values.size else np.ones(group.size, bool)
     bad = np.flatnonzero(~finite)
