@@ -293,8 +293,14 @@ def _linearised(
     """Residual rows, their parameter Jacobian, the registration's columns (none without it), each row's σ and
     the per-record position errors, all in the instrument frame."""
     campaign.condition_inputs(desc)
-    fk = forward_kinematics(
-        desc, campaign.joints, params, jacobian=True, conditions=campaign.conditions, runtime=runtime_for(desc, runtime)
+    fk = forward_kinematics(  # its joints were checked as readings when the campaign was made (make_campaign)
+        desc,
+        campaign.joints,
+        params,
+        jacobian=True,
+        check_ranges=False,
+        conditions=campaign.conditions,
+        runtime=runtime_for(desc, runtime),
     )
     positions, rotations, jac = fk.positions, fk.rotations, fk.jacobians
     if register:

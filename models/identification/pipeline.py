@@ -42,7 +42,7 @@ from models.identifiability import (
     structural_support,
     without_unsupported,
 )
-from models.identification.accuracy import pose_errors, predicted_accuracy
+from models.identification.accuracy import pose_errors, predicted_accuracy, with_record_scatter
 from models.identification.bounds import solver_bounds
 from models.identification.diagnosis import Diagnosis, Finding, diagnose
 from models.identification.options import IdentificationOptions, RobustLoss
@@ -594,6 +594,7 @@ def _estimate(
         if prior_rows is not None
         else observable_covariance(ev, cov) * np.outer(scales, scales),
     )
+    accuracy = with_record_scatter(accuracy, after.position_mm, cov.dof, free.size)
     if accuracy.extrapolation is not None:
         notes.append(accuracy.extrapolation)
     rechecked = recheck.rank == ident.rank

@@ -18,7 +18,7 @@ import numpy as np
 
 from models._types import Array
 from models.identifiability import structural_identifiability
-from models.identification.accuracy import predicted_accuracy
+from models.identification.accuracy import predicted_accuracy, with_record_scatter
 from models.identification.options import IdentificationOptions
 from models.identification.reference_diagnosis import plane_mixups
 from models.identification.reference_fit import (
@@ -28,7 +28,14 @@ from models.identification.reference_fit import (
     identify_references,
     record_errors,
 )
-from models.identification.result import IdentificationResult, Outlier, ResidualSummary, SolverReport, Status
+from models.identification.result import (
+    IdentificationResult,
+    Outlier,
+    PredictedAccuracy,
+    ResidualSummary,
+    SolverReport,
+    Status,
+)
 from models.identification.statistics import correlated_pairs
 from models.measurement import MeasurementKind
 from models.measurements.references import ReferenceRecords
@@ -36,6 +43,8 @@ from models.noise import NoiseModel
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
 
+POSITION_KINDS = frozenset({"position", "reflector", "point"})
+"""References whose records' errors are positions in mm (‖r‖): a fresh record's predicted error is given for them."""
 RECORD_KINDS = {"anchor": "distance", "point": "point", "plane": "plane", "position": "position", "image": "image"}
 """A reference's kind (as messages name it) → the kind of record that measures it (as the contract names it)."""
 
@@ -70,7 +79,6 @@ def as_result(
     """The reference fit in the result's terms (see the module docstring)."""
     table = desc.parameters
     names = tuple(table.names[i] for i in fit.estimated)
-    free = np.array(fit.estimated)
     before, after = _record_errors(desc, fit, runtime, fitted=False), _record_errors(desc, fit, runtime, fitted=True)
     cov = fit.covariance
     run = fit.solver
@@ -97,9 +105,7 @@ def as_result(
         variance_interval=cov.chi2_interval,
         outliers=tuple(_outlier(fit, o, after) for o in fit.outliers),
         solver=_solver_report(fit),
-        predicted_accuracy=predicted_accuracy(
-            desc, fit.parameters, free, fit.parameter_covariance, options.workspace_samples, runtime=runtime
-        ),
+        predicted_accuracy=_accuracy(desc, fit, after, options, runtime),
         kind=MeasurementKind.POSITION,
         measurements=int(np.unique(np.concatenate([g.positions for g in fit.groups])).size),
         seconds=time.perf_counter() - started,
@@ -108,6 +114,33 @@ def as_result(
         frame=fit.frame,
         record_kinds=_kinds(fit.groups),
     )
+
+
+def _accuracy(
+    desc: RobotDescription, fit: ReferenceFit, after: Array, options: IdentificationOptions, runtime: Runtime
+) -> PredictedAccuracy:
+    """The predicted TCP accuracy over the workspace and at the campaign's poses; where every record is a position
+    in mm (tracker, reflector, point), also a fresh record's predicted error there."""
+    free = np.array(fit.estimated)
+    accuracy = predicted_accuracy(
+        desc,
+        fit.parameters,
+        free,
+        fit.parameter_covariance,
+        options.workspace_samples,
+        runtime=runtime,
+        measured=_measured_poses(fit),
+    )
+    if not all(g.reference.traits.kind in POSITION_KINDS for g in fit.groups):
+        return accuracy
+    return with_record_scatter(accuracy, after, fit.covariance.dof, fit.covariance.z.shape[0])
+
+
+def _measured_poses(fit: ReferenceFit) -> Array:
+    """The campaign's poses once each (a pose read at three reflectors is one pose): the region the prediction is
+    also given at, as a tracker campaign's is. Without it a reference or reflector campaign reported only the
+    workspace-wide figure, with no word on where it was measured (TIAGo's 37 postures read at four markers)."""
+    return np.unique(np.vstack([g.joints for g in fit.groups]), axis=0)
 
 
 def _solver_report(fit: ReferenceFit) -> SolverReport:

@@ -105,6 +105,12 @@ class PredictedAccuracy:
     region_rms_position_mm: float = float("nan")
     """The same prediction at the campaign's own poses: what the calibration promises where it was measured."""
     region_max_position_mm: float = float("nan")
+    region_record_rms_mm: float = float("nan")
+    """What a fresh record in the measured region is predicted to differ from the calibrated model by (RMS of
+    the position error): the region's model uncertainty and the records' own scatter as the fit's residuals show
+    it (`models.identification.accuracy.with_record_scatter`). The figure a held-out campaign's error is judged
+    against: on a real campaign the scatter (what the model does not describe, the instrument's noise) is most
+    of it. NaN where the records are not positions in mm (distances, images)."""
     extrapolation: str | None = None
     """Why the workspace-wide figures are extrapolation (None when they agree with the measured region's)."""
 

@@ -182,6 +182,7 @@ def report_out(
                 "workspace_poses": accuracy.poses,
                 "measured_region_rms_position_mm": accuracy.region_rms_position_mm,
                 "measured_region_max_position_mm": accuracy.region_max_position_mm,
+                "measured_region_record_rms_mm": accuracy.region_record_rms_mm,
                 "extrapolation": accuracy.extrapolation,
             },
             "measurement": result.kind.value,

@@ -206,6 +206,13 @@ class PredictedAccuracyPublic(Public):
         "was measured (null for calibrations stored before it was reported)",
     )
     measured_region_max_position_mm: OptionalFloat = None
+    measured_region_record_rms_mm: OptionalFloat = Field(
+        default=None,
+        description="What a fresh record in the measured region is predicted to differ from the calibrated model "
+        "by (RMS position error, mm): the region's 1-σ prediction and the records' own scatter as the residuals "
+        "show it. The figure to judge a held-out campaign of the same region against; null where the records are "
+        "not positions (distances, images) and for calibrations stored before it was reported",
+    )
     extrapolation: str | None = Field(
         default=None,
         description="Set when the workspace-wide figures exceed the measured region's by more than 3×: why, and "
