@@ -67,9 +67,10 @@ def check_joint_ranges(desc: RobotDescription, joints: Array, *, measured: bool 
     """Raise JointOutOfRange for the first joint outside its range (internal units). `measured`: the joints are
     readings of where the robot was (a campaign's records), which may pass the description's limits by
     MEASURED_OVERSHOOT of the span; commands (targets, designs, compensation) may not."""
-    slack = JOINT_RANGE_SLACK
-    if measured:
-        slack = np.maximum(JOINT_RANGE_SLACK, MEASURED_OVERSHOOT * (desc.joint_max - desc.joint_min))
+    span = desc.joint_max - desc.joint_min
+    slack = (
+        np.maximum(JOINT_RANGE_SLACK, MEASURED_OVERSHOOT * span) if measured else np.full_like(span, JOINT_RANGE_SLACK)
+    )
     low = joints < desc.joint_min - slack
     high = joints > desc.joint_max + slack
     bad = np.argwhere(low | high)

@@ -142,7 +142,7 @@ class Chain:
             t = t @ _small(motion)
             k += 1
         offsets = p[6 + 7 * self.moving :].reshape(POINTS, 3)
-        return np.einsum("nij,kj->nki", t[:, :3, :3], offsets) + t[:, None, :3, 3]
+        return np.asarray(np.einsum("nij,kj->nki", t[:, :3, :3], offsets) + t[:, None, :3, 3], dtype=float)
 
 
 def independent_fit(chain: Chain, s: Session) -> np.ndarray:
@@ -161,7 +161,7 @@ def independent_fit(chain: Chain, s: Session) -> np.ndarray:
         def residuals(x: np.ndarray) -> np.ndarray:
             trial = start.copy()
             trial[free] = x
-            return ((chain.points(trial, s.joints) - s.points) * weight).ravel()
+            return np.asarray(((chain.points(trial, s.joints) - s.points) * weight).ravel(), dtype=float)
 
         out = start.copy()
         out[free] = least_squares(residuals, start[free], method="lm").x
