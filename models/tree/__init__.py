@@ -1,7 +1,7 @@
 """Cells of several chains: a robot as a tree of branches (`RobotTree`), its tools' kinematics absolute and
 relative, identification over the whole tree, and URDF trees (docs/models.md, "Cells of several chains")."""
 
-from models.tree.accuracy import ToolAccuracy, tree_accuracy, tree_joint_samples
+from models.tree.accuracy import ToolAccuracy, predicted_accuracy, tree_accuracy, tree_joint_samples
 from models.tree.identification import TreeFit, identify_tree
 from models.tree.kinematics import TreePoses, relative_of, relative_poses, tool_poses, tree_joints
 from models.tree.mount import MountStage
@@ -22,6 +22,7 @@ __all__ = [
     "TreePoses",
     "identify_tree",
     "measure_tree",
+    "predicted_accuracy",
     "perturbed_tree",
     "relative_of",
     "relative_poses",
