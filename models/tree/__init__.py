@@ -2,6 +2,7 @@
 relative, identification over the whole tree, and URDF trees (docs/models.md, "Cells of several chains")."""
 
 from models.tree.accuracy import ToolAccuracy, predicted_accuracy, tree_accuracy, tree_joint_samples
+from models.tree.compensation import RelativeCompensation, compensate_relative
 from models.tree.identification import TreeFit, identify_tree
 from models.tree.kinematics import TreePoses, relative_of, relative_poses, tool_poses, tree_joints
 from models.tree.mount import MountStage
@@ -13,6 +14,7 @@ from models.tree.urdf import tree_from_urdf
 __all__ = [
     "Branch",
     "MountStage",
+    "RelativeCompensation",
     "RobotTree",
     "SimulatedTree",
     "TipMap",
@@ -20,10 +22,11 @@ __all__ = [
     "ToolRecords",
     "TreeFit",
     "TreePoses",
+    "compensate_relative",
     "identify_tree",
     "measure_tree",
-    "predicted_accuracy",
     "perturbed_tree",
+    "predicted_accuracy",
     "relative_of",
     "relative_poses",
     "tool_poses",
