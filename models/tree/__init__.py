@@ -3,6 +3,7 @@ relative, identification over the whole tree, and URDF trees (docs/models.md, "C
 
 from models.tree.accuracy import ToolAccuracy, predicted_accuracy, tree_accuracy, tree_joint_samples
 from models.tree.compensation import RelativeCompensation, compensate_relative
+from models.tree.export import UrdfTreeCalibration, branch_dh_tables, calibrate_urdf_tree
 from models.tree.identification import TreeFit, identify_tree
 from models.tree.kinematics import TreePoses, relative_of, relative_poses, tool_poses, tree_joints
 from models.tree.mount import MountStage
@@ -22,6 +23,9 @@ __all__ = [
     "ToolRecords",
     "TreeFit",
     "TreePoses",
+    "UrdfTreeCalibration",
+    "branch_dh_tables",
+    "calibrate_urdf_tree",
     "compensate_relative",
     "identify_tree",
     "measure_tree",
