@@ -257,17 +257,7 @@ def design_tree(
         tree, candidates, fixed=fixed, relative=relative, noise=noise, params=theta, registry=registry
     )
     info = built.info
-    problem = DesignProblem(
-        info=info,
-        base=built.base,
-        n_fixed=len(fixed),
-        rows=info.rows,
-        position_only=info.position_only,
-        origin=np.arange(info.size),
-        excluded={},
-        spread=None,
-        offered=info.size,
-    )
+    problem = _problem(built, len(fixed))
     found = search(problem, crit, count, started=started, bound_seconds=bound_seconds)
     m = built.base + info.subset_information(found.chosen)
     dof = sum(candidates[int(i)].rows for i in found.chosen) + sum(c.rows for c in fixed)
@@ -295,6 +285,22 @@ def design_tree(
         fixed=len(fixed),
         seconds=time.perf_counter() - started,
         notes=found.notes,
+    )
+
+
+def _problem(built: TreeInformation, n_fixed: int) -> DesignProblem:
+    """The chain's problem on the tree's information: every candidate admissible (no filter, no spread)."""
+    info = built.info
+    return DesignProblem(
+        info=info,
+        base=built.base,
+        n_fixed=n_fixed,
+        rows=info.rows,
+        position_only=info.position_only,
+        origin=np.arange(info.size),
+        excluded={},
+        spread=None,
+        offered=info.size,
     )
 
 
