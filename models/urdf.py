@@ -26,7 +26,6 @@ from __future__ import annotations
 import functools
 import io
 import math
-import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from typing import Any
@@ -92,18 +91,34 @@ def load_urdf(urdf: str) -> Any:
     return model.robot
 
 
-XACRO_ELEMENT = re.compile(r"<xacro:|\$\{")
-"""What only a xacro has outside its comments: a xacro element (`<xacro:macro>`, `<xacro:include>`, a macro's
-call) or a `${…}` substitution. Not the `xmlns:xacro` declaration: xacro keeps it on the root of the URDF it
-writes (TIAGo's, every ROS description package's expanded URDF), which is the file the refusal asks for."""
-XML_COMMENT = re.compile(r"<!--.*?-->", re.DOTALL)
+XACRO_ELEMENT = "<xacro:"
+XACRO_SUBSTITUTIONS = ("${", "$(")
+
+
+def _without_comments(text: str) -> str:
+    """`text` less its `<!-- … -->` comments, in one pass (an unclosed one runs to the end, as in XML)."""
+    kept, at = [], 0
+    while (start := text.find("<!--", at)) >= 0:
+        kept.append(text[at:start])
+        end = text.find("-->", start + 4)
+        at = len(text) if end < 0 else end + 3
+    kept.append(text[at:])
+    return "".join(kept)
+
+
+def is_xacro(text: str) -> bool:
+    """Whether `text` still holds xacro: an element of its namespace, or a `${…}` / `$(…)` substitution.
+    Comments are left out, and the declaration alone is not xacro: the
+    URDFs xacro writes keep `xmlns:xacro` on `<robot>` and the macros they came from in comments (TALOS's
+    `talos_reduced.urdf` of example-robot-data is one)."""
+    bare = _without_comments(text)
+    return XACRO_ELEMENT in bare or any(s in bare for s in XACRO_SUBSTITUTIONS)
 
 
 def refuse_xacro(text: str, field: str = "urdf") -> None:
     """A xacro file (a URDF macro, which ROS expands at launch) named as such with the command that expands it:
-    read as a URDF it has no links at the top level, and the answer was "the URDF has no link ''". An expanded
-    URDF's comments may quote xacro (`<!--xacro:caster_transmission …-->`): they are not read."""
-    if "xacro" in text and XACRO_ELEMENT.search(XML_COMMENT.sub("", text)):
+    read as a URDF it has no links at the top level, and the answer was "the URDF has no link ''"."""
+    if is_xacro(text):
         raise InvalidInput(
             "this is a xacro file (a URDF with xacro macros), not a URDF: expand it first with "
             "`xacro robot.urdf.xacro > robot.urdf` (ROS 2: `ros2 run xacro xacro robot.urdf.xacro > robot.urdf`; "

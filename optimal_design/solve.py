@@ -72,6 +72,32 @@ def solve(
     """The design of `count` poses on a built problem; `start` warm-starts the relaxation (weights)."""
     started = time.perf_counter() if started is None else started
     criterion = criterion_of(crit)
+    found = search(
+        problem,
+        criterion,
+        count,
+        started=started,
+        start=start,
+        d_efficiency_floor=d_efficiency_floor,
+        bound_seconds=bound_seconds,
+    )
+    return pose_design(desc, problem, criterion, count, found, seed=seed, started=started)
+
+
+def search(
+    problem: DesignProblem,
+    crit: str | DesignCriterion,
+    count: int,
+    *,
+    started: float | None = None,
+    start: Array | None = None,
+    d_efficiency_floor: float | None = None,
+    bound_seconds: float = 0.0,
+) -> Found:
+    """The search of `solve` without its report: what any problem's design is, whatever its candidates are (a
+    chain's poses, a tree's records, `optimal_design.tree`)."""
+    started = time.perf_counter() if started is None else started
+    criterion = criterion_of(crit)
     problem.check_count(count)
     log = _Log(timings={"information_s": time.perf_counter() - started})
     relaxed = _relaxation(problem, criterion, count, start, log)
@@ -100,7 +126,7 @@ def solve(
             seconds=bound_seconds,
             log=log,
         )
-    found = Found(
+    return Found(
         chosen=chosen,
         utility=chosen_utility,
         relaxed=relaxed,
@@ -114,7 +140,6 @@ def solve(
         timings=log.timings,
         d_efficiency_floor=applied,
     )
-    return pose_design(desc, problem, criterion, count, found, seed=seed, started=started)
 
 
 def _relaxation(

@@ -127,6 +127,35 @@ def compensate_poses(
     return PoseCompensation(out.poses, out.reached, tuple(reasons), out.nominal_joints, out.joints)
 
 
+def compensate_near(
+    desc: RobotDescription,
+    calibrated: ArrayLike,
+    world: ArrayLike,
+    seeds: ArrayLike,
+    *,
+    runtime: Runtime | None = None,
+) -> tuple[Array, NDArray[np.bool_], tuple[str | None, ...]]:
+    """(joints, reached, reasons): the calibrated robot's joints reaching `world` ((N, 4, 4) targets in the
+    model's world frame, base included, mm) next to `seeds` (the program's joints, already the nominal
+    solution), found as `compensate_poses` finds its calibrated ones: Newton from the seed, a target reached
+    only on another configuration (a joint more than MAX_BRANCH_STEP_RAD away) refused with its reason. Where
+    a program's joints are given rather than its targets (a tree's relative targets, `models.tree`)."""
+    rt = runtime_for(desc, runtime)
+    theta = desc.parameters.vector(calibrated)
+    t = np.asarray(world, dtype=float).reshape(-1, 4, 4)
+    start = np.asarray(seeds, dtype=float).reshape(t.shape[0], desc.n_joints)
+    reached, joints, reasons = _near(desc, theta, t, start, rt, nominal=False)
+    step = np.max(np.abs(np.nan_to_num(joints) - start), axis=1)
+    for i in np.flatnonzero(reached & (step > MAX_BRANCH_STEP_RAD)):
+        reached[i] = False
+        reasons[i] = (
+            f"the calibrated robot reaches it only on another configuration (a joint moves "
+            f"{np.degrees(step[i]):.3g}° from the program's): the controller would not follow"
+        )
+    joints[~reached] = np.nan
+    return joints, reached, tuple(reasons)
+
+
 def _screened(t: Array, reasons: list[str | None]) -> NDArray[np.bool_]:
     """Which targets a solver may see; the others' reasons written. Not a pose (a zero quaternion read as NaN) or
     kilometres away (1e300 mm overflowed the start table's distances, an IndexError): they keep their value."""

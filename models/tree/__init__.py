@@ -1,7 +1,9 @@
 """Cells of several chains: a robot as a tree of branches (`RobotTree`), its tools' kinematics absolute and
 relative, identification over the whole tree, and URDF trees (docs/models.md, "Cells of several chains")."""
 
-from models.tree.accuracy import ToolAccuracy, tree_accuracy, tree_joint_samples
+from models.tree.accuracy import ToolAccuracy, predicted_accuracy, tree_accuracy, tree_joint_samples
+from models.tree.compensation import RelativeCompensation, compensate_relative
+from models.tree.export import UrdfTreeCalibration, branch_dh_tables, calibrate_urdf_tree
 from models.tree.identification import TreeFit, identify_tree
 from models.tree.kinematics import TreePoses, relative_of, relative_poses, tool_poses, tree_joints
 from models.tree.mount import MountStage
@@ -13,6 +15,7 @@ from models.tree.urdf import tree_from_urdf
 __all__ = [
     "Branch",
     "MountStage",
+    "RelativeCompensation",
     "RobotTree",
     "SimulatedTree",
     "TipMap",
@@ -20,9 +23,14 @@ __all__ = [
     "ToolRecords",
     "TreeFit",
     "TreePoses",
+    "UrdfTreeCalibration",
+    "branch_dh_tables",
+    "calibrate_urdf_tree",
+    "compensate_relative",
     "identify_tree",
     "measure_tree",
     "perturbed_tree",
+    "predicted_accuracy",
     "relative_of",
     "relative_poses",
     "tool_poses",

@@ -53,18 +53,42 @@ def tree_accuracy(
 ) -> tuple[ToolAccuracy, ...]:
     """Every tool's predicted accuracy, then each (tool, frame) pair's relative one, over `joints` (default:
     `samples` random joint vectors of the tree)."""
+    return predicted_accuracy(
+        tree,
+        fit.parameters,
+        fit.estimated,
+        fit.parameter_covariance,
+        relative=relative,
+        samples=samples,
+        joints=joints,
+        registry=registry,
+    )
+
+
+def predicted_accuracy(
+    tree: RobotTree,
+    params: Array,
+    estimated: Sequence[int],
+    parameter_covariance: Array,
+    *,
+    relative: Sequence[tuple[str, str]] = (),
+    samples: int = 200,
+    joints: Array | None = None,
+    registry: Registry | None = None,
+) -> tuple[ToolAccuracy, ...]:
+    """`tree_accuracy` of any covariance of the `estimated` global parameters (internal units, their order): a
+    fit's, or the one a pose design predicts before anything is measured (`optimal_design.tree`)."""
     q = tree_joint_samples(tree, samples, ACCURACY_SEED) if joints is None else joints
-    free = np.array(fit.estimated, dtype=np.intp)
+    free = np.array(estimated, dtype=np.intp)
     poses = {
-        tip: tool_poses(tree, tip, q, fit.parameters, jacobian=True, check_ranges=False, registry=registry)
-        for tip in tree.tips
+        tip: tool_poses(tree, tip, q, params, jacobian=True, check_ranges=False, registry=registry) for tip in tree.tips
     }
     out = []
     for tip, pose in poses.items():
-        out.append(_accuracy(tip, pose.jacobians, free, fit.parameter_covariance))
+        out.append(_accuracy(tip, pose.jacobians, free, parameter_covariance))
     for tool, frame in relative:
         rel = relative_of(poses[tree.tip(tool).name], poses[tree.tip(frame, "frame").name])
-        out.append(_accuracy(f"{tool}/{frame}", rel.jacobians, free, fit.parameter_covariance))
+        out.append(_accuracy(f"{tool}/{frame}", rel.jacobians, free, parameter_covariance))
     return tuple(out)
 
 

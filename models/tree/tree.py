@@ -147,6 +147,10 @@ class RobotTree:
     def n_joints(self) -> int:
         return self._layout[3]
 
+    def stage_params(self, branch: str, k: int) -> slice:
+        """The global parameters of the k-th of `branch`'s own stages (its mount first, when it has one)."""
+        return self._layout[0][self.branch(branch, "branch").name, k][0]
+
     def tool_slice(self, tip: str) -> slice:
         return self._layout[1][self.tip(tip).name]
 
