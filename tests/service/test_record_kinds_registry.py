@@ -171,7 +171,7 @@ def test_the_tracker_records_are_the_campaign_without_references() -> None:
 
 
 def test_an_undescribed_reference_is_a_4xx_naming_it_where_the_kind_needs_a_description() -> None:
-    empty = Described({}, {}, {}, {})
+    empty = Described()
     with pytest.raises(BadRequest, match="record 0 measures anchor 'a1', which the campaign does not describe"):
         RECORD_KINDS["distance"].check_described(empty, "a1", 0)
     with pytest.raises(BadRequest, match="record 3 is an image of camera 'c1', which the campaign does not describe"):
