@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, Union, cast
 from pydantic import Discriminator, Tag, create_model
 
 from service.record_kinds.base import SIGMA_COLUMNS, Described, FileRow, RecordKind
+from service.record_kinds.displacement import DISPLACEMENT
 from service.record_kinds.distance import DISTANCE
 from service.record_kinds.image import IMAGE
 from service.record_kinds.plane import PLANE
@@ -34,7 +35,7 @@ from service.schemas.references import (
 )
 
 RECORD_KINDS: Mapping[str, RecordKind] = MappingProxyType(
-    {kind.name: kind for kind in (TRACKER, DISTANCE, POINT, PLANE, IMAGE, REFLECTOR)}
+    {kind.name: kind for kind in (TRACKER, DISTANCE, POINT, PLANE, IMAGE, REFLECTOR, DISPLACEMENT)}
 )
 """Each record kind by its tag (a record's `kind`; a tracker's records name none: "tracker")."""
 
@@ -134,9 +135,16 @@ def described(body: Any) -> Described:
 KIND_COLUMN = "kind"
 REFERENCE_COLUMNS = ("reference", "anchor", "plane", "feature", "camera")
 """Where a file names the reference a row measures (the first present is read)."""
-FILE_COLUMNS = ("kind", "reference", "distance_mm", "x", "y", "z", "u", "v", "sigma_mm", "sigma_px")
+WRITTEN_COLUMNS = ("distance_mm", "x", "y", "z", "u", "v", "sigma_mm", "sigma_px")
+"""The kinds' columns in the order the files have had them (a later kind's new columns follow)."""
+FILE_COLUMNS = (
+    KIND_COLUMN,
+    "reference",
+    *WRITTEN_COLUMNS,
+    *dict.fromkeys(c for kind in RECORD_KINDS.values() for c in kind.file_columns if c not in WRITTEN_COLUMNS),
+)
 """The layout of several kinds as the service writes it, the joints after `reference`: the union of the kinds'
-`file_columns` (tests/service/test_record_kinds_registry.py checks it), in the order the files have had."""
+`file_columns` (tests/service/test_record_kinds_registry.py checks it)."""
 
 
 def kind_of(record: Any) -> RecordKind:
@@ -169,6 +177,7 @@ __all__ = [
     "BY_MODEL",
     "BY_REFERENCE",
     "DESCRIBING",
+    "DISPLACEMENT",
     "DISTANCE",
     "FILE_COLUMNS",
     "IMAGE",
