@@ -182,6 +182,47 @@ def test_the_architecture_doc_states_the_record_kinds_and_the_allowed_modules() 
     assert ["tracker", *re.findall(r"`(\w+)`", stated.group(1))] == list(RECORD_KINDS)
     assert "(0 now:" in section  # no module outside the registry is allowed to ask (the test above)
     listed = re.findall(r"^\d+\. `([\w/.<>]+)`", section, re.M)
-    assert f"That is {len(listed)} files" in section
+    assert f"That is {len(listed)} files" in section and f"beside its tests, {len(listed)} files" in section
+    assert len(listed) <= 3  # issue 43: a new record kind is at most three files plus its tests
     for rel in listed:
         assert (ROOT / rel).exists() or rel.endswith("<kind>.py"), rel
+    assert listed == [
+        "models/measurements/<kind>.py",
+        "service/record_kinds/<kind>.py",
+        "service/record_kinds/__init__.py",
+    ]
+
+
+def test_the_last_kind_added_is_named_only_in_the_files_the_doc_lists() -> None:
+    """The kind the doc names as proof (`displacement`) is those files: its tag, its reference's name, its field
+    and its body's map are string constants in its two modules, the registry line aside, and nowhere else in
+    models/, optimal_design/ or service/ (the contract excepted: it is generated)."""
+    from service.record_kinds import RECORD_KINDS  # noqa: PLC0415
+
+    kind = RECORD_KINDS["displacement"]
+    words = {kind.name, kind.model, str(kind.named_by), str(kind.described_in), *kind.file_kinds}
+    own = {"models/measurements/line.py", "service/record_kinds/displacement.py"}
+    found = []
+    for path in _sources(("models", "optimal_design", "service")):
+        rel = str(path.relative_to(ROOT))
+        if rel in own:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Constant) and node.value in words:
+                found.append(f"{rel}:{node.lineno} {node.value!r}")
+    assert not found, found
+    assert "DISPLACEMENT" in (ROOT / "service/record_kinds/__init__.py").read_text()
+
+
+def test_the_architecture_doc_states_the_criterion_count() -> None:
+    """A new criterion is at most two files: its class in optimal_design/criteria.py (registered in CRITERIA under
+    its `Criterion` member) and the regenerated contract; the doc says so and the registry is the enum."""
+    from optimal_design.criteria import CRITERIA, Criterion  # noqa: PLC0415
+
+    doc = (ROOT / "docs" / "architecture.md").read_text()
+    section = doc[doc.index("### Design criteria") :]
+    section = section[: section.index("\n### ") if "\n### " in section else len(section)]
+    assert "touches two files" in section
+    listed = re.findall(r"^\d+\. `([\w/.]+)`", section, re.M)
+    assert listed == ["optimal_design/criteria.py", "service/openapi.json"]
+    assert set(CRITERIA) == set(Criterion)

@@ -25,7 +25,7 @@ rotations and the 6-row Jacobian of `forward_kinematics(..., jacobian=True)`), b
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, ClassVar, Protocol, TypeAlias
+from typing import ClassVar, Protocol, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,9 +34,6 @@ from models._types import Array
 from models.errors import InvalidInput, TooFewMeasurements
 from models.kinematics import ForwardJacobianResult, ForwardResult
 from models.parameters import Kind, ParameterSpec
-
-if TYPE_CHECKING:
-    from models.measurements.camera import Camera
 
 POSITION_SCALE_MM = 1.0
 """The expected error of a reference's start position (mm), the scale of its columns (as a link length's)."""
@@ -70,8 +67,12 @@ class Traits:
 class Reference(Protocol):
     """One reference feature and what a record against it says (see the module docstring)."""
 
-    name: str
     traits: ClassVar[Traits]
+
+    @property
+    def name(self) -> str:
+        """As records and messages name it (its parameters' middle part: `anchor.<name>.x`)."""
+        ...
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -335,8 +336,9 @@ def _cross_matrices(v: Array) -> Array:
     return out
 
 
-AnyReference: TypeAlias = "Anchor | FixedPoint | Plane | TrackerPositions | Reflector | Camera"
-"""Every kind of reference a group of records measures (`ReferenceRecords.reference`)."""
+AnyReference: TypeAlias = Reference
+"""Any kind of reference a group of records measures (`ReferenceRecords.reference`): the protocol, so that a new
+kind (a cylinder, an interferometer's line: a file of its own) is no edit here."""
 
 
 @dataclass(frozen=True)

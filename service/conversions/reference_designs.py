@@ -27,9 +27,8 @@ from optimal_design.problem import MAX_CANDIDATES
 from optimal_design.references import camera_candidates
 from service.conversions.designs import constraints_in
 from service.conversions.kinematics import joints_in
-from service.record_kinds import BY_REFERENCE, RECORD_KINDS, Described
+from service.record_kinds import BY_REFERENCE, RECORD_KINDS, ReferenceCandidate, described
 from service.schemas.designs import PoseDesignCreate
-from service.schemas.references import ReferenceCandidate
 
 Reference = Anchor | FixedPoint | Plane | Reflector | Camera
 KIND_OF_MEASUREMENT = {kind.name: name for name, kind in BY_REFERENCE.items()}
@@ -80,9 +79,9 @@ def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
     """Every described reference by (kind, name), as the design needs it: an anchor where it stands, a plane's
     normal, a camera's pose. A 422 naming the one that lacks what the design needs."""
     found: dict[tuple[str, str], Reference] = {}
-    described = Described.of(body)
+    describes = described(body)
     for candidate, kind in BY_REFERENCE.items():
-        for name, description in kind.descriptions(described).items():
+        for name, description in kind.descriptions(describes).items():
             found[(candidate, name)] = cast(Reference, kind.design_reference(name, description))
     names = [name for _, name in found]
     repeated = sorted({n for n in names if names.count(n) > 1})

@@ -1,6 +1,6 @@
 """A campaign of reference records (and tracker positions beside them) as the models' record groups, and the
 identified references as the report states them (boundary units: mm, deg). What each kind of record contributes
-is its kind's (`service.record_kinds`); `Described` and `has_references` are re-exported from there for the
+is its kind's (`service.record_kinds`); `Described`, `described` and `has_references` are re-exported from there for the
 callers that import them here."""
 
 from __future__ import annotations
@@ -15,9 +15,18 @@ from models.identification.result import ReferenceEstimate
 from models.measurements.references import ReferenceRecords
 from models.parameters import Kind
 from service.errors import BadRequest
-from service.record_kinds import BY_MODEL, RECORD_KINDS, CampaignRecord, Described, RecordKind, has_references, kind_of
+from service.record_kinds import (
+    BY_MODEL,
+    RECORD_KINDS,
+    CampaignRecord,
+    Described,
+    RecordKind,
+    described,
+    has_references,
+    kind_of,
+)
 
-__all__ = ["Described", "has_references", "reference_groups_in", "references_out"]
+__all__ = ["Described", "described", "has_references", "reference_groups_in", "references_out"]
 
 
 def reference_groups_in(

@@ -14,21 +14,28 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Annotated, Any, Union, cast
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Union, cast
 
-from pydantic import Discriminator, Tag
+from pydantic import Discriminator, Tag, create_model
 
 from service.record_kinds.base import SIGMA_COLUMNS, Described, FileRow, RecordKind
+from service.record_kinds.displacement import DISPLACEMENT
 from service.record_kinds.distance import DISTANCE
 from service.record_kinds.image import IMAGE
 from service.record_kinds.plane import PLANE
 from service.record_kinds.point import POINT
 from service.record_kinds.reflector import REFLECTOR
 from service.record_kinds.tracker import TRACKER, Record
-from service.schemas.references import record_tag
+from service.schemas.references import (
+    CandidateBase,
+    DescriptionsBase,
+    ReferenceName,
+    ReferencePublicBase,
+    record_tag,
+)
 
 RECORD_KINDS: Mapping[str, RecordKind] = MappingProxyType(
-    {kind.name: kind for kind in (TRACKER, DISTANCE, POINT, PLANE, IMAGE, REFLECTOR)}
+    {kind.name: kind for kind in (TRACKER, DISTANCE, POINT, PLANE, IMAGE, REFLECTOR, DISPLACEMENT)}
 )
 """Each record kind by its tag (a record's `kind`; a tracker's records name none: "tracker")."""
 
@@ -68,12 +75,76 @@ else:
     PublicRecord = Union[tuple(kind.public for kind in RECORD_KINDS.values())]  # noqa: UP007
 """A campaign's record as a request carries it (a tracker's names no `kind`), and as the service gives it back."""
 
+DESCRIBING: tuple[RecordKind, ...] = tuple(kind for kind in RECORD_KINDS.values() if kind.described_in is not None)
+"""The kinds whose references a body describes, each in a map of its own (`RecordKind.described_in`)."""
+REPORTED: tuple[str, ...] = (
+    *(kind.model for kind in RECORD_KINDS.values() if kind.measures_reference),
+    TRACKER.model,
+)
+# The contract published the tracker's positions after the first three references (anchor, point, plane) and
+# appended the later ones after it: the order is the registry's with the tracker's moved there.
+REPORTED = (*REPORTED[:3], REPORTED[-1], *REPORTED[3:-1])
+"""The models' kinds of reference a calibration's report names (`ReferencePublic.kind`)."""
+
+CANDIDATE_DOC = (
+    "A candidate pose of a pose design, tied to the reference its record would measure (name one): a camera's\n"
+    "    is the image it would take there."
+)
+"""Its description in the contract, as published (with its line break)."""
+
+if TYPE_CHECKING:
+    ReferenceDescriptions = DescriptionsBase
+    ReferenceCandidate = CandidateBase
+    ReferencePublic = ReferencePublicBase
+else:
+    ReferenceDescriptions = create_model(
+        "ReferenceDescriptions",
+        __base__=DescriptionsBase,
+        __module__=__name__,
+        __doc__="""The references a campaign's records measure, or a pose design's records would, described (a base
+    of the bodies that carry records, and of the pose design's).""",
+        **{
+            kind.described_in: (dict[ReferenceName, kind.description], kind.described_field)  # type: ignore[valid-type]
+            for kind in DESCRIBING
+        },
+    )
+    ReferenceCandidate = create_model(
+        "ReferenceCandidate",
+        __base__=CandidateBase,
+        __module__=__name__,
+        __doc__=CANDIDATE_DOC,
+        **dict.fromkeys(BY_REFERENCE, (ReferenceName | None, None)),
+    )
+    ReferencePublic = create_model(
+        "ReferencePublic",
+        __base__=ReferencePublicBase,
+        __module__=__name__,
+        __doc__="A reference as the calibration identified it, in the frame the report's `frame` names.",
+        kind=(Literal[REPORTED], ...),
+        **{name: spec for kind in RECORD_KINDS.values() for name, spec in kind.report_fields.items()},
+    )
+"""The tables of the bodies that describe references, of a design's candidates and of the report's references:
+one map, one naming field and each kind's report fields per kind, from the registry."""
+
+
+def described(body: Any) -> Described:
+    """What a request body describes (a calibration's, a check's, a validation's, a pose design's)."""
+    return Described({str(kind.described_in): getattr(body, str(kind.described_in)) for kind in DESCRIBING})
+
+
 KIND_COLUMN = "kind"
 REFERENCE_COLUMNS = ("reference", "anchor", "plane", "feature", "camera")
 """Where a file names the reference a row measures (the first present is read)."""
-FILE_COLUMNS = ("kind", "reference", "distance_mm", "x", "y", "z", "u", "v", "sigma_mm", "sigma_px")
+WRITTEN_COLUMNS = ("distance_mm", "x", "y", "z", "u", "v", "sigma_mm", "sigma_px")
+"""The kinds' columns in the order the files have had them (a later kind's new columns follow)."""
+FILE_COLUMNS = (
+    KIND_COLUMN,
+    "reference",
+    *WRITTEN_COLUMNS,
+    *dict.fromkeys(c for kind in RECORD_KINDS.values() for c in kind.file_columns if c not in WRITTEN_COLUMNS),
+)
 """The layout of several kinds as the service writes it, the joints after `reference`: the union of the kinds'
-`file_columns` (tests/service/test_record_kinds_registry.py checks it), in the order the files have had."""
+`file_columns` (tests/service/test_record_kinds_registry.py checks it)."""
 
 
 def kind_of(record: Any) -> RecordKind:
@@ -105,6 +176,8 @@ __all__ = [
     "BY_FILE_KIND",
     "BY_MODEL",
     "BY_REFERENCE",
+    "DESCRIBING",
+    "DISPLACEMENT",
     "DISTANCE",
     "FILE_COLUMNS",
     "IMAGE",
@@ -116,6 +189,7 @@ __all__ = [
     "REFERENCE_COLUMNS",
     "REFERENCE_KINDS",
     "REFLECTOR",
+    "REPORTED",
     "SIGMA_COLUMNS",
     "TRACKER",
     "CampaignRecord",
@@ -124,6 +198,10 @@ __all__ = [
     "PublicRecord",
     "Record",
     "RecordKind",
+    "ReferenceCandidate",
+    "ReferenceDescriptions",
+    "ReferencePublic",
+    "described",
     "file_kinds_listed",
     "has_references",
     "kind_of",

@@ -7,7 +7,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Protocol
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import BaseModel
@@ -20,13 +20,6 @@ from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import ImportOptions, length_factor
 from service.campaign_io.tabular import Row, Table
 from service.conversions.kinematics import joints_in
-from service.schemas.references import (
-    AnchorDescription,
-    CameraDescription,
-    PlaneDescription,
-    PointDescription,
-    ReflectorDescription,
-)
 
 ModelReference = AnyReference
 """What a group of records measures in the models (`ReferenceRecords.reference`)."""
@@ -36,35 +29,16 @@ POSITION_COLUMNS = ("x", "y", "z")
 """Where a file gives a record's σ in mm (the first present is read)."""
 
 
-class DescribesReferences(Protocol):
-    """A request body that describes references (`ReferenceDescriptions`, a pose design's)."""
-
-    @property
-    def anchors(self) -> Mapping[str, AnchorDescription]: ...
-    @property
-    def points(self) -> Mapping[str, PointDescription]: ...
-    @property
-    def planes(self) -> Mapping[str, PlaneDescription]: ...
-    @property
-    def cameras(self) -> Mapping[str, CameraDescription]: ...
-    @property
-    def reflectors(self) -> Mapping[str, ReflectorDescription]: ...
-
-
 @dataclass(frozen=True)
 class Described:
-    """The references a body describes (its `anchors`, `points`, `planes`, `cameras`, `reflectors`)."""
+    """The references a body describes: each kind's map (`RecordKind.described_in`: its `anchors`, `points`, …)
+    by its name (`service.record_kinds.described` reads them off a body)."""
 
-    anchors: Mapping[str, AnchorDescription]
-    points: Mapping[str, PointDescription]
-    planes: Mapping[str, PlaneDescription]
-    cameras: Mapping[str, CameraDescription] = field(default_factory=dict)
-    reflectors: Mapping[str, ReflectorDescription] = field(default_factory=dict)
+    maps: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
-    @classmethod
-    def of(cls, body: DescribesReferences) -> Described:
-        """What a request body describes (a calibration's, a check's, a validation's, a pose design's)."""
-        return cls(body.anchors, body.points, body.planes, body.cameras, body.reflectors)
+    def of_kind(self, plural: str) -> Mapping[str, Any]:
+        """The references described in the map `plural` (none where the body has no such map)."""
+        return self.maps.get(plural, {})
 
 
 @dataclass(frozen=True)
@@ -124,7 +98,15 @@ class RecordKind(ABC):
     label: ClassVar[str]
     """How messages name what it measures ("anchor", "image", …)."""
     described_in: ClassVar[str | None] = None
-    """The body's map that describes the references it measures ("anchors", …; `Described`)."""
+    """The body's map that describes the references it measures ("anchors", …; `Described`): a field of
+    `ReferenceDescriptions`, which the calibration, check, validation and pose-design bodies share."""
+    description: ClassVar[type[BaseModel] | None] = None
+    """The schema of one of its references' descriptions (the values of that map)."""
+    described_field: ClassVar[Any] = None
+    """The map's `Field` (its description in the contract, its size bound)."""
+    report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {}
+    """The fields of `ReferencePublic` its identified references fill of their own beside `position_mm`
+    (`reported`), each (annotation, `Field`)."""
     example_name: ClassVar[str] = ""
     """A name its reference takes in the messages' examples ("a1")."""
     design_description: ClassVar[str] = "{}"
@@ -153,7 +135,7 @@ class RecordKind(ABC):
 
     def descriptions(self, described: Described) -> Mapping[str, Any]:
         """The references of this kind the body describes."""
-        return {} if self.described_in is None else getattr(described, self.described_in)
+        return {} if self.described_in is None else described.of_kind(self.described_in)
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         """The reference a pose design plans its records against, from its description (where it stands, a

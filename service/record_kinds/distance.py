@@ -3,7 +3,7 @@ origin)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -16,7 +16,7 @@ from service.campaign_io.tabular import Table
 from service.errors import BadRequest
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell, first_column
 from service.schemas.common import JointVector, Public, Strict
-from service.schemas.references import RecordSigma, ReferenceName
+from service.schemas.references import AnchorDescription, RecordSigma, ReferenceName
 
 DISTANCE_COLUMNS = ("distance_mm", "distance", "length")
 """Where a file gives the distance (the first present is read; a unit in its header is converted)."""
@@ -48,6 +48,20 @@ class DistanceKind(RecordKind):
     named_by: ClassVar[str | None] = "anchor"
     label: ClassVar[str] = "anchor"
     described_in: ClassVar[str | None] = "anchors"
+    description = AnchorDescription
+    described_field: ClassVar[Any] = Field(
+        default_factory=dict,
+        max_length=100,
+        description="Every anchor a distance record names (a ballbar pivot, a sensor's origin), with an optional "
+        "guess of its position and whether the bar's length offset is unknown; a pose design needs each one's "
+        "position_mm, optionally range_mm",
+    )
+    report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {
+        "length_offset_mm": (
+            float | None,
+            Field(default=None, description="An anchor with length_unknown: its offset"),
+        ),
+    }
     example_name: ClassVar[str] = "a1"
     design_description: ClassVar[str] = '{"position_mm": [x, y, z]}'
     sampled: ClassVar[bool] = True
@@ -56,7 +70,7 @@ class DistanceKind(RecordKind):
     file_columns: ClassVar[tuple[str, ...]] = ("distance_mm", "sigma_mm")
 
     def check_described(self, described: Described, name: str, record: int) -> None:
-        if name not in described.anchors:
+        if name not in self.descriptions(described):
             raise BadRequest(
                 f"record {record} measures anchor {name!r}, which the campaign does not describe: add "
                 f'"anchors": {{"{name}": {{}}}} (with "length_unknown": true for a ballbar whose length offset is '
@@ -83,7 +97,7 @@ class DistanceKind(RecordKind):
         return entry
 
     def reference(self, described: Described, name: str) -> ModelReference:
-        anchor = described.anchors[name]
+        anchor = self.descriptions(described)[name]
         x, y, z = anchor.position_mm or (0.0, 0.0, 0.0)
         return Anchor(name, (x, y, z), length_unknown=anchor.length_unknown)
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Annotated, Any, ClassVar, Literal
 
@@ -21,7 +21,7 @@ from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
 from service.schemas.common import JointVector, Position, Public, Strict
-from service.schemas.references import ReferenceName
+from service.schemas.references import CameraDescription, ReferenceName
 
 SEEN_COLUMNS = ("x", "y", "z", "u", "v")
 """An image row's point (x, y, z in the frame it is given in) and its pixel (u, v)."""
@@ -94,6 +94,23 @@ class ImageKind(RecordKind):
     named_by: ClassVar[str | None] = "camera"
     label: ClassVar[str] = "image"
     described_in: ClassVar[str | None] = "cameras"
+    description = CameraDescription
+    described_field: ClassVar[Any] = Field(
+        default_factory=dict,
+        max_length=20,
+        description="Every camera an image record names, with its intrinsics; a pose design needs each one's "
+        "position_mm, rotation_vector_deg (a guess of its pose) and targets_mm (what it would see), optionally "
+        "sigma_px",
+    )
+    report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {
+        "rotation_vector_deg": (
+            list[float] | None,
+            Field(
+                default=None,
+                description="A camera's orientation (camera frame → its parent frame) as a rotation vector",
+            ),
+        ),
+    }
     example_name: ClassVar[str] = "c1"
     design_description: ClassVar[str] = (
         '{"fx": …, "fy": …, "cx": …, "cy": …, "position_mm": [x, y, z], "rotation_vector_deg": [rx, ry, rz], '
@@ -107,7 +124,7 @@ class ImageKind(RecordKind):
         return f"would see {have} targets over its candidate images"
 
     def check_described(self, described: Described, name: str, record: int) -> None:
-        if name not in described.cameras:
+        if name not in self.descriptions(described):
             raise BadRequest(
                 f"record {record} is an image of camera {name!r}, which the campaign does not describe: add "
                 f'"cameras": {{"{name}": {{"fx": …, "fy": …, "cx": …, "cy": …, "mount": "world"}}}} (its '
@@ -145,7 +162,7 @@ class ImageKind(RecordKind):
     ) -> ReferenceRecords:
         """One camera's images as its records, one a seen point, each named by its image's place in the campaign
         (an image's σ is in px: `sigma_mm` does not apply)."""
-        camera = described.cameras[name]
+        camera = self.descriptions(described)[name]
         images = [
             {
                 "camera": name,

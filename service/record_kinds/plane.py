@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any, ClassVar, Literal
 
 import numpy as np
+from pydantic import Field
 
 from models.measurements.references import Plane
 from service.errors import BadRequest
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
 from service.schemas.common import JointVector, Public, Strict
-from service.schemas.references import RecordSigma, ReferenceName
+from service.schemas.references import PlaneDescription, RecordSigma, ReferenceName
 
 DEFAULT_PLANE_SIDE = (0.0, 0.0, 1.0)
 """The side a plane is taken to be touched from when its description gives none (the fit's sign only)."""
@@ -41,6 +43,19 @@ class PlaneKind(RecordKind):
     named_by: ClassVar[str | None] = "plane"
     label: ClassVar[str] = "plane"
     described_in: ClassVar[str | None] = "planes"
+    description = PlaneDescription
+    described_field: ClassVar[Any] = Field(
+        default_factory=dict,
+        max_length=100,
+        description="Optional: the side each plane is touched from (a pose design needs each one's normal)",
+    )
+    report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {
+        "normal": (list[float] | None, Field(default=None, description="A plane's unit normal")),
+        "offset_mm": (
+            float | None,
+            Field(default=None, description="A plane's distance from the origin along its normal"),
+        ),
+    }
     example_name: ClassVar[str] = "f1"
     design_description: ClassVar[str] = '{"normal": [nx, ny, nz]}'
     file_kinds: ClassVar[tuple[str, ...]] = ("plane",)
@@ -59,7 +74,7 @@ class PlaneKind(RecordKind):
         return {"normal": [float(v) for v in normal], "offset_mm": float(values[2])}
 
     def reference(self, described: Described, name: str) -> ModelReference:
-        plane = described.planes.get(name)
+        plane = self.descriptions(described).get(name)
         nx, ny, nz = (plane.normal if plane else None) or DEFAULT_PLANE_SIDE
         if math.hypot(nx, ny, nz) == 0.0:
             raise BadRequest(f"plane {name!r}: its normal is the zero vector; give the side it is touched from")

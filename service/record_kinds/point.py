@@ -6,11 +6,12 @@ from __future__ import annotations
 from typing import Any, ClassVar, Literal
 
 import numpy as np
+from pydantic import Field
 
 from models.measurements.references import FixedPoint
 from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
 from service.schemas.common import JointVector, Public, Strict
-from service.schemas.references import RecordSigma, ReferenceName
+from service.schemas.references import PointDescription, RecordSigma, ReferenceName
 
 
 class PointRecord(Strict):
@@ -38,6 +39,12 @@ class PointKind(RecordKind):
     named_by: ClassVar[str | None] = "point"
     label: ClassVar[str] = "point"
     described_in: ClassVar[str | None] = "points"
+    description = PointDescription
+    described_field: ClassVar[Any] = Field(
+        default_factory=dict,
+        max_length=100,
+        description="Optional guesses of the fixed points' positions (a pose design: the points records would be on)",
+    )
     example_name: ClassVar[str] = "p1"
     file_kinds: ClassVar[tuple[str, ...]] = ("point",)
     file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
@@ -50,7 +57,7 @@ class PointKind(RecordKind):
         return {"position_mm": [float(v) for v in values[:3]]}
 
     def reference(self, described: Described, name: str) -> ModelReference:
-        point = described.points.get(name)
+        point = self.descriptions(described).get(name)
         px, py, pz = (point.position_mm if point else None) or (0.0, 0.0, 0.0)
         return FixedPoint(name, (px, py, pz))
 

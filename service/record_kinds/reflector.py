@@ -5,7 +5,7 @@ tracker records. Its offset is identified with the robot; with the TCP's records
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -14,7 +14,7 @@ from pydantic import Field
 from models.measurements.references import Reflector
 from service.record_kinds.base import POSITION_COLUMNS, Described, FileRow, ModelReference, RecordKind, cell
 from service.schemas.common import JointVector, Position, Public, Strict
-from service.schemas.references import RecordSigma, ReferenceName
+from service.schemas.references import RecordSigma, ReferenceName, ReflectorDescription
 
 
 class ReflectorRecord(Strict):
@@ -43,6 +43,19 @@ class ReflectorKind(RecordKind):
     named_by: ClassVar[str | None] = "reflector"
     label: ClassVar[str] = "reflector"
     described_in: ClassVar[str | None] = "reflectors"
+    description = ReflectorDescription
+    described_field: ClassVar[Any] = Field(
+        default_factory=dict,
+        max_length=20,
+        description="Optional guesses of where the reflectors that reflector records name sit from the TCP (a pose "
+        "design needs each one's offset_mm)",
+    )
+    report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {
+        "tool_offset_mm": (
+            list[float] | None,
+            Field(default=None, description="A reflector's offset from the TCP, mm, in the TCP frame"),
+        ),
+    }
     example_name: ClassVar[str] = "r2"
     design_description: ClassVar[str] = '{"offset_mm": [x, y, z]}'
     sampled: ClassVar[bool] = True
@@ -60,7 +73,7 @@ class ReflectorKind(RecordKind):
         return {"tool_offset_mm": [float(v) for v in values[:3]]}
 
     def reference(self, described: Described, name: str) -> ModelReference:
-        found = described.reflectors.get(name)
+        found = self.descriptions(described).get(name)
         x, y, z = (found.offset_mm if found else None) or (0.0, 0.0, 0.0)  # the fit starts from the records
         return Reflector(name, (x, y, z))
 

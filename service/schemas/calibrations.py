@@ -12,7 +12,7 @@ from models.identification.drift import MAX_DEGREE, DriftDriver
 from models.identification.options import DEFAULT_GROUPS
 from models.noise import NoiseModel
 from service.conversions.units import degrees_default
-from service.record_kinds import CampaignRecord
+from service.record_kinds import CampaignRecord, ReferenceDescriptions, ReferencePublic
 from service.schemas.common import (
     ConditionsPublic,
     FreeText,
@@ -24,7 +24,6 @@ from service.schemas.common import (
     Strict,
 )
 from service.schemas.fleets import FLEET_KEY, FleetComparisonPublic
-from service.schemas.references import ReferenceDescriptions, ReferencePublic
 from service.schemas.robots import ParameterPublic
 
 _NOISE = NoiseModel()

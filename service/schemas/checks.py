@@ -10,7 +10,7 @@ from pydantic import ConfigDict, Field
 
 from models.checks import CheckAction, CheckOptions, Verdict
 from optimal_design.checks import MAX_CHECK_POSES, MIN_CHECK_POSES
-from service.record_kinds import CampaignRecord
+from service.record_kinds import CampaignRecord, ReferenceDescriptions
 from service.schemas.calibrations import Instrument, InstrumentPublic, Noise
 from service.schemas.common import (
     ConditionWarningPublic,
@@ -21,7 +21,6 @@ from service.schemas.common import (
     Public,
     Strict,
 )
-from service.schemas.references import ReferenceDescriptions
 
 _OPTIONS = CheckOptions()
 MAX_CHECK_RECORDS = 200

@@ -10,7 +10,13 @@ from pydantic import AfterValidator, Field, model_validator
 from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from optimal_design.design import MAX_CANDIDATES
-from service.record_kinds import RECORD_KINDS, REFERENCE_KINDS, Described
+from service.record_kinds import (
+    RECORD_KINDS,
+    REFERENCE_KINDS,
+    ReferenceCandidate,
+    ReferenceDescriptions,
+    described,
+)
 from service.schemas.calibrations import Noise
 from service.schemas.cells import CellDocument, DesignCellPublic
 from service.schemas.common import (
@@ -22,7 +28,6 @@ from service.schemas.common import (
     Strict,
     TemperatureC,
 )
-from service.schemas.references import ReferenceCandidate, ReferenceDescriptions
 
 MAX_FIXED = 10_000
 BOUND_SECONDS_MAX = 60.0
@@ -190,7 +195,7 @@ class PoseDesignCreate(ReferenceDescriptions):
             return len(self.candidates)
         kind = RECORD_KINDS.get(str(self.measurement))
         if kind is not None and kind.sampled:  # each sampled pose offered against each of its references
-            return self.candidate_count * max(1, len(kind.descriptions(Described.of(self))))
+            return self.candidate_count * max(1, len(kind.descriptions(described(self))))
         return self.candidate_count
 
 

@@ -7,7 +7,7 @@ points and planes become parameter names (`anchor.a1.x`), so they are short iden
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
@@ -132,69 +132,43 @@ class ReflectorDescription(Strict):
     )
 
 
-class ReferenceDescriptions(Strict):
-    """The references a campaign's records measure, or a pose design's records would, described (a base of the
-    bodies that carry records, and of the pose design's)."""
+class DescriptionsBase(Strict):
+    """The base of `ReferenceDescriptions` (`service.record_kinds`), which adds one map per record kind whose
+    references a body describes: the kinds own their maps."""
 
-    anchors: dict[ReferenceName, AnchorDescription] = Field(
-        default_factory=dict,
-        max_length=100,
-        description="Every anchor a distance record names (a ballbar pivot, a sensor's origin), with an optional "
-        "guess of its position and whether the bar's length offset is unknown; a pose design needs each one's "
-        "position_mm, optionally range_mm",
-    )
-    points: dict[ReferenceName, PointDescription] = Field(
-        default_factory=dict,
-        max_length=100,
-        description="Optional guesses of the fixed points' positions (a pose design: the points records would be on)",
-    )
-    planes: dict[ReferenceName, PlaneDescription] = Field(
-        default_factory=dict,
-        max_length=100,
-        description="Optional: the side each plane is touched from (a pose design needs each one's normal)",
-    )
-    cameras: dict[ReferenceName, CameraDescription] = Field(
-        default_factory=dict,
-        max_length=20,
-        description="Every camera an image record names, with its intrinsics; a pose design needs each one's "
-        "position_mm, rotation_vector_deg (a guess of its pose) and targets_mm (what it would see), optionally "
-        "sigma_px",
-    )
-    reflectors: dict[ReferenceName, ReflectorDescription] = Field(
-        default_factory=dict,
-        max_length=20,
-        description="Optional guesses of where the reflectors that reflector records name sit from the TCP (a pose "
-        "design needs each one's offset_mm)",
-    )
+    if TYPE_CHECKING:  # the maps are the registry's fields, added where it builds the class
+
+        def __getattr__(self, name: str) -> Any: ...
 
 
-CANDIDATE_KINDS = ("anchor", "point", "plane", "camera", "reflector")
-"""What a design's candidate may name: the reference its record would measure."""
-
-
-class ReferenceCandidate(Strict):
-    """A candidate pose of a pose design, tied to the reference its record would measure (name one): a camera's
-    is the image it would take there."""
+class CandidateBase(Strict):
+    """The base of `ReferenceCandidate` (`service.record_kinds`), which adds the field that names each kind's
+    reference: a candidate names exactly one."""
 
     joints: JointVector
-    anchor: ReferenceName | None = None
-    point: ReferenceName | None = None
-    plane: ReferenceName | None = None
-    camera: ReferenceName | None = None
-    reflector: ReferenceName | None = None
+
+    if TYPE_CHECKING:
+
+        def __getattr__(self, name: str) -> Any: ...
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The fields a candidate may name its reference by, in the registry's order."""
+        return tuple(name for name in cls.model_fields if name != "joints")
 
     @model_validator(mode="after")
-    def _one(self) -> ReferenceCandidate:
-        named = [k for k in CANDIDATE_KINDS if getattr(self, k) is not None]
+    def _one(self) -> CandidateBase:
+        kinds = self.names()
+        named = [k for k in kinds if getattr(self, k) is not None]
         if len(named) != 1:
-            listed = ", ".join(CANDIDATE_KINDS[:-1]) + " or " + CANDIDATE_KINDS[-1]
+            listed = ", ".join(kinds[:-1]) + " or " + kinds[-1]
             raise ValueError(f"a candidate names exactly one of {listed}, not {named or 'none'}")
         return self
 
     @property
     def reference(self) -> tuple[str, str]:
-        """(kind as the models name it: anchor, point, plane, camera, reflector; its name)."""
-        for kind in CANDIDATE_KINDS:
+        """(the field that names its reference: anchor, point, plane, camera, …; the reference's name)."""
+        for kind in self.names():
             name = getattr(self, kind)
             if name is not None:
                 return kind, str(name)
@@ -214,21 +188,17 @@ class ReferenceUnknownPublic(Public):
     unit: Literal["mm", "deg"]
 
 
-class ReferencePublic(Public):
-    """A reference as the calibration identified it, in the frame the report's `frame` names."""
+class ReferencePublicBase(Public):
+    """The base of `ReferencePublic` (`service.record_kinds`), which adds its `kind` (the models' kinds of
+    reference, from the registry) and the fields each kind reports of its own (`RecordKind.report_fields`)."""
 
-    kind: Literal["anchor", "point", "plane", "position", "image", "reflector"]
+    kind: str
     name: str
     records: int
     rms_residual_mm: float
     unknowns: list[ReferenceUnknownPublic]
     position_mm: list[float] | None = Field(default=None, description="An anchor's or a point's position")
-    length_offset_mm: float | None = Field(default=None, description="An anchor with length_unknown: its offset")
-    normal: list[float] | None = Field(default=None, description="A plane's unit normal")
-    offset_mm: float | None = Field(default=None, description="A plane's distance from the origin along its normal")
-    rotation_vector_deg: list[float] | None = Field(
-        default=None, description="A camera's orientation (camera frame → its parent frame) as a rotation vector"
-    )
-    tool_offset_mm: list[float] | None = Field(
-        default=None, description="A reflector's offset from the TCP, mm, in the TCP frame"
-    )
+
+    if TYPE_CHECKING:
+
+        def __getattr__(self, name: str) -> Any: ...

@@ -6,14 +6,13 @@ from datetime import datetime
 
 from pydantic import ConfigDict, Field
 
-from service.record_kinds import CampaignRecord
+from service.record_kinds import CampaignRecord, ReferenceDescriptions
 from service.schemas.calibrations import (
     MAX_MEASUREMENTS,
     Instrument,
     InstrumentPublic,
 )
 from service.schemas.common import FreeText, ImportNotes, Measurement, Public, Strict
-from service.schemas.references import ReferenceDescriptions
 
 
 def _absent_if_none(value: object) -> bool:

@@ -28,7 +28,7 @@ from service.conversions.calibrations import (
     report_out,
 )
 from service.conversions.drift import conditions_out, drift_out, timeline_in
-from service.conversions.references import Described, has_references, reference_groups_in
+from service.conversions.references import described, has_references, reference_groups_in
 from service.conversions.robots import description
 from service.conversions.terms import padded, requested_model
 from service.conversions.terms import start_values as start_values_for
@@ -163,9 +163,7 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     drift: dict[str, Any] | None = None
     if has_references(body.measurements):
         _refuse_tracker_options(body)
-        groups, notes = reference_groups_in(
-            desc, body.measurements, Described.of(body), sigma_mm=body.noise.position_mm
-        )
+        groups, notes = reference_groups_in(desc, body.measurements, described(body), sigma_mm=body.noise.position_mm)
         result = identify_reference_campaign(
             desc, groups, noise=noise, nominal=start.values, options=options, runtime=runtime
         )

@@ -18,7 +18,7 @@ from optimal_design.checks import design_check
 from service.conversions.calibrations import records_in
 from service.conversions.checks import check_design_out, check_document, check_public, history_out
 from service.conversions.drift import condition_warnings
-from service.conversions.references import Described, has_references, reference_groups_in
+from service.conversions.references import described, has_references, reference_groups_in
 from service.conversions.robots import description
 from service.conversions.terms import stored_model
 from service.persistence import Database, Repository
@@ -98,8 +98,8 @@ def create_check(*, db: Database, registry: Registry, robot_id: str, body: Quick
     )
     noise, runtime = _noise(body.noise), registry.runtime(desc)
     if has_references(body.measurements):
-        described = Described.of(body)
-        groups, _ = reference_groups_in(desc, body.measurements, described, sigma_mm=body.noise.position_mm)
+        describes = described(body)
+        groups, _ = reference_groups_in(desc, body.measurements, describes, sigma_mm=body.noise.position_mm)
         result = check_references(
             desc, current.values, current.covariance, groups, noise=noise, options=options, runtime=runtime
         )

@@ -13,7 +13,7 @@ from models.identification.reference_fit import check_version
 from models.measurement import MeasurementKind
 from models.noise import NoiseModel
 from service.conversions.calibrations import records_in
-from service.conversions.references import Described, has_references, reference_groups_in
+from service.conversions.references import described, has_references, reference_groups_in
 from service.conversions.robots import description
 from service.conversions.terms import stored_model
 from service.conversions.validations import iso_poses_out, validation_public, version_result_out
@@ -84,8 +84,8 @@ def _against_references(
 ) -> dict[int, AccuracyReport]:
     """Each version against distance, point and plane records (and tracker positions beside them): the
     references placed under that version, the robot held (`models.identification.reference_fit.check_version`)."""
-    described = Described.of(body)
-    groups, _ = reference_groups_in(desc, body.measurements, described, sigma_mm=NoiseModel().position_mm)
+    describes = described(body)
+    groups, _ = reference_groups_in(desc, body.measurements, describes, sigma_mm=NoiseModel().position_mm)
     reports = {}
     for v, model in models.items():
         if model.terms.any:

@@ -13,6 +13,7 @@ import pytest
 
 from models.measurement import MeasurementKind
 from models.measurements.camera import Camera, ToolCamera
+from models.measurements.line import Line
 from models.measurements.references import Anchor, FixedPoint, Plane, Reflector, TrackerPositions
 from service.csv_codec import JOINT_HEADER, parse_campaign
 from service.errors import BadRequest
@@ -30,7 +31,7 @@ from service.routes.campaigns import campaign_csv
 from service.schemas.campaigns import CampaignPublic
 
 OPENAPI = json.loads((Path(__file__).parents[2] / "service" / "openapi.json").read_text())["components"]["schemas"]
-MODEL_REFERENCES = (Anchor, FixedPoint, Plane, TrackerPositions, Reflector, Camera, ToolCamera)
+MODEL_REFERENCES = (Anchor, FixedPoint, Plane, TrackerPositions, Reflector, Camera, ToolCamera, Line)
 """Every kind of reference the models group records by (`ReferenceRecords.reference`)."""
 
 JOINTS = [10.0, -20.5, 30.25, 5.0, 1001.5, 1002.25, 1003.0, 1004.0, 1005.5, 1006.0]
@@ -68,6 +69,10 @@ SAMPLES: dict[str, list[dict[str, Any]]] = {
     "reflector": [
         {"kind": "reflector", "joints": JOINTS, "reflector": "r2", "position": [892.0625, -40.5, 613.875]},
         {"kind": "reflector", "joints": JOINTS, "reflector": "r3", "position": [812.5, 29.75, 613.0], "sigma_mm": 0.01},
+    ],
+    "displacement": [
+        {"kind": "displacement", "joints": JOINTS, "line": "l1", "displacement_mm": -120.0625},
+        {"kind": "displacement", "joints": JOINTS, "line": "l1", "displacement_mm": 33.5, "sigma_mm": 0.0005},
     ],
 }
 """Hand-written records of each kind as the API takes them (numbers chosen to need every digit repr writes)."""
@@ -171,7 +176,7 @@ def test_the_tracker_records_are_the_campaign_without_references() -> None:
 
 
 def test_an_undescribed_reference_is_a_4xx_naming_it_where_the_kind_needs_a_description() -> None:
-    empty = Described({}, {}, {}, {})
+    empty = Described()
     with pytest.raises(BadRequest, match="record 0 measures anchor 'a1', which the campaign does not describe"):
         RECORD_KINDS["distance"].check_described(empty, "a1", 0)
     with pytest.raises(BadRequest, match="record 3 is an image of camera 'c1', which the campaign does not describe"):

@@ -1,0 +1,145 @@
+"""A displacement record: a laser interferometer's reading, the signed distance (mm) the retro-reflector at the TCP
+travelled along a fixed beam from the reading's zero. The beam's direction and zero are identified with the
+robot (`models.measurements.line`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Annotated, Any, ClassVar, Literal
+
+import numpy as np
+from pydantic import Field
+
+from models.measurements.line import Line
+from service.campaign_io.errors import CampaignFileError
+from service.campaign_io.records import ImportOptions, length_factor
+from service.campaign_io.tabular import Table
+from service.errors import BadRequest
+from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell, first_column
+from service.schemas.common import JointVector, Position, Public, Strict
+from service.schemas.references import RecordSigma, ReferenceName
+
+DISPLACEMENT_COLUMNS = ("displacement_mm", "displacement")
+"""Where a file gives the reading (the first present is read; a unit in its header is converted)."""
+DEFAULT_DIRECTION = (0.0, 0.0, 1.0)
+"""A start direction where the description gives none: the fit takes the records' own (`Line.started`)."""
+
+
+class LineDescription(Strict):
+    """An interferometer's beam a campaign's displacement records measure along, or a pose design plans records
+    on (a design needs `direction` and `origin_mm`: a record's rows are the TCP's motion along and across it)."""
+
+    direction: Annotated[list[float], Field(min_length=3, max_length=3)] | None = Field(
+        default=None,
+        description="The way the readings grow, in the world frame (any length, not zero); a calibration finds it "
+        "from the records, a pose design needs a guess",
+    )
+    origin_mm: Position | None = Field(
+        default=None, description="A guess of the point where the reading is zero (mm); default: found from the records"
+    )
+
+
+class DisplacementRecord(Strict):
+    """An interferometer's reading with the retro-reflector at the TCP on the beam named `line`."""
+
+    kind: Literal["displacement"]
+    joints: JointVector
+    line: ReferenceName
+    displacement_mm: float = Field(ge=-1e5, le=1e5, description="mm along the beam from the reading's zero, signed")
+    sigma_mm: RecordSigma | None = None
+
+
+class DisplacementRecordPublic(Public):
+    kind: Literal["displacement"]
+    joints: list[float]
+    line: str
+    displacement_mm: float
+    sigma_mm: float | None = None
+
+
+class DisplacementKind(RecordKind):
+    name: ClassVar[str] = "displacement"
+    model: ClassVar[str] = Line.traits.kind
+    record = DisplacementRecord
+    public = DisplacementRecordPublic
+    named_by: ClassVar[str | None] = "line"
+    label: ClassVar[str] = "line"
+    described_in: ClassVar[str | None] = "lines"
+    description = LineDescription
+    described_field: ClassVar[Any] = Field(
+        default_factory=dict,
+        max_length=20,
+        description="Optional: the beams displacement records name, each with a guess of its direction (a pose "
+        "design needs each one's direction and origin_mm)",
+    )
+    report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {
+        "direction": (
+            list[float] | None,
+            Field(default=None, description="A line's unit direction (an interferometer's beam)"),
+        ),
+        "origin_mm": (
+            list[float] | None,
+            Field(default=None, description="A line's point where its reading is zero, mm"),
+        ),
+    }
+    example_name: ClassVar[str] = "l1"
+    design_description: ClassVar[str] = '{"direction": [dx, dy, dz], "origin_mm": [x, y, z]}'
+    file_kinds: ClassVar[tuple[str, ...]] = ("displacement",)
+    file_columns: ClassVar[tuple[str, ...]] = ("displacement_mm", "sigma_mm")
+
+    def design_reference(self, name: str, description: Any) -> ModelReference:
+        if description.direction is None or math.hypot(*description.direction) == 0.0:
+            raise self.lacking(
+                name, "direction", "its direction, not zero (a record measures the TCP along it)", "[dx, dy, dz]"
+            )
+        if description.origin_mm is None:
+            # Its rows across the beam turn about the origin: a ruler's guess will do, none will not.
+            raise self.lacking(name, "origin_mm", "where its reading is zero (mm)", "[x, y, z]")
+        dx, dy, dz = description.direction
+        ox, oy, oz = description.origin_mm
+        return Line(name, (dx, dy, dz), (ox, oy, oz))
+
+    def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
+        direction, _, _ = reference.direction_at(float(values[0]), float(values[1]))
+        return {"direction": [float(v) for v in direction], "origin_mm": [float(v) for v in values[2:5]]}
+
+    def reference(self, described: Described, name: str) -> ModelReference:
+        line = self.descriptions(described).get(name)
+        dx, dy, dz = (line.direction if line else None) or DEFAULT_DIRECTION
+        if math.hypot(dx, dy, dz) == 0.0:
+            raise BadRequest(f"line {name!r}: its direction is the zero vector; give the way its readings grow")
+        ox, oy, oz = (line.origin_mm if line else None) or (0.0, 0.0, 0.0)  # the fit starts from the records
+        return Line(name, (dx, dy, dz), (ox, oy, oz))
+
+    def values(self, records: Sequence[Any]) -> np.ndarray:
+        return np.array([r.displacement_mm for r in records], dtype=float)
+
+    def table_notes(self, table: Table, options: ImportOptions) -> list[str]:
+        column = first_column(table, DISPLACEMENT_COLUMNS)
+        scale = length_factor(table, column, options) if column else 1.0
+        return [f"displacements converted to mm (×{scale:g})"] if scale != 1.0 else []
+
+    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
+        column = first_column(row.table, DISPLACEMENT_COLUMNS)
+        if column is None:
+            raise CampaignFileError(
+                f"line {row.row.line}: a displacement record needs a displacement_mm column", line=row.row.line
+            )
+        rec: dict[str, Any] = {"kind": self.name, "joints": row.joints, "line": row.name}
+        rec["displacement_mm"] = row.table.number(row.row, column) * length_factor(row.table, column, row.options)
+        row.sigma_mm(rec)
+        out.append(rec)
+
+    def file_rows(self, record: Any) -> list[dict[str, str]]:
+        return [
+            {
+                "kind": self.file_kinds[0],
+                "reference": record.line,
+                "displacement_mm": cell(record.displacement_mm),
+                "sigma_mm": cell(record.sigma_mm),
+            }
+        ]
+
+
+DISPLACEMENT = DisplacementKind()
