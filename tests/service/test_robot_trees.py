@@ -18,6 +18,7 @@ import scipy.optimize
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
+from iwr_client.errors import ApiError
 from models import Registry
 from models.examples import UR5_DH
 from models.noise import NoiseModel
@@ -27,6 +28,7 @@ from tests.models.test_tree_urdf import TIPS, URDF, _urdf_fk
 from tests.models.tree_reference import POSITIONER as POSITIONER_SEGMENTS
 from tests.models.tree_reference import TORSO, Segment, chain_fk, relative
 from tests.service.conftest import fresh_sqlite, make_client
+from tests.service.helpers import InProcess
 
 NOISE = NoiseModel(position_mm=0.02)
 ARM = {"kind": "serial", "convention": "dh", "links": [dict(row) for row in UR5_DH]}
@@ -427,3 +429,24 @@ def test_the_reported_fit_and_held_out_errors_are_the_records_own(
     listed = api.get(f"/v1/robot-trees/{c.before['id']}/calibrations").json()
     assert [x["id"] for x in listed] == [c.answer["id"]]
     assert api.get(f"/v1/robot-trees/{c.before['id']}/calibrations/{c.answer['id']}").json() == c.answer
+
+
+def test_the_python_client_makes_reads_and_deletes_a_tree(api: TestClient) -> None:
+    client = InProcess(api)
+    doc = positioner_document("by-client")
+    made = client.create_robot_tree(doc["name"], doc["branches"])
+    assert made["tools"] == ["arm", "positioner"]
+    assert client.robot_tree(made["id"]) == made
+    assert made["id"] in [t["id"] for t in client.robot_trees()]
+    models_tree = arm_with_positioner()
+    q = tree_joint_samples(models_tree, 2, seed=8)
+    found = client.tree_kinematics(made["id"], np.degrees(q).tolist())
+    reference = chain_fk(POSITIONER_SEGMENTS["arm"], models_tree.parameters.nominal, q)
+    np.testing.assert_allclose([p["tools"]["arm"]["position"] for p in found["poses"]], reference[:, :3, 3], atol=1e-9)
+    assert found["poses"][0]["frames"] is None
+    assert client.tree_calibrations(made["id"]) == []
+    with pytest.raises(ApiError) as refused:
+        client.calibrate_tree(made["id"], [{"tool": "torch", "joints": [0.0] * 8, "position": [0.0, 0.0, 0.0]}])
+    assert refused.value.problem["field"] == "records[0].tool"
+    client.delete_robot_tree(made["id"], if_match='"1"')
+    assert made["id"] not in [t["id"] for t in client.robot_trees()]
