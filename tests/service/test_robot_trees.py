@@ -93,6 +93,7 @@ def by_name(tree: RobotTree, q: np.ndarray) -> list[dict[str, float]]:
 
 
 # ---------------------------------------------------------------------------------------------- the resource
+@pytest.mark.slow  # its audit and list reads, the app's first requests: ~0.5 s
 def test_a_tree_is_stored_ordered_and_shown_back(api: TestClient) -> None:
     made = api.post("/v1/robot-trees", json=torso_document("torso-crud"))
     assert made.status_code == 201, made.text
@@ -122,6 +123,7 @@ def test_a_tree_is_stored_ordered_and_shown_back(api: TestClient) -> None:
     assert actions == ["tree.created", "tree.deleted"]
 
 
+@pytest.mark.slow  # the torso's two chains and their frames' Functions: ~0.3 s
 def test_kinematics_equal_the_hand_written_numpy_model(api: TestClient) -> None:
     tree = _create(api, torso_document("torso-fk"))
     models_tree = dual_arm_torso()
@@ -162,6 +164,7 @@ def test_kinematics_equal_the_hand_written_numpy_model(api: TestClient) -> None:
     assert as_list["poses"][0]["tools"] == poses[0]["tools"] and as_list["poses"][0]["frames"] is None
 
 
+@pytest.mark.slow  # the URDF read and two 7R chains: ~0.8 s
 def test_a_urdf_tree_has_the_urdfs_forward_kinematics(api: TestClient) -> None:
     made = api.post("/v1/robot-trees", json={"name": "yumi", "urdf": URDF, "base_link": "world", "tip_links": TIPS})
     assert made.status_code == 201, made.text
@@ -229,6 +232,7 @@ def test_bad_trees_are_refused_naming_the_field(api: TestClient) -> None:
     assert api.get("/v1/robot-trees").json() == [t for t in api.get("/v1/robot-trees").json() if t["name"] != "bad"]
 
 
+@pytest.mark.slow  # a refused fit of eight records runs the identifiability analysis: ~0.4 s
 def test_bad_records_and_joints_are_refused_naming_them(api: TestClient) -> None:
     tree = _create(api, positioner_document("refusals"))
     models_tree = arm_with_positioner()
