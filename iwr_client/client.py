@@ -262,6 +262,61 @@ class Client:
         body = {"poses": [list(map(float, p)) for p in poses], "cell": cell}
         return dict(self._post(f"/v1/robots/{_segment(robot_id)}/cell/check", body))
 
+    # -- robots of several chains (a dual-arm torso, an arm and its positioner) ---------------------------------
+
+    def robot_trees(self, limit: int = 100, offset: int = 0) -> list[Json]:
+        return list(self._get("/v1/robot-trees", limit=limit, offset=offset))
+
+    def robot_tree(self, tree_id: str) -> Json:
+        """The tree: branches, tools, joint names, parameters by name and group (current values)."""
+        return dict(self._get(f"/v1/robot-trees/{_segment(tree_id)}"))
+
+    def create_robot_tree(
+        self,
+        name: str,
+        branches: Sequence[Json] | None = None,
+        *,
+        base: Json | None = None,
+        urdf: str | None = None,
+        base_link: str | None = None,
+        tip_links: Sequence[str] | None = None,
+    ) -> Json:
+        """A tree from its `branches` (name, parent, mount, stages, tool, joint_names: docs/api.md, "Robots of
+        several chains"), or from a `urdf` and the `tip_links` that carry its tools."""
+        body: dict[str, object] = {"name": name, "base": base, "branches": branches, "urdf": urdf}
+        body |= {"base_link": base_link, "tip_links": None if tip_links is None else list(tip_links)}
+        return dict(self._post("/v1/robot-trees", {k: v for k, v in body.items() if v is not None}))
+
+    def delete_robot_tree(self, tree_id: str, *, if_match: str | None = None) -> None:
+        self.request("DELETE", f"/v1/robot-trees/{_segment(tree_id)}", if_match=if_match)
+
+    def tree_kinematics(
+        self, tree_id: str, joints: Sequence[Mapping[str, float] | Sequence[float]], *, frames: bool = False
+    ) -> Json:
+        """Each tool's pose and each tool in every other's frame (`a/b`), per joint vector (by name or in the
+        tree's order; deg and mm); with `frames`, every frame to draw."""
+        rows = [dict(j) if isinstance(j, Mapping) else [float(v) for v in j] for j in joints]
+        return dict(self._post(f"/v1/robot-trees/{_segment(tree_id)}/kinematics", {"joints": rows, "frames": frames}))
+
+    def calibrate_tree(
+        self,
+        tree_id: str,
+        records: Sequence[Json],
+        *,
+        held_out: Sequence[Json] = (),
+        if_match: str | None = None,
+        **options: object,
+    ) -> Json:
+        """The tree calibrated from `records` (each names its `tool`, optionally the tool `frame` it was measured
+        in, its joints, position, orientation, sigma_mm); `held_out` judged after. Options: noise_position_mm,
+        noise_orientation_deg, apply, accuracy_samples."""
+        body = {"records": list(records), "held_out": list(held_out), **options}
+        path = f"/v1/robot-trees/{_segment(tree_id)}/calibrations"
+        return dict(self.request("POST", path, json_body=body, if_match=if_match).json())
+
+    def tree_calibrations(self, tree_id: str, limit: int = 100, offset: int = 0) -> list[Json]:
+        return list(self._get(f"/v1/robot-trees/{_segment(tree_id)}/calibrations", limit=limit, offset=offset))
+
     def design_csv(self, design_id: str) -> str:
         """A design's poses as CSV, the robot's joint names as header (what a pendant or a controller takes)."""
         return self.request("GET", f"/v1/pose-designs/{_segment(design_id)}", accept="text/csv").body.decode()

@@ -44,6 +44,7 @@ from service.routes import (
     kinematics,
     programs,
     reports,
+    robot_trees,
     robots,
     validations,
     versions,
@@ -323,6 +324,7 @@ def create_app(settings: Settings | None = None, *, registry: Registry | None = 
         fleets,
         cells,
         adaptive,
+        robot_trees,
         vocabulary,
     ):
         app.include_router(module.router, dependencies=[ApiKeyDep])

@@ -6,8 +6,8 @@ from enum import StrEnum
 
 
 class AuditAction(StrEnum):
-    """The robot's own changes, then every way its current parameter version changes, then its cell's (the
-    contract's order)."""
+    """The robot's own changes, then every way its current parameter version changes, then its cell's, then a
+    robot tree's (its id in the event's `robot_id`, its revision in `version`; the contract's order)."""
 
     ROBOT_CREATED = "robot.created"
     ROBOT_UPDATED = "robot.updated"
@@ -18,3 +18,6 @@ class AuditAction(StrEnum):
     VERSION_EDITED = "version.edited"
     CELL_UPDATED = "cell.updated"
     CELL_ENDED = "cell.ended"
+    TREE_CREATED = "tree.created"
+    TREE_CALIBRATED = "tree.calibrated"
+    TREE_DELETED = "tree.deleted"

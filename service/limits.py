@@ -474,3 +474,49 @@ def with_cell(estimate: Estimate, checked: int) -> Estimate:
         estimate.seconds + checked * CELL_DESIGN_S_PER_CHECK,
         estimate.bytes + checked * CELL_CHECK_BYTES_PER_POSE // 10,  # checked in batches, not held together
     )
+
+
+# ------------------------------------------------------------------ robots of several chains (issue 47)
+TREE_BRANCHES_MAX = 16
+"""Branches of one tree: a dual-arm torso on a track with two positioners is six."""
+TREE_JOINTS_MAX = 60
+"""Joints of one tree (a humanoid's upper body is ~30); a joint vector by name is one object of them, under the
+64 keys any object of a body may have (`service.json_bodies`)."""
+TREE_LINKS_MAX = 128
+"""Serial links over all the branches: each tool's chain is compiled once per structure, its path at most this."""
+TREE_KINEMATICS_MAX = 1000
+"""Joint vectors one `POST …/robot-trees/{id}/kinematics` takes: each brings every tool, pair and frame."""
+TREE_RECORDS_MAX = 5000
+"""Records (fitted and held out) of one tree calibration."""
+TREE_CALIBRATION_S_PER_ROW = 1.0e-5
+"""A tree calibration's cost per residual row and parameter of the tree (the Jacobian's entries, evaluated once per
+LM iteration), a record counted as 6 rows: the dual-arm torso (82 parameters) took 3.3 s for 600 position records
+(load average 8 on 2 cores), 0.9-1.3 s for 48."""
+TREE_CALIBRATION_BASE_S = 0.8
+"""What every tree calibration pays: the accuracy prediction over 200 random joint vectors (its Jacobians for
+every tool and pair) and the residuals per group: most of the 0.9 s the 48-record campaign took."""
+TREE_CALIBRATION_BYTES_PER_ROW = 50_000
+
+
+def tree_calibration(records: int, parameters: int) -> Estimate:
+    """A tree calibration of `records` records (fitted and held out) over a tree of `parameters`."""
+    rows = 6 * records
+    return Estimate(
+        f"a tree calibration of {records} records over {parameters} parameters",
+        TREE_CALIBRATION_BASE_S + rows * parameters * TREE_CALIBRATION_S_PER_ROW,
+        rows * TREE_CALIBRATION_BYTES_PER_ROW // 6 + rows * parameters * 8 * 4,
+    )
+
+
+TREE_KINEMATICS_S_PER_POSE = 0.6e-4
+"""Per joint vector and ordered pair of tools (each tool and each tool in another's frame): 0.14 s for 1 000
+joint vectors of the torso's two tools (four poses each), doubled for load."""
+TREE_FRAME_S = 0.04e-3
+"""Per joint vector and frame drawn: 1.1 s more for the torso's 1 000 joint vectors with its 31 frames."""
+
+
+def tree_kinematics(poses: int, tools: int, frames: int) -> Estimate:
+    seconds = poses * (tools * tools * TREE_KINEMATICS_S_PER_POSE + frames * TREE_FRAME_S)
+    return Estimate(
+        f"the kinematics of {poses} joint vectors of a tree", seconds, poses * (tools * tools + frames) * 2_000
+    )

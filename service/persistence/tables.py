@@ -247,6 +247,42 @@ class AdaptiveStepRecord(Base):
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
 
 
+class RobotTreeRecord(Base):
+    """A robot of several chains (`RobotTreeCreate`): its tree document as built (branches in order, boundary
+    units; a URDF's as read from it, the URDF kept beside) and its current parameters (internal units, null:
+    nominal), which an applied calibration replaces, bumping the revision (the ETag)."""
+
+    __tablename__ = "robot_trees"
+    id: Mapped[str] = mapped_column(String(36), primary_key=True)
+    name: Mapped[str] = mapped_column(String(200))
+    document: Mapped[dict[str, Any]] = mapped_column(JSON)
+    source: Mapped[str] = mapped_column(String(20))
+    urdf: Mapped[str | None] = mapped_column(Text, nullable=True)
+    base_link: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    tip_links: Mapped[list[Any] | None] = mapped_column(JSON, nullable=True)
+    revision: Mapped[int] = mapped_column(Integer, default=1)
+    parameters: Mapped[list[Any] | None] = mapped_column(JSON, nullable=True)
+    std_errors: Mapped[list[Any] | None] = mapped_column(JSON, nullable=True)
+    calibration_id: Mapped[str | None] = mapped_column(String(36), nullable=True)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
+    actor: Mapped[str | None] = mapped_column(String(100), nullable=True)
+
+
+class RobotTreeCalibrationRecord(Base):
+    """A tree calibration: its records as received (boundary units) and its answer (`TreeCalibrationPublic`)."""
+
+    __tablename__ = "robot_tree_calibrations"
+    id: Mapped[str] = mapped_column(String(36), primary_key=True)
+    tree_id: Mapped[str] = mapped_column(ForeignKey("robot_trees.id", ondelete="CASCADE"), index=True)
+    applied: Mapped[bool] = mapped_column(default=False)
+    revision: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    start_revision: Mapped[int] = mapped_column(Integer)
+    records: Mapped[dict[str, Any]] = mapped_column(JSON)
+    result: Mapped[dict[str, Any]] = mapped_column(JSON)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
+    actor: Mapped[str | None] = mapped_column(String(100), nullable=True)
+
+
 class Job(Base):
     __tablename__ = "jobs"
     id: Mapped[str] = mapped_column(String(36), primary_key=True)

@@ -1,5 +1,5 @@
 // The calibration workbench in the browser: robots, pose design, campaign upload and calibration as a job,
-// the result, validations, versions, the cell, adaptive campaigns and jobs. Every number comes from the public /v1 API, so the page shows
+// the result, validations, versions, the cell, adaptive campaigns, robots of several chains and jobs. Every number comes from the public /v1 API, so the page shows
 // exactly what a client sees. Routing is the URL fragment (#/robots/…), one view module per page.
 import { apiKey, setApiKey } from "./api.js";
 import { errorBox, fill } from "./dom.js";
@@ -13,6 +13,7 @@ import { programsIndex, programsView } from "./views/programs.js";
 import { reportView } from "./views/report.js";
 import { robotView } from "./views/robot.js";
 import { robotsView } from "./views/robots.js";
+import { treeView, treesView } from "./views/tree.js";
 import { validationView } from "./views/validation.js";
 
 const view = document.getElementById("view");
@@ -43,6 +44,8 @@ function pick(parts, params) {
   if (first === "robots" && id) return () => robotView(view, id);
   if (first === "calibrations" && id && sub === "report") return () => reportView(view, id);
   if (first === "calibrations" && id) return () => calibrationView(view, id);
+  if (first === "trees" && id) return () => treeView(view, id);
+  if (first === "trees") return () => treesView(view);
   if (first === "jobs") return () => jobsView(view);
   if (first === "programs") return () => programsIndex(view);
   return () => robotsView(view);

@@ -1,0 +1,152 @@
+"""Robots of several chains (issue 47): POST a tree (branches or a URDF with tip links), GET one or the list,
+DELETE; each tool's pose and each tool in another's frame at joints by name; calibrations from any tool's
+records, applied as a new revision of the tree's parameters (If-Match on the tree's ETag)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Header, Response
+from fastapi.concurrency import run_in_threadpool
+from pydantic import TypeAdapter
+
+from service import limits
+from service.deps import ActorDep, DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute
+from service.json_bodies import OffloopRoute
+from service.operations import Runs, operation
+from service.responses import model_json, models_json
+from service.schemas.robot_trees import (
+    RobotTreeCreate,
+    RobotTreePublic,
+    TreeCalibrationCreate,
+    TreeCalibrationPublic,
+    TreeKinematicsPublic,
+    TreeKinematicsRequest,
+)
+from service.security import Scope
+from service.services import robot_trees
+
+router = APIRouter(prefix="/v1/robot-trees", tags=["robot-trees"], route_class=OffloopRoute)
+_TREES = TypeAdapter(list[RobotTreePublic])
+_CALIBRATIONS = TypeAdapter(list[TreeCalibrationPublic])
+IfMatch = Annotated[str | None, Header(description="The tree's ETag as last read: 412 when it has changed since")]
+_PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}
+
+
+@router.post("", status_code=201, response_model=RobotTreePublic)
+@operation(Scope.write)
+def create_robot_tree(body: RobotTreeCreate, db: DatabaseDep, actor: ActorDep) -> Response:
+    """A tree from its branches (each a robots.md chain of stages, its parent, mount, tool, joint names) or from
+    a URDF and the links that carry its tools. A 422 names the field: a duplicate name, an unknown parent, a
+    cycle, an end branch without a tool, too many links or joints, a xacro (with the command to expand it)."""
+    tree, etag = robot_trees.create_tree(db=db, body=body, actor=actor)
+    response = model_json(tree, status_code=201)
+    response.headers["ETag"] = etag
+    return response
+
+
+@router.get("", response_model=list[RobotTreePublic])
+@operation(Scope.read)
+def list_robot_trees(db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
+    return models_json(robot_trees.list_trees(db=db, limit=limit, offset=offset), _TREES)
+
+
+@router.get("/{tree_id}", response_model=RobotTreePublic)
+@operation(Scope.read)
+def get_robot_tree(tree_id: str, db: DatabaseDep) -> Response:
+    """The tree: its branches (parents, children, mounts, tools, joints, stages), its parameters by name and group
+    with their current values (the last applied calibration's, else nominal)."""
+    tree, etag = robot_trees.get_tree(db=db, tree_id=tree_id)
+    response = model_json(tree)
+    response.headers["ETag"] = etag
+    return response
+
+
+@router.delete("/{tree_id}", status_code=204, responses=_PRECONDITION)
+@operation(Scope.admin)
+def delete_robot_tree(tree_id: str, db: DatabaseDep, actor: ActorDep, if_match: IfMatch = None) -> Response:
+    robot_trees.delete_tree(db=db, tree_id=tree_id, actor=actor, if_match=if_match)
+    return Response(status_code=204)
+
+
+@router.post("/{tree_id}/kinematics", response_model=TreeKinematicsPublic)
+@operation(Scope.read, runs=Runs.COMPUTE)
+async def robot_tree_kinematics(
+    tree_id: str,
+    *,
+    body: TreeKinematicsRequest,
+    db: DatabaseDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+    settings: SettingsDep,
+) -> Response:
+    """Per joint vector (by name, or in the tree's order; deg and mm): each tool's pose in the world frame,
+    each tool in every other tool's frame (`a/b`), and with `frames` every frame of every branch once and each
+    tool's chain of frame names, to draw the tree. The tree's current parameters."""
+    size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
+    limits.admit(
+        limits.tree_kinematics(len(body.joints), size.tools, size.frames if body.frames else 0),
+        run_async=False,
+        can_run_async=False,
+        budget_s=settings.sync_budget_seconds,
+    )
+    found = await compute(
+        m, "tree_kinematics", robot_trees.kinematics, db=db, registry=registry, tree_id=tree_id, body=body
+    )
+    return model_json(found)
+
+
+@router.post(
+    "/{tree_id}/calibrations",
+    status_code=201,
+    response_model=TreeCalibrationPublic,
+    responses={**_PRECONDITION, 409: {"description": "The tree changed during the fit: stored, not applied"}},
+)
+@operation(Scope.write, runs=Runs.COMPUTE)
+async def create_robot_tree_calibration(
+    tree_id: str,
+    *,
+    body: TreeCalibrationCreate,
+    db: DatabaseDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+    actor: ActorDep,
+    settings: SettingsDep,
+    if_match: IfMatch = None,
+) -> Response:
+    """The tree's parameters from records of its tools (each naming the `tool` it measured, in the instrument's
+    frame or in another tool's `frame`), with held-out records judged after the fit: the fit's and the held-out
+    RMS per tool, each tool's predicted accuracy and each pair's RELATIVE accuracy (one tool in the other's
+    frame). Applied (the default) it becomes the tree's parameters, a new revision."""
+    size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
+    records = len(body.records) + len(body.held_out)
+    limits.admit(
+        limits.tree_calibration(records, size.parameters),
+        run_async=False,
+        can_run_async=False,
+        budget_s=settings.sync_budget_seconds,
+    )
+    found = await compute(
+        m,
+        "tree_calibration",
+        robot_trees.calibrate,
+        db=db,
+        registry=registry,
+        tree_id=tree_id,
+        body=body,
+        actor=actor,
+        if_match=if_match,
+    )
+    return model_json(found, status_code=201)
+
+
+@router.get("/{tree_id}/calibrations", response_model=list[TreeCalibrationPublic])
+@operation(Scope.read)
+def list_robot_tree_calibrations(tree_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
+    return models_json(robot_trees.calibrations(db=db, tree_id=tree_id, limit=limit, offset=offset), _CALIBRATIONS)
+
+
+@router.get("/{tree_id}/calibrations/{calibration_id}", response_model=TreeCalibrationPublic)
+@operation(Scope.read)
+def get_robot_tree_calibration(tree_id: str, calibration_id: str, db: DatabaseDep) -> Response:
+    return model_json(robot_trees.calibration(db=db, tree_id=tree_id, calibration_id=calibration_id))
