@@ -152,6 +152,7 @@ def calibrate(client: Client, args: argparse.Namespace, console: Console) -> int
             prior=args.prior,
             columns=args.columns,
             joint_unit=args.joint_unit,
+            length_unit=args.length_unit,
         )
     finally:
         if bar is not None:
@@ -205,6 +206,7 @@ def check(client: Client, args: argparse.Namespace, console: Console) -> int:
         notes=args.notes,
         columns=args.columns,
         joint_unit=args.joint_unit,
+        length_unit=args.length_unit,
     )
     console.document(found, lambda: summary.check_summary(found))
     return OK if found["verdict"] == "fine" else NOT_APPLIED
@@ -227,6 +229,7 @@ def validate(client: Client, args: argparse.Namespace, console: Console) -> int:
         register=args.register,
         columns=args.columns,
         joint_unit=args.joint_unit,
+        length_unit=args.length_unit,
     )
     console.document(found, lambda: summary.validation_summary(found))
     return OK
@@ -440,10 +443,15 @@ def _file_options(parser: argparse.ArgumentParser) -> None:
         "--columns",
         metavar="MAP",
         help="which file column is which: 'J1=joint_1,J2=joint_2,X_m=x' (a joint of the robot, its URDF's names "
-        "too, or x, y, z, qw…, pose_id, sigma_mm, u95, temperature_c, time)",
+        "too, or x, y, z, qw…, pose_id, sigma_mm, u95, temperature_c, time; x2, y2, z2 … a row's further points)",
     )
     parser.add_argument(
         "--joint-unit", choices=["deg", "rad"], help="the revolute joint columns' unit where the header has none"
+    )
+    parser.add_argument(
+        "--length-unit",
+        choices=["mm", "m", "cm", "um", "in"],
+        help="the points', σ's and prismatic joint columns' unit where the header has none (default mm)",
     )
 
 

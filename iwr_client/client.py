@@ -335,12 +335,14 @@ class Client:
         prior: str | None = None,
         columns: str | None = None,
         joint_unit: str | None = None,
+        length_unit: str | None = None,
     ) -> Json:
         """Identifies the robot's parameters from a campaign and answers the calibration (status, residuals,
         predicted accuracy, whether it was applied and if not why). `async_` runs it as a job and waits for it.
         `prior="fleet"`: with the population of the robot's fleet as prior (docs/fleet.md). For a campaign file:
         `columns`, the column map (`"J1=joint_1,X_m=x"`: file column = the robot's joint or a coordinate), and
-        `joint_unit` (`"rad"`: the revolute joint columns whose header states no unit)."""
+        `joint_unit` (`"rad"`: the revolute joint columns whose header states no unit), `length_unit` (`"m"`: the
+        points, σ and prismatic joint columns whose header states none)."""
         path = f"/v1/robots/{_segment(robot_id)}/calibrations"
         query: dict[str, object] = {"apply": apply}
         if prior is not None:
@@ -348,10 +350,10 @@ class Client:
         if async_:
             query["async"] = True
         if isinstance(campaign, str | Path):
-            query.update(noise_position_mm=noise_mm, columns=columns, joint_unit=joint_unit)
+            query.update(noise_position_mm=noise_mm, columns=columns, joint_unit=joint_unit, length_unit=length_unit)
             answer = self._post_file(path, campaign, query)
         else:
-            _records_only(columns, joint_unit)
+            _records_only(columns, joint_unit, length_unit)
             body: Json = {"measurements": list(campaign), "apply": apply}
             if noise_mm is not None:
                 body["noise"] = {"position_mm": noise_mm}
@@ -455,15 +457,16 @@ class Client:
         register: bool = False,
         columns: str | None = None,
         joint_unit: str | None = None,
+        length_unit: str | None = None,
     ) -> Json:
         """Each version (default: the current one) against records it was not fitted to: errors, percentiles and
         ISO 9283 characteristics. A campaign file is sent as it is and read by the service as a calibration's is
-        (`columns`, `joint_unit`: as for `calibrate`); records are sent as JSON."""
+        (`columns`, `joint_unit`, `length_unit`: as for `calibrate`); records are sent as JSON."""
         path = f"/v1/robots/{_segment(robot_id)}/validations"
         if isinstance(records, str | Path):
             query = {"versions": list(versions or []), "register": register or None}
-            return dict(self._post_file(path, records, {**query, "columns": columns, "joint_unit": joint_unit}))
-        _records_only(columns, joint_unit)
+            return dict(self._post_file(path, records, {**query, **_file_query(columns, joint_unit, length_unit)}))
+        _records_only(columns, joint_unit, length_unit)
         body: Json = {"measurements": list(records)}
         if versions is not None:
             body["versions"] = list(versions)
@@ -498,14 +501,15 @@ class Client:
         notes: str | None = None,
         columns: str | None = None,
         joint_unit: str | None = None,
+        length_unit: str | None = None,
     ) -> Json:
         """A quick check of the current version: the verdict (fine, drifted, changed), what best explains a
         change, and what to do. A campaign file is sent as it is, as for `validate`; records as JSON."""
         path = f"/v1/robots/{_segment(robot_id)}/checks"
         if isinstance(records, str | Path):
             query = {"noise_position_mm": noise_mm, "alpha": alpha, "notes": notes}
-            return dict(self._post_file(path, records, {**query, "columns": columns, "joint_unit": joint_unit}))
-        _records_only(columns, joint_unit)
+            return dict(self._post_file(path, records, {**query, **_file_query(columns, joint_unit, length_unit)}))
+        _records_only(columns, joint_unit, length_unit)
         body: Json = {"measurements": list(records)}
         if noise_mm is not None:
             body["noise"] = {"position_mm": noise_mm}
@@ -567,9 +571,15 @@ def _query_pairs(query: Mapping[str, object]) -> list[tuple[str, str]]:
     return pairs
 
 
-def _records_only(columns: str | None, joint_unit: str | None) -> None:
-    if columns is not None or joint_unit is not None:
-        raise ValueError("columns and joint_unit say how to read a campaign file; records are the API's own")
+def _records_only(columns: str | None, joint_unit: str | None, length_unit: str | None = None) -> None:
+    if columns is not None or joint_unit is not None or length_unit is not None:
+        raise ValueError(
+            "columns and joint_unit say how to read a campaign file (length_unit too); records are the API's own"
+        )
+
+
+def _file_query(columns: str | None, joint_unit: str | None, length_unit: str | None) -> dict[str, object]:
+    return {"columns": columns, "joint_unit": joint_unit, "length_unit": length_unit}
 
 
 def _program_file(source: ProgramSource) -> ProgramFile:

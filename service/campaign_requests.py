@@ -59,7 +59,9 @@ class CampaignQuery:
 def file_options(
     *,
     length_unit: Literal["mm", "m", "cm", "um", "in"] = Query(
-        "mm", description="CSV bodies: unit of x, y, z and sigma where the header does not state one ('X [m]')"
+        "mm",
+        description="CSV bodies: unit of x, y, z, sigma and the prismatic joint columns where the header does not "
+        "state one ('X [m]'); a row of several points (x1, y1, z1, x2 …) is read in it too",
     ),
     quaternion_order: QuaternionOrder = Query(
         QuaternionOrder.WXYZ, description="CSV bodies: of q0…q3 columns (Leica-style); qw/qx/qy/qz name themselves"
@@ -70,7 +72,8 @@ def file_options(
         description="CSV and multipart bodies: the column map, FILE_COLUMN=MEANING entries separated by commas "
         "(J1=joint_1,J2=joint_2,X_m=x): a meaning is a joint of the robot (q1 … or its URDF's joint names, which a "
         "header may also use unmapped) or x, y, z, qw, qx, qy, qz, pose_id, sigma_mm, u95, temperature_c, time, "
-        "reference, reflector",
+        "reference, reflector, or x2, y2, z2 … for a row's further points (a row of several points: the TCP's is "
+        "x1 … or the one mapped to x, y, z, the others become reflector records)",
     ),
     joint_unit: Literal["deg", "rad"] | None = Query(
         None,

@@ -16,9 +16,10 @@ from service.campaign_io import (
     read_spatial_analyzer,
     read_table,
 )
-from service.campaign_io.columns import RobotColumns, mapped, missing_columns, with_joint_unit
+from service.campaign_io.columns import RobotColumns, mapped, missing_columns, with_joint_unit, with_length_unit
 from service.campaign_io.errors import listed
 from service.campaign_io.reference_table import is_reference_table, reference_records
+from service.campaign_io.tabular import Table
 
 CAMPAIGN_HEADER = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6", "x", "y", "z", "qw", "qx", "qy", "qz"]
 JOINT_HEADER = CAMPAIGN_HEADER[:10]
@@ -39,7 +40,7 @@ def parse_campaign(
     options = options or ImportOptions()
     table, notes = mapped(read_table(text, expected=CAMPAIGN_HEADER), options.columns, robot)
     names = joint_columns(table.columns, robot)
-    table = with_joint_unit(table, _revolute(names, robot), options.joint_unit)
+    table = _joint_units(table, names, robot, options)
     if is_reference_table(table):  # a `kind` column: distance, point, plane and tracker rows
         records, more = reference_records(table, names, options)
     else:
@@ -64,9 +65,18 @@ def joined_campaign(
     joint_table, joint_notes = mapped(joint_table, options.columns, robot, required=False)
     point_table, point_notes = mapped(point_table, options.columns, None, required=False)
     names = joint_columns(joint_table.columns, robot)
-    joint_table = with_joint_unit(joint_table, _revolute(names, robot), options.joint_unit)
+    joint_table = _joint_units(joint_table, names, robot, options)
     records, notes = joined_records(joint_table, point_table, names, options)
     return records, [*joint_notes, *point_notes, *notes]
+
+
+def _joint_units(table: Table, names: Sequence[str], robot: RobotColumns | None, options: ImportOptions) -> Table:
+    """The joint columns' units where the header states none: `joint_unit` on the revolute ones, the file's
+    length unit (its preamble's, else `length_unit`) on the prismatic ones."""
+    revolute = _revolute(names, robot)
+    table = with_joint_unit(table, revolute, options.joint_unit)
+    prismatic = [n for n in names if n not in revolute]
+    return with_length_unit(table, prismatic, table.length_unit or options.length_unit)
 
 
 def _revolute(names: Sequence[str], robot: RobotColumns | None) -> list[str]:

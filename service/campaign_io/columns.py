@@ -10,6 +10,7 @@ sigma_mm, u95, temperature_c, time, reference, reflector).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -76,17 +77,21 @@ def parse_column_map(text: str | None) -> tuple[tuple[str, str], ...]:
     return tuple(out)
 
 
+POINT_COORDINATE = re.compile(r"[xyz][1-9][0-9]*")
+"""A map may name a point of a row that carries several (`x2`: point 2's x; `service.campaign_io.wide`)."""
+
+
 def _meaning(meaning: str, robot: RobotColumns | None) -> str:
     key = normalise(meaning)
     key = "timestamp" if key == "time" else key
-    if key in COORDINATES:
+    if key in COORDINATES or POINT_COORDINATE.fullmatch(key):
         return key
     joint = robot.joint(meaning) if robot is not None else (key if key.startswith("q") and key[1:].isdigit() else None)
     if joint is None:
         names = list(robot.names) + sorted(set(robot.aliases)) if robot is not None else ["q1 … q_m"]
         raise CampaignFileError(
             f"the column map sends a column to {meaning!r}, which is neither a joint of this robot ({listed(names)}) "
-            f"nor a coordinate ({', '.join(COORDINATES)})"
+            f"nor a coordinate ({', '.join(COORDINATES)}, or x2, y2, z2 … for a row's further points)"
         )
     return joint
 
@@ -152,4 +157,16 @@ def with_joint_unit(table: Table, joints: Sequence[str], unit: str | None) -> Ta
     units = dict(table.units)
     for name in joints:
         units.setdefault(name, unit)
+    return Table(table.columns, units, table.rows, table.delimiter, table.decimal_comma, table.notes, table.length_unit)
+
+
+def with_length_unit(table: Table, prismatic: Sequence[str], unit: str) -> Table:
+    """`table` with `unit` on the prismatic joint columns whose header states none: a file states one length
+    unit (the request's `length_unit`, or its preamble's), for its points and its sliding joints alike (a TIAGo's
+    torso in metres beside its markers in metres). mm, the API's unit, changes nothing."""
+    if unit.lower() == "mm":
+        return table
+    units = dict(table.units)
+    for name in prismatic:
+        units.setdefault(name, unit.lower())
     return Table(table.columns, units, table.rows, table.delimiter, table.decimal_comma, table.notes, table.length_unit)

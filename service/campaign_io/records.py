@@ -16,6 +16,7 @@ from typing import Any
 
 from service.campaign_io.errors import SHOWN, CampaignFileError, listed
 from service.campaign_io.tabular import Row, Table
+from service.campaign_io.wide import reflector_record, split_tcp, wide_note, wide_points
 
 MM_PER: dict[str, float] = {"mm": 1.0, "m": 1000.0, "cm": 10.0, "um": 1e-3, "µm": 1e-3, "in": 25.4, "inch": 25.4}
 """Length units a file may use, in mm: the only conversion of file lengths (the API itself takes mm)."""
@@ -51,7 +52,8 @@ ALIASES: dict[str, tuple[str, ...]] = {
     "qx": ("qx",),
     "qy": ("qy",),
     "qz": ("qz",),
-    "sigma_mm": ("sigma_mm", "sigma", "uncertainty", "std", "std_dev", "stdev", "rms"),
+    # A mocap export's per-posture scatter of its markers (`marker_std_mm`: the name, its `_mm` the unit) too.
+    "sigma_mm": ("sigma_mm", "sigma", "uncertainty", "std", "std_dev", "stdev", "rms", "marker_std", "marker_sigma"),
     "u95": ("u95", "u95_mm", "expanded_uncertainty"),
     "temperature_c": ("temperature_c", "temperature", "temp", "temp.", "air_temperature", "air_temp"),
     "timestamp": ("timestamp", "time", "datetime", "date_time", "date"),
@@ -335,11 +337,35 @@ def record(joints: list[float], point: Measured) -> dict[str, Any]:
 def campaign_records(
     table: Table, joint_names: Sequence[str], options: ImportOptions
 ) -> tuple[list[dict[str, Any]], list[str]]:
-    """One table with the joints and the measurement of each pose."""
+    """One table with the joints and the measurement of each pose (several points a row: `wide_records`)."""
+    if wide_points(table):
+        return wide_records(table, joint_names, options)
     points, notes = measured_points(table, options, joint_names)
     joints = joint_rows(table, joint_names)
     notes = [*notes, *joint_unit_notes(table, joint_names)]
     return [record(q, p) for (_, _, q), p in zip(joints, points, strict=True)], notes
+
+
+def wide_records(
+    table: Table, joint_names: Sequence[str], options: ImportOptions
+) -> tuple[list[dict[str, Any]], list[str]]:
+    """A table whose rows carry several points (`service.campaign_io.wide`): per row the TCP's tracker record,
+    then a reflector record for each other point, at the row's joints and with the row's σ."""
+    points = wide_points(table)
+    found, _ = _column_map(table, joint_names)
+    tcp_found = all(a in found for a in ("x", "y", "z"))
+    view, others = split_tcp(table, points, tcp_found)
+    measured, notes = measured_points(view, options, joint_names)
+    joints = joint_rows(table, joint_names)
+    scales = [length_factor(table, p.columns[0], options) for p in others]
+    out: list[dict[str, Any]] = []
+    for (_, _, q), point, row in zip(joints, measured, table.rows, strict=True):
+        out.append(record(q, point))
+        for other, scale in zip(others, scales, strict=True):
+            position = [table.number(row, c) * scale for c in other.columns]
+            out.append(reflector_record(q, other.name, position, point.sigma_mm))
+    tcp = "x, y, z" if tcp_found else points[0].name
+    return out, [*notes, wide_note(tcp, others), *joint_unit_notes(table, joint_names)]
 
 
 def joined_records(

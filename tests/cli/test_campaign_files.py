@@ -95,6 +95,21 @@ def test_validate_and_check_send_the_file_as_it_is_with_the_column_map(
     assert validation[2:] == check[2:] == ("text/csv", raw)
 
 
+def test_a_file_s_length_unit_goes_with_it(recorder: str, tmp_path: Path) -> None:
+    # A mocap export (several points a row, lengths in metres, radians): --length-unit and --joint-unit go as the
+    # query's options, the file as written.
+    campaign = tmp_path / "mocap.csv"
+    raw = b"x1,y1,z1,x2,y2,z2,q1,q2,marker_std_mm\n0.1,0.2,0.3,0.4,0.5,0.6,0.25,1.5,0.2\n"
+    campaign.write_bytes(raw)
+    assert main(["--url", recorder, "validate", "r1", str(campaign), "--length-unit", "m", "--joint-unit", "rad"]) == 0
+    assert main(["--url", recorder, "check", "r1", str(campaign), "--length-unit", "m"]) == 0
+    validation, check = _Recorder.SEEN
+    assert validation[1] == {"length_unit": ["m"], "joint_unit": ["rad"]} and check[1] == {"length_unit": ["m"]}
+    assert validation[2:] == check[2:] == ("text/csv", raw)
+    with pytest.raises(ValueError, match="length_unit too"):
+        Client(recorder).calibrate("r1", [{"joints": [0.0] * 10, "position": [1.0, 2.0, 3.0]}], length_unit="m")
+
+
 def test_records_go_as_json_and_a_column_map_is_for_files_only(recorder: str) -> None:
     records = [{"joints": [0.0] * 10, "position": [1.0, 2.0, 3.0]}]
     Client(recorder).validate("r1", records, versions=[2])

@@ -455,3 +455,21 @@ def test_a_xacro_file_is_named_with_its_command(page: Any, server: str, tmp_path
     page.get_by_role("button", name="Create the robot").click()
     text = page.locator("#create-error").inner_text()
     assert "422" in text and "ros2 run xacro" in text and "no link" not in text
+
+
+def test_a_file_of_several_points_a_row_is_previewed_with_its_units(page: Any, server: str) -> None:
+    """The TIAGo mocap file as published (tests/data/real/tiago_mocap): the preview says which point each column
+    is and reads marker_std_mm as σ; the validation form offers the length unit its metres need."""
+    _create_iwr(page, server, "cell-mocap")
+    page.get_by_role("link", name="3. Validate").click()
+    _ready(page, "/validate$")
+    text = (ROOT / "tests" / "data" / "real" / "tiago_mocap" / "qualisys_2021-11-26_static_postures.csv").read_text()
+    transfer = page.evaluate_handle(
+        """text => { const t = new DataTransfer(); t.items.add(new File([text], "mocap.csv")); return t; }""", text
+    )
+    page.dispatch_event("#validation-file-zone", "drop", {"dataTransfer": transfer})
+    page.wait_for_selector("#validation-preview table")
+    header = page.locator("#validation-preview thead").inner_text()
+    assert "point p1 x" in header and "point p4 z" in header and "σ of the record" in header
+    page.select_option("#validation-length-unit", "m")
+    assert page.locator("#validation-length-unit").input_value() == "m"

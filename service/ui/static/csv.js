@@ -14,7 +14,7 @@ const ALIASES = {
   y: ["y", "meas_y", "y_meas", "measured_y", "y_measured", "actual_y", "y_actual"],
   z: ["z", "meas_z", "z_meas", "measured_z", "z_measured", "actual_z", "z_actual"],
   qw: ["qw", "w"], qx: ["qx"], qy: ["qy"], qz: ["qz"],
-  sigma_mm: ["sigma_mm", "sigma", "uncertainty", "std", "std_dev", "stdev", "rms"], u95: ["u95", "u95_mm", "expanded_uncertainty"],
+  sigma_mm: ["sigma_mm", "sigma", "uncertainty", "std", "std_dev", "stdev", "rms", "marker_std", "marker_sigma"], u95: ["u95", "u95_mm", "expanded_uncertainty"],
   temperature_c: ["temperature_c", "temperature", "temp", "temp.", "air_temperature", "air_temp"],
   reflector: ["reflector", "reflector_name", "smr", "probe", "target_type"],
 };
@@ -118,8 +118,18 @@ function roles(columns) {
     if (found[c]) return [c, ROLE_WORDS[found[c]] || found[c]];
     if (c === "kind") return [c, "record kind (distance, point, plane rows: the service reads them)"];
     if (IGNORED_KNOWN.includes(c)) return [c, "known, not used"];
+    const point = pointOf(c);
+    if (point) return [c, `point ${point.name} ${point.axis} (several points a row: the lowest the TCP's, the others reflector records)`];
     return [c, "ignored"];
   }));
+}
+
+// A row of several points, as the service reads it (service/campaign_io/wide.py): `x2`, `x_2`, `marker2_x`.
+function pointOf(column) {
+  const numbered = column.match(/^([xyz])_?([1-9][0-9]*)$/);
+  if (numbered) return { name: `p${numbered[2]}`, axis: numbered[1] };
+  const named = column.match(/^([a-z]+?)_?([1-9][0-9]*)_([xyz])$/);
+  return named ? { name: `${named[1]}${named[2]}`, axis: named[3] } : null;
 }
 
 function numberOf(table, row, column) {

@@ -40,7 +40,8 @@ export async function campaignView(view, robotId) {
     h("h1", {}, `Calibrate ${robot.name}`),
     muted(`Joint columns this robot reads, in order: ${robot.joint_names.join(", ")} (${robot.joint_units.join(", ")}), `
       + "then x, y, z in mm and, for a full pose, qw, qx, qy, qz; optional sigma_mm or u95, temperature_c. "
-      + "A robot from a URDF also reads its URDF's joint names; any other header, say which column is which below."),
+      + "A robot from a URDF also reads its URDF's joint names; any other header, say which column is which below. "
+      + "Rows of several points (x1, y1, z1, x2 …, a mocap body's markers) give the TCP's records (point 1) and a reflector record per other point."),
     form);
 }
 
@@ -100,9 +101,9 @@ function optionsForm(fleetNote) {
   const node = h("fieldset", { id: "calibration-options" }, h("legend", {}, "Options"),
     h("div", { class: "row" },
       field("Instrument σ, position (mm)", position), field("σ, orientation (deg)", orientation),
-      field("Length unit where the header states none", unit), field("Order of q0…q3 columns", order)),
+      field("Length unit where the header states none (points, σ, prismatic joints)", unit), field("Order of q0…q3 columns", order)),
     h("div", { class: "row" },
-      field("Column map (file column = joint or coordinate)", columns, "joints: this robot's names; coordinates: x, y, z, qw…, pose_id, sigma_mm, u95, temperature_c, time"),
+      field("Column map (file column = joint or coordinate)", columns, "joints: this robot's names; coordinates: x, y, z, qw…, pose_id, sigma_mm, u95, temperature_c, time; x2, y2, z2 … a row's further points (reflector records)"),
       field("Revolute joints' unit where the header states none", jointUnit)),
     h("label", {}, apply, " Apply the result as the robot's new version when its checks pass"), h("br"),
     h("label", {}, prior, " Calibrate with the fleet's prior (the population of the other calibrated robots of this structure: fewer poses for the same accuracy)"),

@@ -23,10 +23,12 @@ export async function validationView(view, robotId) {
   const columns = h("input", { id: "validation-column-map", size: 50, autocomplete: "off", placeholder: "Achse 1=joint_1, Achse 2=joint_2, X_m=x" });
   const jointUnit = h("select", { id: "validation-joint-unit" }, [["", "as the header says (default degrees)"], ["deg", "degrees"], ["rad", "radians"]]
     .map(([value, text]) => h("option", { value }, text)));
+  const lengthUnit = h("select", { id: "validation-length-unit" }, ["mm", "m", "cm", "um", "in"].map((u) => h("option", { value: u }, u)));
   const result = h("div", { id: "validation-result" });
   const form = h("form", { id: "validation-form" }, picker, preview, choices,
     h("div", { class: "row" }, field("Column map (file column = joint or coordinate)", columns),
-      field("Revolute joints' unit where the header states none", jointUnit)),
+      field("Revolute joints' unit where the header states none", jointUnit),
+      field("Length unit where the header states none (points, σ, prismatic joints)", lengthUnit)),
     h("label", {}, register, " Fit the instrument frame to each version first (register)"),
     h("p", {}, h("button", { type: "submit", id: "validate" }, "Validate")), result);
   form.addEventListener("submit", async (event) => {
@@ -35,7 +37,7 @@ export async function validationView(view, robotId) {
       if (!state.csv) throw new Error("choose or drop a validation CSV first");
       const chosen = [...choices.querySelectorAll("input:checked")].map((i) => Number(i.value));
       const options = { versions: chosen, register: register.checked, notes: `from the browser: ${state.name}`,
-        columns: columns.value.trim() || null, joint_unit: jointUnit.value || null };
+        columns: columns.value.trim() || null, joint_unit: jointUnit.value || null, length_unit: lengthUnit.value };
       const answer = await api(`/v1/robots/${robotId}/validations${query(options)}`,
         { method: "POST", body: state.text, type: "text/csv" });
       fill(result, validationResult(answer));
