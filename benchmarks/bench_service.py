@@ -27,11 +27,13 @@ from models.identification import IdentificationOptions, identify
 from models.identification.acceptance import acceptance_checks
 from models.kinematics import forward_kinematics
 from models.simulation import measure, perturbed_robot
-from service.conversions.calibrations import campaign_in, noise_in, options_in, report_out
+from service.conversions.calibrations import noise_in, options_in, report_out
 from service.conversions.kinematics import forward_out, joints_in
+from service.conversions.references import described
 from service.json_bodies import validate_json
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.kinematics import ForwardRequest
+from service.services.pipelines import WholeCampaign, fitting_in
 
 CLIENTS = 50
 PERIOD_S = 0.25
@@ -62,6 +64,15 @@ def fk_split(desc: RobotDescription, body: bytes) -> dict[str, float]:
     }
 
 
+def _whole(desc: RobotDescription, request: CalibrationCreate) -> WholeCampaign:
+    """The request's records as the calibration pipeline converts them (a tracker's: one whole campaign)."""
+    fitting = fitting_in(
+        desc, request.measurements, described(request), sigma_mm=request.noise.position_mm, payload=request.payload
+    )
+    assert isinstance(fitting, WholeCampaign)
+    return fitting
+
+
 def calibration_split(desc: RobotDescription, body: dict[str, object]) -> dict[str, float]:
     """Where a 60-pose calibration request's time goes besides HTTP and the database (median ms of each step of
     `service.services.calibrations._fit`, in this process)."""
@@ -70,7 +81,7 @@ def calibration_split(desc: RobotDescription, body: dict[str, object]) -> dict[s
     raw = json.dumps(body).encode()
     request = validate_json(CalibrationCreate, raw)
     assert isinstance(request, CalibrationCreate)
-    campaign = campaign_in(desc, request)
+    campaign = _whole(desc, request).campaign
     options, noise = options_in(request), noise_in(request)
     theta = desc.parameters.nominal
     result = identify(desc, campaign, noise=noise, nominal=theta, options=options, runtime=runtime)
@@ -83,7 +94,7 @@ def calibration_split(desc: RobotDescription, body: dict[str, object]) -> dict[s
 
     return {
         "validate_body": ms(lambda: validate_json(CalibrationCreate, raw)),
-        "records_to_campaign": ms(lambda: campaign_in(desc, request)),
+        "records_to_campaign": ms(lambda: _whole(desc, request)),
         "identification": ms(
             lambda: identify(desc, campaign, noise=noise, nominal=theta, options=options, runtime=runtime)
         ),

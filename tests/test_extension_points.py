@@ -170,6 +170,84 @@ def test_the_record_kind_check_sees_what_it_forbids() -> None:
         assert not any(_asks_a_record_its_kind(n, classes, words) for n in ast.walk(ast.parse(source))), source
 
 
+KIND_MODULES = ("service/record_kinds/", "models/measurements/")
+"""The registry and the kinds themselves: the only modules that may ask which kind of record or reference they
+hold (each kind answers for itself there)."""
+PIPELINES = ("service", "optimal_design", "models/identification", "models/checks.py", "models/accuracy.py")
+"""The code that runs a campaign's records through an operation (fit, check, validate, design)."""
+TRACKER_BRANCHES = {"has_references", "tracker_records", "TRACKER", "measures_reference"}
+"""What a tracker-or-reference fork was written with before each operation became one pipeline (issue 43): a
+pipeline asks a kind's capability (`RecordKind.whole_campaign`, `Traits.registers_frame`, …) instead."""
+
+
+def _reference_classes() -> set[str]:
+    """Every class of the models' measurement and reference kinds (those with `traits`, and the measurements)."""
+    import models.measurements.camera  # noqa: PLC0415
+    import models.measurements.line  # noqa: PLC0415
+    import models.measurements.references  # noqa: PLC0415
+    import models.measurements.tcp  # noqa: PLC0415
+
+    modules = (models.measurements.references, models.measurements.camera, models.measurements.line)
+    found = {
+        name
+        for module in (*modules, models.measurements.tcp)
+        for name, value in vars(module).items()
+        if isinstance(value, type)
+        and value.__module__ == module.__name__
+        and (hasattr(value, "traits") or _protocol_members(Measurement) <= set(dir(value)))
+    }
+    return found
+
+
+def _forks_on_a_kind(node: ast.AST, classes: set[str]) -> bool:
+    """An isinstance on a measurement's or reference's class, or a tracker-or-reference fork's helper."""
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "isinstance":
+        return bool({n.id for n in ast.walk(node.args[1]) if isinstance(n, ast.Name)} & classes)
+    if isinstance(node, ast.Name):
+        return node.id in TRACKER_BRANCHES
+    if isinstance(node, ast.Attribute):
+        return node.attr in TRACKER_BRANCHES
+    if isinstance(node, ast.alias):
+        return node.name in TRACKER_BRANCHES
+    return False
+
+
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
+def test_each_operation_is_one_pipeline_that_asks_its_kinds() -> None:
+    """Outside the registry and the kinds' own modules, no pipeline tests `isinstance` on a measurement's or a
+    reference's class, nor forks a campaign into a tracker path and a reference path by the helpers that did
+    (docs/architecture.md, "One pipeline per operation")."""
+    classes = _reference_classes()
+    found = []
+    for path in _sources(PIPELINES):
+        rel = str(path.relative_to(ROOT))
+        if rel.startswith(KIND_MODULES):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if _forks_on_a_kind(node, classes):
+                found.append(f"{rel}:{getattr(node, 'lineno', '?')} {ast.unparse(node)}")
+    assert not found, found
+
+
+def test_the_pipeline_check_sees_what_it_forbids() -> None:
+    classes = _reference_classes()
+    assert {"Anchor", "Plane", "Camera", "ToolCamera", "TrackerPositions", "Line", "Reflector"} <= classes
+    forks = [
+        "isinstance(reference, Anchor)",
+        "isinstance(g.reference, (Plane, Camera))",
+        "if has_references(body.measurements): pass",
+        "records = tracker_records(body.measurements)",
+        "from service.record_kinds import tracker_records",
+        "kind is TRACKER",
+        "any(kind_of(r).measures_reference for r in rs)",
+    ]
+    for source in forks:
+        assert any(_forks_on_a_kind(n, classes) for n in ast.walk(ast.parse(source))), source
+    fine = ["isinstance(c, ReferenceCandidate)", "kind.whole_campaign", "g.reference.traits.registers_frame"]
+    for source in fine:
+        assert not any(_forks_on_a_kind(n, classes) for n in ast.walk(ast.parse(source))), source
+
+
 def test_the_architecture_doc_states_the_record_kinds_and_the_allowed_modules() -> None:
     """docs/architecture.md's counts match the code: the kinds it names, that none is allowed to ask, and every
     file it says a new record kind touches exists."""

@@ -29,8 +29,7 @@ from models.identification.result import ReferenceEstimate
 from models.identification.solver import SolverRun, solver_pool
 from models.identification.statistics import Covariance, covariance, outlier_threshold
 from models.kinematics import ForwardJacobianResult, as_joint_array, check_joint_ranges, forward_kinematics
-from models.measurements.camera import Camera
-from models.measurements.references import ReferenceRecords, TrackerPositions
+from models.measurements.references import ReferenceRecords
 from models.noise import NoiseModel
 from models.parameters import ParameterTable
 from models.robot import RobotDescription
@@ -475,7 +474,7 @@ def _validated(desc: RobotDescription, group: ReferenceRecords) -> ReferenceReco
 def _registered(desc: RobotDescription, theta: Array, groups: tuple[ReferenceRecords, ...], rt: Runtime) -> Array:
     """With tracker records beside the references, the base from their closed-form registration (the tracker
     may stand metres away and turned: IPOPT starts where the frame already fits); unchanged without."""
-    tracked = [g for g in groups if isinstance(g.reference, TrackerPositions)]
+    tracked = [g for g in groups if g.reference.traits.registers_frame]
     if not tracked:
         return theta
     joints = np.vstack([g.joints for g in tracked])
@@ -516,21 +515,16 @@ def record_errors(
     desc: RobotDescription, groups: tuple[ReferenceRecords, ...], theta: Array, unknowns: tuple[Array, ...], rt: Runtime
 ) -> Array:
     """Each campaign record's error in mm under the robot `theta` and each group's reference unknowns, in the
-    campaign's order (`ReferenceRecords.positions`): a distance's or a touch's |r|, a point's or a position's
-    ‖r‖, an image's points' reprojection errors carried to their depth (RMS over the image's points)."""
+    campaign's order (`ReferenceRecords.positions`): each kind's own (`Reference.errors_mm`: a distance's or a
+    touch's |r|, a point's or a position's ‖r‖, an image's points' reprojection errors carried to their depth,
+    RMS over the image's points)."""
     order = np.concatenate([g.positions for g in groups])
     errors = np.empty(order.size)
     at = 0
     for group, u in zip(groups, unknowns, strict=True):
         ref = group.reference
         fk = forward_kinematics(desc, group.joints, theta, check_ranges=False, runtime=rt)
-        if isinstance(ref, Camera):
-            errors[at : at + group.size] = ref.object_errors_mm(fk, u, group.values)
-        else:
-            # No derivatives are needed: an empty Jacobian keeps the residuals' own shapes.
-            tcp = ForwardJacobianResult(fk.positions, fk.rotations, fk.platforms, np.zeros((group.size, 6, 0)))
-            r, _, _ = ref.residuals(tcp, u, group.values)
-            errors[at : at + group.size] = np.linalg.norm(r, axis=1)
+        errors[at : at + group.size] = ref.errors_mm(fk, u, group.values)
         at += group.size
     # Several rows of one record (an image's points) make one error: their RMS.
     records, where = np.unique(order, return_inverse=True)

@@ -20,7 +20,7 @@ from models._types import Array
 from models.identifiability import structural_identifiability
 from models.identification.accuracy import predicted_accuracy, with_record_scatter
 from models.identification.options import IdentificationOptions
-from models.identification.reference_diagnosis import plane_mixups
+from models.identification.reference_diagnosis import reference_misfits
 from models.identification.reference_fit import (
     FRAME_GROUPS,
     ReferenceFit,
@@ -43,11 +43,6 @@ from models.noise import NoiseModel
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
 
-POSITION_KINDS = frozenset({"position", "reflector", "point"})
-"""References whose records' errors are positions in mm (‖r‖): a fresh record's predicted error is given for them."""
-RECORD_KINDS = {"anchor": "distance", "point": "point", "plane": "plane", "position": "position", "image": "image"}
-"""A reference's kind (as messages name it) → the kind of record that measures it (as the contract names it)."""
-
 
 def identify_reference_campaign(
     desc: RobotDescription,
@@ -63,7 +58,7 @@ def identify_reference_campaign(
     rt, noise, options = runtime_for(desc, runtime), noise or NoiseModel(), options or IdentificationOptions()
     fit = identify_references(desc, groups, noise=noise, nominal=nominal, options=options, runtime=rt)
     result = as_result(desc, fit, nominal=nominal, options=options, runtime=rt, started=started)
-    found = plane_mixups(desc, fit, noise.position_mm, runtime=rt)
+    found = reference_misfits(desc, fit, noise.position_mm, runtime=rt)
     return replace(result, diagnoses=found, notes=(*result.notes, *(d.message for d in found))) if found else result
 
 
@@ -131,7 +126,7 @@ def _accuracy(
         runtime=runtime,
         measured=_measured_poses(fit),
     )
-    if not all(g.reference.traits.kind in POSITION_KINDS for g in fit.groups):
+    if not all(g.reference.traits.position_error for g in fit.groups):
         return accuracy
     return with_record_scatter(accuracy, after, fit.covariance.dof, fit.covariance.z.shape[0])
 
@@ -194,7 +189,7 @@ def _condition_number(cov_z: Array) -> float:
 def _kinds(groups: tuple[ReferenceRecords, ...]) -> tuple[tuple[str, int], ...]:
     counts: dict[str, int] = {}
     for g in groups:
-        kind = RECORD_KINDS.get(g.reference.traits.kind, g.reference.traits.kind)
+        kind = g.reference.traits.record_kind
         counts[kind] = counts.get(kind, 0) + int(np.unique(g.positions).size)  # an image's points: one record
     return tuple(counts.items())
 

@@ -41,6 +41,7 @@ from models.measurements.references import (
     ANGLE_SCALE_RAD,
     POSITION_SCALE_MM,
     SLIP_RATIO,
+    ReferenceBase,
     ReferenceRecords,
     Traits,
 )
@@ -173,7 +174,7 @@ class Intrinsics:
 
 
 @dataclass(frozen=True)
-class Camera:
+class Camera(ReferenceBase):
     """A camera in the cell (world-mounted) seeing markers on the tool; `position` and `rotation` (a rotation
     vector: camera frame → world) its start pose, mm and rad (`started` estimates it from the records)."""
 
@@ -236,7 +237,7 @@ class Camera:
         d_rotation = to_camera @ skew(offset) @ left_jacobian(u[3:6])  # ∂X/∂ω = R_cᵀ [y − t]× J_l(ω)
         return projected - pixels, d_theta, np.concatenate([d_position, d_rotation], axis=2)
 
-    def object_errors_mm(self, tcp: ForwardResult, u: Array, values: Array) -> Array:
+    def errors_mm(self, tcp: ForwardResult, u: Array, values: Array) -> Array:
         """Each point's reprojection error carried to its depth (px · Z / f, mm): what the pixels say the point
         misses by, in the units every other record's error is stated in."""
         targets, pixels = values[:, 2:5], values[:, 5:7]

@@ -25,7 +25,7 @@ import numpy as np
 from models._types import Array
 from models.errors import InvalidInput
 from models.kinematics import ForwardJacobianResult, ForwardResult
-from models.measurements.references import ANGLE_SCALE_RAD, POSITION_SCALE_MM, Plane, Traits
+from models.measurements.references import ANGLE_SCALE_RAD, POSITION_SCALE_MM, Plane, ReferenceBase, Traits
 from models.parameters import Kind, ParameterSpec
 
 MIN_LINE_TRAVEL_MM = 5.0
@@ -34,7 +34,7 @@ interferometer's travel is tens to thousands of millimetres)."""
 
 
 @dataclass(frozen=True)
-class Line:
+class Line(ReferenceBase):
     """An interferometer's beam; `direction` its start (n₀, any length), `origin` its start (mm, world frame)."""
 
     name: str

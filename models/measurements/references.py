@@ -24,8 +24,9 @@ rotations and the 6-row Jacobian of `forward_kinematics(..., jacobian=True)`), b
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
-from typing import ClassVar, Protocol, TypeAlias
+from typing import ClassVar, Protocol, TypeAlias, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,6 +40,12 @@ POSITION_SCALE_MM = 1.0
 """The expected error of a reference's start position (mm), the scale of its columns (as a link length's)."""
 ANGLE_SCALE_RAD = 1e-3
 """A plane normal's expected start error (rad)."""
+FAILING_SIGMA = 5.0
+"""A touch fails its plane beyond this many σ (a clean touch does not, a step of a tenth of a mm does)."""
+MIN_OTHER_TOUCHES = 4
+"""Touches needed before their own plane means anything (three always lie on one)."""
+OWN_PLANE_SIGMA = 3.0
+"""Touches on one face of their own fit it to within a few σ (RMS)."""
 MIN_PLANE_SPREAD_MM = 5.0
 """A plane's touches must spread at least this (RMS) across their best line, or its tilt about that line is
 not determined (a plate is touched over tens of millimetres)."""
@@ -62,6 +69,31 @@ class Traits:
     sigma_unit: str = "mm"
     """The unit of its residual and of a record's σ; a reference whose unit is not the noise model's (mm) needs
     σ given with its records."""
+    registers_frame: bool = False
+    """Whether its measured values are the TCP's own positions in the frame it fixes (a tracker's): the fit then
+    starts from the base registered to them in closed form (the instrument may stand metres away and turned)."""
+    position_error: bool = False
+    """Whether a record's error is a position in mm (‖r‖ of a point seen in a frame: a tracker's, a reflector's,
+    a socket's): a fresh record's predicted error is then given beside the TCP's."""
+    recorded_as: str | None = None
+    """The kind of record that measures it as the contract names it, where that is not `kind` ("distance" for
+    an anchor)."""
+
+    @property
+    def record_kind(self) -> str:
+        """The kind of record that measures it (a report's `record_kinds`)."""
+        return self.kind if self.recorded_as is None else self.recorded_as
+
+
+@dataclass(frozen=True)
+class Misfit:
+    """What a reference's records betray after the fit that no pre-fit check could see (a plane touched on two
+    faces): the finding (a `models.identification.diagnosis.Finding` value), the records by their places in the
+    campaign and the message naming the fix."""
+
+    finding: str
+    records: tuple[int, ...]
+    message: str
 
 
 class Reference(Protocol):
@@ -95,6 +127,32 @@ class Reference(Protocol):
         model: what the fit iterates from (a user's rough guess is not needed)."""
         ...
 
+    def errors_mm(self, tcp: ForwardResult, u: Array, values: Array) -> Array:
+        """Each record's error in mm (a row per record; an image's point per row): what a report and a check
+        state of it (`ReferenceBase`: ‖r‖ of its residual)."""
+        ...
+
+    def misfits(self, tcp: ForwardResult, u: Array, sigma_mm: Array, places: NDArray[np.intp]) -> tuple[Misfit, ...]:
+        """What its records betray at the fit's solution (`tcp` at the fitted robot, `u` its fitted unknowns,
+        each record's σ and its place in the campaign); none for most kinds (`ReferenceBase`)."""
+        ...
+
+
+class ReferenceBase:
+    """What most kinds of reference answer alike (a kind overrides what it answers otherwise)."""
+
+    def errors_mm(self, tcp: ForwardResult, u: Array, values: Array) -> Array:
+        """‖r‖ of each record's residual: a distance's or a touch's |r|, a point's or a position's ‖r‖ (mm)."""
+        own = cast(Reference, self)
+        # No derivatives are needed: an empty Jacobian keeps the residuals' own shapes.
+        n = tcp.positions.shape[0]
+        empty = ForwardJacobianResult(tcp.positions, tcp.rotations, tcp.platforms, np.zeros((n, 6, 0)))
+        r, _, _ = own.residuals(empty, u, values)
+        return np.asarray(np.linalg.norm(r, axis=1))
+
+    def misfits(self, tcp: ForwardResult, u: Array, sigma_mm: Array, places: NDArray[np.intp]) -> tuple[Misfit, ...]:
+        return ()
+
 
 def _position_specs(prefix: str, start: Array) -> tuple[ParameterSpec, ...]:
     return tuple(
@@ -104,7 +162,7 @@ def _position_specs(prefix: str, start: Array) -> tuple[ParameterSpec, ...]:
 
 
 @dataclass(frozen=True)
-class Anchor:
+class Anchor(ReferenceBase):
     """A fixed point the records measure the TCP's distance to; `start` its position guess (mm, the robot's
     world frame), `length_unknown` a ballbar whose length offset δ is identified too."""
 
@@ -112,7 +170,9 @@ class Anchor:
     start: tuple[float, float, float]
     length_unknown: bool = False
 
-    traits: ClassVar[Traits] = Traits("anchor", rows=1, value_columns=1, fixes_frame=False, fixes_scale=True)
+    traits: ClassVar[Traits] = Traits(
+        "anchor", rows=1, value_columns=1, fixes_frame=False, fixes_scale=True, recorded_as="distance"
+    )
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -179,13 +239,15 @@ def _sphere(p: Array, d: Array) -> tuple[Array, float]:
 
 
 @dataclass(frozen=True)
-class FixedPoint:
+class FixedPoint(ReferenceBase):
     """A point the TCP is brought onto in every record of it (no instrument reading at all)."""
 
     name: str
     start: tuple[float, float, float]
 
-    traits: ClassVar[Traits] = Traits("point", rows=3, value_columns=0, fixes_frame=False, fixes_scale=False)
+    traits: ClassVar[Traits] = Traits(
+        "point", rows=3, value_columns=0, fixes_frame=False, fixes_scale=False, position_error=True
+    )
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -205,7 +267,7 @@ class FixedPoint:
 
 
 @dataclass(frozen=True)
-class Plane:
+class Plane(ReferenceBase):
     """A plate the probe touches; `normal` and `offset` its start (n₀ unit, h₀ = n₀ · a point on it, mm)."""
 
     name: str
@@ -253,6 +315,28 @@ class Plane:
         d_u = np.stack([p @ dn_a, p @ dn_b, -np.ones(p.shape[0])], axis=1)[:, None, :]
         return r, d_theta, d_u
 
+    def misfits(self, tcp: ForwardResult, u: Array, sigma_mm: Array, places: NDArray[np.intp]) -> tuple[Misfit, ...]:
+        """Touches that fail the plane and lie, among themselves, on another plane: another face was touched
+        under this name (the probe slipped onto a step, two plates at one height named alike). Named with the
+        records, the offset and the tilt between the two, so that the user gives them their own name."""
+        normal, _, _ = self.normal_at(float(u[0]), float(u[1]))
+        signed = tcp.positions @ normal - float(u[2])
+        failing = np.flatnonzero(np.abs(signed) > FAILING_SIGMA * sigma_mm)
+        if failing.size < MIN_OTHER_TOUCHES:
+            return ()
+        other, misfit = _best_plane(tcp.positions[failing])
+        if misfit > OWN_PLANE_SIGMA * float(np.median(sigma_mm[failing])):
+            return ()
+        tilt = math.degrees(math.acos(min(1.0, abs(float(other @ normal)))))
+        records = tuple(int(i) for i in places[failing])
+        message = (
+            f"{failing.size} touches of plane {self.name!r} (records {list(records[:10])}) lie on another plane "
+            f"{float(np.mean(signed[failing])):+.3g} mm from it and tilted {tilt:.2g}° (they fit it to "
+            f"{misfit * 1000:.2g} µm RMS): another face was touched under this name; give those touches their "
+            "own plane"
+        )
+        return (Misfit("other_plane", records, message),)
+
     def started(self, tcp: ForwardResult, values: Array) -> Plane:
         p = tcp.positions
         centre = p.mean(axis=0)
@@ -271,13 +355,21 @@ class Plane:
 
 
 @dataclass(frozen=True)
-class TrackerPositions:
+class TrackerPositions(ReferenceBase):
     """Positions a tracker measured in its own frame (the robot's `base` is that frame), in a campaign with
     references: residual p − m (3 rows), no unknowns of its own, and it fixes the frame and the length."""
 
     name: str = "tracker"
 
-    traits: ClassVar[Traits] = Traits("position", rows=3, value_columns=3, fixes_frame=True, fixes_scale=True)
+    traits: ClassVar[Traits] = Traits(
+        "position",
+        rows=3,
+        value_columns=3,
+        fixes_frame=True,
+        fixes_scale=True,
+        registers_frame=True,
+        position_error=True,
+    )
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -296,14 +388,16 @@ class TrackerPositions:
 
 
 @dataclass(frozen=True)
-class Reflector:
+class Reflector(ReferenceBase):
     """A tracker reflector fixed on the tool at `offset` from the TCP (mm, in the TCP frame: its start), read by
     the tracker in its own frame like the TCP's records (`TrackerPositions`)."""
 
     name: str
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
-    traits: ClassVar[Traits] = Traits("reflector", rows=3, value_columns=3, fixes_frame=True, fixes_scale=True)
+    traits: ClassVar[Traits] = Traits(
+        "reflector", rows=3, value_columns=3, fixes_frame=True, fixes_scale=True, position_error=True
+    )
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
@@ -325,6 +419,13 @@ class Reflector:
         # registered from the TCP's records; where it is off, the fit moves o with it).
         x, y, z = (float(v) for v in np.einsum("nji,nj->ni", tcp.rotations, values - tcp.positions).mean(axis=0))
         return Reflector(self.name, (x, y, z))
+
+
+def _best_plane(points: Array) -> tuple[Array, float]:
+    """The plane through `points` (least squares): its unit normal and the RMS distance of the points from it."""
+    centred = points - points.mean(axis=0)
+    _, s, vt = np.linalg.svd(centred, full_matrices=False)
+    return vt[-1], float(s[-1] / math.sqrt(points.shape[0]))
 
 
 def _cross_matrices(v: Array) -> Array:

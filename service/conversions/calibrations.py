@@ -20,17 +20,9 @@ from service.conversions.references import references_out
 from service.conversions.terms import record_conditions
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord
-from service.record_kinds import tracker_records
 from service.record_kinds.tracker import Record
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic
 from service.schemas.common import Payload, timestamp
-
-
-def campaign_in(desc: RobotDescription, body: CalibrationCreate) -> Campaign:
-    """A tracker campaign (`has_references` is false: every record is a tracker's)."""
-    return records_in(
-        desc, tracker_records(body.measurements), default_sigma_mm=body.noise.position_mm, payload=body.payload
-    )
 
 
 def records_in(
@@ -40,7 +32,8 @@ def records_in(
     default_sigma_mm: float | None = None,
     payload: Payload | None = None,
 ) -> Campaign:
-    """A campaign from request records (a calibration's or a validation's), checked."""
+    """A whole campaign of the models from records of one kind that make one (`RecordKind.measurement_kinds`: a
+    tracker's; `service.services.pipelines`), checked."""
     with_orientation = [r.orientation is not None for r in measurements]
     if any(with_orientation) and not all(with_orientation):
         first = with_orientation.index(not with_orientation[0])

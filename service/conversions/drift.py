@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from datetime import UTC, datetime
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -15,7 +15,7 @@ from models import RobotDescription
 from models.campaign import Campaign
 from models.identification.drift import DriftDriver, DriftEstimate, Timeline, find_reference
 from service.errors import BadRequest
-from service.record_kinds import tracker_records
+from service.record_kinds import kind_of
 from service.record_kinds.tracker import Record
 from service.schemas.common import ConditionsPublic, ConditionWarningPublic, Payload
 
@@ -103,8 +103,8 @@ def conditions_out(records: Sequence[object], payload: Payload | None) -> dict[s
     payload or a time count for none)."""
     temperatures = [t for r in records if (t := getattr(r, "temperature_c", None)) is not None]
     loads = [p for r in records if (p := getattr(r, "payload", None) or payload) is not None]
-    tracker = tracker_records(records)
-    times, instants = record_times(tracker) if len(tracker) == len(records) else (None, None)
+    timed = all(kind_of(r).timed for r in records)
+    times, instants = record_times(cast(Sequence[Record], records)) if timed else (None, None)
     return ConditionsPublic.model_validate(
         {
             "temperature_c": _range(temperatures),

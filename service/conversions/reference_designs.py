@@ -10,7 +10,7 @@ D-efficiency floor and no branch and bound, so those options are refused here wi
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import cast
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,26 +19,24 @@ from models import RobotDescription, forward_kinematics, sample_workspace
 from models._types import Array
 from models.errors import InvalidInput, TooFewMeasurements
 from models.kinematics import check_joint_ranges
-from models.measurements.camera import Camera
-from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords, Reflector
+from models.measurements.references import ReferenceRecords
 from models.runtime import Runtime
 from optimal_design.constraints import KeepOut, joint_range_mask, keep_out_mask
 from optimal_design.problem import MAX_CANDIDATES
-from optimal_design.references import camera_candidates
 from service.conversions.designs import constraints_in
 from service.conversions.kinematics import joints_in
-from service.record_kinds import BY_REFERENCE, RECORD_KINDS, ReferenceCandidate, described
+from service.record_kinds import BY_REFERENCE, RECORD_KINDS, REFERENCE_KINDS, ReferenceCandidate, described
+from service.record_kinds.base import ModelReference
 from service.schemas.designs import PoseDesignCreate
 
-Reference = Anchor | FixedPoint | Plane | Reflector | Camera
 KIND_OF_MEASUREMENT = {kind.name: name for name, kind in BY_REFERENCE.items()}
 """The reference kind a record kind measures (records say `anchor`, `point`, `plane`, `camera`)."""
 PLURAL = {name: str(kind.described_in) for name, kind in BY_REFERENCE.items()}
 """Where the body describes each kind."""
+PLANNED = ", ".join(REFERENCE_KINDS[:-1]) + f" and {REFERENCE_KINDS[-1]}"
+"""The kinds a reference design plans, as its messages list them."""
 SAMPLED_KINDS = tuple(name for name, kind in BY_REFERENCE.items() if kind.sampled)
 """What sampled poses are offered against (`RecordKind.sampled`)."""
-DEFAULT_SIGMA_PX = 0.1
-"""A camera's σ where its description gives none: what a calibration assumes for an image that states none."""
 
 
 @dataclass(frozen=True)
@@ -65,8 +63,7 @@ def refuse_unsupported(body: PoseDesignCreate) -> None:
         and "branch and bound is not run on reference designs yet; the report's efficiency is the relaxation's",
         "d_efficiency_floor": body.d_efficiency_floor is not None
         and "a D-efficiency floor is not kept by the reference design yet (condition keeps its default floor)",
-        "terms": bool(body.terms)
-        and "distance, point, plane and image records carry no temperature or load per record: no model terms",
+        "terms": bool(body.terms) and f"{PLANNED} records carry no temperature or load per record: no model terms",
         "temperature_levels_c": body.temperature_levels_c is not None and "levels belong to a design with terms",
         "payload_levels": body.payload_levels is not None and "levels belong to a design with terms",
     }
@@ -75,14 +72,14 @@ def refuse_unsupported(body: PoseDesignCreate) -> None:
             raise InvalidInput(f"{name}: {why} (measurement {body.measurement!r})", field=name, reason="unsupported")
 
 
-def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], Reference]:
+def references_in(body: PoseDesignCreate) -> dict[tuple[str, str], ModelReference]:
     """Every described reference by (kind, name), as the design needs it: an anchor where it stands, a plane's
     normal, a camera's pose. A 422 naming the one that lacks what the design needs."""
-    found: dict[tuple[str, str], Reference] = {}
+    found: dict[tuple[str, str], ModelReference] = {}
     describes = described(body)
     for candidate, kind in BY_REFERENCE.items():
         for name, description in kind.descriptions(describes).items():
-            found[(candidate, name)] = cast(Reference, kind.design_reference(name, description))
+            found[(candidate, name)] = kind.design_reference(name, description)
     names = [name for _, name in found]
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
@@ -101,8 +98,10 @@ class _Request:
     desc: RobotDescription
     theta: Array
     body: PoseDesignCreate
-    references: dict[tuple[str, str], Reference]
+    references: dict[tuple[str, str], ModelReference]
     runtime: Runtime
+    descriptions: dict[tuple[str, str], Any]
+    """Each reference's description as the body gives it, by (kind, name) as `references`."""
 
 
 def reference_candidates_in(
@@ -112,7 +111,9 @@ def reference_candidates_in(
     sampled in the workspace offered against every anchor (a distance design only); then the checks that every
     reference can be determined and that a length is among them."""
     references = references_in(body)
-    request = _Request(desc, theta, body, references, runtime)
+    describes = described(body)
+    descriptions = {key: BY_REFERENCE[key[0]].descriptions(describes)[key[1]] for key in references}
+    request = _Request(desc, theta, body, references, runtime, descriptions)
     found = _given(request) if body.candidates is not None else _sampled(request)
     _check_determined(found, references, given=body.candidates is not None)
     return found
@@ -168,7 +169,7 @@ def _given(request: _Request) -> ReferenceCandidates:
 
 def _reference_of(
     body: PoseDesignCreate,
-    references: dict[tuple[str, str], Reference],
+    references: dict[tuple[str, str], ModelReference],
     index: int,
     candidate: list[float] | ReferenceCandidate,
 ) -> tuple[str, str]:
@@ -209,24 +210,21 @@ def _sampled(request: _Request) -> ReferenceCandidates:
     ok, per_pose = _filters(request, joints)
     tcp = forward_kinematics(desc, joints, theta, runtime=request.runtime).positions
     by_reference: dict[tuple[str, str], list[int]] = {}
-    out_of_range = 0
+    unreadable: dict[str, int] = {}  # by each kind's filter (`RecordKind.readable_filter`: an anchor's range_mm)
     for key, reference in references.items():
         keep = ok.copy()
-        readable = body.anchors[reference.name].range_mm if isinstance(reference, Anchor) else None
-        if isinstance(reference, Anchor) and readable is not None:
-            distance = np.linalg.norm(tcp - np.asarray(reference.start), axis=1)
-            inside = (distance >= readable[0]) & (distance <= readable[1])
-            out_of_range += int((keep & ~inside).sum())
-            keep &= inside
+        kind = BY_REFERENCE[key[0]]
+        readable = kind.readable(reference, request.descriptions[key], tcp)
+        if readable is not None and kind.readable_filter is not None:
+            unreadable[kind.readable_filter] = unreadable.get(kind.readable_filter, 0) + int((keep & ~readable).sum())
+            keep &= readable
         by_reference[key] = [int(i) for i in np.flatnonzero(keep)]
-    excluded = {why: n * len(references) for why, n in per_pose.items()}
-    if any(a.range_mm is not None for a in body.anchors.values()):
-        excluded["range_mm"] = out_of_range
+    excluded = {why: n * len(references) for why, n in per_pose.items()} | unreadable
     offered = joints.shape[0] * len(references)
     return _grouped(request, by_reference, joints, offered=offered, excluded=excluded)
 
 
-def _check_samplable(body: PoseDesignCreate, references: dict[tuple[str, str], Reference]) -> None:
+def _check_samplable(body: PoseDesignCreate, references: dict[tuple[str, str], ModelReference]) -> None:
     """Sampled candidates need references they can be offered against, and at most MAX_CANDIDATES of them."""
     record_kind = RECORD_KINDS.get(str(body.measurement))
     sampled = record_kind is not None and record_kind.sampled
@@ -273,14 +271,23 @@ def _grouped(
         index = np.asarray(by_reference.get(key, []), dtype=np.intp)
         if index.size == 0:
             continue
-        group, record_origin = _group(request, reference, joints, index)
+        kind = BY_REFERENCE[key[0]]
+        group, at = kind.design_records(
+            request.desc,
+            reference,
+            request.descriptions[key],
+            joints[index],
+            theta=request.theta,
+            runtime=request.runtime,
+        )
+        record_origin = index[at]
         # The core weighs one candidate per distinct joint vector of a group, in the order they first appear
         # (`optimal_design.references`: an image's points are one stop); each is named by its first record's.
         _, first = np.unique(group.joints, axis=0, return_index=True)
         stops = record_origin[np.sort(first)]
-        if isinstance(reference, Camera):
+        if kind.unseen_filter is not None:
             unseen = int(np.isin(index, record_origin, invert=True).sum())  # a repeated pose is not unseen
-            excluded["not_seen"] = excluded.get("not_seen", 0) + unseen
+            excluded[kind.unseen_filter] = excluded.get(kind.unseen_filter, 0) + unseen
         groups.append(group)
         origin.append(stops)
         names.extend([reference.name] * stops.size)
@@ -300,42 +307,9 @@ def _grouped(
     )
 
 
-def _group(
-    request: _Request, reference: Reference, joints: Array, index: NDArray[np.intp]
-) -> tuple[ReferenceRecords, NDArray[np.intp]]:
-    """One reference's candidate records at the poses `index` (of `joints`), and each record's candidate: an
-    anchor's, point's or plane's one per pose; a camera's one per target it would see there (its images)."""
-    if not isinstance(reference, Camera):
-        # What a record would read does not enter its rows: zeros in the shape its kind reads (a reflector: 3).
-        columns = reference.traits.value_columns
-        values = np.zeros(index.size) if columns <= 1 else np.zeros((index.size, columns))
-        return ReferenceRecords(reference, joints[index], values), index
-    described = request.body.cameras[reference.name]
-    assert described.targets_mm is not None  # `references_in` refused a camera without them
-    targets = np.asarray(described.targets_mm, dtype=float)
-    images = camera_candidates(
-        request.desc,
-        reference,
-        joints[index],
-        targets,
-        sigma_px=described.sigma_px or DEFAULT_SIGMA_PX,
-        params=request.theta,
-        runtime=request.runtime,
-    )
-    if images.size == 0:
-        raise InvalidInput(
-            f"camera {reference.name!r} sees none of its {len(targets)} targets from any of its {index.size} "
-            "candidate poses (none in front of it and on its image): its pose guess (position_mm, "
-            "rotation_vector_deg: where it is and which way it looks, OpenCV's z forward) or its targets_mm (mm, "
-            f"in the {'tool' if reference.mount == 'world' else 'world'} frame) are likely wrong",
-            field=f"cameras.{reference.name}",
-            value=reference.name,
-            reason="camera_sees_nothing",
-        )
-    return images, index[images.values[:, 0].astype(np.intp)]
-
-
-def _check_determined(found: ReferenceCandidates, references: dict[tuple[str, str], Reference], *, given: bool) -> None:
+def _check_determined(
+    found: ReferenceCandidates, references: dict[tuple[str, str], ModelReference], *, given: bool
+) -> None:
     """Enough admissible candidates for each reference to be determined, and a length among them: a 4xx in a
     design's words (the core would speak of records measured)."""
     sizes = {g.reference.name: g.size for g in found.groups}

@@ -1,7 +1,7 @@
 """A campaign of reference records (and tracker positions beside them) as the models' record groups, and the
 identified references as the report states them (boundary units: mm, deg). What each kind of record contributes
-is its kind's (`service.record_kinds`); `Described`, `described` and `has_references` are re-exported from there for the
-callers that import them here."""
+is its kind's (`service.record_kinds`); `Described` and `described` are re-exported from there for the callers that
+import them here."""
 
 from __future__ import annotations
 
@@ -22,11 +22,10 @@ from service.record_kinds import (
     Described,
     RecordKind,
     described,
-    has_references,
     kind_of,
 )
 
-__all__ = ["Described", "described", "has_references", "reference_groups_in", "references_out"]
+__all__ = ["Described", "described", "reference_groups_in", "references_out"]
 
 
 def reference_groups_in(

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Annotated, Any, Literal, Union, cast
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
 
 from pydantic import Discriminator, Tag, create_model
 
@@ -55,6 +55,15 @@ BY_MODEL: Mapping[str, RecordKind] = MappingProxyType({kind.model: kind for kind
 
 REFERENCE_KINDS: tuple[str, ...] = tuple(name for name, kind in RECORD_KINDS.items() if kind.measures_reference)
 """The kinds whose records measure a reference the cell owns: what a pose design may plan beside a tracker's."""
+
+BY_MEASUREMENT: Mapping[str, RecordKind] = MappingProxyType(
+    {
+        **{m.value: kind for kind in RECORD_KINDS.values() for m in kind.measurement_kinds},
+        **{name: RECORD_KINDS[name] for name in REFERENCE_KINDS},
+    }
+)
+"""The kind whose records a pose design's `measurement` plans: a tracker's for pose and position, each reference
+kind by its own name."""
 
 RECORD_KIND_ERROR = {
     "custom_error_type": "record_kind",
@@ -152,14 +161,12 @@ def kind_of(record: Any) -> RecordKind:
     return RECORD_KINDS[record_tag(record)]
 
 
-def has_references(measurements: Iterable[Any]) -> bool:
-    """Whether a campaign holds any record of the instruments a cell owns (not only a tracker's)."""
-    return any(kind_of(r).measures_reference for r in measurements)
-
-
-def tracker_records(measurements: Iterable[Any]) -> list[Record]:
-    """A campaign's tracker records, in order (the records of the models' pose or position campaign)."""
-    return cast(list[Record], [r for r in measurements if kind_of(r) is TRACKER])
+def sole_kind(measurements: Iterable[Any]) -> RecordKind | None:
+    """The one kind of every record of a campaign; None where it holds several (or none). What a pipeline asks
+    before it takes a specialised path for a campaign of one kind (by that kind's capabilities, never its name:
+    `RecordKind.measurement_kinds`, `RecordKind.write_alone`)."""
+    kinds = {kind_of(r) for r in measurements}
+    return kinds.pop() if len(kinds) == 1 else None
 
 
 def file_kinds_listed() -> str:
@@ -174,6 +181,7 @@ def public_records(stored: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 __all__ = [
     "BY_FILE_KIND",
+    "BY_MEASUREMENT",
     "BY_MODEL",
     "BY_REFERENCE",
     "DESCRIBING",
@@ -203,8 +211,7 @@ __all__ = [
     "ReferencePublic",
     "described",
     "file_kinds_listed",
-    "has_references",
     "kind_of",
     "public_records",
-    "tracker_records",
+    "sole_kind",
 ]

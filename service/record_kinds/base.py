@@ -16,6 +16,7 @@ from models import RobotDescription
 from models.errors import InvalidInput
 from models.measurement import MeasurementKind
 from models.measurements.references import AnyReference, ReferenceRecords
+from models.runtime import Runtime
 from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import ImportOptions, length_factor
 from service.campaign_io.tabular import Row, Table
@@ -116,10 +117,30 @@ class RecordKind(ABC):
     wherever its targets come into view; no sampled pose puts the TCP on a point or a plane)."""
     more_candidates: ClassVar[str] = "raise candidate_count"
     """How a sampled design gets more of its records."""
+    readable_filter: ClassVar[str | None] = None
+    """The name of the filter its `readable` applies to a sampled design's poses, as the report counts what it
+    excluded ("range_mm": where its instrument reads); None: it filters none."""
+    unseen_filter: ClassVar[str | None] = None
+    """The name under which a design counts the candidate poses that give none of its records ("not_seen": a
+    camera that would see none of its targets there); None: every pose gives its record."""
     file_kinds: ClassVar[tuple[str, ...]]
     """Its values of a file's `kind` column, lower case; the first is the one written."""
     file_columns: ClassVar[tuple[str, ...]]
     """The columns of the layout of several kinds it fills beside `kind`, `reference` and the joints."""
+    timed: ClassVar[bool] = False
+    """Whether its records say when they were measured (`time`): a campaign of them alone has a timeline (the
+    instrument's drift fitted over it, the span the report's conditions state)."""
+
+    @property
+    def whole_campaign(self) -> bool:
+        """Whether a campaign of only its records is one campaign of the models (`measurement_kinds`): the
+        capability the operations' pipelines take their specialised path by (`service.services.pipelines`)."""
+        return bool(self.measurement_kinds)
+
+    @property
+    def designable(self) -> bool:
+        """Whether a pose design plans its records (a whole campaign's, or a described reference's)."""
+        return self.whole_campaign or self.measures_reference
 
     @property
     def measures_reference(self) -> bool:
@@ -155,6 +176,29 @@ class RecordKind(ABC):
         """What the report states of an identified reference of this kind beside its unknowns (boundary units),
         from its fitted unknowns `values` (internal units)."""
         return {}
+
+    def readable(self, reference: ModelReference, description: Any, tcp: np.ndarray) -> np.ndarray | None:
+        """Which sampled poses (their nominal TCP positions, mm) its instrument can read there, where its
+        description limits them (`readable_filter`); None: every one."""
+        return None
+
+    def design_records(
+        self,
+        desc: RobotDescription,
+        reference: ModelReference,
+        description: Any,
+        joints: np.ndarray,
+        *,
+        theta: np.ndarray,
+        runtime: Runtime,
+    ) -> tuple[ReferenceRecords, np.ndarray]:
+        """Its candidate records at the poses `joints` (internal units) and each record's pose among them: one
+        per pose, measured values zero in the shape its records take (what a record would read does not enter
+        its rows); a camera's one per target it would see (`unseen_filter`)."""
+        columns = reference.traits.value_columns
+        n = joints.shape[0]
+        values = np.zeros(n) if columns <= 1 else np.zeros((n, columns))
+        return ReferenceRecords(reference, joints, values), np.arange(n, dtype=np.intp)
 
     def design_has(self, have: int) -> str:
         """A design's count of its candidate records, in its words (a camera's records are points seen)."""
@@ -208,6 +252,16 @@ class RecordKind(ABC):
 
     def finish(self, record: dict[str, Any]) -> None:  # noqa: B027  (optional)
         """A record read from a file, once the whole file is read: the keys only reading needed dropped."""
+
+    def measured_position(self, stored: Mapping[str, Any]) -> list[float] | None:
+        """The TCP's position a stored record measured (mm, the instrument's frame), where it measured one: what
+        a report draws. None for a distance, a touch, an image."""
+        return None
+
+    def write_alone(self, records: Sequence[Any], joint_names: Sequence[str]) -> list[list[str]] | None:
+        """A campaign of only its records in a file layout of its own (header first), where it has one that a
+        calibration reads back (a tracker's); None: the layout of several kinds (`file_rows`)."""
+        return None
 
     @abstractmethod
     def file_rows(self, record: Any) -> list[dict[str, str]]:

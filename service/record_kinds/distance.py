@@ -4,7 +4,7 @@ origin)."""
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, cast
 
 import numpy as np
 from pydantic import Field
@@ -66,6 +66,7 @@ class DistanceKind(RecordKind):
     design_description: ClassVar[str] = '{"position_mm": [x, y, z]}'
     sampled: ClassVar[bool] = True
     more_candidates: ClassVar[str] = "widen its range_mm or raise candidate_count"
+    readable_filter: ClassVar[str | None] = "range_mm"
     file_kinds: ClassVar[tuple[str, ...]] = ("distance",)
     file_columns: ClassVar[tuple[str, ...]] = ("distance_mm", "sigma_mm")
 
@@ -89,6 +90,14 @@ class DistanceKind(RecordKind):
             )
         x, y, z = description.position_mm
         return Anchor(name, (x, y, z), length_unknown=description.length_unknown)
+
+    def readable(self, reference: ModelReference, description: Any, tcp: np.ndarray) -> np.ndarray | None:
+        """Where the nominal TCP's distance to the anchor lies in its `range_mm` (a ballbar's travel)."""
+        if description.range_mm is None:
+            return None
+        low, high = description.range_mm
+        distance = np.linalg.norm(tcp - np.asarray(cast(Anchor, reference).start), axis=1)
+        return np.asarray((distance >= low) & (distance <= high))
 
     def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
         entry: dict[str, Any] = {"position_mm": [float(v) for v in values[:3]]}

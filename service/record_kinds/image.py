@@ -5,15 +5,17 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal, cast
 
 import numpy as np
 from pydantic import Field
 
 from models import RobotDescription
+from models.errors import InvalidInput
 from models.measurements.camera import Camera, described_camera, read_images
 from models.measurements.references import ReferenceRecords
 from models.parameters import Kind
+from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np
 from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import length_factor
@@ -49,6 +51,8 @@ CAMERA_NEEDS = (
 
 """What a design needs of a camera that a calibration does not: which targets a pose shows, and where on the
 image, depend on where the camera is."""
+DEFAULT_SIGMA_PX = 0.1
+"""A camera's σ where its description gives none: what a calibration assumes for an image that states none."""
 _GROUPING = "_image"
 """The image id a record read from a file keeps until the file is read (`reference_table` drops it)."""
 
@@ -117,6 +121,7 @@ class ImageKind(RecordKind):
         '"targets_mm": [[x, y, z], …]}'
     )
     sampled: ClassVar[bool] = True
+    unseen_filter: ClassVar[str | None] = "not_seen"
     file_kinds: ClassVar[tuple[str, ...]] = ("image",)
     file_columns: ClassVar[tuple[str, ...]] = (*SEEN_COLUMNS, "sigma_px")
 
@@ -141,6 +146,39 @@ class ImageKind(RecordKind):
         rx, ry, rz = (math.radians(v) for v in description.rotation_vector_deg)
         placed = described_camera(name, description.model_dump(exclude_none=True))
         return replace(placed, position=(x, y, z), rotation=(rx, ry, rz))
+
+    def design_records(
+        self,
+        desc: RobotDescription,
+        reference: ModelReference,
+        description: Any,
+        joints: np.ndarray,
+        *,
+        theta: np.ndarray,
+        runtime: Runtime,
+    ) -> tuple[ReferenceRecords, np.ndarray]:
+        """Its candidate images: at each pose, a record per target the camera would see there (in front of it
+        and on its image at its guessed pose); a pose that shows none gives none (`unseen_filter`)."""
+        # Imported here: pose design's modules load the convex solvers, which a process that only reads and
+        # fits campaigns never needs (as service.services.reports loads matplotlib with its first report).
+        from optimal_design.references import camera_candidates  # noqa: PLC0415
+
+        camera = cast(Camera, reference)
+        assert description.targets_mm is not None  # `design_reference` refused a camera without them
+        targets = np.asarray(description.targets_mm, dtype=float)
+        sigma_px = description.sigma_px or DEFAULT_SIGMA_PX
+        images = camera_candidates(desc, camera, joints, targets, sigma_px=sigma_px, params=theta, runtime=runtime)
+        if images.size == 0:
+            raise InvalidInput(
+                f"camera {camera.name!r} sees none of its {len(targets)} targets from any of its {joints.shape[0]} "
+                "candidate poses (none in front of it and on its image): its pose guess (position_mm, "
+                "rotation_vector_deg: where it is and which way it looks, OpenCV's z forward) or its targets_mm "
+                f"(mm, in the {'tool' if camera.mount == 'world' else 'world'} frame) are likely wrong",
+                field=f"cameras.{camera.name}",
+                value=camera.name,
+                reason="camera_sees_nothing",
+            )
+        return images, images.values[:, 0].astype(np.intp)
 
     def reported(self, reference: Any, values: np.ndarray) -> dict[str, Any]:
         # The unknowns turn the start orientation; the report states the orientation itself.

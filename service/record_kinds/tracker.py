@@ -4,7 +4,7 @@ fix the frame."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -14,6 +14,9 @@ from models.measurement import MeasurementKind
 from models.measurements.references import TrackerPositions
 from service.record_kinds.base import POSITION_COLUMNS, Described, FileRow, ModelReference, RecordKind, cell
 from service.schemas.common import JointVector, Payload, Position, Public, Quaternion, RecordTime, Strict, TemperatureC
+
+ORIENTATION_COLUMNS = ("qw", "qx", "qy", "qz")
+"""A tracker file's orientation columns (a unit quaternion), after x, y, z."""
 
 
 class Record(Strict):
@@ -61,6 +64,28 @@ class TrackerKind(RecordKind):
     label: ClassVar[str] = "tracker"
     file_kinds: ClassVar[tuple[str, ...]] = ("tracker", "", "position")
     file_columns: ClassVar[tuple[str, ...]] = (*POSITION_COLUMNS, "sigma_mm")
+    timed: ClassVar[bool] = True
+    sampled: ClassVar[bool] = True  # a tracker reads wherever it sees the reflector
+
+    def measured_position(self, stored: Mapping[str, Any]) -> list[float] | None:
+        return [float(v) for v in stored["position"]]
+
+    def write_alone(self, records: Sequence[Any], joint_names: Sequence[str]) -> list[list[str]] | None:
+        """The tracker layout (what POST …/calibrations reads): the joints, x, y, z and, where any record has one,
+        the orientation's quaternion; numbers exactly as stored."""
+        with_orientation = any(r.orientation is not None for r in records)
+        # A record's own σ and temperature (a tracker file's U(95) / 2, its Temperature column) go back out with
+        # it, so the CSV fitted again is the same campaign.
+        extra = [c for c in ("sigma_mm", "temperature_c") if any(getattr(r, c) is not None for r in records)]
+        pose = (*POSITION_COLUMNS, *ORIENTATION_COLUMNS) if with_orientation else POSITION_COLUMNS
+        rows = [[*joint_names, *pose, *extra]]
+        for r in records:
+            cells = [repr(float(v)) for v in (*r.joints, *r.position)]
+            if with_orientation:
+                cells += [repr(float(v)) for v in r.orientation] if r.orientation is not None else ["", "", "", ""]
+            cells += ["" if (v := getattr(r, c)) is None else repr(float(v)) for c in extra]
+            rows.append(cells)
+        return rows
 
     def reference(self, described: Described, name: str) -> ModelReference:
         return TrackerPositions()

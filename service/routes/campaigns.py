@@ -3,16 +3,15 @@ from __future__ import annotations
 import csv
 import io
 from collections.abc import Sequence
-from typing import Any, cast
+from typing import Any
 
 from fastapi import APIRouter, Query, Request, Response
 
-from service.csv_codec import CAMPAIGN_HEADER, POSE_COLUMNS
+from service.csv_codec import CAMPAIGN_HEADER
 from service.deps import DatabaseDep, ModelCacheDep, negotiate
 from service.json_bodies import OffloopRoute
 from service.operations import operation
-from service.record_kinds import FILE_COLUMNS, has_references, kind_of, tracker_records
-from service.record_kinds.tracker import CampaignRecordPublic
+from service.record_kinds import FILE_COLUMNS, kind_of, sole_kind
 from service.responses import model_json
 from service.schemas.campaigns import CampaignPublic
 from service.security import Scope
@@ -38,29 +37,21 @@ _CSV: dict[int | str, dict[str, Any]] = {
 
 def campaign_csv(campaign: CampaignPublic, joint_names: Sequence[str]) -> str:
     """The spec's campaign CSV (what POST …/calibrations accepts) under the robot's joint header (robots.md),
-    numbers exactly as stored; a campaign with distance, point or plane records in the layout of several kinds
+    numbers exactly as stored: a campaign of one kind in its own layout where it has one
+    (`RecordKind.write_alone`, a tracker's), any other in the layout of several kinds
     (`service.campaign_io.reference_table`)."""
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    if has_references(campaign.measurements):
-        writer.writerow([*FILE_COLUMNS[:2], *joint_names, *FILE_COLUMNS[2:]])
-        for r in campaign.measurements:
-            joints = [repr(float(v)) for v in r.joints]
-            for row in kind_of(r).file_rows(r):  # an image: a row per point it saw
-                writer.writerow([*(row.get(c, "") for c in FILE_COLUMNS[:2]), *joints, *_cells(row)])
+    alone = sole_kind(campaign.measurements)
+    rows = None if alone is None else alone.write_alone(campaign.measurements, joint_names)
+    if rows is not None:  # a campaign of one kind with a layout of its own (a tracker's)
+        writer.writerows(rows)
         return out.getvalue()
-    tracker = cast(list[CampaignRecordPublic], tracker_records(campaign.measurements))
-    with_orientation = any(r.orientation is not None for r in tracker)
-    # A record's own σ and temperature (a tracker file's U(95) / 2, its Temperature column) go back out with it,
-    # so the CSV fitted again is the same campaign.
-    extra = [c for c in ("sigma_mm", "temperature_c") if any(getattr(r, c) is not None for r in tracker)]
-    writer.writerow([*joint_names, *(POSE_COLUMNS if with_orientation else POSE_COLUMNS[:3]), *extra])
-    for r in tracker:
-        cells = [repr(float(v)) for v in (*r.joints, *r.position)]
-        if with_orientation:
-            cells += [repr(float(v)) for v in r.orientation] if r.orientation is not None else ["", "", "", ""]
-        cells += ["" if (v := getattr(r, c)) is None else repr(float(v)) for c in extra]
-        writer.writerow(cells)
+    writer.writerow([*FILE_COLUMNS[:2], *joint_names, *FILE_COLUMNS[2:]])
+    for r in campaign.measurements:
+        joints = [repr(float(v)) for v in r.joints]
+        for row in kind_of(r).file_rows(r):  # an image: a row per point it saw
+            writer.writerow([*(row.get(c, "") for c in FILE_COLUMNS[:2]), *joints, *_cells(row)])
     return out.getvalue()
 
 

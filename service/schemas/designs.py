@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from datetime import datetime
 from typing import TYPE_CHECKING, Annotated, Literal
 
@@ -37,6 +38,31 @@ BOUND_SECONDS_MAX = 60.0
 ReferenceMeasurement = str
 REFERENCE_MEASUREMENTS: tuple[ReferenceMeasurement, ...] = REFERENCE_KINDS
 """The records of the instruments a cell owns that a design can plan (the record kinds': service.record_kinds)."""
+
+
+def _either(names: Sequence[str], last: str = "or") -> str:
+    """Names as the descriptions list them: "a, b or c"."""
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} {last} {names[-1]}"
+
+
+_PLANNED = [RECORD_KINDS[name] for name in REFERENCE_KINDS]
+_WHOLE = [m.value for kind in RECORD_KINDS.values() for m in kind.measurement_kinds]
+_WHOLE_KINDS = _either([name for name, kind in RECORD_KINDS.items() if kind.whole_campaign])
+_MAPS = [str(kind.described_in) for kind in _PLANNED]
+_NAMED_BY = [str(kind.named_by) for kind in _PLANNED]
+_SAMPLED = [kind.name for kind in _PLANNED if kind.sampled]
+MEASUREMENT_DOC = (
+    f"{_either(_WHOLE)}: a {_WHOLE_KINDS}'s records; {_either(list(REFERENCE_KINDS))}: records against the "
+    f"{_either(_MAPS)} the body describes (the kind of bare joint vectors among the candidates; sampled ones: "
+    f"{_either(_SAMPLED, 'and')} only)"
+)
+"""The design's `measurement` in the contract, from the registry (`service.record_kinds`)."""
+_OTHERS = ", ".join(f'"{name}"' for name in _NAMED_BY[1:])
+CANDIDATES_DOC = (
+    "Joint vectors; against references, each may name the one its record measures: "
+    f'{{"joints": [...], "{_NAMED_BY[0]}": "a1"}} (or {_OTHERS}), which a design of several references needs'
+)
+MEASURED_DOC = f"Against references: the {_either(_NAMED_BY)} each chosen pose's record measures"
 
 
 def _kind(value: str) -> MeasurementKind | str:
@@ -86,16 +112,12 @@ class PoseDesignCreate(ReferenceDescriptions):
     criterion: Criterion = Field(default=Criterion.D, description="With a target: D or I (default there: I)")
     measurement: DesignMeasurement = Field(
         default=MeasurementKind.POSE,
-        description="pose or position: a tracker's records; distance, point, plane, image or reflector: records "
-        "against the anchors, points, planes, cameras or reflectors the body describes (the kind of bare joint "
-        "vectors among the candidates; sampled ones: distance, image and reflector only)",
+        description=MEASUREMENT_DOC,
     )
     candidates: list[DesignCandidate] | None = Field(
         default=None,
         max_length=MAX_CANDIDATES,
-        description="Joint vectors; against references, each may name the one its record measures: "
-        '{"joints": [...], "anchor": "a1"} (or "point", "plane", "camera", "reflector"), which a design of several '
-        "references needs",
+        description=CANDIDATES_DOC,
     )
     noise: Noise | None = Field(
         default=None,
@@ -170,12 +192,10 @@ class PoseDesignCreate(ReferenceDescriptions):
             raise ValueError("bound_seconds applies to a design of count poses, not to a target")
         if self.target is not None and "criterion" not in self.model_fields_set:
             self.criterion = Criterion.I  # the criterion that minimises the predicted RMS TCP error
-        if isinstance(self.measurement, MeasurementKind) and (
-            self.anchors or self.points or self.planes or self.cameras or self.reflectors or any(self._tied())
-        ):
+        if isinstance(self.measurement, MeasurementKind) and (any(described(self).maps.values()) or any(self._tied())):
             raise ValueError(
-                f"measurement {self.measurement.value!r} is a tracker's: anchors, points, planes, cameras, reflectors "
-                f"and candidates that name one belong to measurement {', '.join(REFERENCE_KINDS)}"
+                f"measurement {self.measurement.value!r} is a {_WHOLE_KINDS}'s: {', '.join(_MAPS)} and candidates "
+                f"that name one belong to measurement {', '.join(REFERENCE_KINDS)}"
             )
         return self
 
@@ -324,7 +344,7 @@ class PoseDesignReportPublic(Public):
     fixed_mm: OptionalFloat = Field(default=None, description="Target mode: with the fixed poses alone")
     references: list[str] | None = Field(
         default=None,
-        description="Against references: the anchor, point, plane or camera each chosen pose's record measures",
+        description=MEASURED_DOC,
     )
     cell: DesignCellPublic | None = Field(default=None, description="With a cell: what it checked and refused")
 

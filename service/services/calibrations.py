@@ -8,39 +8,31 @@ from sqlalchemy.orm import Session
 
 from models import Registry, RobotDescription
 from models._types import Array
-from models.campaign import Campaign
 from models.errors import InvalidInput
-from models.identifiability import structural_identifiability
-from models.identification import IdentificationOptions, IdentificationResult, identify
+from models.identification import IdentificationOptions, IdentificationResult
 from models.identification.acceptance import Acceptance, acceptance_checks, decide
-from models.identification.drift import DriftOptions, identify_with_drift
-from models.identification.reference_result import expected_rank, identify_reference_campaign
-from models.identification.terms_check import unused_temperature_note
-from models.noise import NoiseModel
-from models.runtime import Runtime
 from service.audit_actions import AuditAction
 from service.conversions.calibrations import (
     calibration_public,
-    campaign_in,
     diagnoses_out,
     noise_in,
     options_in,
     report_out,
 )
-from service.conversions.drift import conditions_out, drift_out, timeline_in
-from service.conversions.references import described, has_references, reference_groups_in
+from service.conversions.drift import conditions_out
+from service.conversions.references import described
 from service.conversions.robots import description
 from service.conversions.terms import padded, requested_model
 from service.conversions.terms import start_values as start_values_for
-from service.errors import BadRequest, CalibrationFailed, Conflict
+from service.errors import CalibrationFailed, Conflict
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import CalibrationRecord, ParameterVersion, Robot
-from service.record_kinds import tracker_records
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic, CalibrationReportPublic
 from service.services.fleets import Fleet, calibration_prior, comparison_out, read_fleet
 from service.services.hooks import JobHooks
+from service.services.pipelines import fitting_for
 
 
 def calibrate(
@@ -141,18 +133,15 @@ def _with_fleet_prior(options: IdentificationOptions, body: CalibrationCreate, s
     """`options` with the fleet's population as prior where the request asks for it (options.prior fleet)."""
     if body.options.prior != "fleet":
         return options
-    if has_references(body.measurements):
-        raise InvalidInput(
-            "options.prior fleet calibrates from tracker records: distance, point, plane and image records are "
-            "fitted with their references, which take no prior yet; leave out options.prior",
-            field="options.prior",
-        )
     return replace(options, prior=calibration_prior(start.fleet, start.robot_id, start.desc, body.options.fleet))
 
 
 def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
-    """The identification, its acceptance checks and the decision, and the report (nothing stored yet)."""
+    """The identification, its acceptance checks and the decision, and the report (nothing stored yet): one
+    pipeline for a campaign of any kinds (`service.services.pipelines`)."""
     desc = start.desc
+    way = fitting_for(body.measurements)
+    way.refuse_options(body)  # before any conversion: a campaign's options are refused as a whole
     options = _with_fleet_prior(options_in(body), body, start)
     # The fit starts from the chosen version, so whatever it does not estimate keeps that version's calibrated
     # values (a base-only re-fit after the tracker moved must not send the links and legs back to nominal).
@@ -160,24 +149,10 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     runtime = registry.runtime(desc)
     candidates = desc.parameters.indices(options.estimate)
     everything = desc.parameters.indices(IdentificationOptions().estimate)
-    drift: dict[str, Any] | None = None
-    if has_references(body.measurements):
-        _refuse_tracker_options(body)
-        groups, notes = reference_groups_in(desc, body.measurements, described(body), sigma_mm=body.noise.position_mm)
-        result = identify_reference_campaign(
-            desc, groups, noise=noise, nominal=start.values, options=options, runtime=runtime
-        )
-        result = replace(result, notes=(*notes, *result.notes))
-        fixes_frame = any(g.reference.traits.fixes_frame for g in groups)
-        expected = expected_rank(desc, candidates, fixes_frame=fixes_frame, runtime=runtime)
-        most = expected_rank(desc, everything, fixes_frame=fixes_frame, runtime=runtime)
-    else:
-        campaign = campaign_in(desc, body)
-        result, drift = _tracker_fit(desc, campaign, body, start, options=options, noise=noise, runtime=runtime)
-        unused = unused_temperature_note(desc, campaign.conditions)
-        result = result if unused is None else replace(result, notes=(*result.notes, unused))
-        expected = structural_identifiability(desc, candidates, campaign.kind, runtime=runtime).rank
-        most = structural_identifiability(desc, everything, campaign.kind, runtime=runtime).rank
+    fitting = way.of(desc, body.measurements, described(body), sigma_mm=body.noise.position_mm, payload=body.payload)
+    result, drift = fitting.identify(desc, body, noise=noise, nominal=start.values, options=options, runtime=runtime)
+    expected = fitting.rank(desc, candidates, runtime=runtime)
+    most = fitting.rank(desc, everything, runtime=runtime)
     partial = expected < most  # parameters held at the start version's (calibrated) values
     checks = acceptance_checks(
         result,
@@ -203,54 +178,12 @@ def _fit(registry: Registry, start: _Start, body: CalibrationCreate) -> _Fit:
     return _Fit(result, decision, report.model_copy(update={"fleet": fleet}))
 
 
-def _refuse_tracker_options(body: CalibrationCreate) -> None:
-    """The options only tracker records can serve, refused for a campaign of references."""
-    if body.options.drift is not None:
-        raise BadRequest(
-            "options.drift needs tracker records (positions in the instrument's frame): distance, point, plane "
-            "and image records carry no frame that could drift; calibrate them without options.drift"
-        )
-    if body.options.terms:
-        raise BadRequest(
-            f"options.terms {body.options.terms} need tracker records: distance, point and plane records "
-            "carry no temperature or load per record yet; calibrate the geometry from them without terms"
-        )
-
-
 def _sigma_stated(body: CalibrationCreate) -> bool:
     """Whether the request states the instrument's σ: its `noise`, or a `sigma_mm` on any record (a tracker
     file's U95 / 2). Otherwise the default σ is a placeholder and σ is what the residuals say."""
     if "noise" in body.model_fields_set:
         return True
     return any(getattr(m, "sigma_mm", None) is not None for m in body.measurements)
-
-
-def _tracker_fit(
-    desc: RobotDescription,
-    campaign: Campaign,
-    body: CalibrationCreate,
-    start: _Start,
-    *,
-    options: IdentificationOptions,
-    noise: NoiseModel,
-    runtime: Runtime,
-) -> tuple[IdentificationResult, dict[str, Any] | None]:
-    """A tracker campaign's identification, with the instrument's drift fitted and removed when asked (and the
-    report's `drift`)."""
-    if body.options.drift is None:
-        return identify(desc, campaign, noise=noise, nominal=start.values, options=options, runtime=runtime), None
-    tracker = tracker_records(body.measurements)
-    fitted = identify_with_drift(
-        desc,
-        campaign,
-        timeline_in(desc, tracker, campaign),
-        drift=DriftOptions(body.options.drift.driver, body.options.drift.degree),
-        noise=noise,
-        nominal=start.values,
-        options=options,
-        runtime=runtime,
-    )
-    return fitted.result, drift_out(fitted.drift)
 
 
 def _store(

@@ -11,19 +11,17 @@ import numpy as np
 
 from models import NoiseModel, Registry, RobotDescription
 from models._types import Array
-from models.checks import CALIBRATION_POSES, CheckOptions, check_references, check_version, version_covariance
+from models.checks import CALIBRATION_POSES, CheckOptions, version_covariance
 from models.errors import InvalidInput
 from models.measurement import MeasurementKind
 from optimal_design.checks import design_check
-from service.conversions.calibrations import records_in
 from service.conversions.checks import check_design_out, check_document, check_public, history_out
 from service.conversions.drift import condition_warnings
-from service.conversions.references import described, has_references, reference_groups_in
+from service.conversions.references import described
 from service.conversions.robots import description
 from service.conversions.terms import stored_model
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
-from service.record_kinds import tracker_records
 from service.schemas.calibrations import Noise
 from service.schemas.checks import (
     Against,
@@ -34,6 +32,7 @@ from service.schemas.checks import (
     QuickCheckPublic,
 )
 from service.services.pages import robot_page
+from service.services.pipelines import fitting_in
 
 HISTORY_MAX = 10_000
 
@@ -97,27 +96,16 @@ def create_check(*, db: Database, registry: Registry, robot_id: str, body: Quick
         calibration_poses=current.calibration_poses,
     )
     noise, runtime = _noise(body.noise), registry.runtime(desc)
-    if has_references(body.measurements):
-        describes = described(body)
-        groups, _ = reference_groups_in(desc, body.measurements, describes, sigma_mm=body.noise.position_mm)
-        result = check_references(
-            desc, current.values, current.covariance, groups, noise=noise, options=options, runtime=runtime
-        )
-        kind, size = MeasurementKind.POSITION, len(body.measurements)
-    else:
-        campaign = records_in(desc, tracker_records(body.measurements), default_sigma_mm=body.noise.position_mm)
-        result = check_version(
-            desc, current.values, current.covariance, campaign, noise=noise, options=options, runtime=runtime
-        )
-        kind, size = campaign.kind, campaign.size
-    document = check_document(desc, current.number, body.against, result, kind=kind, size=size)
-    # The check is answered all the same; a version calibrated under other conditions is said to be.
-    records = tracker_records(body.measurements)
+    fitting = fitting_in(desc, body.measurements, described(body), sigma_mm=body.noise.position_mm)
+    result = fitting.check(desc, current.values, current.covariance, noise=noise, options=options, runtime=runtime)
+    document = check_document(desc, current.number, body.against, result, kind=fitting.kind, size=fitting.size)
+    # The check is answered all the same; a version calibrated under other conditions is said to be (the
+    # records that state a temperature or a payload: a tracker's).
     warnings = condition_warnings(
         current.conditions,
         version=current.number,
-        temperatures=[r.temperature_c for r in records if r.temperature_c is not None],
-        payloads_kg=[r.payload.mass_kg for r in records if r.payload is not None],
+        temperatures=[t for r in body.measurements if (t := getattr(r, "temperature_c", None)) is not None],
+        payloads_kg=[p.mass_kg for r in body.measurements if (p := getattr(r, "payload", None)) is not None],
     )
     document["warnings"] = [w.model_dump(mode="json") for w in warnings]
     document["import_notes"] = body.import_notes

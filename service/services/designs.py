@@ -17,9 +17,9 @@ from service.conversions.terms import design_levels, requested_model, start_valu
 from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
+from service.record_kinds import BY_MEASUREMENT
 from service.schemas.cells import DesignCellPublic
 from service.schemas.designs import (
-    REFERENCE_MEASUREMENTS,
     PoseDesignCreate,
     PoseDesignPublic,
     PoseDesignReportPublic,
@@ -45,7 +45,9 @@ def create_design(
     the job's own `succeeded` when run as one)."""
     if job is not None:
         job.progress("reading", 0.0)
-    if body.measurement in REFERENCE_MEASUREMENTS:
+    # One dispatch, by the planned kind's capability: a whole campaign's design (a tracker's, with its cell,
+    # prior, terms and target modes) or the design of records grouped by the references they measure.
+    if not BY_MEASUREMENT[str(body.measurement)].whole_campaign:
         if body.cell is not None:
             raise InvalidInput(
                 "cell: designs among the poses a cell can measure are of a tracker's records (pose or position) "

@@ -12,7 +12,7 @@ from service.conversions.checks import history_out
 from service.conversions.validations import validation_public
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
-from service.record_kinds import has_references
+from service.record_kinds import kind_of
 from service.services.checks import HISTORY_MAX
 
 if TYPE_CHECKING:
@@ -31,7 +31,8 @@ def build_report(*, db: Database, calibration_id: str) -> CalibrationReport:
         robot_name = repo.robot(record.robot_id).name
         records = life.campaign(record.campaign_id).records
         # A figure of measured positions needs every record to have one (distances and touches have none).
-        positions = None if has_references(records) else np.array([r["position"] for r in records], dtype=float)
+        measured = [kind_of(r).measured_position(r) for r in records]
+        positions = None if any(p is None for p in measured) else np.array(measured, dtype=float)
         produced = record.parameter_version
         validations: list[dict[str, Any]] = []
         if produced is not None:

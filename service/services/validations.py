@@ -5,23 +5,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from models import Registry, RobotDescription
-from models._types import Array
-from models.accuracy import AccuracyReport, evaluate, iso_cube_poses
+from models import Registry
+from models.accuracy import iso_cube_poses
 from models.errors import InvalidInput
-from models.identification.reference_fit import check_version
-from models.measurement import MeasurementKind
-from models.noise import NoiseModel
-from service.conversions.calibrations import records_in
-from service.conversions.references import described, has_references, reference_groups_in
+from service.conversions.references import described
 from service.conversions.robots import description
 from service.conversions.terms import stored_model
 from service.conversions.validations import iso_poses_out, validation_public, version_result_out
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
-from service.record_kinds import tracker_records
 from service.schemas.validations import IsoPosesCreate, IsoPosesPublic, ValidationCreate, ValidationPublic
 from service.services.pages import robot_page
+from service.services.pipelines import fitting_in
 
 
 def _checked_versions(repo: Repository, robot_id: str, wanted: list[int] | None) -> list[int]:
@@ -47,22 +42,15 @@ def validate(*, db: Database, registry: Registry, robot_id: str, body: Validatio
         values = {v: np.asarray(repo.version(robot_id, v).values, dtype=float) for v in versions}
     # Each version on its own model: one calibrated with model terms evaluates them at the records' conditions.
     models = {v: stored_model(desc, values[v].size) for v in versions}
-    if has_references(body.measurements):
-        reports = _against_references(desc, body, models, values, registry)
-        measurement, size = MeasurementKind.POSITION, len(body.measurements)
-    else:
-        campaign = records_in(desc, tracker_records(body.measurements))
-        if body.fit_frame and campaign.size < 3:
-            raise InvalidInput("register: fitting the instrument frame needs at least 3 records", field="register")
-        reports = {
-            v: evaluate(models[v], values[v], campaign, register=body.fit_frame, runtime=registry.runtime(models[v]))
-            for v in versions
-        }
-        measurement, size = campaign.kind, campaign.size
+    fitting = fitting_in(desc, body.measurements, described(body), sigma_mm=None)
+    reports = {
+        v: fitting.evaluate(v, models[v], values[v], register=body.fit_frame, runtime=registry.runtime(models[v]))
+        for v in versions
+    }
     results = [version_result_out(models[v], v, reports[v]).model_dump(mode="json") for v in versions]
     document = {
-        "measurement": measurement.value,
-        "measurements": size,
+        "measurement": fitting.kind.value,
+        "measurements": fitting.size,
         "results": results,
         "import_notes": body.import_notes,
     }
@@ -73,30 +61,6 @@ def validate(*, db: Database, registry: Registry, robot_id: str, body: Validatio
         repo.robot(robot_id, lock=True)  # still there
         stored = repo.add_campaign(robot_id, records)
         return validation_public(life.add_validation(robot_id, stored.id, document, body.notes, instrument))
-
-
-def _against_references(
-    desc: RobotDescription,
-    body: ValidationCreate,
-    models: dict[int, RobotDescription],
-    values: dict[int, Array],
-    registry: Registry,
-) -> dict[int, AccuracyReport]:
-    """Each version against distance, point and plane records (and tracker positions beside them): the
-    references placed under that version, the robot held (`models.identification.reference_fit.check_version`)."""
-    describes = described(body)
-    groups, _ = reference_groups_in(desc, body.measurements, describes, sigma_mm=NoiseModel().position_mm)
-    reports = {}
-    for v, model in models.items():
-        if model.terms.any:
-            raise InvalidInput(
-                f"version {v} was calibrated with model terms, which need tracker records (their temperatures and "
-                "loads) to be evaluated",
-                field="versions",
-            )
-        check = check_version(model, groups, values[v], runtime=registry.runtime(model))
-        reports[v] = AccuracyReport(check.errors_mm, None, registered=True, iso_poses=(), iso_distances=())
-    return reports
 
 
 def get_validation(*, db: Database, validation_id: str) -> ValidationPublic:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from optimal_design.criteria import CRITERIA
-from service.record_kinds import RECORD_KINDS, REFERENCE_KINDS, TRACKER
+from service.record_kinds import RECORD_KINDS
 from service.schemas.vocabulary import CriterionPublic, RecordKindPublic
 
 
@@ -22,8 +22,8 @@ def record_kinds() -> list[RecordKindPublic]:
             named_by=kind.named_by,
             described_in=kind.described_in,
             file_kinds=[k for k in kind.file_kinds if k],
-            designable=name in REFERENCE_KINDS or kind is TRACKER,
-            sampled=kind.sampled or kind is TRACKER,
+            designable=kind.designable,
+            sampled=kind.sampled,
         )
         for name, kind in RECORD_KINDS.items()
     ]

@@ -23,9 +23,8 @@ from service.record_kinds import (
     RECORD_KINDS,
     CampaignRecord,
     Described,
-    has_references,
     kind_of,
-    tracker_records,
+    sole_kind,
 )
 from service.routes.campaigns import campaign_csv
 from service.schemas.campaigns import CampaignPublic
@@ -168,11 +167,14 @@ def test_every_kind_has_a_sample() -> None:
     assert all(kind_of(r) is RECORD_KINDS[name] for name, rs in SAMPLES.items() for r in rs)
 
 
-def test_the_tracker_records_are_the_campaign_without_references() -> None:
+def test_a_campaigns_sole_kind_is_the_one_kind_of_all_its_records() -> None:
     records = [r for rs in SAMPLES.values() for r in rs]
-    assert has_references(records) and not has_references(SAMPLES["tracker"])
-    picked: list[Any] = tracker_records(records)  # the same objects, whatever their form
-    assert picked == SAMPLES["tracker"]
+    assert sole_kind(records) is None and sole_kind([]) is None
+    for name, samples in SAMPLES.items():
+        assert sole_kind(samples) is RECORD_KINDS[name]
+    # the specialised whole-campaign path is a capability: the kinds that declare the models' campaign kinds
+    whole = {name for name, kind in RECORD_KINDS.items() if kind.measurement_kinds}
+    assert whole == {name for name, kind in RECORD_KINDS.items() if not kind.measures_reference}
 
 
 def test_an_undescribed_reference_is_a_4xx_naming_it_where_the_kind_needs_a_description() -> None:
