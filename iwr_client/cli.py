@@ -526,7 +526,9 @@ def _campaign_commands(commands: Any) -> None:
     start.add_argument("--worst", action="store_true", help="the target is the worst workspace pose's error")
     start.add_argument("--budget", type=int, help="at most this many records (default 60)")
     start.add_argument("--measurement", choices=["pose", "position"], help="default pose")
-    start.add_argument("--criterion", choices=["D", "I", "worst"], help="what each pose improves (default I)")
+    start.add_argument(
+        "--criterion", help="what each pose improves: a criterion of `GET /v1/adaptive-criteria` (default I)"
+    )
     start.add_argument("--candidates", type=int, help="candidate poses sampled (default 500)")
     start.add_argument("--seed", type=int)
     start.add_argument("--noise-mm", type=float, help="the instrument's position σ (default 0.025)")

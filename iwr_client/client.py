@@ -131,6 +131,10 @@ class Client:
         """The pose-design criteria, each with what it makes small and what it may be used for."""
         return list(self._get("/v1/design-criteria"))
 
+    def adaptive_criteria(self) -> list[Json]:
+        """The criteria an adaptive campaign may choose its next pose by, the default marked."""
+        return list(self._get("/v1/adaptive-criteria"))
+
     def record_kinds(self) -> list[Json]:
         """The kinds of record a campaign may hold (a tracker's first), and what a design can do with each."""
         return list(self._get("/v1/record-kinds"))

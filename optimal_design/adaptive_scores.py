@@ -38,6 +38,14 @@ class AdaptiveCriterion(StrEnum):
     """The predicted TCP position error at the worst workspace pose (what `max_tcp_mm` targets)."""
 
 
+ADAPTIVE_SUMMARIES: dict[AdaptiveCriterion, str] = {
+    AdaptiveCriterion.D: "every parameter's uncertainty at once (log det of the information)",
+    AdaptiveCriterion.I: "the predicted RMS TCP position error over the workspace (what rms_tcp_mm targets)",
+    AdaptiveCriterion.WORST: "the predicted TCP position error at the worst workspace pose (what max_tcp_mm targets)",
+}
+"""What each criterion makes small, as `GET /v1/adaptive-criteria` lists it (its clients keep no copy)."""
+
+
 def safe_inverse(m: Array) -> Array:
     """M⁻¹, with a small ridge where M is singular (before the records determine every parameter)."""
     scale = max(float(np.max(np.abs(np.diag(m)))), 1.0)

@@ -7,13 +7,14 @@ from pydantic import TypeAdapter
 
 from service.operations import operation
 from service.responses import models_json
-from service.schemas.vocabulary import CriterionPublic, RecordKindPublic
+from service.schemas.vocabulary import AdaptiveCriterionPublic, CriterionPublic, RecordKindPublic
 from service.security import Scope
 from service.services import vocabulary
 
 router = APIRouter(tags=["vocabulary"])
 _CRITERIA = TypeAdapter(list[CriterionPublic])
 _KINDS = TypeAdapter(list[RecordKindPublic])
+_ADAPTIVE = TypeAdapter(list[AdaptiveCriterionPublic])
 
 
 @router.get("/v1/design-criteria", response_model=list[CriterionPublic])
@@ -21,6 +22,13 @@ _KINDS = TypeAdapter(list[RecordKindPublic])
 def design_criteria() -> Response:
     """Every pose-design criterion, in the order messages list them."""
     return models_json(vocabulary.design_criteria(), _CRITERIA)
+
+
+@router.get("/v1/adaptive-criteria", response_model=list[AdaptiveCriterionPublic])
+@operation(Scope.read)
+def adaptive_criteria() -> Response:
+    """Every criterion an adaptive campaign may choose its next pose by, the default marked."""
+    return models_json(vocabulary.adaptive_criteria(), _ADAPTIVE)
 
 
 @router.get("/v1/record-kinds", response_model=list[RecordKindPublic])

@@ -16,6 +16,12 @@ class CriterionPublic(Public):
     branchable: bool = Field(description="Branch and bound (`bound_seconds`) can tighten its certificate")
 
 
+class AdaptiveCriterionPublic(Public):
+    name: str = Field(description="As an adaptive campaign's `criterion` takes it")
+    summary: str = Field(description="What each next pose is chosen to improve most")
+    default: bool = Field(description="What a campaign that names none uses")
+
+
 class RecordKindPublic(Public):
     name: str = Field(description="A record's `kind` (a tracker's records name none: tracker)")
     measures: str = Field(description="What its records measure, as the report's references name it")

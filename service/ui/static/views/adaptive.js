@@ -9,8 +9,6 @@ import { normalise, readCsv, trackerRecords } from "../csv.js";
 import { download, errorBox, field, fill, h, link, muted, num, numCell, statusBadge, table, when } from "../dom.js";
 import { readCell } from "./cell.js";
 
-const CRITERIA = [["I", "I: the predicted TCP error over the workspace"], ["D", "D: every parameter"],
-  ["worst", "worst: the predicted error at the worst workspace pose"]];
 const TARGETS = [["rms_tcp_mm", "RMS over the workspace"], ["max_tcp_mm", "at the worst workspace pose"]];
 const TARGET_WORDS = Object.fromEntries(TARGETS);
 const QUATERNION = ["qw", "qx", "qy", "qz"];
@@ -32,13 +30,14 @@ export function campaignsTable(robotId, campaigns) {
 }
 
 export async function adaptiveStartView(view, robotId) {
-  const [robot, campaigns, cellSchema, cell] = await Promise.all([api(`/v1/robots/${robotId}`), api(base(robotId)),
-    createTakesCell(), readCell(robotId)]);
+  // The criteria as the service lists them (GET /v1/adaptive-criteria), never a copy kept here.
+  const [robot, campaigns, cellSchema, cell, criteria] = await Promise.all([api(`/v1/robots/${robotId}`),
+    api(base(robotId)), createTakesCell(), readCell(robotId), api("/v1/adaptive-criteria")]);
   fill(view, h("p", {}, link(`#/robots/${robotId}`, `← ${robot.name}`)), h("h1", {}, `Adaptive campaign for ${robot.name}`),
     muted("The campaign asks for a few poses, re-identifies the robot from each record posted, and asks for the pose "
       + "that improves the predicted accuracy most, until it reaches the target or the pose budget is spent. A record "
       + "far off the others is flagged as a blunder, left out, and its pose asked for again."),
-    startForm(robot, cellSchema, cell), h("h2", {}, "Campaigns"), campaignsTable(robotId, campaigns));
+    startForm(robot, cellSchema, cell, criteria), h("h2", {}, "Campaigns"), campaignsTable(robotId, campaigns));
 }
 
 // Whether this service's create body takes `cell` (its OpenAPI document says): the box is offered only then.
@@ -68,7 +67,7 @@ function cellOption(robot, schema, cell) {
   return { node, value: () => (box.checked ? storedCellValue(schema) : undefined) };
 }
 
-function startForm(robot, cellSchema, cell) {
+function startForm(robot, cellSchema, cell, criteria) {
   const input = (id, value, attrs = {}) => h("input", { id, type: "number", step: "any", value, ...attrs });
   const controls = {
     target_mm: input("adaptive-target", 0.05, { min: 0 }), budget: input("adaptive-budget", 60, { min: 1, step: 1 }),
@@ -78,7 +77,8 @@ function startForm(robot, cellSchema, cell) {
   const target = h("select", { id: "adaptive-target-key" }, TARGETS.map(([v, t]) => h("option", { value: v }, t)));
   const measurement = h("select", { id: "adaptive-measurement" },
     [["pose", "full pose (tracker with 6-DoF probe)"], ["position", "position only (tracker reflector)"]].map(([v, t]) => h("option", { value: v }, t)));
-  const criterion = h("select", { id: "adaptive-criterion" }, CRITERIA.map(([v, t]) => h("option", { value: v }, t)));
+  const criterion = h("select", { id: "adaptive-criterion" }, criteria.map((c) =>
+    h("option", { value: c.name, selected: c.default || null }, `${c.name}: ${c.summary}`)));
   const inCell = cellOption(robot, cellSchema, cell);
   const message = h("div", { id: "adaptive-start-message" });
   const submit = h("button", { type: "submit", id: "adaptive-start" }, "Start the campaign");
