@@ -163,16 +163,16 @@ class Calibrated:
 @pytest.fixture(scope="module")
 def calibrated_cell(api: TestClient) -> Calibrated:
     """The arm and positioner cell calibrated through the API from pose records of both tools on a perturbed
-    simulated truth, with a fine instrument (2 µm, 0.0005°): the compensation is then judged by its own error,
+    simulated truth, with a fine instrument (1 µm, 0.0005°): the compensation is then judged by its own error,
     not by the calibration's."""
     tree = arm_with_positioner()
     made = _create(api, positioner_document("compensated-cell"))
     sim = perturbed_tree(tree, seed=61, tolerances=1.5)  # errors that a program misses by > 0.5 mm
-    fine = NoiseModel(position_mm=0.002, orientation_rad=np.radians(0.0005))
+    fine = NoiseModel(position_mm=0.001, orientation_rad=np.radians(0.0005))
     q = tree_joint_samples(tree, 30, seed=62)
     groups = [measure_tree(sim, tip, q, noise=fine, seed=63 + k, position_only=False) for k, tip in
               enumerate(tree.tips)]  # fmt: skip
-    body = {"records": _docs(tree, groups), "noise_position_mm": 0.002, "noise_orientation_deg": 0.0005,
+    body = {"records": _docs(tree, groups), "noise_position_mm": 0.001, "noise_orientation_deg": 0.0005,
             "accuracy_samples": 10}  # fmt: skip
     fit = api.post(f"/v1/robot-trees/{made['id']}/calibrations", json=body)
     assert fit.status_code == 201, fit.text
