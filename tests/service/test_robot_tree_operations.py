@@ -359,6 +359,7 @@ def _problem(answer: Any, status: int = 422) -> dict[str, Any]:
     return found
 
 
+@pytest.mark.slow  # twenty refusals, the tree's chains built for the joints' checks: ~0.4 s
 def test_bad_designs_compensations_and_exports_are_refused_naming_the_field(api: TestClient) -> None:
     made = _create(api, positioner_document("refused-ops"))
     tree = arm_with_positioner()
