@@ -321,6 +321,44 @@ class Client:
     def tree_calibrations(self, tree_id: str, limit: int = 100, offset: int = 0) -> list[Json]:
         return list(self._get(f"/v1/robot-trees/{_segment(tree_id)}/calibrations", limit=limit, offset=offset))
 
+    def design_tree(self, tree_id: str, count: int, **options: object) -> Json:
+        """Which `count` records of the tree's tools to take (docs/api.md, "Robots of several chains"). Options:
+        criterion, measure (each {tool, frame, measurement, sigma_mm}), candidates (joint vectors), candidate_count,
+        joint_ranges, seed, noise_position_mm, noise_orientation_deg."""
+        body = {"count": count, **{k: v for k, v in options.items() if v is not None}}
+        return dict(self._post(f"/v1/robot-trees/{_segment(tree_id)}/designs", body))
+
+    def design_tree_csv(self, tree_id: str, count: int, **options: object) -> str:
+        """The same design's chosen records as a campaign sheet: tool, frame, measurement, the tree's joints."""
+        body = {"count": count, **{k: v for k, v in options.items() if v is not None}}
+        path = f"/v1/robot-trees/{_segment(tree_id)}/designs"
+        return self.request("POST", path, query={"format": "csv"}, json_body=body, accept="text/csv").body.decode()
+
+    def compensate_tree(self, tree_id: str, targets: Sequence[Json]) -> Json:
+        """The joints that put each target's `tool` on its pose (position mm, orientation [w, x, y, z]) in the world
+        or in tool `frame`'s frame, on the tree's current parameters, next to the target's program `joints`."""
+        path = f"/v1/robot-trees/{_segment(tree_id)}/compensations"
+        return dict(self._post(path, {"targets": list(targets)}))
+
+    @overload
+    def tree_export(self, tree_id: str, fmt: Literal["urdf", "dh-csv"]) -> str: ...
+
+    @overload
+    def tree_export(self, tree_id: str, fmt: Literal["urdf-json", "dh"]) -> Json: ...
+
+    def tree_export(self, tree_id: str, fmt: Literal["urdf", "urdf-json", "dh", "dh-csv"]) -> Json | str:
+        """The calibrated tree as a controller reads it: its URDF (a tree imported from one; `urdf-json`: with
+        world <- base_link and each tip -> TCP beside it) or each branch's DH table (JSON or CSV)."""
+        what, query, accept = {
+            "urdf": ("urdf", "urdf", "application/xml"),
+            "urdf-json": ("urdf", "json", "application/json"),
+            "dh": ("dh", "json", "application/json"),
+            "dh-csv": ("dh", "csv", "text/csv"),
+        }[fmt]
+        path = f"/v1/robot-trees/{_segment(tree_id)}/exports/{what}"
+        answer = self.request("GET", path, query={"format": query}, accept=accept)
+        return dict(answer.json()) if accept == "application/json" else answer.body.decode()
+
     def design_csv(self, design_id: str) -> str:
         """A design's poses as CSV, the robot's joint names as header (what a pendant or a controller takes)."""
         return self.request("GET", f"/v1/pose-designs/{_segment(design_id)}", accept="text/csv").body.decode()

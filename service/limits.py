@@ -520,3 +520,45 @@ def tree_kinematics(poses: int, tools: int, frames: int) -> Estimate:
     return Estimate(
         f"the kinematics of {poses} joint vectors of a tree", seconds, poses * (tools * tools + frames) * 2_000
     )
+
+
+TREE_DESIGN_COUNT_MAX = 2000
+TREE_DESIGN_KINDS_MAX = 32
+"""Kinds of record one tree design weighs (a tool's position or pose, in the instrument's or another tool's frame)."""
+TREE_DESIGN_CANDIDATES_MAX = 5000
+"""Joint vectors one tree design is given or draws."""
+TREE_DESIGN_BASE_S = 0.3
+"""What every tree design pays: the task's Jacobians over 200 joint vectors of every tool and pair, the random
+baseline's 20 draws, the predicted accuracies."""
+TREE_DESIGN_S_PER_ENTRY = 1.0e-5
+"""Per candidate record's Jacobian entry (rows × the tree's parameters), for D: measured (CPU, load ~8 on 2 cores)
+0.26-0.5 s for 400-2 000 position records of the arm and positioner (56 parameters), 4.5 s for 2 000 of the
+torso (82), 6.5 s for 2 000 of its pose records; other criteria by their `cost_factor`, K beyond 30 as a pose
+design's."""
+TREE_DESIGN_BYTES_PER_ENTRY = 200
+
+
+def tree_design(records: int, rows: int, parameters: int, count: int, criterion: str) -> Estimate:
+    """A tree design choosing `count` of `records` candidate records of up to `rows` rows each."""
+    entries = records * rows * parameters
+    seconds = TREE_DESIGN_S_PER_ENTRY * entries * cost_factor(criterion) * max(1.0, count / 30) ** DESIGN_K_EXPONENT
+    return Estimate(
+        f"a tree design of {count} among {records} candidate records ({criterion})",
+        TREE_DESIGN_BASE_S + seconds,
+        DESIGN_BASE_BYTES + entries * TREE_DESIGN_BYTES_PER_ENTRY + DESIGN_BYTES_PER_PAIR * count * records,
+    )
+
+
+TREE_TARGETS_MAX = 2000
+"""Targets of one tree compensation: Newton from the program's joints, no general inverse kinematics after."""
+TREE_COMPENSATION_S_PER_TARGET = 0.5e-3
+"""Per target: the frame tool's and the prefix's kinematics, Newton on the tool's own branches (12 targets of the
+torso's left arm: ~4 ms once its Functions are built), with room for load."""
+
+
+def tree_compensation(targets: int) -> Estimate:
+    return Estimate(
+        f"a compensation of {targets} targets of a tree",
+        targets * TREE_COMPENSATION_S_PER_TARGET,
+        targets * IK_BYTES_PER_TARGET,
+    )

@@ -2,7 +2,7 @@
 relative, identification over the whole tree, and URDF trees (docs/models.md, "Cells of several chains")."""
 
 from models.tree.accuracy import ToolAccuracy, predicted_accuracy, tree_accuracy, tree_joint_samples
-from models.tree.compensation import RelativeCompensation, compensate_relative
+from models.tree.compensation import RelativeCompensation, compensate_relative, compensate_world
 from models.tree.export import UrdfTreeCalibration, branch_dh_tables, calibrate_urdf_tree
 from models.tree.identification import TreeFit, identify_tree
 from models.tree.kinematics import TreePoses, relative_of, relative_poses, tool_poses, tree_joints
@@ -27,6 +27,7 @@ __all__ = [
     "branch_dh_tables",
     "calibrate_urdf_tree",
     "compensate_relative",
+    "compensate_world",
     "identify_tree",
     "measure_tree",
     "perturbed_tree",

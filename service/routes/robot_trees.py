@@ -1,17 +1,29 @@
 """Robots of several chains (issue 47): POST a tree (branches or a URDF with tip links), GET one or the list,
 DELETE; each tool's pose and each tool in another's frame at joints by name; calibrations from any tool's
-records, applied as a new revision of the tree's parameters (If-Match on the tree's ETag)."""
+records, applied as a new revision of the tree's parameters (If-Match on the tree's ETag); a record design over
+the tree, compensated joints for targets in the world or in another tool's frame, and the calibrated tree
+exported (its URDF, its branches' DH tables)."""
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Header, Response
+from fastapi import APIRouter, Header, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
 from pydantic import TypeAdapter
 
 from service import limits
-from service.deps import ActorDep, DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute
+from service.deps import (
+    ActorDep,
+    DatabaseDep,
+    Limit,
+    MetricsDep,
+    Offset,
+    RegistryDep,
+    SettingsDep,
+    compute,
+    negotiate,
+)
 from service.json_bodies import OffloopRoute
 from service.operations import Runs, operation
 from service.responses import model_json, models_json
@@ -20,11 +32,17 @@ from service.schemas.robot_trees import (
     RobotTreePublic,
     TreeCalibrationCreate,
     TreeCalibrationPublic,
+    TreeCompensationCreate,
+    TreeCompensationPublic,
+    TreeDesignCreate,
+    TreeDesignPublic,
+    TreeDhExportPublic,
     TreeKinematicsPublic,
     TreeKinematicsRequest,
+    TreeUrdfExportPublic,
 )
 from service.security import Scope
-from service.services import robot_trees
+from service.services import robot_trees, tree_operations
 
 router = APIRouter(prefix="/v1/robot-trees", tags=["robot-trees"], route_class=OffloopRoute)
 _TREES = TypeAdapter(list[RobotTreePublic])
@@ -150,3 +168,134 @@ def list_robot_tree_calibrations(tree_id: str, db: DatabaseDep, limit: Limit = 1
 @operation(Scope.read)
 def get_robot_tree_calibration(tree_id: str, calibration_id: str, db: DatabaseDep) -> Response:
     return model_json(robot_trees.calibration(db=db, tree_id=tree_id, calibration_id=calibration_id))
+
+
+_CSV = {"text/csv": {"schema": {"type": "string"}}}
+
+
+@router.post(
+    "/{tree_id}/designs",
+    response_model=TreeDesignPublic,
+    responses={
+        200: {"content": {**_CSV}, "description": "JSON, or with Accept: text/csv the chosen records"},
+        406: {"description": "Accept allows neither JSON nor CSV"},
+    },
+)
+@operation(Scope.read, runs=Runs.COMPUTE)
+async def design_robot_tree_records(
+    tree_id: str,
+    *,
+    body: TreeDesignCreate,
+    request: Request,
+    db: DatabaseDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+    settings: SettingsDep,
+    format: Literal["json", "csv"] | None = Query(None, description="json (the default) or csv; or by Accept"),
+) -> Response:
+    """Which records to take of the tree's tools (`measure`: each tool's position or pose, in the instrument's
+    frame or in another tool's), `count` of the candidates chosen for a criterion of GET /v1/design-criteria,
+    at the tree's current parameters: the records (tool, frame, joints by name), the criterion's value and
+    efficiency, the same metrics for random selections of as many, and each tool's and pair's predicted accuracy
+    after calibrating from them (and from the random ones). Nothing is stored; with ?format=csv (or Accept:
+    text/csv) the records as a campaign sheet (tool, frame, measurement, the tree's joints)."""
+    size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
+    records = body.offered(size.tools)
+    rows = 6 if body.measure is not None and any(k.measurement == "pose" for k in body.measure) else 3
+    limits.admit(
+        limits.tree_design(records, rows, size.parameters, body.count, body.criterion.value),
+        run_async=False,
+        can_run_async=False,
+        budget_s=settings.sync_budget_seconds,
+    )
+    found = await compute(
+        m, "tree_design", tree_operations.design, db=db, registry=registry, tree_id=tree_id, body=body
+    )
+    media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(
+        request, ["application/json", "text/csv"]
+    )
+    if media == "text/csv":
+        names = await run_in_threadpool(tree_operations.joint_names, db=db, tree_id=tree_id)
+        return Response(tree_operations.design_csv(names, found), media_type="text/csv")
+    return model_json(found)
+
+
+@router.post("/{tree_id}/compensations", response_model=TreeCompensationPublic)
+@operation(Scope.read, runs=Runs.COMPUTE)
+async def compensate_robot_tree_targets(
+    tree_id: str,
+    *,
+    body: TreeCompensationCreate,
+    db: DatabaseDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+    settings: SettingsDep,
+) -> Response:
+    """Per target (a tool's pose in the world, or in another tool's `frame`: the torch in the positioner's part
+    frame), with the program's joints: the joints that put the tool there on the tree's current (calibrated)
+    parameters, next to the program's. Only the tool's own branches move; the frame tool's and any branch it
+    shares with another tool are kept. A target left as given says why (out of a joint's range, near a singular
+    configuration or the edge of the reach, only on another configuration)."""
+    limits.admit(
+        limits.tree_compensation(len(body.targets)),
+        run_async=False,
+        can_run_async=False,
+        budget_s=settings.sync_budget_seconds,
+    )
+    found = await compute(
+        m, "tree_compensation", tree_operations.compensate, db=db, registry=registry, tree_id=tree_id, body=body
+    )
+    return model_json(found)
+
+
+@router.get(
+    "/{tree_id}/exports/urdf",
+    response_model=TreeUrdfExportPublic,
+    responses={
+        200: {"content": {"application/xml": {"schema": {"type": "string"}}}},
+        406: {"description": "Accept allows neither XML nor JSON"},
+    },
+)
+@operation(Scope.read)
+def export_robot_tree_urdf(
+    tree_id: str,
+    request: Request,
+    db: DatabaseDep,
+    format: Literal["urdf", "json"] | None = Query(
+        None, description="urdf (the default, or Accept: application/xml) or json (the URDF with its frames beside)"
+    ),
+) -> Response:
+    """A tree imported from a URDF, calibrated: the same URDF with its moving joints' origins calibrated (a
+    drop-in), world <- base_link and each tip -> its TCP in a comment at its top and, as JSON, beside it. A 422
+    for a tree given as a document (no URDF to write into: export its DH tables)."""
+    found = tree_operations.urdf_export(db=db, tree_id=tree_id)
+    media = {"urdf": "application/xml", "json": "application/json"}.get(format or "") or negotiate(
+        request, ["application/xml", "application/json"]
+    )
+    if media == "application/json":
+        return model_json(found.public)
+    return Response(found.xml, media_type="application/xml")
+
+
+@router.get(
+    "/{tree_id}/exports/dh",
+    response_model=TreeDhExportPublic,
+    responses={200: {"content": {**_CSV}}, 406: {"description": "Accept allows neither JSON nor CSV"}},
+)
+@operation(Scope.read)
+def export_robot_tree_dh(
+    tree_id: str,
+    request: Request,
+    db: DatabaseDep,
+    format: Literal["json", "csv"] | None = Query(None, description="json (the default) or csv; or by Accept"),
+) -> Response:
+    """Each branch of serial stages as its calibrated DH (or MDH) table, from its parent's end frame (the world
+    for a branch from the base) to its end, and its tool: JSON, or one CSV sheet (a base row, a row per link, a
+    tool row per branch). Branches without serial stages are listed in `left_out`."""
+    found = tree_operations.dh_export(db=db, tree_id=tree_id)
+    media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(
+        request, ["application/json", "text/csv"]
+    )
+    if media == "text/csv":
+        return Response(tree_operations.dh_csv(found), media_type="text/csv")
+    return model_json(found)

@@ -14,8 +14,10 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
+from optimal_design.criteria import Criterion
 from service import limits
 from service.schemas.common import OptionalFloat, PosePublic, Position, Public, Quaternion, Strict
+from service.schemas.exports import DhLinkPublic
 from service.schemas.robots import PrintableName
 from service.schemas.structure import Stage, StructurePose
 
@@ -249,3 +251,169 @@ class TreeCalibrationPublic(Public):
     noise_consistent: bool
     parameters: list[TreeParameterPublic]
     seconds: float
+
+
+# ---------------------------------------------------------------------------------------------- designs
+class TreeMeasured(Strict):
+    """A kind of record a design may choose: a tool in the instrument's frame or in another tool's, its position
+    or its whole pose."""
+
+    tool: BranchName
+    frame: BranchName | None = Field(default=None, description="In this tool's frame; null: the instrument's")
+    measurement: Literal["position", "pose"] = "position"
+    sigma_mm: float | None = Field(default=None, gt=0, le=100, description="Its position σ (default: the request's)")
+
+
+class TreeDesignCreate(Strict):
+    """Which records of the tree's tools to take: `count` of the candidates (each joint vector offers one record
+    of each kind in `measure`), chosen for `criterion` (GET /v1/design-criteria), against random selections."""
+
+    count: int = Field(ge=1, le=limits.TREE_DESIGN_COUNT_MAX, description="Records to choose", examples=[30])
+    criterion: Criterion = Field(default=Criterion.D, description="D, A, E, condition or I (the tools' and pairs')")
+    measure: list[TreeMeasured] | None = Field(
+        default=None,
+        min_length=1,
+        max_length=limits.TREE_DESIGN_KINDS_MAX,
+        description="The records the instruments can take; default: every tool's position in the instrument's frame",
+    )
+    candidates: list[TreeJoints] | None = Field(
+        default=None,
+        min_length=1,
+        max_length=limits.TREE_DESIGN_CANDIDATES_MAX,
+        description="Joint vectors the records may be taken at (by name or in the tree's order; deg, mm); "
+        "default: `candidate_count` drawn uniformly inside `joint_ranges`",
+    )
+    candidate_count: int = Field(default=300, ge=1, le=limits.TREE_DESIGN_CANDIDATES_MAX)
+    joint_ranges: dict[JointName, tuple[JointValue, JointValue]] | None = Field(
+        default=None,
+        description="Sub-ranges [lo, hi] by joint name (deg, mm) the drawn joint vectors stay within; the others: "
+        "their range less 5 % at either end",
+        examples=[{"positioner.q1": [-30, 30]}],
+    )
+    seed: int = Field(default=0, ge=0, le=2**31 - 1, description="Of the drawn candidates and the random baseline")
+    noise_position_mm: float = Field(default=0.025, gt=0, le=100, description="The instrument's σ (mm)")
+    noise_orientation_deg: float = Field(default=0.01, gt=0, le=10)
+
+    def kinds(self) -> int:
+        return 1 if self.measure is None else len(self.measure)
+
+    def offered(self, tools: int) -> int:
+        """Candidate records: joint vectors × kinds of record (every tool's position by default)."""
+        vectors = len(self.candidates) if self.candidates is not None else self.candidate_count
+        return vectors * (tools if self.measure is None else len(self.measure))
+
+
+class TreeDesignedRecord(Public):
+    tool: str
+    frame: str | None
+    measurement: Literal["position", "pose"]
+    joints: dict[str, float] = Field(description="The tree's joints by name, deg or mm")
+
+
+class TreeDesignPublic(Public):
+    """The chosen records, what they predict, and the same for random selections of as many records."""
+
+    tree_id: str
+    revision: int = Field(description="The tree's revision whose parameters the design was made at")
+    criterion: Criterion
+    count: int
+    records: list[TreeDesignedRecord] = Field(description="The chosen records, in the order the search chose them")
+    indices: list[int] = Field(description="Into the candidate records: joint vector × len(measure) + kind")
+    value: OptionalFloat = Field(description="The criterion of the chosen records (log det for D, mm for I …)")
+    efficiency: OptionalFloat = Field(description="Against the relaxation's certified bound (1: none can do better)")
+    metrics: dict[str, OptionalFloat] = Field(description="As a pose design's (predicted_rms_tcp_mm: over the tools)")
+    random_baseline: dict[str, OptionalFloat] = Field(
+        description="Median of the same metrics over 20 random selections of `count` candidates, `value` included"
+    )
+    accuracy: list[TreeAccuracyPublic] = Field(
+        description="Predicted 1-σ error after calibrating from the chosen records: each tool, then each pair"
+    )
+    random_accuracy: list[TreeAccuracyPublic] = Field(description="The same for the median random selection")
+    identifiable: list[str]
+    candidates: int = Field(description="Candidate records weighed")
+    seconds: float
+    notes: list[str]
+
+
+# ---------------------------------------------------------------------------------------------- compensation
+class TreeTarget(Strict):
+    """Where a tool should go: a pose in the world (the instrument's frame) or in another tool's frame (the torch
+    in the positioner's part frame), with the program's joints that set the other branches and seed the tool's."""
+
+    tool: BranchName
+    frame: BranchName | None = Field(default=None, description="The target is in this tool's frame; null: the world")
+    position: Position
+    orientation: Quaternion = Field(description="Unit quaternion [w, x, y, z]")
+    joints: TreeJoints = Field(
+        description="The program's joints: the frame tool's and any branch the tool shares with another tool are "
+        "kept; the tool's own are the nominal solution the compensation starts next to"
+    )
+
+
+class TreeCompensationCreate(Strict):
+    targets: list[TreeTarget] = Field(min_length=1, max_length=limits.TREE_TARGETS_MAX)
+
+
+class TreeCompensatedPublic(Public):
+    tool: str
+    frame: str | None
+    reached: bool
+    joints: dict[str, float] = Field(
+        description="The tree's joints by name (deg, mm): the compensated ones where reached, the program's where not"
+    )
+    moved: list[str] = Field(description="The joints the compensation chose (the tool's own branches)")
+    change: dict[str, float] = Field(description="Compensated minus the program's joints, by moved joint (deg, mm)")
+    reason: str | None = Field(description="Why it was left as the program gave it (null where reached)")
+
+
+class TreeCompensationPublic(Public):
+    tree_id: str
+    revision: int = Field(description="The tree's revision whose (calibrated) parameters were used")
+    calibration_id: str | None = Field(description="The calibration behind them; null: the nominal tree")
+    targets: list[TreeCompensatedPublic]
+    reached: int
+
+
+# ---------------------------------------------------------------------------------------------- exports
+class TreeFramePose(Public):
+    """A transform: x, y, z (mm), then roll, pitch, yaw (deg), R = Rz(yaw)·Ry(pitch)·Rx(roll)."""
+
+    x_mm: float
+    y_mm: float
+    z_mm: float
+    roll_deg: float
+    pitch_deg: float
+    yaw_deg: float
+
+
+class TreeUrdfExportPublic(Public):
+    """The calibrated URDF with, beside it, what no joint origin holds."""
+
+    tree_id: str
+    revision: int
+    base_link: str
+    urdf: str = Field(description="The imported URDF, its moving joints' origins calibrated: a drop-in")
+    world_from_base_link: TreeFramePose = Field(
+        description="world (the instrument's frame the records were in) <- base_link, calibrated"
+    )
+    tip_to_tcp: dict[str, TreeFramePose] = Field(description="Each tip link -> its calibrated tool (the measured TCP)")
+    rotation: str
+
+
+class TreeDhBranchPublic(Public):
+    branch: str
+    parent: str | None
+    frame: str = Field(description="What `base` maps: the tree's world, or the parent's end frame")
+    base: TreeFramePose
+    links: list[DhLinkPublic]
+    tool: TreeFramePose = Field(description="The last link's frame -> the tool (identity: a branch without tool)")
+
+
+class TreeDhExportPublic(Public):
+    tree_id: str
+    revision: int
+    pose: str = Field(description="How each table composes")
+    link_transforms: dict[str, str]
+    rotation: str
+    branches: list[TreeDhBranchPublic] = Field(description="Each branch of serial stages, parents first")
+    left_out: list[str] = Field(description="Branches without a table (no stage, or a parallel stage)")

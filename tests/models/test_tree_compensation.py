@@ -12,10 +12,12 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from models.compensation.poses import pose_matrices
-from models.errors import WrongShape
-from models.tree import RobotTree, perturbed_tree, relative_poses, tool_poses, tree_joint_samples
-from models.tree.compensation import compensate_relative
-from models.tree.examples import arm_with_positioner, dual_arm_torso
+from models.errors import InvalidInput, WrongShape
+from models.examples import UR5_DH
+from models.structure import description_from_document
+from models.tree import Branch, RobotTree, perturbed_tree, relative_poses, tool_poses, tree_joint_samples
+from models.tree.compensation import compensate_relative, compensate_world
+from models.tree.examples import TORCH, arm_with_positioner, dual_arm_torso
 from tests.models.tree_reference import POSITIONER, TORSO, Segment, chain_fk, relative
 
 TARGETS = 12
@@ -86,3 +88,67 @@ def test_targets_must_be_one_pose_per_joint_vector() -> None:
     q = tree_joint_samples(tree, 3, seed=1)
     with pytest.raises(WrongShape, match="3 finite 4 x 4 poses"):
         compensate_relative(tree, tree.parameters.nominal, ("arm", "positioner"), q, np.tile(np.eye(4), (2, 1, 1)))
+
+
+@pytest.mark.slow  # the left arm's rest-of-chain Functions and Newton on 12 targets: ~0.4 s of CPU
+def test_world_targets_move_only_the_tools_own_branches_and_reach_the_true_tree() -> None:
+    """A world target of the torso's left hand: the waist carries the right hand too, so it is held as the program
+    sets it; the left arm's six joints put the true hand on the target (the numpy model), where the program's
+    joints miss it by millimetres."""
+    tree = dual_arm_torso()
+    sim = perturbed_tree(tree, seed=23)
+    q = _away_from_singularities(tree, "left")
+    # The program: taught on the nominal tree placed where the instrument sees the real one (world targets are
+    # in the instrument's frame, as a chain's compensation promises the nominal geometry on the calibrated base).
+    placed = tree.parameters.nominal.copy()
+    placed[:6] = sim.truth[:6]
+    taught = tool_poses(tree, "left", q, placed)
+    targets = pose_matrices(taught.positions, taught.rotations)
+    before = chain_fk(TORSO["left"], sim.truth, q)
+    assert np.linalg.norm(before[:, :3, 3] - targets[:, :3, 3], axis=1).min() > 0.5
+    comp = compensate_world(tree, sim.truth, "left", q, targets)
+    assert comp.reached.all(), comp.reasons
+    assert comp.moved == tuple(range(1, 7))
+    np.testing.assert_array_equal(comp.joints[:, [0, *range(7, 13)]], q[:, [0, *range(7, 13)]])
+    after = chain_fk(TORSO["left"], sim.truth, comp.joints)
+    assert np.linalg.norm(after[:, :3, 3] - targets[:, :3, 3], axis=1).max() < 1e-3  # mm
+    # The positioner's arm shares nothing: its whole chain moves, the base included in the world target.
+    cell = arm_with_positioner()
+    at = tool_poses(cell, "arm", q[:1, :8])
+    alone = compensate_world(cell, cell.parameters.nominal, "arm", q[:1, :8], pose_matrices(at.positions, at.rotations))
+    assert alone.moved == tuple(range(6)) and alone.reached.all()
+    np.testing.assert_allclose(alone.joints, q[:1, :8], atol=1e-9)  # the nominal tree: the program's joints
+
+
+def _narrow_cell() -> RobotTree:
+    """The arm and positioner cell with the arm's shoulder (q2) limited to ±170°: a range Newton can stop at."""
+    links = [dict(row) for row in UR5_DH]
+    links[1]["range"] = [-170.0, 170.0]
+    desc = description_from_document({"stages": [{"kind": "serial", "convention": "dh", "links": links}]})
+    cell = arm_with_positioner()
+    arm = Branch("arm", desc.stages, tool=TORCH)
+    return RobotTree("narrow", (arm, cell.branches[1]))
+
+
+def test_a_target_past_a_joints_limit_is_refused_naming_the_joint() -> None:
+    tree = _narrow_cell()
+    q = tree_joint_samples(tree, 2, seed=4, margin=0.1)
+    q[:, 1] = np.radians(169.8)
+    past = q.copy()
+    past[:, 1] = np.radians(170.4)  # the target: where the arm would be past its limit
+    at = tool_poses(tree, "arm", past, check_ranges=False)
+    comp = compensate_world(tree, tree.parameters.nominal, "arm", q, pose_matrices(at.positions, at.rotations))
+    assert not comp.reached.any()
+    for reason in comp.reasons:
+        assert reason is not None and "joint arm.q2 at 170.4 deg, outside its range [-170, 170] deg" in reason, reason
+    np.testing.assert_array_equal(comp.joints, q)  # refused: the program's joints, as given
+
+
+def test_a_tool_without_a_joint_of_its_own_is_refused() -> None:
+    # A fixture on the waist's end, beside the two arms: every joint on its path also carries the arms.
+    torso = dual_arm_torso()
+    fixture = Branch("fixture", (), parent="waist", mount=(0.0, 0.0, 500.0, 0.0, 0.0, 0.0), tool=TORCH)
+    tree = RobotTree("with-fixture", (*torso.branches, fixture))
+    q = tree_joint_samples(tree, 1, seed=1)
+    with pytest.raises(InvalidInput, match="no joint of its own"):
+        compensate_world(tree, tree.parameters.nominal, "fixture", q, np.eye(4)[None])

@@ -2,13 +2,15 @@
 diagram (base → waist → both arms, a tool at each arm), is drawn at a pose whose tools, measured back in mm from
 each view's mapping, sit where the API's kinematics put them; an arm and its positioner calibrated through the
 API show each tool's and the pair's (relative) predicted accuracy as the API states them; a tree document with a
-cycle typed in the page shows the API's refusal naming the field, and a good one opens its page."""
+cycle typed in the page shows the API's refusal naming the field, and a good one opens its page; a design made in
+the page shows the API's records and saves them as CSV, a compensation and a DH export run from it."""
 
 from __future__ import annotations
 
 import json
 import re
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import httpx
@@ -19,6 +21,7 @@ from playwright.sync_api import expect
 from models.noise import NoiseModel
 from models.tree import measure_tree, perturbed_tree, tree_joint_samples
 from models.tree.examples import arm_with_positioner
+from tests.models.test_tree_compensation import _away_from_singularities
 from tests.service.test_robot_trees import positioner_document, record_docs, torso_document
 from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
 
@@ -152,3 +155,52 @@ def test_a_tree_typed_in_the_page_is_refused_naming_the_field_or_opened(page: An
     _ready(page, r"#/trees/[0-9a-f-]{36}")
     expect(page.locator("h1")).to_have_text("ui-typed")
     expect(page.locator("#tree-diagram rect.tree-node")).to_have_count(4)
+
+
+def test_a_design_its_csv_a_compensation_and_an_export_from_the_tree_page(page: Any, server: str) -> None:
+    tree = _create(server, positioner_document("ui-design"))
+    page.goto(f"{server}/ui#/trees/{tree['id']}")
+    _ready(page, f"#/trees/{tree['id']}")
+    page.fill("#tree-design-count", "20")
+    page.fill("#tree-design-candidates", "60")
+    page.fill("#tree-design-seed", "4")
+    page.select_option("#tree-design-criterion", "D")
+    page.click("#tree-design-run")
+    rows = page.locator("#tree-design-records tbody tr")
+    expect(rows).to_have_count(20, timeout=PAGE_WAIT_MS)
+    measure = [{"tool": tool, "measurement": "position"} for tool in ("arm", "positioner")]
+    body = {"count": 20, "criterion": "D", "candidate_count": 60, "seed": 4, "measure": measure}
+    design = httpx.post(f"{server}/v1/robot-trees/{tree['id']}/designs", json=body, timeout=120).json()
+    names = tree["joint_names"]
+    first = [c.text_content() or "" for c in rows.first.locator("td").all()]
+    assert first[1] == design["records"][0]["tool"]
+    assert [float(v) for v in first[4:]] == pytest.approx([design["records"][0]["joints"][n] for n in names], rel=1e-3)
+    with page.expect_download() as saved:
+        page.click("#tree-design-csv")
+    sheet = Path(saved.value.path()).read_text().splitlines()
+    assert sheet[0].split(",") == ["tool", "frame", "measurement", *names]
+    for line, record in zip(sheet[1:], design["records"], strict=True):
+        cells = line.split(",")
+        assert cells[0] == record["tool"] and [float(v) for v in cells[3:]] == [record["joints"][n] for n in names]
+
+    # A world target the nominal tree reaches at the program's own joints (away from the arm's singular
+    # configurations): reached, nothing changed.
+    joints = np.degrees(_away_from_singularities(arm_with_positioner(), "arm")[0]).tolist()
+    page.fill("#tree-comp-joints", ", ".join(repr(v) for v in joints))
+    fk = httpx.post(f"{server}/v1/robot-trees/{tree['id']}/kinematics", json={"joints": [joints], "frames": False},
+                    timeout=60).json()["poses"][0]["tools"]["arm"]  # fmt: skip
+    page.fill("#tree-comp-position", ", ".join(repr(v) for v in fk["position"]))
+    page.fill("#tree-comp-orientation", ", ".join(repr(v) for v in fk["orientation"]))
+    page.click("#tree-comp-run")
+    expect(page.locator("#tree-comp-status")).to_contain_text("Reached on revision 1 (nominal)")
+    changes = [
+        float(r.locator("td").nth(3).text_content() or "")
+        for r in page.locator("#tree-comp-joints-table tbody tr").all()
+    ]
+    assert max(abs(v) for v in changes) < 1e-6
+
+    with page.expect_download() as saved:
+        page.click("#tree-export-dh-csv")
+    assert Path(saved.value.path()).read_text().startswith("branch,row,name,type")
+    expect(page.locator("#tree-export-urdf")).to_have_count(0)  # a tree given as a document has no URDF
+    screenshot(page, "tree-design")

@@ -1,10 +1,12 @@
 // Robots of several chains (#/trees, #/trees/{id}): the list and a new tree (a JSON document or a URDF with its tip
 // links); a tree's branches as a diagram (base → branches → tools), the tree drawn at a pose in the cell view's
 // orthographic views, its tools' poses, and the accuracy of its last calibration, each tool and each pair of tools
-// (the relative accuracy). Every place drawn is the API's: POST …/kinematics answers every frame by name.
+// (the relative accuracy). Every place drawn is the API's: POST …/kinematics answers every frame by name. Below, a
+// record design over the tree (its records, a CSV to take them by), compensated joints for targets in the world
+// or in another tool's frame, and the calibrated tree's exports (URDF, DH tables).
 import { api } from "../api.js";
 import { drawCell } from "../cellplot.js";
-import { errorBox, field, fill, h, link, muted, num, numCell, table, when } from "../dom.js";
+import { download, errorBox, field, fill, h, link, muted, num, numCell, table, when } from "../dom.js";
 
 const NS = "http://www.w3.org/2000/svg";
 
@@ -68,7 +70,8 @@ function createSection() {
 
 // ---------------------------------------------------------------- one tree
 export async function treeView(view, treeId) {
-  const [tree, calibrations] = await Promise.all([api(`/v1/robot-trees/${treeId}`), api(`/v1/robot-trees/${treeId}/calibrations?limit=1000`)]);
+  const [tree, calibrations, criteria] = await Promise.all([api(`/v1/robot-trees/${treeId}`),
+    api(`/v1/robot-trees/${treeId}/calibrations?limit=1000`), api("/v1/design-criteria")]);
   const drawing = h("div", { id: "tree-drawing" });
   const last = calibrations[calibrations.length - 1];
   fill(view, h("p", {}, link("#/trees", "← Robot trees")), h("h1", {}, tree.name),
@@ -76,8 +79,105 @@ export async function treeView(view, treeId) {
       + `${tree.parameter_count} parameters (${tree.calibration_id ? "calibrated" : "nominal"}); from ${tree.source === "urdf" ? `a URDF (${tree.base_link} → ${tree.tip_links.join(", ")})` : "a tree document"}.`),
     h("h2", {}, "Branches"), diagram(tree), branchesTable(tree),
     drawing,
-    h("h2", {}, "Calibration"), last ? calibrationSection(last, calibrations.length) : muted("Not calibrated: POST …/calibrations with records of its tools (docs/api.md).", "tree-accuracy"));
+    h("h2", {}, "Calibration"), last ? calibrationSection(last, calibrations.length) : muted("Not calibrated: POST …/calibrations with records of its tools (docs/api.md).", "tree-accuracy"),
+    h("h2", {}, "Which records to take"), designSection(tree, criteria),
+    h("h2", {}, "Compensated joints"), compensationSection(tree),
+    h("h2", {}, "Exports"), exportsSection(tree));
   await drawingSection(drawing, tree);
+}
+
+// ---------------------------------------------------------------- a design, a compensation, the exports
+function designSection(tree, criteria) {
+  const count = h("input", { id: "tree-design-count", type: "number", min: 1, value: 30, size: 6 });
+  const criterion = h("select", { id: "tree-design-criterion" }, ...criteria.map((c) => h("option", { value: c.name, title: c.summary }, c.name)));
+  const candidates = h("input", { id: "tree-design-candidates", type: "number", min: 1, value: 300, size: 6 });
+  const measurement = h("select", { id: "tree-design-measurement" }, h("option", { value: "position" }, "position"), h("option", { value: "pose" }, "pose"));
+  const relative = h("input", { id: "tree-design-relative", type: "checkbox" });
+  const seed = h("input", { id: "tree-design-seed", type: "number", min: 0, value: 0, size: 6 });
+  const out = h("div", { id: "tree-design" });
+  const send = h("button", { type: "button", id: "tree-design-run" }, "Design");
+  send.addEventListener("click", async () => {
+    out.replaceChildren(muted("Designing…"));
+    const kind = measurement.value;
+    const measure = tree.tools.map((tool) => ({ tool, measurement: kind }));
+    if (relative.checked) {
+      for (const [i, a] of tree.tools.entries()) for (const b of tree.tools.slice(i + 1)) measure.push({ tool: a, frame: b, measurement: kind });
+    }
+    const body = { count: Number(count.value), criterion: criterion.value, candidate_count: Number(candidates.value), seed: Number(seed.value), measure };
+    try {
+      showDesign(out, tree, await api(`/v1/robot-trees/${tree.id}/designs`, { method: "POST", json: body }));
+    } catch (error) {
+      fill(out, errorBox(error, "tree-design-error"));
+    }
+  });
+  return h("section", {}, muted("Records of the tools chosen among joint vectors drawn inside the ranges, against random selections of as many (POST …/designs)."),
+    h("div", { class: "row" }, field("Records", count), field("Criterion", criterion), field("Candidate joint vectors", candidates),
+      field("Measured", measurement), field("Also each tool in another's frame", relative), field("Seed", seed), send), out);
+}
+
+function showDesign(out, tree, design) {
+  const random = Object.fromEntries(design.random_accuracy.map((a) => [a.label, a]));
+  const acc = design.accuracy.map((a) => [a.label, numCell(a.rms_position_mm), numCell(random[a.label].rms_position_mm), numCell(a.max_position_mm)]);
+  const rows = design.records.map((r, i) => [numCell(i + 1), r.tool, r.frame || "", r.measurement, ...tree.joint_names.map((n) => numCell(r.joints[n]))]);
+  const sheet = [["tool", "frame", "measurement", ...tree.joint_names].join(","),
+    ...design.records.map((r) => [r.tool, r.frame || "", r.measurement, ...tree.joint_names.map((n) => r.joints[n])].join(","))].join("\n") + "\n";
+  const save = h("button", { type: "button", id: "tree-design-csv" }, "Download the records (CSV)");
+  save.addEventListener("click", () => download(`${tree.name}-design.csv`, sheet));
+  fill(out, h("p", { id: "tree-design-summary" }, `${design.count} of ${design.candidates} candidate records by ${design.criterion}: value ${num(design.value)} `
+      + `(random: ${num(design.random_baseline.value)}), efficiency ${num(design.efficiency)}, at revision ${design.revision}.`),
+    table(["tool (or tool/frame)", "predicted RMS (mm)", "random RMS (mm)", "predicted max (mm)"], acc, "tree-design-accuracy",
+      "Predicted accuracy after calibrating from the chosen records, and from random ones"),
+    h("p", {}, save),
+    table(["#", "tool", "frame", "measured", ...tree.joint_names], rows, "tree-design-records", "The chosen records"));
+}
+
+function compensationSection(tree) {
+  const tool = h("select", { id: "tree-comp-tool" }, ...tree.tools.map((t) => h("option", { value: t }, t)));
+  const frame = h("select", { id: "tree-comp-frame" }, h("option", { value: "" }, "the world"), ...tree.tools.map((t) => h("option", { value: t }, t)));
+  const position = h("input", { id: "tree-comp-position", type: "text", size: 28, placeholder: "x, y, z mm" });
+  const orientation = h("input", { id: "tree-comp-orientation", type: "text", size: 28, value: "1, 0, 0, 0" });
+  const joints = h("input", { id: "tree-comp-joints", type: "text", size: 72, value: middlePose(tree).map((v) => +v.toFixed(3)).join(", ") });
+  const out = h("div", { id: "tree-comp" });
+  const numbers = (input) => input.value.split(/[,;\s]+/).filter(Boolean).map(Number);
+  const send = h("button", { type: "button", id: "tree-comp-run" }, "Compensate");
+  send.addEventListener("click", async () => {
+    out.replaceChildren();
+    const target = { tool: tool.value, frame: frame.value || null, position: numbers(position), orientation: numbers(orientation), joints: numbers(joints) };
+    try {
+      const found = await api(`/v1/robot-trees/${tree.id}/compensations`, { method: "POST", json: { targets: [target] } });
+      const t = found.targets[0];
+      fill(out, h("p", { id: "tree-comp-status" }, t.reached ? `Reached on revision ${found.revision} (${found.calibration_id ? "calibrated" : "nominal"}).` : `Not reached: ${t.reason}`),
+        table(["joint", "program", "compensated", "change"], tree.joint_names.map((n, i) => [n, numCell(target.joints[i]), numCell(t.joints[n]), numCell(t.change[n] ?? 0)]),
+          "tree-comp-joints-table", "The program's joints and the compensated ones (deg, mm)"));
+    } catch (error) {
+      fill(out, errorBox(error, "tree-comp-error"));
+    }
+  });
+  return h("section", {}, muted("A target of a tool in the world (the instrument's frame) or in another tool's frame, with the program's joints (the tree's order): the joints that reach it on the tree's current parameters."),
+    h("div", { class: "row" }, field("Tool", tool), field("In the frame of", frame), field("Position", position), field("Orientation [w, x, y, z]", orientation)),
+    h("div", { class: "row" }, field("Program's joints", joints), send), out);
+}
+
+function exportsSection(tree) {
+  // Saved through the API (its key sent), as the calibration page saves a robot's exports.
+  const message = h("div", { id: "tree-export-message" });
+  const base = `/v1/robot-trees/${tree.id}/exports`;
+  const saving = (text, path, accept, name, id) => h("button", { type: "button", class: "link", id, onclick: async () => {
+    try {
+      const response = await api(path, { raw: true, accept });
+      download(name, await response.blob(), accept);
+    } catch (error) {
+      fill(message, errorBox(error, "tree-export-error"));
+    }
+  } }, text);
+  const items = [saving("DH tables (JSON)", `${base}/dh?format=json`, "application/json", `${tree.name}-dh.json`, "tree-export-dh"),
+    saving("DH tables (CSV)", `${base}/dh?format=csv`, "text/csv", `${tree.name}-dh.csv`, "tree-export-dh-csv")];
+  if (tree.source === "urdf") {
+    items.push(saving("calibrated URDF", `${base}/urdf?format=urdf`, "application/xml", `${tree.name}.urdf`, "tree-export-urdf"),
+      saving("URDF with its frames (JSON)", `${base}/urdf?format=json`, "application/json", `${tree.name}-urdf.json`, "tree-export-urdf-json"));
+  }
+  return h("section", { id: "tree-exports" }, muted(`The tree at revision ${tree.revision}${tree.source === "urdf" ? "" : " (given as a document: no URDF to write into, its DH tables only)"}.`),
+    h("p", {}, ...items.flatMap((a, i) => (i ? [" · ", a] : [a]))), message);
 }
 
 // The branches as a tree diagram: the base on the left, each branch a box one column further than its parent,
