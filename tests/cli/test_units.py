@@ -7,9 +7,8 @@ import io
 import json
 import subprocess
 import sys
-import threading
 from collections.abc import Iterator
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from http.server import BaseHTTPRequestHandler
 from pathlib import Path
 from typing import ClassVar
 
@@ -29,6 +28,7 @@ from iwr_client import (
 from iwr_client.cli import UsageError, calibration_exit, describe, exit_code, main
 from iwr_client.progress import ProgressBar, format_eta, format_progress
 from iwr_client.records import records_from_csv
+from tests.cli.helpers import serving
 
 JOINTS = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
 
@@ -215,12 +215,8 @@ class _Canned(BaseHTTPRequestHandler):
 
 @pytest.fixture(scope="module")
 def stand_in() -> Iterator[str]:
-    server = ThreadingHTTPServer(("127.0.0.1", 0), _Canned)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    yield f"http://127.0.0.1:{server.server_address[1]}"
-    server.shutdown()
-    server.server_close()
+    with serving(_Canned) as url:
+        yield url
 
 
 def test_an_answer_that_is_not_a_problem_becomes_one_with_its_status(stand_in: str) -> None:
@@ -345,13 +341,10 @@ def test_calibrate_sends_the_column_map_and_the_joint_unit_with_the_file_as_it_i
 ) -> None:
     """Issue 45: `iwr calibrate ROBOT FILE --columns 'Achse 1=joint_1,…' --joint-unit rad`; the file's bytes go
     unchanged (a Windows-1252 export is decoded by the service, which names the encoding)."""
-    server = ThreadingHTTPServer(("127.0.0.1", 0), _Recording)
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    try:
+    with serving(_Recording) as url:
         campaign = tmp_path / "AT960.csv"
         raw = "Achse 1;X [mm];Temperature [°C]\n1,5;2,0;21,3\n".encode("cp1252")
         campaign.write_bytes(raw)
-        url = f"http://127.0.0.1:{server.server_address[1]}"
         code = main(
             [
                 "--url",
@@ -373,7 +366,4 @@ def test_calibrate_sends_the_column_map_and_the_joint_unit_with_the_file_as_it_i
         assert "joint_unit=rad" in path and body == raw
         with pytest.raises(ValueError, match="records are the API's own"):
             Client(url).calibrate("r1", [{"joints": [0.0], "position": [0.0, 0.0, 0.0]}], columns="A1=q1")
-    finally:
-        server.shutdown()
-        server.server_close()
     capsys.readouterr()
