@@ -40,6 +40,26 @@ def api(url: str, path: str) -> Any:
         return json.load(answer)
 
 
+class StandIn(BaseHTTPRequestHandler):
+    """The handler of a stand-in for the service: its answers canned, nothing logged (the tests read what was sent
+    and what came back, not a log)."""
+
+    def answer(self, status: int, content_type: str, body: bytes) -> None:
+        self.send_response(status)
+        self.send_header("Content-Type", content_type)
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+    def answer_json(self, status: int, document: object) -> None:
+        """`document` as JSON, with a problem's media type for a status of 400 or more."""
+        content_type = "application/json" if status < 400 else "application/problem+json"
+        self.answer(status, content_type, json.dumps(document).encode())
+
+    def log_message(self, *args: object) -> None:
+        pass
+
+
 @contextmanager
 def serving(handler: type[BaseHTTPRequestHandler]) -> Iterator[str]:
     """`handler` answering on a free loopback port from a thread (a stand-in for the service, its answers canned):

@@ -10,7 +10,6 @@ import json
 import math
 import urllib.request
 from collections.abc import Iterator
-from http.server import BaseHTTPRequestHandler
 from pathlib import Path
 from typing import Any, ClassVar
 from urllib.parse import parse_qs, urlsplit
@@ -24,7 +23,7 @@ from iwr_client.cli import main
 from models import iwr as iwr_description
 from models import sample_workspace
 from models.simulation import measure, perturbed_robot
-from tests.cli.helpers import api, iwr, serving
+from tests.cli.helpers import StandIn, api, iwr, serving
 
 DESC = iwr_description()
 NAMES = [f"Achse {k + 1}" for k in range(4)] + [f"Bein {k}" for k in range(1, 7)]
@@ -32,7 +31,7 @@ MAP = ",".join(f"{name}={joint}" for name, joint in zip(NAMES, DESC.joint_names,
 ANGLES = [k for k, kind in enumerate(DESC.joint_kinds) if kind.name == "ANGLE"]
 
 
-class _Recorder(BaseHTTPRequestHandler):
+class _Recorder(StandIn):
     """Keeps each POST (path, query, content type, body) and answers a validation's or a check's document."""
 
     SEEN: ClassVar[list[tuple[str, dict[str, list[str]], str, bytes]]] = []
@@ -52,15 +51,7 @@ class _Recorder(BaseHTTPRequestHandler):
         parts = urlsplit(self.path)
         body = self.rfile.read(int(self.headers["Content-Length"]))
         self.SEEN.append((parts.path, parse_qs(parts.query), self.headers["Content-Type"], body))
-        answer = json.dumps(self.ANSWER).encode()
-        self.send_response(201)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(answer)))
-        self.end_headers()
-        self.wfile.write(answer)
-
-    def log_message(self, *args: object) -> None:  # quiet: the test reads what was sent
-        pass
+        self.answer_json(201, self.ANSWER)
 
 
 @pytest.fixture

@@ -12,7 +12,6 @@ import json
 import re
 import urllib.request
 from collections.abc import Iterator
-from http.server import BaseHTTPRequestHandler
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -38,7 +37,7 @@ from iwr_client.cli import main
 from iwr_client.programs import compensated_bytes, format_of
 from models.examples import ur5_like_document
 from programs import read_program
-from tests.cli.helpers import iwr, serving
+from tests.cli.helpers import StandIn, iwr, serving
 
 N_TARGETS = 8
 UNREACHABLE = (
@@ -294,18 +293,10 @@ ANSWER: dict[str, Any] = {
 }  # fmt: skip
 
 
-class _Jobs(BaseHTTPRequestHandler):
+class _Jobs(StandIn):
     """A service with the job form: too much for one request (422 work-too-large, `use_async`), a job otherwise."""
 
     POSTS: ClassVar[list[str]] = []
-
-    def _send(self, status: int, document: object) -> None:
-        body = json.dumps(document).encode()
-        self.send_response(status)
-        self.send_header("Content-Type", "application/json" if status < 400 else "application/problem+json")
-        self.send_header("Content-Length", str(len(body)))
-        self.end_headers()
-        self.wfile.write(body)
 
     def do_POST(self) -> None:
         self.rfile.read(int(self.headers["Content-Length"]))
@@ -313,16 +304,13 @@ class _Jobs(BaseHTTPRequestHandler):
         if "async=true" not in self.path:
             problem = {"type": "x/work-too-large", "title": "Too much work for one request", "status": 422,
                        "detail": "over the 2 s budget: send it as a job", "use_async": True}  # fmt: skip
-            self._send(422, problem)
+            self.answer_json(422, problem)
             return
-        self._send(202, {"job_id": "p1", "status_url": "/v1/jobs/p1", "id": "p1"})
+        self.answer_json(202, {"job_id": "p1", "status_url": "/v1/jobs/p1", "id": "p1"})
 
     def do_GET(self) -> None:
-        self._send(200, {"id": "p1", "kind": "program_compensation", "status": "succeeded", "result": ANSWER,
-                         "progress": {"stage": "done", "fraction": 1.0}})  # fmt: skip
-
-    def log_message(self, *args: object) -> None:
-        pass
+        self.answer_json(200, {"id": "p1", "kind": "program_compensation", "status": "succeeded", "result": ANSWER,
+                               "progress": {"stage": "done", "fraction": 1.0}})  # fmt: skip
 
 
 @pytest.fixture
