@@ -17,19 +17,12 @@ import pytest
 from playwright.sync_api import expect
 from scipy.spatial.transform import Rotation
 
+from tests.service.test_cells_api import FIXTURE, TABLE, TRACKER
 from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
 from tests.ui.pages import posted_ur5, ready, to_mm, view_mapping
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
 
-TABLE: dict[str, Any] = {"name": "table", "kind": "box", "size_mm": [1500, 1500, 40], "position_mm": [0, 0, -21]}
-FIXTURE: dict[str, Any] = {
-    "name": "fixture",
-    "kind": "box",
-    "size_mm": [300, 300, 300],
-    "position_mm": [500, 300, 150],
-    "rotation_vector_deg": [0, 0, 11.46],
-}
 COLUMN: dict[str, Any] = {
     "name": "column",
     "kind": "cylinder",
@@ -38,7 +31,7 @@ COLUMN: dict[str, Any] = {
     "position_mm": [-600, -500, 450],
 }
 GLOBE: dict[str, Any] = {"name": "globe", "kind": "sphere", "radius_mm": 120, "position_mm": [300, -700, 500]}
-TRACKER: dict[str, Any] = {"position_mm": [2500, 0, 600], "acceptance_deg": 60}
+# The service tests' cell (tests/service/test_cells_api.py) with a cylinder and a sphere: every kind drawn.
 CELL: dict[str, Any] = {"obstacles": [TABLE, FIXTURE, COLUMN, GLOBE], "tracker": TRACKER}
 VIEWS = {"cell-top": (0, 1), "cell-side": (0, 2), "cell-front": (1, 2)}
 
