@@ -13,6 +13,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent  # the repository: `python -m service` runs from there
+READY_TIMEOUT_S = 90.0
+"""How long a started service may take to answer /readyz."""
 
 
 def free_port() -> int:
@@ -37,7 +39,7 @@ def wait_ready(base: str, process: subprocess.Popen[bytes], timeout_s: float) ->
 
 
 @contextmanager
-def running_server(database_url: str, *, timeout_s: float = 90.0, **env: str) -> Iterator[str]:
+def running_server(database_url: str, *, timeout_s: float = READY_TIMEOUT_S, **env: str) -> Iterator[str]:
     """Yields the base URL once /readyz answers; stops the server afterwards."""
     port = free_port()
     environment = {**os.environ, "DATABASE_URL": database_url, "IWR_LOG_LEVEL": "WARNING", **env}
@@ -60,3 +62,19 @@ def running_server(database_url: str, *, timeout_s: float = 90.0, **env: str) ->
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
+
+
+@contextmanager
+def story_server(folder: Path, *, job_workers: int = 0, **env: str) -> Iterator[str]:
+    """A service on a SQLite file in `folder` with one compute process, for tests that click or type through a
+    story (the CLI's, the browser's): its compute deadline a minute, not the default's 5 s, so that the story and
+    not the deadline (which has its own tests) is what is tested on cores other tests share. `env`: more settings."""
+    with running_server(
+        f"sqlite:///{folder / 'iwr.db'}",
+        timeout_s=READY_TIMEOUT_S,  # by name: mypy would take a string of `env` for it
+        IWR_JOB_WORKERS=str(job_workers),
+        IWR_COMPUTE_PROCESSES="1",
+        IWR_COMPUTE_DEADLINE_SECONDS="60",
+        **env,
+    ) as url:
+        yield url

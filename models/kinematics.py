@@ -8,7 +8,7 @@ those of the structure's runtime (`models.runtime`), never rebuilt.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal, overload
 
@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from models._types import Array
 from models.errors import JointOutOfRange, NonFiniteValue, UnreachablePose, WrongShape
+from models.parameters import Kind
 from models.robot import RobotDescription
 from models.runtime import Runtime, runtime_for
 from models.terms import Conditions, condition_inputs
@@ -39,27 +40,30 @@ MAX_NEWTON_CALLS = 5
 
 def as_joint_array(desc: RobotDescription, joints: ArrayLike) -> Array:
     """Joint vectors as an (N, n_joints) float array; shape and finiteness checked."""
+    return joint_vectors(joints, desc.joint_names)
+
+
+def joint_vectors(joints: ArrayLike, names: Sequence[str], *, of: str = "") -> Array:
+    """Joint vectors as an (N, len(names)) float array (one vector: N = 1), a refusal naming the pose and the joint
+    (`names`) for the wrong shape or a number that is not finite: a robot's (`of` empty) and a tree's (`of` " of
+    the tree", which the shape's refusal says) alike."""
     try:
         arr = np.array(joints, dtype=float)
     except (TypeError, ValueError) as exc:
         raise WrongShape(f"joint vectors must be numbers: {exc}", field="joints") from exc
     if arr.ndim == 1:
         arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != desc.n_joints:
+    if arr.ndim != 2 or arr.shape[1] != len(names):
         raise WrongShape(
-            f"each joint vector must have {desc.n_joints} numbers {list(desc.joint_names)}, got shape {arr.shape}",
+            f"each joint vector{of} must have {len(names)} numbers {list(names)}, got shape {arr.shape}",
             field="joints",
-            expected=[-1, desc.n_joints],
+            expected=[-1, len(names)],
             got=list(arr.shape),
         )
     bad = np.argwhere(~np.isfinite(arr))
     if bad.size:
         i, j = (int(v) for v in bad[0])
-        raise NonFiniteValue(
-            f"pose {i}: joint {desc.joint_names[j]} is {arr[i, j]}, not a finite number",
-            pose=i,
-            joint=desc.joint_names[j],
-        )
+        raise NonFiniteValue(f"pose {i}: joint {names[j]} is {arr[i, j]}, not a finite number", pose=i, joint=names[j])
     return arr
 
 
@@ -71,19 +75,32 @@ def check_joint_ranges(desc: RobotDescription, joints: Array, *, measured: bool 
     slack = (
         np.maximum(JOINT_RANGE_SLACK, MEASURED_OVERSHOOT * span) if measured else np.full_like(span, JOINT_RANGE_SLACK)
     )
-    low = joints < desc.joint_min - slack
-    high = joints > desc.joint_max + slack
-    bad = np.argwhere(low | high)
+    refuse_out_of_range(
+        joints, desc.joint_min, desc.joint_max, slack=slack, names=desc.joint_names, kinds=desc.joint_kinds
+    )
+
+
+def refuse_out_of_range(
+    joints: Array,
+    low: Array,
+    high: Array,
+    *,
+    slack: Array | float,
+    names: Sequence[str],
+    kinds: Sequence[Kind],
+) -> None:
+    """Raise JointOutOfRange for the first joint of `joints` (N, n) outside [low − slack, high + slack], internal
+    units, named by `names` and told in its kind's boundary unit with the limits as given (without the slack):
+    the refusal of a robot's joints and a tree's alike."""
+    bad = np.argwhere((joints < low - slack) | (joints > high + slack))
     if bad.size:
         i, j = (int(v) for v in bad[0])
-        scale = desc.joint_to_boundary[j]
-        unit = desc.joint_kinds[j].boundary_unit
-        value, lo, hi = joints[i, j] * scale, desc.joint_min[j] * scale, desc.joint_max[j] * scale
+        scale, unit = kinds[j].to_boundary, kinds[j].boundary_unit
+        value, lo, hi = joints[i, j] * scale, low[j] * scale, high[j] * scale
         raise JointOutOfRange(
-            f"pose {i}: joint {desc.joint_names[j]} = {value:.6g} {unit} is outside its range "
-            f"[{lo:.6g}, {hi:.6g}] {unit}",
+            f"pose {i}: joint {names[j]} = {value:.6g} {unit} is outside its range [{lo:.6g}, {hi:.6g}] {unit}",
             pose=i,
-            joint=desc.joint_names[j],
+            joint=names[j],
             value=float(value),
             min=float(lo),
             max=float(hi),

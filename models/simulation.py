@@ -39,6 +39,25 @@ def _random_unit(rng: np.random.Generator) -> Array:
     return v / np.linalg.norm(v)
 
 
+def placed_instrument(rng: np.random.Generator, distance_mm: float, rotation_deg: float) -> tuple[Array, Array]:
+    """Where a simulated instrument sees the robot's (or tree's) base from: (the offset, `distance_mm` along a
+    random direction; the rotation, `rotation_deg` about a random axis), the axis drawn first."""
+    rotation = rotvec_to_matrix_np(_random_unit(rng) * np.radians(rotation_deg))
+    return _random_unit(rng) * distance_mm, rotation
+
+
+def instrument_reading(
+    rng: np.random.Generator, positions: Array, rotations: Array, noise: NoiseModel, *, position_only: bool
+) -> tuple[Array, Array | None]:
+    """What an instrument reports of true poses: the positions with its Gaussian noise, then (unless
+    `position_only`: None) the orientations turned by a random small rotation of its angular σ, as quaternions."""
+    measured = positions + rng.normal(scale=noise.position_mm, size=positions.shape)
+    if position_only:
+        return measured, None
+    tilt = rotvec_to_matrix_np(rng.normal(scale=noise.orientation_rad, size=(positions.shape[0], 3)))
+    return measured, matrix_to_quaternion(tilt @ rotations)
+
+
 def thesis_perturbation(desc: RobotDescription, rng: np.random.Generator, errors: ErrorMagnitudes) -> Array:
     """Uniform errors within ± the thesis magnitudes on every DH number, a_i, b_i and leg offset."""
     size = errors.vector(desc)
@@ -67,10 +86,10 @@ def perturbed_robot(
     nominal = table.nominal
     truth = nominal + thesis_perturbation(desc, rng, errors)
     s_base, s_tool = desc.slices["base"], desc.slices["tool"]
-    base_rot = rotvec_to_matrix_np(_random_unit(rng) * np.radians(instrument_rotation_deg))
+    offset, base_rot = placed_instrument(rng, instrument_distance_mm, instrument_rotation_deg)
     # The instrument sees the robot base from `distance` away; the base transform is world <- {0}.
     base_rot = base_rot @ rotvec_to_matrix_np(nominal[s_base][3:])
-    truth[s_base] = np.r_[_random_unit(rng) * instrument_distance_mm, matrix_to_rotvec_np(base_rot)]
+    truth[s_base] = np.r_[offset, matrix_to_rotvec_np(base_rot)]
     tool_rot = rotvec_to_matrix_np(nominal[s_tool][3:]) @ rotvec_to_matrix_np(
         _random_unit(rng) * np.radians(tool_error_deg)
     )
@@ -94,12 +113,7 @@ def measure(
     noise = noise or NoiseModel()
     rng = np.random.default_rng(seed)
     fk = forward_kinematics(robot.desc, joints, robot.truth, conditions=conditions)
-    n = joints.shape[0]
-    positions = fk.positions + rng.normal(scale=noise.position_mm, size=(n, 3))
-    if position_only:
-        return Campaign(np.array(joints, dtype=float), positions, None, conditions=conditions)
-    tilt = rotvec_to_matrix_np(rng.normal(scale=noise.orientation_rad, size=(n, 3)))
-    quats = matrix_to_quaternion(tilt @ fk.rotations)
+    positions, quats = instrument_reading(rng, fk.positions, fk.rotations, noise, position_only=position_only)
     return Campaign(np.array(joints, dtype=float), positions, quats, conditions=conditions)
 
 

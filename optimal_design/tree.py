@@ -199,13 +199,7 @@ def _check(tree: RobotTree, candidates: Sequence[TreeCandidate], fixed: Sequence
         raise InvalidInput("give at least one candidate record", field="candidates")
     for where, records in (("candidates", candidates), ("fixed", fixed)):
         for k, c in enumerate(records):
-            tree.tip(c.tool, f"{where}[{k}].tool")
-            if c.frame is not None:
-                tree.tip(c.frame, f"{where}[{k}].frame")
-                if c.frame == c.tool:
-                    raise InvalidInput(
-                        f"{where}[{k}]: a tool measured in its own frame says nothing", field=f"{where}[{k}].frame"
-                    )
+            tree.check_record(c.tool, c.frame, f"{where}[{k}]")
             if c.sigma_mm is not None and not c.sigma_mm > 0:
                 raise InvalidInput(f"{where}[{k}].sigma_mm must be a positive number of mm", field=f"{where}[{k}]")
         if records:

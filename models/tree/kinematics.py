@@ -19,8 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from models._types import Array
-from models.errors import JointOutOfRange, NonFiniteValue, WrongShape
-from models.kinematics import JOINT_RANGE_SLACK, forward_kinematics
+from models.kinematics import JOINT_RANGE_SLACK, forward_kinematics, joint_vectors, refuse_out_of_range
 from models.runtime import Registry, default_registry
 from models.tree.tree import RobotTree
 
@@ -40,46 +39,11 @@ class TreePoses:
 def tree_joints(tree: RobotTree, joints: ArrayLike, *, check_ranges: bool = True) -> Array:
     """Global joint vectors as an (N, n_joints) array: shape, finiteness and (optionally) ranges checked, each
     refusal naming the pose and the tree's joint."""
-    try:
-        q = np.array(joints, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise WrongShape(f"joint vectors must be numbers: {exc}", field="joints") from exc
-    q = q[None, :] if q.ndim == 1 else q
-    if q.ndim != 2 or q.shape[1] != tree.n_joints:
-        raise WrongShape(
-            f"each joint vector of the tree must have {tree.n_joints} numbers {list(tree.joint_names)}, "
-            f"got shape {q.shape}",
-            field="joints",
-            expected=[-1, tree.n_joints],
-            got=list(q.shape),
-        )
-    bad = np.argwhere(~np.isfinite(q))
-    if bad.size:
-        i, j = (int(v) for v in bad[0])
-        raise NonFiniteValue(f"pose {i}: joint {tree.joint_names[j]} is {q[i, j]}", pose=i, joint=tree.joint_names[j])
+    q = joint_vectors(joints, tree.joint_names, of=" of the tree")
     if check_ranges:
-        _check_ranges(tree, q)
+        lo, hi = tree.joint_limits
+        refuse_out_of_range(q, lo, hi, slack=JOINT_RANGE_SLACK, names=tree.joint_names, kinds=tree.joint_kinds)
     return q
-
-
-def _check_ranges(tree: RobotTree, q: Array) -> None:
-    lo, hi = tree.joint_limits
-    bad = np.argwhere((q < lo - JOINT_RANGE_SLACK) | (q > hi + JOINT_RANGE_SLACK))
-    if bad.size:
-        i, j = (int(v) for v in bad[0])
-        kind = tree.joint_kinds[j]
-        scale, unit = kind.to_boundary, kind.boundary_unit
-        raise JointOutOfRange(
-            f"pose {i}: joint {tree.joint_names[j]} = {q[i, j] * scale:.6g} {unit} is outside its range "
-            f"[{lo[j] * scale:.6g}, {hi[j] * scale:.6g}] {unit}",
-            pose=i,
-            joint=tree.joint_names[j],
-            value=float(q[i, j] * scale),
-            min=float(lo[j] * scale),
-            max=float(hi[j] * scale),
-            unit=unit,
-            count=len(np.unique(bad[:, 0])),
-        )
 
 
 def tool_poses(

@@ -57,11 +57,7 @@ class ToolRecords:
 
     def checked(self, tree: RobotTree, where: str) -> ToolRecords:
         """These records with their joints checked against the tree and shapes against each other."""
-        tree.tip(self.tool, f"{where}.tool")
-        if self.frame is not None:
-            tree.tip(self.frame, f"{where}.frame")
-            if self.frame == self.tool:
-                raise InvalidInput(f"{where}: a tool measured in its own frame says nothing", field=f"{where}.frame")
+        tree.check_record(self.tool, self.frame, where)
         q = tree_joints(tree, self.joints)
         n = q.shape[0]
         if np.shape(self.positions) != (n, 3) or not np.all(np.isfinite(self.positions)):

@@ -10,7 +10,8 @@ import numpy as np
 from models._types import Array
 from models.noise import NoiseModel
 from models.runtime import Registry, default_registry
-from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np
+from models.simulation import instrument_reading, placed_instrument
+from models.transforms import matrix_to_rotvec_np
 from models.tree.records import ToolRecords
 from models.tree.tree import RobotTree
 
@@ -21,11 +22,6 @@ class SimulatedTree:
     nominal: Array
     truth: Array
     """The real tree, its base the instrument's frame <- the tree's base."""
-
-
-def _unit(rng: np.random.Generator) -> Array:
-    v = rng.normal(size=3)
-    return v / np.linalg.norm(v)
 
 
 def perturbed_tree(
@@ -42,8 +38,8 @@ def perturbed_tree(
     rng = np.random.default_rng(seed)
     table = tree.parameters
     truth = table.nominal + rng.uniform(-tolerances, tolerances, len(table)) * table.scales
-    rotation = rotvec_to_matrix_np(_unit(rng) * np.radians(instrument_rotation_deg))
-    truth[:6] = np.r_[_unit(rng) * instrument_distance_mm, matrix_to_rotvec_np(rotation)]
+    offset, rotation = placed_instrument(rng, instrument_distance_mm, instrument_rotation_deg)
+    truth[:6] = np.r_[offset, matrix_to_rotvec_np(rotation)]
     return SimulatedTree(tree, table.nominal, truth)
 
 
@@ -63,8 +59,5 @@ def measure_tree(
     rng = np.random.default_rng(seed)
     exact = ToolRecords(tool, joints, np.zeros((joints.shape[0], 3)), frame=frame)
     poses = exact.model(sim.tree, sim.truth, registry or default_registry(), jacobian=False)
-    positions = poses.positions + rng.normal(scale=noise.position_mm, size=poses.positions.shape)
-    if position_only:
-        return ToolRecords(tool, joints, positions, frame=frame)
-    tilt = rotvec_to_matrix_np(rng.normal(scale=noise.orientation_rad, size=(joints.shape[0], 3)))
-    return ToolRecords(tool, joints, positions, matrix_to_quaternion(tilt @ poses.rotations), frame=frame)
+    positions, quats = instrument_reading(rng, poses.positions, poses.rotations, noise, position_only=position_only)
+    return ToolRecords(tool, joints, positions, quats, frame=frame)

@@ -116,6 +116,15 @@ class RobotTree:
             )
         return found
 
+    def check_record(self, tool: str, frame: str | None, where: str) -> None:
+        """A record of tool `tool` in tool `frame`'s frame (None: the instrument's) names tips of the tree, and not
+        the same one twice; InvalidInput naming `where` (the record's place, e.g. "fixed[3]") otherwise."""
+        self.tip(tool, f"{where}.tool")
+        if frame is not None:
+            self.tip(frame, f"{where}.frame")
+            if frame == tool:
+                raise InvalidInput(f"{where}: a tool measured in its own frame says nothing", field=f"{where}.frame")
+
     def path(self, name: str) -> tuple[Branch, ...]:
         """The branches from the base to `name`, in order."""
         out = [self.branch(name)]

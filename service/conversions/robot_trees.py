@@ -389,13 +389,7 @@ def records_in(tree: RobotTree, records: Sequence[TreeRecord], where: str) -> Gr
     if not records:
         return Grouped((), 0)
     for k, record in enumerate(records):
-        tree.tip(record.tool, f"{where}[{k}].tool")
-        if record.frame is not None:
-            tree.tip(record.frame, f"{where}[{k}].frame")
-            if record.frame == record.tool:
-                raise InvalidInput(
-                    f"{where}[{k}]: a tool measured in its own frame says nothing", field=f"{where}[{k}].frame"
-                )
+        tree.check_record(record.tool, record.frame, f"{where}[{k}]")
         if record.orientation is not None:
             unit_quaternion(record.orientation, f"{where}[{k}].orientation")
     q = joints_in(tree, [r.joints for r in records], where, ".joints")

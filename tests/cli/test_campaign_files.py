@@ -8,10 +8,8 @@ from __future__ import annotations
 
 import json
 import math
-import threading
 import urllib.request
 from collections.abc import Iterator
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any, ClassVar
 from urllib.parse import parse_qs, urlsplit
@@ -19,13 +17,13 @@ from urllib.parse import parse_qs, urlsplit
 import numpy as np
 import pytest
 
-from harness.live import running_server
+from harness.live import story_server
 from iwr_client import Client
 from iwr_client.cli import main
 from models import iwr as iwr_description
 from models import sample_workspace
 from models.simulation import measure, perturbed_robot
-from tests.cli.helpers import api, iwr
+from tests.cli.helpers import StandIn, api, iwr, serving
 
 DESC = iwr_description()
 NAMES = [f"Achse {k + 1}" for k in range(4)] + [f"Bein {k}" for k in range(1, 7)]
@@ -33,7 +31,7 @@ MAP = ",".join(f"{name}={joint}" for name, joint in zip(NAMES, DESC.joint_names,
 ANGLES = [k for k, kind in enumerate(DESC.joint_kinds) if kind.name == "ANGLE"]
 
 
-class _Recorder(BaseHTTPRequestHandler):
+class _Recorder(StandIn):
     """Keeps each POST (path, query, content type, body) and answers a validation's or a check's document."""
 
     SEEN: ClassVar[list[tuple[str, dict[str, list[str]], str, bytes]]] = []
@@ -53,26 +51,14 @@ class _Recorder(BaseHTTPRequestHandler):
         parts = urlsplit(self.path)
         body = self.rfile.read(int(self.headers["Content-Length"]))
         self.SEEN.append((parts.path, parse_qs(parts.query), self.headers["Content-Type"], body))
-        answer = json.dumps(self.ANSWER).encode()
-        self.send_response(201)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(answer)))
-        self.end_headers()
-        self.wfile.write(answer)
-
-    def log_message(self, *args: object) -> None:  # quiet: the test reads what was sent
-        pass
+        self.answer_json(201, self.ANSWER)
 
 
 @pytest.fixture
 def recorder() -> Iterator[str]:
-    server = ThreadingHTTPServer(("127.0.0.1", 0), _Recorder)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
     _Recorder.SEEN.clear()
-    yield f"http://127.0.0.1:{server.server_address[1]}"
-    server.shutdown()
-    server.server_close()
+    with serving(_Recorder) as url:
+        yield url
 
 
 def test_validate_and_check_send_the_file_as_it_is_with_the_column_map(
@@ -125,10 +111,7 @@ def test_records_go_as_json_and_a_column_map_is_for_files_only(recorder: str) ->
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    database = tmp_path_factory.mktemp("files") / "cli.db"
-    with running_server(
-        f"sqlite:///{database}", IWR_JOB_WORKERS="0", IWR_COMPUTE_PROCESSES="1", IWR_COMPUTE_DEADLINE_SECONDS="60"
-    ) as url:
+    with story_server(tmp_path_factory.mktemp("files")) as url:
         yield url
 
 

@@ -10,17 +10,15 @@ from __future__ import annotations
 
 import json
 import re
-import threading
 import urllib.request
 from collections.abc import Iterator
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 import pytest
 
-from harness.live import running_server
+from harness.live import story_server
 from harness.programs import (
     FIXTURE,
     HOME_DEG,
@@ -39,7 +37,7 @@ from iwr_client.cli import main
 from iwr_client.programs import compensated_bytes, format_of
 from models.examples import ur5_like_document
 from programs import read_program
-from tests.cli.helpers import iwr
+from tests.cli.helpers import StandIn, iwr, serving
 
 N_TARGETS = 8
 UNREACHABLE = (
@@ -105,15 +103,8 @@ def cell() -> Cell:
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """The synchronous budget at 0.8 s (the default's 2 s would need a 10 000-target script to be over it; 3 000 are
-    over this one); the compute deadline a minute (the commands' stories, not the deadline, on shared cores)."""
-    database = tmp_path_factory.mktemp("cli-programs") / "cli.db"
-    with running_server(
-        f"sqlite:///{database}",
-        IWR_JOB_WORKERS="0",
-        IWR_COMPUTE_PROCESSES="1",
-        IWR_SYNC_BUDGET_SECONDS="0.8",
-        IWR_COMPUTE_DEADLINE_SECONDS="60",
-    ) as url:
+    over this one)."""
+    with story_server(tmp_path_factory.mktemp("cli-programs"), IWR_SYNC_BUDGET_SECONDS="0.8") as url:
         yield url
 
 
@@ -302,18 +293,10 @@ ANSWER: dict[str, Any] = {
 }  # fmt: skip
 
 
-class _Jobs(BaseHTTPRequestHandler):
+class _Jobs(StandIn):
     """A service with the job form: too much for one request (422 work-too-large, `use_async`), a job otherwise."""
 
     POSTS: ClassVar[list[str]] = []
-
-    def _send(self, status: int, document: object) -> None:
-        body = json.dumps(document).encode()
-        self.send_response(status)
-        self.send_header("Content-Type", "application/json" if status < 400 else "application/problem+json")
-        self.send_header("Content-Length", str(len(body)))
-        self.end_headers()
-        self.wfile.write(body)
 
     def do_POST(self) -> None:
         self.rfile.read(int(self.headers["Content-Length"]))
@@ -321,27 +304,20 @@ class _Jobs(BaseHTTPRequestHandler):
         if "async=true" not in self.path:
             problem = {"type": "x/work-too-large", "title": "Too much work for one request", "status": 422,
                        "detail": "over the 2 s budget: send it as a job", "use_async": True}  # fmt: skip
-            self._send(422, problem)
+            self.answer_json(422, problem)
             return
-        self._send(202, {"job_id": "p1", "status_url": "/v1/jobs/p1", "id": "p1"})
+        self.answer_json(202, {"job_id": "p1", "status_url": "/v1/jobs/p1", "id": "p1"})
 
     def do_GET(self) -> None:
-        self._send(200, {"id": "p1", "kind": "program_compensation", "status": "succeeded", "result": ANSWER,
-                         "progress": {"stage": "done", "fraction": 1.0}})  # fmt: skip
-
-    def log_message(self, *args: object) -> None:
-        pass
+        self.answer_json(200, {"id": "p1", "kind": "program_compensation", "status": "succeeded", "result": ANSWER,
+                               "progress": {"stage": "done", "fraction": 1.0}})  # fmt: skip
 
 
 @pytest.fixture
 def jobs() -> Iterator[str]:
-    server = ThreadingHTTPServer(("127.0.0.1", 0), _Jobs)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
     _Jobs.POSTS.clear()
-    yield f"http://127.0.0.1:{server.server_address[1]}"
-    server.shutdown()
-    server.server_close()
+    with serving(_Jobs) as url:
+        yield url
 
 
 def test_work_over_the_budget_is_sent_again_as_a_job_and_waited_for(jobs: str) -> None:

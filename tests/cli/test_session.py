@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from harness.checks import changed
-from harness.live import ROOT, free_port, running_server
+from harness.live import ROOT, free_port, story_server
 from models import iwr as iwr_description
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from tests.cli.helpers import api, environment, iwr
@@ -37,11 +37,7 @@ IWR = iwr_description()
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    database = tmp_path_factory.mktemp("cli") / "cli.db"
-    # A minute's compute deadline (default 5 s): the commands' stories, not the deadline, on shared cores.
-    with running_server(
-        f"sqlite:///{database}", IWR_JOB_WORKERS="0", IWR_COMPUTE_PROCESSES="1", IWR_COMPUTE_DEADLINE_SECONDS="60"
-    ) as url:
+    with story_server(tmp_path_factory.mktemp("cli")) as url:
         yield url
 
 

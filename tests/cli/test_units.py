@@ -7,9 +7,7 @@ import io
 import json
 import subprocess
 import sys
-import threading
 from collections.abc import Iterator
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import ClassVar
 
@@ -29,6 +27,7 @@ from iwr_client import (
 from iwr_client.cli import UsageError, calibration_exit, describe, exit_code, main
 from iwr_client.progress import ProgressBar, format_eta, format_progress
 from iwr_client.records import records_from_csv
+from tests.cli.helpers import StandIn, serving
 
 JOINTS = ["q1", "q2", "q3", "q4", "l1", "l2", "l3", "l4", "l5", "l6"]
 
@@ -187,7 +186,7 @@ def test_a_malformed_records_file_names_what_is_wrong(text: str, message: str) -
 RUNNING = {"id": "j2", "status": "running", "progress": {"stage": "identifying", "fraction": 0.3}}
 
 
-class _Canned(BaseHTTPRequestHandler):
+class _Canned(StandIn):
     """Answers each path with a canned status and body: a proxy's HTML 502, a service's 500 problem."""
 
     ANSWERS: ClassVar[dict[str, tuple[int, str, bytes]]] = {
@@ -202,25 +201,13 @@ class _Canned(BaseHTTPRequestHandler):
         self.do_GET()
 
     def do_GET(self) -> None:
-        status, content_type, body = self.ANSWERS.get(self.path.split("?")[0], (404, "text/plain", b"no"))
-        self.send_response(status)
-        self.send_header("Content-Type", content_type)
-        self.send_header("Content-Length", str(len(body)))
-        self.end_headers()
-        self.wfile.write(body)
-
-    def log_message(self, *args: object) -> None:  # quiet: the test reads the answers, not a log
-        pass
+        self.answer(*self.ANSWERS.get(self.path.split("?")[0], (404, "text/plain", b"no")))
 
 
 @pytest.fixture(scope="module")
 def stand_in() -> Iterator[str]:
-    server = ThreadingHTTPServer(("127.0.0.1", 0), _Canned)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    yield f"http://127.0.0.1:{server.server_address[1]}"
-    server.shutdown()
-    server.server_close()
+    with serving(_Canned) as url:
+        yield url
 
 
 def test_an_answer_that_is_not_a_problem_becomes_one_with_its_status(stand_in: str) -> None:
@@ -321,7 +308,7 @@ def test_the_history_table_has_a_row_per_event_and_dashes_for_what_was_not_measu
     assert summary.history_table([]) == "no calibrations or checks yet"
 
 
-class _Recording(BaseHTTPRequestHandler):
+class _Recording(StandIn):
     """Records each POST (path with its query, content type, body) and answers a failed calibration."""
 
     SEEN: ClassVar[list[tuple[str, str, bytes]]] = []
@@ -329,15 +316,7 @@ class _Recording(BaseHTTPRequestHandler):
     def do_POST(self) -> None:
         body = self.rfile.read(int(self.headers.get("Content-Length", "0")))
         self.SEEN.append((self.path, self.headers.get("Content-Type", ""), body))
-        answer = json.dumps({"id": "c1", "status": "failed", "reason": "canned", "applied": False}).encode()
-        self.send_response(201)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(answer)))
-        self.end_headers()
-        self.wfile.write(answer)
-
-    def log_message(self, *args: object) -> None:
-        pass
+        self.answer_json(201, {"id": "c1", "status": "failed", "reason": "canned", "applied": False})
 
 
 def test_calibrate_sends_the_column_map_and_the_joint_unit_with_the_file_as_it_is(
@@ -345,13 +324,10 @@ def test_calibrate_sends_the_column_map_and_the_joint_unit_with_the_file_as_it_i
 ) -> None:
     """Issue 45: `iwr calibrate ROBOT FILE --columns 'Achse 1=joint_1,…' --joint-unit rad`; the file's bytes go
     unchanged (a Windows-1252 export is decoded by the service, which names the encoding)."""
-    server = ThreadingHTTPServer(("127.0.0.1", 0), _Recording)
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    try:
+    with serving(_Recording) as url:
         campaign = tmp_path / "AT960.csv"
         raw = "Achse 1;X [mm];Temperature [°C]\n1,5;2,0;21,3\n".encode("cp1252")
         campaign.write_bytes(raw)
-        url = f"http://127.0.0.1:{server.server_address[1]}"
         code = main(
             [
                 "--url",
@@ -373,7 +349,4 @@ def test_calibrate_sends_the_column_map_and_the_joint_unit_with_the_file_as_it_i
         assert "joint_unit=rad" in path and body == raw
         with pytest.raises(ValueError, match="records are the API's own"):
             Client(url).calibrate("r1", [{"joints": [0.0], "position": [0.0, 0.0, 0.0]}], columns="A1=q1")
-    finally:
-        server.shutdown()
-        server.server_close()
     capsys.readouterr()

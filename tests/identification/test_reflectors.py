@@ -15,6 +15,7 @@ from models.identification.reference_fit import identify_references
 from models.measurements.references import ReferenceRecords, Reflector, TrackerPositions
 from models.noise import NoiseModel
 from models.simulation import perturbed_robot
+from tests.reference_differences import residual_differences
 
 DESC = ur5_like()
 SIGMA_MM = 0.01
@@ -37,18 +38,9 @@ def test_the_residuals_derivatives_are_those_of_the_forward_kinematics() -> None
     values = _read(theta, joints, OFFSETS["r2"])
     tcp = forward_kinematics(DESC, joints, theta, jacobian=True)
     _, d_theta, d_u = reflector.residuals(tcp, u, values)
-    h = 1e-5
-    for k in range(theta.size):
-        step = np.zeros_like(theta)
-        step[k] = h
-        plus = reflector.residuals(forward_kinematics(DESC, joints, theta + step, jacobian=True), u, values)[0]
-        minus = reflector.residuals(forward_kinematics(DESC, joints, theta - step, jacobian=True), u, values)[0]
-        np.testing.assert_allclose(d_theta[:, :, k], (plus - minus) / (2 * h), atol=2e-5, err_msg=str(k))
-    for k in range(3):
-        step = np.zeros(3)
-        step[k] = h
-        fd = (reflector.residuals(tcp, u + step, values)[0] - reflector.residuals(tcp, u - step, values)[0]) / (2 * h)
-        np.testing.assert_allclose(d_u[:, :, k], fd, atol=1e-8)
+    by_theta, by_u = residual_differences(reflector, DESC, joints, theta, u, values, h_u=1e-5)
+    np.testing.assert_allclose(d_theta, by_theta, atol=2e-5)
+    np.testing.assert_allclose(d_u, by_u, atol=1e-8)
 
 
 def test_the_start_is_the_offset_when_the_model_is_the_truth() -> None:

@@ -12,6 +12,7 @@ from models import forward_kinematics, sample_workspace
 from models.errors import InvalidInput
 from models.examples import ur5_like
 from models.measurements.line import Line
+from tests.reference_differences import residual_differences
 
 DESC = ur5_like()
 DIRECTION = np.array([0.6, 0.0, 0.8])
@@ -29,18 +30,9 @@ def test_the_residuals_derivatives_are_those_of_the_forward_kinematics() -> None
     tcp = forward_kinematics(DESC, joints, theta, jacobian=True)
     r, d_theta, d_u = line.residuals(tcp, u, values)
     assert r.shape == (5, 4) and d_theta.shape == (5, 4, theta.size) and d_u.shape == (5, 4, 5)
-    h = 1e-5
-    for k in range(theta.size):
-        step = np.zeros_like(theta)
-        step[k] = h
-        plus = line.residuals(forward_kinematics(DESC, joints, theta + step, jacobian=True), u, values)[0]
-        minus = line.residuals(forward_kinematics(DESC, joints, theta - step, jacobian=True), u, values)[0]
-        np.testing.assert_allclose(d_theta[:, :, k], (plus - minus) / (2 * h), atol=2e-6, err_msg=str(k))
-    for k in range(5):
-        step = np.zeros(5)
-        step[k] = 1e-7
-        fd = (line.residuals(tcp, u + step, values)[0] - line.residuals(tcp, u - step, values)[0]) / 2e-7
-        np.testing.assert_allclose(d_u[:, :, k], fd, rtol=1e-6, atol=1e-5)
+    by_theta, by_u = residual_differences(line, DESC, joints, theta, u, values, h_u=1e-7)
+    np.testing.assert_allclose(d_theta, by_theta, atol=2e-6)
+    np.testing.assert_allclose(d_u, by_u, rtol=1e-6, atol=1e-5)
 
 
 def test_the_residual_is_the_reading_model_written_independently() -> None:

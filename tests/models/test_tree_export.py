@@ -18,6 +18,7 @@ from models.errors import InvalidInput
 from models.tree import RobotTree, perturbed_tree, tool_poses, tree_from_urdf, tree_joint_samples
 from models.tree.examples import arm_with_positioner, dual_arm_torso
 from models.tree.export import branch_dh_tables, calibrate_urdf_tree
+from tests.models.tree_reference import pinocchio_tips
 from tests.robot_data import robot_file
 
 FIXTURE = (Path(__file__).parent / "fixtures" / "dual_arm_torso.urdf").read_text()
@@ -76,23 +77,14 @@ def test_pinocchio_reads_the_calibrated_urdf_as_the_calibrated_tree(
 ) -> None:
     pin: Any = pytest.importorskip("pinocchio", reason="Pinocchio is not installed (`pip install pin`, the dev extra)")
     _, tree, truth, calibration = exported
-    model = pin.buildModelFromXML(calibration.urdf)
-    data = model.createData()
-    index = [model.joints[model.getJointId(name)].idx_q for name in tree.joint_names]
-    to_si = np.array([1e-3 if kind.name == "LENGTH" else 1.0 for kind in tree.joint_kinds])
     q = tree_joint_samples(tree, SAMPLES, seed=5)
+    frames = pinocchio_tips(pin, calibration.urdf, tree, q)
     to_link = np.linalg.inv(calibration.world_from_base_link)
-    ours = {tip: tool_poses(tree, tip, q, truth) for tip in tree.tips}
-    for i in range(SAMPLES):
-        configuration = pin.neutral(model)
-        configuration[index] = q[i] * to_si
-        pin.framesForwardKinematics(model, data, configuration)
-        for tip in tree.tips:
-            frame = data.oMf[model.getFrameId(tip)]
-            tcp = _matrices(ours[tip].positions[i : i + 1], ours[tip].rotations[i : i + 1])[0]
-            expected = to_link @ tcp @ np.linalg.inv(calibration.tip_to_tcp[tip])
-            assert np.abs(frame.translation * 1000.0 - expected[:3, 3]).max() < 1e-6  # mm
-            assert np.abs(frame.rotation - expected[:3, :3]).max() < 1e-9
+    for tip in tree.tips:
+        ours = tool_poses(tree, tip, q, truth)
+        expected = to_link @ _matrices(ours.positions, ours.rotations) @ np.linalg.inv(calibration.tip_to_tcp[tip])
+        assert np.abs(frames[tip][:, :3, 3] - expected[:, :3, 3]).max() < 1e-6  # mm
+        assert np.abs(frames[tip][:, :3, :3] - expected[:, :3, :3]).max() < 1e-9
 
 
 def _row(row: FrameRow) -> np.ndarray:

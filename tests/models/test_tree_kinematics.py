@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from models.errors import InvalidInput, JointOutOfRange, WrongShape
+from models.errors import InvalidInput, JointOutOfRange, NonFiniteValue, WrongShape
 from models.tree import Branch, RobotTree, relative_poses, tool_poses, tree_joint_samples
 from models.tree.examples import TORCH, arm_with_positioner, dual_arm_torso
 from tests.models.tree_reference import POSITIONER, POSITIONER_NAMES, TORSO, TORSO_NAMES, chain_fk, relative
@@ -115,6 +115,12 @@ def test_bad_input_names_what_to_fix() -> None:
     q[1, 8] = np.radians(200.0)
     with pytest.raises(JointOutOfRange, match=r"pose 1: joint right.q2 = 200 deg"):
         tool_poses(tree, "left", q)
+    q[0, 2] = np.nan
+    with pytest.raises(NonFiniteValue, match=r"pose 0: joint \S+ is nan, not a finite number"):
+        tool_poses(tree, "left", q)
+    with pytest.raises(InvalidInput, match=r"fixed\[3\]: a tool measured in its own frame says nothing") as caught:
+        tree.check_record("left", "left", "fixed[3]")
+    assert caught.value.field == "fixed[3].frame"
     arm = dual_arm_torso().branches[1]
     with pytest.raises(InvalidInput, match="hangs from 'waist', which is not a branch declared before it"):
         RobotTree("t", (arm,))

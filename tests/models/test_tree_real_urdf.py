@@ -13,6 +13,7 @@ import pytest
 
 from models.errors import InvalidInput
 from models.tree import RobotTree, tool_poses, tree_from_urdf, tree_joint_samples
+from tests.models.tree_reference import pinocchio_tips
 from tests.robot_data import robot_file
 
 ROBOTS = {
@@ -58,23 +59,13 @@ def test_the_trunk_carries_both_arms(imported: tuple[str, str, RobotTree]) -> No
 def test_fk_of_both_hands_equals_pinocchio(imported: tuple[str, str, RobotTree]) -> None:
     pin: Any = pytest.importorskip("pinocchio", reason="Pinocchio is not installed (`pip install pin`, the dev extra)")
     name, text, tree = imported
-    model = pin.buildModelFromXML(text)
-    data = model.createData()
     q = tree_joint_samples(tree, SAMPLES, seed=47)
-    index = [model.joints[model.getJointId(joint)].idx_q for joint in tree.joint_names]
-    # The tree's joints inside, Pinocchio's in SI: the prismatic lift's mm are its metres.
-    to_si = np.array([1e-3 if kind.name == "LENGTH" else 1.0 for kind in tree.joint_kinds])
-    ours = {tip: tool_poses(tree, tip, q) for tip in tree.tips}
+    frames = pinocchio_tips(pin, text, tree, q)  # the prismatic lift's mm are Pinocchio's metres
     worst = 0.0
-    for i in range(SAMPLES):
-        configuration = pin.neutral(model)
-        configuration[index] = q[i] * to_si
-        pin.framesForwardKinematics(model, data, configuration)
-        for tip in tree.tips:
-            frame = data.oMf[model.getFrameId(tip)]
-            gap = np.abs(ours[tip].positions[i] - frame.translation * 1000.0).max()
-            worst = max(worst, float(gap))
-            np.testing.assert_allclose(ours[tip].rotations[i], frame.rotation, atol=1e-12, err_msg=f"{name} {tip}")
+    for tip in tree.tips:
+        ours = tool_poses(tree, tip, q)
+        worst = max(worst, float(np.abs(ours.positions - frames[tip][:, :3, 3]).max()))
+        np.testing.assert_allclose(ours.rotations, frames[tip][:, :3, :3], atol=1e-12, err_msg=f"{name} {tip}")
     assert worst < 1e-6, f"{name}: {worst:.3g} mm"  # 1e-6 mm
 
 

@@ -4,10 +4,15 @@ layout written out by hand. The tree tests check the models' FK, Jacobians and f
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from models._types import Array
+
+if TYPE_CHECKING:
+    from models.tree import RobotTree
 
 Segment = tuple[str, int, int]
 """("pose", first parameter, -1) or ("dh", first parameter, global joint index)."""
@@ -67,3 +72,23 @@ POSITIONER_NAMES = {30: "positioner.mount.x", 36: "positioner.link1.theta", 44: 
 def relative(a: Array, b: Array) -> Array:
     """(N, 4, 4) A in B's frame."""
     return np.linalg.inv(b) @ a
+
+
+def pinocchio_tips(pin: Any, urdf: str, tree: RobotTree, q: Array) -> dict[str, Array]:
+    """Pinocchio's reading of `urdf` (`pin`, the module): each of the tree's tips (a link of the file) at the tree's
+    joints `q`, as (N, 4, 4) poses in the file's base link, translations in mm. The tree's joints are internal
+    units, Pinocchio's SI: a prismatic joint's mm are its metres."""
+    model = pin.buildModelFromXML(urdf)
+    data = model.createData()
+    index = [model.joints[model.getJointId(name)].idx_q for name in tree.joint_names]
+    to_si = np.array([1e-3 if kind.name == "LENGTH" else 1.0 for kind in tree.joint_kinds])
+    out = {tip: np.tile(np.eye(4), (q.shape[0], 1, 1)) for tip in tree.tips}
+    for i in range(q.shape[0]):
+        configuration = pin.neutral(model)
+        configuration[index] = q[i] * to_si
+        pin.framesForwardKinematics(model, data, configuration)
+        for tip in tree.tips:
+            frame = data.oMf[model.getFrameId(tip)]
+            out[tip][i, :3, :3] = frame.rotation
+            out[tip][i, :3, 3] = frame.translation * 1000.0
+    return out

@@ -11,6 +11,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from alembic import command
 from alembic.config import Config
@@ -23,11 +24,12 @@ from harness.programs import Cell
 from harness.records import records
 from iwr_client.client import Answer, Client
 from iwr_client.errors import ApiError
-from models.examples import ur5_like_document
+from models.examples import ur5_like, ur5_like_document
 from service.persistence.database import MIGRATIONS
 
 __all__ = ["SOAK", "MigratedFile", "assert_design_kept", "broker", "finished_job", "migrated_file", "records"]
 
+UR5 = ur5_like()
 SOAK = os.environ.get("IWR_SOAK") == "1"
 """`make soak`: the load and fleet tests at their full length (50 clients for 10 s, 12 s of mixed load, 200 jobs
 through the fleet). `make test` runs them shorter: the same assertions, on what only took longer by waiting."""
@@ -80,12 +82,27 @@ def assert_design_kept(client: TestClient, robot_id: str, design: dict[str, Any]
     assert [(d["id"], d["measurement"]) for d in listed] == [(design["id"], measurement)]
 
 
+def posted_ur5(client: TestClient, name: str) -> str:
+    """A UR5-like robot named `name` created through the API: its id."""
+    made = client.post("/v1/robots", json={"name": name, "structure": ur5_like_document()})
+    assert made.status_code == 201, made.text
+    return str(made.json()["id"])
+
+
+def ur5_truth(seed: int) -> np.ndarray:
+    """A true UR5-like arm: every parameter but the base's (the tracker's frame, here the nominal) off its nominal
+    by a normal draw of 0.2 its scale."""
+    table = UR5.parameters
+    truth = table.nominal.copy()
+    rng = np.random.default_rng(seed)
+    truth[6:] += rng.normal(0, 0.2, truth.size - 6) * table.scales[6:]
+    return truth
+
+
 def ur5_with_truth(client: TestClient, cell: Cell) -> str:
     """A UR5-like robot with the cell's perturbed truth as its version 2 (mm and degrees, as the parameters export
     states them): what programs are compensated with in the tests."""
-    robot = client.post("/v1/robots", json={"name": "ur5-cell", "structure": ur5_like_document()})
-    assert robot.status_code == 201, robot.text
-    robot_id = str(robot.json()["id"])
+    robot_id = posted_ur5(client, "ur5-cell")
     export = client.get(f"/v1/robots/{robot_id}/parameters").json()
     table = cell.desc.parameters
     boundary = dict(zip(table.names, table.as_boundary(cell.truth), strict=True))

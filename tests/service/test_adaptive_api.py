@@ -17,7 +17,7 @@ from sqlalchemy import create_engine, inspect
 
 from harness.records import records
 from models import Registry, forward_kinematics, sample_workspace
-from models.examples import ur5_like, ur5_like_document
+from models.examples import ur5_like
 from models.robot import RobotDescription
 from models.simulation import perturbed_robot
 from models.structure import description_from_document
@@ -27,6 +27,7 @@ from service.persistence.adaptive import AdaptiveStore
 from service.persistence.database import MIGRATIONS
 from tests.models.cell_reference import dh_frames, reference_verdicts
 from tests.service.conftest import fresh_sqlite, make_client
+from tests.service.helpers import posted_ur5
 from tests.service.test_cells_api import CELL, the_same_cell
 
 DESC = ur5_like()
@@ -36,9 +37,7 @@ BLUNDER_MM = 0.5
 
 
 def _robot(client: TestClient) -> str:
-    made = client.post("/v1/robots", json={"name": "ur5-adaptive", "structure": ur5_like_document()})
-    assert made.status_code == 201, made.text
-    return str(made.json()["id"])
+    return posted_ur5(client, "ur5-adaptive")
 
 
 def _measured(poses: list[dict[str, object]], seed: int, *, blunder: bool = False) -> list[dict[str, object]]:
@@ -143,9 +142,7 @@ def test_bad_adaptive_requests_are_refused_naming_what_to_fix(client: TestClient
 
 
 def _robot_named(client: TestClient, name: str) -> str:
-    made = client.post("/v1/robots", json={"name": name, "structure": ur5_like_document()})
-    assert made.status_code == 201, made.text
-    return str(made.json()["id"])
+    return posted_ur5(client, name)
 
 
 def test_two_posts_for_one_step_store_one(tmp_path: Path, migrated_sqlite: Path) -> None:

@@ -30,12 +30,12 @@ from harness.camera import (
     world_images,
 )
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like, ur5_like_document
+from models.examples import ur5_like
 from models.measurements.camera import Camera, Intrinsics
 from models.noise import NoiseModel
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 from optimal_design.references import camera_candidates, design_reference_records
-from tests.service.helpers import assert_design_kept
+from tests.service.helpers import assert_design_kept, posted_ur5
 
 UR5 = ur5_like()
 SIGMA_PX = 0.1
@@ -51,9 +51,7 @@ DESIGNED = {
 
 @pytest.fixture
 def arm(client: TestClient) -> str:
-    made = client.post("/v1/robots", json={"name": "ur5-camera-design", "structure": ur5_like_document()})
-    assert made.status_code == 201, made.text
-    return str(made.json()["id"])
+    return posted_ur5(client, "ur5-camera-design")
 
 
 def _joints(n: int, seed: int = 42) -> np.ndarray:

@@ -13,7 +13,8 @@ from fastapi.testclient import TestClient
 
 from harness.ballbar import reaching
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like, ur5_like_document
+from models.examples import ur5_like
+from tests.service.helpers import posted_ur5, ur5_truth
 
 UR5 = ur5_like()
 TRACKER_SIGMA_MM = 0.01
@@ -29,17 +30,7 @@ TRAVEL_MM = np.linspace(-150.0, 150.0, 16)
 
 @pytest.fixture
 def arm(client: TestClient) -> str:
-    made = client.post("/v1/robots", json={"name": "ur5-interferometer", "structure": ur5_like_document()})
-    assert made.status_code == 201, made.text
-    return str(made.json()["id"])
-
-
-def _truth(seed: int) -> np.ndarray:
-    """The nominal arm with every parameter but the base's (the tracker's frame, here the nominal) perturbed."""
-    truth = UR5.parameters.nominal.copy()
-    rng = np.random.default_rng(seed)
-    truth[6:] += rng.normal(0, 0.2, truth.size - 6) * UR5.parameters.scales[6:]
-    return truth
+    return posted_ur5(client, "ur5-interferometer")
 
 
 def _on_beam(robot: np.ndarray, name: str, seed: int) -> np.ndarray:
@@ -80,7 +71,7 @@ def _tcp_error_mm(answer: dict[str, Any], truth: np.ndarray) -> float:
 
 @pytest.mark.slow  # two calibrations of 30 tracker and 32 displacement records: ~2 s
 def test_two_beams_beside_a_tracker_calibrate_the_arm_and_find_themselves(client: TestClient, arm: str) -> None:
-    truth = _truth(7)
+    truth = ur5_truth(7)
     records = _tracker(truth, 30, seed=71)
     for k, name in enumerate(LINES):
         records += _displacements(truth, name, _on_beam(truth, name, 20 + k), seed=30 + k)

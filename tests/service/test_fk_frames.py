@@ -9,20 +9,19 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from models.examples import hexapod_alone_document, ur5_like_document
+from models.examples import hexapod_alone_document
 from models.structure import description_from_document
 from models.transforms import quaternion_to_matrix
 from service.schemas.kinematics import FRAMES_MAX
 from tests.models.cell_reference import dh_frames
+from tests.service.helpers import posted_ur5
 
 JOINTS_DEG = [[0, -90, 80, -90, 90, 0], [30, -60, 45, -120, -45, 10], [-100, -120, 100, 0, 60, 170]]
 
 
 @pytest.fixture
 def ur5(client: TestClient) -> str:
-    made = client.post("/v1/robots", json={"name": "ur5-frames", "structure": ur5_like_document()})
-    assert made.status_code == 201, made.text
-    return str(made.json()["id"])
+    return posted_ur5(client, "ur5-frames")
 
 
 def test_every_frame_is_the_textbook_dh_product(client: TestClient, ur5: str) -> None:

@@ -17,13 +17,13 @@ from fastapi.testclient import TestClient
 from harness.ballbar import PIVOTS, aligned_rms, ballbar_campaign, reaching
 from harness.camera import WORLD_CAMERA, WORLD_CAMERA_POSITION, world_camera_campaign
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like, ur5_like_document
+from models.examples import ur5_like
 from models.identification.registration import rigid_fit
 from models.measurements.references import ReferenceRecords
 from models.structure import description_from_document
 from models.urdf import document_from_urdf
 from tests.models.test_urdf import UR5_URDF
-from tests.service.helpers import finished_job
+from tests.service.helpers import finished_job, posted_ur5
 
 UR5 = ur5_like()
 SIGMA_MM = 0.002
@@ -37,9 +37,7 @@ def campaign() -> Campaign:
 
 @pytest.fixture
 def arm(client: TestClient) -> str:
-    made = client.post("/v1/robots", json={"name": "ur5-ballbar", "structure": ur5_like_document()})
-    assert made.status_code == 201, made.text
-    return str(made.json()["id"])
+    return posted_ur5(client, "ur5-ballbar")
 
 
 def _records(groups: tuple[ReferenceRecords, ...]) -> list[dict[str, Any]]:

@@ -11,7 +11,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like, ur5_like_document
+from models.examples import ur5_like
+from tests.service.helpers import posted_ur5, ur5_truth
 
 UR5 = ur5_like()
 SIGMA_MM = 0.01
@@ -22,17 +23,7 @@ OFFSETS = {"r2": (80.0, 0.0, -20.0), "r3": (0.0, 70.0, -20.0)}
 
 @pytest.fixture
 def arm(client: TestClient) -> str:
-    made = client.post("/v1/robots", json={"name": "ur5-nest", "structure": ur5_like_document()})
-    assert made.status_code == 201, made.text
-    return str(made.json()["id"])
-
-
-def _truth(seed: int) -> np.ndarray:
-    """The nominal arm with every parameter but the base's (the tracker's frame, here the nominal) perturbed."""
-    truth = UR5.parameters.nominal.copy()
-    rng = np.random.default_rng(seed)
-    truth[6:] += rng.normal(0, 0.2, truth.size - 6) * UR5.parameters.scales[6:]
-    return truth
+    return posted_ur5(client, "ur5-nest")
 
 
 def _read(truth: np.ndarray, joints: np.ndarray, offset: tuple[float, ...]) -> np.ndarray:
@@ -67,7 +58,7 @@ def _tcp_error_mm(answer: dict[str, Any], truth: np.ndarray) -> float:
 def test_two_more_reflectors_calibrate_the_arm_better_and_their_offsets_are_reported(
     client: TestClient, arm: str
 ) -> None:
-    truth = _truth(7)
+    truth = ur5_truth(7)
     joints = sample_workspace(UR5, 30, seed=71)
     body = {"measurements": _records(truth, joints, ["r2", "r3"], seed=8), "noise": NOISE, "apply": False}
     answer = client.post(f"/v1/robots/{arm}/calibrations", json=body)
@@ -113,7 +104,7 @@ def test_a_design_of_reflector_records_reaches_its_prediction(client: TestClient
     metrics, baseline = design["metrics"], design["random_baseline"]
     assert metrics["predicted_rms_tcp_mm"] < baseline["predicted_rms_tcp_mm"], (metrics, baseline)
 
-    truth = _truth(11)
+    truth = ur5_truth(11)
     rng = np.random.default_rng(12)
     joints = np.asarray(design["poses"]) / UR5.joint_to_boundary
     records = _records(truth, sample_workspace(UR5, 12, seed=13), [], seed=14)

@@ -10,7 +10,7 @@ from urllib.parse import urlparse
 
 import pytest
 
-from harness.live import running_server
+from harness.live import story_server
 
 CHROMIUM = Path("/usr/bin/chromium")
 PAGE_WAIT_MS = 60_000
@@ -53,10 +53,7 @@ def browser() -> Iterator[object]:
 # a machine whose cores other tests share took past 5 s (a 503 the page showed; the deadline has its own tests).
 @pytest.fixture(scope="session")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    database = tmp_path_factory.mktemp("ui") / "iwr.db"
-    with running_server(
-        f"sqlite:///{database}", IWR_JOB_WORKERS="1", IWR_COMPUTE_PROCESSES="1", IWR_COMPUTE_DEADLINE_SECONDS="60"
-    ) as url:
+    with story_server(tmp_path_factory.mktemp("ui"), job_workers=1) as url:
         yield url
 
 

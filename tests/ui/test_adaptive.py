@@ -10,7 +10,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -21,9 +20,10 @@ import pytest
 from playwright.sync_api import expect
 
 from harness.records import records
-from models.examples import ur5_like, ur5_like_document
+from models.examples import ur5_like
 from models.simulation import perturbed_robot
 from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
+from tests.ui.pages import posted_ur5, ready
 from tests.ui.test_cell import CELL
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
@@ -37,16 +37,6 @@ LAYOUT = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z", "qw", "qx", "qy", "
 @pytest.fixture
 def page(browser: Any, server: str) -> Iterator[Any]:
     yield from watched_page(browser, server, viewport={"width": 1400, "height": 1000})
-
-
-def _robot(server: str, name: str) -> str:
-    made = httpx.post(f"{server}/v1/robots", json={"name": name, "structure": ur5_like_document()}, timeout=60)
-    assert made.status_code == 201, made.text
-    return str(made.json()["id"])
-
-
-def _ready(page: Any, pattern: str) -> None:
-    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=PAGE_WAIT_MS)
 
 
 def _rows(page: Any, selector: str) -> list[list[str]]:
@@ -92,10 +82,10 @@ def _post(page: Any, text: str, steps: int) -> None:
 
 def _start(page: Any, server: str, robot_id: str) -> str:
     page.goto(f"{server}/ui#/robots/{robot_id}")
-    _ready(page, f"^#/robots/{robot_id}$")
+    ready(page, f"^#/robots/{robot_id}$")
     expect(page.locator("#adaptive-none")).to_have_text("No adaptive campaign yet.")
     page.click("#go-adaptive")
-    _ready(page, "/adaptive$")
+    ready(page, "/adaptive$")
     assert page.locator("#adaptive-cell").count() == 0  # the API declares no `cell` yet on this body
     page.fill("#adaptive-target", "0.05")
     page.fill("#adaptive-candidates", "100")
@@ -111,7 +101,7 @@ def _start(page: Any, server: str, robot_id: str) -> str:
         "budget": 40,
         "measurement": "pose",
     }
-    _ready(page, "/adaptive/[^/]+$")
+    ready(page, "/adaptive/[^/]+$")
     return page.evaluate("location.hash").rsplit("/", 1)[1]  # type: ignore[no-any-return]
 
 
@@ -178,7 +168,7 @@ def _numbers_equal_the_apis(page: Any, campaign: dict[str, Any]) -> None:
 
 
 def test_an_adaptive_campaign_measured_through_the_browser(page: Any, server: str, tmp_path: Path) -> None:
-    robot_id = _robot(server, "ur5-adaptive-ui")
+    robot_id = posted_ur5(server, "ur5-adaptive-ui")
     campaign_id = _start(page, server, robot_id)
     path = f"/v1/robots/{robot_id}/adaptive-campaigns/{campaign_id}"
     campaign = httpx.get(server + path).json()
@@ -188,7 +178,7 @@ def test_an_adaptive_campaign_measured_through_the_browser(page: Any, server: st
     campaign = _blunder_flagged(page, server, path)
 
     page.reload()  # the page is drawn from the API's stored campaign alone: a reload resumes it
-    _ready(page, f"/adaptive/{campaign_id}$")
+    ready(page, f"/adaptive/{campaign_id}$")
     expect(page.locator("#adaptive-state")).to_have_attribute("data-steps", "2")
     assert [int(r[0]) for r in _rows(page, "#adaptive-blunders")] == [8]
     seed = 3
@@ -204,7 +194,7 @@ def test_an_adaptive_campaign_measured_through_the_browser(page: Any, server: st
     screenshot(page, "adaptive-done")
 
     page.click("#adaptive-finish")
-    _ready(page, "^#/calibrations/")
+    ready(page, "^#/calibrations/")
     finished = httpx.get(server + path).json()
     assert finished["status"] == "finished" and page.evaluate("location.hash") == (
         f"#/calibrations/{finished['calibration_id']}"
@@ -212,7 +202,7 @@ def test_an_adaptive_campaign_measured_through_the_browser(page: Any, server: st
     calibration = httpx.get(f"{server}/v1/calibrations/{finished['calibration_id']}").json()
     assert calibration["measurements"] == campaign["records"] - 1  # the blunder left out
     page.goto(f"{server}/ui#/robots/{robot_id}")
-    _ready(page, f"^#/robots/{robot_id}$")
+    ready(page, f"^#/robots/{robot_id}$")
     (listed,) = _rows(page, "#adaptive-campaigns")
     assert listed[1] == "finished" and listed[3] == f"{campaign['records']} / 40"
     assert _shown(listed[4]) == pytest.approx(campaign["predicted"]["rms_tcp_mm"], rel=5e-4)
@@ -223,9 +213,9 @@ def test_the_cell_option_follows_the_api_and_a_bad_target_is_refused(page: Any, 
     """With the OpenAPI document declaring `cell` on the create body (routed here: the API may not yet), a robot
     with a cell gets the box, ticked, and its request carries `"cell": "stored"`; a bad target shows the API's
     refusal naming the field."""
-    robot_id = _robot(server, "ur5-adaptive-cell")
+    robot_id = posted_ur5(server, "ur5-adaptive-cell")
     page.goto(f"{server}/ui#/robots/{robot_id}/adaptive")
-    _ready(page, "/adaptive$")
+    ready(page, "/adaptive$")
     page.fill("#adaptive-target", "0")
     page.click("#adaptive-start")
     expect(page.locator("#adaptive-start-error")).to_contain_text("target_mm")
@@ -236,11 +226,11 @@ def test_the_cell_option_follows_the_api_and_a_bad_target_is_refused(page: Any, 
     create.setdefault("cell", {"anyOf": [{"const": "stored", "type": "string"}, {"type": "null"}]})
     page.route("**/openapi.json", lambda route: route.fulfill(json=document))
     page.reload()
-    _ready(page, "/adaptive$")
+    ready(page, "/adaptive$")
     expect(page.locator("#adaptive-no-cell")).to_contain_text("This robot has no cell")
     assert httpx.put(f"{server}/v1/robots/{robot_id}/cell", json=CELL).status_code == 200
     page.reload()
-    _ready(page, "/adaptive$")
+    ready(page, "/adaptive$")
     expect(page.locator("#adaptive-cell")).to_be_checked()
     posted: list[dict[str, Any]] = []
 

@@ -7,7 +7,6 @@ the cell ended by two clicks; and a pose design in the cell whose refused counts
 from __future__ import annotations
 
 import json
-import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -18,19 +17,12 @@ import pytest
 from playwright.sync_api import expect
 from scipy.spatial.transform import Rotation
 
-from models.examples import ur5_like_document
+from tests.service.test_cells_api import FIXTURE, TABLE, TRACKER
 from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
+from tests.ui.pages import posted_ur5, ready, to_mm, view_mapping
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
 
-TABLE: dict[str, Any] = {"name": "table", "kind": "box", "size_mm": [1500, 1500, 40], "position_mm": [0, 0, -21]}
-FIXTURE: dict[str, Any] = {
-    "name": "fixture",
-    "kind": "box",
-    "size_mm": [300, 300, 300],
-    "position_mm": [500, 300, 150],
-    "rotation_vector_deg": [0, 0, 11.46],
-}
 COLUMN: dict[str, Any] = {
     "name": "column",
     "kind": "cylinder",
@@ -39,7 +31,7 @@ COLUMN: dict[str, Any] = {
     "position_mm": [-600, -500, 450],
 }
 GLOBE: dict[str, Any] = {"name": "globe", "kind": "sphere", "radius_mm": 120, "position_mm": [300, -700, 500]}
-TRACKER: dict[str, Any] = {"position_mm": [2500, 0, 600], "acceptance_deg": 60}
+# The service tests' cell (tests/service/test_cells_api.py) with a cylinder and a sphere: every kind drawn.
 CELL: dict[str, Any] = {"obstacles": [TABLE, FIXTURE, COLUMN, GLOBE], "tracker": TRACKER}
 VIEWS = {"cell-top": (0, 1), "cell-side": (0, 2), "cell-front": (1, 2)}
 
@@ -49,32 +41,9 @@ def page(browser: Any, server: str) -> Iterator[Any]:
     yield from watched_page(browser, server, viewport={"width": 1400, "height": 1000})
 
 
-def _robot(server: str, name: str) -> str:
-    made = httpx.post(f"{server}/v1/robots", json={"name": name, "structure": ur5_like_document()}, timeout=60)
-    assert made.status_code == 201, made.text
-    return str(made.json()["id"])
-
-
-def _ready(page: Any, pattern: str) -> None:
-    # An attribute wait: the page's Content-Security-Policy forbids eval, which wait_for_function uses.
-    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=PAGE_WAIT_MS)
-
-
-def _mapping(page: Any, view: str) -> dict[str, float]:
-    found: dict[str, float] = page.eval_on_selector(
-        f"#{view}", "s => Object.fromEntries(['u0', 'v1', 'scale', 'left', 'top'].map(k => [k, Number(s.dataset[k])]))"
-    )
-    return found
-
-
-def _to_mm(m: dict[str, float], x: float, y: float) -> tuple[float, float]:
-    """An SVG point back to the view's two world coordinates in mm."""
-    return m["u0"] + (x - m["left"]) / m["scale"], m["v1"] - (y - m["top"]) / m["scale"]
-
-
 def _outline(page: Any, selector: str, m: dict[str, float]) -> np.ndarray:
     text: str = page.get_attribute(selector, "points")
-    return np.array([_to_mm(m, *map(float, p.split(","))) for p in text.split()])
+    return np.array([to_mm(m, *map(float, p.split(","))) for p in text.split()])
 
 
 def _box_corners(doc: dict[str, Any]) -> np.ndarray:
@@ -89,13 +58,13 @@ def _obstacles_drawn(page: Any, cell: dict[str, Any]) -> None:
     """Each obstacle in each view: a box's outline spans its corners' projection (the fixture's top view is its
     four turned corners), the cylinder's its radius and length, the sphere a circle of its radius."""
     for view, (u, v) in VIEWS.items():
-        m = _mapping(page, view)
+        m = view_mapping(page, view)
         for doc in cell["obstacles"][:2]:
             drawn = _outline(page, f"#{view} polygon.obstacle[data-name={doc['name']}]", m)
             corners = _box_corners(doc)[:, [u, v]]
             assert drawn.min(axis=0) == pytest.approx(corners.min(axis=0), abs=1e-6)
             assert drawn.max(axis=0) == pytest.approx(corners.max(axis=0), abs=1e-6)
-        fixture_top = _outline(page, "#cell-top polygon.obstacle[data-name=fixture]", _mapping(page, "cell-top"))
+        fixture_top = _outline(page, "#cell-top polygon.obstacle[data-name=fixture]", view_mapping(page, "cell-top"))
         assert len(fixture_top) == 4
         assert sorted(map(tuple, fixture_top.round(6))) == sorted(
             {tuple(c) for c in _box_corners(FIXTURE)[:, :2].round(6)}
@@ -107,7 +76,7 @@ def _obstacles_drawn(page: Any, cell: dict[str, Any]) -> None:
         assert column.max(axis=0) == pytest.approx((centre + half)[[u, v]], abs=1e-6)
         globe = page.locator(f"#{view} circle.obstacle[data-name=globe]")
         cx, cy, r = (float(globe.get_attribute(a) or "nan") for a in ("cx", "cy", "r"))
-        assert _to_mm(m, cx, cy) == pytest.approx(tuple(np.array(GLOBE["position_mm"])[[u, v]]), abs=1e-6)
+        assert to_mm(m, cx, cy) == pytest.approx(tuple(np.array(GLOBE["position_mm"])[[u, v]]), abs=1e-6)
         assert r / m["scale"] == pytest.approx(GLOBE["radius_mm"])
 
 
@@ -120,19 +89,19 @@ def _robot_drawn(page: Any, server: str, robot_id: str) -> None:
     frames = fk.json()["frames"][0]
     assert len(stored["geometry"]) == 13  # two capsules for each of the six links, and the tool's
     for view, (u, v) in VIEWS.items():
-        m = _mapping(page, view)
+        m = view_mapping(page, view)
         for k, shape in enumerate(stored["geometry"]):
             line = page.locator(f"#{view} line.link[data-shape='{k}']")
             assert line.get_attribute("data-body") == shape["body"]
             ends = [
-                _to_mm(m, float(line.get_attribute(f"x{i}") or ""), float(line.get_attribute(f"y{i}") or ""))
+                to_mm(m, float(line.get_attribute(f"x{i}") or ""), float(line.get_attribute(f"y{i}") or ""))
                 for i in (1, 2)
             ]
             for end, frame in zip(ends, (shape["from_frame"], shape["to_frame"]), strict=True):
                 assert end == pytest.approx(tuple(np.array(frames[frame]["position"])[[u, v]]), abs=1e-6)
             assert float(line.get_attribute("stroke-width") or "") / m["scale"] == pytest.approx(2 * shape["radius_mm"])
         tracker = page.locator(f"#{view} circle.tracker")
-        at = _to_mm(m, float(tracker.get_attribute("cx") or ""), float(tracker.get_attribute("cy") or ""))
+        at = to_mm(m, float(tracker.get_attribute("cx") or ""), float(tracker.get_attribute("cy") or ""))
         assert at == pytest.approx(tuple(np.array(TRACKER["position_mm"])[[u, v]]), abs=1e-6)
         reach = float(page.get_attribute(f"#{view} circle.range-max", "r") or "") / m["scale"]
         assert reach == pytest.approx(stored["cell"]["tracker"]["range_max_mm"])
@@ -202,11 +171,11 @@ def _check_three(page: Any, server: str, robot_id: str) -> list[list[float]]:
 
 
 def test_a_cell_uploaded_drawn_checked_and_ended_by_clicks(page: Any, server: str, tmp_path: Path) -> None:
-    robot_id = _robot(server, "ur5-cell-ui")
+    robot_id = posted_ur5(server, "ur5-cell-ui")
     page.goto(f"{server}/ui#/robots/{robot_id}")
-    _ready(page, f"^#/robots/{robot_id}$")
+    ready(page, f"^#/robots/{robot_id}$")
     page.click("#go-cell")
-    _ready(page, "/cell$")
+    ready(page, "/cell$")
     expect(page.locator("#cell-status")).to_have_text("This robot has no cell yet.")
     _upload(page, server, robot_id, tmp_path)
     screenshot(page, "cell")
@@ -233,10 +202,10 @@ def test_a_cell_uploaded_drawn_checked_and_ended_by_clicks(page: Any, server: st
 
 
 def test_a_design_in_the_cell_shows_what_it_refused(page: Any, server: str) -> None:
-    robot_id = _robot(server, "ur5-cell-design")
+    robot_id = posted_ur5(server, "ur5-cell-design")
     assert httpx.put(f"{server}/v1/robots/{robot_id}/cell", json=CELL).status_code == 200
     page.goto(f"{server}/ui#/robots/{robot_id}/design")
-    _ready(page, "/design$")
+    ready(page, "/design$")
     page.fill("#design-count", "12")
     page.fill("#design-candidates", "200")
     page.select_option("#design-measurement", "position")
@@ -265,6 +234,6 @@ def test_a_design_in_the_cell_shows_what_it_refused(page: Any, server: str) -> N
         assert dots.count() == 12
         for k in range(12):
             dot = dots.nth(k)
-            at = _to_mm(m, float(dot.get_attribute("cx") or ""), float(dot.get_attribute("cy") or ""))
+            at = to_mm(m, float(dot.get_attribute("cx") or ""), float(dot.get_attribute("cy") or ""))
             assert at == pytest.approx(tuple(np.array(fk["poses"][k]["position"])[[u, v]]), abs=1e-6)
         assert svg.locator("polygon.obstacle").count() == 3 and svg.locator("line.link").count() == 13

@@ -9,7 +9,6 @@ refused program says where."""
 from __future__ import annotations
 
 import json
-import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -18,13 +17,13 @@ from urllib.parse import urlparse
 import httpx
 import numpy as np
 import pytest
-from playwright.sync_api import expect
 
 from harness.programs import FIXTURE, HOME_DEG, Cell, executed, joints, ur5_cell
 from models.examples import ur5_like_document
 from programs import read_program
 from tests.cli.test_compensate import N_TARGETS, backup, skeleton
-from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
+from tests.ui.conftest import screenshot, watched_page
+from tests.ui.pages import ready
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
 
@@ -55,19 +54,14 @@ def page(browser: Any, server: str) -> Iterator[Any]:
     yield from watched_page(browser, server, viewport={"width": 1400, "height": 900}, accept_downloads=True)
 
 
-def _ready(page: Any, pattern: str) -> None:
-    # An attribute wait: the page's Content-Security-Policy forbids eval, which wait_for_function uses.
-    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=PAGE_WAIT_MS)
-
-
 def _open(page: Any, server: str, robot: str) -> None:
     """From the header's Programs link, the robot's row."""
     page.goto(f"{server}/ui#/")
-    _ready(page, "^#/$")
+    ready(page, "^#/$")
     page.get_by_role("navigation", name="main").get_by_role("link", name="Programs").click()
-    _ready(page, "^#/programs$")
+    ready(page, "^#/programs$")
     page.locator("#program-robots tr", has_text="ur5-programs").get_by_role("link").click()
-    _ready(page, f"^#/robots/{robot}/programs$")
+    ready(page, f"^#/robots/{robot}/programs$")
 
 
 def _cells(page: Any, selector: str) -> list[list[str]]:
@@ -236,7 +230,7 @@ def test_files_decode_and_encode_back_to_their_bytes_in_the_browser(page: Any, s
     """The page's own codec (views/programs.js): the 256 bytes as Windows-1252, UTF-8 with and without its mark,
     UTF-16 of either order: decoded and encoded back, each is the same bytes."""
     page.goto(f"{server}/ui#/jobs")
-    _ready(page, "^#/jobs$")
+    ready(page, "^#/jobs$")
     cases = {
         "cp1252": (list(range(256)), "windows-1252"),
         "utf8": (list("; Schweißnaht\r\n".encode()), "utf-8"),

@@ -23,7 +23,8 @@ from models.tree import measure_tree, perturbed_tree, tree_joint_samples
 from models.tree.examples import arm_with_positioner
 from tests.models.test_tree_compensation import _away_from_singularities
 from tests.service.test_robot_trees import positioner_document, record_docs, torso_document
-from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
+from tests.ui.conftest import screenshot, watched_page
+from tests.ui.pages import ready, to_mm, view_mapping
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
 
@@ -33,21 +34,6 @@ VIEWS = {"cell-top": (0, 1), "cell-side": (0, 2), "cell-front": (1, 2)}
 @pytest.fixture
 def page(browser: Any, server: str) -> Iterator[Any]:
     yield from watched_page(browser, server, viewport={"width": 1400, "height": 1000})
-
-
-def _ready(page: Any, pattern: str) -> None:
-    expect(page.locator("body")).to_have_attribute("data-ready", re.compile(pattern), timeout=PAGE_WAIT_MS)
-
-
-def _mapping(page: Any, view: str) -> dict[str, float]:
-    found: dict[str, float] = page.eval_on_selector(
-        f"#{view}", "s => Object.fromEntries(['u0', 'v1', 'scale', 'left', 'top'].map(k => [k, Number(s.dataset[k])]))"
-    )
-    return found
-
-
-def _to_mm(m: dict[str, float], x: float, y: float) -> tuple[float, float]:
-    return m["u0"] + (x - m["left"]) / m["scale"], m["v1"] - (y - m["top"]) / m["scale"]
 
 
 def _create(server: str, body: dict[str, Any]) -> dict[str, Any]:
@@ -60,7 +46,7 @@ def _create(server: str, body: dict[str, Any]) -> dict[str, Any]:
 def test_the_tree_view_shows_the_branches_and_draws_the_tools_where_the_api_puts_them(page: Any, server: str) -> None:
     tree = _create(server, torso_document("ui-torso"))
     page.goto(f"{server}/ui#/trees/{tree['id']}")
-    _ready(page, f"#/trees/{tree['id']}")
+    ready(page, f"#/trees/{tree['id']}")
     expect(page.locator("#tree-views svg")).to_have_count(3)
     diagram = page.locator("#tree-diagram")
     assert [n.get_attribute("data-branch") for n in diagram.locator("rect.tree-node").all()] == [
@@ -80,10 +66,10 @@ def test_the_tree_view_shows_the_branches_and_draws_the_tools_where_the_api_puts
     answer = fk.json()["poses"][0]
     frames = {f["name"]: f for f in answer["frames"]}
     for view, (u, v) in VIEWS.items():
-        m = _mapping(page, view)
+        m = view_mapping(page, view)
         for tool in ("left", "right"):
             marker = page.locator(f"#{view} circle.tool-point[data-tool={tool}]")
-            at = _to_mm(m, float(marker.get_attribute("cx") or ""), float(marker.get_attribute("cy") or ""))
+            at = to_mm(m, float(marker.get_attribute("cx") or ""), float(marker.get_attribute("cy") or ""))
             assert at == pytest.approx(tuple(np.array(answer["tools"][tool]["position"])[[u, v]]), abs=1e-6)
         # Every link drawn joins two of the API's frames; the waist's once although both chains pass it.
         links = page.locator(f"#{view} line.tree-link").all()
@@ -91,7 +77,7 @@ def test_the_tree_view_shows_the_branches_and_draws_the_tools_where_the_api_puts
         for line in links[:8]:
             for end, name in ((1, line.get_attribute("data-from")), (2, line.get_attribute("data-to"))):
                 x, y = (float(line.get_attribute(f"{c}{end}") or "") for c in "xy")
-                assert _to_mm(m, x, y) == pytest.approx(tuple(np.array(frames[name]["position"])[[u, v]]), abs=1e-6)
+                assert to_mm(m, x, y) == pytest.approx(tuple(np.array(frames[name]["position"])[[u, v]]), abs=1e-6)
     shown = page.locator("#tree-tool-poses tbody tr").first.locator("td").nth(1).text_content() or ""
     assert [float(v) for v in shown.split(", ")] == pytest.approx(answer["tools"]["left"]["position"], rel=1e-5)
 
@@ -104,9 +90,9 @@ def test_the_tree_view_shows_the_branches_and_draws_the_tools_where_the_api_puts
         json={"joints": [[30.0] + [10.0] * (len(joints) - 1)], "frames": False},
         timeout=60,
     ).json()["poses"][0]["tools"]["left"]["position"]
-    m = _mapping(page, "cell-top")
+    m = view_mapping(page, "cell-top")
     marker = page.locator("#cell-top circle.tool-point[data-tool=left]")
-    at = _to_mm(m, float(marker.get_attribute("cx") or ""), float(marker.get_attribute("cy") or ""))
+    at = to_mm(m, float(marker.get_attribute("cx") or ""), float(marker.get_attribute("cy") or ""))
     assert at == pytest.approx(tuple(moved[:2]), abs=1e-6)
     screenshot(page, "tree-torso")
 
@@ -124,7 +110,7 @@ def test_a_calibrated_tree_shows_each_tools_and_the_relative_accuracy(page: Any,
     assert calibrated.status_code == 201, calibrated.text
     answer = calibrated.json()
     page.goto(f"{server}/ui#/trees/{tree['id']}")
-    _ready(page, f"#/trees/{tree['id']}")
+    ready(page, f"#/trees/{tree['id']}")
     rows = page.locator("#tree-accuracy tbody tr")
     expect(rows).to_have_count(3)
     shown = {
@@ -143,7 +129,7 @@ def test_a_calibrated_tree_shows_each_tools_and_the_relative_accuracy(page: Any,
 
 def test_a_tree_typed_in_the_page_is_refused_naming_the_field_or_opened(page: Any, server: str) -> None:
     page.goto(f"{server}/ui#/trees")
-    _ready(page, "#/trees")
+    ready(page, "#/trees")
     bad = torso_document("ui-cycle")
     bad["branches"][1]["parent"] = "left"
     page.fill("#tree-document", json.dumps(bad))
@@ -152,7 +138,7 @@ def test_a_tree_typed_in_the_page_is_refused_naming_the_field_or_opened(page: An
     assert all(t["name"] != "ui-cycle" for t in httpx.get(f"{server}/v1/robot-trees", timeout=60).json())
     page.fill("#tree-document", json.dumps(torso_document("ui-typed")))
     page.click("#tree-create")
-    _ready(page, r"#/trees/[0-9a-f-]{36}")
+    ready(page, r"#/trees/[0-9a-f-]{36}")
     expect(page.locator("h1")).to_have_text("ui-typed")
     expect(page.locator("#tree-diagram rect.tree-node")).to_have_count(4)
 
