@@ -23,7 +23,7 @@ from models.tree import measure_tree, perturbed_tree, tree_joint_samples
 from models.tree.examples import arm_with_positioner
 from tests.models.test_tree_compensation import _away_from_singularities
 from tests.service.test_robot_trees import positioner_document, record_docs, torso_document
-from tests.ui.conftest import screenshot, watched_page
+from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
 from tests.ui.pages import ready, to_mm, view_mapping
 
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
@@ -146,7 +146,7 @@ def test_a_tree_typed_in_the_page_is_refused_naming_the_field_or_opened(page: An
 def test_a_design_its_csv_a_compensation_and_an_export_from_the_tree_page(page: Any, server: str) -> None:
     tree = _create(server, positioner_document("ui-design"))
     page.goto(f"{server}/ui#/trees/{tree['id']}")
-    _ready(page, f"#/trees/{tree['id']}")
+    ready(page, f"#/trees/{tree['id']}")
     page.fill("#tree-design-count", "20")
     page.fill("#tree-design-candidates", "60")
     page.fill("#tree-design-seed", "4")
