@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
+from models.errors import InvalidInput
 from models.identification.statistics import tcp_accuracy
 from models.runtime import Registry
 from models.tree.identification import TreeFit
@@ -22,6 +23,8 @@ from models.tree.kinematics import relative_of, tool_poses
 from models.tree.tree import RobotTree
 
 ACCURACY_SEED = 20_470_001
+CLOSED_DRAW_ROUNDS = 50
+"""Rounds of redrawing the poses where a closed stage is not usable, before giving up."""
 
 
 @dataclass(frozen=True)
@@ -35,11 +38,61 @@ class ToolAccuracy:
     rms_orientation_rad: float
 
 
-def tree_joint_samples(tree: RobotTree, n: int, seed: int, margin: float = 0.05) -> Array:
-    """(n, n_joints) joint vectors uniform inside each joint's range less `margin` of it at either end."""
-    lo, hi = tree.joint_limits
-    pad = margin * (hi - lo)
-    return np.random.default_rng(seed).uniform(lo + pad, hi - pad, size=(n, tree.n_joints))
+def tree_joint_samples(
+    tree: RobotTree,
+    n: int,
+    seed: int,
+    margin: float = 0.05,
+    *,
+    within: tuple[Array, Array] | None = None,
+    params: Array | None = None,
+) -> Array:
+    """(n, n_joints) joint vectors uniform inside each joint's range less `margin` of it at either end (or
+    uniform inside `within`, (lo, hi) internal units, as given).
+
+    A stage closed by unknowns (a hexapod: its legs do not move independently, the platform's pose follows from
+    them by closure) has its legs drawn as the chain's `models.workspace.sample_workspace` draws them instead:
+    its platform uniform in the stage's workspace, the legs by the stage's inverse kinematics at `params` (the
+    tree's nominal by default), and draws where a stage is not usable (a leg out of its stroke, near a
+    singularity) drawn again. Uniform leg lengths would mostly not assemble. A tree without such a stage gets
+    exactly the one uniform draw: its results stay comparable with earlier ones of the same seed."""
+    if within is None:
+        lo, hi = tree.joint_limits
+        pad = margin * (hi - lo)
+        lo, hi = lo + pad, hi - pad
+    else:
+        lo, hi = within
+    rng = np.random.default_rng(seed)
+    closed = [
+        (stage, tree.stage_params(branch.name, k), tree.stage_joints(branch.name, k))
+        for branch in tree.branches
+        for k, stage in enumerate(branch.own_stages)
+        if stage.n_unknowns
+    ]
+    if not closed:
+        return rng.uniform(lo, hi, size=(n, tree.n_joints))
+    theta = tree.parameters.nominal if params is None else params
+    kept: list[Array] = []
+    have = 0
+    for _ in range(CLOSED_DRAW_ROUNDS):
+        if have >= n:
+            break
+        m = max(16, int(1.3 * (n - have)))
+        q = rng.uniform(lo, hi, size=(m, tree.n_joints))
+        ok = np.ones(m, dtype=bool)
+        for stage, p, j in closed:
+            x_lo, x_hi = stage.unknown_limits()
+            x = rng.uniform(x_lo, x_hi, size=(m, x_lo.size))
+            q[:, j] = stage.joints_of_unknowns(x, theta[p])
+            ok &= stage.usable(q[:, j], x, theta[p])
+        kept.append(q[ok])
+        have += int(ok.sum())
+    if have < n:
+        raise InvalidInput(
+            "the tree's closed stages (hexapods) admit almost no pose in their workspace: check strokes and ranges",
+            field="workspace",
+        )
+    return np.vstack(kept)[:n]
 
 
 def tree_accuracy(

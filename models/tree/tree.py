@@ -160,6 +160,10 @@ class RobotTree:
         """The global parameters of the k-th of `branch`'s own stages (its mount first, when it has one)."""
         return self._layout[0][self.branch(branch, "branch").name, k][0]
 
+    def stage_joints(self, branch: str, k: int) -> slice:
+        """The global joints of the k-th of `branch`'s own stages (its mount first, when it has one)."""
+        return self._layout[0][self.branch(branch, "branch").name, k][1]
+
     def tool_slice(self, tip: str) -> slice:
         return self._layout[1][self.tip(tip).name]
 

@@ -31,6 +31,7 @@ from models.tree import (
     calibrate_urdf_tree,
     compensate_relative,
     compensate_world,
+    tree_joint_samples,
 )
 from models.urdf_calibrated import frame_text, splice_origins
 from optimal_design.tree import TreeCandidate, design_tree
@@ -145,7 +146,8 @@ def _drawn(tree: RobotTree, count: int, seed: int, ranges: Mapping[str, tuple[fl
                 field=where,
             )
         lo[j], hi[j] = a_in, b_in
-    return np.random.default_rng(seed).uniform(lo, hi, size=(count, tree.n_joints))
+    # A hexapod's legs follow from its platform drawn in its workspace (`tree_joint_samples`), not from `ranges`.
+    return tree_joint_samples(tree, count, seed, within=(lo, hi))
 
 
 def _pairs(tree: RobotTree, kinds: Sequence[TreeMeasured]) -> list[tuple[str, str]]:
