@@ -1,10 +1,17 @@
 """Cells of several chains: a robot as a tree of branches (`RobotTree`), its tools' kinematics absolute and
 relative, identification over the whole tree, and URDF trees (docs/models.md, "Cells of several chains")."""
 
-from models.tree.accuracy import ToolAccuracy, predicted_accuracy, tree_accuracy, tree_joint_samples
+from models.tree.accuracy import (
+    ToolAccuracy,
+    accuracy_profiles,
+    predicted_accuracy,
+    relative_changes,
+    tree_accuracy,
+    tree_joint_samples,
+)
 from models.tree.compensation import RelativeCompensation, compensate_relative, compensate_world
 from models.tree.export import UrdfTreeCalibration, branch_dh_tables, calibrate_urdf_tree
-from models.tree.identification import TreeFit, identify_tree
+from models.tree.identification import TreeFit, identify_tree, restated_fit
 from models.tree.kinematics import TreePoses, relative_of, relative_poses, tool_poses, tree_joints
 from models.tree.mount import MountStage
 from models.tree.records import ToolRecords
@@ -24,6 +31,7 @@ __all__ = [
     "TreeFit",
     "TreePoses",
     "UrdfTreeCalibration",
+    "accuracy_profiles",
     "branch_dh_tables",
     "calibrate_urdf_tree",
     "compensate_relative",
@@ -32,8 +40,10 @@ __all__ = [
     "measure_tree",
     "perturbed_tree",
     "predicted_accuracy",
+    "relative_changes",
     "relative_of",
     "relative_poses",
+    "restated_fit",
     "tool_poses",
     "tree_accuracy",
     "tree_from_urdf",

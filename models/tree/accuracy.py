@@ -19,7 +19,7 @@ from models.errors import InvalidInput
 from models.identification.statistics import tcp_accuracy
 from models.runtime import Registry
 from models.tree.identification import TreeFit
-from models.tree.kinematics import relative_of, tool_poses
+from models.tree.kinematics import relative_of, relative_poses, tool_poses
 from models.tree.tree import RobotTree
 
 ACCURACY_SEED = 20_470_001
@@ -132,25 +132,59 @@ def predicted_accuracy(
     """`tree_accuracy` of any covariance of the `estimated` global parameters (internal units, their order): a
     fit's, or the one a pose design predicts before anything is measured (`optimal_design.tree`)."""
     q = tree_joint_samples(tree, samples, ACCURACY_SEED) if joints is None else joints
+    profiles = accuracy_profiles(tree, params, estimated, parameter_covariance, q, relative=relative, registry=registry)
+    return tuple(
+        ToolAccuracy(label, float(np.sqrt(np.mean(pos**2))), float(pos.max()), float(np.sqrt(np.mean(rot**2))))
+        for label, (pos, rot) in profiles.items()
+    )
+
+
+def accuracy_profiles(
+    tree: RobotTree,
+    params: Array,
+    estimated: Sequence[int],
+    parameter_covariance: Array,
+    joints: Array,
+    *,
+    relative: Sequence[tuple[str, str]] = (),
+    registry: Registry | None = None,
+) -> dict[str, tuple[Array, Array]]:
+    """Per label (each tool, then each `tool/frame` pair): the predicted 1-σ position (mm) and orientation (rad)
+    error at each of `joints`, (N,) each: what `predicted_accuracy` summarises, and what a report plots."""
     free = np.array(estimated, dtype=np.intp)
     poses = {
-        tip: tool_poses(tree, tip, q, params, jacobian=True, check_ranges=False, registry=registry) for tip in tree.tips
+        tip: tool_poses(tree, tip, joints, params, jacobian=True, check_ranges=False, registry=registry)
+        for tip in tree.tips
     }
-    out = []
-    for tip, pose in poses.items():
-        out.append(_accuracy(tip, pose.jacobians, free, parameter_covariance))
+    out = {tip: _profile(pose.jacobians, free, parameter_covariance) for tip, pose in poses.items()}
     for tool, frame in relative:
         rel = relative_of(poses[tree.tip(tool).name], poses[tree.tip(frame, "frame").name])
-        out.append(_accuracy(f"{tool}/{frame}", rel.jacobians, free, parameter_covariance))
-    return tuple(out)
+        out[f"{tool}/{frame}"] = _profile(rel.jacobians, free, parameter_covariance)
+    return out
 
 
-def _accuracy(label: str, jacobians: Array | None, free: NDArray[np.intp], cov: Array) -> ToolAccuracy:
+def relative_changes(
+    tree: RobotTree,
+    before: Array,
+    after: Array,
+    joints: Array,
+    pairs: Sequence[tuple[str, str]],
+    *,
+    registry: Registry | None = None,
+) -> dict[str, Array]:
+    """Per `tool/frame` pair: how far the calibration moved tool's position in frame's frame at each of `joints`
+    (mm, (N,)): |p(after) − p(before)|, the relative error the tree had at `before` as the calibration sees it."""
+    out = {}
+    for tool, frame in pairs:
+        moved = [
+            relative_poses(tree, tool, frame, joints, theta, check_ranges=False, registry=registry).positions
+            for theta in (before, after)
+        ]
+        out[f"{tool}/{frame}"] = np.linalg.norm(moved[1] - moved[0], axis=1)
+    return out
+
+
+def _profile(jacobians: Array | None, free: NDArray[np.intp], cov: Array) -> tuple[Array, Array]:
     assert jacobians is not None
     pos, rot = tcp_accuracy(jacobians[:, :, free], cov)
-    return ToolAccuracy(
-        label,
-        float(np.sqrt(np.mean(pos**2))),
-        float(pos.max()),
-        float(np.sqrt(np.mean(rot**2))),
-    )
+    return np.asarray(pos, dtype=float), np.asarray(rot, dtype=float)

@@ -144,6 +144,28 @@ def identify_tree(
     return _fit(problem, theta, r, j, ident, evaluations=counter[0], seconds=time.perf_counter() - started)
 
 
+def restated_fit(
+    tree: RobotTree,
+    groups: Sequence[ToolRecords],
+    theta: Array,
+    estimated: Sequence[int],
+    *,
+    noise: NoiseModel | None = None,
+    start: Array | None = None,
+    registry: Registry | None = None,
+) -> TreeFit:
+    """The fit `identify_tree` returned, from what it stored: its records, its solution `theta` and its
+    `estimated` parameters (global indices), without solving again. Its covariance, standard errors and residuals
+    are evaluated at `theta` as the fit's were (a report draws them long after the fit)."""
+    noise, registry = noise or NoiseModel(), registry or default_registry()
+    checked = tuple(g.checked(tree, f"records[{k}]") for k, g in enumerate(groups))
+    free = np.array(estimated, dtype=np.intp)
+    problem = TreeProblem(tree, checked, noise, theta if start is None else start, free, registry)
+    r, j = problem.evaluate(theta)
+    ident = analyse_identifiability(j, tree.parameters)
+    return _fit(problem, theta, r, j, ident, evaluations=0, seconds=0.0)
+
+
 def _fit(
     problem: TreeProblem,
     theta: Array,

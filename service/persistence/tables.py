@@ -269,7 +269,9 @@ class RobotTreeRecord(Base):
 
 
 class RobotTreeCalibrationRecord(Base):
-    """A tree calibration: its records as received (boundary units) and its answer (`TreeCalibrationPublic`)."""
+    """A tree calibration: its records as received (boundary units, with the request's noise and, as `start`, the
+    fit's start parameters in internal units: its report restates the fit from them) and its answer
+    (`TreeCalibrationPublic`)."""
 
     __tablename__ = "robot_tree_calibrations"
     id: Mapped[str] = mapped_column(String(36), primary_key=True)

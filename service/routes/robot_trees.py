@@ -42,7 +42,7 @@ from service.schemas.robot_trees import (
     TreeUrdfExportPublic,
 )
 from service.security import Scope
-from service.services import robot_trees, tree_operations
+from service.services import robot_trees, tree_operations, tree_reports
 
 router = APIRouter(prefix="/v1/robot-trees", tags=["robot-trees"], route_class=OffloopRoute)
 _TREES = TypeAdapter(list[RobotTreePublic])
@@ -168,6 +168,47 @@ def list_robot_tree_calibrations(tree_id: str, db: DatabaseDep, limit: Limit = 1
 @operation(Scope.read)
 def get_robot_tree_calibration(tree_id: str, calibration_id: str, db: DatabaseDep) -> Response:
     return model_json(robot_trees.calibration(db=db, tree_id=tree_id, calibration_id=calibration_id))
+
+
+_REPORT_FORMATS = {"html": "text/html", "pdf": "application/pdf"}
+
+
+@router.get(
+    "/{tree_id}/calibrations/{calibration_id}/report",
+    response_class=Response,
+    responses={
+        200: {
+            "description": "The report: self-contained HTML (inline SVG figures) or PDF",
+            "content": {
+                "text/html": {"schema": {"type": "string"}},
+                "application/pdf": {"schema": {"type": "string", "format": "binary"}},
+            },
+        },
+        406: {"description": "Accept allows neither HTML nor PDF"},
+    },
+)
+@operation(Scope.read, runs=Runs.COMPUTE)
+async def robot_tree_calibration_report(
+    tree_id: str,
+    calibration_id: str,
+    *,
+    request: Request,
+    db: DatabaseDep,
+    registry: RegistryDep,
+    m: MetricsDep,
+    format: str | None = Query(None, pattern="^(html|pdf)$", description="Overrides Accept"),
+) -> Response:
+    """The calibration's report: the tree's branches, each tool's fit and held-out error (a figure and a table),
+    each tool's and pair's predicted accuracy as the calibration states it, and a figure of each pair's RELATIVE
+    position accuracy over joint vectors of the measured region (predicted after, moved by the fit ≈ before)."""
+    media = _REPORT_FORMATS[format] if format else negotiate(request, list(_REPORT_FORMATS.values()))
+    kwargs = {"db": db, "registry": registry, "tree_id": tree_id, "calibration_id": calibration_id}
+    if media == "application/pdf":
+        pdf = await compute(m, "tree_report", tree_reports.tree_report_pdf, **kwargs)
+        disposition = f'inline; filename="tree-calibration-{calibration_id}.pdf"'
+        return Response(pdf, media_type="application/pdf", headers={"Content-Disposition": disposition})
+    page = await compute(m, "tree_report", tree_reports.tree_report_html, **kwargs)
+    return Response(page, media_type="text/html; charset=utf-8")
 
 
 _CSV = {"text/csv": {"schema": {"type": "string"}}}

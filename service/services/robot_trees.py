@@ -255,7 +255,11 @@ def _stored(
                 applied=revision is not None,
                 revision=revision,
                 start_revision=start_revision,
-                records=body.model_dump(mode="json", include={"records", "held_out"}),
+                # What its report restates the fit from: the records, the noise, and where the fit started.
+                records=body.model_dump(
+                    mode="json", include={"records", "held_out", "noise_position_mm", "noise_orientation_deg"}
+                )
+                | {"start": fit.start.tolist()},
                 result={},
                 actor=actor.name,
             )

@@ -10,7 +10,7 @@ import { cellView } from "./views/cell.js";
 import { designView } from "./views/design.js";
 import { jobsView, stopJobTimers } from "./views/jobs.js";
 import { programsIndex, programsView } from "./views/programs.js";
-import { reportView } from "./views/report.js";
+import { reportView, treeReportView } from "./views/report.js";
 import { robotView } from "./views/robot.js";
 import { robotsView } from "./views/robots.js";
 import { treeView, treesView } from "./views/tree.js";
@@ -44,6 +44,7 @@ function pick(parts, params) {
   if (first === "robots" && id) return () => robotView(view, id);
   if (first === "calibrations" && id && sub === "report") return () => reportView(view, id);
   if (first === "calibrations" && id) return () => calibrationView(view, id);
+  if (first === "trees" && id && sub === "report" && item) return () => treeReportView(view, id, item);
   if (first === "trees" && id) return () => treeView(view, id);
   if (first === "trees") return () => treesView(view);
   if (first === "jobs") return () => jobsView(view);

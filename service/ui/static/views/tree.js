@@ -79,7 +79,7 @@ export async function treeView(view, treeId) {
       + `${tree.parameter_count} parameters (${tree.calibration_id ? "calibrated" : "nominal"}); from ${tree.source === "urdf" ? `a URDF (${tree.base_link} → ${tree.tip_links.join(", ")})` : "a tree document"}.`),
     h("h2", {}, "Branches"), diagram(tree), branchesTable(tree),
     drawing,
-    h("h2", {}, "Calibration"), last ? calibrationSection(last, calibrations.length) : muted("Not calibrated: POST …/calibrations with records of its tools (docs/api.md).", "tree-accuracy"),
+    h("h2", {}, "Calibration"), last ? calibrationSection(treeId, last, calibrations.length) : muted("Not calibrated: POST …/calibrations with records of its tools (docs/api.md).", "tree-accuracy"),
     h("h2", {}, "Which records to take"), designSection(tree, criteria),
     h("h2", {}, "Compensated joints"), compensationSection(tree),
     h("h2", {}, "Exports"), exportsSection(tree));
@@ -290,7 +290,7 @@ function showPose(views, caption, tools, tree, joints, found) {
     "Each tool in the world frame, then each tool in another's frame"));
 }
 
-function calibrationSection(last, count) {
+function calibrationSection(treeId, last, count) {
   const acc = last.accuracy.map((a) => [a.label, a.frame ? `${a.tool} in ${a.frame}'s frame` : "in the instrument's frame",
     numCell(a.rms_position_mm), numCell(a.max_position_mm), numCell(a.rms_orientation_deg)]);
   const held = last.held_out.map((e) => [e.label, numCell(e.records), numCell(e.rms_mm), numCell(e.max_mm), numCell(e.before_rms_mm)]);
@@ -298,6 +298,8 @@ function calibrationSection(last, count) {
   return h("section", {},
     h("p", { id: "tree-calibration" }, `The last of ${count} calibrations (${when(last.created_at)}, ${last.records} records): ${last.applied ? `applied as revision ${last.revision}` : "not applied"}; `
       + `${last.estimated.length} parameters estimated, ${last.unidentifiable.length} held; variance factor ${num(last.variance_factor)}.`),
+    h("p", {}, link(`#/trees/${treeId}/report/${last.id}`, "Report (HTML)", { id: "tree-report-html" }),
+      " — each tool's errors and each pair's relative accuracy over the measured region, as figures and tables"),
     table(["tool", "what", "RMS (mm)", "max (mm)", "RMS orientation (°)"], acc, "tree-accuracy", "Predicted accuracy: each tool, then each pair of tools (relative)"),
     table(["records", "count", "RMS (mm)", "max (mm)"], fit, "tree-fit", "The fit's residuals"),
     held.length ? table(["held out", "count", "RMS (mm)", "max (mm)", "before (mm)"], held, "tree-held-out", "Held-out records: after and before the fit") : null);
