@@ -34,12 +34,12 @@ import numpy as np
 from benchmarks.timing import median_of, target
 from harness.adaptive import AdaptiveRun, Blunders, FixedAtCount, fixed_at_count, run_adaptive
 from models import RobotDescription
+from models.description.examples import ur5_like
 from models.error_analysis.magnitudes import ErrorMagnitudes
-from models.examples import ur5_like
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from optimal_design import design_for_target
 from optimal_design.adaptive import AdaptiveSettings, Pool, Progress, advance
-from service.limits import SYNC_BUDGET_S
+from service.compute.limits import SYNC_BUDGET_S
 
 SEEDS = tuple(range(20))
 SPREAD_SEEDS = tuple(range(10))

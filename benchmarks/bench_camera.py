@@ -27,7 +27,7 @@ from benchmarks.timing import target
 from harness.ballbar import SeedErrors, aligned_rms, predicted_rms
 from harness.camera import INTRINSICS, MARKERS, project, world_camera_campaign
 from models import NoiseModel, forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from models.identification import identify
 from models.identification.reference_fit import ReferenceFit, identify_references
 from models.measurements.camera import Camera

@@ -17,9 +17,9 @@ import numpy as np
 
 from benchmarks.timing import best_of, target
 from models.cell import Box, Cell, Obstacle, Tracker, cell_for, check_poses
-from models.examples import ur5_like
-from models.iwr import iwr
-from models.robot import RobotDescription
+from models.description.examples import ur5_like
+from models.description.iwr import iwr
+from models.description.robot import RobotDescription
 from models.workspace import sample_workspace
 from optimal_design import design_poses
 

@@ -1,4 +1,4 @@
-"""The quick check (models.checks, docs/checks.md): detection and false alarms on simulated truths.
+"""The quick check (models.evaluation.checks, docs/checks.md): detection and false alarms on simulated truths.
 
 Per seed, a fresh truth (`perturbed_robot`), calibrated from 60 random tracker positions (σ 25 µm), and a check
 of 8 poses designed for that version (`optimal_design.checks.design_check`); then, with fresh noise:
@@ -20,8 +20,8 @@ import numpy as np
 from benchmarks.timing import median_of, target
 from harness.checks import Calibrated, calibrated, changed, tcp_equivalent
 from models import RobotDescription, iwr, sample_workspace
-from models.checks import CheckResult, Verdict, check_version
-from models.examples import ur5_like
+from models.description.examples import ur5_like
+from models.evaluation.checks import CheckResult, Verdict, check_version
 from models.simulation import SimulatedRobot, measure
 from optimal_design.checks import design_check
 

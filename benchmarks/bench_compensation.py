@@ -17,10 +17,10 @@ from benchmarks.timing import median_of, target
 from harness.live import running_server
 from models import forward_kinematics, iwr, sample_workspace
 from models.compensation import inverse_kinematics
+from models.engine.runtime import runtime_for
 from models.identification import identify
 from models.inverse import default_seed, routing, starts
 from models.inverse.problem import joint_weights
-from models.runtime import runtime_for
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion
 

@@ -35,7 +35,8 @@ TARGETS_S = {"D": 0.5, "A": 1.0, "I": 1.0, "E": 2.0, "condition": 2.0}
 REPEAT = 3
 LARGE_BUDGET_S = 6.0
 """The synchronous budget of the server that takes D at M = 20 000: above the service's estimate for it
-(service.limits.pose_design: 3.2 s since its recalibration on the dspeed branch, 5.85 s before), with room for the
+(service.compute.limits.pose_design: 3.2 s since its recalibration on the dspeed branch, 5.85 s before), with room for
+the
 shared machine's load (the compute deadline is 2.5 budgets)."""
 
 

@@ -1,4 +1,4 @@
-"""Fleet priors (models.fleet, docs/fleet.md): how many poses a new unit needs with its fleet's population.
+"""Fleet priors (models.evaluation.fleet, docs/fleet.md): how many poses a new unit needs with its fleet's population.
 
 A simulated fleet of one model, the UR5-like arm with its probe (`models.simulation.fleet_unit`): every parameter
 but the base is nominal + the model's systematic deviation (one tolerance, Gaussian, shared by every unit) +
@@ -44,8 +44,8 @@ import numpy as np
 from benchmarks.timing import target
 from models import RobotDescription, sample_workspace
 from models._types import Array
-from models.examples import ur5_like
-from models.fleet import FleetPrior, UnitEstimate, fleet_prior, leave_one_out
+from models.description.examples import ur5_like
+from models.evaluation.fleet import FleetPrior, UnitEstimate, fleet_prior, leave_one_out
 from models.identification import IdentificationOptions, identify, registered_base, rigid_fit
 from models.identification.prior import ParameterPrior
 from models.kinematics import forward_kinematics

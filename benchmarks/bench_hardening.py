@@ -38,18 +38,18 @@ from harness.live import running_server
 from models import forward_kinematics, iwr, sample_workspace
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion
-from service import limits
+from service.compute import limits
 
 DURATION_S = 20.0
 IK_CLIENTS = 3
 FK_LARGE_POSES = 20_000
 """A forward kinematics body within the budget but far over the 64 kB the loop parses itself (3.9 MB, ~0.7 s
-estimated): validated in the parse process (service.json_bodies), where it stalls no other request."""
+estimated): validated in the parse process (service.http.json_bodies), where it stalls no other request."""
 HEALTHZ_P99_S = 0.050
 MEMORY_CEILING_BYTES = 1_900_000_000
 """The peak RSS of all the server's processes together (API, one compute process per core, the parse process,
 the job worker): each warm process holds ~300 MB of models and caches, ~40 MB more for the IWR's three
-structures with model terms (service.registry.IWR_TERMS), plus the computations at the budget (~100 MB each).
+structures with model terms (service.compute.registry.IWR_TERMS), plus the computations at the budget (~100 MB each).
 Measured 1.41-1.51 GB before the 20 000-vector FK joined the mix, 1.50-1.75 GB with it (its 3.9 MB body, the
 model, the poses and their 8 MB of JSON in a compute process, the body also in the parse process's key check);
 the issue's single requests reached 4.9 GB."""
@@ -65,7 +65,7 @@ STOP_MARGIN_S = 1.0
 """After the deadline, a computation stops at its next solver step and its answer travels back."""
 COMPUTE_BUDGET_S = limits.QUEUE_WAIT_S + limits.COMPUTE_DEADLINE_S + STOP_MARGIN_S
 """A synchronous computation: its wait for a slot, then at most the deadline after which it is stopped and
-answered 503 (service.limits), then the stop."""
+answered 503 (service.compute.limits), then the stop."""
 
 
 def _request(host: str, method: str, path: str, body: bytes = b"", headers: dict[str, str] | None = None) -> bytes:
@@ -299,7 +299,7 @@ EXPECTED: dict[str, set[int]] = {
     "calibration_too_large": {422, 503},
     "design_too_large": {422},
     "design_job": {202},
-    "unknown_keys": {422, 503},  # 503: the parse process's backlog is full (service.compute.PARSE_QUEUE)
+    "unknown_keys": {422, 503},  # 503: the parse process's backlog is full (service.compute.pool.PARSE_QUEUE)
     "declared_25MB": {413},
     "chunked_25MB": {413},
 }

@@ -11,7 +11,8 @@ import time
 import numpy as np
 
 from benchmarks.timing import best_of, target
-from models import Registry, forward_kinematics, iwr, native, sample_workspace
+from models import Registry, forward_kinematics, iwr, sample_workspace
+from models.engine import native
 
 N = 10_000
 
@@ -19,7 +20,7 @@ _COLD = """
 import sys, time
 t = time.perf_counter()
 from models import Registry, iwr, native
-from models.examples import iiwa_like
+from models.description.examples import iiwa_like
 from models.warm import warm_everything
 t_import = time.perf_counter()
 native.PARTS = int(sys.argv[2])

@@ -22,7 +22,7 @@ from benchmarks.numpy_arm import VectorisedArm
 from benchmarks.timing import aligned_fit_targets
 from harness.ballbar import PIVOTS, SeedErrors, aligned_errors, gauge_truth, reaching
 from models import NoiseModel, forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from models.identification.reference_fit import ReferenceFit, identify_references
 from models.measurements.references import Anchor, FixedPoint, Plane, ReferenceRecords
 

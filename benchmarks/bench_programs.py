@@ -16,7 +16,7 @@ from harness.programs import HOME_DEG, Cell, joints, taught, taught_in, ur5_cell
 from models._types import Array
 from models.compensation.controller import ZERO, ControllerFrame
 from models.compensation.poses import compensate_poses
-from models.runtime import Runtime, runtime_for
+from models.engine.runtime import Runtime, runtime_for
 from programs import read_program, rewritten
 from service.services.programs import compensate_program
 

@@ -24,7 +24,7 @@ from benchmarks.numpy_arm import VectorisedArm
 from benchmarks.timing import aligned_fit_targets, target
 from harness.ballbar import SeedErrors, aligned_errors, ballbar_campaign
 from models import NoiseModel, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from models.identification import identify
 from models.identification.reference_fit import ReferenceFit, identify_references
 from models.kinematics import ForwardResult

@@ -37,8 +37,8 @@ import scipy.optimize
 from benchmarks.numpy_arm import PerPoseArm, VectorisedArm
 from benchmarks.timing import median_of, target
 from models import NoiseModel, RobotDescription, default_registry, forward_kinematics, sample_workspace
-from models.blas import single_threaded_blas
-from models.examples import iiwa_like
+from models.description.examples import iiwa_like
+from models.engine.blas import single_threaded_blas
 from models.identification import identify
 from models.identification.residuals import CampaignProblem
 from models.simulation import measure, perturbed_robot
@@ -50,11 +50,11 @@ _FRESH = """
 import json, time
 t0 = time.perf_counter()
 from models import default_registry, sample_workspace
-from models.examples import iiwa_like
+from models.description.examples import iiwa_like
 from models.identification import identify
 from models.simulation import measure, perturbed_robot
-from models.structure import description_from_document
-from models.examples import iiwa_like_document
+from models.description.structure import description_from_document
+from models.description.examples import iiwa_like_document
 imported = time.perf_counter()
 t = time.perf_counter()
 desc = iiwa_like()

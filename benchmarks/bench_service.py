@@ -30,7 +30,7 @@ from models.simulation import measure, perturbed_robot
 from service.conversions.calibrations import noise_in, options_in, report_out
 from service.conversions.kinematics import forward_out, joints_in
 from service.conversions.references import described
-from service.json_bodies import validate_json
+from service.http.json_bodies import validate_json
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.kinematics import ForwardRequest
 from service.services.pipelines import WholeCampaign, fitting_in

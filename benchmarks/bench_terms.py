@@ -21,10 +21,10 @@ import numpy as np
 from benchmarks.timing import target
 from models import NoiseModel, default_registry, forward_kinematics, iwr, sample_workspace
 from models.campaign import Campaign
+from models.description.terms import ModelTerms, make_conditions
 from models.identification import identify
 from models.identification.result import IdentificationResult
 from models.simulation import SimulatedRobot, measure, perturbed_robot
-from models.terms import ModelTerms, make_conditions
 
 FIGURE = Path(__file__).resolve().parent.parent / "docs" / "terms_residuals.png"
 COMPLIANCES = (0.10, 0.20, 0.25, 0.15, 0.22, 0.12)

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models._types import Array
-from models.robot import RobotDescription
+from models.description.robot import RobotDescription
 
 
 def _rodrigues(v: Array) -> Array:

@@ -1,4 +1,5 @@
-"""Simulated truths for the quick check (models.checks): a robot calibrated from a simulated campaign, its version
+"""Simulated truths for the quick check (models.evaluation.checks): a robot calibrated from a simulated campaign, its
+version
 (values and covariance, as the service stores them) and the same robot after a known change."""
 
 from __future__ import annotations
@@ -9,7 +10,7 @@ import numpy as np
 
 from models import NoiseModel, RobotDescription, forward_kinematics, sample_workspace
 from models._types import Array
-from models.checks import version_covariance
+from models.evaluation.checks import version_covariance
 from models.identification import identify
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 

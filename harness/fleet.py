@@ -98,7 +98,7 @@ class Fleet:
         return base
 
     def start_worker(self, name: str, **own: str) -> subprocess.Popen[bytes]:
-        """`own`: environment of this worker alone (e.g. a crash point, `service.faults`)."""
+        """`own`: environment of this worker alone (e.g. a crash point, `service.compute.faults`)."""
         process = self._popen(name, ["-m", "service.worker"], **own)
         self.workers[name] = process
         return process

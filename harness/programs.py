@@ -15,16 +15,16 @@ from models import RobotDescription, forward_kinematics
 from models._types import Array
 from models.compensation.controller import ControllerFrame, urdf_controller_frame
 from models.compensation.poses import matrix_pose6, pose6_matrix, pose_matrices
-from models.examples import ur5_like
+from models.description.examples import ur5_like
+from models.description.structure import description_from_document
+from models.engine.runtime import runtime_for
+from models.formats.ur_kinematics import BASE_LINK as UR_BASE_LINK
+from models.formats.ur_kinematics import TIP_LINK as UR_TIP_LINK
+from models.formats.ur_kinematics import read_kinematics, urdf_of_kinematics
+from models.formats.urdf import document_from_urdf
 from models.inverse.problem import joint_weights
 from models.inverse.routing import IkBatch
-from models.runtime import runtime_for
 from models.simulation import perturbed_robot
-from models.structure import description_from_document
-from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
-from models.ur_kinematics import TIP_LINK as UR_TIP_LINK
-from models.ur_kinematics import read_kinematics, urdf_of_kinematics
-from models.urdf import document_from_urdf
 from programs.frames import matrix_abc, matrix_quaternion, matrix_rotvec
 
 JOINT_BOX_DEG = ((-40, 40), (-120, -60), (50, 110), (-120, -60), (60, 120), (-40, 40))

@@ -10,6 +10,11 @@ lives in a `Runtime`, held by a `Registry`; calls given no `runtime=` use
 
 from models._types import IDENTITY, Array, Pose6, Vec3
 from models.campaign import Campaign, make_campaign
+from models.description.iwr import iwr
+from models.description.parameters import Kind, ParameterScales, ParameterSpec, ParameterTable
+from models.description.robot import RobotDescription, Structure
+from models.description.terms import Conditions, ModelTerms, make_conditions
+from models.engine.runtime import Registry, Runtime, default_registry
 from models.errors import (
     CalibrationError,
     InconsistentData,
@@ -30,7 +35,6 @@ from models.identifiability import (
     scaled_jacobian,
     structural_identifiability,
 )
-from models.iwr import iwr
 from models.kinematics import (
     ForwardJacobianResult,
     ForwardResult,
@@ -40,11 +44,7 @@ from models.kinematics import (
 )
 from models.measurement import MeasurementKind
 from models.noise import NoiseModel
-from models.parameters import Kind, ParameterScales, ParameterSpec, ParameterTable
-from models.robot import RobotDescription, Structure
-from models.runtime import Registry, Runtime, default_registry
 from models.simulation import SimulatedRobot, measure, perturbed_robot
-from models.terms import Conditions, ModelTerms, make_conditions
 from models.workspace import sample_workspace
 
 __all__ = [

@@ -14,11 +14,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.description.terms import Conditions, condition_inputs
 from models.errors import InvalidInput, InvalidQuaternion, NonFiniteValue, WrongShape
 from models.kinematics import as_joint_array, check_joint_ranges
 from models.measurement import MeasurementKind
-from models.robot import RobotDescription
-from models.terms import Conditions, condition_inputs
 from models.transforms import quaternion_to_matrix
 
 QUATERNION_NORM_TOLERANCE = 1e-3

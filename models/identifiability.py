@@ -33,15 +33,15 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from models._types import Array
+from models.description.parameters import ParameterTable
+from models.description.robot import RobotDescription
+from models.description.terms import MIN_PAYLOAD_SPREAD_KG, MIN_TEMPERATURE_SPAN_K, Conditions, make_conditions
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import WrongShape
 from models.kinematics import forward_kinematics
 from models.measurement import MeasurementKind
 from models.measurements import measurement
 from models.noise import NoiseModel
-from models.parameters import ParameterTable
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
-from models.terms import MIN_PAYLOAD_SPREAD_KG, MIN_TEMPERATURE_SPAN_K, Conditions, make_conditions
 from models.workspace import workspace_samples
 
 RANK_RTOL = 1e-9

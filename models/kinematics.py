@@ -3,7 +3,7 @@
 Everything here is in internal units (mm, rad) and works on arrays of shape
 (N, n_joints). Each call validates its input and raises a domain error naming
 the pose, the joint, the value and the limit; the compiled Functions are
-those of the structure's runtime (`models.runtime`), never rebuilt.
+those of the structure's runtime (`models.engine.runtime`), never rebuilt.
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from models._types import Array
+from models.description.parameters import Kind
+from models.description.robot import RobotDescription
+from models.description.terms import Conditions, condition_inputs
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import JointOutOfRange, NonFiniteValue, UnreachablePose, WrongShape
-from models.parameters import Kind
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
-from models.terms import Conditions, condition_inputs
 
 JOINT_RANGE_SLACK = 1e-9
 """Joints may exceed their range by this much (mm or rad) before they are rejected: float round-off."""
@@ -122,14 +122,15 @@ def solve_platforms(
 
     Newton from the home pose (or the given seeds), all poses at once; poses not
     yet converged get more steps. Nothing is checked here: see `forward_kinematics`. `conditions` (N, 7):
-    the inputs of a structure with model terms (`models.terms.condition_inputs`); None: reference conditions.
+    the inputs of a structure with model terms (`models.description.terms.condition_inputs`); None: reference
+    conditions.
     """
     fns = runtime_for(desc, runtime).kinematics
     n = joints.shape[0]
     theta = np.asarray(params, dtype=float)
     x = np.tile(np.asarray(desc.platform_home, dtype=float), (n, 1)) if seeds is None else np.array(seeds, dtype=float)
     if not desc.has_closure:
-        # No platform to solve: the graphs ignore it (see `models.symbolic`).
+        # No platform to solve: the graphs ignore it (see `models.engine.symbolic`).
         return np.zeros((n, desc.n_platform)), np.zeros(n)
     todo = np.arange(n)
     closure = np.full(n, np.inf)
@@ -334,7 +335,7 @@ def leg_tensions(
 ) -> Array:
     """(N, 6) leg tensions (N) that carry a payload: its gravity force `force_world` (N, 3; world frame) at its
     centre of gravity `cog_mm` (N, 3; tool frame), by the hexapod's statics t = J⁻ᵀ w (thesis eq. 48; `w` the
-    force and its moment about the platform origin, in {4}). Numeric twin of `models.symbolic.terms_closure`'s
+    force and its moment about the platform origin, in {4}). Numeric twin of `models.engine.symbolic.terms_closure`'s
     statics, for a description with or without terms (`conditions`: its terms' inputs)."""
     assert desc.hexapod is not None, "only a hexapod has legs to carry a load"
     fns = runtime_for(desc, runtime).kinematics

@@ -15,13 +15,13 @@ import numpy as np
 
 from models._types import Array
 from models.campaign import Campaign
+from models.description.parameters import GROUP_ALIASES
+from models.description.robot import RobotDescription
+from models.description.terms import Conditions
 from models.error_analysis.magnitudes import ErrorMagnitudes
 from models.errors import InvalidInput
 from models.kinematics import forward_kinematics
 from models.noise import NoiseModel
-from models.parameters import GROUP_ALIASES
-from models.robot import RobotDescription
-from models.terms import Conditions
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np
 
 

@@ -6,10 +6,10 @@ the core imports neither (import-linter keeps it so).
 
 from __future__ import annotations
 
+from models.description.robot import RobotDescription
+from models.engine.runtime import Registry, Warmer
 from models.identification.warm import warm_identification
 from models.inverse.warm import warm_inverse
-from models.robot import RobotDescription
-from models.runtime import Registry, Warmer
 
 WARMERS: tuple[Warmer, ...] = (warm_inverse, warm_identification)
 

@@ -13,9 +13,9 @@ from typing import Literal, overload
 import numpy as np
 
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import InvalidInput
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 
 _MAX_ROUNDS = 50
 

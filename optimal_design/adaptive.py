@@ -36,6 +36,7 @@ from models import NoiseModel, RobotDescription
 from models._types import Array
 from models.campaign import Campaign
 from models.cell import Cell
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import InvalidInput, TargetUnreachable
 from models.identification import IdentificationOptions, IdentificationResult, RobustLoss, identify
 from models.identification.pipeline import check_enough
@@ -43,7 +44,6 @@ from models.identification.statistics import chi2_upper_quantile
 from models.kinematics import solve_platforms
 from models.measurement import MeasurementKind
 from models.measurements import ModelBatch, measurement
-from models.runtime import Runtime, runtime_for
 from optimal_design.adaptive_scores import AdaptiveCriterion, safe_inverse, scores
 from optimal_design.criteria import metrics
 from optimal_design.information import CandidateInformation, candidate_information, max_tcp_error

@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from models import cancellation
 from models._types import Array
+from models.engine import cancellation
 from optimal_design.criteria import DesignCriterion, criterion_of, names, smooth
 from optimal_design.information import CandidateInformation
 from optimal_design.relaxation import NEWTON_COUNT, Relaxation, first_order, newton_d

@@ -1,4 +1,4 @@
-"""Poses for a quick check (models.checks): the few whose records see the likely changes best.
+"""Poses for a quick check (models.evaluation.checks): the few whose records see the likely changes best.
 
 The likely changes are the *watched* parameters — by default each joint offset (`…theta`, a leg's `…offset`),
 the tool and, for a check without registration, the base. A candidate pose contributes its σ-weighted rows on
@@ -20,11 +20,11 @@ import numpy as np
 
 from models import NoiseModel, RobotDescription, forward_kinematics
 from models._types import Array
-from models.blas import single_threaded_blas
-from models.checks import CheckOptions, detectable_changes, frame_columns
+from models.description.parameters import Kind
+from models.engine.blas import single_threaded_blas
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import InvalidInput
-from models.parameters import Kind
-from models.runtime import Runtime, runtime_for
+from models.evaluation.checks import CheckOptions, detectable_changes, frame_columns
 from models.workspace import sample_workspace
 
 MIN_CHECK_POSES = 3

@@ -27,8 +27,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from models import RobotDescription, forward_kinematics
 from models._types import Array
+from models.engine.runtime import Runtime
 from models.errors import InvalidInput
-from models.runtime import Runtime
 from models.transforms import rotvec_to_matrix_np
 
 

@@ -103,7 +103,8 @@ class DesignCriterion(ABC):
     summary: str
     """What it makes small, in a user's words (the API lists it: GET /v1/design-criteria)."""
     cost_factor: float
-    """Its design time relative to D's (service.limits' estimate): the largest ratio of three runs of the library
+    """Its design time relative to D's (service.compute.limits' estimate): the largest ratio of three runs of the
+    library
     at M = 2 000, K = 30 (medians of seeds 1-3, the shared 2-core machine at load 2.5-3.1), rounded up. After the
     dspeed branch: D 0.21 / 0.29 / 0.27 s, A 0.34 / 0.53 / 0.40 s (x1.63 / 1.86 / 1.48), I 0.54 / 0.77 / 0.66 s
     (x2.54 / 2.71 / 2.45), E 0.67 / 1.00 / 0.87 s (x3.16 / 3.50 / 3.23), condition 0.70 / 1.10 / 0.75 s

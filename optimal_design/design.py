@@ -8,7 +8,7 @@ import time
 from typing import Unpack
 
 from models import RobotDescription
-from models.blas import single_threaded_blas
+from models.engine.blas import single_threaded_blas
 from optimal_design.baselines import RANDOM_DRAWS, random_baseline
 from optimal_design.criteria import CONDITION_D_FLOOR, Criterion, DesignCriterion, criterion_of
 from optimal_design.problem import (

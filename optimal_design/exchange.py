@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from models import cancellation
 from models._types import Array
+from models.engine import cancellation
 from optimal_design.constraints import Spread
 from optimal_design.criteria import (
     D_OPTIMAL,

@@ -23,10 +23,10 @@ from numpy.typing import NDArray
 
 from models import NoiseModel, RobotDescription, forward_kinematics, scaled_jacobian
 from models._types import Array
+from models.description.terms import Conditions
+from models.engine.runtime import Runtime, runtime_for
 from models.identifiability import analyse_identifiability, measurement_rows, structural_support
 from models.measurement import MeasurementKind
-from models.runtime import Runtime, runtime_for
-from models.terms import Conditions
 from models.workspace import workspace_samples
 
 WORKSPACE_POSES = 400

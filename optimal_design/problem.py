@@ -16,13 +16,13 @@ from numpy.typing import ArrayLike, NDArray
 from models import NoiseModel, RobotDescription, forward_kinematics, sample_workspace
 from models._types import Array
 from models.cell import Cell, check_poses
+from models.description.terms import Conditions
+from models.engine.runtime import Runtime
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import measurement_rows, poses_for
 from models.identification.prior import ParameterPrior
 from models.kinematics import as_joint_array, check_joint_ranges
 from models.measurement import MeasurementKind
-from models.runtime import Runtime
-from models.terms import Conditions
 from optimal_design.constraints import KeepOut, Spread, joint_range_mask, keep_out_mask
 from optimal_design.information import CandidateInformation, candidate_information
 
@@ -56,7 +56,8 @@ class DesignInputs:
     levels: Conditions | None = None
     fixed_conditions: Conditions | None = None
     prior: ParameterPrior | None = None
-    """What is known of the parameters before any pose is measured (a fleet's population, `models.fleet`): its
+    """What is known of the parameters before any pose is measured (a fleet's population, `models.evaluation.fleet`):
+    its
     information joins the fixed poses' in `base`, so the designs and the target mode count the poses a MAP
     identification with that prior needs."""
     cell: Cell | None = None

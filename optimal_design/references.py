@@ -23,13 +23,13 @@ import numpy as np
 
 from models import NoiseModel, RobotDescription
 from models._types import Array
-from models.blas import single_threaded_blas
+from models.engine.blas import single_threaded_blas
+from models.engine.runtime import Runtime, runtime_for
 from models.identification.options import IdentificationOptions
 from models.identification.reference_fit import check_references, reference_problem
 from models.kinematics import forward_kinematics
 from models.measurements.camera import Camera
 from models.measurements.references import ReferenceRecords
-from models.runtime import Runtime, runtime_for
 from optimal_design.criteria import Criterion, DesignCriterion, criterion_of
 from optimal_design.information import CandidateInformation, task_matrix, task_rows
 from optimal_design.problem import DesignProblem

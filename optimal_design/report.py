@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from models import RobotDescription
 from models._types import Array
-from models.terms import Conditions
+from models.description.terms import Conditions
 from optimal_design.baselines import random_baseline
 from optimal_design.criteria import Criterion, DesignCriterion, criterion_of, metrics
 from optimal_design.information import max_tcp_error

@@ -28,7 +28,7 @@ import numpy as np
 
 from models import RobotDescription
 from models._types import Array
-from models.blas import single_threaded_blas
+from models.engine.blas import single_threaded_blas
 from models.errors import InvalidInput, TargetUnreachable, TooFewMeasurements
 from optimal_design.criteria import I_OPTIMAL, Criterion, DesignCriterion, criterion_of, metrics, names
 from optimal_design.information import max_tcp_error

@@ -29,12 +29,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from models._types import Array
-from models.blas import single_threaded_blas
+from models.engine.blas import single_threaded_blas
+from models.engine.runtime import Registry, default_registry
 from models.errors import InvalidInput
 from models.identifiability import analyse_identifiability
 from models.measurement import MeasurementKind
 from models.noise import NoiseModel
-from models.runtime import Registry, default_registry
 from models.tree import RobotTree, ToolAccuracy, predicted_accuracy, tree_joint_samples, tree_joints
 from models.tree.accuracy import ACCURACY_SEED
 from models.tree.kinematics import relative_poses, tool_poses

@@ -10,7 +10,7 @@ import os
 # (one FK request took 4 ms with two OpenBLAS threads, 0.6 ms with one).
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
-# Synchronous computations in processes of their own, one per core (service.compute): in threads they compete
+# Synchronous computations in processes of their own, one per core (service.compute.pool): in threads they compete
 # with the event loop for the GIL (/healthz p99 1.08 s under the mixed load, 50 ms wanted).
 os.environ.setdefault("IWR_COMPUTE_PROCESSES", str(os.cpu_count() or 1))
 
@@ -20,10 +20,10 @@ from types import FrameType  # noqa: E402
 
 import uvicorn  # noqa: E402
 
-from service import slow_clients  # noqa: E402
-from service.app import create_app  # noqa: E402
-from service.limits import DEADLINE_PER_BUDGET, GIL_SWITCH_INTERVAL_S  # noqa: E402
-from service.registry import build_registry  # noqa: E402
+from service.compute.limits import DEADLINE_PER_BUDGET, GIL_SWITCH_INTERVAL_S  # noqa: E402
+from service.compute.registry import build_registry  # noqa: E402
+from service.http import slow_clients  # noqa: E402
+from service.http.app import create_app  # noqa: E402
 from service.settings import get_settings  # noqa: E402
 
 

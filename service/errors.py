@@ -3,7 +3,7 @@
 Every class declares its fields as annotated attributes (`declared`: keyword-only, typed), so a misspelt
 member is a type error where it is raised; `.data` is the dictionary of those that have a value, the problem
 document's extension members, in declaration order. Tree (the domain's `models.errors.CalibrationError` is the
-other root `service.problems` renders):
+other root `service.http.problems` renders):
 
     ServiceError()
     ├── BadRequest(line, column, record)               400  a body the service cannot parse
@@ -31,7 +31,7 @@ other root `service.problems` renders):
         └── DatabaseUnavailable(retry_after)           …mid-request: a lost connection, a locked or full SQLite
 
 A `retry_after` (seconds) becomes the response's Retry-After header too. Persistence raises `NotFound` without
-knowing HTTP; `service.problems` alone maps these classes to status, type and title.
+knowing HTTP; `service.http.problems` alone maps these classes to status, type and title.
 """
 
 from __future__ import annotations

@@ -10,13 +10,13 @@ from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
 from prometheus_client.core import CounterMetricFamily
 from prometheus_client.registry import Collector
 
-from models.native import VmReason, vm_only_structures
+from models.engine.native import VmReason, vm_only_structures
 
 
 class VmOnlyStructures(Collector):
     """`iwr_vm_only_structures_total{reason}`: structures this process evaluates on CasADi's VM (no compiled
     library and no compiler in the container, compilation off, or a failed compilation), read from
-    `models.native` at each scrape. It only grows: a structure is built once per process."""
+    `models.engine.native` at each scrape. It only grows: a structure is built once per process."""
 
     def collect(self) -> Iterator[CounterMetricFamily]:
         family = CounterMetricFamily(

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from service.app import create_app
+from service.http.app import create_app
 from service.settings import Settings
 
 SNAPSHOT = Path(__file__).resolve().parent / "openapi.json"

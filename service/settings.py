@@ -5,7 +5,7 @@ from __future__ import annotations
 from pydantic import AliasChoices, Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from service.security import ApiKey, parse_keys
+from service.http.security import ApiKey, parse_keys
 
 
 class Settings(BaseSettings):
@@ -18,9 +18,10 @@ class Settings(BaseSettings):
     )
     api_keys: str = Field(
         default="",
-        description="Comma-separated `name:scope:sha256hex` entries, or bare keys (write scope); see service.security.",
+        description="Comma-separated `name:scope:sha256hex` entries, or bare keys (write scope); see "
+        "service.http.security.",
     )
-    # --- hardening (service.security, service.limits)
+    # --- hardening (service.http.security, service.compute.limits)
     api_keys_file: str | None = Field(default=None, description="JSON list of {name, scope, sha256} keys.")
     metrics_public: bool = Field(default=False, description="/metrics without a key (else a read key, with keys).")
     docs_public: bool = Field(default=True, description="/docs and /openapi.json without a key.")
@@ -54,14 +55,14 @@ class Settings(BaseSettings):
         default=0,
         ge=0,
         description="Worker processes for synchronous computations (0: threads of the API process). "
-        "`python -m service` defaults it to one per core (service.compute).",
+        "`python -m service` defaults it to one per core (service.compute.pool).",
     )
     log_level: str = "INFO"
     warm_up: bool = Field(default=True, description="Build the CasADi Functions and solvers at start-up.")
     background_builds: bool = Field(
         default=True,
         description="Build a new robot's structure (native code, solvers, tables) in the background when the "
-        "robot is created (service.builds); off, its first request builds it.",
+        "robot is created (service.compute.builds); off, its first request builds it.",
     )
 
     # ---- jobs (service/jobs): the engine, leases, retries, the queue's bound, time limits

@@ -4,7 +4,7 @@ reaches the database and the broker (`DATABASE_URL`, `IWR_BROKER_URL`; the other
 It wraps `celery worker`: prefork pool of `IWR_WORKER_CONCURRENCY` processes (default 1: run more workers
 rather than more processes per worker, `docker compose up --scale worker=N`), one message prefetched per
 process. Each process builds its engine, model cache and registry of robot runtimes once (`start_worker`,
-`service.registry.build_registry`) and exits when the worker's main process is gone. SIGTERM drains (Celery's
+`service.compute.registry.build_registry`) and exits when the worker's main process is gone. SIGTERM drains (Celery's
 warm shutdown): no new job is taken, the running one finishes; a second SIGTERM, or SIGKILL, stops at once, and
 the job's lease then expires into a requeue.
 """

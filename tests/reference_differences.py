@@ -10,7 +10,7 @@ import numpy as np
 
 from models import forward_kinematics
 from models._types import Array
-from models.robot import RobotDescription
+from models.description.robot import RobotDescription
 
 
 def residual_differences(

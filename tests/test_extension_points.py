@@ -16,14 +16,19 @@ from models.stages import READERS, Stage
 from service.schemas.structure import STAGE_KINDS
 
 ROOT = Path(__file__).resolve().parent.parent
-STAGE_AWARE = {"models/stages", "models/hexapod.py", "models/robot.py", "models/iwr.py"}
+STAGE_AWARE = {
+    "models/stages",
+    "models/description/hexapod.py",
+    "models/description/robot.py",
+    "models/description/iwr.py",
+}
 """Where a stage's kind may be named: the stage modules, the hexapod's maths, the description that lays the
 stages out (its single-hexapod convenience for the hexapod-only terms) and the IWR that is built of them."""
 COMPOSERS = (
-    "models/symbolic.py",
+    "models/engine/symbolic.py",
     "models/kinematics.py",
     "models/workspace.py",
-    "models/structure.py",
+    "models/description/structure.py",
     "models/inverse",
     "models/identification/residuals.py",
     "models/identification/accuracy.py",
@@ -173,7 +178,13 @@ def test_the_record_kind_check_sees_what_it_forbids() -> None:
 KIND_MODULES = ("service/record_kinds/", "models/measurements/")
 """The registry and the kinds themselves: the only modules that may ask which kind of record or reference they
 hold (each kind answers for itself there)."""
-PIPELINES = ("service", "optimal_design", "models/identification", "models/checks.py", "models/accuracy.py")
+PIPELINES = (
+    "service",
+    "optimal_design",
+    "models/identification",
+    "models/evaluation/checks.py",
+    "models/evaluation/accuracy.py",
+)
 """The code that runs a campaign's records through an operation (fit, check, validate, design)."""
 TRACKER_BRANCHES = {"has_references", "tracker_records", "TRACKER", "measures_reference"}
 """What a tracker-or-reference fork was written with before each operation became one pipeline (issue 43): a

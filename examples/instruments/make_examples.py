@@ -21,7 +21,7 @@ import numpy as np
 from harness.ballbar import PIVOTS, ballbar_campaign, gauge_truth, reaching
 from harness.camera import WORLD_CAMERA, world_camera_campaign
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like, ur5_like_document
+from models.description.examples import ur5_like, ur5_like_document
 
 HERE = Path(__file__).parent
 SEED = 2026

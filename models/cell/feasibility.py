@@ -25,11 +25,11 @@ from models.cell.frames import frame_layout, stage_frames
 from models.cell.geometry import Attached, RobotGeometry, Segment, default_geometry
 from models.cell.instruments import Ballbar, Camera, Target, Tracker
 from models.cell.shapes import capsule_geometry, collision_geometry
+from models.description.robot import RobotDescription
+from models.description.serial_chain import JointType
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import InvalidInput
 from models.kinematics import pose_batch, solve_platforms
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
-from models.serial_chain import JointType
 from models.transforms import rotvec_to_matrix_np
 from models.workspace import sample_workspace
 

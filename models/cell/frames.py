@@ -1,7 +1,7 @@
 """Every stage's frames for a batch of joint vectors: world <- base, each link's middle and end, each parallel
 stage's end (its platform), the TCP.
 
-The forward kinematics of `models.symbolic` give the TCP alone; collision checks need every link. The same
+The forward kinematics of `models.engine.symbolic` give the TCP alone; collision checks need every link. The same
 stage transforms (`Stage.transform`, the links' DH/MDH matrices) are multiplied here and every partial product
 kept, in one CasADi Function built once per structure and kept by the structure's `Runtime`
 (`runtime.artefact`), then mapped over the batch. A link's *middle* frame splits its two motions: for DH
@@ -18,11 +18,11 @@ import casadi as ca
 import numpy as np
 
 from models._types import Array
-from models.batch import BatchFunctions
+from models.description.robot import RobotDescription, pose_transform
+from models.description.serial_chain import Convention, joint_link_values
+from models.engine.batch import BatchFunctions
+from models.engine.runtime import Runtime, runtime_for
 from models.kinematics import solve_platforms
-from models.robot import RobotDescription, pose_transform
-from models.runtime import Runtime, runtime_for
-from models.serial_chain import Convention, joint_link_values
 from models.stages import SerialStage
 from models.transforms import homogeneous, rot_x, rot_y, rot_z
 

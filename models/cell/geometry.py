@@ -25,9 +25,9 @@ import numpy as np
 from models._types import Array, Vec3
 from models.cell.frames import FrameLayout, frame_layout
 from models.cell.shapes import Shape
+from models.description.robot import RobotDescription
+from models.description.serial_chain import Convention, JointType
 from models.errors import InvalidInput
-from models.robot import RobotDescription
-from models.serial_chain import Convention, JointType
 from models.stages import HexapodStage, SerialStage
 
 LINK_RADIUS_FRACTION = 0.1

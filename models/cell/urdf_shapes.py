@@ -10,8 +10,8 @@ from models._types import Array
 from models.cell.frames import frame_layout, stage_frames
 from models.cell.geometry import TOOL_RADIUS, Attached, LinkShape, RobotGeometry, Segment
 from models.cell.shapes import Box, Cylinder, Shape, Sphere
-from models.robot import RobotDescription
-from models.urdf import load_urdf, origin_mm, urdf_chain
+from models.description.robot import RobotDescription
+from models.formats.urdf import load_urdf, origin_mm, urdf_chain
 
 MM_PER_M = 1000.0
 
@@ -22,7 +22,7 @@ def urdf_geometry(desc: RobotDescription, urdf: str, base_link: str, tip_link: s
 
     A URDF link moves with the last moving joint above it (link k's body; `base` above the first), and its
     shapes are rigid in that body's end frame: the pose there is inv(frame_k(0)) · (base_link <- URDF link at
-    q = 0), both at the zero joint vector, where the model's FK equals the URDF's (`models.urdf`). Meshes
+    q = 0), both at the zero joint vector, where the model's FK equals the URDF's (`models.formats.urdf`). Meshes
     name files this service is not given (`package://` paths): they are listed in `skipped`, not guessed.
     The tool capsule (last frame -> TCP) is added as for a DH document."""
     path = urdf_chain(urdf, base_link, tip_link)

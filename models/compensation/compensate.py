@@ -9,11 +9,11 @@ from __future__ import annotations
 from numpy.typing import ArrayLike
 
 from models.compensation.terms import terms_inverse_kinematics
+from models.description.robot import RobotDescription
+from models.description.terms import Conditions
+from models.engine.runtime import Runtime, runtime_for
 from models.inverse import IkSolution, inverse_kinematics
 from models.kinematics import as_joint_array, check_joint_ranges, forward_kinematics
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
-from models.terms import Conditions
 from models.transforms import matrix_to_quaternion
 
 Compensation = IkSolution

@@ -3,7 +3,7 @@
 A controller's targets are in its own base frame (KUKA's $ROBROOT, ABB's base frame, UR's Base), which is the
 frame the robot was *described* from, not the model's frame {0}. For a DH or MDH document the two are one: the
 table starts at the controller's base. A robot imported from a URDF (or from UR's kinematics file, through the
-URDF it makes) is re-described in MDH from its joint axes (`models.urdf`), and frame {0} then sits on the first
+URDF it makes) is re-described in MDH from its joint axes (`models.formats.urdf`), and frame {0} then sits on the first
 joint axis, turned to suit the table: a UR10e's {0} is 180.7 mm above its Base, a KUKA URDF's (A1 about −z)
 400 mm above and half a turn away from $ROBROOT. The import keeps base_link <- {0} as the model's nominal base;
 a calibration replaces the base with the instrument's frame, so the controller's frame has to be kept apart:
@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 from models._types import Array
+from models.formats.urdf import MM_PER_M, document_from_urdf, load_urdf
 from models.transforms import quaternion_to_matrix
-from models.urdf import MM_PER_M, document_from_urdf, load_urdf
 
 ROS_INDUSTRIAL_BASE = "base"
 """ROS-Industrial's name for the link that is the controller's base frame, a fixed child of base_link (REP-I0005

@@ -21,10 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from models._types import Array
+from models.description.parameters import Kind
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime, runtime_for
 from models.kinematics import ForwardResult, forward_kinematics
-from models.parameters import Kind
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 
 POSITION_TOLERANCE_MM = 0.5
 """A controller's own model and ours agree to micrometres when they are the same model; a factory calibration

@@ -19,12 +19,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from models._types import Array
 from models.compensation.compensate import compensate
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime, runtime_for
 from models.inverse import default_seed, inverse_kinematics
 from models.inverse.problem import joint_weights
 from models.inverse.routing import IkBatch
 from models.kinematics import forward_kinematics
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, rotvec_to_matrix_np
 
 FAR_MM = 1.0e5

@@ -17,12 +17,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.description.serial_chain import JointType
+from models.description.terms import Conditions, condition_inputs
+from models.engine.runtime import Runtime, runtime_for
 from models.inverse import IkSolution, inverse_kinematics
 from models.kinematics import forward_kinematics, leg_tensions, solve_platforms
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
-from models.serial_chain import JointType
-from models.terms import Conditions, condition_inputs
 from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
 
 

@@ -11,14 +11,14 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from models.description.iwr import iwr
+from models.engine.runtime import Registry
 from models.error_analysis.export import magnitudes_json, result_json
 from models.error_analysis.magnitudes import ErrorMagnitudes
 from models.error_analysis.plot import plot_absolute, plot_axes
 from models.error_analysis.report import summary
 from models.error_analysis.study import DISTRIBUTIONS, error_analysis
 from models.errors import CalibrationError
-from models.iwr import iwr
-from models.runtime import Registry
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -2,7 +2,7 @@
 
 One type for the thesis's four numbers (§4.5): the study draws its parameter
 errors from them, `models.simulation` perturbs its "true" robots with them.
-Not `models.parameters.ParameterScales`, the expected error sizes that scale the
+Not `models.description.parameters.ParameterScales`, the expected error sizes that scale the
 identification Jacobian, although their defaults agree.
 """
 
@@ -14,9 +14,9 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import NDArray
 
+from models.description.parameters import Kind
+from models.description.robot import RobotDescription
 from models.errors import InvalidInput
-from models.parameters import Kind
-from models.robot import RobotDescription
 
 _DEG = float(np.degrees(1.0))
 

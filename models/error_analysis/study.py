@@ -31,13 +31,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime, runtime_for
 from models.error_analysis.magnitudes import ErrorMagnitudes
 from models.error_analysis.result import SUBSYSTEMS, ErrorAnalysisResult, PoseErrors, WorstCase
 from models.error_analysis.statistics import Array
 from models.errors import InvalidInput, NonFiniteValue, UnreachablePose, WrongShape
 from models.kinematics import ForwardResult, as_joint_array, forward_kinematics
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 from models.transforms import matrix_to_rotvec_np
 from models.workspace import sample_workspace
 

@@ -9,13 +9,13 @@ from numpy.typing import NDArray
 
 from models._types import Array
 from models.campaign import Campaign
+from models.description.parameters import Kind
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime
 from models.identification.result import PredictedAccuracy
 from models.identification.statistics import PoseErrors, tcp_accuracy
 from models.kinematics import CLOSURE_TOLERANCE_MM, pose_jacobian_batch, solve_platforms
 from models.measurements import ModelBatch, measurement
-from models.parameters import Kind
-from models.robot import RobotDescription
-from models.runtime import Runtime
 from models.workspace import workspace_samples
 
 EXTRAPOLATION_RATIO = 3.0

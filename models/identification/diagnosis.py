@@ -37,11 +37,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
+from models.description.parameters import Kind
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime
 from models.errors import CalibrationError
 from models.kinematics import forward_kinematics
-from models.parameters import Kind
-from models.robot import RobotDescription
-from models.runtime import Runtime
 from models.transforms import quaternion_to_matrix
 
 MIN_RECORDS = 5

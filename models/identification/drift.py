@@ -31,6 +31,8 @@ from numpy.typing import NDArray
 
 from models._types import Array
 from models.campaign import Campaign
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import InvalidInput
 from models.identifiability import scaled_jacobian
 from models.identification.accuracy import predicted_accuracy
@@ -40,8 +42,6 @@ from models.identification.result import IdentificationResult
 from models.identification.statistics import correlated_pairs, covariance_of
 from models.kinematics import forward_kinematics
 from models.noise import NoiseModel
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 
 MAX_DEGREE = 3
 """A campaign's drift is slow: a cubic already follows a warm-up; more would follow the robot's errors."""

@@ -41,7 +41,7 @@ class IdentificationOptions:
     workspace_samples: int = 200
     """Poses over which the predicted TCP accuracy is averaged."""
     prior: ParameterPrior | None = None
-    """MAP: what is known of the parameters beforehand (a fleet's population, `models.fleet`); None: the data
+    """MAP: what is known of the parameters beforehand (a fleet's population, `models.evaluation.fleet`); None: the data
     alone (see `models.identification.prior`)."""
 
     def __post_init__(self) -> None:

@@ -18,8 +18,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from models._types import Array
-from models.blas import single_threaded_blas
 from models.campaign import Campaign
+from models.description.parameters import ParameterTable
+from models.description.robot import RobotDescription
+from models.engine.blas import single_threaded_blas
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import (
     CalibrationError,
     InconsistentData,
@@ -69,9 +72,6 @@ from models.identification.trust_region import (
 )
 from models.kinematics import forward_kinematics
 from models.noise import NoiseModel
-from models.parameters import ParameterTable
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 
 INCONSISTENT_SIGMA = 100.0

@@ -1,4 +1,4 @@
-"""Prior knowledge of parameters (a fleet's population, `models.fleet`): MAP identification's extra rows.
+"""Prior knowledge of parameters (a fleet's population, `models.evaluation.fleet`): MAP identification's extra rows.
 
 A prior says, per parameter, "θᵢ is about μᵢ, give or take sᵢ" (independent Gaussians, internal units). In the
 least-squares problem it is one more residual row per parameter with a prior, `(θᵢ − μᵢ) / sᵢ`, in σ like every
@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from models._types import Array
+from models.description.parameters import ParameterTable
 from models.errors import InvalidInput, PriorMismatch
-from models.parameters import ParameterTable
 
 
 @dataclass(frozen=True)

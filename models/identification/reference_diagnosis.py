@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime
 from models.identification.diagnosis import Diagnosis, Finding
 from models.identification.reference_fit import ReferenceFit
 from models.kinematics import forward_kinematics
-from models.robot import RobotDescription
-from models.runtime import Runtime
 
 
 def reference_misfits(

@@ -19,6 +19,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
+from models.description.parameters import ParameterTable
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import InvalidInput, NonFiniteValue, TooFewMeasurements
 from models.identifiability import analyse_identifiability
 from models.identification.options import IdentificationOptions
@@ -31,9 +34,6 @@ from models.identification.statistics import Covariance, covariance, outlier_thr
 from models.kinematics import ForwardJacobianResult, as_joint_array, check_joint_ranges, forward_kinematics
 from models.measurements.references import ReferenceRecords
 from models.noise import NoiseModel
-from models.parameters import ParameterTable
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 
 FRAME_GROUPS = ("base",)
 """The parameters a frame-free campaign cannot determine: the robot's base transform."""

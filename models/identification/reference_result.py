@@ -17,6 +17,8 @@ from dataclasses import replace
 import numpy as np
 
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime, runtime_for
 from models.identifiability import structural_identifiability
 from models.identification.accuracy import predicted_accuracy, with_record_scatter
 from models.identification.options import IdentificationOptions
@@ -40,8 +42,6 @@ from models.identification.statistics import correlated_pairs
 from models.measurement import MeasurementKind
 from models.measurements.references import ReferenceRecords
 from models.noise import NoiseModel
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 
 
 def identify_reference_campaign(

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from models._types import Array
+from models.description.robot import RobotDescription
 from models.errors import InvalidInput
-from models.robot import RobotDescription
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 
 COLLINEAR_RTOL = 1e-6

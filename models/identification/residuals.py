@@ -19,13 +19,13 @@ from numpy.typing import NDArray
 
 from models._types import Array
 from models.campaign import Campaign
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime
 from models.identification.options import RobustLoss
 from models.identification.prior import ParameterPrior, PriorRows
 from models.kinematics import CLOSURE_TOLERANCE_MM, solve_platforms
 from models.measurements import ModelBatch, measurement
 from models.noise import NoiseModel
-from models.robot import RobotDescription
-from models.runtime import Runtime
 
 
 @dataclass(frozen=True)

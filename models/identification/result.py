@@ -8,12 +8,12 @@ from enum import StrEnum
 import numpy as np
 
 from models._types import Array
+from models.description.parameters import ParameterTable
 from models.identifiability import Confounding
 from models.identification.diagnosis import Diagnosis
 from models.identification.statistics import PoseErrors
 from models.measurement import MeasurementKind
 from models.measurements.references import AnyReference
-from models.parameters import ParameterTable
 
 
 def _rms(a: Array) -> float:

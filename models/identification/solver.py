@@ -29,10 +29,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from models import cancellation
 from models._types import Array
+from models.engine import cancellation
+from models.engine.runtime import Runtime
 from models.identification.residuals import FitProblem
-from models.runtime import Runtime
 
 IPOPT_OPTIONS: dict[str, Any] = {
     "ipopt.print_level": 0,
@@ -122,7 +122,7 @@ class _Callback(ca.Callback):  # type: ignore[misc]  # CasADi is untyped (pyproj
 class _StopWhenCancelled(ca.Callback):  # type: ignore[misc]
     """IPOPT's iteration callback (nlpsol option `iteration_callback`): called once per iteration with the
     solver's outputs; a nonzero answer stops IPOPT with `User_Requested_Stop` (checked against CasADi 3.8).
-    It answers whether the current computation's cancellation token is set (models.cancellation)."""
+    It answers whether the current computation's cancellation token is set (models.engine.cancellation)."""
 
     def __init__(self, n: int) -> None:
         ca.Callback.__init__(self)

@@ -4,7 +4,7 @@ A score (Lagrange-multiplier) test at the geometric solution, in closed form fro
 term would add are known without building the term's graphs. A leg's thermal column is `ΔT (l_k + δl_k)` times
 the column of its offset (the closure holds `|v_k| = (l_k + δl_k)(1 + κ ΔT)`, and an offset enters it as the
 length does); a prismatic axis's is `ΔT q_j` times the column of its `d`; a leg's compliance column is its
-tension `t_k` (hexapod statics, `models.terms`) times its offset's column. Projected off the fitted columns,
+tension `t_k` (hexapod statics, `models.description.terms`) times its offset's column. Projected off the fitted columns,
 the squared residual along them is χ²(k) if the term is absent; far above, the residuals follow the
 temperature (load). A serial robot's joint compliance column is its gravity torque times its θ's column.
 """
@@ -14,13 +14,13 @@ from __future__ import annotations
 import numpy as np
 
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.description.serial_chain import JointType
+from models.description.terms import GRAVITY_M_S2, MIN_PAYLOAD_SPREAD_KG, Conditions
 from models.identification.diagnosis import Diagnosis, Finding
 from models.identification.residuals import CampaignProblem, Evaluation
 from models.identification.statistics import chi2_quantile
 from models.kinematics import leg_tensions
-from models.robot import RobotDescription
-from models.serial_chain import JointType
-from models.terms import GRAVITY_M_S2, MIN_PAYLOAD_SPREAD_KG, Conditions
 
 SCORE_ALPHA = 1e-4
 """The score test names a missing term only beyond this false-alarm probability."""

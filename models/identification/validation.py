@@ -8,12 +8,12 @@ import numpy as np
 
 from models._types import Array
 from models.campaign import Campaign
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime
 from models.identification.registration import registered_base, rigid_fit
 from models.identification.result import ResidualSummary
 from models.identification.statistics import PoseErrors
 from models.kinematics import forward_kinematics
-from models.robot import RobotDescription
-from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np
 
 

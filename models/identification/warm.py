@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime
 from models.identifiability import structural_identifiability
 from models.identification.accuracy import ACCURACY_SEED
 from models.identification.options import IdentificationOptions
 from models.identification.solver import solver_pool
 from models.measurement import MeasurementKind
-from models.robot import RobotDescription
-from models.runtime import Runtime
 from models.workspace import workspace_samples
 
 

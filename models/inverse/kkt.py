@@ -16,12 +16,12 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from models import cancellation
-from models.batch import BatchFunctions
+from models.description.robot import RobotDescription
+from models.engine import cancellation
+from models.engine.batch import BatchFunctions
+from models.engine.native import compile_functions
+from models.engine.runtime import Runtime, runtime_for
 from models.inverse.problem import ik_problem
-from models.native import compile_functions
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 
 
 def _functions(desc: RobotDescription) -> list[ca.Function]:

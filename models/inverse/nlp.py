@@ -22,10 +22,10 @@ import casadi as ca
 import numpy as np
 
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime, runtime_for
 from models.inverse.problem import ik_problem
 from models.kinematics import platform_envelope
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 
 IPOPT = {
     "ipopt.print_level": 0,

@@ -19,8 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from models._types import Array
+from models.description.robot import RobotDescription, tcp_transform
 from models.errors import InvalidInput, NonFiniteValue, WrongShape
-from models.robot import RobotDescription, tcp_transform
 
 ORIENTATION_LENGTH_MM = 1000.0
 """A radian of orientation error weighs like this many millimetres (about the robot's reach)."""

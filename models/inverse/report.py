@@ -9,11 +9,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime
 from models.inverse.nlp import bounds
 from models.inverse.routing import REACHED_MM, joints_of
 from models.kinematics import hexapod_condition, pose_batch, solve_platforms
-from models.robot import RobotDescription
-from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np
 
 REACHED_RAD = float(np.radians(1e-6))

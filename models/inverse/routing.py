@@ -8,15 +8,15 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from models import cancellation
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.description.serial_chain import JointType
+from models.engine import cancellation
+from models.engine.runtime import Runtime, runtime_for
 from models.inverse.kkt import FULL_TURN, kkt_functions, newton_kkt
 from models.inverse.nlp import bounds, ik_solvers
 from models.inverse.problem import N_TARGET
 from models.inverse.starts import start_table
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
-from models.serial_chain import JointType
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 
 SERIAL_STARTS = 32
@@ -28,7 +28,7 @@ still did (from the default seed), with whole-turn wrapping of ±180° joints an
 The IWR (one branch through its hexapod) keeps its single start."""
 REACHED_MM = 1e-6
 IPOPT_CHUNK = 8
-"""Targets per mapped IPOPT call: a stop (models.cancellation) is honoured between chunks, so a request stopped
+"""Targets per mapped IPOPT call: a stop (models.engine.cancellation) is honoured between chunks, so a request stopped
 at its deadline stops within one chunk rather than after the whole batch (measured: 200 unreachable targets, 33 ms each,
 were one uninterruptible 6.6 s call per IPOPT stage); chunking costs nothing measurable (a map loops anyway)."""
 BOUND_SLACK = 1e-9

@@ -21,15 +21,15 @@ import time
 import numpy as np
 from numpy.typing import ArrayLike
 
-from models import cancellation
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.engine import cancellation
+from models.engine.runtime import Runtime, runtime_for
 from models.errors import NonFiniteValue
 from models.inverse.problem import joint_weights
 from models.inverse.report import IkSolution, report
 from models.inverse.routing import joints_of, route
 from models.inverse.targets import seeds_for, validated_targets
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 
 
 def inverse_kinematics(

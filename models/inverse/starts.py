@@ -10,9 +10,9 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from models._types import Array
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime, runtime_for
 from models.kinematics import pose_batch
-from models.robot import RobotDescription
-from models.runtime import Runtime, runtime_for
 from models.workspace import sample_workspace
 
 TABLE_POSES = 4000

@@ -7,10 +7,10 @@ from numpy.typing import ArrayLike
 
 from models._types import Array
 from models.campaign import QUATERNION_NORM_TOLERANCE
+from models.description.robot import RobotDescription
 from models.errors import WrongShape
 from models.inverse.routing import joints_of
 from models.kinematics import as_joint_array, check_joint_ranges
-from models.robot import RobotDescription
 from models.transforms import quaternion_to_matrix
 
 

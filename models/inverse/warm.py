@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime
 from models.inverse.kkt import kkt_functions
 from models.inverse.nlp import ik_solvers
 from models.inverse.starts import start_table
-from models.robot import RobotDescription
-from models.runtime import Runtime
 
 
 def warm_inverse(desc: RobotDescription, runtime: Runtime) -> None:

@@ -18,12 +18,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
-from models.batch import BatchFunctions
 from models.campaign import Campaign
+from models.description.parameters import ParameterSpec
+from models.description.robot import RobotDescription
+from models.engine.batch import BatchFunctions
 from models.measurement import MeasurementKind
 from models.noise import NoiseModel
-from models.parameters import ParameterSpec
-from models.robot import RobotDescription
 
 Index = NDArray[np.intp]
 """Which records of a campaign (row numbers)."""

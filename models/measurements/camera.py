@@ -35,6 +35,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from models._types import Array
+from models.description.parameters import Kind, ParameterSpec
 from models.errors import InvalidInput
 from models.kinematics import ForwardJacobianResult, ForwardResult
 from models.measurements.references import (
@@ -45,7 +46,6 @@ from models.measurements.references import (
     ReferenceRecords,
     Traits,
 )
-from models.parameters import Kind, ParameterSpec
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 
 MIN_FOCAL_PX = 100.0

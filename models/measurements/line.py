@@ -23,10 +23,10 @@ from typing import ClassVar
 import numpy as np
 
 from models._types import Array
+from models.description.parameters import Kind, ParameterSpec
 from models.errors import InvalidInput
 from models.kinematics import ForwardJacobianResult, ForwardResult
 from models.measurements.references import ANGLE_SCALE_RAD, POSITION_SCALE_MM, Plane, ReferenceBase, Traits
-from models.parameters import Kind, ParameterSpec
 
 MIN_LINE_TRAVEL_MM = 5.0
 """The records must spread at least this (RMS) along the beam, or its direction is not determined (an

@@ -32,9 +32,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
+from models.description.parameters import Kind, ParameterSpec
 from models.errors import InvalidInput, TooFewMeasurements
 from models.kinematics import ForwardJacobianResult, ForwardResult
-from models.parameters import Kind, ParameterSpec
 
 POSITION_SCALE_MM = 1.0
 """The expected error of a reference's start position (mm), the scale of its columns (as a link length's)."""

@@ -14,11 +14,11 @@ import numpy as np
 
 from models._types import Array
 from models.campaign import Campaign
+from models.description.parameters import ParameterSpec
+from models.description.robot import RobotDescription
 from models.measurement import MeasurementKind
 from models.measurements.base import Index, ModelBatch
 from models.noise import NoiseModel
-from models.parameters import ParameterSpec
-from models.robot import RobotDescription
 
 
 @dataclass(frozen=True)

@@ -19,8 +19,8 @@ import casadi as ca
 import numpy as np
 
 from models._types import Array
-from models.parameters import Kind, ParameterScales, ParameterSpec
-from models.serial_chain import DHLink
+from models.description.parameters import Kind, ParameterScales, ParameterSpec
+from models.description.serial_chain import DHLink
 from models.transforms import Sym
 
 

@@ -2,7 +2,7 @@
 
 Its joints are the six commanded leg lengths, its unknowns the platform pose `[x, y, z, α, β, γ]` (mm, Z-Y-X
 Euler angles in rad) of its end frame in its start frame, pinned by the six leg equations; its parameters the
-legs' joints and offsets (`models.hexapod`).
+legs' joints and offsets (`models.description.hexapod`).
 """
 
 from __future__ import annotations
@@ -15,8 +15,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from models._types import Array, Pose6, Vec3
-from models.errors import InvalidInput
-from models.hexapod import (
+from models.description.hexapod import (
     LEG_FIELDS,
     N_LEGS,
     PARAMS_PER_LEG,
@@ -26,8 +25,9 @@ from models.hexapod import (
     hexapod_parameter_specs,
     platform_rotation,
 )
-from models.parameters import Kind, ParameterScales, ParameterSpec
-from models.serial_chain import DHLink
+from models.description.parameters import Kind, ParameterScales, ParameterSpec
+from models.description.serial_chain import DHLink
+from models.errors import InvalidInput
 from models.stages.base import Section
 from models.stages.document import (
     DEG,

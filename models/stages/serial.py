@@ -10,9 +10,16 @@ from typing import Any, ClassVar
 import numpy as np
 
 from models._types import Array
+from models.description.parameters import Kind, ParameterScales, ParameterSpec
+from models.description.serial_chain import (
+    Convention,
+    DHLink,
+    JointType,
+    chain_transform,
+    dh_parameter_specs,
+    is_nearly_parallel,
+)
 from models.errors import InvalidInput
-from models.parameters import Kind, ParameterScales, ParameterSpec
-from models.serial_chain import Convention, DHLink, JointType, chain_transform, dh_parameter_specs, is_nearly_parallel
 from models.stages.base import Section, WithoutClosure
 from models.stages.document import DEG, interval, mapping, number
 from models.transforms import Sym

@@ -15,9 +15,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import Array
+from models.engine.runtime import Registry
 from models.errors import InvalidInput
 from models.identification.statistics import tcp_accuracy
-from models.runtime import Registry
 from models.tree.identification import TreeFit
 from models.tree.kinematics import relative_of, relative_poses, tool_poses
 from models.tree.tree import RobotTree

@@ -25,12 +25,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from models._types import Array
 from models.compensation.poses import NO_NEAR_SOLUTION, compensate_near, pose_matrices
+from models.description.robot import RobotDescription
+from models.engine.runtime import Registry, Runtime, default_registry
 from models.errors import InvalidInput, WrongShape
 from models.inverse.kkt import kkt_functions, newton_kkt
 from models.inverse.problem import joint_weights
 from models.kinematics import forward_kinematics
-from models.robot import RobotDescription
-from models.runtime import Registry, Runtime, default_registry
 from models.tree.kinematics import tool_poses, tree_joints
 from models.tree.tree import RobotTree
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import math
 
-from models.examples import UR5_DH
+from models.description.examples import UR5_DH
+from models.description.structure import description_from_document
 from models.stages import SerialStage
-from models.structure import description_from_document
 from models.tree.tree import Branch, RobotTree
 
 TORCH = (60.0, -40.0, 120.0, 0.0, 0.0, 0.0)

@@ -1,7 +1,7 @@
 """A calibrated tree written back: the URDF it was imported from with its moving joints' origins calibrated (a
 drop-in: every link, joint, mesh and name as it was), and a DH table per branch that is a serial chain.
 
-URDF. As for a chain (`models.urdf_calibrated`): each MDH frame k of a branch and the URDF frame F_j of the
+URDF. As for a chain (`models.formats.urdf_calibrated`): each MDH frame k of a branch and the URDF frame F_j of the
 same joint are fixed to one link, so they differ by a constant C_k = J_k⁻¹ · F_j (both nominal, in base_link
 at zero), a turn about and a shift along the joint's axis; the calibrated joint frame keeps that relation,
 F_j = J_k · C_k, and the URDF's FK is the calibrated tree's. The tree's frames J_k are walked branch by
@@ -13,7 +13,7 @@ holds, each tip's calibrated tool after its tip link, is `tip_to_tcp`. A paramet
 that a URDF piece cannot hold alone (the mount after a trunk: the trunk's last link to the arm's first joint)
 lands in that first joint's origin, where it belongs.
 
-DH tables. A branch of serial stages is a chain's table (`models.dh_table`): its base is where it starts (the
+DH tables. A branch of serial stages is a chain's table (`models.formats.dh_table`): its base is where it starts (the
 tree's base for a branch from the base, its mount in its parent's end frame for the others), its tool its
 tip's tool (the identity for a branch that only carries others).
 """
@@ -27,16 +27,16 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from models._types import IDENTITY, Array
-from models.dh_table import DhTable, dh_table
+from models.description.robot import RobotDescription
 from models.errors import InvalidInput
-from models.joint_chain import joint_chain, pose_matrix
-from models.robot import RobotDescription
+from models.formats.dh_table import DhTable, dh_table
+from models.formats.joint_chain import joint_chain, pose_matrix
+from models.formats.urdf import load_urdf, origin_mm
+from models.formats.urdf_calibrated import splice_origins
+from models.formats.urdf_tree import tree_parents
 from models.stages import SerialStage
 from models.tree.tree import RobotTree
 from models.tree.urdf import tree_from_urdf
-from models.urdf import load_urdf, origin_mm
-from models.urdf_calibrated import splice_origins
-from models.urdf_tree import tree_parents
 
 
 @dataclass(frozen=True)

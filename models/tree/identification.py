@@ -24,12 +24,12 @@ import scipy.optimize
 from numpy.typing import NDArray
 
 from models._types import Array
+from models.engine.runtime import Registry, default_registry
 from models.errors import InvalidInput, TooFewMeasurements
 from models.identifiability import Identifiability, analyse_identifiability
 from models.identification.registration import rigid_fit
 from models.identification.statistics import Covariance, covariance
 from models.noise import NoiseModel
-from models.runtime import Registry, default_registry
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 from models.tree.records import ToolRecords
 from models.tree.tree import RobotTree

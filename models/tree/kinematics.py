@@ -19,8 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from models._types import Array
+from models.engine.runtime import Registry, default_registry
 from models.kinematics import JOINT_RANGE_SLACK, forward_kinematics, joint_vectors, refuse_out_of_range
-from models.runtime import Registry, default_registry
 from models.tree.tree import RobotTree
 
 

@@ -22,8 +22,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from models._types import Array, Pose6
-from models.parameters import Kind, ParameterScales, ParameterSpec
-from models.serial_chain import DHLink
+from models.description.parameters import Kind, ParameterScales, ParameterSpec
+from models.description.serial_chain import DHLink
 from models.stages.base import Section, WithoutClosure
 from models.stages.document import pose_document
 from models.transforms import Sym, homogeneous, rotvec_to_matrix

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from models._types import Array
+from models.engine.runtime import Registry
 from models.errors import InvalidInput, WrongShape
 from models.noise import NoiseModel
-from models.runtime import Registry
 from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
 from models.tree.kinematics import TreePoses, relative_poses, tool_poses, tree_joints
 from models.tree.tree import RobotTree

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from models._types import Array
+from models.engine.runtime import Registry, default_registry
 from models.noise import NoiseModel
-from models.runtime import Registry, default_registry
 from models.simulation import instrument_reading, placed_instrument
 from models.transforms import matrix_to_rotvec_np
 from models.tree.records import ToolRecords

@@ -27,9 +27,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from models._types import IDENTITY, Array, Pose6
+from models.description.parameters import Kind, ParameterScales, ParameterSpec, ParameterTable
+from models.description.robot import RobotDescription
 from models.errors import InvalidInput
-from models.parameters import Kind, ParameterScales, ParameterSpec, ParameterTable
-from models.robot import RobotDescription
 from models.stages import Section, Stage
 from models.tree.mount import MountStage
 

@@ -2,7 +2,7 @@
 
 The paths from `base_link` to each tip are cut at the links where they part (and at tips that lie on another
 tip's path): each piece between two such links is a branch. A piece is read by the chain importer,
-`models.urdf.document_from_urdf(urdf, start, end)`, whose FK equals the URDF's: its MDH links on the joints'
+`models.formats.urdf.document_from_urdf(urdf, start, end)`, whose FK equals the URDF's: its MDH links on the joints'
 axis lines, its `base` (start link <- its frame 0) and its `tool` (its last frame -> end link). The pieces then
 compose exactly: the tree's base is the first piece's base, a branch's mount is its parent's tool composed with
 its own base, a tip's tool is its piece's. A piece without a moving joint (a fixed torso below two arms) adds
@@ -21,13 +21,13 @@ from typing import Any
 import numpy as np
 
 from models._types import IDENTITY, Array, Pose6
+from models.description.structure import description_from_document
 from models.errors import InvalidInput
+from models.formats.urdf import document_from_urdf, load_urdf, origin_mm, urdf_joint_names
+from models.formats.urdf_tree import tree_parents
 from models.stages.document import pose
-from models.structure import description_from_document
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 from models.tree.tree import Branch, RobotTree
-from models.urdf import document_from_urdf, load_urdf, origin_mm, urdf_joint_names
-from models.urdf_tree import tree_parents
 
 
 def _path(parents: dict[str, Any], base_link: str, tip: str, field: str) -> list[str]:

@@ -34,11 +34,11 @@ from models.cell import (
     urdf_geometry,
 )
 from models.cell.geometry import LinkShape
+from models.description.structure import description_from_document
+from models.engine.runtime import Runtime
 from models.errors import InvalidInput
-from models.runtime import Runtime
-from models.structure import description_from_document
+from models.formats.urdf import UrdfSource, document_from_urdf
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
-from models.urdf import UrdfSource, document_from_urdf
 from service.persistence.tables import RobotCellRecord
 from service.schemas.cells import (
     AllowedPairPublic,

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from models import RobotDescription
-from models.checks import CheckAction, CheckResult, Explanation, Recommendation
+from models.evaluation.checks import CheckAction, CheckResult, Explanation, Recommendation
 from models.measurement import MeasurementKind
 from optimal_design.checks import CheckDesign
 from service.conversions.kinematics import joints_out

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from models._types import Array
-from models.fleet import FleetPrior, UnitComparison
+from models.evaluation.fleet import FleetPrior, UnitComparison
 from service.schemas.fleets import FleetParameterPublic, FleetZPublic
 
 

@@ -17,10 +17,10 @@ from numpy.typing import NDArray
 
 from models import RobotDescription, forward_kinematics, sample_workspace
 from models._types import Array
+from models.engine.runtime import Runtime
 from models.errors import InvalidInput, TooFewMeasurements
 from models.kinematics import check_joint_ranges
 from models.measurements.references import ReferenceRecords
-from models.runtime import Runtime
 from optimal_design.constraints import KeepOut, joint_range_mask, keep_out_mask
 from optimal_design.problem import MAX_CANDIDATES
 from service.conversions.designs import constraints_in

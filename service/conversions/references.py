@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 
 from models import RobotDescription
+from models.description.parameters import Kind
 from models.identification.result import ReferenceEstimate
 from models.measurements.references import ReferenceRecords
-from models.parameters import Kind
 from service.errors import BadRequest
 from service.record_kinds import (
     BY_MODEL,

@@ -11,17 +11,17 @@ from typing import Any
 import numpy as np
 
 from models._types import IDENTITY, Array, Pose6
+from models.description.parameters import Kind
+from models.description.structure import description_from_document
 from models.errors import InvalidInput
-from models.joint_chain import pose_matrix
-from models.parameters import Kind
+from models.formats.joint_chain import pose_matrix
+from models.formats.urdf import refuse_xacro
 from models.stages import SerialStage, Stage
 from models.stages.document import pose, pose_document
-from models.structure import description_from_document
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np
 from models.tree import Branch, MountStage, RobotTree, ToolRecords, TreePoses, tree_from_urdf
 from models.tree.kinematics import tree_joints
-from models.urdf import refuse_xacro
-from service import limits
+from service.compute import limits
 from service.conversions.kinematics import unit_quaternion
 from service.persistence.tables import RobotTreeRecord
 from service.schemas.common import PosePublic, timestamp

@@ -10,15 +10,15 @@ import numpy as np
 
 from models import RobotDescription, iwr
 from models._types import Array, Pose6
+from models.description.structure import description_document, description_from_document
 from models.errors import InvalidInput
-from models.joint_chain import pose_matrix
-from models.structure import description_document, description_from_document
+from models.formats.joint_chain import pose_matrix
+from models.formats.ur_kinematics import BASE_LINK as UR_BASE_LINK
+from models.formats.ur_kinematics import TIP_LINK as UR_TIP_LINK
+from models.formats.ur_kinematics import read_kinematics, urdf_of_kinematics
+from models.formats.urdf import UrdfSource, document_from_urdf, refuse_xacro
 from models.transforms import matrix_to_rotvec_np
-from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
-from models.ur_kinematics import TIP_LINK as UR_TIP_LINK
-from models.ur_kinematics import read_kinematics, urdf_of_kinematics
-from models.urdf import UrdfSource, document_from_urdf, refuse_xacro
-from service.builds import BuildStatus
+from service.compute.builds import BuildStatus
 from service.conversions.kinematics import pose6_in, pose6_out
 from service.persistence.tables import ParameterVersion, Robot
 from service.schemas.common import Pose
@@ -109,7 +109,8 @@ def new_description(body: RobotCreate) -> NewRobot:
     if source is not None:
         document: dict[str, Any] = document_from_urdf(source.urdf, source.base_link, source.tip_link)
     elif body.structure is not None:
-        document = body.structure.model_dump()  # the JSON shape models.structure reads (absent keys left out)
+        document = body.structure.model_dump()  # the JSON shape models.description.structure reads (absent keys left
+        # out)
     elif body.model == "custom":
         raise InvalidInput("a custom robot needs a structure, a urdf or an import", field="structure")
     else:

@@ -14,8 +14,8 @@ import numpy as np
 
 from models import RobotDescription
 from models._types import Array
+from models.description.terms import Conditions, ModelTerms, make_conditions
 from models.errors import InvalidInput
-from models.terms import Conditions, ModelTerms, make_conditions
 from service.record_kinds.tracker import Record
 from service.schemas.common import Payload
 

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from models import RobotDescription
-from models.accuracy import AccuracyReport, CubePoses
+from models.evaluation.accuracy import AccuracyReport, CubePoses
 from service.persistence.tables import CheckRecord, ValidationRecord
 from service.schemas.common import timestamp
 from service.schemas.validations import IsoPosesPublic, ValidationPublic, VersionResultPublic

@@ -31,17 +31,17 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from models import Registry
-from models.cancellation import CancellationToken, Cancelled, Step, cancellable
-from service.compute import resident_bytes
+from models.engine.cancellation import CancellationToken, Cancelled, Step, cancellable
+from service.compute.faults import crash_point
+from service.compute.limits import JOB_MEMORY_BYTES
+from service.compute.model_cache import ModelCache
+from service.compute.parent_watch import watch_parent
+from service.compute.pool import resident_bytes
+from service.compute.registry import build_registry, native_functions
 from service.errors import WorkTooLarge
-from service.faults import crash_point
-from service.limits import JOB_MEMORY_BYTES
-from service.model_cache import ModelCache
-from service.parent_watch import watch_parent
+from service.http.problems import lookup, to_problem
 from service.persistence import Database
 from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed
-from service.problems import lookup, to_problem
-from service.registry import build_registry, native_functions
 from service.services.jobs import run_job
 from service.settings import Settings
 
@@ -173,7 +173,7 @@ class Lease:
 
 class Ceiling:
     """A job's memory and time ceiling while it runs, watched by a thread of its own: past either, `exceeded`
-    holds the problem the job fails with, and the job's token stops it at its next step (models.cancellation).
+    holds the problem the job fails with, and the job's token stops it at its next step (models.engine.cancellation).
     Past `HARD_MEMORY_FACTOR` times the memory ceiling, `on_hard` fails the row and the process kills itself."""
 
     def __init__(
@@ -257,7 +257,7 @@ def _run(ctx: WorkerContext, claim: Claim, worker: str) -> Outcome:
     seconds = ctx.time_limit(claim.kind) if ctx.time_limit is not None else None
     with Lease(ctx, claim.job_id, worker) as lease, Ceiling(ctx.memory_bytes, seconds, hard_stop) as ceiling:
         # Between progress points too: the solvers and design loops check this token at each step
-        # (models.cancellation), and the heartbeat sets `cancel` or `lost` within a third of the lease.
+        # (models.engine.cancellation), and the heartbeat sets `cancel` or `lost` within a third of the lease.
         token = CancellationToken(
             probe=lambda: lease.cancel or lease.lost or ceiling.exceeded is not None, on_step=lease.iterated
         )

@@ -8,7 +8,7 @@ from typing import Any
 
 from sqlalchemy import delete, func, select
 
-from models.urdf import UrdfSource
+from models.formats.urdf import UrdfSource
 from service.errors import NotFound
 from service.persistence.store import Store
 from service.persistence.tables import (

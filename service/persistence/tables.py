@@ -133,7 +133,7 @@ class ValidationRecord(Base):
 
 
 class CheckRecord(Base):
-    """A quick check (models.checks): a few records against the version current then, and its verdict."""
+    """A quick check (models.evaluation.checks): a few records against the version current then, and its verdict."""
 
     __tablename__ = "checks"
     id: Mapped[str] = mapped_column(String(36), primary_key=True)

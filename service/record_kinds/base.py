@@ -13,10 +13,10 @@ import numpy as np
 from pydantic import BaseModel
 
 from models import RobotDescription
+from models.engine.runtime import Runtime
 from models.errors import InvalidInput
 from models.measurement import MeasurementKind
 from models.measurements.references import AnyReference, ReferenceRecords
-from models.runtime import Runtime
 from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import ImportOptions, length_factor
 from service.campaign_io.tabular import Row, Table

@@ -11,11 +11,11 @@ import numpy as np
 from pydantic import Field
 
 from models import RobotDescription
+from models.description.parameters import Kind
+from models.engine.runtime import Runtime
 from models.errors import InvalidInput
 from models.measurements.camera import Camera, described_camera, read_images
 from models.measurements.references import ReferenceRecords
-from models.parameters import Kind
-from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np
 from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import length_factor

@@ -5,8 +5,8 @@ from __future__ import annotations
 from fastapi import APIRouter, Response
 from pydantic import TypeAdapter
 
-from service import limits
-from service.deps import (
+from service.compute import limits
+from service.http.deps import (
     ActorDep,
     DatabaseDep,
     Limit,
@@ -17,9 +17,10 @@ from service.deps import (
     SettingsDep,
     compute,
 )
-from service.json_bodies import OffloopRoute
-from service.operations import Runs, operation
-from service.responses import model_json, models_json
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import Runs, operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.schemas.adaptive import (
     AdaptiveCampaignCreate,
     AdaptiveCampaignPublic,
@@ -28,7 +29,6 @@ from service.schemas.adaptive import (
     AdaptiveRecordsCreate,
     AdaptiveStepPublic,
 )
-from service.security import Scope
 from service.services import adaptive
 
 router = APIRouter(tags=["adaptive campaigns"], route_class=OffloopRoute)

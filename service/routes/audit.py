@@ -5,13 +5,13 @@ from datetime import datetime
 from fastapi import APIRouter, Query, Response
 from pydantic import TypeAdapter
 
-from service.deps import DatabaseDep, Limit, Offset
-from service.json_bodies import OffloopRoute
-from service.operations import operation
+from service.http.deps import DatabaseDep, Limit, Offset
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import operation
+from service.http.responses import models_json
+from service.http.security import Scope
 from service.persistence.lifecycle import AuditQuery
-from service.responses import models_json
 from service.schemas.audit import Action, AuditEventPublic
-from service.security import Scope
 from service.services import audit
 
 router = APIRouter(tags=["audit"], route_class=OffloopRoute)

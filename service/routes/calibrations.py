@@ -6,15 +6,15 @@ from typing import Annotated
 from fastapi import APIRouter, Depends, Query, Request, Response
 from pydantic import TypeAdapter
 
-from service import limits
-from service.campaign_requests import (
+from service.compute import limits
+from service.files.campaign_requests import (
     CampaignQuery,
     campaign_body,
     campaign_query,
     campaign_request_body,
     robot_columns,
 )
-from service.deps import (
+from service.http.deps import (
     ActorDep,
     DatabaseDep,
     JobsDep,
@@ -26,12 +26,12 @@ from service.deps import (
     compute,
     negotiate,
 )
-from service.json_bodies import OffloopRoute
-from service.operations import CALIBRATION, Runs, operation
-from service.responses import model_json, models_json
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import CALIBRATION, Runs, operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.routes.robots import IfMatch
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
-from service.security import Scope
 from service.services import calibrations
 from service.services.jobs import submit_job
 
@@ -82,7 +82,7 @@ async def create_calibration(
     query: Annotated[CampaignQuery, Depends(campaign_query)],
     if_match: IfMatch = None,
 ) -> Response:
-    # A JSON body over the budget was refused before any parsing (its `precount`, service.operations); a CSV one is
+    # A JSON body over the budget was refused before any parsing (its `precount`, service.http.operations); a CSV one is
     # counted once parsed.
     body = await campaign_body(request, query, functools.partial(robot_columns, db, robot_id))
     limits.admit(limits.calibration(len(body.measurements)), run_async=run_async, budget_s=settings.sync_budget_seconds)

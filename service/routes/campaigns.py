@@ -7,14 +7,14 @@ from typing import Any
 
 from fastapi import APIRouter, Query, Request, Response
 
-from service.csv_codec import CAMPAIGN_HEADER
-from service.deps import DatabaseDep, ModelCacheDep, negotiate
-from service.json_bodies import OffloopRoute
-from service.operations import operation
+from service.files.csv_codec import CAMPAIGN_HEADER
+from service.http.deps import DatabaseDep, ModelCacheDep, negotiate
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import operation
+from service.http.responses import model_json
+from service.http.security import Scope
 from service.record_kinds import FILE_COLUMNS, kind_of, sole_kind
-from service.responses import model_json
 from service.schemas.campaigns import CampaignPublic
-from service.security import Scope
 from service.services import campaigns
 
 router = APIRouter(tags=["campaigns"], route_class=OffloopRoute)

@@ -8,8 +8,8 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Header, Query, Response
 from pydantic import TypeAdapter
 
-from service import limits
-from service.deps import (
+from service.compute import limits
+from service.http.deps import (
     ActorDep,
     DatabaseDep,
     Limit,
@@ -20,11 +20,11 @@ from service.deps import (
     SettingsDep,
     compute,
 )
-from service.json_bodies import OffloopRoute
-from service.operations import Runs, operation
-from service.responses import model_json, models_json
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import Runs, operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.schemas.cells import CellCheckCreate, CellCheckPublic, CellDocument, CellPublic, CellVersionPublic
-from service.security import Scope
 from service.services import cells
 
 router = APIRouter(prefix="/v1/robots/{robot_id}/cell", tags=["cells"], route_class=OffloopRoute)

@@ -6,19 +6,20 @@ from typing import Any
 from fastapi import APIRouter, Depends, Query, Request, Response
 from pydantic import TypeAdapter
 
-from service import limits
-from service.campaign_requests import (
+from service.compute import limits
+from service.conversions.checks import HISTORY_COLUMNS, history_csv
+from service.files.campaign_requests import (
     FileOptions,
     campaign_request,
     campaign_request_body,
     query_fields,
     robot_columns,
 )
-from service.conversions.checks import HISTORY_COLUMNS, history_csv
-from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute, negotiate
-from service.json_bodies import OffloopRoute
-from service.operations import QUICK_CHECK, Runs, operation
-from service.responses import model_json, models_json
+from service.http.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute, negotiate
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import QUICK_CHECK, Runs, operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.schemas.checks import (
     Against,
     HistoryEventPublic,
@@ -28,7 +29,6 @@ from service.schemas.checks import (
     QuickCheckPublic,
 )
 from service.schemas.common import NOTES_MAX
-from service.security import Scope
 from service.services import checks
 
 router = APIRouter(tags=["checks"], route_class=OffloopRoute)

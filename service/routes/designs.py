@@ -6,9 +6,10 @@ from fastapi import APIRouter, Query, Request, Response
 from pydantic import TypeAdapter
 
 from optimal_design.problem import MAX_CANDIDATES
-from service import limits
-from service.csv_codec import joints_csv
-from service.deps import (
+from service.compute import limits
+from service.compute.model_cache import ModelCache
+from service.files.csv_codec import joints_csv
+from service.http.deps import (
     DatabaseDep,
     JobsDep,
     Limit,
@@ -20,13 +21,12 @@ from service.deps import (
     compute,
     wants_csv,
 )
-from service.json_bodies import OffloopRoute
-from service.model_cache import ModelCache
-from service.operations import POSE_DESIGN, Runs, operation
-from service.responses import model_json, models_json
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import POSE_DESIGN, Runs, operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
 from service.schemas.jobs import JobAccepted
-from service.security import Scope
 from service.services import designs
 from service.services.jobs import submit_job
 

@@ -2,13 +2,13 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Response
 
-from service import limits
-from service.deps import MetricsDep, ModelCacheDep, RegistryDep, SettingsDep, compute
-from service.json_bodies import OffloopRoute
-from service.operations import Runs, operation
-from service.responses import model_json
+from service.compute import limits
+from service.http.deps import MetricsDep, ModelCacheDep, RegistryDep, SettingsDep, compute
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import Runs, operation
+from service.http.responses import model_json
+from service.http.security import Scope
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
-from service.security import Scope
 from service.services import error_analysis
 
 router = APIRouter(tags=["error analysis"], route_class=OffloopRoute)

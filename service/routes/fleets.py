@@ -4,12 +4,12 @@ from typing import Annotated
 
 from fastapi import APIRouter, Path, Response
 
-from service.deps import DatabaseDep
-from service.json_bodies import OffloopRoute
-from service.operations import operation
-from service.responses import model_json
+from service.http.deps import DatabaseDep
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import operation
+from service.http.responses import model_json
+from service.http.security import Scope
 from service.schemas.fleets import FLEET_KEY, FleetPublic
-from service.security import Scope
 from service.services import fleets
 
 router = APIRouter(tags=["fleets"], route_class=OffloopRoute)

@@ -5,8 +5,8 @@ from typing import Literal
 from fastapi import APIRouter, Request, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
-from service.deps import DatabaseDep, MetricsDep
 from service.errors import NotReady
+from service.http.deps import DatabaseDep, MetricsDep
 from service.schemas.common import Public
 from service.services.jobs import job_durations, queue_depth
 

@@ -3,12 +3,12 @@ from __future__ import annotations
 from fastapi import APIRouter, Query, Response
 from pydantic import TypeAdapter
 
-from service.deps import DatabaseDep, Limit, Offset
-from service.json_bodies import OffloopRoute
-from service.operations import operation
-from service.responses import model_json, models_json
+from service.http.deps import DatabaseDep, Limit, Offset
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.schemas.jobs import JobKind, JobPublic, JobStatus
-from service.security import Scope
 from service.services import jobs
 
 router = APIRouter(tags=["jobs"], route_class=OffloopRoute)

@@ -2,14 +2,14 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Request, Response
 
-from service import limits
-from service.csv_codec import joints_csv
-from service.deps import MetricsDep, ModelCacheDep, RegistryDep, wants_csv
-from service.dispatch import BodyComputation, computed
-from service.json_bodies import OffloopRoute, request_body
-from service.operations import FORWARD_KINEMATICS, INVERSE_KINEMATICS, Runs, operation
+from service.compute import limits
+from service.compute.dispatch import BodyComputation, computed
+from service.files.csv_codec import joints_csv
+from service.http.deps import MetricsDep, ModelCacheDep, RegistryDep, wants_csv
+from service.http.json_bodies import OffloopRoute, request_body
+from service.http.operations import FORWARD_KINEMATICS, INVERSE_KINEMATICS, Runs, operation
+from service.http.security import Scope
 from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
-from service.security import Scope
 from service.services import kinematics
 
 router = APIRouter(prefix="/v1/robots/{robot_id}", tags=["kinematics"], route_class=OffloopRoute)

@@ -12,16 +12,16 @@ from typing import Any
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
 
-from service import limits
-from service.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, RegistryDep, compute
-from service.dispatch import BodyComputation, computed
-from service.guards import OFFLOOP_BYTES
-from service.json_bodies import OffloopRoute, raw_json_body, request_body, validate_json
-from service.operations import PROGRAM_COMPENSATION, Runs, operation, program_targets
-from service.responses import model_json
+from service.compute import limits
+from service.compute.dispatch import BodyComputation, computed
+from service.http.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, RegistryDep, compute
+from service.http.guards import OFFLOOP_BYTES
+from service.http.json_bodies import OffloopRoute, raw_json_body, request_body, validate_json
+from service.http.operations import PROGRAM_COMPENSATION, Runs, operation, program_targets
+from service.http.responses import model_json
+from service.http.security import Scope
 from service.schemas.jobs import JobAccepted
 from service.schemas.programs import ProgramFormat, ProgramRequest, ProgramResponse
-from service.security import Scope
 from service.services import programs
 from service.services.jobs import ENCODING, submit_job
 
@@ -120,7 +120,7 @@ async def compensate(
 
 async def _json_body(request: Request) -> tuple[ProgramRequest, str | None]:
     """A JSON body to store as a job's request, validated as the route's model (a large one in the parse process,
-    as `service.json_bodies` does for the declared bodies)."""
+    as `service.http.json_bodies` does for the declared bodies)."""
     raw = await raw_json_body(request)
     pool = getattr(request.app.state, "compute", None)
     parsed = (

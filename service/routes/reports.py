@@ -4,10 +4,10 @@ from typing import Any
 
 from fastapi import APIRouter, Query, Request, Response
 
-from service.deps import DatabaseDep, MetricsDep, compute, negotiate
-from service.json_bodies import OffloopRoute
-from service.operations import Runs, operation
-from service.security import Scope
+from service.http.deps import DatabaseDep, MetricsDep, compute, negotiate
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import Runs, operation
+from service.http.security import Scope
 from service.services import reports
 
 router = APIRouter(tags=["reports"], route_class=OffloopRoute)

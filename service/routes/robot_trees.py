@@ -12,8 +12,8 @@ from fastapi import APIRouter, Header, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
 from pydantic import TypeAdapter
 
-from service import limits
-from service.deps import (
+from service.compute import limits
+from service.http.deps import (
     ActorDep,
     DatabaseDep,
     Limit,
@@ -24,9 +24,10 @@ from service.deps import (
     compute,
     negotiate,
 )
-from service.json_bodies import OffloopRoute
-from service.operations import Runs, operation
-from service.responses import model_json, models_json
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import Runs, operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.schemas.robot_trees import (
     RobotTreeCreate,
     RobotTreePublic,
@@ -41,7 +42,6 @@ from service.schemas.robot_trees import (
     TreeKinematicsRequest,
     TreeUrdfExportPublic,
 )
-from service.security import Scope
 from service.services import robot_trees, tree_operations, tree_reports
 
 router = APIRouter(prefix="/v1/robot-trees", tags=["robot-trees"], route_class=OffloopRoute)

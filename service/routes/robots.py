@@ -5,14 +5,14 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Header, Query, Request, Response
 from pydantic import TypeAdapter
 
-from service.deps import ActorDep, BuildsDep, DatabaseDep, Limit, Offset, negotiate
-from service.json_bodies import OffloopRoute
-from service.operations import operation
-from service.parameters_csv import PARAMETER_HEADER, parameters_csv
-from service.responses import model_json, models_json
+from service.files.parameters_csv import PARAMETER_HEADER, parameters_csv
+from service.http.deps import ActorDep, BuildsDep, DatabaseDep, Limit, Offset, negotiate
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.schemas.robots import MAX_VERSION, ParametersPublic, RobotCreate, RobotPatch, RobotPublic
 from service.schemas.structure import StructureDocument
-from service.security import Scope
 from service.services import exports, robots
 from service.services.exports import DH_MEDIA_TYPE
 

@@ -6,18 +6,19 @@ from typing import Any
 from fastapi import APIRouter, Depends, Query, Request, Response
 from pydantic import TypeAdapter
 
-from service import limits
-from service.campaign_requests import (
+from service.compute import limits
+from service.files.campaign_requests import (
     FileOptions,
     campaign_request,
     campaign_request_body,
     query_fields,
     robot_columns,
 )
-from service.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute
-from service.json_bodies import OffloopRoute
-from service.operations import VALIDATION, Runs, operation
-from service.responses import model_json, models_json
+from service.http.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import VALIDATION, Runs, operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.schemas.common import NOTES_MAX
 from service.schemas.validations import (
     MAX_VERSIONS,
@@ -26,7 +27,6 @@ from service.schemas.validations import (
     ValidationCreate,
     ValidationPublic,
 )
-from service.security import Scope
 from service.services import validations
 
 router = APIRouter(tags=["validations"], route_class=OffloopRoute)

@@ -7,15 +7,15 @@ from fastapi import APIRouter, Path, Request, Response
 from fastapi.exceptions import RequestValidationError
 from pydantic import TypeAdapter, ValidationError
 
-from service.deps import ActorDep, DatabaseDep
 from service.errors import BadRequest, UnsupportedMediaType
-from service.json_bodies import OffloopRoute
-from service.operations import operation
-from service.parameters_csv import PARAMETER_HEADER, parse_parameters
-from service.responses import model_json, models_json
+from service.files.parameters_csv import PARAMETER_HEADER, parse_parameters
+from service.http.deps import ActorDep, DatabaseDep
+from service.http.json_bodies import OffloopRoute
+from service.http.operations import operation
+from service.http.responses import model_json, models_json
+from service.http.security import Scope
 from service.routes.robots import IfMatch
 from service.schemas.versions import ParameterVersionImport, ParameterVersionPublic, VersionDiffPublic
-from service.security import Scope
 from service.services import versions
 
 router = APIRouter(

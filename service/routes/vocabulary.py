@@ -5,10 +5,10 @@ from __future__ import annotations
 from fastapi import APIRouter, Response
 from pydantic import TypeAdapter
 
-from service.operations import operation
-from service.responses import models_json
+from service.http.operations import operation
+from service.http.responses import models_json
+from service.http.security import Scope
 from service.schemas.vocabulary import AdaptiveCriterionPublic, CriterionPublic, RecordKindPublic
-from service.security import Scope
 from service.services import vocabulary
 
 router = APIRouter(tags=["vocabulary"])

@@ -3,7 +3,7 @@ and the clearance, in mm and degrees; its stored versions; the check of a list o
 
 The service turns a document into `models.cell.Cell` (`service/conversions/cells.py`): positions stay mm,
 angles become radians. Sizes are positive and finite (a 422 naming the field); the counts that cost the checks
-time (obstacles, mesh triangles, a link's shapes, poses to check) are bounded in `service.limits`.
+time (obstacles, mesh triangles, a link's shapes, poses to check) are bounded in `service.compute.limits`.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Literal
 from pydantic import Field, model_validator
 
 from models.cell import Reason
-from service import limits
+from service.compute import limits
 from service.schemas.common import JointVector, Position, Public, Strict
 from service.schemas.references import RotationVectorDeg
 

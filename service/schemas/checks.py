@@ -8,7 +8,7 @@ from typing import Literal
 
 from pydantic import ConfigDict, Field
 
-from models.checks import CheckAction, CheckOptions, Verdict
+from models.evaluation.checks import CheckAction, CheckOptions, Verdict
 from optimal_design.checks import MAX_CHECK_POSES, MIN_CHECK_POSES
 from service.record_kinds import CampaignRecord, ReferenceDescriptions
 from service.schemas.calibrations import Instrument, InstrumentPublic, Noise

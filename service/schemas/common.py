@@ -57,7 +57,7 @@ ImportNotes = Annotated[
         description="What the file reader noted (columns ignored, units converted); set by the service for CSV",
     ),
 ]
-"""A campaign request's notes from the file its records were read from (service.campaign_requests): the same
+"""A campaign request's notes from the file its records were read from (service.files.campaign_requests): the same
 field in every body that may come as a file (a calibration, a validation, a quick check)."""
 
 

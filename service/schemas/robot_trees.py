@@ -15,7 +15,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from optimal_design.criteria import Criterion
-from service import limits
+from service.compute import limits
 from service.schemas.common import OptionalFloat, PosePublic, Position, Public, Quaternion, Strict
 from service.schemas.exports import DhLinkPublic
 from service.schemas.robots import PrintableName

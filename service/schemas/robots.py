@@ -79,7 +79,7 @@ class RobotPatch(Strict):
 
 
 class StructureBuildPublic(Public):
-    """The state of the robot's structure's native code in this server (service.builds)."""
+    """The state of the robot's structure's native code in this server (service.compute.builds)."""
 
     state: Literal["building", "ready", "failed"] = Field(
         description="building: started when the robot was created; a request meanwhile waits for it (slower "

@@ -4,7 +4,7 @@
 The schema holds the document's shape (keys, kinds, list lengths, numbers); the rules between values (a range
 with lo < hi, six joints not on one line, a moving joint, one hexapod at most, `beta` only on a link parallel
 to the previous one (mdh, or dh with alpha 0 or ±180°: an addition to robots.md), a home inside the workspace
-and the strokes) stay in `models.structure`, which names the field in its 422 as robots.md does
+and the strokes) stay in `models.description.structure`, which names the field in its 422 as robots.md does
 (`stages[0].strokes`). One set of classes serves requests and responses: a document the service returns is
 accepted back as it is.
 """
@@ -15,9 +15,9 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, SerializerFunctionWrapHandler, model_serializer
 
-from models.hexapod import N_LEGS
-from models.serial_chain import JointType
-from models.structure import MAX_LINKS
+from models.description.hexapod import N_LEGS
+from models.description.serial_chain import JointType
+from models.description.structure import MAX_LINKS
 from service.schemas.common import values_of
 
 if TYPE_CHECKING:

@@ -15,6 +15,7 @@ from typing import Any
 from models import Registry
 from models.measurement import MeasurementKind
 from optimal_design.adaptive import Pool, Progress, advance
+from service.compute.model_cache import ModelCache
 from service.conversions.adaptive import (
     campaign_in,
     campaign_public,
@@ -28,7 +29,6 @@ from service.conversions.adaptive import (
     step_public,
 )
 from service.errors import Conflict
-from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.adaptive import AdaptiveStore
 from service.persistence.lifecycle import Actor

@@ -10,11 +10,11 @@ import numpy as np
 from models import Registry, RobotDescription
 from models.cell import Cell, check_poses
 from models.errors import InvalidInput
+from service.compute.model_cache import ModelCache
 from service.conversions.cells import EffectiveCell, cell_in, cell_public, cell_version_out
 from service.conversions.kinematics import joints_in
 from service.conversions.robots import urdf_source
 from service.errors import NotFound
-from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle, check_revision
 from service.persistence.tables import RobotCellRecord

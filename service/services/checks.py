@@ -1,4 +1,5 @@
-"""Quick checks: a few tracker records against the current version (models.checks), their design, and a robot's
+"""Quick checks: a few tracker records against the current version (models.evaluation.checks), their design, and a
+robot's
 history of calibrations and checks. Read, compute outside any transaction, write in one."""
 
 from __future__ import annotations
@@ -11,8 +12,8 @@ import numpy as np
 
 from models import NoiseModel, Registry, RobotDescription
 from models._types import Array
-from models.checks import CALIBRATION_POSES, CheckOptions, version_covariance
 from models.errors import InvalidInput
+from models.evaluation.checks import CALIBRATION_POSES, CheckOptions, version_covariance
 from models.measurement import MeasurementKind
 from optimal_design.checks import design_check
 from service.conversions.checks import check_design_out, check_document, check_public, history_out

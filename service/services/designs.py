@@ -4,6 +4,7 @@ from models import Registry, RobotDescription
 from models.errors import InvalidInput
 from models.measurement import MeasurementKind
 from optimal_design import DesignOptions, design_for_target, design_poses
+from service.compute.model_cache import ModelCache
 from service.conversions.designs import (
     constraints_in,
     design_noise,
@@ -14,7 +15,6 @@ from service.conversions.designs import (
 )
 from service.conversions.kinematics import joints_in
 from service.conversions.terms import design_levels, requested_model, start_values
-from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
 from service.record_kinds import BY_MEASUREMENT

@@ -5,8 +5,8 @@ import numpy as np
 from models import Registry, iwr
 from models.error_analysis import error_analysis
 from models.errors import InvalidInput
+from service.compute.model_cache import ModelCache
 from service.conversions.error_analysis import report_out, tolerances_in
-from service.model_cache import ModelCache
 from service.schemas.error_analysis import ErrorAnalysisPublic, ErrorAnalysisRequest
 
 

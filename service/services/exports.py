@@ -15,12 +15,12 @@ import numpy as np
 
 from models import RobotDescription
 from models._types import Array
-from models.dh_table import LINK_TRANSFORMS, dh_table, geometric_only
-from models.joint_chain import joint_chain, serial_only
-from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
-from models.ur_kinematics import UrChain, kinematics_yaml, require_6r, ur_chain
-from models.urdf import UrdfSource, urdf_from_description
-from models.urdf_calibrated import calibrate_urdf, frame_text, splice_origins
+from models.formats.dh_table import LINK_TRANSFORMS, dh_table, geometric_only
+from models.formats.joint_chain import joint_chain, serial_only
+from models.formats.ur_kinematics import BASE_LINK as UR_BASE_LINK
+from models.formats.ur_kinematics import UrChain, kinematics_yaml, require_6r, ur_chain
+from models.formats.urdf import UrdfSource, urdf_from_description
+from models.formats.urdf_calibrated import calibrate_urdf, frame_text, splice_origins
 from service.conversions.robots import description, urdf_source
 from service.conversions.terms import stored_model
 from service.persistence import Database, Repository

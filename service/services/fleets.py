@@ -12,7 +12,7 @@ from sqlalchemy.orm import Session
 from models import RobotDescription
 from models._types import Array
 from models.errors import PriorMismatch
-from models.fleet import MIN_UNITS, FleetPrior, UnitEstimate, compare, fleet_prior, leave_one_out
+from models.evaluation.fleet import MIN_UNITS, FleetPrior, UnitEstimate, compare, fleet_prior, leave_one_out
 from models.identification import IdentificationResult
 from models.identification.prior import ParameterPrior
 from service.conversions.fleets import comparison_rows_out, population_out

@@ -9,17 +9,17 @@ from typing import Any, Protocol
 from pydantic import BaseModel
 
 from models import Registry
+from service.compute.model_cache import ModelCache
 from service.conversions.calibrations import calibration_public
 from service.conversions.designs import design_public
 from service.conversions.jobs import accepted_out, job_out
 from service.errors import JobFinished, NotFound, NotReady, QueueFull
-from service.model_cache import ModelCache
+from service.http.problems import to_problem
 from service.persistence import Database, Repository
 from service.persistence.job_store import JobStore
 from service.persistence.lifecycle import Actor, check_revision
 from service.persistence.repository import new_id
 from service.persistence.tables import Job
-from service.problems import to_problem
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic
 from service.schemas.jobs import JobAccepted, JobKind, JobPublic, JobStatus

@@ -6,12 +6,12 @@ from models import Registry, forward_kinematics
 from models.cell import frame_layout, stage_frames
 from models.compensation import inverse_kinematics
 from models.compensation.terms import terms_inverse_kinematics
+from models.description.terms import Conditions
 from models.identification.diagnosis import check_radians
-from models.terms import Conditions
+from service.compute.model_cache import ModelCache
 from service.conversions.drift import condition_warnings
 from service.conversions.kinematics import forward_out, frames_out, inverse_out, joints_in, targets_in
 from service.conversions.terms import request_conditions
-from service.model_cache import ModelCache
 from service.schemas.kinematics import ForwardRequest, ForwardResponse, InverseRequest, InverseResponse
 
 

@@ -22,10 +22,11 @@ from typing import Any, cast
 
 from models import RobotDescription
 from models._types import Array
-from models.accuracy import AccuracyReport, evaluate
 from models.campaign import Campaign
-from models.checks import CheckOptions, CheckResult, check_references, check_version
+from models.engine.runtime import Runtime
 from models.errors import InvalidInput
+from models.evaluation.accuracy import AccuracyReport, evaluate
+from models.evaluation.checks import CheckOptions, CheckResult, check_references, check_version
 from models.identifiability import structural_identifiability
 from models.identification import IdentificationOptions, IdentificationResult, identify
 from models.identification.drift import DriftOptions, identify_with_drift
@@ -35,7 +36,6 @@ from models.identification.terms_check import unused_temperature_note
 from models.measurement import MeasurementKind
 from models.measurements.references import ReferenceRecords
 from models.noise import NoiseModel
-from models.runtime import Runtime
 from service.conversions.calibrations import records_in
 from service.conversions.drift import drift_out, timeline_in
 from service.conversions.references import reference_groups_in

@@ -15,21 +15,21 @@ from models._types import Array
 from models.compensation.controller import ZERO, ControllerFrame, urdf_controller_frame
 from models.compensation.pendant import check_pendant
 from models.compensation.poses import PoseCompensation, compensate_poses
+from models.engine.runtime import Runtime
 from models.errors import InvalidInput
+from models.formats.ur_kinematics import BASE_LINK as UR_BASE_LINK
 from models.inverse import default_seed
-from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
-from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
 from programs import DIALECTS, PROGRAM, Program, ProgramError, Target, dialect, dialect_of_file, read_program, rewritten
 from programs.collection import collector_paused
 from programs.configuration import kept
 from programs.configuration import seed as configuration_seed
-from service import limits
+from service.compute import limits
+from service.compute.model_cache import ModelCache
 from service.conversions.drift import condition_warnings
 from service.conversions.kinematics import joints_in
 from service.conversions.robots import description, urdf_source
 from service.conversions.terms import stored_model
-from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.schemas.common import ConditionWarningPublic
 from service.schemas.programs import CompensatedTarget, PendantCheckPublic, ProgramRequest, ProgramResponse

@@ -10,8 +10,8 @@ import numpy as np
 
 from models import NoiseModel, RobotDescription
 from models._types import Array
+from models.engine.runtime import Runtime
 from models.errors import TargetUnreachable
-from models.runtime import Runtime
 from optimal_design import PoseDesign, TargetDesign
 from optimal_design.references import design_reference_records, reference_records_for_target
 from service.conversions.designs import design_noise, report_out, target_report_out

@@ -3,10 +3,10 @@ from __future__ import annotations
 import numpy as np
 
 from models import RobotDescription
-from models.structure import description_from_document
-from models.urdf import document_from_urdf
+from models.description.structure import description_from_document
+from models.formats.urdf import document_from_urdf
 from service.audit_actions import AuditAction
-from service.builds import StructureBuilds
+from service.compute.builds import StructureBuilds
 from service.conversions.robots import (
     around_urdf,
     build_out,

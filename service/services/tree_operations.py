@@ -20,8 +20,9 @@ import numpy as np
 
 from models import Registry
 from models._types import Array
-from models.dh_table import LINK_TRANSFORMS, frame_row
 from models.errors import InvalidInput
+from models.formats.dh_table import LINK_TRANSFORMS, frame_row
+from models.formats.urdf_calibrated import frame_text, splice_origins
 from models.noise import NoiseModel
 from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
 from models.tree import (
@@ -33,7 +34,6 @@ from models.tree import (
     compensate_world,
     tree_joint_samples,
 )
-from models.urdf_calibrated import frame_text, splice_origins
 from optimal_design.tree import TreeCandidate, design_tree
 from service.conversions.kinematics import unit_quaternion
 from service.conversions.robot_trees import current_values, joint_scale, joints_in, tree_in

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from models import Registry
-from models.accuracy import iso_cube_poses
 from models.errors import InvalidInput
+from models.evaluation.accuracy import iso_cube_poses
 from service.conversions.references import described
 from service.conversions.robots import description
 from service.conversions.terms import stored_model

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from harness.live import running_server
-from models.examples import ur5_like, ur5_like_document
+from models.description.examples import ur5_like, ur5_like_document
 from models.simulation import measure, perturbed_robot
 from tests.cli.helpers import api, iwr
 

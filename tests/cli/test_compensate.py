@@ -35,7 +35,7 @@ from harness.programs import (
 from iwr_client import ApiError, Client, ProgramFile, summary
 from iwr_client.cli import main
 from iwr_client.programs import compensated_bytes, format_of
-from models.examples import ur5_like_document
+from models.description.examples import ur5_like_document
 from programs import read_program
 from tests.cli.helpers import StandIn, iwr, serving
 

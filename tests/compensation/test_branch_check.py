@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from harness.programs import HOME_DEG, Cell, ur5_cell
+from models.engine.runtime import runtime_for
 from models.inverse.problem import joint_weights
 from models.inverse.routing import IkBatch
 from models.kinematics import forward_kinematics
-from models.runtime import runtime_for
 from models.transforms import matrix_to_rotvec_np
 
 

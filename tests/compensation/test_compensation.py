@@ -9,13 +9,13 @@ import pytest
 
 from models import RobotDescription, forward_kinematics, iwr, sample_workspace
 from models.compensation import correct_program, inverse_kinematics
+from models.engine.runtime import runtime_for
 from models.identification import IdentificationResult, identify
 from models.identification.statistics import tcp_accuracy
 from models.inverse import default_seed, routing, starts
 from models.inverse.kkt import kkt_functions, newton_kkt
 from models.inverse.nlp import bounds
 from models.inverse.problem import joint_weights
-from models.runtime import runtime_for
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, quaternion_to_matrix
 

@@ -10,7 +10,7 @@ import pytest
 
 from models import forward_kinematics, sample_workspace
 from models.compensation.pendant import check_pendant
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 
 DESC = ur5_like()
 JOINTS = sample_workspace(DESC, 6, seed=12)

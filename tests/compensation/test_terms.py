@@ -7,7 +7,7 @@ import pytest
 
 from models import forward_kinematics, iwr, sample_workspace
 from models.compensation import compensate, correct_program
-from models.terms import ModelTerms, make_conditions
+from models.description.terms import ModelTerms, make_conditions
 from models.transforms import matrix_to_quaternion
 
 DESC = iwr().with_terms(ModelTerms(thermal=True, compliance=True))

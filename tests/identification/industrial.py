@@ -15,7 +15,7 @@ import scipy.optimize
 from scipy.spatial.transform import Rotation
 
 from models import RobotDescription
-from models.structure import description_from_document
+from models.description.structure import description_from_document
 
 Array = np.ndarray
 

@@ -14,13 +14,13 @@ import pytest
 
 from models import NoiseModel, RobotDescription, forward_kinematics, sample_workspace
 from models.compensation import inverse_kinematics
+from models.description.examples import hexapod_alone, iiwa_like, track_arm, ur5_like
+from models.description.structure import description_from_document
 from models.error_analysis import ErrorMagnitudes, error_analysis
-from models.examples import hexapod_alone, iiwa_like, track_arm, ur5_like
 from models.identifiability import structural_identifiability
 from models.identification import identify
 from models.measurement import MeasurementKind
 from models.simulation import measure, perturbed_robot
-from models.structure import description_from_document
 from models.transforms import matrix_to_quaternion
 from optimal_design import design_poses
 from tests.identification.truth import cramer_rao_rms, nominal_in_true_frame, rms_position_error

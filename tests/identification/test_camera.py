@@ -24,12 +24,12 @@ from harness.camera import (
     world_images,
 )
 from models import forward_kinematics, sample_workspace
+from models.description.examples import ur5_like
+from models.engine.runtime import runtime_for
 from models.errors import InvalidInput, TooFewMeasurements
-from models.examples import ur5_like
 from models.identification.reference_fit import ReferenceProblem, identify_references, reference_problem
 from models.measurements.camera import Camera, Intrinsics, ToolCamera, read_images
 from models.noise import NoiseModel
-from models.runtime import runtime_for
 from models.transforms import matrix_to_rotvec_np
 
 DESC = ur5_like()

@@ -16,6 +16,7 @@ import pytest
 
 from harness.drift import drift_campaign, tcp_error_mm
 from models import NoiseModel, RobotDescription, forward_kinematics, iwr, sample_workspace
+from models.description.terms import ModelTerms, make_conditions
 from models.errors import InvalidInput
 from models.identifiability import scaled_jacobian
 from models.identification import identify
@@ -29,7 +30,6 @@ from models.identification.drift import (
     identify_with_drift,
 )
 from models.simulation import SimulatedRobot, measure, perturbed_robot
-from models.terms import ModelTerms, make_conditions
 
 NOISE = NoiseModel(0.010, float(np.radians(0.002)))
 SEEDS = range(5)

@@ -11,8 +11,9 @@ import scipy.optimize
 
 from models import NoiseModel, default_registry, sample_workspace
 from models.campaign import Campaign
+from models.description.examples import ur5_like
+from models.description.iwr import iwr
 from models.errors import PriorMismatch
-from models.examples import ur5_like
 from models.identifiability import structural_identifiability
 from models.identification import (
     IdentificationOptions,
@@ -25,7 +26,6 @@ from models.identification import (
 from models.identification.prior import ParameterPrior
 from models.identification.residuals import CampaignProblem
 from models.identification.statistics import covariance
-from models.iwr import iwr
 from models.kinematics import forward_kinematics
 from models.measurement import MeasurementKind
 from models.simulation import SimulatedRobot, fleet_unit, measure

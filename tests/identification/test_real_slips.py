@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from models.identification import identify
 from models.identification.diagnosis import Finding, diagnose
 from models.simulation import SimulatedRobot, measure, perturbed_robot

@@ -13,8 +13,8 @@ import pytest
 
 from harness.ballbar import PIVOTS, aligned_rms, ballbar_campaign, gauge_truth, predicted_rms, reaching
 from models import forward_kinematics, iwr, sample_workspace
+from models.description.examples import ur5_like
 from models.errors import InvalidInput, JointOutOfRange, NonFiniteValue, TooFewMeasurements, WrongShape
-from models.examples import ur5_like
 from models.identification.diagnosis import Finding
 from models.identification.options import IdentificationOptions
 from models.identification.reference_fit import identify_references

@@ -10,7 +10,7 @@ import pytest
 
 from harness.ballbar import predicted_rms
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from models.identification.reference_fit import identify_references
 from models.measurements.references import ReferenceRecords, Reflector, TrackerPositions
 from models.noise import NoiseModel

@@ -5,19 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import (
-    NoiseModel,
-    RobotDescription,
-    cancellation,
-    default_registry,
-    forward_kinematics,
-    iwr,
-    sample_workspace,
-)
+from models import NoiseModel, RobotDescription, default_registry, forward_kinematics, iwr, sample_workspace
 from models.campaign import Campaign
+from models.engine import cancellation
+from models.engine.runtime import runtime_for
 from models.identification import identify, rigid_fit, validate
 from models.identification.residuals import CampaignProblem
-from models.runtime import runtime_for
 from models.simulation import measure, perturbed_robot
 from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
 

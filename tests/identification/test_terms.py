@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 from models import NoiseModel, RobotDescription, forward_kinematics, iwr, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
+from models.description.terms import Conditions, ModelTerms, make_conditions
 from models.identifiability import condition_support, structural_identifiability
 from models.identification import identify
 from models.identification.diagnosis import Finding
 from models.measurement import MeasurementKind
 from models.simulation import SimulatedRobot, measure, perturbed_robot
-from models.terms import Conditions, ModelTerms, make_conditions
 
 NOISE = NoiseModel()
 N_FIT = 60

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from models import NoiseModel, forward_kinematics, sample_workspace
+from models.description.structure import description_from_document
+from models.formats.urdf import document_from_urdf
 from models.identifiability import structural_identifiability
 from models.identification import identify
 from models.measurement import MeasurementKind
 from models.simulation import SimulatedRobot, measure, perturbed_robot
-from models.structure import description_from_document
-from models.urdf import document_from_urdf
 from tests.irb2400 import IRB2400_URDF
 
 NOISE = NoiseModel(position_mm=0.03)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from models.cell import Box, Cell, Reason, Segment, frame_layout
-from models.robot import RobotDescription
+from models.description.robot import RobotDescription
 from models.transforms import rotvec_to_matrix_np
 
 SAMPLES = 800

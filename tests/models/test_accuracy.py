@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from models import forward_kinematics, iwr
-from models.accuracy import CubePoses, evaluate, iso_cube_poses
 from models.campaign import Campaign
+from models.evaluation.accuracy import CubePoses, evaluate, iso_cube_poses
 from models.identification.registration import rigid_fit
 from models.noise import NoiseModel
 from models.simulation import SimulatedRobot, measure, perturbed_robot

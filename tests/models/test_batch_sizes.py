@@ -6,7 +6,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from models.batch import EXACT_UP_TO, BatchFunctions, padded_size
+from models.engine.batch import EXACT_UP_TO, BatchFunctions, padded_size
 
 
 def _functions() -> BatchFunctions:

@@ -21,12 +21,12 @@ from models.cell import (
     frame_layout,
     stage_frames,
 )
+from models.description.examples import ur5_like
+from models.description.iwr import iwr
+from models.description.robot import RobotDescription
+from models.engine.runtime import Runtime
 from models.errors import InvalidInput
-from models.examples import ur5_like
-from models.iwr import iwr
 from models.kinematics import forward_kinematics
-from models.robot import RobotDescription
-from models.runtime import Runtime
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 from models.workspace import sample_workspace
 from tests.models.cell_reference import dh_frames, reference_verdicts, segment_distance

@@ -18,8 +18,8 @@ from models.cell import (
     stage_frames,
     urdf_geometry,
 )
-from models.structure import description_from_document
-from models.urdf import document_from_urdf
+from models.description.structure import description_from_document
+from models.formats.urdf import document_from_urdf
 from models.workspace import sample_workspace
 
 # The UR5's joint origins of the public ur_description (the old layout: axes along y, quarter-turn pitches), its

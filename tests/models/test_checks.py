@@ -1,4 +1,4 @@
-"""The quick check (models.checks) and its design (optimal_design.checks) on simulated truths.
+"""The quick check (models.evaluation.checks) and its design (optimal_design.checks) on simulated truths.
 
 Independent truths: a version equal to the truth with no parameter uncertainty makes the statistic exactly χ²
 (pure instrument noise), so its false-alarm rate is α; a known change of one parameter must come back as that
@@ -18,7 +18,9 @@ import scipy.stats
 from harness.checks import Calibrated, calibrated, changed, tcp_equivalent
 from models import NoiseModel, forward_kinematics, sample_workspace
 from models.campaign import Campaign
-from models.checks import (
+from models.description.examples import ur5_like
+from models.errors import InvalidInput, WrongShape
+from models.evaluation.checks import (
     CheckAction,
     CheckOptions,
     Verdict,
@@ -27,8 +29,6 @@ from models.checks import (
     detectable_changes,
     version_covariance,
 )
-from models.errors import InvalidInput, WrongShape
-from models.examples import ur5_like
 from models.measurements.references import Anchor, ReferenceRecords
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from optimal_design.checks import design_check, watched_parameters

@@ -46,7 +46,7 @@ NEW = {  # the same arm on a prismatic lift: a structure the container has never
 _BUILD = """
 import json, sys
 from models import Registry
-from models.structure import description_from_document
+from models.description.structure import description_from_document
 fns = Registry().runtime(description_from_document(json.loads(sys.argv[1]), name="arm")).kinematics.native
 print(json.dumps(sorted({f.class_name() for f in fns.values()})))
 """
@@ -56,14 +56,14 @@ import json, logging, sys
 import numpy as np
 from prometheus_client import generate_latest
 from models import Registry, forward_kinematics
-from models.native import compiler_available, vm_only_structures
-from models.structure import description_from_document
+from models.engine.native import compiler_available, vm_only_structures
+from models.description.structure import description_from_document
 from service.metrics import Metrics
 
 records = []
 handler = logging.Handler()
 handler.emit = lambda record: records.append((record.levelname, record.getMessage()))
-logging.getLogger("models.native").addHandler(handler)
+logging.getLogger("models.engine.native").addHandler(handler)
 registry = Registry()
 arm = description_from_document(json.loads(sys.argv[1]), name="arm")
 new = description_from_document(json.loads(sys.argv[2]), name="new")

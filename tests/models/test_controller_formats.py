@@ -12,14 +12,14 @@ import yaml
 import yourdfpy
 
 from models import forward_kinematics, sample_workspace
+from models.description.examples import hexapod_alone, iiwa_like, ur5_like
+from models.description.structure import description_from_document
 from models.errors import InvalidInput
-from models.examples import hexapod_alone, iiwa_like, ur5_like
-from models.joint_chain import joint_chain
+from models.formats.joint_chain import joint_chain
+from models.formats.ur_kinematics import SEGMENTS, kinematics_yaml, read_kinematics, ur_chain
+from models.formats.urdf import CONTINUOUS_RANGE_DEG, document_from_urdf
+from models.formats.urdf_calibrated import calibrate_urdf, splice_origins, z_onto
 from models.simulation import perturbed_robot
-from models.structure import description_from_document
-from models.ur_kinematics import SEGMENTS, kinematics_yaml, read_kinematics, ur_chain
-from models.urdf import CONTINUOUS_RANGE_DEG, document_from_urdf
-from models.urdf_calibrated import calibrate_urdf, splice_origins, z_onto
 from tests.frames import rot, xyz_rpy
 from tests.models.test_urdf import MOVING, UR5_URDF
 

@@ -10,10 +10,10 @@ import pytest
 
 from models import errors
 from models.campaign import make_campaign
+from models.description.robot import RobotDescription
 from models.identification import identify, pipeline
 from models.identification.options import IdentificationOptions
 from models.identification.solver import SolverRun
-from models.robot import RobotDescription
 from models.simulation import measure, perturbed_robot
 from models.workspace import sample_workspace
 from tests.error_trees import check_declared_fields

@@ -1,4 +1,4 @@
-"""A fleet's population (models.fleet): robust, never overconfident, outliers flagged, too few units refused.
+"""A fleet's population (models.evaluation.fleet): robust, never overconfident, outliers flagged, too few units refused.
 
 The units here are synthetic estimates drawn from a known population (a value per unit, plus its estimation
 noise of known σ), so that the population's truth is known exactly; the whole chain through simulated
@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from models.description.examples import ur5_like
 from models.errors import FleetTooSmall, InvalidInput
-from models.examples import ur5_like
-from models.fleet import MIN_UNITS, UnitEstimate, compare, fleet_prior, leave_one_out
+from models.evaluation.fleet import MIN_UNITS, UnitEstimate, compare, fleet_prior, leave_one_out
 from optimal_design.problem import DesignInputs, DesignProblem, prior_information
 
 DESC = ur5_like()

@@ -11,8 +11,8 @@ import hashlib
 import numpy as np
 import pytest
 
+from models.description.examples import ur5_like
 from models.errors import InvalidInput
-from models.examples import ur5_like
 from models.simulation import fleet_unit, unit_spreads
 
 DESC = ur5_like()

@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 
 from models import RobotDescription, default_registry, inverse_hexapod, sample_workspace, solve_platforms
-from models.hexapod import split_hexapod_params
+from models.description.hexapod import split_hexapod_params
 from models.kinematics import hexapod_condition
 from models.transforms import euler_zyx, rotvec_to_matrix
 

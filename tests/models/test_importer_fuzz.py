@@ -19,10 +19,10 @@ import yourdfpy  # noqa: F401  (imported here so that its first import is not in
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from models.description.structure import description_from_document
 from models.errors import InvalidInput
-from models.structure import description_from_document
-from models.ur_kinematics import BASE_LINK, KEYS, SEGMENTS, TIP_LINK, read_kinematics, urdf_of_kinematics
-from models.urdf import document_from_urdf
+from models.formats.ur_kinematics import BASE_LINK, KEYS, SEGMENTS, TIP_LINK, read_kinematics, urdf_of_kinematics
+from models.formats.urdf import document_from_urdf
 
 EXAMPLES = int(os.environ.get("IWR_URDF_FUZZ_EXAMPLES", "60"))
 FUZZ = settings(

@@ -1,4 +1,4 @@
-"""Inverse kinematics stops when told to (models.cancellation), also inside its IPOPT stage."""
+"""Inverse kinematics stops when told to (models.engine.cancellation), also inside its IPOPT stage."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ import time
 import numpy as np
 import pytest
 
-from models import Registry, RobotDescription, cancellation, forward_kinematics, sample_workspace
+from models import Registry, RobotDescription, forward_kinematics, sample_workspace
+from models.engine import cancellation
 from models.inverse.solve import inverse_kinematics
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from models.errors import InvalidInput, WrongShape
-from models.iso9283 import (
+from models.evaluation.iso9283 import (
     abc_angles,
     distance_characteristics,
     group_cycles,

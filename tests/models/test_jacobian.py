@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from models import RobotDescription, default_registry, forward_kinematics, sample_workspace
-from models.parameters import Kind
+from models.description.parameters import Kind
 from models.simulation import perturbed_robot
 from models.transforms import matrix_to_rotvec_np
 

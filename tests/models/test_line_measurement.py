@@ -9,8 +9,8 @@ import pytest
 
 from harness.ballbar import reaching
 from models import forward_kinematics, sample_workspace
+from models.description.examples import ur5_like
 from models.errors import InvalidInput
-from models.examples import ur5_like
 from models.measurements.line import Line
 from tests.reference_differences import residual_differences
 

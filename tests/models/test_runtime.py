@@ -12,11 +12,12 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from models import Registry, RobotDescription, default_registry, forward_kinematics, iwr, native, sample_workspace
+from models import Registry, RobotDescription, default_registry, forward_kinematics, iwr, sample_workspace
 from models.compensation import inverse_kinematics
+from models.description.serial_chain import DHLink, JointType
+from models.engine import native
+from models.engine.native import compile_functions
 from models.identification import identify
-from models.native import compile_functions
-from models.serial_chain import DHLink, JointType
 from models.simulation import measure, perturbed_robot
 from models.stages import SerialStage
 from models.transforms import matrix_to_quaternion

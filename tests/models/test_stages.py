@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 from models import RobotDescription, forward_kinematics, sample_workspace, solve_platforms
+from models.description.iwr import IWR_HEXAPOD, iwr
+from models.description.parameters import Kind
+from models.description.serial_chain import DHLink, JointType
+from models.description.structure import description_document, description_from_document
+from models.description.terms import ModelTerms
 from models.errors import InvalidInput
-from models.iwr import IWR_HEXAPOD, iwr
-from models.parameters import Kind
-from models.serial_chain import DHLink, JointType
 from models.stages import HexapodStage, SerialStage
-from models.structure import description_document, description_from_document
-from models.terms import ModelTerms
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 
 _DEG = math.pi / 180

@@ -12,12 +12,12 @@ from collections.abc import Callable
 import pytest
 
 from models import RobotDescription, iwr
+from models.description.examples import hexapod_alone, iiwa_like, track_arm, ur5_like, ur5_like_document
+from models.description.serial_chain import JointType
+from models.description.structure import description_from_document
 from models.errors import InvalidInput
-from models.examples import hexapod_alone, iiwa_like, track_arm, ur5_like, ur5_like_document
 from models.identifiability import structural_identifiability
 from models.measurement import MeasurementKind
-from models.serial_chain import JointType
-from models.structure import description_from_document
 
 
 def _erh(desc: RobotDescription, kind: MeasurementKind) -> int:

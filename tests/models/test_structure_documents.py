@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from models import forward_kinematics, sample_workspace
+from models.description.examples import hexapod_alone_document, iiwa_like_document, ur5_like, ur5_like_document
+from models.description.structure import description_document, description_from_document
 from models.errors import InvalidInput
-from models.examples import hexapod_alone_document, iiwa_like_document, ur5_like, ur5_like_document
-from models.structure import description_document, description_from_document
 
 Doc = dict[str, Any]
 

@@ -9,10 +9,17 @@ import numpy as np
 import pytest
 
 from models import forward_kinematics, iwr
-from models.examples import hexapod_alone, iiwa_like, iiwa_like_document, track_arm, ur5_like, ur5_like_document
-from models.robot import RobotDescription
-from models.runtime import Registry
-from models.structure import description_document, description_from_document
+from models.description.examples import (
+    hexapod_alone,
+    iiwa_like,
+    iiwa_like_document,
+    track_arm,
+    ur5_like,
+    ur5_like_document,
+)
+from models.description.robot import RobotDescription
+from models.description.structure import description_document, description_from_document
+from models.engine.runtime import Registry
 from models.transforms import rotvec_to_matrix_np
 from models.workspace import sample_workspace
 

@@ -7,12 +7,12 @@ import pytest
 
 from models import Registry, forward_kinematics, iwr, sample_workspace
 from models.compensation import compensate
+from models.description.examples import ur5_like
+from models.description.hexapod import N_LEGS
+from models.description.parameters import Kind
+from models.description.terms import GRAVITY_M_S2, ModelTerms, condition_inputs, make_conditions
 from models.errors import InvalidInput
-from models.examples import ur5_like
-from models.hexapod import N_LEGS
 from models.kinematics import inverse_hexapod
-from models.parameters import Kind
-from models.terms import GRAVITY_M_S2, ModelTerms, condition_inputs, make_conditions
 from models.transforms import matrix_to_quaternion, rotvec_to_matrix_np
 
 BOTH = ModelTerms(thermal=True, compliance=True)

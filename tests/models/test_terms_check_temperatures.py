@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from models import iwr, sample_workspace
-from models.examples import track_arm, ur5_like
+from models.description.examples import track_arm, ur5_like
+from models.description.terms import make_conditions
 from models.identification import identify
 from models.identification.terms_check import thermal_axes, unused_temperature_note
 from models.noise import NoiseModel
 from models.simulation import measure, perturbed_robot
-from models.terms import make_conditions
 
 
 def test_only_legs_and_prismatic_axes_take_a_temperature() -> None:

@@ -12,9 +12,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from models.compensation.poses import pose_matrices
+from models.description.examples import UR5_DH
+from models.description.structure import description_from_document
 from models.errors import InvalidInput, WrongShape
-from models.examples import UR5_DH
-from models.structure import description_from_document
 from models.tree import Branch, RobotTree, perturbed_tree, relative_poses, tool_poses, tree_joint_samples
 from models.tree.compensation import compensate_relative, compensate_world
 from models.tree.examples import TORCH, arm_with_positioner, dual_arm_torso

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from models.dh_table import DhTable, FrameRow
 from models.errors import InvalidInput
+from models.formats.dh_table import DhTable, FrameRow
 from models.tree import RobotTree, perturbed_tree, tool_poses, tree_from_urdf, tree_joint_samples
 from models.tree.examples import arm_with_positioner, dual_arm_torso
 from models.tree.export import branch_dh_tables, calibrate_urdf_tree

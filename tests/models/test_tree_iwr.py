@@ -1,7 +1,8 @@
 """The IWR's hybrid stages inside a branch of a tree (issue 47): a 4-axis DH carriage and a Stewart–Gough
 hexapod whose platform pose is solved by closure, beside a two-axis positioner on the same floor.
 
-Independent truths: the IWR's own description (`models.iwr`) and its own forward kinematics and identification
+Independent truths: the IWR's own description (`models.description.iwr`) and its own forward kinematics and
+identification
 (`models.kinematics`, `models.identification.identify`) on the same simulated robot. The tree's IWR tool is the
 IWR's chain; calibrated with the positioner's records in one problem, its held-out error is what the IWR alone
 calibrated from the same records gets."""
@@ -13,8 +14,8 @@ import math
 import numpy as np
 import pytest
 
+from models.description.iwr import IWR_HEXAPOD, IWR_LINKS, iwr
 from models.identification import identify
-from models.iwr import IWR_HEXAPOD, IWR_LINKS, iwr
 from models.kinematics import forward_kinematics, solve_platforms
 from models.noise import NoiseModel
 from models.simulation import SimulatedRobot, measure

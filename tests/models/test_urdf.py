@@ -9,12 +9,12 @@ import pytest
 import yourdfpy
 
 from models import RobotDescription, forward_kinematics, sample_workspace
+from models.description.examples import iiwa_like, track_arm, ur5_like
+from models.description.structure import description_from_document
 from models.errors import InvalidInput
-from models.examples import iiwa_like, track_arm, ur5_like
+from models.formats.urdf import document_from_urdf, urdf_from_description
 from models.identifiability import structural_identifiability
 from models.measurement import MeasurementKind
-from models.structure import description_from_document
-from models.urdf import document_from_urdf, urdf_from_description
 
 # The UR5 as the public ur_description package describes it (metres, radians): joint origins with y offsets
 # and quarter-turn pitches, axes along y, none of them in DH form.

@@ -19,9 +19,9 @@ import yourdfpy  # noqa: F401  (imported here so that its first import is not in
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from models.description.structure import description_from_document
 from models.errors import InvalidInput
-from models.structure import description_from_document
-from models.urdf import document_from_urdf
+from models.formats.urdf import document_from_urdf
 from tests.models.test_urdf_hostile import joint, urdf
 
 EXAMPLES = int(os.environ.get("IWR_URDF_FUZZ_EXAMPLES", "60"))

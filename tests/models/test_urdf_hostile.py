@@ -11,10 +11,10 @@ import time
 
 import pytest
 
+from models.description.structure import description_from_document
 from models.errors import InvalidInput
-from models.structure import description_from_document
-from models.urdf import document_from_urdf
-from models.urdf_tree import MAX_LINKS
+from models.formats.urdf import document_from_urdf
+from models.formats.urdf_tree import MAX_LINKS
 from tests.linearity import LINEAR_RATIO, best_doubling_ratio
 
 LIMIT = '<limit lower="-1" upper="1" effort="0" velocity="0"/>'

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from models.errors import InvalidInput
-from models.urdf import document_from_urdf, urdf_joint_names
+from models.formats.urdf import document_from_urdf, urdf_joint_names
 from tests.models.test_urdf import MOVING, UR5_URDF
 
 

@@ -20,9 +20,9 @@ import pytest
 
 from harness.adaptive import Blunders, fixed_at_count, run_adaptive
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
+from models.engine.runtime import runtime_for
 from models.identification import IdentificationOptions, RobustLoss, identify
-from models.runtime import runtime_for
 from models.simulation import measure, perturbed_robot
 from optimal_design import design_for_target
 from optimal_design.adaptive import AdaptiveSettings, Pool, Progress, advance, blunder_threshold, studentized

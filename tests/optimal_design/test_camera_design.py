@@ -18,13 +18,13 @@ from harness.camera import (
     world_images,
 )
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
+from models.engine.runtime import runtime_for
 from models.identification.options import IdentificationOptions
 from models.identification.reference_fit import identify_references, reference_problem
 from models.measurements.camera import Camera, Intrinsics, read_images
 from models.measurements.references import ReferenceRecords
 from models.noise import NoiseModel
-from models.runtime import runtime_for
 from models.transforms import matrix_to_rotvec_np
 from optimal_design.references import camera_candidates, design_reference_records, reference_information
 

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from models.cell import Box, Cell, Obstacle, Tracker, cell_for, stage_frames
+from models.description.examples import ur5_like
+from models.description.iwr import iwr
+from models.description.robot import RobotDescription
 from models.errors import InvalidInput
-from models.examples import ur5_like
-from models.iwr import iwr
-from models.robot import RobotDescription
 from models.workspace import sample_workspace
 from optimal_design import design_poses
 from optimal_design.problem import MAX_CANDIDATES, DesignInputs, DesignProblem

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from models import RobotDescription, forward_kinematics, sample_workspace
+from models.engine.runtime import runtime_for
 from models.errors import InvalidInput
-from models.runtime import runtime_for
 from optimal_design import Criterion, PoseDesign, design_poses, spread_distance
 from optimal_design.constraints import platform_centres
 from optimal_design.criteria import utility

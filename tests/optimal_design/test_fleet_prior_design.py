@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from models import sample_workspace
-from models.examples import ur5_like
-from models.fleet import FleetPrior, UnitEstimate, fleet_prior
+from models.description.examples import ur5_like
+from models.evaluation.fleet import FleetPrior, UnitEstimate, fleet_prior
 from models.identification import IdentificationOptions, identify
 from models.simulation import fleet_unit, measure
 from optimal_design.design import design_poses

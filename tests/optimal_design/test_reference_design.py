@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from models.identification.reference_fit import identify_references
 from models.measurements.references import Anchor, ReferenceRecords
 from models.noise import NoiseModel

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from models import NoiseModel, forward_kinematics, iwr, sample_workspace, scaled_jacobian
+from models.description.terms import ModelTerms, make_conditions
 from models.errors import InvalidInput
-from models.terms import ModelTerms, make_conditions
 from optimal_design import design_poses
 
 THERMAL = iwr().with_terms(ModelTerms(thermal=True))

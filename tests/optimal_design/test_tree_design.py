@@ -10,9 +10,9 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import pytest
 
+from models.engine.runtime import default_registry
 from models.errors import InvalidInput, JointOutOfRange
 from models.noise import NoiseModel
-from models.runtime import default_registry
 from models.tree import (
     RobotTree,
     SimulatedTree,

@@ -19,7 +19,7 @@ import yaml
 
 from harness.programs import UR10E_KINEMATICS
 from models._types import Array
-from models.robot import RobotDescription
+from models.description.robot import RobotDescription
 
 _UR_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
 _UR_LINKS = ("shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link", "wrist_3_link")

@@ -17,15 +17,15 @@ from harness.programs import UR10E_KINEMATICS
 from models import sample_workspace
 from models._types import Array
 from models.compensation.controller import ZERO, ControllerFrame, urdf_controller_frame
+from models.description.robot import RobotDescription
+from models.description.structure import description_from_document
+from models.formats.ur_kinematics import BASE_LINK as UR_BASE_LINK
+from models.formats.ur_kinematics import TIP_LINK as UR_TIP_LINK
+from models.formats.ur_kinematics import read_kinematics, urdf_of_kinematics
+from models.formats.urdf import document_from_urdf
 from models.identification import identify
 from models.identification.registration import rigid_fit
-from models.robot import RobotDescription
 from models.simulation import measure, perturbed_robot
-from models.structure import description_from_document
-from models.ur_kinematics import BASE_LINK as UR_BASE_LINK
-from models.ur_kinematics import TIP_LINK as UR_TIP_LINK
-from models.ur_kinematics import read_kinematics, urdf_of_kinematics
-from models.urdf import document_from_urdf
 from programs import PROGRAM, read_program
 from programs.frames import matrix_quaternion, matrix_rotvec
 from service.services.programs import compensate_program

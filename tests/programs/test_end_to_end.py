@@ -32,7 +32,7 @@ from harness.programs import (
 from models import sample_workspace
 from models._types import Array
 from models.compensation.poses import pose6_matrix
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from models.identification import identify
 from models.identification.registration import rigid_fit
 from models.simulation import measure, perturbed_robot

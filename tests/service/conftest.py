@@ -12,7 +12,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import Registry
-from service.app import create_app
+from service.http.app import create_app
 from service.persistence import Database
 from service.settings import Settings
 from tests.service.contract_check import ContractClient, committed
@@ -78,7 +78,7 @@ def db(database_url: str) -> Iterator[Database]:
 def make_client(url: str, registry: Registry | None = None, **settings: object) -> ContractClient:
     """Every response it receives is checked against the committed OpenAPI document (`contract_check`). With
     `registry` (the session's), the app uses it; without, it builds its own, empty (warm_up is off)."""
-    # No background builds (service.builds): a test's robot builds what its own requests use, as before.
+    # No background builds (service.compute.builds): a test's robot builds what its own requests use, as before.
     options: dict[str, object] = {
         "database_url": url,
         "job_workers": 0,

@@ -24,7 +24,7 @@ from harness.programs import Cell
 from harness.records import records
 from iwr_client.client import Answer, Client
 from iwr_client.errors import ApiError
-from models.examples import ur5_like, ur5_like_document
+from models.description.examples import ur5_like, ur5_like_document
 from service.persistence.database import MIGRATIONS
 
 __all__ = ["SOAK", "MigratedFile", "assert_design_kept", "broker", "finished_job", "migrated_file", "records"]

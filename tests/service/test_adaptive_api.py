@@ -17,10 +17,10 @@ from sqlalchemy import create_engine, inspect
 
 from harness.records import records
 from models import Registry, forward_kinematics, sample_workspace
-from models.examples import ur5_like
-from models.robot import RobotDescription
+from models.description.examples import ur5_like
+from models.description.robot import RobotDescription
+from models.description.structure import description_from_document
 from models.simulation import perturbed_robot
-from models.structure import description_from_document
 from service.errors import Conflict
 from service.persistence import Database, Repository
 from service.persistence.adaptive import AdaptiveStore

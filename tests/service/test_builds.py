@@ -1,4 +1,4 @@
-"""A new robot's structure is built in the background when the robot is created (service.builds), and the robot
+"""A new robot's structure is built in the background when the robot is created (service.compute.builds), and the robot
 says how far that build is: the answer to POST does not wait for it, and the first request afterwards finds it
 done instead of compiling."""
 
@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 
 from models import Registry, RobotDescription, iwr
-from models.native import compiler_available
-from models.runtime import structure_tag
-from models.structure import description_from_document
+from models.description.structure import description_from_document
+from models.engine.native import compiler_available
+from models.engine.runtime import structure_tag
 from models.warm import warm_everything
-from service import builds
-from service.builds import BuildState, StructureBuilds
+from service.compute import builds
+from service.compute.builds import BuildState, StructureBuilds
 from tests.service.conftest import make_client
 
 SLOW_BUILD_S = 3.0

@@ -30,7 +30,7 @@ from harness.camera import (
     world_images,
 )
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from models.measurements.camera import Camera, Intrinsics
 from models.noise import NoiseModel
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np

@@ -19,7 +19,7 @@ from fastapi.testclient import TestClient
 
 from models import forward_kinematics, iwr, sample_workspace
 from models.simulation import measure, perturbed_robot
-from service import limits
+from service.compute import limits
 
 DESC = iwr()
 U95_MM = 0.05  # the file's expanded uncertainty: σ = U(95) / 2 per record

@@ -11,7 +11,7 @@ from fastapi.testclient import TestClient
 
 from models import iwr, sample_workspace
 from models.campaign import Campaign
-from models.examples import ur5_like, ur5_like_document
+from models.description.examples import ur5_like, ur5_like_document
 from models.noise import NoiseModel
 from models.simulation import measure, perturbed_robot
 from tests.service.helpers import finished_job

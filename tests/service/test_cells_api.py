@@ -13,11 +13,11 @@ from fastapi.testclient import TestClient
 
 from iwr_client.errors import ApiError
 from models.cell import Box, Cell, Obstacle, Tracker, cell_for
-from models.examples import UR5_DH, ur5_like_document
-from models.robot import RobotDescription
-from models.structure import description_from_document
+from models.description.examples import UR5_DH, ur5_like_document
+from models.description.robot import RobotDescription
+from models.description.structure import description_from_document
 from models.workspace import sample_workspace
-from service import limits
+from service.compute import limits
 from tests.models.cell_reference import dh_frames, reference_verdicts
 from tests.service.helpers import InProcess
 

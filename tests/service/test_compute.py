@@ -1,4 +1,4 @@
-"""The compute pool in processes (service/compute.py), driven directly: results, the process's own database,
+"""The compute pool in processes (service/compute/pool.py), driven directly: results, the process's own database,
 errors that travel back intact, cancellation through shared memory, the parse lane and its bound, a dead process."""
 
 from __future__ import annotations
@@ -11,13 +11,14 @@ from pathlib import Path
 import anyio
 import pytest
 
-from models import Registry, cancellation, iwr
-from models.cancellation import CancellationToken, Cancelled
-from service import compute
-from service.compute import ComputePool, Task
+from models import Registry, iwr
+from models.engine import cancellation
+from models.engine.cancellation import CancellationToken, Cancelled
+from service.compute import pool as compute
+from service.compute.model_cache import ModelCache
+from service.compute.pool import ComputePool, Task
 from service.errors import NotFound, Overloaded, ParseTimeout, WorkTooLarge
-from service.guards import too_many_keys
-from service.model_cache import ModelCache
+from service.http.guards import too_many_keys
 from service.persistence import Database, Repository
 from service.settings import Settings
 

@@ -19,7 +19,7 @@ from schemathesis.checks import not_a_server_error
 from schemathesis.schemas import BaseSchema
 from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
 
-from service.app import create_app
+from service.http.app import create_app
 from service.settings import Settings
 from tests.service.contract_check import ContractChecker
 from tests.service.contract_schema import asgi_schema
@@ -69,7 +69,7 @@ test_contract_fuzz.py."""
 
 
 # POST /v1/error-analysis is the slowest operation here: schemathesis sends requests of up to the budget's
-# 18 000 poses x draws (service.limits), seconds each.
+# 18 000 poses x draws (service.compute.limits), seconds each.
 @schema.parametrize()
 @settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=list(HealthCheck))
 def test_api_contract(case: schemathesis.Case[Any]) -> None:

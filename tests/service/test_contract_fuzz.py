@@ -22,7 +22,7 @@ from schemathesis.checks import not_a_server_error
 from schemathesis.schemas import BaseSchema
 from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
 
-from service.app import create_app
+from service.http.app import create_app
 from service.persistence import Database
 from service.persistence.tables import Base
 from service.settings import Settings

@@ -25,8 +25,13 @@ from hypothesis import strategies as st
 from schemathesis.checks import not_a_server_error
 from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
 
-from models.examples import hexapod_alone_document, iiwa_like_document, track_arm_document, ur5_like_document
-from service.app import create_app
+from models.description.examples import (
+    hexapod_alone_document,
+    iiwa_like_document,
+    track_arm_document,
+    ur5_like_document,
+)
+from service.http.app import create_app
 from service.settings import Settings
 
 Document = dict[str, Any]

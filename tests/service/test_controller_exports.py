@@ -17,12 +17,12 @@ import yourdfpy
 from fastapi.testclient import TestClient
 
 from models import sample_workspace
-from models.examples import hexapod_alone_document, iiwa_like_document, ur5_like_document
+from models.description.examples import hexapod_alone_document, iiwa_like_document, ur5_like_document
+from models.description.structure import description_from_document
+from models.description.terms import ModelTerms
+from models.formats.urdf import document_from_urdf
 from models.simulation import perturbed_robot
-from models.structure import description_from_document
-from models.terms import ModelTerms
 from models.transforms import matrix_to_quaternion, quaternion_to_matrix
-from models.urdf import document_from_urdf
 from tests.frames import rot, shift, xyz_rpy
 from tests.models.test_urdf import UR5_URDF
 from tests.service.ur5_full_urdf import MOVING, ur5_full_urdf

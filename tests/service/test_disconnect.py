@@ -15,7 +15,7 @@ import pytest
 from harness.live import running_server
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
-from service import limits
+from service.compute import limits
 from tests.service.helpers import records
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]  # freed time against the full calibration time: alone on the cores

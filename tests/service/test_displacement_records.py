@@ -13,7 +13,7 @@ from fastapi.testclient import TestClient
 
 from harness.ballbar import reaching
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from tests.service.helpers import posted_ur5, ur5_truth
 
 UR5 = ur5_like()

@@ -9,8 +9,8 @@ from typing import Literal
 import pytest
 from pydantic import BaseModel, TypeAdapter, ValidationError
 
+from models.description.serial_chain import JointType
 from models.measurement import MeasurementKind
-from models.serial_chain import JointType
 from service.audit_actions import AuditAction
 from service.schemas.audit import Action
 from service.schemas.common import Measurement

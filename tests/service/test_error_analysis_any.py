@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from models.description.examples import hexapod_alone_document, iiwa_like, iiwa_like_document
 from models.error_analysis import ErrorMagnitudes, error_analysis
-from models.examples import hexapod_alone_document, iiwa_like, iiwa_like_document
 from service.conversions.error_analysis import report_out
 
 SMALL = {"poses": 12, "draws": 30, "seed": 4}

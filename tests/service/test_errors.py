@@ -8,7 +8,7 @@ from typing import Any
 import pytest
 
 from service import errors
-from service.problems import RESERVED, to_problem
+from service.http.problems import RESERVED, to_problem
 from tests.error_trees import check_declared_fields
 
 CLASSES = [c for _, c in inspect.getmembers(errors, inspect.isclass) if issubclass(c, errors.ServiceError)]

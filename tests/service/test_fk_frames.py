@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from models.examples import hexapod_alone_document
-from models.structure import description_from_document
+from models.description.examples import hexapod_alone_document
+from models.description.structure import description_from_document
 from models.transforms import quaternion_to_matrix
 from service.schemas.kinematics import FRAMES_MAX
 from tests.models.cell_reference import dh_frames

@@ -11,8 +11,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import sample_workspace
-from models.examples import iiwa_like_document, ur5_like, ur5_like_document
-from models.fleet import MIN_UNITS
+from models.description.examples import iiwa_like_document, ur5_like, ur5_like_document
+from models.evaluation.fleet import MIN_UNITS
 from models.simulation import fleet_unit
 from service.reports.calibration import FLEET_HEADER, CalibrationReport
 from tests.service.helpers import records

@@ -15,8 +15,9 @@ from pydantic import BaseModel
 from starlette.types import Message
 
 from models import iwr, sample_workspace
-from service import dispatch, guards, json_bodies, operations
-from service.problems import MAX_ERRORS
+from service.compute import dispatch
+from service.http import guards, json_bodies, operations
+from service.http.problems import MAX_ERRORS
 from tests.service.conftest import make_client
 
 JOINTS = [400.0, 150.0, 90.0, 45.0, 420.0, 420.0, 420.0, 420.0, 420.0, 420.0]
@@ -77,7 +78,7 @@ def test_a_slow_body_times_out(monkeypatch: pytest.MonkeyPatch) -> None:
 
 @pytest.mark.serial  # refused within 0.5 s of wall time: alone on the cores
 def test_kinematics_over_the_budget_are_refused_before_parsing(client: TestClient, robot_id: str) -> None:
-    vectors = [JOINTS] * 100_000  # the schema's maximum: 58 000 fit the budget (service.limits)
+    vectors = [JOINTS] * 100_000  # the schema's maximum: 58 000 fit the budget (service.compute.limits)
     fk = json.dumps({"joints": vectors}).encode()
     targets = [{"position": [1.0, 2.0, 3.0], "orientation": [1.0, 0.0, 0.0, 0.0]}] * 3_000
     ik = json.dumps({"targets": targets, "seed": JOINTS}).encode()

@@ -12,10 +12,10 @@ import pytest
 
 from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
+from service.compute.model_cache import ModelCache
 from service.errors import WorkTooLarge
 from service.jobs import runner
 from service.jobs.runner import Ceiling, WorkerContext, execute_job
-from service.model_cache import ModelCache
 from service.persistence import Database
 from service.persistence.job_store import JobStore
 from service.schemas.robots import RobotCreate

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from typing import get_args
 
-from service.app import create_app
-from service.operations import table
+from service.http.app import create_app
+from service.http.operations import table
 from service.schemas.jobs import JobKind
 from service.services.jobs import JOB_TYPES
 from service.settings import Settings

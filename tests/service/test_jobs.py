@@ -22,11 +22,12 @@ from sqlalchemy import update
 
 from harness.fleet import call
 from harness.live import ROOT, free_port
-from models import Registry, cancellation, iwr, sample_workspace
+from models import Registry, iwr, sample_workspace
+from models.engine import cancellation
 from models.simulation import perturbed_robot
+from service.compute.model_cache import ModelCache
 from service.jobs import runner
 from service.jobs.runner import Lease, WorkerContext, execute_job
-from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.job_store import Claim, JobStore, LeaseLost, NotClaimed, utcnow
 from service.persistence.tables import Job, PoseDesignRecord
@@ -364,7 +365,7 @@ def test_delete_stops_a_running_design_at_its_next_progress_point_and_nothing_is
 def test_a_cancelled_job_stops_at_its_solvers_next_step_not_at_its_next_progress_point(
     db: Database, registry: Registry, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The job runs under a token (models.cancellation) that reads the lease's flags, so the solvers' own step
+    """The job runs under a token (models.engine.cancellation) that reads the lease's flags, so the solvers' own step
     checks (IPOPT's iteration callback, the design loops, IK) stop it: here a use case that only steps, ten
     seconds long, with no progress point after its first."""
     steps: list[float] = []

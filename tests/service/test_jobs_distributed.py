@@ -15,9 +15,9 @@ from sqlalchemy import create_engine, text
 
 from harness.fleet import RABBITMQ, REDIS, call, campaign, fleet, wait_for
 from models import Registry
+from service.compute.model_cache import ModelCache
 from service.jobs import WorkerContext
 from service.jobs.engine import CeleryRunner
-from service.model_cache import ModelCache
 from service.persistence import Database
 from service.settings import Settings
 from tests.service.conftest import postgres_url

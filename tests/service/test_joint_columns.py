@@ -10,13 +10,13 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import RobotDescription, iwr, sample_workspace
-from models.examples import track_arm, ur5_like
+from models.description.examples import track_arm, ur5_like
+from models.description.structure import description_from_document
+from models.formats.urdf import document_from_urdf
 from models.simulation import measure, perturbed_robot
-from models.structure import description_from_document
-from models.urdf import document_from_urdf
 from service.campaign_io import CampaignFileError, ImportOptions
 from service.campaign_io.columns import RobotColumns, parse_column_map
-from service.csv_codec import joined_campaign, parse_campaign
+from service.files.csv_codec import joined_campaign, parse_campaign
 from tests.irb2400 import IRB2400_URDF, IRB2400_XACRO
 
 UR5 = ur5_like()

@@ -7,10 +7,10 @@ from __future__ import annotations
 import pytest
 from fastapi.testclient import TestClient
 
+from models.description.structure import description_from_document
 from models.errors import InvalidInput
-from models.structure import description_from_document
-from models.ur_kinematics import MAX_FLOW_DEPTH, flow_depth, read_kinematics
-from models.urdf import MAX_OFFSET_M, document_from_urdf
+from models.formats.ur_kinematics import MAX_FLOW_DEPTH, flow_depth, read_kinematics
+from models.formats.urdf import MAX_OFFSET_M, document_from_urdf
 from tests.models.test_urdf_hostile import LIMIT, urdf
 from tests.service.helpers import cost
 

@@ -14,13 +14,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from starlette.types import Message
 
-from models import Registry, cancellation, forward_kinematics, iwr, sample_workspace
-from models.cancellation import CancellationToken
-from models.examples import ur5_like_document
+from models import Registry, forward_kinematics, iwr, sample_workspace
+from models.description.examples import ur5_like_document
+from models.engine import cancellation
+from models.engine.cancellation import CancellationToken
 from models.transforms import matrix_to_quaternion
 from optimal_design.criteria import Criterion
-from service import limits, operations
+from service.compute import limits
 from service.errors import ClientGone, Overloaded, WorkTooLarge
+from service.http import operations
 from tests.service.conftest import make_client
 
 DESC = iwr()
@@ -50,7 +52,7 @@ def test_the_estimates_follow_the_measurements() -> None:
     ):
         assert measured_s * 0.9 <= estimate.seconds <= measured_s * 1.5, (estimate, measured_s)
     # D at K = 300 of 2 000 took 0.36-0.51 s in the same runs: the K exponent shared with the criteria that grow
-    # faster with K (service.limits.DESIGN_K_EXPONENT) leaves D's estimate above it there, never under.
+    # faster with K (service.compute.limits.DESIGN_K_EXPONENT) leaves D's estimate above it there, never under.
     assert limits.pose_design(2000, 300, 0, "D").seconds >= 0.51
     assert limits.pose_design(20_000, 30, 0, "D").bytes >= 671e6  # optimal_design's benchmark peak
     # The issue's measured requests: each is refused synchronously, and the largest even as a job.
@@ -310,7 +312,7 @@ def test_the_synchronous_budget_is_a_setting(tmp_path: Path, registry: Registry)
     "processes",
     [pytest.param(0, marks=pytest.mark.slow), pytest.param(1, marks=pytest.mark.slow)],  # a cold build: seconds
     ids=["threads", "compute-process"],
-)  # in a compute process, the deadline crosses as a byte of shared memory (service.compute)
+)  # in a compute process, the deadline crosses as a byte of shared memory (service.compute.pool)
 def test_a_structures_first_build_does_not_count_against_the_deadline(tmp_path: Path, processes: int) -> None:
     """Issue 29/30: the first design on a new structure answered 503 "overloaded" because it was compiling. The
     deadline still stops a computation that runs late on its own; the one that pays a structure's first build

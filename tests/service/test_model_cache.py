@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from service.compute.model_cache import ModelCache
 from service.errors import NotFound
-from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Actor, Lifecycle
 from service.schemas.robots import RobotCreate

@@ -10,7 +10,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import Registry, iwr, sample_workspace
-from service.app import create_app
+from service.http.app import create_app
 from service.services import robots as robot_service
 from service.settings import Settings
 from tests.service.conftest import make_client

@@ -10,8 +10,8 @@ import pytest
 
 from models import Registry, identification, iwr, sample_workspace
 from models.simulation import perturbed_robot
+from service.compute.model_cache import ModelCache
 from service.jobs.runner import WorkerContext, execute_job
-from service.model_cache import ModelCache
 from service.services import calibrations
 from tests.service.conftest import make_client
 from tests.service.contract_check import ContractClient

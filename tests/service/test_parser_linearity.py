@@ -14,9 +14,9 @@ from typing import Any
 import pytest
 
 from service.campaign_io import CampaignFileError, read_spatial_analyzer, read_table
-from service.csv_codec import joined_campaign, parse_campaign
 from service.errors import BadRequest
-from service.parameters_csv import parse_parameters
+from service.files.csv_codec import joined_campaign, parse_campaign
+from service.files.parameters_csv import parse_parameters
 from tests.linearity import LINEAR_RATIO, best_doubling_ratio
 
 # CPU-time ratios: alone on the cores; doubling inputs up to 20 000 columns takes 0.6-2.7 s a case here, so

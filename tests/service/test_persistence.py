@@ -9,9 +9,9 @@ import pytest
 
 from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
+from service.compute.model_cache import ModelCache
 from service.errors import NotFound
 from service.jobs import JobRunner, WorkerContext, execute_job
-from service.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.robots import RobotCreate

@@ -13,7 +13,7 @@ from models import errors as domain
 from models import iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service import errors
-from service.problems import TYPE_BASE, to_problem
+from service.http.problems import TYPE_BASE, to_problem
 from tests.service.conftest import make_client
 from tests.service.helpers import finished_job, records
 

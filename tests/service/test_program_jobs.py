@@ -15,10 +15,10 @@ from fastapi.testclient import TestClient
 
 from harness.programs import Cell, executed, joints, taught, ur5_cell, urscript_approached, world_positions
 from models import Registry
-from models.examples import ur5_like_document
+from models.description.examples import ur5_like_document
 from programs import read_program
-from service import limits
-from service.model_cache import ModelCache
+from service.compute import limits
+from service.compute.model_cache import ModelCache
 from service.persistence import Database, Repository
 from service.persistence.tables import CompensatedProgramRecord
 from service.schemas.programs import ProgramRequest

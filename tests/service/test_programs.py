@@ -30,11 +30,11 @@ from harness.programs import (
     urscript_program,
 )
 from models import Registry, forward_kinematics
-from models.examples import ur5_like_document
+from models.description.examples import ur5_like_document
 from models.transforms import matrix_to_quaternion
 from programs import read_program
 from programs.frames import matrix_abc, matrix_quaternion
-from service import limits
+from service.compute import limits
 from tests.programs.robots import UR10E_BOX, ur_file_fk
 from tests.programs.samples import KRL_CONFIG, KRL_DAT, KRL_SRC
 from tests.service.conftest import make_client

@@ -6,7 +6,7 @@ position, orientation, sigma, time, reference, kind and unknown columns with uni
 CR line ends; a byte-order mark; comments), and their cells from the edges of what a reader meets: floats at and
 beyond the double's range (`1e308`, `1e400`, `5e-324`), NaN and infinity, decimal commas, thousands separators,
 hexadecimal, booleans, ISO times, quotes, huge digit strings. The oracle is the service's own mapping of errors to
-problems (`service.problems.lookup`): any exception a reader or the schema raises must map to a 4xx. `make test`
+problems (`service.http.problems.lookup`): any exception a reader or the schema raises must map to a 4xx. `make test`
 draws IWR_READER_FUZZ_EXAMPLES (default 60) per property, `make fuzz` 2 000."""
 
 from __future__ import annotations
@@ -21,11 +21,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from service import problems
 from service.campaign_io import read_spatial_analyzer
-from service.campaign_requests import CampaignQuery, calibration_fields
-from service.csv_codec import joined_campaign, parse_campaign
-from service.parameters_csv import parse_parameters
+from service.files.campaign_requests import CampaignQuery, calibration_fields
+from service.files.csv_codec import joined_campaign, parse_campaign
+from service.files.parameters_csv import parse_parameters
+from service.http import problems
 from service.schemas.calibrations import CalibrationCreate
 from service.schemas.versions import ParameterVersionImport
 

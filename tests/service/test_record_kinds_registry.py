@@ -15,8 +15,8 @@ from models.measurement import MeasurementKind
 from models.measurements.camera import Camera, ToolCamera
 from models.measurements.line import Line
 from models.measurements.references import Anchor, FixedPoint, Plane, Reflector, TrackerPositions
-from service.csv_codec import JOINT_HEADER, parse_campaign
 from service.errors import BadRequest
+from service.files.csv_codec import JOINT_HEADER, parse_campaign
 from service.record_kinds import (
     BY_FILE_KIND,
     FILE_COLUMNS,

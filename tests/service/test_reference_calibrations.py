@@ -17,11 +17,11 @@ from fastapi.testclient import TestClient
 from harness.ballbar import PIVOTS, aligned_rms, ballbar_campaign, reaching
 from harness.camera import WORLD_CAMERA, WORLD_CAMERA_POSITION, world_camera_campaign
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like
+from models.description.examples import ur5_like
+from models.description.structure import description_from_document
+from models.formats.urdf import document_from_urdf
 from models.identification.registration import rigid_fit
 from models.measurements.references import ReferenceRecords
-from models.structure import description_from_document
-from models.urdf import document_from_urdf
 from tests.models.test_urdf import UR5_URDF
 from tests.service.helpers import finished_job, posted_ur5
 

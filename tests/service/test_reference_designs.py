@@ -17,7 +17,7 @@ from fastapi.testclient import TestClient
 
 from harness.ballbar import PIVOTS, aligned_rms, gauge_truth, reaching
 from models import forward_kinematics, sample_workspace
-from models.examples import ur5_like, ur5_like_document
+from models.description.examples import ur5_like, ur5_like_document
 from models.measurements.references import Anchor, ReferenceRecords
 from models.noise import NoiseModel
 from optimal_design.references import design_reference_records

@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import models.runtime
+import models.engine.runtime
 from models import Registry, RobotDescription, forward_kinematics, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from models.transforms import matrix_to_quaternion
-from service.registry import IWR_TERMS, build_registry
+from service.compute.registry import IWR_TERMS, build_registry
 from service.settings import Settings
 from tests.service.conftest import make_client
 from tests.service.helpers import finished_job, records
@@ -27,7 +27,7 @@ DESC = iwr()
 class Refusing(Registry):
     """Stands in for the process-wide default registry: any call that reaches it is a missing `runtime=`."""
 
-    def runtime(self, desc: RobotDescription) -> models.runtime.Runtime:
+    def runtime(self, desc: RobotDescription) -> models.engine.runtime.Runtime:
         raise AssertionError(f"a models call fell back to the default registry (structure {desc.structure!r})")
 
 
@@ -45,7 +45,7 @@ def test_every_operation_uses_the_apps_registry(tmp_path: Path, registry: Regist
     ]
     with make_client(f"sqlite:///{tmp_path}/r.db", registry) as api, pytest.MonkeyPatch.context() as mp:
         assert api.app.state.registry is registry  # type: ignore[attr-defined]
-        mp.setattr(models.runtime, "_DEFAULT_REGISTRY", Refusing())
+        mp.setattr(models.engine.runtime, "_DEFAULT_REGISTRY", Refusing())
         rid = api.post("/v1/robots", json={"name": "owned"}).json()["id"]
         deg = (check * DESC.joint_to_boundary).tolist()
         poses = api.post(f"/v1/robots/{rid}/forward-kinematics", json={"joints": deg}).json()["poses"]

@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation
 
 from iwr_client.errors import ApiError
 from models import Registry
-from models.examples import UR5_DH
+from models.description.examples import UR5_DH
 from models.noise import NoiseModel
 from models.tree import RobotTree, ToolRecords, measure_tree, perturbed_tree, tree_joint_samples
 from models.tree.examples import PART, POSITIONER, TORCH, WAIST, arm_with_positioner, dual_arm_torso

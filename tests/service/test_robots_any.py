@@ -10,7 +10,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, sample_workspace
-from models.examples import hexapod_alone, hexapod_alone_document, iiwa_like, iiwa_like_document
+from models.description.examples import hexapod_alone, hexapod_alone_document, iiwa_like, iiwa_like_document
 from models.simulation import measure, perturbed_robot
 from tests.models.test_urdf import UR5_URDF
 
@@ -154,7 +154,7 @@ def _arm(*links: Mapping[str, object], convention: str = "dh") -> dict[str, obje
 
 REVOLUTE = {"joint": "revolute", "range": [-90.0, 90.0]}
 RULES = {
-    # robots.md's rules between values: models.structure names the field as the spec does
+    # robots.md's rules between values: models.description.structure names the field as the spec does
     "range lo >= hi": (_arm({**REVOLUTE, "range": [90.0, -90.0]}), "stages[0].links[0].range"),
     "strokes lo >= hi": (_hexapod(strokes=[400.0, 300.0]), "stages[0].strokes"),
     "collinear joints": (_hexapod(base_joints=[[float(k), 0.0, 0.0] for k in range(6)]), "stages[0].base_joints"),

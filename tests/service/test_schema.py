@@ -11,7 +11,7 @@ from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 from sqlalchemy import text
 
-from models.examples import ur5_like_document
+from models.description.examples import ur5_like_document
 from service.persistence import Database
 from service.persistence.tables import Base, Robot, fleet_key_of
 from tests.service.helpers import TableShape, migrated_file

@@ -11,11 +11,11 @@ import pytest
 from fastapi import APIRouter, Request
 from fastapi.testclient import TestClient
 
-from service import security
-from service.app import create_app
-from service.deps import ApiKeyDep
-from service.operations import Operation, table
-from service.security import Scope, digest, parse_keys
+from service.http import security
+from service.http.app import create_app
+from service.http.deps import ApiKeyDep
+from service.http.operations import Operation, table
+from service.http.security import Scope, digest, parse_keys
 from service.settings import Settings
 from tests.service.contract_check import ContractClient
 
@@ -32,10 +32,10 @@ DECLARED: dict[tuple[str, str], Operation] = {route: op for route, op in POLICIE
 
 
 def test_every_route_declares_its_operation() -> None:
-    """A new /v1 route fails here until its endpoint declares its policy (`@operation`, service.operations)."""
+    """A new /v1 route fails here until its endpoint declares its policy (`@operation`, service.http.operations)."""
     assert len(TABLE) >= 14
     missing = [route for route, op in POLICIES.items() if op is None]
-    assert not missing, f"declare these routes' policy with @operation (service.operations): {missing}"
+    assert not missing, f"declare these routes' policy with @operation (service.http.operations): {missing}"
     assert DECLARED[("DELETE", "/v1/robots/{robot_id}")].scope is Scope.admin
     assert DECLARED[("POST", "/v1/robots/{robot_id}/parameter-versions/{version}/restore")].scope is Scope.admin
     # Storing nothing is reading: kinematics and error analysis; creating a record is writing.

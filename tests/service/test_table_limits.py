@@ -2,7 +2,7 @@
 
 The probe's 10 MB "one-line" CSV (records with CR line ends: one line to `wc -l`, 714 000 to the reader) was
 parsed for 15 s and +896 MB before its refusal. Now its records are counted in the bytes against the budget and
-its cells and fields per line against `service.limits`, before any parser runs. Time is asserted as the CPU time
+its cells and fields per line against `service.compute.limits`, before any parser runs. Time is asserted as the CPU time
 of this process (the TestClient's app runs here, its parse in a thread) and memory by tracemalloc's peak, so the
 assertions hold on a busy machine."""
 
@@ -16,8 +16,9 @@ from fastapi.testclient import TestClient
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from service import guards, limits, operations
-from service.csv_codec import joined_campaign, parse_campaign
+from service.compute import limits
+from service.files.csv_codec import joined_campaign, parse_campaign
+from service.http import guards, operations
 from tests.service.helpers import cost
 
 HEADER = "q1,q2,q3,q4,l1,l2,l3,l4,l5,l6,x,y,z"

@@ -10,9 +10,9 @@ import pytest
 from fastapi.testclient import TestClient
 
 from models import forward_kinematics, iwr, sample_workspace
-from models.examples import ur5_like_document
+from models.description.examples import ur5_like_document
+from models.description.terms import ModelTerms, make_conditions
 from models.simulation import SimulatedRobot, measure, perturbed_robot
-from models.terms import ModelTerms, make_conditions
 from models.transforms import matrix_to_quaternion
 
 GEOMETRY = iwr()

@@ -66,7 +66,7 @@ def test_the_reports_numbers_are_the_calibrations_and_the_name_is_escaped(
     c = calibrated["answer"]
     page = api.get(f"/v1/robot-trees/{c['tree_id']}/calibrations/{c['id']}/report")
     assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
-    # The API's other HTML's policy (service.app.DOCUMENT_POLICY): no script at all, sandboxed.
+    # The API's other HTML's policy (service.http.app.DOCUMENT_POLICY): no script at all, sandboxed.
     policy = page.headers["content-security-policy"]
     assert "default-src 'none'" in policy and "sandbox" in policy and "script-src" not in policy
     text = page.text

@@ -13,7 +13,7 @@ from fastapi.testclient import TestClient
 
 from models import Registry, forward_kinematics, iwr, sample_workspace
 from models.simulation import perturbed_robot
-from service.security import digest
+from service.http.security import digest
 from tests.service.conftest import make_client
 from tests.service.helpers import finished_job, records
 

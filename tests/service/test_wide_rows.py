@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from models.examples import ur5_like_document
+from models.description.examples import ur5_like_document
 from service.campaign_io import CampaignFileError, ImportOptions
 from service.campaign_io.columns import RobotColumns, parse_column_map
-from service.csv_codec import parse_campaign
+from service.files.csv_codec import parse_campaign
 
 ROBOT = RobotColumns(("q1", "q2", "q3"), {"lift": "q1", "shoulder": "q2", "elbow": "q3"}, frozenset({"q2", "q3"}))
 """A prismatic lift and two revolute joints, named by a URDF as `lift`, `shoulder`, `elbow`."""

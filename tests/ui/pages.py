@@ -9,7 +9,7 @@ from typing import Any
 import httpx
 from playwright.sync_api import expect
 
-from models.examples import ur5_like_document
+from models.description.examples import ur5_like_document
 from tests.ui.conftest import PAGE_WAIT_MS
 
 

@@ -20,7 +20,7 @@ import pytest
 from playwright.sync_api import expect
 
 from harness.records import records
-from models.examples import ur5_like
+from models.description.examples import ur5_like
 from models.simulation import perturbed_robot
 from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
 from tests.ui.pages import posted_ur5, ready

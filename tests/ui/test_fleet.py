@@ -15,8 +15,8 @@ import pytest
 from playwright.sync_api import expect
 
 from models import sample_workspace
-from models.examples import ur5_like, ur5_like_document
-from models.fleet import MIN_UNITS
+from models.description.examples import ur5_like, ur5_like_document
+from models.evaluation.fleet import MIN_UNITS
 from models.simulation import fleet_unit
 from tests.service.helpers import records
 from tests.ui.conftest import PageProblems, screenshot

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from harness.programs import FIXTURE, HOME_DEG, Cell, executed, joints, ur5_cell
-from models.examples import ur5_like_document
+from models.description.examples import ur5_like_document
 from programs import read_program
 from tests.cli.test_compensate import N_TARGETS, backup, skeleton
 from tests.ui.conftest import screenshot, watched_page

@@ -1,4 +1,4 @@
-"""Quick checks (models.checks): a few records against the current version, with their verdict.
+"""Quick checks (models.evaluation.checks): a few records against the current version, with their verdict.
 
 - checks: the campaign it measured, the version it was checked against, the verdict and the whole result.
 

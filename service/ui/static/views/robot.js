@@ -62,7 +62,7 @@ async function drawDrift(id, versions, name, container) {
   });
 }
 
-// The structure's background build (service/builds.py): a first request during it is slower once; code on
+// The structure's background build (service/compute/builds.py): a first request during it is slower once; code on
 // CasADi's virtual machine is slower always, which the engineer should know before timing a cell.
 function buildNote(robot) {
   const b = robot.build;
