@@ -11,7 +11,6 @@ from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
 
-import coverage
 import numpy as np
 import pytest
 from _pytest.mark.expression import Expression
@@ -107,22 +106,6 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     # tests start early and the run ends on sub-second ones, not on one worker's fleet test while the rest idle.
     slow = Counter(_relative(item.path) for item in items if item.get_closest_marker("slow") is not None)
     items.sort(key=lambda item: -slow[_relative(item.path)])
-
-
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtest_protocol(item: pytest.Item) -> Iterator[None]:
-    """Coverage measures the tests that are not `slow`: a slow test runs (set-up, call and tear-down) with the
-    tracer stopped. The slow tests are the acceptance stories (live servers, fleets, large problems) over code the
-    fast tests reach too; tracing them cost a quarter of their in-process CPU for ~N points of coverage (measured
-    both ways, docs/development.md "Test suite time"), and the floor is what the fast tests reach."""
-    cov = coverage.Coverage.current() if item.get_closest_marker("slow") is not None else None
-    if cov is not None:
-        cov.stop()
-    try:
-        yield
-    finally:
-        if cov is not None:
-            cov.start()
 
 
 def _relative(path: Path) -> str:
