@@ -126,17 +126,26 @@ class Fleet:
         process.wait(timeout=30)
 
     def stop(self) -> None:
-        for process in [p for p, _ in self.apis.values()] + list(self.workers.values()):
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGTERM)
-        for process in [p for p, _ in self.apis.values()] + list(self.workers.values()):
-            try:
-                process.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                os.killpg(process.pid, signal.SIGKILL)
-                process.wait()
+        _terminate([p for p, _ in self.apis.values()] + list(self.workers.values()))
         self.apis.clear()
         self.workers.clear()
+
+    def stop_workers(self) -> None:
+        """The workers only (SIGTERM: each finishes its job first); the APIs keep serving."""
+        _terminate(list(self.workers.values()))
+        self.workers.clear()
+
+
+def _terminate(processes: list[subprocess.Popen[bytes]]) -> None:
+    for process in processes:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGTERM)
+    for process in processes:
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
 
 
 @contextmanager

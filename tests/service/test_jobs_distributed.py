@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 from sqlalchemy import create_engine, text
 
-from harness.fleet import RABBITMQ, REDIS, call, campaign, fleet, wait_for
+from harness.fleet import RABBITMQ, REDIS, Fleet, call, campaign, fleet, wait_for
 from models import Registry
 from service.compute.model_cache import ModelCache
 from service.jobs import WorkerContext
@@ -30,6 +30,27 @@ LEASE = "2"
 @pytest.fixture
 def pg() -> Iterator[str]:
     yield from postgres_url()
+
+
+@pytest.fixture(scope="module")
+def rabbit_fleet(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Fleet]:
+    """One PostgreSQL database, one queue on RabbitMQ and one API for the tests below that start workers of their
+    own and end every job they submit (an API start is ~4 s of CPU; each test's rows are its own robot's)."""
+    for pg in postgres_url():
+        with fleet(pg, broker(RABBITMQ), tmp_path_factory.mktemp("fleet"), IWR_JOB_LEASE_SECONDS=LEASE) as f:
+            f.start_api("api")
+            yield f
+
+
+@pytest.fixture
+def rabbit(rabbit_fleet: Fleet, tmp_path: Path) -> Iterator[Fleet]:
+    """The module's fleet for one test: its workers log in the test's own directory (their logs are read) and are
+    stopped when it ends."""
+    rabbit_fleet.logs = tmp_path
+    try:
+        yield rabbit_fleet
+    finally:
+        rabbit_fleet.stop_workers()
 
 
 def _rows(url: str, robot_id: str) -> tuple[int, int]:
@@ -57,30 +78,34 @@ def _until_running(base: str, job_id: str, timeout: float = 120) -> dict[str, An
     raise AssertionError(f"job {job_id} never ran")
 
 
-@pytest.mark.slow  # two workers started, one killed: ~25 s each
-@pytest.mark.parametrize("kind", ["calibration", "pose_design"])
-def test_kill_9_of_the_worker_mid_job_redelivers_it_and_it_succeeds_once(pg: str, tmp_path: Path, kind: str) -> None:
-    with fleet(pg, broker(RABBITMQ), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
-        base = f.start_api("api")
-        for name in ("w1", "w2"):
-            f.start_worker(name)
-        for name in ("w1", "w2"):
+@pytest.mark.slow  # two workers started, one killed and replaced, the other killed: ~30 s
+def test_kill_9_of_the_worker_mid_job_redelivers_it_and_it_succeeds_once(rabbit: Fleet) -> None:
+    """A calibration, then a pose design, each killed mid-run with its worker; the second runs on the first's
+    survivor and one worker started in the victim's place (two workers for each job, one start fewer)."""
+    f, pg = rabbit, rabbit.database_url
+    base = f.base("api")
+    for name in ("w1", "w2"):
+        f.start_worker(name)
+    for kind, replacement in (("calibration", "w3"), ("pose_design", None)):
+        for name in f.workers:
             f.wait_ready(name)
-        _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
+        _, robot = call(base, "POST", "/v1/robots", {"name": f"kill-9-{kind}"})
         if kind == "calibration":
             # 3 000 poses: ~1 s of identification, time enough to kill it in the middle
-            status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(3000))
+            path = f"/v1/robots/{robot['id']}/calibrations?async=true"
+            status, accepted = call(base, "POST", path, campaign(3000))
         else:
             body = {"count": 30, "criterion": "D", "candidate_count": 2000, "seed": 1}
             status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/pose-designs?async=true", body)
         assert status == 202, accepted
         running = _until_running(base, accepted["job_id"])
         pid = int(running["worker"].rsplit(":", 1)[1])
-        victim = next(n for n, p in f.workers.items() if str(p.pid) == Path(f"/proc/{pid}/stat").read_text().split()[3])
+        parent = Path(f"/proc/{pid}/stat").read_text().split()[3]
+        victim = next(n for n, p in f.workers.items() if str(p.pid) == parent)
         f.kill_worker(victim)  # kill -9 of its main process and of the process running the job
         job = wait_for(base, [accepted["job_id"]], timeout=180)[accepted["job_id"]]
-        assert job["status"] == "succeeded", job
-        assert job["attempts"] == 2, "killed mid-run, then taken over once"
+        assert job["status"] == "succeeded", (kind, job)
+        assert job["attempts"] == 2, f"{kind}: killed mid-run, then taken over once"
         assert job["worker"] != running["worker"]
         if kind == "calibration":
             assert _rows(pg, robot["id"]) == (1, 2), "one calibration row, one new parameter version"
@@ -88,29 +113,31 @@ def test_kill_9_of_the_worker_mid_job_redelivers_it_and_it_succeeds_once(pg: str
         else:
             _, designs = call(base, "GET", f"/v1/jobs?robot_id={robot['id']}")
             assert len(designs) == 1 and job["result"]["poses"]
+        if replacement is not None:
+            f.start_worker(replacement)
 
 
 @pytest.mark.slow  # one worker, one job: ~10 s
-def test_a_worker_killed_after_the_job_committed_leaves_one_result(pg: str, tmp_path: Path) -> None:
+def test_a_worker_killed_after_the_job_committed_leaves_one_result(rabbit: Fleet) -> None:
     """The pool process dies (as kill -9) after the transaction that stored the calibration and marked the job
     succeeded, before the broker's acknowledgement: the message comes back, the redelivery finds the job done."""
-    with fleet(pg, broker(RABBITMQ), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
-        base = f.start_api("api")
-        f.start_worker("w", IWR_FAULT="job-committed")
-        f.wait_ready("w")
-        _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
-        status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(60))
-        assert status == 202, accepted
-        job = wait_for(base, [accepted["job_id"]], timeout=120)[accepted["job_id"]]
-        deadline = time.monotonic() + 60
-        log = f.logs / "w.log"
-        while log.read_text().count("iwr.run_job[") < 3 and time.monotonic() < deadline:
-            time.sleep(0.1)  # received, lost with its process, received again and succeeded
-        text = log.read_text()
-        assert "WorkerLostError" in text and text.count("iwr.run_job[") >= 3, text[-3000:]
-        _, again = call(base, "GET", f"/v1/jobs/{accepted['job_id']}")
-        assert again == job and job["status"] == "succeeded" and job["attempts"] == 1, job
-        assert _rows(pg, robot["id"]) == (1, 2), "one calibration row, one new parameter version"
+    f, pg = rabbit, rabbit.database_url
+    base = f.base("api")
+    f.start_worker("w", IWR_FAULT="job-committed")
+    f.wait_ready("w")
+    _, robot = call(base, "POST", "/v1/robots", {"name": "committed"})
+    status, accepted = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(60))
+    assert status == 202, accepted
+    job = wait_for(base, [accepted["job_id"]], timeout=120)[accepted["job_id"]]
+    deadline = time.monotonic() + 60
+    log = f.logs / "w.log"
+    while log.read_text().count("iwr.run_job[") < 3 and time.monotonic() < deadline:
+        time.sleep(0.1)  # received, lost with its process, received again and succeeded
+    text = log.read_text()
+    assert "WorkerLostError" in text and text.count("iwr.run_job[") >= 3, text[-3000:]
+    _, again = call(base, "GET", f"/v1/jobs/{accepted['job_id']}")
+    assert again == job and job["status"] == "succeeded" and job["attempts"] == 1, job
+    assert _rows(pg, robot["id"]) == (1, 2), "one calibration row, one new parameter version"
 
 
 MIXED_JOBS = 200 if SOAK else 60
@@ -194,23 +221,23 @@ def test_redis_broker_and_a_duplicated_message_changes_nothing(pg: str, tmp_path
 
 
 @pytest.mark.slow  # a worker started and stopped: ~10 s
-def test_sigterm_drains_a_worker(pg: str, tmp_path: Path) -> None:
+def test_sigterm_drains_a_worker(rabbit: Fleet) -> None:
     """SIGTERM while a job runs: the job finishes, then the worker exits; nothing else is taken."""
-    with fleet(pg, broker(RABBITMQ), tmp_path, IWR_JOB_LEASE_SECONDS=LEASE) as f:
-        base = f.start_api("api")
-        worker = f.start_worker("w")
-        f.wait_ready("w")
-        _, robot = call(base, "POST", "/v1/robots", {"name": "cell"})
-        body = {"count": 30, "criterion": "D", "candidate_count": 2000, "seed": 1}
-        _, first = call(base, "POST", f"/v1/robots/{robot['id']}/pose-designs?async=true", body)
-        _, second = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(60))
-        _until_running(base, first["job_id"])
-        os.kill(worker.pid, signal.SIGTERM)
-        assert worker.wait(timeout=120) == 0
-        _, done = call(base, "GET", f"/v1/jobs/{first['job_id']}")
-        _, waiting = call(base, "GET", f"/v1/jobs/{second['job_id']}")
-        assert done["status"] == "succeeded" and done["attempts"] == 1
-        assert waiting["status"] == "queued"  # still in the broker, for the next worker
-        f.workers.pop("w")
-        f.start_worker("w2")
-        assert wait_for(base, [second["job_id"]], timeout=120)[second["job_id"]]["status"] == "succeeded"
+    f = rabbit
+    base = f.base("api")
+    worker = f.start_worker("w")
+    f.wait_ready("w")
+    _, robot = call(base, "POST", "/v1/robots", {"name": "sigterm"})
+    body = {"count": 30, "criterion": "D", "candidate_count": 2000, "seed": 1}
+    _, first = call(base, "POST", f"/v1/robots/{robot['id']}/pose-designs?async=true", body)
+    _, second = call(base, "POST", f"/v1/robots/{robot['id']}/calibrations?async=true", campaign(60))
+    _until_running(base, first["job_id"])
+    os.kill(worker.pid, signal.SIGTERM)
+    assert worker.wait(timeout=120) == 0
+    _, done = call(base, "GET", f"/v1/jobs/{first['job_id']}")
+    _, waiting = call(base, "GET", f"/v1/jobs/{second['job_id']}")
+    assert done["status"] == "succeeded" and done["attempts"] == 1
+    assert waiting["status"] == "queued"  # still in the broker, for the next worker
+    f.workers.pop("w")
+    f.start_worker("w2")
+    assert wait_for(base, [second["job_id"]], timeout=120)[second["job_id"]]["status"] == "succeeded"
