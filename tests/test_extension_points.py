@@ -282,6 +282,7 @@ def test_the_architecture_doc_states_the_record_kinds_and_the_allowed_modules() 
     ]
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_the_last_kind_added_is_named_only_in_the_files_the_doc_lists() -> None:
     """The kind the doc names as proof (`displacement`) is those files: its tag, its reference's name, its field
     and its body's map are string constants in its two modules, the registry line aside, and nowhere else in

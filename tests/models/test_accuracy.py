@@ -53,6 +53,7 @@ def test_the_true_parameters_have_only_the_noise_left(setting: tuple[SimulatedRo
     assert all(abs(d.characteristics.accuracy_mm) < 4 * SIGMA for d in report.iso_distances)
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_the_nominal_model_shows_its_geometric_error(setting: tuple[SimulatedRobot, CubePoses, Campaign]) -> None:
     sim, cube, campaign = setting
     report = evaluate(DESC, DESC.parameters.nominal, campaign, register=True)

@@ -83,6 +83,7 @@ def test_beta_on_a_dh_link_whose_axes_are_not_parallel_is_refused() -> None:
     assert refused.value.field == "stages[0].links[0].beta"
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_a_hexapod_alone() -> None:
     # 42 joint coordinates and offsets plus base and tool (12), less the 6 + 6 rigid motions of the base and
     # platform joint sets that base and tool absorb.

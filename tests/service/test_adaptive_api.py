@@ -186,6 +186,7 @@ def test_migration_0011_adds_the_adaptive_tables_and_removes_them(tmp_path: Path
         engine.dispose()
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_a_campaign_started_from_records_already_measured(client: TestClient) -> None:
     robot_id = _robot(client)
     measured = records(DESC, TRUTH, sample_workspace(DESC, 8, seed=12), 13)
@@ -197,6 +198,7 @@ def test_a_campaign_started_from_records_already_measured(client: TestClient) ->
     assert pose["candidate"] is not None and pose == first["next"][0] and len(pose["joints"]) == 6
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_a_robots_campaigns_are_listed_with_where_each_stands(client: TestClient) -> None:
     robot_id = _robot(client)
     base = f"/v1/robots/{robot_id}/adaptive-campaigns"
@@ -250,6 +252,7 @@ def test_a_campaign_in_the_stored_cell_asks_only_for_poses_it_can_measure(client
     assert len(asked) == state["records"] and _feasible(desc, asked) == [""] * len(asked)
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_a_campaign_in_a_cell_sent_with_it_and_its_refusals(client: TestClient) -> None:
     robot_id, desc = _cell_robot(client)
     base = f"/v1/robots/{robot_id}/adaptive-campaigns"

@@ -183,6 +183,7 @@ def test_the_check_answers_each_pose_as_the_independent_check(
     assert inline["cell_version"] is None and inline["poses"] == found["poses"]
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_a_check_or_design_with_the_stored_cell_needs_one(
     client: TestClient, ur5: tuple[str, RobotDescription]
 ) -> None:

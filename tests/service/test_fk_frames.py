@@ -24,6 +24,7 @@ def ur5(client: TestClient) -> str:
     return posted_ur5(client, "ur5-frames")
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_every_frame_is_the_textbook_dh_product(client: TestClient, ur5: str) -> None:
     answer = client.post(f"/v1/robots/{ur5}/forward-kinematics", json={"joints": JOINTS_DEG, "frames": True})
     assert answer.status_code == 200, answer.text

@@ -147,6 +147,7 @@ def test_brackets_inside_strings_are_not_nesting(client: TestClient) -> None:
     assert answer.status_code == 201, answer.text
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_a_trailing_slash_is_a_404_naming_the_path_never_a_redirect(tmp_path: Path, registry: Registry) -> None:
     # With keys required and none sent: the 307 came before any key check and its Location took the Host header.
     with make_client(f"sqlite:///{tmp_path}/iwr.db", registry, api_keys="k-secret") as c:

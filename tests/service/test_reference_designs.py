@@ -141,6 +141,7 @@ def test_a_target_design_says_how_many_ballbar_records(client: TestClient, arm: 
     assert report["reachable_mm"] < goal
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_sampled_poses_are_offered_against_every_anchor_within_its_range(client: TestClient, arm: str) -> None:
     count = 150
     sampled = sample_workspace(UR5, count, seed=3, params=UR5.parameters.nominal)

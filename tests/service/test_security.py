@@ -153,6 +153,7 @@ def test_metrics_and_docs_behind_a_key_by_setting(tmp_path: Path, metrics_public
         assert c.get("/healthz").status_code == 200  # probes never need a key
 
 
+@pytest.mark.slow  # > 0.25 s of CPU: make test runs it, test-fast does not
 def test_the_document_declares_the_scheme_and_every_scope() -> None:
     doc = APP.openapi()
     assert doc["components"]["securitySchemes"]["ApiKey"] == {
