@@ -75,19 +75,21 @@ def _joint_units(table: Table, names: Sequence[str], robot: RobotColumns | None,
     length unit (its preamble's, else `length_unit`) on the prismatic ones."""
     revolute = _revolute(names, robot)
     table = with_joint_unit(table, revolute, options.joint_unit)
-    prismatic = [n for n in names if n not in revolute]
+    turning = set(revolute)  # a set: a header of thousands of joints is refused in linear time, not quadratic
+    prismatic = [n for n in names if n not in turning]
     return with_length_unit(table, prismatic, table.length_unit or options.length_unit)
 
 
 def _revolute(names: Sequence[str], robot: RobotColumns | None) -> list[str]:
     """The joint columns a `joint_unit` applies to: the robot's revolute joints; without the robot, the serial
     joints (a hexapod's legs are lengths)."""
-    if robot is not None and list(names) == list(robot.names):
-        return [n for n in names if n in robot.revolute]
-    if robot is not None:
-        turning = [k for k, n in enumerate(robot.names) if n in robot.revolute]
-        return [names[k] for k in turning if k < len(names)]
-    return [n for n in names if n not in LEGS]
+    if robot is None:
+        return [n for n in names if n not in LEGS]
+    revolute = set(robot.revolute)
+    if list(names) == list(robot.names):
+        return [n for n in names if n in revolute]
+    turning = [k for k, n in enumerate(robot.names) if n in revolute]
+    return [names[k] for k in turning if k < len(names)]
 
 
 JOINT_STYLES = ("q", "a", "j", "axis", "joint")

@@ -40,6 +40,7 @@ from service.schemas.robot_trees import (
     TreeDhExportPublic,
     TreeKinematicsPublic,
     TreeKinematicsRequest,
+    TreeMeasured,
     TreeUrdfExportPublic,
 )
 from service.services import robot_trees, tree_operations, tree_reports
@@ -242,7 +243,7 @@ async def design_robot_tree_records(
     text/csv) the records as a campaign sheet (tool, frame, measurement, the tree's joints)."""
     size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
     records = body.offered(size.tools)
-    rows = 6 if body.measure is not None and any(k.measurement == "pose" for k in body.measure) else 3
+    rows = TreeMeasured.most_rows(body.measure)
     limits.admit(
         limits.tree_design(records, rows, size.parameters, body.count, body.criterion.value),
         run_async=False,

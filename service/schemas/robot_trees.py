@@ -14,6 +14,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
+from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from service.compute import limits
 from service.schemas.common import OptionalFloat, PosePublic, Position, Public, Quaternion, Strict
@@ -262,6 +263,16 @@ class TreeMeasured(Strict):
     frame: BranchName | None = Field(default=None, description="In this tool's frame; null: the instrument's")
     measurement: Literal["position", "pose"] = "position"
     sigma_mm: float | None = Field(default=None, gt=0, le=100, description="Its position σ (default: the request's)")
+
+    @property
+    def kind(self) -> MeasurementKind:
+        """What the record measures, as the models name it (its rows, whether it is position only)."""
+        return MeasurementKind(self.measurement)
+
+    @classmethod
+    def most_rows(cls, measured: list[TreeMeasured] | None) -> int:
+        """The rows of the largest record a design may choose (a position's when none is named)."""
+        return max((m.kind.rows for m in measured or ()), default=MeasurementKind.POSITION.rows)
 
 
 class TreeDesignCreate(Strict):

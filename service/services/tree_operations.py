@@ -23,6 +23,7 @@ from models._types import Array
 from models.errors import InvalidInput
 from models.formats.dh_table import LINK_TRANSFORMS, frame_row
 from models.formats.urdf_calibrated import frame_text, splice_origins
+from models.measurement import MeasurementKind
 from models.noise import NoiseModel
 from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
 from models.tree import (
@@ -162,9 +163,7 @@ def _pairs(tree: RobotTree, kinds: Sequence[TreeMeasured]) -> list[tuple[str, st
 
 def design_cost_inputs(tree: RobotTree, body: TreeDesignCreate) -> tuple[int, int]:
     """(candidate records, rows of the largest) the admission of a design weighs."""
-    kinds = body.measure
-    rows = 6 if kinds is not None and any(k.measurement == "pose" for k in kinds) else 3
-    return body.offered(len(tree.tips)), rows
+    return body.offered(len(tree.tips)), TreeMeasured.most_rows(body.measure)
 
 
 def design(*, db: Database, registry: Registry, tree_id: str, body: TreeDesignCreate) -> TreeDesignPublic:
@@ -178,7 +177,7 @@ def design(*, db: Database, registry: Registry, tree_id: str, body: TreeDesignCr
     else:
         q = _drawn(tree, body.candidate_count, body.seed, body.joint_ranges)
     candidates = [
-        TreeCandidate(k.tool, row, k.frame, k.measurement == "position", k.sigma_mm) for row in q for k in kinds
+        TreeCandidate(k.tool, row, k.frame, k.kind is MeasurementKind.POSITION, k.sigma_mm) for row in q for k in kinds
     ]
     if body.count > len(candidates):
         raise InvalidInput(
@@ -246,16 +245,10 @@ def joint_names(*, db: Database, tree_id: str) -> list[str]:
 
 
 # ---------------------------------------------------------------------------------------------- compensation
-def compensate(
-    *, db: Database, registry: Registry, tree_id: str, body: TreeCompensationCreate
-) -> TreeCompensationPublic:
-    """Each target's joints on the tree's current parameters, grouped by (tool, frame): Newton from the program's
-    joints on the tool's own branches, a reason for each target left as given."""
-    cur = _current(db, tree_id)
-    tree = cur.tree
-    targets = body.targets
+def _targets_in(tree: RobotTree, body: TreeCompensationCreate) -> tuple[Array, Array]:
+    """The targets' program joints (internal units) and poses (4 x 4, mm), each tool and frame checked."""
     quats = []
-    for k, t in enumerate(targets):
+    for k, t in enumerate(body.targets):
         tree.tip(t.tool, f"targets[{k}].tool")
         if t.frame is not None:
             tree.tip(t.frame, f"targets[{k}].frame")
@@ -265,10 +258,22 @@ def compensate(
                     field=f"targets[{k}].frame",
                 )
         quats.append(unit_quaternion(t.orientation, f"targets[{k}].orientation"))
-    q = joints_in(tree, [t.joints for t in targets], "targets", ".joints")
-    poses = np.tile(np.eye(4), (len(targets), 1, 1))
+    q = joints_in(tree, [t.joints for t in body.targets], "targets", ".joints")
+    poses = np.tile(np.eye(4), (len(body.targets), 1, 1))
     poses[:, :3, :3] = quaternion_to_matrix(np.array(quats))
-    poses[:, :3, 3] = [t.position for t in targets]
+    poses[:, :3, 3] = [t.position for t in body.targets]
+    return q, poses
+
+
+def compensate(
+    *, db: Database, registry: Registry, tree_id: str, body: TreeCompensationCreate
+) -> TreeCompensationPublic:
+    """Each target's joints on the tree's current parameters, grouped by (tool, frame): Newton from the program's
+    joints on the tool's own branches, a reason for each target left as given."""
+    cur = _current(db, tree_id)
+    tree = cur.tree
+    targets = body.targets
+    q, poses = _targets_in(tree, body)
     groups: dict[tuple[str, str | None], list[int]] = {}
     for k, t in enumerate(targets):
         groups.setdefault((t.tool, t.frame), []).append(k)

@@ -12,7 +12,7 @@ from models import Registry, identification, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.compute.model_cache import ModelCache
 from service.jobs.runner import WorkerContext, execute_job
-from service.services import calibrations
+from service.services import pipelines
 from tests.service.conftest import make_client
 from tests.service.contract_check import ContractClient
 from tests.service.helpers import records
@@ -34,7 +34,7 @@ def test_two_calibrations_in_flight_the_second_is_stored_not_applied(
     """The measured bug: two calibrations 0.5 s apart both applied; the later-finishing one silently won."""
     rid = api.post("/v1/robots", json={"name": "cell"}).json()["id"]
     slow_started, fast_done = threading.Event(), threading.Event()
-    real = identification.identify  # the function calibrations imported
+    real = identification.identify  # the function the calibration pipeline imported
 
     calls = 0
 
@@ -47,7 +47,7 @@ def test_two_calibrations_in_flight_the_second_is_stored_not_applied(
             assert fast_done.wait(60)  # the other calibration applies while this one "computes"
         return result
 
-    monkeypatch.setattr(calibrations, "identify", identify)
+    monkeypatch.setattr(pipelines, "identify", identify)
     answers: dict[str, Any] = {}
 
     def slow() -> None:
