@@ -9,6 +9,7 @@ from fastapi.testclient import TestClient
 
 from models.description.structure import description_from_document
 from models.errors import InvalidInput
+from models.formats import ur_kinematics
 from models.formats.ur_kinematics import MAX_FLOW_DEPTH, flow_depth, read_kinematics
 from models.formats.urdf import MAX_OFFSET_M, document_from_urdf
 from tests.models.test_urdf_hostile import LIMIT, urdf
@@ -112,8 +113,15 @@ def test_a_descriptions_part_nested_100_000_deep_is_a_400(client: TestClient, ro
     assert "nested 100000 levels deep; at most 32" in answer.json()["detail"]
 
 
-def test_a_ur_file_of_30_000_brackets_is_a_422_before_yaml_reads_it(client: TestClient) -> None:
-    # 0.84 s of CPU here (5.8 s on the loaded probe machine) in PyYAML's recursion before its 422.
+def test_a_ur_file_of_30_000_brackets_is_a_422_before_yaml_reads_it(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # 0.84 s of CPU here (5.8 s on the loaded probe machine) in PyYAML's recursion before its 422. The proof is that
+    # PyYAML never sees the text; the CPU bound is loose (the process's other threads count in it under load).
+    def must_not_parse(text: str) -> object:
+        raise AssertionError("PyYAML was asked to read a file the bracket count refuses")
+
+    monkeypatch.setattr(ur_kinematics.yaml, "safe_load", must_not_parse)
     with cost() as spent:
         answer = client.post(
             "/v1/robots", json={"name": "ur", "import": {"format": "ur-calibration", "document": "[" * 30_000}}
@@ -121,7 +129,7 @@ def test_a_ur_file_of_30_000_brackets_is_a_422_before_yaml_reads_it(client: Test
     assert answer.status_code == 422, answer.text
     problem = answer.json()
     assert problem["field"] == "import.document" and f"nests at most {MAX_FLOW_DEPTH}" in problem["detail"]
-    assert spent["cpu_s"] < 0.2 and spent["peak_mb"] < 20, spent
+    assert spent["cpu_s"] < 0.6 and spent["peak_mb"] < 20, spent
 
 
 def test_the_flow_depth_is_counted_as_yaml_nests() -> None:
