@@ -5,11 +5,11 @@ assertions hold on a busy machine; nothing is stored."""
 from __future__ import annotations
 
 import pytest
+import yaml
 from fastapi.testclient import TestClient
 
 from models.description.structure import description_from_document
 from models.errors import InvalidInput
-from models.formats import ur_kinematics
 from models.formats.ur_kinematics import MAX_FLOW_DEPTH, flow_depth, read_kinematics
 from models.formats.urdf import MAX_OFFSET_M, document_from_urdf
 from tests.models.test_urdf_hostile import LIMIT, urdf
@@ -121,7 +121,7 @@ def test_a_ur_file_of_30_000_brackets_is_a_422_before_yaml_reads_it(
     def must_not_parse(text: str) -> object:
         raise AssertionError("PyYAML was asked to read a file the bracket count refuses")
 
-    monkeypatch.setattr(ur_kinematics.yaml, "safe_load", must_not_parse)
+    monkeypatch.setattr(yaml, "safe_load", must_not_parse)
     with cost() as spent:
         answer = client.post(
             "/v1/robots", json={"name": "ur", "import": {"format": "ur-calibration", "document": "[" * 30_000}}
