@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -43,6 +43,7 @@ from service.persistence.tables import RobotCellRecord
 from service.schemas.cells import (
     AllowedPairPublic,
     BoxShape,
+    CameraDocument,
     CapsuleShape,
     CellDocument,
     CellPublic,
@@ -53,6 +54,7 @@ from service.schemas.cells import (
     Placed,
     SphereShape,
     TargetDocument,
+    TrackerDocument,
 )
 from service.schemas.common import timestamp
 
@@ -149,17 +151,29 @@ def _overridden(geometry: RobotGeometry, doc: CellDocument, layout: FrameLayout)
     return out
 
 
+class _Sight(TypedDict):
+    """What a tracker and a camera both see a target within: its distance (mm) and the cone it must face the
+    instrument within (its half-angle, rad)."""
+
+    range_min: float
+    range_max: float
+    acceptance: float
+
+
+def _sight(instrument: TrackerDocument | CameraDocument) -> _Sight:
+    return _Sight(
+        range_min=instrument.range_min_mm,
+        range_max=instrument.range_max_mm,
+        acceptance=float(np.radians(instrument.acceptance_deg)),
+    )
+
+
 def _instruments(doc: CellDocument) -> tuple[Tracker | None, Camera | None, Ballbar | None]:
     tracker = camera = ballbar = None
     if doc.tracker is not None:
         t = doc.tracker
         tracker = Tracker(
-            _vec(t.position_mm),
-            range_min=t.range_min_mm,
-            range_max=t.range_max_mm,
-            acceptance=float(np.radians(t.acceptance_deg)),
-            reflector=_target(t.reflector),
-            beam_clearance=t.beam_clearance_mm,
+            _vec(t.position_mm), **_sight(t), reflector=_target(t.reflector), beam_clearance=t.beam_clearance_mm
         )
     if doc.camera is not None:
         c = doc.camera
@@ -167,9 +181,7 @@ def _instruments(doc: CellDocument) -> tuple[Tracker | None, Camera | None, Ball
             _pose6(c),
             half_width=float(np.radians(c.half_width_deg)),
             half_height=float(np.radians(c.half_height_deg)),
-            range_min=c.range_min_mm,
-            range_max=c.range_max_mm,
-            acceptance=float(np.radians(c.acceptance_deg)),
+            **_sight(c),
             target=_target(c.target),
             sight_clearance=c.sight_clearance_mm,
         )

@@ -4,13 +4,14 @@ one it holds (the registry: `service.record_kinds`)."""
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-from pydantic import BaseModel
+from pydantic import BaseModel, Field
 
 from models import RobotDescription
 from models.engine.runtime import Runtime
@@ -21,13 +22,16 @@ from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import ImportOptions, length_factor
 from service.campaign_io.tabular import Row, Table
 from service.conversions.kinematics import joints_in
+from service.errors import BadRequest
 
 ModelReference = AnyReference
 """What a group of records measures in the models (`ReferenceRecords.reference`)."""
+Vector = tuple[float, float, float]
+"""A reference's guessed position or direction, as its description gives it (mm)."""
 SIGMA_COLUMNS = ("sigma_mm", "sigma", "uncertainty")
+"""Where a file gives a record's σ in mm (the first present is read)."""
 POSITION_COLUMNS = ("x", "y", "z")
 """A tracker reading's columns in the layout of several kinds."""
-"""Where a file gives a record's σ in mm (the first present is read)."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +85,71 @@ def cell(value: float | None) -> str:
     return "" if value is None else repr(float(value))
 
 
+def described_map(max_length: int, description: str) -> Any:
+    """The `Field` of a body's map of a kind's references (`RecordKind.described_field`): none by default, at most
+    `max_length`, `description` in the contract."""
+    return Field(default_factory=dict, max_length=max_length, description=description)
+
+
+class Reading(ABC):
+    """What a kind's records measured, one field of each (`field`): how a file's row gives it, the cells the layout
+    of several kinds writes it in, and the numbers the models fit."""
+
+    field: str
+
+    @abstractmethod
+    def read(self, row: FileRow, what: str) -> Any:
+        """The row's reading (mm); a `CampaignFileError` naming `what` where the file cannot give it."""
+
+    @abstractmethod
+    def cells(self, value: Any) -> dict[str, str]:
+        """A record's reading as cells of the layout of several kinds, by column."""
+
+    def notes(self, table: Table, options: ImportOptions) -> list[str]:
+        """What reading a file's columns for it says (a unit converted)."""
+        return []
+
+
+class PositionReading(Reading):
+    """A point's position, x, y, z in mm in the instrument's frame (a tracker's reading of a reflector)."""
+
+    field = "position"
+
+    def read(self, row: FileRow, what: str) -> list[float]:
+        return row.position_mm(what)
+
+    def cells(self, value: Any) -> dict[str, str]:
+        return {c: cell(v) for c, v in zip(POSITION_COLUMNS, value, strict=True)}
+
+
+@dataclass(frozen=True)
+class LengthReading(Reading):
+    """One length in mm (a distance, a displacement) in `field`; a file gives it in the first of `columns` present,
+    a unit in its header converted (the notes name it `plural`)."""
+
+    field: str
+    columns: tuple[str, ...]
+    plural: str
+
+    def read(self, row: FileRow, what: str) -> float:
+        column = first_column(row.table, self.columns)
+        if column is None:
+            raise CampaignFileError(f"line {row.row.line}: {what} needs a {self.field} column", line=row.row.line)
+        return row.table.number(row.row, column) * length_factor(row.table, column, row.options)
+
+    def cells(self, value: Any) -> dict[str, str]:
+        return {self.field: cell(value)}
+
+    def notes(self, table: Table, options: ImportOptions) -> list[str]:
+        column = first_column(table, self.columns)
+        scale = length_factor(table, column, options) if column else 1.0
+        return [f"{self.plural} converted to mm (×{scale:g})"] if scale != 1.0 else []
+
+
+POSITION = PositionReading()
+"""The reading of a tracker's records and of a second reflector's: where the instrument saw the target."""
+
+
 class RecordKind(ABC):
     """A kind of campaign record: its schemas, its file rows and how its records become the model's inputs."""
 
@@ -130,6 +199,9 @@ class RecordKind(ABC):
     timed: ClassVar[bool] = False
     """Whether its records say when they were measured (`time`): a campaign of them alone has a timeline (the
     instrument's drift fitted over it, the span the report's conditions state)."""
+    reading: ClassVar[Reading | None] = None
+    """What each record measured (a position, a length), from which its file rows, its cells and the values the
+    models fit follow; None: it measured nothing (a touch), or the kind reads and writes its own (an image)."""
 
     @property
     def whole_campaign(self) -> bool:
@@ -147,6 +219,11 @@ class RecordKind(ABC):
         """Whether its records measure a reference the cell owns (described beside the records)."""
         return self.named_by is not None
 
+    @property
+    def tagged(self) -> bool:
+        """Whether its records carry their `kind` (a tracker's name none: the contract's rule, `record_tag`)."""
+        return "kind" in self.record.model_fields
+
     def reference_name(self, record: Any) -> str:
         """The name of the reference a record measures (its kind's where it names none)."""
         if self.named_by is None:
@@ -157,6 +234,20 @@ class RecordKind(ABC):
     def descriptions(self, described: Described) -> Mapping[str, Any]:
         """The references of this kind the body describes."""
         return {} if self.described_in is None else described.of_kind(self.described_in)
+
+    def guess(self, described: Described, name: str, key: str, default: Vector = (0.0, 0.0, 0.0)) -> Vector:
+        """The description's guess `key` of the reference `name` (where it is, which way it points), `default`
+        where the body describes none: the fit starts from the records."""
+        x, y, z = getattr(self.descriptions(described).get(name), key, None) or default
+        return x, y, z
+
+    def direction_guess(self, described: Described, name: str, key: str, default: Vector, *, give: str) -> Vector:
+        """The guess `key` of a direction (a plane's normal, a beam's); a 400 saying to `give` one where the
+        description's is the zero vector (it has no direction)."""
+        direction = self.guess(described, name, key, default)
+        if math.hypot(*direction) == 0.0:
+            raise BadRequest(f"{self.label} {name!r}: its {key} is the zero vector; give {give}")
+        return direction
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         """The reference a pose design plans its records against, from its description (where it stands, a
@@ -234,8 +325,10 @@ class RecordKind(ABC):
         raise NotImplementedError(f"{self.name} records build their own groups")  # pragma: no cover
 
     def values(self, records: Sequence[Any]) -> np.ndarray:
-        """What each record measured (internal units): nothing for a touch."""
-        return np.zeros(len(records))
+        """What each record measured (internal units, its `reading`): nothing for a touch."""
+        if self.reading is None:
+            return np.zeros(len(records))
+        return np.array([getattr(r, self.reading.field) for r in records], dtype=float)
 
     def notes(self, records: Sequence[Any]) -> list[str]:
         """What the conversion of these records beside other kinds says."""
@@ -243,12 +336,20 @@ class RecordKind(ABC):
 
     def table_notes(self, table: Table, options: ImportOptions) -> list[str]:
         """What reading a file's columns for this kind says (a unit converted)."""
-        return []
+        return [] if self.reading is None else self.reading.notes(table, options)
 
-    @abstractmethod
     def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
         """A file row's record (the API's form) appended to `out`, or merged into the last one (an image's
-        points); a row it cannot read: a `CampaignFileError` naming its line."""
+        points); a row it cannot read: a `CampaignFileError` naming its line. By default its tag, its joints, the
+        reference it names, its `reading` and its σ."""
+        rec: dict[str, Any] = {"kind": self.name} if self.tagged else {}
+        rec["joints"] = row.joints
+        if self.named_by is not None:
+            rec[self.named_by] = row.name
+        if self.reading is not None:
+            rec[self.reading.field] = self.reading.read(row, f"a {self.name} record")
+        row.sigma_mm(rec)
+        out.append(rec)
 
     def finish(self, record: dict[str, Any]) -> None:  # noqa: B027  (optional)
         """A record read from a file, once the whole file is read: the keys only reading needed dropped."""
@@ -263,6 +364,13 @@ class RecordKind(ABC):
         calibration reads back (a tracker's); None: the layout of several kinds (`file_rows`)."""
         return None
 
-    @abstractmethod
     def file_rows(self, record: Any) -> list[dict[str, str]]:
-        """A public record as rows of the layout of several kinds, each its cells by column (joints aside)."""
+        """A public record as rows of the layout of several kinds, each its cells by column (joints aside). By
+        default one row: its kind, the reference it names, its `reading` and its σ."""
+        row = {"kind": self.file_kinds[0]}
+        if self.named_by is not None:
+            row["reference"] = self.reference_name(record)
+        if self.reading is not None:
+            row.update(self.reading.cells(getattr(record, self.reading.field)))
+        row["sigma_mm"] = cell(record.sigma_mm)
+        return [row]

@@ -5,18 +5,14 @@ robot (`models.measurements.line`)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
 
 from models.measurements.line import Line
-from service.campaign_io.errors import CampaignFileError
-from service.campaign_io.records import ImportOptions, length_factor
-from service.campaign_io.tabular import Table
-from service.errors import BadRequest
-from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell, first_column
+from service.record_kinds.base import Described, LengthReading, ModelReference, Reading, RecordKind, described_map
 from service.schemas.common import JointVector, Position, Public, Strict
 from service.schemas.references import RecordSigma, ReferenceName
 
@@ -67,10 +63,9 @@ class DisplacementKind(RecordKind):
     label: ClassVar[str] = "line"
     described_in: ClassVar[str | None] = "lines"
     description = LineDescription
-    described_field: ClassVar[Any] = Field(
-        default_factory=dict,
-        max_length=20,
-        description="Optional: the beams displacement records name, each with a guess of its direction (a pose "
+    described_field: ClassVar[Any] = described_map(
+        20,
+        "Optional: the beams displacement records name, each with a guess of its direction (a pose "
         "design needs each one's direction and origin_mm)",
     )
     report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {
@@ -87,6 +82,7 @@ class DisplacementKind(RecordKind):
     design_description: ClassVar[str] = '{"direction": [dx, dy, dz], "origin_mm": [x, y, z]}'
     file_kinds: ClassVar[tuple[str, ...]] = ("displacement",)
     file_columns: ClassVar[tuple[str, ...]] = ("displacement_mm", "sigma_mm")
+    reading: ClassVar[Reading | None] = LengthReading("displacement_mm", DISPLACEMENT_COLUMNS, "displacements")
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         if description.direction is None or math.hypot(*description.direction) == 0.0:
@@ -105,41 +101,10 @@ class DisplacementKind(RecordKind):
         return {"direction": [float(v) for v in direction], "origin_mm": [float(v) for v in values[2:5]]}
 
     def reference(self, described: Described, name: str) -> ModelReference:
-        line = self.descriptions(described).get(name)
-        dx, dy, dz = (line.direction if line else None) or DEFAULT_DIRECTION
-        if math.hypot(dx, dy, dz) == 0.0:
-            raise BadRequest(f"line {name!r}: its direction is the zero vector; give the way its readings grow")
-        ox, oy, oz = (line.origin_mm if line else None) or (0.0, 0.0, 0.0)  # the fit starts from the records
-        return Line(name, (dx, dy, dz), (ox, oy, oz))
-
-    def values(self, records: Sequence[Any]) -> np.ndarray:
-        return np.array([r.displacement_mm for r in records], dtype=float)
-
-    def table_notes(self, table: Table, options: ImportOptions) -> list[str]:
-        column = first_column(table, DISPLACEMENT_COLUMNS)
-        scale = length_factor(table, column, options) if column else 1.0
-        return [f"displacements converted to mm (×{scale:g})"] if scale != 1.0 else []
-
-    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
-        column = first_column(row.table, DISPLACEMENT_COLUMNS)
-        if column is None:
-            raise CampaignFileError(
-                f"line {row.row.line}: a displacement record needs a displacement_mm column", line=row.row.line
-            )
-        rec: dict[str, Any] = {"kind": self.name, "joints": row.joints, "line": row.name}
-        rec["displacement_mm"] = row.table.number(row.row, column) * length_factor(row.table, column, row.options)
-        row.sigma_mm(rec)
-        out.append(rec)
-
-    def file_rows(self, record: Any) -> list[dict[str, str]]:
-        return [
-            {
-                "kind": self.file_kinds[0],
-                "reference": record.line,
-                "displacement_mm": cell(record.displacement_mm),
-                "sigma_mm": cell(record.sigma_mm),
-            }
-        ]
+        direction = self.direction_guess(
+            described, name, "direction", DEFAULT_DIRECTION, give="the way its readings grow"
+        )
+        return Line(name, direction, self.guess(described, name, "origin_mm"))
 
 
 DISPLACEMENT = DisplacementKind()

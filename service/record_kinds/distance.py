@@ -3,18 +3,15 @@ origin)."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any, ClassVar, Literal, cast
 
 import numpy as np
 from pydantic import Field
 
 from models.measurements.references import Anchor
-from service.campaign_io.errors import CampaignFileError
-from service.campaign_io.records import ImportOptions, length_factor
-from service.campaign_io.tabular import Table
 from service.errors import BadRequest
-from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell, first_column
+from service.record_kinds.base import Described, LengthReading, ModelReference, Reading, RecordKind, described_map
 from service.schemas.common import JointVector, Public, Strict
 from service.schemas.references import AnchorDescription, RecordSigma, ReferenceName
 
@@ -49,10 +46,9 @@ class DistanceKind(RecordKind):
     label: ClassVar[str] = "anchor"
     described_in: ClassVar[str | None] = "anchors"
     description = AnchorDescription
-    described_field: ClassVar[Any] = Field(
-        default_factory=dict,
-        max_length=100,
-        description="Every anchor a distance record names (a ballbar pivot, a sensor's origin), with an optional "
+    described_field: ClassVar[Any] = described_map(
+        100,
+        "Every anchor a distance record names (a ballbar pivot, a sensor's origin), with an optional "
         "guess of its position and whether the bar's length offset is unknown; a pose design needs each one's "
         "position_mm, optionally range_mm",
     )
@@ -69,6 +65,7 @@ class DistanceKind(RecordKind):
     readable_filter: ClassVar[str | None] = "range_mm"
     file_kinds: ClassVar[tuple[str, ...]] = ("distance",)
     file_columns: ClassVar[tuple[str, ...]] = ("distance_mm", "sigma_mm")
+    reading: ClassVar[Reading | None] = LengthReading("distance_mm", DISTANCE_COLUMNS, "distances")
 
     def check_described(self, described: Described, name: str, record: int) -> None:
         if name not in self.descriptions(described):
@@ -106,37 +103,8 @@ class DistanceKind(RecordKind):
         return entry
 
     def reference(self, described: Described, name: str) -> ModelReference:
-        anchor = self.descriptions(described)[name]
-        x, y, z = anchor.position_mm or (0.0, 0.0, 0.0)
-        return Anchor(name, (x, y, z), length_unknown=anchor.length_unknown)
-
-    def values(self, records: Sequence[Any]) -> np.ndarray:
-        return np.array([r.distance_mm for r in records], dtype=float)
-
-    def table_notes(self, table: Table, options: ImportOptions) -> list[str]:
-        distance = first_column(table, DISTANCE_COLUMNS)
-        scale = length_factor(table, distance, options) if distance else 1.0
-        return [f"distances converted to mm (×{scale:g})"] if scale != 1.0 else []
-
-    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
-        distance = first_column(row.table, DISTANCE_COLUMNS)
-        if distance is None:
-            raise CampaignFileError(f"line {row.row.line}: a distance record needs a distance_mm column", line=1)
-        scale = length_factor(row.table, distance, row.options)
-        rec: dict[str, Any] = {"kind": self.name, "joints": row.joints, "anchor": row.name}
-        rec["distance_mm"] = row.table.number(row.row, distance) * scale
-        row.sigma_mm(rec)
-        out.append(rec)
-
-    def file_rows(self, record: Any) -> list[dict[str, str]]:
-        return [
-            {
-                "kind": self.file_kinds[0],
-                "reference": record.anchor,
-                "distance_mm": cell(record.distance_mm),
-                "sigma_mm": cell(record.sigma_mm),
-            }
-        ]
+        length_unknown = self.descriptions(described)[name].length_unknown  # `check_described`: it is described
+        return Anchor(name, self.guess(described, name, "position_mm"), length_unknown=length_unknown)
 
 
 DISTANCE = DistanceKind()

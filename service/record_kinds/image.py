@@ -21,7 +21,7 @@ from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import length_factor
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
-from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
+from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell, described_map
 from service.schemas.common import JointVector, Position, Public, Strict
 from service.schemas.references import CameraDescription, ReferenceName
 
@@ -99,10 +99,9 @@ class ImageKind(RecordKind):
     label: ClassVar[str] = "image"
     described_in: ClassVar[str | None] = "cameras"
     description = CameraDescription
-    described_field: ClassVar[Any] = Field(
-        default_factory=dict,
-        max_length=20,
-        description="Every camera an image record names, with its intrinsics; a pose design needs each one's "
+    described_field: ClassVar[Any] = described_map(
+        20,
+        "Every camera an image record names, with its intrinsics; a pose design needs each one's "
         "position_mm, rotation_vector_deg (a guess of its pose) and targets_mm (what it would see), optionally "
         "sigma_px",
     )

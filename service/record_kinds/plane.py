@@ -10,8 +10,7 @@ import numpy as np
 from pydantic import Field
 
 from models.measurements.references import Plane
-from service.errors import BadRequest
-from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
+from service.record_kinds.base import Described, ModelReference, RecordKind, described_map
 from service.schemas.common import JointVector, Public, Strict
 from service.schemas.references import PlaneDescription, RecordSigma, ReferenceName
 
@@ -44,10 +43,9 @@ class PlaneKind(RecordKind):
     label: ClassVar[str] = "plane"
     described_in: ClassVar[str | None] = "planes"
     description = PlaneDescription
-    described_field: ClassVar[Any] = Field(
-        default_factory=dict,
-        max_length=100,
-        description="Optional: the side each plane is touched from (a pose design needs each one's normal)",
+    described_field: ClassVar[Any] = described_map(
+        100,
+        "Optional: the side each plane is touched from (a pose design needs each one's normal)",
     )
     report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {
         "normal": (list[float] | None, Field(default=None, description="A plane's unit normal")),
@@ -74,19 +72,8 @@ class PlaneKind(RecordKind):
         return {"normal": [float(v) for v in normal], "offset_mm": float(values[2])}
 
     def reference(self, described: Described, name: str) -> ModelReference:
-        plane = self.descriptions(described).get(name)
-        nx, ny, nz = (plane.normal if plane else None) or DEFAULT_PLANE_SIDE
-        if math.hypot(nx, ny, nz) == 0.0:
-            raise BadRequest(f"plane {name!r}: its normal is the zero vector; give the side it is touched from")
-        return Plane(name, (nx, ny, nz), 0.0)
-
-    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
-        rec: dict[str, Any] = {"kind": self.name, "joints": row.joints, "plane": row.name}
-        row.sigma_mm(rec)
-        out.append(rec)
-
-    def file_rows(self, record: Any) -> list[dict[str, str]]:
-        return [{"kind": self.file_kinds[0], "reference": record.plane, "sigma_mm": cell(record.sigma_mm)}]
+        normal = self.direction_guess(described, name, "normal", DEFAULT_PLANE_SIDE, give="the side it is touched from")
+        return Plane(name, normal, 0.0)
 
 
 PLANE = PlaneKind()

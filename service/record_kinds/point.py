@@ -6,10 +6,9 @@ from __future__ import annotations
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import Field
 
 from models.measurements.references import FixedPoint
-from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell
+from service.record_kinds.base import Described, ModelReference, RecordKind, described_map
 from service.schemas.common import JointVector, Public, Strict
 from service.schemas.references import PointDescription, RecordSigma, ReferenceName
 
@@ -40,10 +39,9 @@ class PointKind(RecordKind):
     label: ClassVar[str] = "point"
     described_in: ClassVar[str | None] = "points"
     description = PointDescription
-    described_field: ClassVar[Any] = Field(
-        default_factory=dict,
-        max_length=100,
-        description="Optional guesses of the fixed points' positions (a pose design: the points records would be on)",
+    described_field: ClassVar[Any] = described_map(
+        100,
+        "Optional guesses of the fixed points' positions (a pose design: the points records would be on)",
     )
     example_name: ClassVar[str] = "p1"
     file_kinds: ClassVar[tuple[str, ...]] = ("point",)
@@ -57,17 +55,7 @@ class PointKind(RecordKind):
         return {"position_mm": [float(v) for v in values[:3]]}
 
     def reference(self, described: Described, name: str) -> ModelReference:
-        point = self.descriptions(described).get(name)
-        px, py, pz = (point.position_mm if point else None) or (0.0, 0.0, 0.0)
-        return FixedPoint(name, (px, py, pz))
-
-    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
-        rec: dict[str, Any] = {"kind": self.name, "joints": row.joints, "point": row.name}
-        row.sigma_mm(rec)
-        out.append(rec)
-
-    def file_rows(self, record: Any) -> list[dict[str, str]]:
-        return [{"kind": self.file_kinds[0], "reference": record.point, "sigma_mm": cell(record.sigma_mm)}]
+        return FixedPoint(name, self.guess(described, name, "position_mm"))
 
 
 POINT = PointKind()

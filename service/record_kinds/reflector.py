@@ -5,14 +5,22 @@ tracker records. Its offset is identified with the robot; with the TCP's records
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
 
 from models.measurements.references import Reflector
-from service.record_kinds.base import POSITION_COLUMNS, Described, FileRow, ModelReference, RecordKind, cell
+from service.record_kinds.base import (
+    POSITION,
+    POSITION_COLUMNS,
+    Described,
+    ModelReference,
+    Reading,
+    RecordKind,
+    described_map,
+)
 from service.schemas.common import JointVector, Position, Public, Strict
 from service.schemas.references import RecordSigma, ReferenceName, ReflectorDescription
 
@@ -44,10 +52,9 @@ class ReflectorKind(RecordKind):
     label: ClassVar[str] = "reflector"
     described_in: ClassVar[str | None] = "reflectors"
     description = ReflectorDescription
-    described_field: ClassVar[Any] = Field(
-        default_factory=dict,
-        max_length=20,
-        description="Optional guesses of where the reflectors that reflector records name sit from the TCP (a pose "
+    described_field: ClassVar[Any] = described_map(
+        20,
+        "Optional guesses of where the reflectors that reflector records name sit from the TCP (a pose "
         "design needs each one's offset_mm)",
     )
     report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {
@@ -61,6 +68,7 @@ class ReflectorKind(RecordKind):
     sampled: ClassVar[bool] = True
     file_kinds: ClassVar[tuple[str, ...]] = ("reflector",)
     file_columns: ClassVar[tuple[str, ...]] = (*POSITION_COLUMNS, "sigma_mm")
+    reading: ClassVar[Reading | None] = POSITION
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         if description.offset_mm is None:
@@ -73,35 +81,7 @@ class ReflectorKind(RecordKind):
         return {"tool_offset_mm": [float(v) for v in values[:3]]}
 
     def reference(self, described: Described, name: str) -> ModelReference:
-        found = self.descriptions(described).get(name)
-        x, y, z = (found.offset_mm if found else None) or (0.0, 0.0, 0.0)  # the fit starts from the records
-        return Reflector(name, (x, y, z))
-
-    def values(self, records: Sequence[Any]) -> np.ndarray:
-        return np.array([r.position for r in records], dtype=float)
-
-    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
-        rec: dict[str, Any] = {
-            "kind": self.name,
-            "joints": row.joints,
-            "reflector": row.name,
-            "position": row.position_mm("a reflector record"),
-        }
-        row.sigma_mm(rec)
-        out.append(rec)
-
-    def file_rows(self, record: Any) -> list[dict[str, str]]:
-        x, y, z = (cell(v) for v in record.position)
-        return [
-            {
-                "kind": self.file_kinds[0],
-                "reference": record.reflector,
-                "x": x,
-                "y": y,
-                "z": z,
-                "sigma_mm": cell(record.sigma_mm),
-            }
-        ]
+        return Reflector(name, self.guess(described, name, "offset_mm"))
 
 
 REFLECTOR = ReflectorKind()

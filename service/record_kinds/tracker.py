@@ -7,12 +7,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
-import numpy as np
 from pydantic import Field
 
 from models.measurement import MeasurementKind
 from models.measurements.references import TrackerPositions
-from service.record_kinds.base import POSITION_COLUMNS, Described, FileRow, ModelReference, RecordKind, cell
+from service.record_kinds.base import POSITION, POSITION_COLUMNS, Described, ModelReference, Reading, RecordKind
 from service.schemas.common import JointVector, Payload, Position, Public, Quaternion, RecordTime, Strict, TemperatureC
 
 ORIENTATION_COLUMNS = ("qw", "qx", "qy", "qz")
@@ -66,6 +65,9 @@ class TrackerKind(RecordKind):
     file_columns: ClassVar[tuple[str, ...]] = (*POSITION_COLUMNS, "sigma_mm")
     timed: ClassVar[bool] = True
     sampled: ClassVar[bool] = True  # a tracker reads wherever it sees the reflector
+    # The layout of several kinds carries a tracker record's position and σ; its orientation and temperature only
+    # the tracker layout does (a campaign of tracker records alone is written in it: `write_alone`).
+    reading: ClassVar[Reading | None] = POSITION
 
     def measured_position(self, stored: Mapping[str, Any]) -> list[float] | None:
         return [float(v) for v in stored["position"]]
@@ -90,9 +92,6 @@ class TrackerKind(RecordKind):
     def reference(self, described: Described, name: str) -> ModelReference:
         return TrackerPositions()
 
-    def values(self, records: Sequence[Any]) -> np.ndarray:
-        return np.array([r.position for r in records], dtype=float)
-
     def notes(self, records: Sequence[Any]) -> list[str]:
         if any(r.orientation is not None for r in records):
             return [
@@ -100,17 +99,6 @@ class TrackerKind(RecordKind):
                 "positions fix the frame"
             ]
         return []
-
-    def read_row(self, row: FileRow, out: list[dict[str, Any]]) -> None:
-        rec: dict[str, Any] = {"joints": row.joints, "position": row.position_mm("a tracker record")}
-        row.sigma_mm(rec)
-        out.append(rec)
-
-    def file_rows(self, record: Any) -> list[dict[str, str]]:
-        # The layout of several kinds carries a tracker record's position and σ; its orientation and temperature
-        # only the tracker layout does (a campaign of tracker records alone is written in it).
-        x, y, z = (cell(v) for v in record.position)
-        return [{"kind": self.file_kinds[0], "x": x, "y": y, "z": z, "sigma_mm": cell(record.sigma_mm)}]
 
 
 TRACKER = TrackerKind()

@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 
 from models.identification.statistics import NOISE_CONSISTENCY_LEVEL, variance_factor_interval
 from service.reports import figures
+from service.reports.blocks import cell, figures_html, page, summary_rows, summary_table, table, text_lines, text_page
 from service.reports.figures import Array
 
 PARAMETER_ROWS_PER_PDF_PAGE = 38
@@ -38,6 +39,41 @@ REFERENCE_HEADER = [
     "largest std error",
     "RMS residual (mm)",
 ]
+SUMMARY = (
+    ("status", "Status"),
+    ("reason", "Reason"),
+    ("applied", "Applied"),
+    ("start_version", "Started from version"),
+    ("parameter_version", "Produced version"),
+    ("measurement", "Measurement"),
+    ("measurements", "Poses"),
+    ("frame", "Frame"),
+    ("residuals.before.rms_mm", "RMS error before (mm)"),
+    ("residuals.after.rms_mm", "RMS error after (mm)"),
+    ("residuals.before.max_mm", "Max error before (mm)"),
+    ("residuals.after.max_mm", "Max error after (mm)"),
+    ("residuals.before.rms_deg", "RMS orientation error before (°)"),
+    ("residuals.after.rms_deg", "RMS orientation error after (°)"),
+    ("predicted_accuracy.rms_position_mm", "Predicted TCP accuracy, RMS (mm)"),
+    ("predicted_accuracy.max_position_mm", "Predicted TCP accuracy, max (mm)"),
+    ("variance_factor", "Variance factor"),
+    ("noise_consistent", "Noise as stated"),
+    ("rank", "Identifiable parameters"),
+    ("condition_number", "Condition number"),
+    ("solver.status", "Solver"),
+    ("solver.iterations", "Solver iterations"),
+    # a drift-aware calibration's drift, and the conditions the produced version is calibrated for
+    ("drift.magnitude_mm", "Instrument drift over the campaign, removed (mm)"),
+    ("drift.reference_scatter.before_mm", "Reference pose scatter as measured (mm)"),
+    ("drift.reference_scatter.after_mm", "Reference pose scatter, drift removed (mm)"),
+    ("conditions.temperature_c.min", "Calibrated from temperature (°C)"),
+    ("conditions.temperature_c.max", "Calibrated up to temperature (°C)"),
+    ("conditions.payload_kg.min", "Calibrated from payload (kg)"),
+    ("conditions.payload_kg.max", "Calibrated up to payload (kg)"),
+    ("conditions.duration_s", "Campaign duration (s)"),
+)
+"""The summary table's rows: each (dotted key of the calibration document, label); one without a value is left
+out."""
 
 
 @dataclass(frozen=True)
@@ -81,47 +117,7 @@ class CalibrationReport:
 
     def summary(self) -> list[tuple[str, str, Any]]:
         """(key, label, value) rows of the summary table; keys are the API's, dotted."""
-        c, acc = self.calibration, self.calibration.get("predicted_accuracy") or {}
-        rows: list[tuple[str, str, Any]] = [
-            ("status", "Status", c.get("status")),
-            ("reason", "Reason", c.get("reason")),
-            ("applied", "Applied", c.get("applied")),
-            ("start_version", "Started from version", c.get("start_version")),
-            ("parameter_version", "Produced version", c.get("parameter_version")),
-            ("measurement", "Measurement", c.get("measurement")),
-            ("measurements", "Poses", c.get("measurements")),
-            ("frame", "Frame", c.get("frame")),
-            ("residuals.before.rms_mm", "RMS error before (mm)", self.before.get("rms_mm")),
-            ("residuals.after.rms_mm", "RMS error after (mm)", self.after.get("rms_mm")),
-            ("residuals.before.max_mm", "Max error before (mm)", self.before.get("max_mm")),
-            ("residuals.after.max_mm", "Max error after (mm)", self.after.get("max_mm")),
-            ("residuals.before.rms_deg", "RMS orientation error before (°)", self.before.get("rms_deg")),
-            ("residuals.after.rms_deg", "RMS orientation error after (°)", self.after.get("rms_deg")),
-            ("predicted_accuracy.rms_position_mm", "Predicted TCP accuracy, RMS (mm)", acc.get("rms_position_mm")),
-            ("predicted_accuracy.max_position_mm", "Predicted TCP accuracy, max (mm)", acc.get("max_position_mm")),
-            ("variance_factor", "Variance factor", c.get("variance_factor")),
-            ("noise_consistent", "Noise as stated", c.get("noise_consistent")),
-            ("rank", "Identifiable parameters", c.get("rank")),
-            ("condition_number", "Condition number", c.get("condition_number")),
-            ("solver.status", "Solver", (c.get("solver") or {}).get("status")),
-            ("solver.iterations", "Solver iterations", (c.get("solver") or {}).get("iterations")),
-            *self._drift_and_conditions(),
-        ]
-        return [r for r in rows if r[2] is not None]
-
-    def _drift_and_conditions(self) -> list[tuple[str, str, Any]]:
-        """A drift-aware calibration's drift, and the conditions the produced version is calibrated for."""
-        rows = [
-            ("drift.magnitude_mm", "Instrument drift over the campaign, removed (mm)"),
-            ("drift.reference_scatter.before_mm", "Reference pose scatter as measured (mm)"),
-            ("drift.reference_scatter.after_mm", "Reference pose scatter, drift removed (mm)"),
-            ("conditions.temperature_c.min", "Calibrated from temperature (°C)"),
-            ("conditions.temperature_c.max", "Calibrated up to temperature (°C)"),
-            ("conditions.payload_kg.min", "Calibrated from payload (kg)"),
-            ("conditions.payload_kg.max", "Calibrated up to payload (kg)"),
-            ("conditions.duration_s", "Campaign duration (s)"),
-        ]
-        return [(key, label, _dotted(self.calibration, key)) for key, label in rows]
+        return summary_rows(self.calibration, SUMMARY)
 
     def parameter_rows(self) -> list[dict[str, Any]]:
         confounding = self.calibration.get("confounding") or {}
@@ -220,51 +216,6 @@ class CalibrationReport:
         return out
 
 
-def _dotted(document: Mapping[str, Any], key: str) -> Any:
-    """The value at a dotted key of the document (None where any part is missing or null)."""
-    value: Any = document
-    for part in key.split("."):
-        value = value.get(part) if isinstance(value, Mapping) else None
-    return value
-
-
-def _cell(value: Any) -> str:
-    if value is None:
-        return "—"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, float):
-        return f"{value:.6g}"
-    return html.escape(str(value))
-
-
-def _data(value: Any) -> str:
-    """The exact value, for machines reading the page (the browser test compares it with the API's)."""
-    return html.escape(repr(value) if isinstance(value, float) else str(value), quote=True)
-
-
-STYLE = """
-body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:2rem auto;max-width:62rem;color:#222}
-h1{font-size:1.5rem}h2{font-size:1.15rem;margin-top:2rem;border-bottom:1px solid #ddd}
-table{border-collapse:collapse;font-size:.85rem}td,th{padding:.2rem .6rem;border-bottom:1px solid #eee;text-align:left}
-td.num{text-align:right;font-variant-numeric:tabular-nums}.failed{color:#a00}.ok{color:#070}
-figure{margin:1rem 0}svg{max-width:100%;height:auto}.note{background:#fff8e1;padding:.4rem .8rem}
-"""
-
-
-def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]], *, css: str = "") -> str:
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in headers)
-    body = "".join(
-        "<tr>"
-        + "".join(
-            f'<td class="num">{_cell(v)}</td>' if isinstance(v, int | float) else f"<td>{_cell(v)}</td>" for v in row
-        )
-        + "</tr>"
-        for row in rows
-    )
-    return f'<table class="{css}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
-
-
 def validation_sections(
     validations: Sequence[Mapping[str, Any]],
 ) -> list[tuple[Mapping[str, Any], str, list[list[Any]]]]:
@@ -274,8 +225,8 @@ def validation_sections(
         for r in v.get("results", []):
             pos = r["position_mm"]
             line = (
-                f"Validation {v.get('id')}, version {r['version']}: RMS {_cell(pos['rms'])} mm, max "
-                f"{_cell(pos['max'])} mm over {len(r.get('per_pose', []))} poses."
+                f"Validation {v.get('id')}, version {r['version']}: RMS {cell(pos['rms'])} mm, max "
+                f"{cell(pos['max'])} mm over {len(r.get('per_pose', []))} poses."
             )
             iso = (r.get("iso9283") or {}).get("poses") or []
             rows = [[k + 1, p["cycles"], p["AP_mm"], p["RP_mm"]] for k, p in enumerate(iso)]
@@ -290,11 +241,11 @@ def _validation_html(validations: Sequence[Mapping[str, Any]]) -> str:
             pos = r["position_mm"]
             parts.append(
                 f"<p>Validation <code>{html.escape(str(v.get('id')))}</code>, version {r['version']}: "
-                f'RMS <span data-key="validation.rms">{_cell(pos["rms"])}</span> mm, max {_cell(pos["max"])} mm'
+                f'RMS <span data-key="validation.rms">{cell(pos["rms"])}</span> mm, max {cell(pos["max"])} mm'
                 f" over {len(r.get('per_pose', []))} poses.</p>"
             )
             if rows:
-                parts.append(_table(ISO_HEADER, rows))
+                parts.append(table(ISO_HEADER, rows))
     return "".join(parts)
 
 
@@ -328,14 +279,8 @@ def render_html(report: CalibrationReport) -> str:
     c = report.calibration
     title = f"Calibration of {report.robot_name}"
     status_class = "ok" if c.get("status") == "succeeded" else "failed"
-    summary = "".join(
-        f'<tr><th>{html.escape(label)}</th><td class="num" data-key="{key}" data-value="{_data(value)}">'
-        f"{_cell(value)}</td></tr>"
-        for key, label, value in report.summary()
-    )
-    figures_html = "".join(f'<figure id="fig-{name}">{figures.svg(fig)}</figure>' for name, fig in report.figures())
-    outlier_html = _table(OUTLIER_HEADER, report.outlier_rows()) if report.outlier_rows() else f"<p>{NO_OUTLIERS}</p>"
-    params = _table(
+    outlier_html = table(OUTLIER_HEADER, report.outlier_rows()) if report.outlier_rows() else f"<p>{NO_OUTLIERS}</p>"
+    params = table(
         ["parameter", "unit", "value", "nominal", "change", "std error", "identifiable", "confounded with"],
         [
             [
@@ -354,54 +299,40 @@ def render_html(report: CalibrationReport) -> str:
     )
     notes = "".join(f'<p class="note">{html.escape(str(n))}</p>' for n in c.get("notes") or [])
     references = (
-        "<h2>References</h2>" + _table(REFERENCE_HEADER, report.reference_rows(), css="references")
+        "<h2>References</h2>" + table(REFERENCE_HEADER, report.reference_rows(), css="references")
         if report.reference_rows()
         else ""
     )
     validation = _validation_html(report.validations) if report.validations else ""
     fleet = (
-        f"<h2>Fleet</h2><p>{html.escape(report.fleet_line())}</p>" + _table(FLEET_HEADER, report.fleet_rows())
+        f"<h2>Fleet</h2><p>{html.escape(report.fleet_line())}</p>" + table(FLEET_HEADER, report.fleet_rows())
         if report.fleet_line()
         else ""
     )
-    return (
-        f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
-        f"<style>{STYLE}</style></head><body>"
-        f"<h1>{html.escape(title)}</h1>"
+    return page(
+        title,
         f'<p>Calibration <code data-key="id">{html.escape(str(c.get("id")))}</code>, '
         f"{html.escape(str(c.get('created_at')))}: "
         f'<b class="{status_class}">{html.escape(str(c.get("status")))}</b></p>'
-        f'{notes}<h2>Summary</h2><table class="summary">{summary}</table>'
-        f"<h2>Figures</h2>{figures_html}"
+        f"{notes}<h2>Summary</h2>{summary_table(report.summary())}"
+        f"<h2>Figures</h2>{figures_html(report.figures())}"
         f"<h2>Outliers</h2>{outlier_html}{references}{validation}{fleet}"
-        f"<h2>Parameters</h2>{params}{_downloads_html(c)}</body></html>"
+        f"<h2>Parameters</h2>{params}{_downloads_html(c)}",
     )
-
-
-def _text_page(title: str, lines: Sequence[str]) -> Figure:
-    fig = Figure(figsize=(8.27, 11.69))  # A4
-    fig.text(0.08, 0.95, title, fontsize=14, weight="bold", va="top")
-    fig.text(0.08, 0.91, "\n".join(lines), fontsize=8, va="top", family="monospace")
-    return fig
-
-
-def _lines(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:
-    """A table as monospace text lines for a PDF page (html entities of `_cell` undone)."""
-    return [" | ".join(header), *(" | ".join(html.unescape(_cell(v)) for v in row) for row in rows)]
 
 
 def render_pdf(report: CalibrationReport) -> bytes:
     c = report.calibration
-    summary = [f"{label:<36} {_cell(value)}" for _, label, value in report.summary()]
+    summary = [f"{label:<36} {cell(value)}" for _, label, value in report.summary()]
     summary += ["", *(str(n) for n in c.get("notes") or [])]
     out = io.BytesIO()
     with PdfPages(out, metadata={"Title": f"Calibration of {report.robot_name}", "Subject": str(c.get("id"))}) as pdf:
-        pdf.savefig(_text_page(f"Calibration of {report.robot_name} — {c.get('id')}", summary))
+        pdf.savefig(text_page(f"Calibration of {report.robot_name} — {c.get('id')}", summary))
         for _, fig in report.figures():
             pdf.savefig(fig, bbox_inches="tight")
         rows = [
-            f"{r['name']:<14} {r['unit']:<4} {_cell(r['value']):>14} {_cell(r['nominal']):>12} "
-            f"{_cell(r['change']):>12} {_cell(r['std_error']):>12} {'yes' if r['identifiable'] else 'no':>4}"
+            f"{r['name']:<14} {r['unit']:<4} {cell(r['value']):>14} {cell(r['nominal']):>12} "
+            f"{cell(r['change']):>12} {cell(r['std_error']):>12} {'yes' if r['identifiable'] else 'no':>4}"
             for r in report.parameter_rows()
         ]
         header = (
@@ -409,18 +340,18 @@ def render_pdf(report: CalibrationReport) -> bytes:
         )
         for start in range(0, len(rows), PARAMETER_ROWS_PER_PDF_PAGE):
             page = [header, *rows[start : start + PARAMETER_ROWS_PER_PDF_PAGE]]
-            pdf.savefig(_text_page("Parameters", page))
+            pdf.savefig(text_page("Parameters", page))
         # Every section of the HTML report, as text pages: outliers, references, validations with ISO 9283.
         outliers = report.outlier_rows()
-        pdf.savefig(_text_page("Outliers", _lines(OUTLIER_HEADER, outliers) if outliers else [NO_OUTLIERS]))
+        pdf.savefig(text_page("Outliers", text_lines(OUTLIER_HEADER, outliers) if outliers else [NO_OUTLIERS]))
         if report.reference_rows():
-            lines = _lines(REFERENCE_HEADER, report.reference_rows())
-            pdf.savefig(_text_page("References", [*lines, "", str(c.get("frame") or "")]))
+            lines = text_lines(REFERENCE_HEADER, report.reference_rows())
+            pdf.savefig(text_page("References", [*lines, "", str(c.get("frame") or "")]))
         if report.validations:
             lines = []
             for _, line, iso in validation_sections(report.validations):
-                lines += [line, *(_lines(ISO_HEADER, iso) if iso else []), ""]
-            pdf.savefig(_text_page("Validation", lines))
+                lines += [line, *(text_lines(ISO_HEADER, iso) if iso else []), ""]
+            pdf.savefig(text_page("Validation", lines))
         if report.fleet_line():
-            pdf.savefig(_text_page("Fleet", [report.fleet_line(), "", *_lines(FLEET_HEADER, report.fleet_rows())]))
+            pdf.savefig(text_page("Fleet", [report.fleet_line(), "", *text_lines(FLEET_HEADER, report.fleet_rows())]))
     return out.getvalue()

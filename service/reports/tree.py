@@ -20,8 +20,17 @@ import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 
-from service.reports import figures
-from service.reports.calibration import STYLE, _cell, _data, _lines, _table, _text_page
+from service.reports.blocks import (
+    cell,
+    figures_html,
+    keyed_table,
+    page,
+    summary_rows,
+    summary_table,
+    table,
+    text_lines,
+    text_page,
+)
 from service.reports.figures import AFTER, BEFORE, WIDTH_IN, Array
 
 ERROR_HEADER = ["records of", "records", "RMS (mm)", "max (mm)", "RMS before (mm)"]
@@ -29,6 +38,16 @@ ACCURACY_HEADER = ["tool (in frame)", "RMS position (mm)", "max position (mm)", 
 REGION_HEADER = ["tool in frame", "poses", "predicted RMS (mm)", "predicted max (mm)", "moved by the fit, RMS (mm)"]
 BRANCH_HEADER = ["branch", "parent", "joints", "stages", "tool"]
 HELD_OUT = "#9bbb59"
+SUMMARY = (
+    ("applied", "Applied"),
+    ("start_revision", "Started from revision"),
+    ("revision", "Produced revision"),
+    ("records", "Records fitted"),
+    ("held_out_records", "Records held out"),
+    ("variance_factor", "Variance factor"),
+    ("noise_consistent", "Noise as stated"),
+)
+"""The summary table's rows read off the calibration document (its parameters' counts follow)."""
 
 
 @dataclass(frozen=True)
@@ -54,18 +73,11 @@ class TreeReport:
 
     def summary(self) -> list[tuple[str, str, Any]]:
         c = self.calibration
-        rows = [
-            ("applied", "Applied", c.get("applied")),
-            ("start_revision", "Started from revision", c.get("start_revision")),
-            ("revision", "Produced revision", c.get("revision")),
-            ("records", "Records fitted", c.get("records")),
-            ("held_out_records", "Records held out", c.get("held_out_records")),
-            ("variance_factor", "Variance factor", c.get("variance_factor")),
-            ("noise_consistent", "Noise as stated", c.get("noise_consistent")),
+        return [
+            *summary_rows(c, SUMMARY),
             ("estimated", "Parameters estimated", len(c.get("estimated") or [])),
             ("unidentifiable", "Parameters held", len(c.get("unidentifiable") or [])),
         ]
-        return [r for r in rows if r[2] is not None]
 
     def error_rows(self, key: str) -> list[list[Any]]:
         return [
@@ -169,75 +181,52 @@ def sorted_profile(values: Array) -> tuple[Array, Array]:
 
 def render_html(report: TreeReport) -> str:
     c, t = report.calibration, report.tree
-    title = f"Calibration of the cell {t['name']}"
-    summary = "".join(
-        f'<tr><th>{html.escape(label)}</th><td class="num" data-key="{key}" data-value="{_data(value)}">'
-        f"{_cell(value)}</td></tr>"
-        for key, label, value in report.summary()
-    )
-    figures_html = "".join(f'<figure id="fig-{name}">{figures.svg(fig)}</figure>' for name, fig in report.figures())
-    params = _table(
+    params = table(
         ["parameter", "group", "unit", "value", "nominal", "std error"],
         [[p["name"], p["group"], p["unit"], p["value"], p["nominal"], p["std_error"]] for p in c["parameters"]],
         css="parameters",
     )
-    return (
-        f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
-        f"<style>{STYLE}</style></head><body>"
-        f"<h1>{html.escape(title)}</h1>"
+    return page(
+        f"Calibration of the cell {t['name']}",
         f'<p>Calibration <code data-key="id">{html.escape(str(c.get("id")))}</code> of tree '
         f"<code>{html.escape(str(t.get('id')))}</code>, {html.escape(str(c.get('created_at')))}</p>"
-        f'<h2>Summary</h2><table class="summary">{summary}</table>'
-        f"<h2>Branches</h2>{_table(BRANCH_HEADER, report.branch_rows(), css='branches')}"
-        f"<h2>Figures</h2>{figures_html}"
-        f"<h2>Fit</h2>{_keyed(ERROR_HEADER, report.error_rows('fit'), 'fit')}"
-        f"<h2>Held out</h2>{_keyed(ERROR_HEADER, report.error_rows('held_out'), 'held_out')}"
+        f"<h2>Summary</h2>{summary_table(report.summary())}"
+        f"<h2>Branches</h2>{table(BRANCH_HEADER, report.branch_rows(), css='branches')}"
+        f"<h2>Figures</h2>{figures_html(report.figures())}"
+        f"<h2>Fit</h2>{keyed_table(ERROR_HEADER, report.error_rows('fit'), 'fit')}"
+        f"<h2>Held out</h2>{keyed_table(ERROR_HEADER, report.error_rows('held_out'), 'held_out')}"
         "<h2>Predicted accuracy</h2><p>Each tool in the instrument's frame, then each tool in another's frame (the "
         "relative accuracy), over random joint vectors of the whole tree, as the calibration states it.</p>"
-        f"{_keyed(ACCURACY_HEADER, report.accuracy_rows(), 'accuracy')}"
+        f"{keyed_table(ACCURACY_HEADER, report.accuracy_rows(), 'accuracy')}"
         f"<h2>Relative accuracy over the measured region</h2><p>{html.escape(report.region)}</p>"
-        f"{_keyed(REGION_HEADER, report.region_rows(), 'region')}"
-        f"<h2>Parameters</h2>{params}</body></html>"
+        f"{keyed_table(REGION_HEADER, report.region_rows(), 'region')}"
+        f"<h2>Parameters</h2>{params}",
     )
-
-
-def _keyed(headers: Sequence[str], rows: Sequence[Sequence[Any]], key: str) -> str:
-    """A table whose numbers carry their exact value and key (`{key}.{label}.{column}`) for machines."""
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in headers)
-    body = []
-    for row in rows:
-        label = str(row[0])
-        cells = [f"<td>{_cell(label)}</td>"]
-        for column, value in zip(headers[1:], row[1:], strict=True):
-            dotted = f"{key}.{label}.{column}"
-            cells.append(f'<td class="num" data-key="{_data(dotted)}" data-value="{_data(value)}">{_cell(value)}</td>')
-        body.append("<tr>" + "".join(cells) + "</tr>")
-    return f'<table class="{key}"><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table>'
 
 
 def render_pdf(report: TreeReport) -> bytes:
     c, t = report.calibration, report.tree
     title = f"Calibration of the cell {t['name']}"
-    summary = [f"{label:<28} {html.unescape(_cell(value))}" for _, label, value in report.summary()]
+    summary = [f"{label:<28} {html.unescape(cell(value))}" for _, label, value in report.summary()]
     out = io.BytesIO()
     with PdfPages(out, metadata={"Title": title, "Subject": str(c.get("id"))}) as pdf:
         pdf.savefig(
-            _text_page(f"{title} — {c.get('id')}", [*summary, "", *_lines(BRANCH_HEADER, report.branch_rows())])
+            text_page(f"{title} — {c.get('id')}", [*summary, "", *text_lines(BRANCH_HEADER, report.branch_rows())])
         )
         for _, fig in report.figures():
             pdf.savefig(fig, bbox_inches="tight")
         lines = [
             "Fit",
-            *_lines(ERROR_HEADER, report.error_rows("fit")),
+            *text_lines(ERROR_HEADER, report.error_rows("fit")),
             "",
             "Held out",
-            *_lines(ERROR_HEADER, report.error_rows("held_out")),
+            *text_lines(ERROR_HEADER, report.error_rows("held_out")),
             "",
             "Predicted accuracy (whole tree)",
-            *_lines(ACCURACY_HEADER, report.accuracy_rows()),
+            *text_lines(ACCURACY_HEADER, report.accuracy_rows()),
             "",
             report.region,
-            *_lines(REGION_HEADER, report.region_rows()),
+            *text_lines(REGION_HEADER, report.region_rows()),
         ]
-        pdf.savefig(_text_page("Accuracy", lines))
+        pdf.savefig(text_page("Accuracy", lines))
     return out.getvalue()
