@@ -69,3 +69,18 @@ def drop_table(name: str, *, indexed: Sequence[str] = ()) -> None:
     for column in indexed:
         op.drop_index(index_name(name, column), table_name=name)
     op.drop_table(name)
+
+
+def add_columns(table: str, *columns: sa.Column[Any]) -> None:
+    """The columns added to `table` in one batch (on SQLite: one copy of the table)."""
+    with op.batch_alter_table(table) as batch:
+        for column in columns:
+            batch.add_column(column)
+
+
+def drop_columns(table: str, *names: str) -> None:
+    """The columns dropped from `table` in one batch, in the order named (a downgrade names them last added
+    first)."""
+    with op.batch_alter_table(table) as batch:
+        for name in names:
+            batch.drop_column(name)

@@ -19,8 +19,10 @@ from alembic import op
 
 from service.migrations.shapes import (
     actor,
+    add_columns,
     create_table,
     created_at,
+    drop_columns,
     drop_table,
     moment,
     notes_and_instrument,
@@ -36,21 +38,21 @@ depends_on = None
 
 
 def upgrade() -> None:
-    with op.batch_alter_table("robots") as batch:
-        batch.add_column(sa.Column("notes", sa.Text(), nullable=True))
-        batch.add_column(sa.Column("revision", sa.Integer(), nullable=False, server_default="1"))
-    with op.batch_alter_table("parameter_versions") as batch:
-        batch.add_column(actor())
-        batch.add_column(sa.Column("restored_from", sa.Integer(), nullable=True))
-    with op.batch_alter_table("calibrations") as batch:
-        for column in notes_and_instrument():
-            batch.add_column(column)
-    with op.batch_alter_table("jobs") as batch:
-        batch.add_column(sa.Column("attempts", sa.Integer(), nullable=False, server_default="0"))
-        batch.add_column(sa.Column("worker", sa.String(200), nullable=True))
-        batch.add_column(moment("lease_expires_at", nullable=True))
-        batch.add_column(sa.Column("progress", sa.JSON(), nullable=True))
-        batch.add_column(sa.Column("cancel_requested", sa.Boolean(), nullable=False, server_default=sa.false()))
+    add_columns(
+        "robots",
+        sa.Column("notes", sa.Text(), nullable=True),
+        sa.Column("revision", sa.Integer(), nullable=False, server_default="1"),
+    )
+    add_columns("parameter_versions", actor(), sa.Column("restored_from", sa.Integer(), nullable=True))
+    add_columns("calibrations", *notes_and_instrument())
+    add_columns(
+        "jobs",
+        sa.Column("attempts", sa.Integer(), nullable=False, server_default="0"),
+        sa.Column("worker", sa.String(200), nullable=True),
+        moment("lease_expires_at", nullable=True),
+        sa.Column("progress", sa.JSON(), nullable=True),
+        sa.Column("cancel_requested", sa.Boolean(), nullable=False, server_default=sa.false()),
+    )
     op.create_index("ix_jobs_lease_expires_at", "jobs", ["lease_expires_at"])
     create_table(
         "validations",
@@ -95,15 +97,7 @@ def downgrade() -> None:
     for table in ("idempotency_keys", "audit_events", "validations"):
         drop_table(table)
     op.drop_index("ix_jobs_lease_expires_at", "jobs")
-    with op.batch_alter_table("jobs") as batch:
-        for column in ("cancel_requested", "progress", "lease_expires_at", "worker", "attempts"):
-            batch.drop_column(column)
-    with op.batch_alter_table("calibrations") as batch:
-        batch.drop_column("instrument")
-        batch.drop_column("notes")
-    with op.batch_alter_table("parameter_versions") as batch:
-        batch.drop_column("restored_from")
-        batch.drop_column("actor")
-    with op.batch_alter_table("robots") as batch:
-        batch.drop_column("revision")
-        batch.drop_column("notes")
+    drop_columns("jobs", "cancel_requested", "progress", "lease_expires_at", "worker", "attempts")
+    drop_columns("calibrations", "instrument", "notes")
+    drop_columns("parameter_versions", "restored_from", "actor")
+    drop_columns("robots", "revision", "notes")
