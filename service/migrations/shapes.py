@@ -3,8 +3,7 @@
 A revision's effect is history: databases in plants stand at any revision and upgrade through these files, so a
 revision must make tomorrow the schema it made the day it was written. Every helper below is part of each revision
 that calls it; editing one would change what those old revisions do (a database upgraded after the edit would get
-another schema than one upgraded before). A new shape gets a new helper (or is spelled out in its revision); a
-helper no revision calls any more stays too, unchanged, as long as any revision did.
+another schema than one upgraded before). A new shape gets a new helper, or is spelled out in its revision.
 """
 
 from __future__ import annotations
