@@ -7,7 +7,8 @@ Revises: 0001
 from __future__ import annotations
 
 import sqlalchemy as sa
-from alembic import op
+
+from service.migrations.shapes import add_columns, drop_columns
 
 revision = "0002"
 down_revision = "0001"
@@ -16,10 +17,8 @@ depends_on = None
 
 
 def upgrade() -> None:
-    with op.batch_alter_table("calibrations") as batch:
-        batch.add_column(sa.Column("start_version", sa.Integer(), nullable=True))
+    add_columns("calibrations", sa.Column("start_version", sa.Integer(), nullable=True))
 
 
 def downgrade() -> None:
-    with op.batch_alter_table("calibrations") as batch:
-        batch.drop_column("start_version")
+    drop_columns("calibrations", "start_version")

@@ -14,10 +14,22 @@ Revises: 0002
 
 from __future__ import annotations
 
-from typing import Any
-
 import sqlalchemy as sa
 from alembic import op
+
+from service.migrations.shapes import (
+    actor,
+    add_columns,
+    create_table,
+    created_at,
+    drop_columns,
+    drop_table,
+    moment,
+    notes_and_instrument,
+    owner,
+    serial_key,
+    uuid_key,
+)
 
 revision = "0003"
 down_revision = "0002"
@@ -25,53 +37,47 @@ branch_labels = None
 depends_on = None
 
 
-def _created() -> sa.Column[Any]:
-    return sa.Column("created_at", sa.DateTime(timezone=True), nullable=False)
-
-
 def upgrade() -> None:
-    with op.batch_alter_table("robots") as batch:
-        batch.add_column(sa.Column("notes", sa.Text(), nullable=True))
-        batch.add_column(sa.Column("revision", sa.Integer(), nullable=False, server_default="1"))
-    with op.batch_alter_table("parameter_versions") as batch:
-        batch.add_column(sa.Column("actor", sa.String(100), nullable=True))
-        batch.add_column(sa.Column("restored_from", sa.Integer(), nullable=True))
-    with op.batch_alter_table("calibrations") as batch:
-        batch.add_column(sa.Column("notes", sa.Text(), nullable=True))
-        batch.add_column(sa.Column("instrument", sa.JSON(), nullable=True))
-    with op.batch_alter_table("jobs") as batch:
-        batch.add_column(sa.Column("attempts", sa.Integer(), nullable=False, server_default="0"))
-        batch.add_column(sa.Column("worker", sa.String(200), nullable=True))
-        batch.add_column(sa.Column("lease_expires_at", sa.DateTime(timezone=True), nullable=True))
-        batch.add_column(sa.Column("progress", sa.JSON(), nullable=True))
-        batch.add_column(sa.Column("cancel_requested", sa.Boolean(), nullable=False, server_default=sa.false()))
-    op.create_index("ix_jobs_lease_expires_at", "jobs", ["lease_expires_at"])
-    op.create_table(
-        "validations",
-        sa.Column("id", sa.String(36), primary_key=True),
-        sa.Column("robot_id", sa.String(36), sa.ForeignKey("robots.id", ondelete="CASCADE"), nullable=False),
-        sa.Column("campaign_id", sa.String(36), sa.ForeignKey("campaigns.id", ondelete="CASCADE"), nullable=False),
-        sa.Column("result", sa.JSON(), nullable=False),
+    add_columns(
+        "robots",
         sa.Column("notes", sa.Text(), nullable=True),
-        sa.Column("instrument", sa.JSON(), nullable=True),
-        _created(),
+        sa.Column("revision", sa.Integer(), nullable=False, server_default="1"),
     )
-    op.create_index("ix_validations_robot_id", "validations", ["robot_id"])
-    op.create_table(
+    add_columns("parameter_versions", actor(), sa.Column("restored_from", sa.Integer(), nullable=True))
+    add_columns("calibrations", *notes_and_instrument())
+    add_columns(
+        "jobs",
+        sa.Column("attempts", sa.Integer(), nullable=False, server_default="0"),
+        sa.Column("worker", sa.String(200), nullable=True),
+        moment("lease_expires_at", nullable=True),
+        sa.Column("progress", sa.JSON(), nullable=True),
+        sa.Column("cancel_requested", sa.Boolean(), nullable=False, server_default=sa.false()),
+    )
+    op.create_index("ix_jobs_lease_expires_at", "jobs", ["lease_expires_at"])
+    create_table(
+        "validations",
+        uuid_key(),
+        owner("robot_id", "robots"),
+        owner("campaign_id", "campaigns"),
+        sa.Column("result", sa.JSON(), nullable=False),
+        *notes_and_instrument(),
+        created_at(),
+        indexed=["robot_id"],
+    )
+    create_table(
         "audit_events",
-        sa.Column("id", sa.Integer(), primary_key=True, autoincrement=True),
-        sa.Column("at", sa.DateTime(timezone=True), nullable=False),
-        sa.Column("actor", sa.String(100), nullable=True),
+        serial_key(),
+        moment("at"),
+        actor(),
         sa.Column("request_id", sa.String(64), nullable=True),
         sa.Column("action", sa.String(40), nullable=False),
         # No foreign key: the trail of a deleted robot stays.
         sa.Column("robot_id", sa.String(36), nullable=True),
         sa.Column("version", sa.Integer(), nullable=True),
         sa.Column("details", sa.JSON(), nullable=True),
+        indexed=["robot_id", "at"],
     )
-    op.create_index("ix_audit_events_robot_id", "audit_events", ["robot_id"])
-    op.create_index("ix_audit_events_at", "audit_events", ["at"])
-    op.create_table(
+    create_table(
         "idempotency_keys",
         sa.Column("actor", sa.String(100), primary_key=True),
         sa.Column("key", sa.String(200), primary_key=True),
@@ -81,25 +87,17 @@ def upgrade() -> None:
         sa.Column("status", sa.Integer(), nullable=True),
         sa.Column("content_type", sa.String(100), nullable=True),
         sa.Column("body", sa.LargeBinary(), nullable=True),
-        _created(),
-        sa.Column("expires_at", sa.DateTime(timezone=True), nullable=False),
+        created_at(),
+        moment("expires_at"),
+        indexed=["expires_at"],
     )
-    op.create_index("ix_idempotency_keys_expires_at", "idempotency_keys", ["expires_at"])
 
 
 def downgrade() -> None:
     for table in ("idempotency_keys", "audit_events", "validations"):
-        op.drop_table(table)
+        drop_table(table)
     op.drop_index("ix_jobs_lease_expires_at", "jobs")
-    with op.batch_alter_table("jobs") as batch:
-        for column in ("cancel_requested", "progress", "lease_expires_at", "worker", "attempts"):
-            batch.drop_column(column)
-    with op.batch_alter_table("calibrations") as batch:
-        batch.drop_column("instrument")
-        batch.drop_column("notes")
-    with op.batch_alter_table("parameter_versions") as batch:
-        batch.drop_column("restored_from")
-        batch.drop_column("actor")
-    with op.batch_alter_table("robots") as batch:
-        batch.drop_column("revision")
-        batch.drop_column("notes")
+    drop_columns("jobs", "cancel_requested", "progress", "lease_expires_at", "worker", "attempts")
+    drop_columns("calibrations", "instrument", "notes")
+    drop_columns("parameter_versions", "restored_from", "actor")
+    drop_columns("robots", "revision", "notes")

@@ -9,7 +9,8 @@ Revises: 0003
 from __future__ import annotations
 
 import sqlalchemy as sa
-from alembic import op
+
+from service.migrations.shapes import add_columns, drop_columns
 
 revision = "0004_structures"
 down_revision = "0003"
@@ -18,10 +19,8 @@ depends_on = None
 
 
 def upgrade() -> None:
-    with op.batch_alter_table("robots") as batch:
-        batch.add_column(sa.Column("structure", sa.JSON(), nullable=True))
+    add_columns("robots", sa.Column("structure", sa.JSON(), nullable=True))
 
 
 def downgrade() -> None:
-    with op.batch_alter_table("robots") as batch:
-        batch.drop_column("structure")
+    drop_columns("robots", "structure")

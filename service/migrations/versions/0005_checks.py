@@ -9,7 +9,8 @@ Revises: 0004_structures
 from __future__ import annotations
 
 import sqlalchemy as sa
-from alembic import op
+
+from service.migrations.shapes import create_table, created_at, drop_table, notes_and_instrument, owner, uuid_key
 
 revision = "0005_checks"
 down_revision = "0004_structures"
@@ -18,21 +19,19 @@ depends_on = None
 
 
 def upgrade() -> None:
-    op.create_table(
+    create_table(
         "checks",
-        sa.Column("id", sa.String(36), primary_key=True),
-        sa.Column("robot_id", sa.String(36), sa.ForeignKey("robots.id", ondelete="CASCADE"), nullable=False),
-        sa.Column("campaign_id", sa.String(36), sa.ForeignKey("campaigns.id", ondelete="CASCADE"), nullable=False),
+        uuid_key(),
+        owner("robot_id", "robots"),
+        owner("campaign_id", "campaigns"),
         sa.Column("version", sa.Integer(), nullable=False),
         sa.Column("verdict", sa.String(20), nullable=False),
         sa.Column("result", sa.JSON(), nullable=False),
-        sa.Column("notes", sa.Text(), nullable=True),
-        sa.Column("instrument", sa.JSON(), nullable=True),
-        sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+        *notes_and_instrument(),
+        created_at(),
+        indexed=["robot_id"],
     )
-    op.create_index("ix_checks_robot_id", "checks", ["robot_id"])
 
 
 def downgrade() -> None:
-    op.drop_index("ix_checks_robot_id", table_name="checks")
-    op.drop_table("checks")
+    drop_table("checks", indexed=["robot_id"])

@@ -10,7 +10,8 @@ Revises: 0005_checks
 from __future__ import annotations
 
 import sqlalchemy as sa
-from alembic import op
+
+from service.migrations.shapes import add_columns, drop_columns
 
 revision = "0006_robot_urdf"
 down_revision = "0005_checks"
@@ -19,13 +20,13 @@ depends_on = None
 
 
 def upgrade() -> None:
-    with op.batch_alter_table("robots") as batch:
-        batch.add_column(sa.Column("urdf", sa.Text(), nullable=True))
-        batch.add_column(sa.Column("base_link", sa.String(200), nullable=True))
-        batch.add_column(sa.Column("tip_link", sa.String(200), nullable=True))
+    add_columns(
+        "robots",
+        sa.Column("urdf", sa.Text(), nullable=True),
+        sa.Column("base_link", sa.String(200), nullable=True),
+        sa.Column("tip_link", sa.String(200), nullable=True),
+    )
 
 
 def downgrade() -> None:
-    with op.batch_alter_table("robots") as batch:
-        for column in ("tip_link", "base_link", "urdf"):
-            batch.drop_column(column)
+    drop_columns("robots", "tip_link", "base_link", "urdf")

@@ -11,7 +11,8 @@ Revises: 0006_robot_urdf
 from __future__ import annotations
 
 import sqlalchemy as sa
-from alembic import op
+
+from service.migrations.shapes import add_columns, drop_columns
 
 revision = "0007_version_conditions"
 down_revision = "0006_robot_urdf"
@@ -20,10 +21,8 @@ depends_on = None
 
 
 def upgrade() -> None:
-    with op.batch_alter_table("parameter_versions") as batch:
-        batch.add_column(sa.Column("conditions", sa.JSON(), nullable=True))
+    add_columns("parameter_versions", sa.Column("conditions", sa.JSON(), nullable=True))
 
 
 def downgrade() -> None:
-    with op.batch_alter_table("parameter_versions") as batch:
-        batch.drop_column("conditions")
+    drop_columns("parameter_versions", "conditions")

@@ -10,7 +10,8 @@ Revises: 0008_robot_fleet_key
 from __future__ import annotations
 
 import sqlalchemy as sa
-from alembic import op
+
+from service.migrations.shapes import create_table, created_at, drop_table, owner, uuid_key
 
 revision = "0009_compensated_programs"
 down_revision = "0008_robot_fleet_key"
@@ -19,16 +20,15 @@ depends_on = None
 
 
 def upgrade() -> None:
-    op.create_table(
+    create_table(
         "compensated_programs",
-        sa.Column("id", sa.String(36), primary_key=True),
-        sa.Column("robot_id", sa.String(36), sa.ForeignKey("robots.id", ondelete="CASCADE"), nullable=False),
+        uuid_key(),
+        owner("robot_id", "robots"),
         sa.Column("result", sa.JSON(), nullable=False),
-        sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+        created_at(),
+        indexed=["robot_id"],
     )
-    op.create_index("ix_compensated_programs_robot_id", "compensated_programs", ["robot_id"])
 
 
 def downgrade() -> None:
-    op.drop_index("ix_compensated_programs_robot_id", table_name="compensated_programs")
-    op.drop_table("compensated_programs")
+    drop_table("compensated_programs", indexed=["robot_id"])

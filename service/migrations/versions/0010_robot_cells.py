@@ -11,7 +11,8 @@ Revises: 0009_compensated_programs
 from __future__ import annotations
 
 import sqlalchemy as sa
-from alembic import op
+
+from service.migrations.shapes import actor, create_table, created_at, drop_table, owner, serial_key
 
 revision = "0010_robot_cells"
 down_revision = "0009_compensated_programs"
@@ -20,19 +21,18 @@ depends_on = None
 
 
 def upgrade() -> None:
-    op.create_table(
+    create_table(
         "robot_cells",
-        sa.Column("id", sa.Integer(), primary_key=True, autoincrement=True),
-        sa.Column("robot_id", sa.String(36), sa.ForeignKey("robots.id", ondelete="CASCADE"), nullable=False),
+        serial_key(),
+        owner("robot_id", "robots"),
         sa.Column("version", sa.Integer(), nullable=False),
         sa.Column("document", sa.JSON(), nullable=True),
-        sa.Column("actor", sa.String(100), nullable=True),
-        sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+        actor(),
+        created_at(),
         sa.UniqueConstraint("robot_id", "version"),
+        indexed=["robot_id"],
     )
-    op.create_index("ix_robot_cells_robot_id", "robot_cells", ["robot_id"])
 
 
 def downgrade() -> None:
-    op.drop_index("ix_robot_cells_robot_id", table_name="robot_cells")
-    op.drop_table("robot_cells")
+    drop_table("robot_cells", indexed=["robot_id"])

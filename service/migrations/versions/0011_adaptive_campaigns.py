@@ -11,7 +11,8 @@ Revises: 0010_robot_cells
 from __future__ import annotations
 
 import sqlalchemy as sa
-from alembic import op
+
+from service.migrations.shapes import create_table, created_at, drop_table, moment, owner, uuid_key
 
 revision = "0011_adaptive_campaigns"
 down_revision = "0010_robot_cells"
@@ -20,37 +21,33 @@ depends_on = None
 
 
 def upgrade() -> None:
-    op.create_table(
+    create_table(
         "adaptive_campaigns",
-        sa.Column("id", sa.String(36), primary_key=True),
-        sa.Column("robot_id", sa.String(36), sa.ForeignKey("robots.id", ondelete="CASCADE"), nullable=False),
+        uuid_key(),
+        owner("robot_id", "robots"),
         sa.Column("version", sa.Integer(), nullable=False),
         sa.Column("request", sa.JSON(), nullable=False),
         sa.Column("pool", sa.JSON(), nullable=False),
         sa.Column("state", sa.JSON(), nullable=False),
         sa.Column("steps", sa.Integer(), nullable=False),
         sa.Column("calibration_id", sa.String(36), nullable=True),
-        sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
-        sa.Column("updated_at", sa.DateTime(timezone=True), nullable=False),
+        created_at(),
+        moment("updated_at"),
+        indexed=["robot_id"],
     )
-    op.create_index("ix_adaptive_campaigns_robot_id", "adaptive_campaigns", ["robot_id"])
-    op.create_table(
+    create_table(
         "adaptive_steps",
-        sa.Column("id", sa.String(36), primary_key=True),
-        sa.Column(
-            "campaign_id", sa.String(36), sa.ForeignKey("adaptive_campaigns.id", ondelete="CASCADE"), nullable=False
-        ),
+        uuid_key(),
+        owner("campaign_id", "adaptive_campaigns"),
         sa.Column("number", sa.Integer(), nullable=False),
         sa.Column("records", sa.JSON(), nullable=False),
         sa.Column("result", sa.JSON(), nullable=False),
-        sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+        created_at(),
         sa.UniqueConstraint("campaign_id", "number", name="uq_adaptive_steps_campaign_number"),
+        indexed=["campaign_id"],
     )
-    op.create_index("ix_adaptive_steps_campaign_id", "adaptive_steps", ["campaign_id"])
 
 
 def downgrade() -> None:
-    op.drop_index("ix_adaptive_steps_campaign_id", table_name="adaptive_steps")
-    op.drop_table("adaptive_steps")
-    op.drop_index("ix_adaptive_campaigns_robot_id", table_name="adaptive_campaigns")
-    op.drop_table("adaptive_campaigns")
+    drop_table("adaptive_steps", indexed=["campaign_id"])
+    drop_table("adaptive_campaigns", indexed=["robot_id"])

@@ -14,7 +14,8 @@ Revises: 0011_adaptive_campaigns
 from __future__ import annotations
 
 import sqlalchemy as sa
-from alembic import op
+
+from service.migrations.shapes import actor, create_table, created_at, drop_table, owner, uuid_key
 
 revision = "0012_robot_trees"
 down_revision = "0011_adaptive_campaigns"
@@ -23,9 +24,9 @@ depends_on = None
 
 
 def upgrade() -> None:
-    op.create_table(
+    create_table(
         "robot_trees",
-        sa.Column("id", sa.String(36), primary_key=True),
+        uuid_key(),
         sa.Column("name", sa.String(200), nullable=False),
         sa.Column("document", sa.JSON(), nullable=False),
         sa.Column("source", sa.String(20), nullable=False),
@@ -36,25 +37,24 @@ def upgrade() -> None:
         sa.Column("parameters", sa.JSON(), nullable=True),
         sa.Column("std_errors", sa.JSON(), nullable=True),
         sa.Column("calibration_id", sa.String(36), nullable=True),
-        sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
-        sa.Column("actor", sa.String(100), nullable=True),
+        created_at(),
+        actor(),
     )
-    op.create_table(
+    create_table(
         "robot_tree_calibrations",
-        sa.Column("id", sa.String(36), primary_key=True),
-        sa.Column("tree_id", sa.String(36), sa.ForeignKey("robot_trees.id", ondelete="CASCADE"), nullable=False),
+        uuid_key(),
+        owner("tree_id", "robot_trees"),
         sa.Column("applied", sa.Boolean(), nullable=False),
         sa.Column("revision", sa.Integer(), nullable=True),
         sa.Column("start_revision", sa.Integer(), nullable=False),
         sa.Column("records", sa.JSON(), nullable=False),
         sa.Column("result", sa.JSON(), nullable=False),
-        sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
-        sa.Column("actor", sa.String(100), nullable=True),
+        created_at(),
+        actor(),
+        indexed=["tree_id"],
     )
-    op.create_index("ix_robot_tree_calibrations_tree_id", "robot_tree_calibrations", ["tree_id"])
 
 
 def downgrade() -> None:
-    op.drop_index("ix_robot_tree_calibrations_tree_id", table_name="robot_tree_calibrations")
-    op.drop_table("robot_tree_calibrations")
-    op.drop_table("robot_trees")
+    drop_table("robot_tree_calibrations", indexed=["tree_id"])
+    drop_table("robot_trees")
