@@ -16,3 +16,9 @@ IDENTITY: Pose6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 def finite_or_none(x: float | None) -> float | None:
     """JSON has no NaN: a missing or non-finite number becomes None (null)."""
     return None if x is None or not np.isfinite(x) else float(x)
+
+
+def first_nonfinite_record(a: Array) -> int | None:
+    """The first record (a row; an element of a 1-d array) holding a NaN or an infinity; None when none does."""
+    bad = np.argwhere(~np.isfinite(a))
+    return int(bad[0][0]) if bad.size else None

@@ -13,7 +13,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike
 
-from models._types import Array
+from models._types import Array, first_nonfinite_record
 from models.description.robot import RobotDescription
 from models.description.terms import Conditions, condition_inputs
 from models.errors import InvalidInput, InvalidQuaternion, NonFiniteValue, WrongShape
@@ -167,7 +167,6 @@ def _rows(values: ArrayLike, n: int, width: int, *, field: str, rows_are: str, w
 
 
 def _check_finite(a: Array, what: str) -> None:
-    bad = np.argwhere(~np.isfinite(a))
-    if bad.size:
-        i = int(bad[0][0])
+    i = first_nonfinite_record(a)
+    if i is not None:
         raise NonFiniteValue(f"record {i}: {what} contains {a[i].tolist()}, not finite numbers", pose=i)

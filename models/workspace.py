@@ -8,16 +8,41 @@ hexapod is near a singularity are rejected and redrawn.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Literal, overload
 
 import numpy as np
+from numpy.typing import NDArray
 
 from models._types import Array
 from models.description.robot import RobotDescription
 from models.engine.runtime import Runtime, runtime_for
 from models.errors import InvalidInput
 
-_MAX_ROUNDS = 50
+DRAW_ROUNDS = 50
+"""Batches drawn in search of usable poses (a leg in its stroke, away from a singularity) before giving up."""
+
+UsableDraw = Callable[[int], tuple[NDArray[np.bool_], tuple[Array, ...]]]
+"""`m` rows drawn at once: which of them are usable, and the arrays (m rows each) they are rows of."""
+
+
+def usable_draws(n: int, draw: UsableDraw, widths: tuple[int, ...]) -> tuple[Array, ...] | None:
+    """The first `n` usable rows of each array `draw` gives, drawn in batches sized to what is still missing (a
+    third more, at least 16); None when `DRAW_ROUNDS` batches do not give `n` (a workspace that admits almost no
+    pose). `widths`: each array's columns (what `n` = 0 gives, nothing drawn)."""
+    kept: list[tuple[Array, ...]] = []
+    have = 0
+    for _ in range(DRAW_ROUNDS):
+        if have >= n:
+            break
+        ok, arrays = draw(max(16, int(1.3 * (n - have))))
+        kept.append(tuple(a[ok] for a in arrays))
+        have += int(ok.sum())
+    if have < n:
+        return None
+    if not kept:
+        return tuple(np.empty((0, width)) for width in widths)
+    return tuple(np.vstack(column)[:n] for column in zip(*kept, strict=True))
 
 
 @overload
@@ -69,13 +94,8 @@ def sample_workspace(
     # parallel stage's legs by its inverse kinematics, kept where every stage is usable.
     lo_w, hi_w = desc.platform_limits
     lo_c, hi_c = desc.joint_min[: desc.n_chain], desc.joint_max[: desc.n_chain]
-    joints: list[Array] = []
-    platforms: list[Array] = []
-    have = 0
-    for _ in range(_MAX_ROUNDS):
-        if have >= n:
-            break
-        m = max(16, int(1.3 * (n - have)))
+
+    def draw(m: int) -> tuple[NDArray[np.bool_], tuple[Array, ...]]:
         q = np.empty((m, desc.n_joints))
         q[:, : desc.n_chain] = lo_c + rng.random((m, desc.n_chain)) * (hi_c - lo_c)
         plat = lo_w + rng.random((m, desc.n_unknowns)) * (hi_w - lo_w)
@@ -84,15 +104,14 @@ def sample_workspace(
             if stage.n_unknowns:
                 q[:, at.joints] = stage.joints_of_unknowns(plat[:, at.unknowns], theta[at.params])
             ok &= stage.usable(q[:, at.joints], plat[:, at.unknowns], theta[at.params])
-        joints.append(q[ok])
-        platforms.append(plat[ok])
-        have += int(ok.sum())
-    q = np.vstack(joints)[:n] if joints else np.empty((0, desc.n_joints))
-    x = np.vstack(platforms)[:n] if platforms else np.empty((0, desc.n_platform))
-    if q.shape[0] < n:
+        return ok, (q, plat)
+
+    drawn = usable_draws(n, draw, (desc.n_joints, desc.n_platform))
+    if drawn is None:
         raise InvalidInput(
             "the workspace description admits almost no pose: check strokes and ranges", field="workspace"
         )
+    q, x = drawn
     return (q, x) if return_platforms else q
 
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from models._types import Array
+from models._types import Array, first_nonfinite_record
 from models.errors import InvalidInput, NonFiniteValue, WrongShape
 
 GRAVITY_M_S2 = 9.80665
@@ -153,9 +153,8 @@ def _per_record(values: ArrayLike, n: int, name: str) -> Array:
 
 
 def _finite(a: Array, name: str) -> None:
-    bad = np.argwhere(~np.isfinite(a))
-    if bad.size:
-        i = int(bad[0][0])
+    i = first_nonfinite_record(a)
+    if i is not None:
         raise NonFiniteValue(f"record {i}: {name} is not a finite number", pose=i, field=name)
 
 

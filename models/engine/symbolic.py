@@ -416,20 +416,12 @@ def terms_closure(
 
 
 def _hexapod_functions(fn: dict[str, ca.Function], x: ca.SX, hp_only: ca.SX) -> None:
-    fn["hexapod_ik"] = ca.Function(
-        "hexapod_ik",
-        [x, hp_only],
-        [hx.actuator_lengths(x, hp_only)],
-        ["platform", "hexapod_params"],
-        ["legs"],
-    )
-    fn["hexapod_jacobian"] = ca.Function(
-        "hexapod_jacobian",
-        [x, hp_only],
-        [hx.thesis_jacobian(x, hp_only)],
-        ["platform", "hexapod_params"],
-        ["J"],
-    )
+    """The hexapod's own maps of (platform pose, its parameters): closed-form IK and the thesis Jacobian."""
+    for name, output, output_name in (
+        ("hexapod_ik", hx.actuator_lengths(x, hp_only), "legs"),
+        ("hexapod_jacobian", hx.thesis_jacobian(x, hp_only), "J"),
+    ):
+        fn[name] = ca.Function(name, [x, hp_only], [output], ["platform", "hexapod_params"], [output_name])
 
 
 NATIVE_FUNCTIONS = (

@@ -222,20 +222,11 @@ def identify_with_drift(
         corrected = _corrected(campaign, basis @ c.T)
         return corrected, identify(desc, corrected, noise=noise, nominal=nominal, options=options, runtime=rt)
 
-    def step_of(corrected: Campaign, result: IdentificationResult) -> tuple[Array, Array]:
-        return _drift_step(desc, corrected, result, basis=basis, noise=noise, rt=rt)
-
-    result, coefficients, cov, rounds = _rounds(fit, step_of, drift.degree)
+    drift_fit = _DriftFit(desc, basis, noise, rt)
+    result, coefficients, cov, rounds = _rounds(fit, drift_fit.step, drift.degree)
     if result.succeeded and result.dof > 0 and np.isfinite(result.variance_factor):
-        result, ratio = _with_drift_unknowns(
-            desc,
-            _corrected(campaign, basis @ coefficients.T),
-            result,
-            basis=basis,
-            noise=noise,
-            options=options or IdentificationOptions(),
-            rt=rt,
-        )
+        corrected = _corrected(campaign, basis @ coefficients.T)
+        result, ratio = drift_fit.with_unknowns(corrected, result, options or IdentificationOptions())
         cov = cov * ratio
     ref = timeline.reference
     estimate = DriftEstimate(
@@ -339,116 +330,109 @@ def _scatter(points: Array) -> float:
     return float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
 
 
-def _weighted_system(
-    desc: RobotDescription,
-    campaign: Campaign,
-    result: IdentificationResult,
-    *,
-    basis: Array,
-    noise: NoiseModel,
-    rt: Runtime,
-) -> tuple[Array, Array, Array]:
-    """At `result`'s solution, over the records its fit kept, every row in σ: the estimated parameters' Jacobian
-    J (columns in tolerance units, as the fit's), the drift's T (coefficients in mm, position rows only) and the
-    position residuals r (measured − model; zero on orientation rows)."""
-    # Only the records the fit kept (an excluded blunder would pull the drift as it would the parameters).
-    excluded = {o.pose for o in result.outliers if o.excluded}
-    keep = np.array([i for i in range(campaign.size) if i not in excluded])
-    sub = campaign.subset(keep)
-    fk = forward_kinematics(
-        desc, sub.joints, result.parameters, jacobian=True, runtime=rt, conditions=sub.conditions, check_ranges=False
-    )
-    rows = 3 if sub.position_only else 6
-    jac = scaled_jacobian(fk.jacobians, desc.parameters, noise, kind=sub.kind)[:, list(result.estimated)]
-    jac = jac.reshape(sub.size, rows, -1)
-    # Per-record σ where the campaign gives one (the scaled Jacobian divides by the noise model's).
-    sigma = np.full(sub.size, noise.position_mm) if sub.sigma_mm is None else sub.sigma_mm
-    jac[:, :3, :] *= (noise.position_mm / sigma)[:, None, None]
-    # measured − model, so the drift (added to the model) is what the residual shows
-    after = result.residuals_after.per_pose_xyz_mm
-    residual = sub.positions - fk.positions if after is None else after[keep]
-    degree = basis.shape[1]
-    design = np.zeros((sub.size, rows, 3 * degree))
-    for a in range(3):
-        design[:, a, a * degree : (a + 1) * degree] = basis[keep] / sigma[:, None]
-    target = np.zeros((sub.size, rows))
-    target[:, :3] = residual / sigma[:, None]
-    return jac.reshape(sub.size * rows, -1), design.reshape(sub.size * rows, -1), target.reshape(-1)
+@dataclass(frozen=True)
+class _DriftFit:
+    """What each step of the drift's fit works with: the robot, the drift's basis over the campaign's records
+    (N, degree: `_powers`), the noise model and the runtime."""
 
+    desc: RobotDescription
+    basis: Array
+    noise: NoiseModel
+    rt: Runtime
 
-def _drift_step(
-    desc: RobotDescription,
-    campaign: Campaign,
-    result: IdentificationResult,
-    *,
-    basis: Array,
-    noise: NoiseModel,
-    rt: Runtime,
-) -> tuple[Array, Array]:
-    """The drift coefficients' least-squares step from `result`'s residuals with the estimated parameters'
-    Jacobian projected out, and their marginal covariance (scaled by the fit's variance factor), mm / mm²."""
-    j, t, r = _weighted_system(desc, campaign, result, basis=basis, noise=noise, rt=rt)
-    degree = basis.shape[1]
-    q, _ = np.linalg.qr(j)
-    t_perp = t - q @ (q.T @ t)
-    normal = t_perp.T @ t_perp
-    if np.linalg.cond(normal) > MAX_CONDITION:
-        raise InvalidInput(
-            "drift: the drift cannot be told apart from the robot's parameters in this campaign (what it does to the "
-            "records, the instrument frame or a term does as well): measure the reference pose at more times, or "
-            "lower the degree",
-            field="drift",
-            reason="not_identifiable",
+    def weighted_system(self, campaign: Campaign, result: IdentificationResult) -> tuple[Array, Array, Array]:
+        """At `result`'s solution, over the records its fit kept, every row in σ: the estimated parameters'
+        Jacobian J (columns in tolerance units, as the fit's), the drift's T (coefficients in mm, position rows
+        only) and the position residuals r (measured − model; zero on orientation rows)."""
+        # Only the records the fit kept (an excluded blunder would pull the drift as it would the parameters).
+        excluded = {o.pose for o in result.outliers if o.excluded}
+        keep = np.array([i for i in range(campaign.size) if i not in excluded])
+        sub = campaign.subset(keep)
+        fk = forward_kinematics(
+            self.desc,
+            sub.joints,
+            result.parameters,
+            jacobian=True,
+            runtime=self.rt,
+            conditions=sub.conditions,
+            check_ranges=False,
         )
-    # At the fit's solution the whole residual (orientation rows too) is orthogonal to the parameters' columns,
-    # so Tᵀ P⊥ r = Tᵀ r, and T has no orientation rows: the position residuals alone give the step exactly
-    # (the orientation residuals, which this Jacobian's rows express in another frame, are never needed).
-    step = np.linalg.solve(normal, t.T @ r)
-    factor = result.variance_factor if np.isfinite(result.variance_factor) else 1.0
-    cov = np.asarray(factor * np.linalg.inv(normal), dtype=np.float64)
-    return np.asarray(step.reshape(3, degree), dtype=float), cov
+        rows = 3 if sub.position_only else 6
+        jac = scaled_jacobian(fk.jacobians, self.desc.parameters, self.noise, kind=sub.kind)[:, list(result.estimated)]
+        jac = jac.reshape(sub.size, rows, -1)
+        # Per-record σ where the campaign gives one (the scaled Jacobian divides by the self.noise model's).
+        sigma = np.full(sub.size, self.noise.position_mm) if sub.sigma_mm is None else sub.sigma_mm
+        jac[:, :3, :] *= (self.noise.position_mm / sigma)[:, None, None]
+        # measured − model, so the drift (added to the model) is what the residual shows
+        after = result.residuals_after.per_pose_xyz_mm
+        residual = sub.positions - fk.positions if after is None else after[keep]
+        degree = self.basis.shape[1]
+        design = np.zeros((sub.size, rows, 3 * degree))
+        for a in range(3):
+            design[:, a, a * degree : (a + 1) * degree] = self.basis[keep] / sigma[:, None]
+        target = np.zeros((sub.size, rows))
+        target[:, :3] = residual / sigma[:, None]
+        return jac.reshape(sub.size * rows, -1), design.reshape(sub.size * rows, -1), target.reshape(-1)
 
+    def step(self, campaign: Campaign, result: IdentificationResult) -> tuple[Array, Array]:
+        """The drift coefficients' least-squares step from `result`'s residuals with the estimated parameters'
+        Jacobian projected out, and their marginal covariance (scaled by the fit's variance factor), mm / mm²."""
+        j, t, r = self.weighted_system(campaign, result)
+        degree = self.basis.shape[1]
+        q, _ = np.linalg.qr(j)
+        t_perp = t - q @ (q.T @ t)
+        normal = t_perp.T @ t_perp
+        if np.linalg.cond(normal) > MAX_CONDITION:
+            raise InvalidInput(
+                "drift: the drift cannot be told apart from the robot's parameters in this campaign (what it does to "
+                "the records, the instrument frame or a term does as well): measure the reference pose at more times, "
+                "or lower the degree",
+                field="drift",
+                reason="not_identifiable",
+            )
+        # At the fit's solution the whole residual (orientation rows too) is orthogonal to the parameters' columns,
+        # so Tᵀ P⊥ r = Tᵀ r, and T has no orientation rows: the position residuals alone give the step exactly
+        # (the orientation residuals, which this Jacobian's rows express in another frame, are never needed).
+        step = np.linalg.solve(normal, t.T @ r)
+        factor = result.variance_factor if np.isfinite(result.variance_factor) else 1.0
+        cov = np.asarray(factor * np.linalg.inv(normal), dtype=np.float64)
+        return np.asarray(step.reshape(3, degree), dtype=float), cov
 
-def _with_drift_unknowns(
-    desc: RobotDescription,
-    campaign: Campaign,
-    result: IdentificationResult,
-    *,
-    basis: Array,
-    noise: NoiseModel,
-    options: IdentificationOptions,
-    rt: Runtime,
-) -> tuple[IdentificationResult, float]:
-    """`result` (the last fit, of the records with the drift removed) with its statistics those of the joint
-    problem, robot and drift together: the parameters' covariance the marginal (Jᵀ P⊥ J)⁻¹, P⊥ projecting out the
-    drift's columns (the drift's uncertainty widens the parameters'), and the variance factor over the data's
-    rows less both sets of unknowns. Then the σ, correlations and predicted accuracy that follow. Also the ratio
-    of the joint variance factor to the fit's, which the drift's own covariance takes."""
-    j, t, _ = _weighted_system(desc, campaign, result, basis=basis, noise=noise, rt=rt)
-    q, _ = np.linalg.qr(t)
-    j_perp = j - q @ (q.T @ j)
-    free = np.array(result.estimated)
-    table = desc.parameters
-    prior = None if options.prior is None else options.prior.rows(result.parameters, free, table.scales[free])
-    # The fit's sum of squares (its rows at its solution; drift removed, so the joint problem's too). With a prior
-    # its dof is rounded: the sum is then off by under half a row's share.
-    ssr = result.variance_factor * result.dof
-    joint = covariance_of(j_perp, ssr, None if prior is None else prior.jacobian, projected=t.shape[1])
-    scales = table.scales[free]
-    cov_theta = joint.z * np.outer(scales, scales)
-    std = np.full(len(table), np.nan)
-    std[free] = np.sqrt(np.diag(cov_theta))
-    accuracy = predicted_accuracy(desc, result.parameters, free, cov_theta, options.workspace_samples, runtime=rt)
-    widened = replace(
-        result,
-        std_errors=std,
-        covariance=cov_theta,
-        correlated_pairs=correlated_pairs(cov_theta, tuple(table.names[i] for i in free)),
-        variance_factor=joint.variance_factor,
-        dof=joint.dof,
-        noise_consistent=joint.noise_consistent,
-        variance_interval=joint.chi2_interval,
-        predicted_accuracy=accuracy,
-    )
-    ratio = joint.variance_factor / result.variance_factor if result.variance_factor > 0 else 1.0
-    return widened, ratio
+    def with_unknowns(
+        self, campaign: Campaign, result: IdentificationResult, options: IdentificationOptions
+    ) -> tuple[IdentificationResult, float]:
+        """`result` (the last fit, of the records with the drift removed) with its statistics those of the joint
+        problem, robot and drift together: the parameters' covariance the marginal (Jᵀ P⊥ J)⁻¹, P⊥ projecting out the
+        drift's columns (the drift's uncertainty widens the parameters'), and the variance factor over the data's
+        rows less both sets of unknowns. Then the σ, correlations and predicted accuracy that follow. Also the ratio
+        of the joint variance factor to the fit's, which the drift's own covariance takes."""
+        j, t, _ = self.weighted_system(campaign, result)
+        q, _ = np.linalg.qr(t)
+        j_perp = j - q @ (q.T @ j)
+        free = np.array(result.estimated)
+        table = self.desc.parameters
+        prior = None if options.prior is None else options.prior.rows(result.parameters, free, table.scales[free])
+        # The fit's sum of squares (its rows at its solution; drift removed, so the joint problem's too). With a prior
+        # its dof is rounded: the sum is then off by under half a row's share.
+        ssr = result.variance_factor * result.dof
+        joint = covariance_of(j_perp, ssr, None if prior is None else prior.jacobian, projected=t.shape[1])
+        scales = table.scales[free]
+        cov_theta = joint.z * np.outer(scales, scales)
+        std = np.full(len(table), np.nan)
+        std[free] = np.sqrt(np.diag(cov_theta))
+        accuracy = predicted_accuracy(
+            self.desc, result.parameters, free, cov_theta, options.workspace_samples, runtime=self.rt
+        )
+        widened = replace(
+            result,
+            std_errors=std,
+            covariance=cov_theta,
+            correlated_pairs=correlated_pairs(cov_theta, tuple(table.names[i] for i in free)),
+            variance_factor=joint.variance_factor,
+            dof=joint.dof,
+            noise_consistent=joint.noise_consistent,
+            variance_interval=joint.chi2_interval,
+            predicted_accuracy=accuracy,
+        )
+        ratio = joint.variance_factor / result.variance_factor if result.variance_factor > 0 else 1.0
+        return widened, ratio

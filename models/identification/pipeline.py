@@ -61,7 +61,7 @@ from models.identification.result import (
     SolverReport,
     Status,
 )
-from models.identification.solver import SolverPool, SolverRun, solver_pool
+from models.identification.solver import FINISHED_BY, SolverPool, SolverRun, solver_pool, solver_report
 from models.identification.statistics import Covariance, PoseErrors, correlated_pairs, covariance, outlier_threshold
 from models.identification.terms_check import missing_term_diagnoses
 from models.identification.trust_region import (
@@ -391,16 +391,7 @@ def _solve(
     else:
         polished, polish_steps = polish(problem, runs[-1].z, lower, upper)
     final = problem.evaluate(polished)
-    solver = SolverReport(
-        name="ipopt+trust-region" if any(r.status.startswith(FINISHED_BY) for r in runs) else "ipopt",
-        status=runs[-1].status,
-        success=all(r.success for r in runs),
-        iterations=sum(r.iterations for r in runs),
-        seconds=sum(r.seconds for r in runs),
-        objective=runs[-1].objective,
-        evaluations=evaluations + problem.evaluations,
-        polish_steps=polish_steps,
-    )
+    solver = solver_report(runs, evaluations=evaluations + problem.evaluations, polish_steps=polish_steps)
     return problem, final, solver, outliers
 
 
@@ -425,9 +416,6 @@ def _run(
         seconds=run.seconds + finish.seconds,
         objective=finish.objective if finish.success else run.objective,
     )
-
-
-FINISHED_BY = "trust-region finish: "
 
 
 def _objective(problem: CampaignProblem, z: Array, otherwise: float) -> float:

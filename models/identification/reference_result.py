@@ -35,9 +35,9 @@ from models.identification.result import (
     Outlier,
     PredictedAccuracy,
     ResidualSummary,
-    SolverReport,
     Status,
 )
+from models.identification.solver import solver_report
 from models.identification.statistics import correlated_pairs
 from models.measurement import MeasurementKind
 from models.measurements.references import ReferenceRecords
@@ -99,7 +99,7 @@ def as_result(
         noise_consistent=cov.noise_consistent,
         variance_interval=cov.chi2_interval,
         outliers=tuple(_outlier(fit, o, after) for o in fit.outliers),
-        solver=_solver_report(fit),
+        solver=solver_report([fit.solver], evaluations=fit.evaluations, polish_steps=fit.polish_steps),
         predicted_accuracy=_accuracy(desc, fit, after, options, runtime),
         kind=MeasurementKind.POSITION,
         measurements=int(np.unique(np.concatenate([g.positions for g in fit.groups])).size),
@@ -136,20 +136,6 @@ def _measured_poses(fit: ReferenceFit) -> Array:
     also given at, as a tracker campaign's is. Without it a reference or reflector campaign reported only the
     workspace-wide figure, with no word on where it was measured (TIAGo's 37 postures read at four markers)."""
     return np.unique(np.vstack([g.joints for g in fit.groups]), axis=0)
-
-
-def _solver_report(fit: ReferenceFit) -> SolverReport:
-    run = fit.solver
-    return SolverReport(
-        name="ipopt",
-        status=run.status,
-        success=run.success,
-        iterations=run.iterations,
-        seconds=run.seconds,
-        objective=run.objective,
-        evaluations=fit.evaluations,
-        polish_steps=fit.polish_steps,
-    )
 
 
 def _notes(fit: ReferenceFit) -> tuple[str, ...]:

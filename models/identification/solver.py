@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,6 +34,7 @@ from models._types import Array
 from models.engine import cancellation
 from models.engine.runtime import Runtime
 from models.identification.residuals import FitProblem
+from models.identification.result import SolverReport
 
 IPOPT_OPTIONS: dict[str, Any] = {
     "ipopt.print_level": 0,
@@ -221,6 +223,25 @@ class SolverRun:
     iterations: int
     seconds: float
     objective: float
+
+
+FINISHED_BY = "trust-region finish: "
+"""How the status of a run that the trust-region finish ended begins (`pipeline._run`)."""
+
+
+def solver_report(runs: Sequence[SolverRun], *, evaluations: int, polish_steps: int) -> SolverReport:
+    """A fit's runs, in order, as its result reports them: iterations and seconds summed, the last run's status
+    and objective, a success only if every run succeeded."""
+    return SolverReport(
+        name="ipopt+trust-region" if any(r.status.startswith(FINISHED_BY) for r in runs) else "ipopt",
+        status=runs[-1].status,
+        success=all(r.success for r in runs),
+        iterations=sum(r.iterations for r in runs),
+        seconds=sum(r.seconds for r in runs),
+        objective=runs[-1].objective,
+        evaluations=evaluations,
+        polish_steps=polish_steps,
+    )
 
 
 class SolverPool:

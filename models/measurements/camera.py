@@ -40,11 +40,11 @@ from models.errors import InvalidInput
 from models.kinematics import ForwardJacobianResult, ForwardResult
 from models.measurements.references import (
     ANGLE_SCALE_RAD,
-    POSITION_SCALE_MM,
     SLIP_RATIO,
     ReferenceBase,
     ReferenceRecords,
     Traits,
+    position_specs,
 )
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 
@@ -200,10 +200,7 @@ class Camera(ReferenceBase):
     def unknowns(self) -> tuple[ParameterSpec, ...]:
         group = f"camera.{self.name}"
         return (
-            *(
-                ParameterSpec(f"{group}.{axis}", group, Kind.LENGTH, float(v), POSITION_SCALE_MM)
-                for axis, v in zip("xyz", self.position, strict=True)
-            ),
+            *position_specs(group, np.asarray(self.position)),
             *(ParameterSpec(f"{group}.r{axis}", group, Kind.ANGLE, 0.0, ANGLE_SCALE_RAD) for axis in "xyz"),
         )
 

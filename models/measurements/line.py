@@ -23,10 +23,10 @@ from typing import ClassVar
 import numpy as np
 
 from models._types import Array
-from models.description.parameters import Kind, ParameterSpec
+from models.description.parameters import ParameterSpec
 from models.errors import InvalidInput
 from models.kinematics import ForwardJacobianResult, ForwardResult
-from models.measurements.references import ANGLE_SCALE_RAD, POSITION_SCALE_MM, Plane, ReferenceBase, Traits
+from models.measurements.references import Plane, ReferenceBase, Traits, direction_specs, position_specs
 
 MIN_LINE_TRAVEL_MM = 5.0
 """The records must spread at least this (RMS) along the beam, or its direction is not determined (an
@@ -46,14 +46,7 @@ class Line(ReferenceBase):
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
         group = f"line.{self.name}"
-        return (
-            ParameterSpec(f"{group}.alpha", group, Kind.ANGLE, 0.0, ANGLE_SCALE_RAD),
-            ParameterSpec(f"{group}.beta", group, Kind.ANGLE, 0.0, ANGLE_SCALE_RAD),
-            *(
-                ParameterSpec(f"{group}.{axis}", group, Kind.LENGTH, float(v), POSITION_SCALE_MM)
-                for axis, v in zip("xyz", self.origin, strict=True)
-            ),
-        )
+        return direction_specs(group) + position_specs(group, np.asarray(self.origin))
 
     @property
     def minimum_records(self) -> int:

@@ -154,10 +154,19 @@ class ReferenceBase:
         return ()
 
 
-def _position_specs(prefix: str, start: Array) -> tuple[ParameterSpec, ...]:
+def position_specs(prefix: str, start: Array) -> tuple[ParameterSpec, ...]:
+    """A point's unknowns `<prefix>.x`, `.y`, `.z` (mm), started at `start`."""
     return tuple(
         ParameterSpec(f"{prefix}.{axis}", prefix, Kind.LENGTH, float(v), POSITION_SCALE_MM)
         for axis, v in zip("xyz", start, strict=True)
+    )
+
+
+def direction_specs(prefix: str) -> tuple[ParameterSpec, ...]:
+    """A direction's unknowns `<prefix>.alpha`, `.beta`: the two small angles that turn its start (rad, from 0;
+    `Plane.normal_at`)."""
+    return tuple(
+        ParameterSpec(f"{prefix}.{angle}", prefix, Kind.ANGLE, 0.0, ANGLE_SCALE_RAD) for angle in ("alpha", "beta")
     )
 
 
@@ -176,7 +185,7 @@ class Anchor(ReferenceBase):
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
-        specs = _position_specs(f"anchor.{self.name}", np.asarray(self.start))
+        specs = position_specs(f"anchor.{self.name}", np.asarray(self.start))
         if self.length_unknown:
             specs += (ParameterSpec(f"anchor.{self.name}.length", f"anchor.{self.name}", Kind.LENGTH, 0.0, 1.0),)
         return specs
@@ -251,7 +260,7 @@ class FixedPoint(ReferenceBase):
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
-        return _position_specs(f"point.{self.name}", np.asarray(self.start))
+        return position_specs(f"point.{self.name}", np.asarray(self.start))
 
     @property
     def minimum_records(self) -> int:
@@ -279,11 +288,8 @@ class Plane(ReferenceBase):
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
         group = f"plane.{self.name}"
-        return (
-            ParameterSpec(f"{group}.alpha", group, Kind.ANGLE, 0.0, ANGLE_SCALE_RAD),
-            ParameterSpec(f"{group}.beta", group, Kind.ANGLE, 0.0, ANGLE_SCALE_RAD),
-            ParameterSpec(f"{group}.offset", group, Kind.LENGTH, float(self.offset), POSITION_SCALE_MM),
-        )
+        offset = ParameterSpec(f"{group}.offset", group, Kind.LENGTH, float(self.offset), POSITION_SCALE_MM)
+        return (*direction_specs(group), offset)
 
     @property
     def minimum_records(self) -> int:
@@ -401,7 +407,7 @@ class Reflector(ReferenceBase):
 
     @property
     def unknowns(self) -> tuple[ParameterSpec, ...]:
-        return _position_specs(f"reflector.{self.name}", np.asarray(self.offset))
+        return position_specs(f"reflector.{self.name}", np.asarray(self.offset))
 
     @property
     def minimum_records(self) -> int:

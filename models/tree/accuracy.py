@@ -21,10 +21,9 @@ from models.identification.statistics import tcp_accuracy
 from models.tree.identification import TreeFit
 from models.tree.kinematics import relative_of, relative_poses, tool_poses
 from models.tree.tree import RobotTree
+from models.workspace import usable_draws
 
 ACCURACY_SEED = 20_470_001
-CLOSED_DRAW_ROUNDS = 50
-"""Rounds of redrawing the poses where a closed stage is not usable, before giving up."""
 
 
 @dataclass(frozen=True)
@@ -72,12 +71,8 @@ def tree_joint_samples(
     if not closed:
         return rng.uniform(lo, hi, size=(n, tree.n_joints))
     theta = tree.parameters.nominal if params is None else params
-    kept: list[Array] = []
-    have = 0
-    for _ in range(CLOSED_DRAW_ROUNDS):
-        if have >= n:
-            break
-        m = max(16, int(1.3 * (n - have)))
+
+    def draw(m: int) -> tuple[NDArray[np.bool_], tuple[Array, ...]]:
         q = rng.uniform(lo, hi, size=(m, tree.n_joints))
         ok = np.ones(m, dtype=bool)
         for stage, p, j in closed:
@@ -85,14 +80,15 @@ def tree_joint_samples(
             x = rng.uniform(x_lo, x_hi, size=(m, x_lo.size))
             q[:, j] = stage.joints_of_unknowns(x, theta[p])
             ok &= stage.usable(q[:, j], x, theta[p])
-        kept.append(q[ok])
-        have += int(ok.sum())
-    if have < n:
+        return ok, (q,)
+
+    drawn = usable_draws(n, draw, (tree.n_joints,))
+    if drawn is None:
         raise InvalidInput(
             "the tree's closed stages (hexapods) admit almost no pose in their workspace: check strokes and ranges",
             field="workspace",
         )
-    return np.vstack(kept)[:n]
+    return drawn[0]
 
 
 def tree_accuracy(

@@ -20,6 +20,7 @@ Names: `base.x`; `{branch}.mount.x`, `{branch}.link{i}.theta` (links numbered wi
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -96,11 +97,8 @@ class RobotTree:
         """The branch `name`; InvalidInput naming the branches when there is none."""
         found = self.by_name.get(name)
         if found is None:
-            raise InvalidInput(
-                f"the tree {self.name!r} has no branch {name!r}; its branches are {list(self.by_name)}",
-                field=field,
-                value=name,
-                allowed=list(self.by_name),
+            raise _none_of(
+                self.by_name, name, field, f"the tree {self.name!r} has no branch {name!r}; its branches are"
             )
         return found
 
@@ -108,13 +106,18 @@ class RobotTree:
         """The tip branch `name`; InvalidInput naming the tools when it is not one."""
         found = self.branch(name, field)
         if found.tool is None:
-            raise InvalidInput(
-                f"branch {name!r} has no tool; the tree's tools are {list(self.tips)}",
-                field=field,
-                value=name,
-                allowed=list(self.tips),
-            )
+            raise _none_of(self.tips, name, field, f"branch {name!r} has no tool; the tree's tools are")
         return found
+
+    def joint_index(self, name: str, field: str) -> int:
+        """The index of joint `name` in the global joint vector; InvalidInput naming the joints when there is none."""
+        if name not in self._joint_indices:
+            raise _none_of(self.joint_names, name, field, f"{field}: the tree has no joint {name!r}; its joints are")
+        return self._joint_indices[name]
+
+    @cached_property
+    def _joint_indices(self) -> dict[str, int]:
+        return {name: j for j, name in enumerate(self.joint_names)}
 
     def check_record(self, tool: str, frame: str | None, where: str) -> None:
         """A record of tool `tool` in tool `frame`'s frame (None: the instrument's) names tips of the tree, and not
@@ -282,3 +285,9 @@ def check_branches(branches: tuple[Branch, ...]) -> None:
         seen.add(branch.name)
     if not any(branch.tool is not None for branch in branches):
         raise InvalidInput("a tree needs at least one branch with a tool", field="branches")
+
+
+def _none_of(names: Iterable[str], name: str, field: str, detail: str) -> InvalidInput:
+    """`name` is none of `names`: `detail` then the names, which the error also carries for a client to offer."""
+    allowed = list(names)
+    return InvalidInput(f"{detail} {allowed}", field=field, value=name, allowed=allowed)

@@ -126,18 +126,10 @@ def _drawn(tree: RobotTree, count: int, seed: int, ranges: Mapping[str, tuple[fl
     pad = DRAW_MARGIN * (hi - lo)
     lo, hi = lo + pad, hi - pad
     scale = joint_scale(tree)
-    index = {name: j for j, name in enumerate(tree.joint_names)}
     full_lo, full_hi = tree.joint_limits
     for name, (a, b) in (ranges or {}).items():
         where = f"joint_ranges.{name}"
-        j = index.get(name)
-        if j is None:
-            raise InvalidInput(
-                f"{where}: the tree has no joint {name!r}; its joints are {list(tree.joint_names)}",
-                field=where,
-                value=name,
-                allowed=list(tree.joint_names),
-            )
+        j = tree.joint_index(name, where)
         a_in, b_in = a / scale[j], b / scale[j]
         if not a_in < b_in or a_in < full_lo[j] - 1e-12 or b_in > full_hi[j] + 1e-12:
             unit = tree.joint_kinds[j].boundary_unit

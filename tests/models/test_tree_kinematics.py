@@ -110,6 +110,10 @@ def test_bad_input_names_what_to_fix() -> None:
         tool_poses(tree, "head", q)
     with pytest.raises(InvalidInput, match=r"branch 'waist' has no tool; the tree's tools are \['left', 'right'\]"):
         tool_poses(tree, "waist", q)
+    assert tree.joint_index("right.q2", "joints") == 8  # the waist's one joint, the left arm's six, then right.q1
+    with pytest.raises(InvalidInput, match=r"ranges.q9: the tree has no joint 'q9'; its joints are \['waist.q1'") as e:
+        tree.joint_index("q9", "ranges.q9")
+    assert (e.value.field, e.value.value, e.value.allowed) == ("ranges.q9", "q9", list(tree.joint_names))
     with pytest.raises(WrongShape, match="13 numbers"):
         tool_poses(tree, "left", q[:, :7])
     q[1, 8] = np.radians(200.0)
