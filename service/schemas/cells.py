@@ -15,19 +15,15 @@ from pydantic import Field, model_validator
 
 from models.cell import Reason
 from service.compute import limits
-from service.schemas.common import JointVector, Position, Public, Strict
+from service.schemas.common import JointVector, Position, Public, Strict, short_name
 from service.schemas.references import RotationVectorDeg
 
 Size = Annotated[float, Field(gt=0, le=1e5, description="mm, positive (up to 100 m)")]
 Distance = Annotated[float, Field(ge=0, le=1e6, description="mm")]
 SolidName = Annotated[
     str,
-    Field(
-        min_length=1,
-        max_length=64,
-        pattern=r"^[A-Za-z0-9_.-]+$",
-        description="Letters, digits, _, . and -; refusals name the solid they hit",
-        examples=["table"],
+    short_name(
+        "Letters, digits, _, . and -; refusals name the solid they hit", example="table", pattern=r"^[A-Za-z0-9_.-]+$"
     ),
 ]
 Direction = Annotated[

@@ -49,6 +49,13 @@ FreeText = Annotated[
 """Free text (notes): lines and tabs, no other control character. PostgreSQL text cannot hold NUL (psycopg's
 DataError was a 500, where SQLite stored it), and the others are nobody's notes but a terminal's escapes."""
 
+
+def short_name(description: str, example: str, pattern: str = r"^[A-Za-z0-9_-]+$") -> Any:
+    """The field of a short name the user gives a thing (a reference, a branch, a solid), which the service then
+    builds other names from (parameters, tools) or quotes back (a refusal): 1 to 64 characters matching `pattern`."""
+    return Field(min_length=1, max_length=64, pattern=pattern, description=description, examples=[example])
+
+
 ImportNotes = Annotated[
     list[str],
     Field(

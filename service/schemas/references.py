@@ -11,17 +11,10 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import JointVector, Position, Public, Strict
+from service.schemas.common import JointVector, Position, Public, Strict, short_name
 
 ReferenceName = Annotated[
-    str,
-    Field(
-        min_length=1,
-        max_length=64,
-        pattern=r"^[A-Za-z0-9_-]+$",
-        description="Letters, digits, _ and - (it names the reference's parameters: anchor.<name>.x)",
-        examples=["a1"],
-    ),
+    str, short_name("Letters, digits, _ and - (it names the reference's parameters: anchor.<name>.x)", example="a1")
 ]
 RecordSigma = Annotated[
     float, Field(gt=0, le=100, description="This record's uncertainty (1 σ, mm); default: noise.position_mm")

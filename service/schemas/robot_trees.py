@@ -17,19 +17,15 @@ from pydantic import Field, model_validator
 from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from service.compute import limits
-from service.schemas.common import OptionalFloat, PosePublic, Position, Public, Quaternion, Strict
+from service.schemas.common import OptionalFloat, PosePublic, Position, Public, Quaternion, Strict, short_name
 from service.schemas.exports import DhLinkPublic
 from service.schemas.robots import PrintableName
 from service.schemas.structure import Stage, StructurePose
 
 BranchName = Annotated[
     str,
-    Field(
-        min_length=1,
-        max_length=64,
-        pattern=r"^[A-Za-z0-9_-]+$",
-        description="Letters, digits, _ and -: it prefixes its parameters (`left.link3.a`) and names its tool",
-        examples=["left"],
+    short_name(
+        "Letters, digits, _ and -: it prefixes its parameters (`left.link3.a`) and names its tool", example="left"
     ),
 ]
 JointName = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[^\x00-\x1f\x7f]+$")]
