@@ -18,7 +18,7 @@ from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from service.compute import limits
 from service.schemas.common import OptionalFloat, PosePublic, Position, Public, Quaternion, Strict, short_name
-from service.schemas.exports import DhLinkPublic
+from service.schemas.exports import DhLinkPublic, FramePublic
 from service.schemas.robots import PrintableName
 from service.schemas.structure import Stage, StructurePose
 
@@ -382,15 +382,8 @@ class TreeCompensationPublic(Public):
 
 
 # ---------------------------------------------------------------------------------------------- exports
-class TreeFramePose(Public):
+class TreeFramePose(FramePublic):
     """A transform: x, y, z (mm), then roll, pitch, yaw (deg), R = Rz(yaw)·Ry(pitch)·Rx(roll)."""
-
-    x_mm: float
-    y_mm: float
-    z_mm: float
-    roll_deg: float
-    pitch_deg: float
-    yaw_deg: float
 
 
 class TreeUrdfExportPublic(Public):
