@@ -124,8 +124,8 @@ class AdaptiveStepPublic(Public):
     created_at: datetime | None = None
 
 
-class AdaptiveCampaignSummaryPublic(Public):
-    """A campaign in a robot's list: its settings and where it stands, without its steps (GET it for those)."""
+class AdaptiveCampaignSettings(Public):
+    """What a campaign and its summary both open with: which campaign, its state, and what it was asked for."""
 
     id: str
     robot_id: str
@@ -136,6 +136,11 @@ class AdaptiveCampaignSummaryPublic(Public):
     budget: int
     measurement: Literal["pose", "position"]
     criterion: AdaptiveCriterion
+
+
+class AdaptiveCampaignSummaryPublic(AdaptiveCampaignSettings):
+    """A campaign in a robot's list: its settings and where it stands, without its steps (GET it for those)."""
+
     records: int
     predicted: PredictedPublic | None
     excluded: list[int]
@@ -146,16 +151,7 @@ class AdaptiveCampaignSummaryPublic(Public):
     updated_at: datetime
 
 
-class AdaptiveCampaignPublic(Public):
-    id: str
-    robot_id: str
-    version: int = Field(description="The robot's version the campaign started from")
-    status: AdaptiveStatus
-    target_mm: float
-    target: TargetKey
-    budget: int
-    measurement: Literal["pose", "position"]
-    criterion: AdaptiveCriterion
+class AdaptiveCampaignPublic(AdaptiveCampaignSettings):
     cell: DesignCellPublic | None = Field(
         default=None, description="With a cell: its stored version used, what it checked and refused by reason"
     )
