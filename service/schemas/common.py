@@ -11,7 +11,7 @@ from datetime import datetime
 from enum import StrEnum
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, model_validator
 
 from models.measurement import MeasurementKind
 
@@ -48,6 +48,17 @@ FreeText = Annotated[
 ]
 """Free text (notes): lines and tabs, no other control character. PostgreSQL text cannot hold NUL (psycopg's
 DataError was a 500, where SQLite stored it), and the others are nobody's notes but a terminal's escapes."""
+
+
+def exactly_one(first: str, second: str, message: str) -> Any:
+    """The model validator of two optional fields of which a body gives one, not both nor neither."""
+
+    def check(model: Any) -> Any:
+        if (getattr(model, first) is None) == (getattr(model, second) is None):
+            raise ValueError(message)
+        return model
+
+    return model_validator(mode="after")(check)
 
 
 def short_name(description: str, example: str, pattern: str = r"^[A-Za-z0-9_-]+$") -> Any:

@@ -28,6 +28,7 @@ from service.schemas.common import (
     Public,
     Strict,
     TemperatureC,
+    exactly_one,
 )
 
 MAX_FIXED = 10_000
@@ -87,11 +88,7 @@ class DesignTarget(Strict):
     rms_tcp_mm: float | None = Field(default=None, gt=0, le=1000, examples=[0.05])
     max_tcp_mm: float | None = Field(default=None, gt=0, le=1000)
 
-    @model_validator(mode="after")
-    def _one(self) -> DesignTarget:
-        if (self.rms_tcp_mm is None) == (self.max_tcp_mm is None):
-            raise ValueError("give exactly one of rms_tcp_mm and max_tcp_mm")
-        return self
+    _one = exactly_one("rms_tcp_mm", "max_tcp_mm", "give exactly one of rms_tcp_mm and max_tcp_mm")
 
 
 class KeepOutBox(Strict):
