@@ -22,6 +22,7 @@ from service.schemas.common import (
     Payload,
     Public,
     Strict,
+    absent_if_none,
 )
 from service.schemas.fleets import FLEET_KEY, FleetComparisonPublic
 from service.schemas.robots import ParameterPublic
@@ -123,10 +124,6 @@ class CalibrationCreate(ReferenceDescriptions):
 # ------------------------------------------------------------------ the report
 
 
-def _absent_if_none(value: object) -> bool:
-    return value is None
-
-
 class CalibratedParameterPublic(ParameterPublic):
     identifiable: bool  # a calibration always knows
     start: OptionalFloat = Field(
@@ -153,17 +150,15 @@ class ResidualsPublic(Public):
 
     rms_mm: float
     max_mm: float
-    rms_deg: float | None = Field(default=None, exclude_if=_absent_if_none)
-    max_deg: float | None = Field(default=None, exclude_if=_absent_if_none)
+    rms_deg: float | None = absent_if_none()
+    max_deg: float | None = absent_if_none()
     per_pose_mm: list[float]
-    per_pose_deg: list[float] | None = Field(default=None, exclude_if=_absent_if_none)
-    rms_xyz_mm: list[OptionalFloat] | None = Field(
-        default=None,
-        exclude_if=_absent_if_none,
-        description="RMS of the error along x, y, z (measured minus model, the records' frame); tracker records",
+    per_pose_deg: list[float] | None = absent_if_none()
+    rms_xyz_mm: list[OptionalFloat] | None = absent_if_none(
+        "RMS of the error along x, y, z (measured minus model, the records' frame); tracker records",
     )
-    per_pose_xyz_mm: list[list[OptionalFloat]] | None = Field(
-        default=None, exclude_if=_absent_if_none, description="Each record's error along x, y, z (measured minus model)"
+    per_pose_xyz_mm: list[list[OptionalFloat]] | None = absent_if_none(
+        "Each record's error along x, y, z (measured minus model)"
     )
 
 

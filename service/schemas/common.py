@@ -79,6 +79,16 @@ ImportNotes = Annotated[
 field in every body that may come as a file (a calibration, a validation, a quick check)."""
 
 
+def _is_none(value: object) -> bool:
+    return value is None
+
+
+def absent_if_none(description: str | None = None) -> Any:
+    """A response field whose key is left out of the JSON where it holds nothing (rather than written as null):
+    a key that does not apply to this answer (an orientation for a position-only campaign)."""
+    return Field(default=None, exclude_if=_is_none, description=description)
+
+
 def _finite_or_none(value: Any) -> Any:
     # The one place NaN and infinities become null: strict JSON (and PostgreSQL's JSON type) has no such numbers.
     if isinstance(value, float) and not math.isfinite(value):

@@ -12,6 +12,7 @@ from service.schemas.common import (
     Strict,
     Target,
     TemperatureC,
+    absent_if_none,
 )
 
 TEMPERATURE = (
@@ -23,10 +24,6 @@ PAYLOAD = "Used where the robot's current version has the compliance term (defau
 
 FRAMES_MAX = 1000
 """Joint vectors a request may ask every frame for: each brings a dozen poses (a drawing's few, not a batch)."""
-
-
-def _absent_if_none(value: object) -> bool:
-    return value is None
 
 
 class ForwardRequest(Strict):
@@ -55,10 +52,8 @@ class ForwardResponse(Public):
         default_factory=list,
         description="Slips the joints betray although they lie inside the ranges (revolute joints in radians)",
     )
-    frames: list[dict[str, PosePublic]] | None = Field(
-        default=None,
-        exclude_if=_absent_if_none,
-        description="With frames: per joint vector, each frame's pose in the world frame by name, base to TCP "
+    frames: list[dict[str, PosePublic]] | None = absent_if_none(
+        "With frames: per joint vector, each frame's pose in the world frame by name, base to TCP "
         "(the geometric model's, as the cell's checks use; absent otherwise)",
     )
 

@@ -12,12 +12,7 @@ from service.schemas.calibrations import (
     Instrument,
     InstrumentPublic,
 )
-from service.schemas.common import FreeText, ImportNotes, Measurement, Public, Strict
-
-
-def _absent_if_none(value: object) -> bool:
-    return value is None
-
+from service.schemas.common import FreeText, ImportNotes, Measurement, Public, Strict, absent_if_none
 
 MAX_VERSIONS = 50
 
@@ -67,7 +62,7 @@ class OrientationStatsPublic(Public):
 
 class PoseErrorPublic(Public):
     position_mm: float
-    orientation_deg: float | None = Field(default=None, exclude_if=_absent_if_none)
+    orientation_deg: float | None = absent_if_none()
 
 
 class IsoPosePublic(Public):
@@ -81,12 +76,8 @@ class IsoPosePublic(Public):
     AP_mm: float = Field(description="Distance of the barycentre of the attained positions from the command")
     AP_xyz_mm: list[float] = Field(description="Barycentre − command, per axis")
     RP_mm: float = Field(description="Mean distance to the barycentre + 3 × its sample standard deviation")
-    AP_abc_deg: list[float] | None = Field(
-        default=None, exclude_if=_absent_if_none, description="Orientation accuracy about a, b, c"
-    )
-    RP_abc_deg: list[float] | None = Field(
-        default=None, exclude_if=_absent_if_none, description="Orientation repeatability ±3 S about a, b, c"
-    )
+    AP_abc_deg: list[float] | None = absent_if_none("Orientation accuracy about a, b, c")
+    RP_abc_deg: list[float] | None = absent_if_none("Orientation repeatability ±3 S about a, b, c")
 
 
 class IsoDistancePublic(Public):
@@ -109,11 +100,9 @@ class VersionResultPublic(Public):
     version: int
     registered: bool
     position_mm: PositionStatsPublic
-    orientation_deg: OrientationStatsPublic | None = Field(default=None, exclude_if=_absent_if_none)
+    orientation_deg: OrientationStatsPublic | None = absent_if_none()
     per_pose: list[PoseErrorPublic]
-    iso9283: Iso9283Public | None = Field(
-        default=None, exclude_if=_absent_if_none, description="When the campaign repeats joint commands"
-    )
+    iso9283: Iso9283Public | None = absent_if_none("When the campaign repeats joint commands")
 
 
 class ValidationPublic(Public):
