@@ -16,6 +16,7 @@ from service.schemas.common import (
     ConditionWarningPublic,
     FreeText,
     ImportNotes,
+    ImportNotesPublic,
     JointVector,
     Measurement,
     Public,
@@ -135,10 +136,7 @@ class QuickCheckPublic(Public):
         default_factory=list,
         description="The records' temperature or payload outside what the version was calibrated under",
     )
-    import_notes: list[str] = Field(
-        default_factory=list,
-        description="What the file reader noted (columns mapped, units converted); empty for records sent as JSON",
-    )
+    import_notes: ImportNotesPublic
 
 
 class QuickCheckDesignCreate(Strict):

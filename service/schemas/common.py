@@ -77,6 +77,14 @@ ImportNotes = Annotated[
 ]
 """A campaign request's notes from the file its records were read from (service.files.campaign_requests): the same
 field in every body that may come as a file (a calibration, a validation, a quick check)."""
+ImportNotesPublic = Annotated[
+    list[str],
+    Field(
+        default_factory=list,
+        description="What the file reader noted (columns mapped, units converted); empty for records sent as JSON",
+    ),
+]
+"""The same notes as a stored validation or quick check answers them."""
 
 
 def _is_none(value: object) -> bool:

@@ -12,7 +12,7 @@ from service.schemas.calibrations import (
     Instrument,
     InstrumentPublic,
 )
-from service.schemas.common import FreeText, ImportNotes, Measurement, Public, Strict, absent_if_none
+from service.schemas.common import FreeText, ImportNotes, ImportNotesPublic, Measurement, Public, Strict, absent_if_none
 
 MAX_VERSIONS = 50
 
@@ -115,10 +115,7 @@ class ValidationPublic(Public):
     notes: str | None
     instrument: InstrumentPublic | None
     results: list[VersionResultPublic]
-    import_notes: list[str] = Field(
-        default_factory=list,
-        description="What the file reader noted (columns mapped, units converted); empty for records sent as JSON",
-    )
+    import_notes: ImportNotesPublic
 
 
 class IsoPosesCreate(Strict):
