@@ -15,7 +15,7 @@ from optimal_design.problem import MAX_CANDIDATES
 from service.record_kinds.tracker import Record
 from service.schemas.calibrations import Noise
 from service.schemas.cells import CellDocument, DesignCellPublic
-from service.schemas.common import FreeText, Public, Strict
+from service.schemas.common import FreeText, Public, Strict, optional
 
 MAX_ADAPTIVE_BUDGET = 1000
 MAX_ADAPTIVE_CANDIDATES = min(2000, MAX_CANDIDATES)
@@ -52,10 +52,9 @@ class AdaptiveCampaignCreate(Strict):
         description="A record whose studentized residual is beyond this many σ (as rarely as a normal deviate) "
         "is a blunder: excluded, reported, and its pose asked for again",
     )
-    cell: Literal["stored"] | CellDocument | None = Field(
-        default=None,
-        description="Ask only for poses a cell can measure (collision-free, seen by its instrument): stored (the "
-        "robot's current cell, PUT …/cell) or a cell document; absent: no cell. As a pose design's `cell`",
+    cell: Literal["stored"] | CellDocument | None = optional(
+        "Ask only for poses a cell can measure (collision-free, seen by its instrument): stored (the "
+        "robot's current cell, PUT …/cell) or a cell document; absent: no cell. As a pose design's `cell`"
     )
     measurements: list[Record] | None = Field(
         default=None,
@@ -82,7 +81,7 @@ class AdaptiveFinish(Strict):
 class PoseToMeasurePublic(Public):
     joints: list[float] = Field(description="Joint values (degrees, mm for prismatic joints)")
     candidate: int | None = Field(description="Its index in the campaign's candidate pool (null: a blunder's pose)")
-    replaces: int | None = Field(default=None, description="The blunder record whose pose this measures again")
+    replaces: int | None = optional("The blunder record whose pose this measures again")
 
 
 class BlunderPublic(Public):
@@ -152,8 +151,8 @@ class AdaptiveCampaignSummaryPublic(AdaptiveCampaignSettings):
 
 
 class AdaptiveCampaignPublic(AdaptiveCampaignSettings):
-    cell: DesignCellPublic | None = Field(
-        default=None, description="With a cell: its stored version used, what it checked and refused by reason"
+    cell: DesignCellPublic | None = optional(
+        "With a cell: its stored version used, what it checked and refused by reason"
     )
     candidates: int = Field(description="Candidates in the pool")
     reachable_mm: float = Field(description="The predicted error with every candidate measured")

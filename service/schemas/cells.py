@@ -15,7 +15,7 @@ from pydantic import Field, model_validator
 
 from models.cell import Reason
 from service.compute import limits
-from service.schemas.common import JointVector, Position, Public, Strict, exactly_one, short_name
+from service.schemas.common import JointVector, Position, Public, Strict, exactly_one, optional, short_name
 from service.schemas.references import RotationVectorDeg
 
 Size = Annotated[float, Field(gt=0, le=1e5, description="mm, positive (up to 100 m)")]
@@ -237,13 +237,13 @@ class CellShapePublic(Public):
     origin: Literal["default", "urdf", "override"]
     kind: Literal["capsule", "box", "cylinder", "sphere", "mesh"]
     radius_mm: float | None = None
-    from_frame: str | None = Field(default=None, description="A segment's start (its capsule runs between frames)")
+    from_frame: str | None = optional("A segment's start (its capsule runs between frames)")
     to_frame: str | None = None
-    from_point_mm: list[float] | None = Field(
-        default=None, description="Where a segment starts in from_frame (a hexapod leg's base joint; else its origin)"
+    from_point_mm: list[float] | None = optional(
+        "Where a segment starts in from_frame (a hexapod leg's base joint; else its origin)"
     )
-    to_point_mm: list[float] | None = Field(default=None, description="Where a segment ends in to_frame")
-    frame: str | None = Field(default=None, description="The frame a rigid solid is given in")
+    to_point_mm: list[float] | None = optional("Where a segment ends in to_frame")
+    frame: str | None = optional("The frame a rigid solid is given in")
     size_mm: list[float] | None = None
     length_mm: float | None = None
     position_mm: list[float] | None = None

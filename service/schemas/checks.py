@@ -21,6 +21,7 @@ from service.schemas.common import (
     Measurement,
     Public,
     Strict,
+    optional,
 )
 
 _OPTIONS = CheckOptions()
@@ -187,16 +188,12 @@ class HistoryEventPublic(Public):
     id: str
     version: int | None = Field(description="A calibration's new version (null: not applied); a check's version")
     outcome: str = Field(description="A calibration's status (applied or not); a check's verdict")
-    rms_mm: float | None = Field(
-        default=None,
-        description="The accuracy measured then: a calibration's RMS TCP residual after its fit, a check's RMS "
-        "|measured − predicted| (mm); null where none was computed",
+    rms_mm: float | None = optional(
+        "The accuracy measured then: a calibration's RMS TCP residual after its fit, a check's RMS "
+        "|measured − predicted| (mm); null where none was computed"
     )
-    predicted_mm: float | None = Field(
-        default=None,
-        description="What was expected: a calibration's predicted 1-σ TCP accuracy over the workspace, the RMS of "
-        "a check's predicted errors (mm)",
+    predicted_mm: float | None = optional(
+        "What was expected: a calibration's predicted 1-σ TCP accuracy over the workspace, the RMS of "
+        "a check's predicted errors (mm)"
     )
-    drift_mm: float | None = Field(
-        default=None, description="A drift-aware calibration's instrument drift over its campaign (mm)"
-    )
+    drift_mm: float | None = optional("A drift-aware calibration's instrument drift over its campaign (mm)")

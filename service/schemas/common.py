@@ -87,6 +87,12 @@ ImportNotesPublic = Annotated[
 """The same notes as a stored validation or quick check answers them."""
 
 
+def optional(description: str) -> Any:
+    """A field that may be left out and is then null: the service's default in a request, "none" in a response
+    (its description says which)."""
+    return Field(default=None, description=description)
+
+
 def _is_none(value: object) -> bool:
     return value is None
 

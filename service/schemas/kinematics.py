@@ -13,6 +13,7 @@ from service.schemas.common import (
     Target,
     TemperatureC,
     absent_if_none,
+    optional,
 )
 
 TEMPERATURE = (
@@ -28,8 +29,8 @@ FRAMES_MAX = 1000
 
 class ForwardRequest(Strict):
     joints: list[JointVector] = Field(min_length=1, max_length=100_000)
-    temperature_c: TemperatureC | list[TemperatureC] | None = Field(default=None, description=TEMPERATURE)
-    payload: Payload | None = Field(default=None, description=PAYLOAD)
+    temperature_c: TemperatureC | list[TemperatureC] | None = optional(TEMPERATURE)
+    payload: Payload | None = optional(PAYLOAD)
     frames: bool = Field(
         default=False,
         description=f"Also every frame of the structure (base, each link's middle and end, each platform, the "
@@ -60,11 +61,11 @@ class ForwardResponse(Public):
 
 class InverseRequest(Strict):
     targets: list[Target] = Field(min_length=1, max_length=100_000)
-    seed: JointVector | None = Field(default=None, description="Joints to stay closest to (default: mid-range)")
+    seed: JointVector | None = optional("Joints to stay closest to (default: mid-range)")
     weights: list[float] | None = Field(default=None, min_length=1, max_length=70, description="Per-joint weights")
     follow: bool = Field(default=False, description="Seed each target with the previous answer (smooth paths)")
-    temperature_c: TemperatureC | list[TemperatureC] | None = Field(default=None, description=TEMPERATURE)
-    payload: Payload | None = Field(default=None, description=PAYLOAD)
+    temperature_c: TemperatureC | list[TemperatureC] | None = optional(TEMPERATURE)
+    payload: Payload | None = optional(PAYLOAD)
 
 
 class ReachedPosePublic(Public):
