@@ -6,13 +6,14 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Literal
 
-from pydantic import ConfigDict, Field
+from pydantic import Field
 
 from models.evaluation.checks import CheckAction, CheckOptions, Verdict
 from optimal_design.checks import MAX_CHECK_POSES, MIN_CHECK_POSES
 from service.record_kinds import CampaignRecord, ReferenceDescriptions
 from service.schemas.calibrations import Instrument, InstrumentPublic, Noise
 from service.schemas.common import (
+    STRICT_BY_ALIAS,
     ConditionWarningPublic,
     FreeText,
     ImportNotes,
@@ -34,8 +35,7 @@ class QuickCheckCreate(ReferenceDescriptions):
     distance, point and plane records with their references described (their unknowns are fitted with the robot
     held, in place of the instrument frame; `register` does not apply to them)."""
 
-    # `register` is the field's name on the wire; inside, it would shadow a class attribute of the model.
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+    model_config = STRICT_BY_ALIAS
     measurements: list[CampaignRecord] = Field(min_length=1, max_length=MAX_CHECK_RECORDS)
     noise: Noise = Field(default_factory=Noise, description="The instrument's σ (each record's own sigma_mm wins)")
     alpha: float = Field(
@@ -141,7 +141,7 @@ class QuickCheckPublic(Public):
 
 
 class QuickCheckDesignCreate(Strict):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+    model_config = STRICT_BY_ALIAS
     count: int = Field(default=8, ge=MIN_CHECK_POSES, le=MAX_CHECK_POSES)
     measurement: Literal["position", "pose"] = "position"
     fit_frame: bool = Field(default=_OPTIONS.register, alias="register", description="As the check will")

@@ -40,6 +40,11 @@ class Public(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+STRICT_BY_ALIAS = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+"""Strict's config for a body with a field whose name on the wire would shadow an attribute of the model or is a
+keyword (`register`, `import`): the wire name is the field's alias, the code uses the field's own name."""
+
+
 NOTES_MAX = 10_000
 
 FreeText = Annotated[

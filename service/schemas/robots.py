@@ -3,9 +3,19 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Literal
 
-from pydantic import ConfigDict, Field
+from pydantic import Field
 
-from service.schemas.common import PARAMETER_UNITS, FreeText, OptionalFloat, Pose, PosePublic, Public, Strict, optional
+from service.schemas.common import (
+    PARAMETER_UNITS,
+    STRICT_BY_ALIAS,
+    FreeText,
+    OptionalFloat,
+    Pose,
+    PosePublic,
+    Public,
+    Strict,
+    optional,
+)
 from service.schemas.structure import StructureDocument
 
 MAX_VERSION = 2**31 - 1
@@ -27,7 +37,7 @@ class RobotImport(Strict):
 
 
 class RobotCreate(Strict):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+    model_config = STRICT_BY_ALIAS
 
     name: PrintableName
     model: Literal["iwr", "custom"] = Field(

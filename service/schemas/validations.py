@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from datetime import datetime
 
-from pydantic import ConfigDict, Field
+from pydantic import Field
 
 from service.record_kinds import CampaignRecord, ReferenceDescriptions
 from service.schemas.calibrations import (
@@ -12,7 +12,16 @@ from service.schemas.calibrations import (
     Instrument,
     InstrumentPublic,
 )
-from service.schemas.common import FreeText, ImportNotes, ImportNotesPublic, Measurement, Public, Strict, absent_if_none
+from service.schemas.common import (
+    STRICT_BY_ALIAS,
+    FreeText,
+    ImportNotes,
+    ImportNotesPublic,
+    Measurement,
+    Public,
+    Strict,
+    absent_if_none,
+)
 
 MAX_VERSIONS = 50
 
@@ -22,8 +31,7 @@ class ValidationCreate(ReferenceDescriptions):
     and plane records with the version after their anchors, points and planes are placed where the records put
     them (`registered` is then true: the references' unknowns are fitted, the robot is not)."""
 
-    # `register` is the field's name on the wire; inside, it would shadow a class attribute of the model.
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+    model_config = STRICT_BY_ALIAS
     measurements: list[CampaignRecord] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
     versions: list[int] | None = Field(
         default=None,
