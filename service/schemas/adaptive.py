@@ -15,7 +15,7 @@ from optimal_design.problem import MAX_CANDIDATES
 from service.record_kinds.tracker import Record
 from service.schemas.calibrations import Noise
 from service.schemas.cells import CellDocument, DesignCellPublic
-from service.schemas.common import FreeText, Public, Strict
+from service.schemas.common import FreeText, Public, Strict, optional
 
 MAX_ADAPTIVE_BUDGET = 1000
 MAX_ADAPTIVE_CANDIDATES = min(2000, MAX_CANDIDATES)
@@ -52,10 +52,9 @@ class AdaptiveCampaignCreate(Strict):
         description="A record whose studentized residual is beyond this many σ (as rarely as a normal deviate) "
         "is a blunder: excluded, reported, and its pose asked for again",
     )
-    cell: Literal["stored"] | CellDocument | None = Field(
-        default=None,
-        description="Ask only for poses a cell can measure (collision-free, seen by its instrument): stored (the "
-        "robot's current cell, PUT …/cell) or a cell document; absent: no cell. As a pose design's `cell`",
+    cell: Literal["stored"] | CellDocument | None = optional(
+        "Ask only for poses a cell can measure (collision-free, seen by its instrument): stored (the "
+        "robot's current cell, PUT …/cell) or a cell document; absent: no cell. As a pose design's `cell`"
     )
     measurements: list[Record] | None = Field(
         default=None,
@@ -82,7 +81,7 @@ class AdaptiveFinish(Strict):
 class PoseToMeasurePublic(Public):
     joints: list[float] = Field(description="Joint values (degrees, mm for prismatic joints)")
     candidate: int | None = Field(description="Its index in the campaign's candidate pool (null: a blunder's pose)")
-    replaces: int | None = Field(default=None, description="The blunder record whose pose this measures again")
+    replaces: int | None = optional("The blunder record whose pose this measures again")
 
 
 class BlunderPublic(Public):
@@ -124,8 +123,8 @@ class AdaptiveStepPublic(Public):
     created_at: datetime | None = None
 
 
-class AdaptiveCampaignSummaryPublic(Public):
-    """A campaign in a robot's list: its settings and where it stands, without its steps (GET it for those)."""
+class AdaptiveCampaignSettings(Public):
+    """What a campaign and its summary both open with: which campaign, its state, and what it was asked for."""
 
     id: str
     robot_id: str
@@ -136,6 +135,11 @@ class AdaptiveCampaignSummaryPublic(Public):
     budget: int
     measurement: Literal["pose", "position"]
     criterion: AdaptiveCriterion
+
+
+class AdaptiveCampaignSummaryPublic(AdaptiveCampaignSettings):
+    """A campaign in a robot's list: its settings and where it stands, without its steps (GET it for those)."""
+
     records: int
     predicted: PredictedPublic | None
     excluded: list[int]
@@ -146,18 +150,9 @@ class AdaptiveCampaignSummaryPublic(Public):
     updated_at: datetime
 
 
-class AdaptiveCampaignPublic(Public):
-    id: str
-    robot_id: str
-    version: int = Field(description="The robot's version the campaign started from")
-    status: AdaptiveStatus
-    target_mm: float
-    target: TargetKey
-    budget: int
-    measurement: Literal["pose", "position"]
-    criterion: AdaptiveCriterion
-    cell: DesignCellPublic | None = Field(
-        default=None, description="With a cell: its stored version used, what it checked and refused by reason"
+class AdaptiveCampaignPublic(AdaptiveCampaignSettings):
+    cell: DesignCellPublic | None = optional(
+        "With a cell: its stored version used, what it checked and refused by reason"
     )
     candidates: int = Field(description="Candidates in the pool")
     reachable_mm: float = Field(description="The predicted error with every candidate measured")

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 from pydantic import Field
 
 from service.audit_actions import AuditAction
-from service.schemas.common import Public, values_of
+from service.schemas.common import Public, absent_if_none, values_of
 
 if TYPE_CHECKING:
     Action = AuditAction
@@ -16,26 +16,16 @@ else:
     Action = values_of(AuditAction)
 
 
-def _absent_if_none(value: object) -> bool:
-    return value is None
-
-
 class AuditDetailsPublic(Public):
     """What the action needs to be understood; the keys that do not apply are absent."""
 
-    changed: list[str] | None = Field(default=None, exclude_if=_absent_if_none, description="Fields a PATCH changed")
-    name: str | None = Field(default=None, exclude_if=_absent_if_none, description="The robot's name at the time")
-    from_version: int | None = Field(
-        default=None, exclude_if=_absent_if_none, description="Current version before the change"
-    )
-    calibration_id: str | None = Field(default=None, exclude_if=_absent_if_none)
-    restored_from: int | None = Field(default=None, exclude_if=_absent_if_none)
-    forced: bool | None = Field(
-        default=None, exclude_if=_absent_if_none, description="A calibration applied although a check failed"
-    )
-    cell_version: int | None = Field(
-        default=None, exclude_if=_absent_if_none, description="The cell version a cell change made"
-    )
+    changed: list[str] | None = absent_if_none("Fields a PATCH changed")
+    name: str | None = absent_if_none("The robot's name at the time")
+    from_version: int | None = absent_if_none("Current version before the change")
+    calibration_id: str | None = absent_if_none()
+    restored_from: int | None = absent_if_none()
+    forced: bool | None = absent_if_none("A calibration applied although a check failed")
+    cell_version: int | None = absent_if_none("The cell version a cell change made")
 
 
 class AuditEventPublic(Public):

@@ -22,6 +22,8 @@ from service.schemas.common import (
     Payload,
     Public,
     Strict,
+    absent_if_none,
+    optional,
 )
 from service.schemas.fleets import FLEET_KEY, FleetComparisonPublic
 from service.schemas.robots import ParameterPublic
@@ -65,10 +67,9 @@ class CalibrationOptions(Strict):
         description="With prior fleet: the fleet expected (its key); a robot of another fleet is refused (422 "
         "prior-mismatch) rather than calibrated with another model's population. Default: the robot's own",
     )
-    drift: DriftRequest | None = Field(
-        default=None,
-        description="Fit and remove the instrument's drift over the campaign, seen on a reference pose measured "
-        "every few records (tracker records only); null: none",
+    drift: DriftRequest | None = optional(
+        "Fit and remove the instrument's drift over the campaign, seen on a reference pose measured "
+        "every few records (tracker records only); null: none"
     )
 
 
@@ -106,8 +107,8 @@ class CalibrationCreate(ReferenceDescriptions):
         "against the start version); recorded with the calibration. A failed fit is never applied.",
     )
     options: CalibrationOptions = CalibrationOptions()
-    payload: Payload | None = Field(
-        default=None, description="The campaign's payload (records may carry their own); used by the compliance term"
+    payload: Payload | None = optional(
+        "The campaign's payload (records may carry their own); used by the compliance term"
     )
     start_version: int | None = Field(
         default=None,
@@ -116,23 +117,18 @@ class CalibrationCreate(ReferenceDescriptions):
         description="Parameter version the fit starts from (default: the robot's current one); the parameters "
         "it does not estimate keep this version's values",
     )
-    notes: FreeText | None = Field(default=None, description="Free text, kept with the calibration")
-    instrument: Instrument | None = Field(default=None, description="The instrument that measured the campaign")
+    notes: FreeText | None = optional("Free text, kept with the calibration")
+    instrument: Instrument | None = optional("The instrument that measured the campaign")
 
 
 # ------------------------------------------------------------------ the report
 
 
-def _absent_if_none(value: object) -> bool:
-    return value is None
-
-
 class CalibratedParameterPublic(ParameterPublic):
     identifiable: bool  # a calibration always knows
-    start: OptionalFloat = Field(
-        default=None,
-        description="The value the fit started from (the start version's); "
-        "null in calibrations stored before start versions existed",
+    start: OptionalFloat = optional(
+        "The value the fit started from (the start version's); "
+        "null in calibrations stored before start versions existed"
     )
 
 
@@ -153,17 +149,15 @@ class ResidualsPublic(Public):
 
     rms_mm: float
     max_mm: float
-    rms_deg: float | None = Field(default=None, exclude_if=_absent_if_none)
-    max_deg: float | None = Field(default=None, exclude_if=_absent_if_none)
+    rms_deg: float | None = absent_if_none()
+    max_deg: float | None = absent_if_none()
     per_pose_mm: list[float]
-    per_pose_deg: list[float] | None = Field(default=None, exclude_if=_absent_if_none)
-    rms_xyz_mm: list[OptionalFloat] | None = Field(
-        default=None,
-        exclude_if=_absent_if_none,
-        description="RMS of the error along x, y, z (measured minus model, the records' frame); tracker records",
+    per_pose_deg: list[float] | None = absent_if_none()
+    rms_xyz_mm: list[OptionalFloat] | None = absent_if_none(
+        "RMS of the error along x, y, z (measured minus model, the records' frame); tracker records",
     )
-    per_pose_xyz_mm: list[list[OptionalFloat]] | None = Field(
-        default=None, exclude_if=_absent_if_none, description="Each record's error along x, y, z (measured minus model)"
+    per_pose_xyz_mm: list[list[OptionalFloat]] | None = absent_if_none(
+        "Each record's error along x, y, z (measured minus model)"
     )
 
 
@@ -199,23 +193,20 @@ class PredictedAccuracyPublic(Public):
     rms_orientation_deg: OptionalFloat
     max_orientation_deg: OptionalFloat
     workspace_poses: int
-    measured_region_rms_position_mm: OptionalFloat = Field(
-        default=None,
-        description="The same 1-σ prediction at the campaign's own poses: what the calibration promises where it "
-        "was measured (null for calibrations stored before it was reported)",
+    measured_region_rms_position_mm: OptionalFloat = optional(
+        "The same 1-σ prediction at the campaign's own poses: what the calibration promises where it "
+        "was measured (null for calibrations stored before it was reported)"
     )
     measured_region_max_position_mm: OptionalFloat = None
-    measured_region_record_rms_mm: OptionalFloat = Field(
-        default=None,
-        description="What a fresh record in the measured region is predicted to differ from the calibrated model "
+    measured_region_record_rms_mm: OptionalFloat = optional(
+        "What a fresh record in the measured region is predicted to differ from the calibrated model "
         "by (RMS position error, mm): the region's 1-σ prediction and the records' own scatter as the residuals "
         "show it. The figure to judge a held-out campaign of the same region against; null where the records are "
-        "not positions (distances, images) and for calibrations stored before it was reported",
+        "not positions (distances, images) and for calibrations stored before it was reported"
     )
-    extrapolation: str | None = Field(
-        default=None,
-        description="Set when the workspace-wide figures exceed the measured region's by more than 3×: why, and "
-        "where was measured; poses away from that region are extrapolation",
+    extrapolation: str | None = optional(
+        "Set when the workspace-wide figures exceed the measured region's by more than 3×: why, and "
+        "where was measured; poses away from that region are extrapolation"
     )
 
 
@@ -330,39 +321,26 @@ class CalibrationReportPublic(Public):
     checks: list[CheckPublic] = Field(
         default_factory=list, description="The checks a result must pass before it is applied"
     )
-    not_applied_reason: str | None = Field(
-        default=None, description="Why `apply` was asked and the result not applied (the failed checks)"
-    )
+    not_applied_reason: str | None = optional("Why `apply` was asked and the result not applied (the failed checks)")
     forced: bool = Field(default=False, description="Applied although a check failed (force_apply), recorded")
-    correlation: CorrelationPublic | None = Field(
-        default=None, description="Null for calibrations stored before it was kept"
-    )
-    noise: NoisePublic | None = Field(
-        default=None, description="The measurement noise the fit assumed; null for calibrations stored before"
-    )
+    correlation: CorrelationPublic | None = optional("Null for calibrations stored before it was kept")
+    noise: NoisePublic | None = optional("The measurement noise the fit assumed; null for calibrations stored before")
     references: list[ReferencePublic] = Field(
         default_factory=list,
         description="The anchors, points and planes the records measured, as identified with the robot",
     )
-    frame: str | None = Field(
-        default=None,
-        description="What the parameters and references are expressed in, where the records fix no frame "
-        "(distances, points, planes); null: the instrument's frame, registered as the base",
+    frame: str | None = optional(
+        "What the parameters and references are expressed in, where the records fix no frame "
+        "(distances, points, planes); null: the instrument's frame, registered as the base"
     )
-    record_kinds: dict[str, int] | None = Field(
-        default=None, description="Records per kind of a campaign with any but tracker records"
+    record_kinds: dict[str, int] | None = optional("Records per kind of a campaign with any but tracker records")
+    drift: DriftPublic | None = optional("The instrument's drift fitted and removed (options.drift); null: none asked")
+    conditions: ConditionsPublic | None = optional(
+        "What the campaign was measured under (stored with the version it makes); null before kept"
     )
-    drift: DriftPublic | None = Field(
-        default=None, description="The instrument's drift fitted and removed (options.drift); null: none asked"
-    )
-    conditions: ConditionsPublic | None = Field(
-        default=None,
-        description="What the campaign was measured under (stored with the version it makes); null before kept",
-    )
-    fleet: FleetComparisonPublic | None = Field(
-        default=None,
-        description="This unit against the population of its fleet's other calibrated units (z-scores, outlier); "
-        "null while the fleet has too few of them",
+    fleet: FleetComparisonPublic | None = optional(
+        "This unit against the population of its fleet's other calibrated units (z-scores, outlier); "
+        "null while the fleet has too few of them"
     )
 
 
@@ -373,5 +351,5 @@ class CalibrationPublic(CalibrationReportPublic):
     applied: bool
     parameter_version: int | None = Field(description="The version this calibration created (when applied)")
     created_at: datetime
-    user_notes: str | None = Field(default=None, description="The free-text notes sent with the request")
+    user_notes: str | None = optional("The free-text notes sent with the request")
     instrument: InstrumentPublic | None = None

@@ -9,25 +9,21 @@ time (obstacles, mesh triangles, a link's shapes, poses to check) are bounded in
 from __future__ import annotations
 
 from datetime import datetime
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
 from models.cell import Reason
 from service.compute import limits
-from service.schemas.common import JointVector, Position, Public, Strict
+from service.schemas.common import JointVector, Position, Public, Strict, exactly_one, optional, short_name
 from service.schemas.references import RotationVectorDeg
 
 Size = Annotated[float, Field(gt=0, le=1e5, description="mm, positive (up to 100 m)")]
 Distance = Annotated[float, Field(ge=0, le=1e6, description="mm")]
 SolidName = Annotated[
     str,
-    Field(
-        min_length=1,
-        max_length=64,
-        pattern=r"^[A-Za-z0-9_.-]+$",
-        description="Letters, digits, _, . and -; refusals name the solid they hit",
-        examples=["table"],
+    short_name(
+        "Letters, digits, _, . and -; refusals name the solid they hit", example="table", pattern=r"^[A-Za-z0-9_.-]+$"
     ),
 ]
 Direction = Annotated[
@@ -119,9 +115,16 @@ ObstacleDocument = Annotated[
 LinkSolid = Annotated[BoxShape | CylinderShape | SphereShape | CapsuleShape, Field(discriminator="kind")]
 
 
-def _ordered(lo: float, hi: float, what: str) -> None:
-    if not lo < hi:
-        raise ValueError(f"{what}: the minimum ({lo:g}) must be below the maximum ({hi:g})")
+def _ordered(lo: str, hi: str, instrument: str) -> Any:
+    """The model validator of an instrument's reach: its field `lo` below its field `hi`."""
+
+    def check(document: Any) -> Any:
+        low, high = getattr(document, lo), getattr(document, hi)
+        if not low < high:
+            raise ValueError(f"{instrument} {lo}, {hi}: the minimum ({low:g}) must be below the maximum ({high:g})")
+        return document
+
+    return model_validator(mode="after")(check)
 
 
 class TargetDocument(Strict):
@@ -148,10 +151,7 @@ class TrackerDocument(Strict):
     reflector: TargetDocument = Field(default_factory=TargetDocument)
     beam_clearance_mm: Size = 5.0
 
-    @model_validator(mode="after")
-    def _range(self) -> TrackerDocument:
-        _ordered(self.range_min_mm, self.range_max_mm, "tracker range_min_mm, range_max_mm")
-        return self
+    _range = _ordered("range_min_mm", "range_max_mm", "tracker")
 
 
 class CameraDocument(Placed):
@@ -167,10 +167,7 @@ class CameraDocument(Placed):
     target: TargetDocument = Field(default_factory=TargetDocument)
     sight_clearance_mm: Size = 5.0
 
-    @model_validator(mode="after")
-    def _range(self) -> CameraDocument:
-        _ordered(self.range_min_mm, self.range_max_mm, "camera range_min_mm, range_max_mm")
-        return self
+    _range = _ordered("range_min_mm", "range_max_mm", "camera")
 
 
 class BallbarDocument(Strict):
@@ -181,10 +178,7 @@ class BallbarDocument(Strict):
     length_max_mm: Distance
     tcp_offset_mm: Position = Field(default_factory=lambda: list(ZERO3))
 
-    @model_validator(mode="after")
-    def _travel(self) -> BallbarDocument:
-        _ordered(self.length_min_mm, self.length_max_mm, "ballbar length_min_mm, length_max_mm")
-        return self
+    _travel = _ordered("length_min_mm", "length_max_mm", "ballbar")
 
 
 class LinkOverride(Strict):
@@ -199,11 +193,7 @@ class LinkOverride(Strict):
         description="With shapes: the frame they are given in (GET …/cell lists them); default: the body's end frame",
     )
 
-    @model_validator(mode="after")
-    def _one(self) -> LinkOverride:
-        if (self.capsule_radius_mm is None) == (self.shapes is None):
-            raise ValueError("give capsule_radius_mm or shapes, one of them")
-        return self
+    _one = exactly_one("capsule_radius_mm", "shapes", "give capsule_radius_mm or shapes, one of them")
 
 
 class CellDocument(Strict):
@@ -247,13 +237,13 @@ class CellShapePublic(Public):
     origin: Literal["default", "urdf", "override"]
     kind: Literal["capsule", "box", "cylinder", "sphere", "mesh"]
     radius_mm: float | None = None
-    from_frame: str | None = Field(default=None, description="A segment's start (its capsule runs between frames)")
+    from_frame: str | None = optional("A segment's start (its capsule runs between frames)")
     to_frame: str | None = None
-    from_point_mm: list[float] | None = Field(
-        default=None, description="Where a segment starts in from_frame (a hexapod leg's base joint; else its origin)"
+    from_point_mm: list[float] | None = optional(
+        "Where a segment starts in from_frame (a hexapod leg's base joint; else its origin)"
     )
-    to_point_mm: list[float] | None = Field(default=None, description="Where a segment ends in to_frame")
-    frame: str | None = Field(default=None, description="The frame a rigid solid is given in")
+    to_point_mm: list[float] | None = optional("Where a segment ends in to_frame")
+    frame: str | None = optional("The frame a rigid solid is given in")
     size_mm: list[float] | None = None
     length_mm: float | None = None
     position_mm: list[float] | None = None

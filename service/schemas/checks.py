@@ -6,20 +6,23 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Literal
 
-from pydantic import ConfigDict, Field
+from pydantic import Field
 
 from models.evaluation.checks import CheckAction, CheckOptions, Verdict
 from optimal_design.checks import MAX_CHECK_POSES, MIN_CHECK_POSES
 from service.record_kinds import CampaignRecord, ReferenceDescriptions
 from service.schemas.calibrations import Instrument, InstrumentPublic, Noise
 from service.schemas.common import (
+    STRICT_BY_ALIAS,
     ConditionWarningPublic,
     FreeText,
     ImportNotes,
+    ImportNotesPublic,
     JointVector,
     Measurement,
     Public,
     Strict,
+    optional,
 )
 
 _OPTIONS = CheckOptions()
@@ -32,8 +35,7 @@ class QuickCheckCreate(ReferenceDescriptions):
     distance, point and plane records with their references described (their unknowns are fitted with the robot
     held, in place of the instrument frame; `register` does not apply to them)."""
 
-    # `register` is the field's name on the wire; inside, it would shadow a class attribute of the model.
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+    model_config = STRICT_BY_ALIAS
     measurements: list[CampaignRecord] = Field(min_length=1, max_length=MAX_CHECK_RECORDS)
     noise: Noise = Field(default_factory=Noise, description="The instrument's σ (each record's own sigma_mm wins)")
     alpha: float = Field(
@@ -135,14 +137,11 @@ class QuickCheckPublic(Public):
         default_factory=list,
         description="The records' temperature or payload outside what the version was calibrated under",
     )
-    import_notes: list[str] = Field(
-        default_factory=list,
-        description="What the file reader noted (columns mapped, units converted); empty for records sent as JSON",
-    )
+    import_notes: ImportNotesPublic
 
 
 class QuickCheckDesignCreate(Strict):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+    model_config = STRICT_BY_ALIAS
     count: int = Field(default=8, ge=MIN_CHECK_POSES, le=MAX_CHECK_POSES)
     measurement: Literal["position", "pose"] = "position"
     fit_frame: bool = Field(default=_OPTIONS.register, alias="register", description="As the check will")
@@ -189,16 +188,12 @@ class HistoryEventPublic(Public):
     id: str
     version: int | None = Field(description="A calibration's new version (null: not applied); a check's version")
     outcome: str = Field(description="A calibration's status (applied or not); a check's verdict")
-    rms_mm: float | None = Field(
-        default=None,
-        description="The accuracy measured then: a calibration's RMS TCP residual after its fit, a check's RMS "
-        "|measured − predicted| (mm); null where none was computed",
+    rms_mm: float | None = optional(
+        "The accuracy measured then: a calibration's RMS TCP residual after its fit, a check's RMS "
+        "|measured − predicted| (mm); null where none was computed"
     )
-    predicted_mm: float | None = Field(
-        default=None,
-        description="What was expected: a calibration's predicted 1-σ TCP accuracy over the workspace, the RMS of "
-        "a check's predicted errors (mm)",
+    predicted_mm: float | None = optional(
+        "What was expected: a calibration's predicted 1-σ TCP accuracy over the workspace, the RMS of "
+        "a check's predicted errors (mm)"
     )
-    drift_mm: float | None = Field(
-        default=None, description="A drift-aware calibration's instrument drift over its campaign (mm)"
-    )
+    drift_mm: float | None = optional("A drift-aware calibration's instrument drift over its campaign (mm)")

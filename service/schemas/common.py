@@ -11,7 +11,7 @@ from datetime import datetime
 from enum import StrEnum
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, model_validator
 
 from models.measurement import MeasurementKind
 
@@ -40,6 +40,11 @@ class Public(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+STRICT_BY_ALIAS = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+"""Strict's config for a body with a field whose name on the wire would shadow an attribute of the model or is a
+keyword (`register`, `import`): the wire name is the field's alias, the code uses the field's own name."""
+
+
 NOTES_MAX = 10_000
 
 FreeText = Annotated[
@@ -48,6 +53,24 @@ FreeText = Annotated[
 ]
 """Free text (notes): lines and tabs, no other control character. PostgreSQL text cannot hold NUL (psycopg's
 DataError was a 500, where SQLite stored it), and the others are nobody's notes but a terminal's escapes."""
+
+
+def exactly_one(first: str, second: str, message: str) -> Any:
+    """The model validator of two optional fields of which a body gives one, not both nor neither."""
+
+    def check(model: Any) -> Any:
+        if (getattr(model, first) is None) == (getattr(model, second) is None):
+            raise ValueError(message)
+        return model
+
+    return model_validator(mode="after")(check)
+
+
+def short_name(description: str, example: str, pattern: str = r"^[A-Za-z0-9_-]+$") -> Any:
+    """The field of a short name the user gives a thing (a reference, a branch, a solid), which the service then
+    builds other names from (parameters, tools) or quotes back (a refusal): 1 to 64 characters matching `pattern`."""
+    return Field(min_length=1, max_length=64, pattern=pattern, description=description, examples=[example])
+
 
 ImportNotes = Annotated[
     list[str],
@@ -59,6 +82,30 @@ ImportNotes = Annotated[
 ]
 """A campaign request's notes from the file its records were read from (service.files.campaign_requests): the same
 field in every body that may come as a file (a calibration, a validation, a quick check)."""
+ImportNotesPublic = Annotated[
+    list[str],
+    Field(
+        default_factory=list,
+        description="What the file reader noted (columns mapped, units converted); empty for records sent as JSON",
+    ),
+]
+"""The same notes as a stored validation or quick check answers them."""
+
+
+def optional(description: str) -> Any:
+    """A field that may be left out and is then null: the service's default in a request, "none" in a response
+    (its description says which)."""
+    return Field(default=None, description=description)
+
+
+def _is_none(value: object) -> bool:
+    return value is None
+
+
+def absent_if_none(description: str | None = None) -> Any:
+    """A response field whose key is left out of the JSON where it holds nothing (rather than written as null):
+    a key that does not apply to this answer (an orientation for a position-only campaign)."""
+    return Field(default=None, exclude_if=_is_none, description=description)
 
 
 def _finite_or_none(value: Any) -> Any:

@@ -28,6 +28,8 @@ from service.schemas.common import (
     Public,
     Strict,
     TemperatureC,
+    exactly_one,
+    optional,
 )
 
 MAX_FIXED = 10_000
@@ -87,11 +89,7 @@ class DesignTarget(Strict):
     rms_tcp_mm: float | None = Field(default=None, gt=0, le=1000, examples=[0.05])
     max_tcp_mm: float | None = Field(default=None, gt=0, le=1000)
 
-    @model_validator(mode="after")
-    def _one(self) -> DesignTarget:
-        if (self.rms_tcp_mm is None) == (self.max_tcp_mm is None):
-            raise ValueError("give exactly one of rms_tcp_mm and max_tcp_mm")
-        return self
+    _one = exactly_one("rms_tcp_mm", "max_tcp_mm", "give exactly one of rms_tcp_mm and max_tcp_mm")
 
 
 class KeepOutBox(Strict):
@@ -106,8 +104,8 @@ class PoseDesignCreate(ReferenceDescriptions):
     count: int | None = Field(
         default=None, ge=1, le=10_000, description="K, the number of poses to measure (or give `target`)", examples=[30]
     )
-    target: DesignTarget | None = Field(
-        default=None, description="Instead of count: the smallest K whose design reaches this predicted accuracy"
+    target: DesignTarget | None = optional(
+        "Instead of count: the smallest K whose design reaches this predicted accuracy"
     )
     criterion: Criterion = Field(default=Criterion.D, description="With a target: D or I (default there: I)")
     measurement: DesignMeasurement = Field(
@@ -119,10 +117,9 @@ class PoseDesignCreate(ReferenceDescriptions):
         max_length=MAX_CANDIDATES,
         description=CANDIDATES_DOC,
     )
-    noise: Noise | None = Field(
-        default=None,
-        description="The instrument's σ the predicted errors are for (a ballbar's is a few µm); default: "
-        "position 0.025 mm, orientation 0.01°",
+    noise: Noise | None = optional(
+        "The instrument's σ the predicted errors are for (a ballbar's is a few µm); default: "
+        "position 0.025 mm, orientation 0.01°"
     )
     candidate_count: int = Field(default=2000, ge=1, le=MAX_CANDIDATES)
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
@@ -171,11 +168,10 @@ class PoseDesignCreate(ReferenceDescriptions):
     payload_levels: list[Payload] | None = Field(
         default=None, min_length=1, max_length=20, description="With terms: the payloads the user can mount"
     )
-    cell: Literal["stored"] | CellDocument | None = Field(
-        default=None,
-        description="Design only among the poses a cell can measure (collision-free, seen by its instrument): "
+    cell: Literal["stored"] | CellDocument | None = optional(
+        "Design only among the poses a cell can measure (collision-free, seen by its instrument): "
         "stored (the robot's current cell, PUT …/cell) or a cell document; absent: no cell. Tracker "
-        "measurements only",
+        "measurements only"
     )
     prior: Literal["none", "fleet"] = Field(
         default="none",
@@ -269,8 +265,8 @@ class BoundPublic(Public):
     certified: bool
     method: str
     solver_status: str
-    note: str | None = Field(default=None, description="What the bound does not account for (e.g. min_spread)")
-    branch_and_bound: BranchAndBoundPublic | None = Field(default=None, description="With bound_seconds > 0")
+    note: str | None = optional("What the bound does not account for (e.g. min_spread)")
+    branch_and_bound: BranchAndBoundPublic | None = optional("With bound_seconds > 0")
 
 
 class RelaxationPublic(Public):
@@ -332,21 +328,14 @@ class PoseDesignReportPublic(Public):
     seconds: float
     notes: list[str]
     constraints: ConstraintsPublic | None
-    target: DesignTarget | None = Field(default=None, description="Target mode: what was asked")
-    curve: list[CurvePointPublic] | None = Field(default=None, description="Target mode: error against K")
-    reachable_mm: OptionalFloat = Field(default=None, description="Target mode: with every candidate measured")
-    temperature_c: list[float] | None = Field(
-        default=None, description="With terms and levels: each chosen pose's temperature (°C)"
-    )
-    payload_kg: list[float] | None = Field(
-        default=None, description="With terms and levels: each chosen pose's payload"
-    )
-    fixed_mm: OptionalFloat = Field(default=None, description="Target mode: with the fixed poses alone")
-    references: list[str] | None = Field(
-        default=None,
-        description=MEASURED_DOC,
-    )
-    cell: DesignCellPublic | None = Field(default=None, description="With a cell: what it checked and refused")
+    target: DesignTarget | None = optional("Target mode: what was asked")
+    curve: list[CurvePointPublic] | None = optional("Target mode: error against K")
+    reachable_mm: OptionalFloat = optional("Target mode: with every candidate measured")
+    temperature_c: list[float] | None = optional("With terms and levels: each chosen pose's temperature (°C)")
+    payload_kg: list[float] | None = optional("With terms and levels: each chosen pose's payload")
+    fixed_mm: OptionalFloat = optional("Target mode: with the fixed poses alone")
+    references: list[str] | None = optional(MEASURED_DOC)
+    cell: DesignCellPublic | None = optional("With a cell: what it checked and refused")
 
 
 class PoseDesignPublic(PoseDesignReportPublic):

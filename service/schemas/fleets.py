@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pydantic import Field
 
-from service.schemas.common import PARAMETER_UNITS, OptionalFloat, Public
+from service.schemas.common import PARAMETER_UNITS, OptionalFloat, Public, optional
 
 FLEET_KEY = r"^[0-9a-f]{16}$"
 
@@ -32,8 +32,8 @@ class FleetUnitPublic(Public):
         description="Off the population of the other calibrated units (leave-one-out); null when they are too few "
         "or the unit is not calibrated"
     )
-    worst_parameter: str | None = Field(default=None, description="Its parameter farthest off the others'")
-    worst_z: OptionalFloat = Field(default=None, description="How many spreads off it is")
+    worst_parameter: str | None = optional("Its parameter farthest off the others'")
+    worst_z: OptionalFloat = optional("How many spreads off it is")
 
 
 class FleetPublic(Public):

@@ -6,7 +6,7 @@ from typing import Literal
 from pydantic import Field
 
 from service.schemas.calibrations import CalibrationPublic
-from service.schemas.common import Public
+from service.schemas.common import Public, optional
 from service.schemas.designs import PoseDesignPublic
 from service.schemas.problems import Problem
 from service.schemas.programs import ProgramResponse
@@ -18,7 +18,7 @@ JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 class JobAccepted(Public):
     job_id: str
     status_url: str
-    id: str | None = Field(default=None, description="The job's id again, as GET /v1/jobs/{id} names it (= job_id)")
+    id: str | None = optional("The job's id again, as GET /v1/jobs/{id} names it (= job_id)")
 
 
 class JobProgress(Public):

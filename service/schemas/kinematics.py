@@ -12,6 +12,8 @@ from service.schemas.common import (
     Strict,
     Target,
     TemperatureC,
+    absent_if_none,
+    optional,
 )
 
 TEMPERATURE = (
@@ -25,14 +27,10 @@ FRAMES_MAX = 1000
 """Joint vectors a request may ask every frame for: each brings a dozen poses (a drawing's few, not a batch)."""
 
 
-def _absent_if_none(value: object) -> bool:
-    return value is None
-
-
 class ForwardRequest(Strict):
     joints: list[JointVector] = Field(min_length=1, max_length=100_000)
-    temperature_c: TemperatureC | list[TemperatureC] | None = Field(default=None, description=TEMPERATURE)
-    payload: Payload | None = Field(default=None, description=PAYLOAD)
+    temperature_c: TemperatureC | list[TemperatureC] | None = optional(TEMPERATURE)
+    payload: Payload | None = optional(PAYLOAD)
     frames: bool = Field(
         default=False,
         description=f"Also every frame of the structure (base, each link's middle and end, each platform, the "
@@ -55,21 +53,19 @@ class ForwardResponse(Public):
         default_factory=list,
         description="Slips the joints betray although they lie inside the ranges (revolute joints in radians)",
     )
-    frames: list[dict[str, PosePublic]] | None = Field(
-        default=None,
-        exclude_if=_absent_if_none,
-        description="With frames: per joint vector, each frame's pose in the world frame by name, base to TCP "
+    frames: list[dict[str, PosePublic]] | None = absent_if_none(
+        "With frames: per joint vector, each frame's pose in the world frame by name, base to TCP "
         "(the geometric model's, as the cell's checks use; absent otherwise)",
     )
 
 
 class InverseRequest(Strict):
     targets: list[Target] = Field(min_length=1, max_length=100_000)
-    seed: JointVector | None = Field(default=None, description="Joints to stay closest to (default: mid-range)")
+    seed: JointVector | None = optional("Joints to stay closest to (default: mid-range)")
     weights: list[float] | None = Field(default=None, min_length=1, max_length=70, description="Per-joint weights")
     follow: bool = Field(default=False, description="Seed each target with the previous answer (smooth paths)")
-    temperature_c: TemperatureC | list[TemperatureC] | None = Field(default=None, description=TEMPERATURE)
-    payload: Payload | None = Field(default=None, description=PAYLOAD)
+    temperature_c: TemperatureC | list[TemperatureC] | None = optional(TEMPERATURE)
+    payload: Payload | None = optional(PAYLOAD)
 
 
 class ReachedPosePublic(Public):

@@ -15,6 +15,7 @@ from service.schemas.common import (
     Quaternion,
     Strict,
     TemperatureC,
+    optional,
 )
 
 ProgramFormat = Literal["krl", "rapid", "urscript", "csv"]
@@ -38,7 +39,7 @@ class PendantReading(Strict):
 class PendantCheckPublic(Public):
     readings: int
     max_position_mm: float = Field(description="Largest |displayed − nominal model| position")
-    max_orientation_deg: float | None = Field(default=None, description="Where readings gave orientations")
+    max_orientation_deg: float | None = optional("Where readings gave orientations")
 
 
 class ProgramRequest(Strict):
@@ -62,19 +63,15 @@ class ProgramRequest(Strict):
         "says what differs",
     )
     pendant_tolerance_mm: float = Field(default=0.5, gt=0, le=100, description="How closely they must agree")
-    seed: JointVector | None = Field(
-        default=None,
-        description="Joints (deg, mm) near which the nominal controller's solution of each target is sought "
-        "(default: mid-range), moved into each target's declared configuration (KRL T, RAPID cf1/cf4/cf6)",
+    seed: JointVector | None = optional(
+        "Joints (deg, mm) near which the nominal controller's solution of each target is sought "
+        "(default: mid-range), moved into each target's declared configuration (KRL T, RAPID cf1/cf4/cf6)"
     )
-    temperature_c: TemperatureC | None = Field(
-        default=None,
-        description="The temperature the program will run at: compared with what the version was calibrated under "
-        "(a warning outside it); the targets are corrected by the version's geometry whatever it is",
+    temperature_c: TemperatureC | None = optional(
+        "The temperature the program will run at: compared with what the version was calibrated under "
+        "(a warning outside it); the targets are corrected by the version's geometry whatever it is"
     )
-    payload: Payload | None = Field(
-        default=None, description="The payload the program will carry: compared likewise (a warning outside)"
-    )
+    payload: Payload | None = optional("The payload the program will carry: compared likewise (a warning outside)")
 
 
 class CompensatedTarget(Public):
@@ -98,15 +95,13 @@ class CompensatedTarget(Public):
         "base frame (deg); null where kept"
     )
     reason: str | None = None
-    branch: str | None = Field(
-        default=None,
-        description="What fixed the joint configuration the target was solved in: the request's seed, the "
-        "program's joint move before it, its declared configuration, or (with a warning) the middle of the ranges",
+    branch: str | None = optional(
+        "What fixed the joint configuration the target was solved in: the request's seed, the "
+        "program's joint move before it, its declared configuration, or (with a warning) the middle of the ranges"
     )
-    warning: str | None = Field(
-        default=None,
-        description="Set on a compensated target whose configuration the program does not fix: the robot may run "
-        "it on another branch than the one it was compensated for",
+    warning: str | None = optional(
+        "Set on a compensated target whose configuration the program does not fix: the robot may run "
+        "it on another branch than the one it was compensated for"
     )
 
 
@@ -117,19 +112,15 @@ class ProgramResponse(Public):
     files: dict[str, str] = Field(description="The companion files that hold corrected targets, rewritten")
     targets: list[CompensatedTarget]
     base: str = Field(default=BASE_CONVENTION, description="How the robot-base frame is defined")
-    encoding: str | None = Field(
-        default=None,
-        description="For a program sent as the body itself: the encoding its bytes were read in (utf-8, utf-16, "
-        "windows-1252); write the answer's program back in it for the controller",
+    encoding: str | None = optional(
+        "For a program sent as the body itself: the encoding its bytes were read in (utf-8, utf-16, "
+        "windows-1252); write the answer's program back in it for the controller"
     )
-    controller_frame: str | None = Field(
-        default=None,
-        description="The controller's base frame the targets are read in, by name: the first frame of a DH/MDH "
-        "table, an imported URDF's root (or its ROS-Industrial `base` link), UR's Base for a UR kinematics file",
+    controller_frame: str | None = optional(
+        "The controller's base frame the targets are read in, by name: the first frame of a DH/MDH "
+        "table, an imported URDF's root (or its ROS-Industrial `base` link), UR's Base for a UR kinematics file"
     )
-    pendant: PendantCheckPublic | None = Field(
-        default=None, description="How the nominal model reproduced the pendant readings, when given"
-    )
+    pendant: PendantCheckPublic | None = optional("How the nominal model reproduced the pendant readings, when given")
     warnings: list[ConditionWarningPublic] = Field(
         default_factory=list,
         description="The stated temperature_c or payload outside what the version was calibrated under",

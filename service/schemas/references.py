@@ -11,17 +11,10 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from service.schemas.common import JointVector, Position, Public, Strict
+from service.schemas.common import JointVector, Position, Public, Strict, optional, short_name
 
 ReferenceName = Annotated[
-    str,
-    Field(
-        min_length=1,
-        max_length=64,
-        pattern=r"^[A-Za-z0-9_-]+$",
-        description="Letters, digits, _ and - (it names the reference's parameters: anchor.<name>.x)",
-        examples=["a1"],
-    ),
+    str, short_name("Letters, digits, _ and - (it names the reference's parameters: anchor.<name>.x)", example="a1")
 ]
 RecordSigma = Annotated[
     float, Field(gt=0, le=100, description="This record's uncertainty (1 σ, mm); default: noise.position_mm")
@@ -40,8 +33,8 @@ class CameraDescription(Strict):
     fy: float = Field(gt=0, le=1e6, description="px")
     cx: float = Field(ge=-1e5, le=1e5, description="px")
     cy: float = Field(ge=-1e5, le=1e5, description="px")
-    distortion: Annotated[list[float], Field(min_length=5, max_length=5)] | None = Field(
-        default=None, description="[k1, k2, p1, p2, k3] as OpenCV gives them; default none"
+    distortion: Annotated[list[float], Field(min_length=5, max_length=5)] | None = optional(
+        "[k1, k2, p1, p2, k3] as OpenCV gives them; default none"
     )
     width: float | None = Field(default=None, gt=0, le=1e5, description="px; used by pose design")
     height: float | None = Field(default=None, gt=0, le=1e5, description="px; used by pose design")
@@ -52,16 +45,14 @@ class CameraDescription(Strict):
     )
     # What pose design needs of a camera that a calibration finds from the records itself: where it is (a
     # candidate image holds only the targets in front of it and on its image) and what it would see.
-    position_mm: Position | None = Field(
-        default=None,
-        description="Used by pose design (a calibration finds it from the records): a guess of where the camera "
-        "is, mm, in its parent frame: the world for mount world, the tool (TCP) frame for mount tool",
+    position_mm: Position | None = optional(
+        "Used by pose design (a calibration finds it from the records): a guess of where the camera "
+        "is, mm, in its parent frame: the world for mount world, the tool (TCP) frame for mount tool"
     )
-    rotation_vector_deg: RotationVectorDeg | None = Field(
-        default=None,
-        description="Used by pose design: a guess of the camera frame's orientation in its parent frame (camera "
+    rotation_vector_deg: RotationVectorDeg | None = optional(
+        "Used by pose design: a guess of the camera frame's orientation in its parent frame (camera "
         "frame → parent) as a rotation vector, deg; OpenCV's camera frame: z forward along the line of sight, x "
-        "right across the image, y down it. A rough guess is enough",
+        "right across the image, y down it. A rough guess is enough"
     )
     targets_mm: list[Position] | None = Field(
         default=None,
@@ -83,8 +74,8 @@ class AnchorDescription(Strict):
     """An anchor a campaign measures, or a pose design plans records against (a design needs `position_mm`:
     the rows a record adds depend on the direction from the anchor to the TCP)."""
 
-    position_mm: Position | None = Field(
-        default=None, description="A guess of its position (robot base frame, mm); default: found from the records"
+    position_mm: Position | None = optional(
+        "A guess of its position (robot base frame, mm); default: found from the records"
     )
     length_unknown: bool = Field(
         default=False, description="The bar's length offset is not known: it is identified (anchor.<name>.length)"
@@ -108,17 +99,16 @@ class PointDescription(Strict):
     """A fixed point (a socket) a campaign measures, or a pose design plans records against (a design does not
     need its position: the rows of a record on it do not depend on where it is)."""
 
-    position_mm: Position | None = Field(default=None, description="A guess; default: found from the records")
+    position_mm: Position | None = optional("A guess; default: found from the records")
 
 
 class PlaneDescription(Strict):
     """A plane a campaign's touches measure, or a pose design plans touches of (a design needs `normal`: a
     touch's row is the TCP's motion along it; its offset does not enter)."""
 
-    normal: Annotated[list[float], Field(min_length=3, max_length=3)] | None = Field(
-        default=None,
-        description="The side the probe touches from (any length, not zero); default: found from the records, "
-        "pointing to +z where it is ambiguous",
+    normal: Annotated[list[float], Field(min_length=3, max_length=3)] | None = optional(
+        "The side the probe touches from (any length, not zero); default: found from the records, "
+        "pointing to +z where it is ambiguous"
     )
 
 
@@ -126,9 +116,8 @@ class ReflectorDescription(Strict):
     """A reflector on the tool beside the TCP's (a calibration finds its offset from the records; a pose design
     needs a guess of it: its rows turn with the tool by the offset)."""
 
-    offset_mm: Position | None = Field(
-        default=None,
-        description="A guess of where it sits from the TCP, mm, in the TCP frame; default: found from the records",
+    offset_mm: Position | None = optional(
+        "A guess of where it sits from the TCP, mm, in the TCP frame; default: found from the records"
     )
 
 
@@ -197,7 +186,7 @@ class ReferencePublicBase(Public):
     records: int
     rms_residual_mm: float
     unknowns: list[ReferenceUnknownPublic]
-    position_mm: list[float] | None = Field(default=None, description="An anchor's or a point's position")
+    position_mm: list[float] | None = optional("An anchor's or a point's position")
 
     if TYPE_CHECKING:
 

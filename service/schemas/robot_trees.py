@@ -17,19 +17,15 @@ from pydantic import Field, model_validator
 from models.measurement import MeasurementKind
 from optimal_design.criteria import Criterion
 from service.compute import limits
-from service.schemas.common import OptionalFloat, PosePublic, Position, Public, Quaternion, Strict
-from service.schemas.exports import DhLinkPublic
+from service.schemas.common import OptionalFloat, PosePublic, Position, Public, Quaternion, Strict, optional, short_name
+from service.schemas.exports import DhLinkPublic, FramePublic
 from service.schemas.robots import PrintableName
 from service.schemas.structure import Stage, StructurePose
 
 BranchName = Annotated[
     str,
-    Field(
-        min_length=1,
-        max_length=64,
-        pattern=r"^[A-Za-z0-9_-]+$",
-        description="Letters, digits, _ and -: it prefixes its parameters (`left.link3.a`) and names its tool",
-        examples=["left"],
+    short_name(
+        "Letters, digits, _ and -: it prefixes its parameters (`left.link3.a`) and names its tool", example="left"
     ),
 ]
 JointName = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[^\x00-\x1f\x7f]+$")]
@@ -41,11 +37,10 @@ class TreeBranchDocument(Strict):
     """One chain of a tree: its stages hang from `parent`'s end frame (or the tree's base), placed by `mount`."""
 
     name: BranchName
-    parent: BranchName | None = Field(default=None, description="The branch it hangs from; null: the tree's base")
-    mount: StructurePose | None = Field(
-        default=None,
-        description="parent's end frame (or the base) <- this branch's first frame, mm and unit quaternion; "
-        "null: its first link is written in the parent's end frame, as a chain's next link would be",
+    parent: BranchName | None = optional("The branch it hangs from; null: the tree's base")
+    mount: StructurePose | None = optional(
+        "parent's end frame (or the base) <- this branch's first frame, mm and unit quaternion; "
+        "null: its first link is written in the parent's end frame, as a chain's next link would be"
     )
     stages: list[Stage] = Field(
         default_factory=list,
@@ -53,8 +48,8 @@ class TreeBranchDocument(Strict):
         description="robots.md stages (serial DH/MDH links, a hexapod), as a structure's; empty for a branch "
         "that only places a tool (a fixture on a mount)",
     )
-    tool: StructurePose | None = Field(
-        default=None, description="last frame -> this branch's tool (mm, quaternion); a tip of the tree has one"
+    tool: StructurePose | None = optional(
+        "last frame -> this branch's tool (mm, quaternion); a tip of the tree has one"
     )
     joint_names: list[JointName] | None = Field(
         default=None, max_length=limits.TREE_JOINTS_MAX, description="Its joints' names; default `{name}.q1` …"
@@ -66,9 +61,7 @@ class RobotTreeCreate(Strict):
     part); one of the two."""
 
     name: PrintableName
-    base: StructurePose | None = Field(
-        default=None, description="world (the instrument) <- the tree's base frame (default identity)"
-    )
+    base: StructurePose | None = optional("world (the instrument) <- the tree's base frame (default identity)")
     branches: list[TreeBranchDocument] | None = Field(
         default=None,
         min_length=1,
@@ -163,10 +156,8 @@ class TreeFramePublic(Public):
 class TreePoseAnswer(Public):
     tools: dict[str, TreePosePublic] = Field(description="Each tool in the world (the instrument's) frame")
     relative: dict[str, TreePosePublic] = Field(description="`a/b`: tool a in tool b's frame, each ordered pair")
-    frames: list[TreeFramePublic] | None = Field(default=None, description="With frames: every frame, once")
-    chains: dict[str, list[str]] | None = Field(
-        default=None, description="With frames: per tool, its frames' names from the base to the tool"
-    )
+    frames: list[TreeFramePublic] | None = optional("With frames: every frame, once")
+    chains: dict[str, list[str]] | None = optional("With frames: per tool, its frames' names from the base to the tool")
 
 
 class TreeKinematicsPublic(Public):
@@ -179,12 +170,10 @@ class TreeRecord(Strict):
     tool's frame (`frame`), at the tree's joints."""
 
     tool: BranchName
-    frame: BranchName | None = Field(default=None, description="Measured in this tool's frame; null: the instrument's")
+    frame: BranchName | None = optional("Measured in this tool's frame; null: the instrument's")
     joints: TreeJoints
     position: Position
-    orientation: Quaternion | None = Field(
-        default=None, description="Unit quaternion [w, x, y, z]; null: position only"
-    )
+    orientation: Quaternion | None = optional("Unit quaternion [w, x, y, z]; null: position only")
     sigma_mm: float | None = Field(default=None, gt=0, le=100, description="This record's σ (default: the request's)")
 
 
@@ -225,9 +214,7 @@ class TreeErrorPublic(Public):
     records: int
     rms_mm: float = Field(description="RMS position error, mm")
     max_mm: float
-    before_rms_mm: float | None = Field(
-        default=None, description="Held-out only: at the parameters before the fit (its base registered)"
-    )
+    before_rms_mm: float | None = optional("Held-out only: at the parameters before the fit (its base registered)")
 
 
 class TreeCalibrationPublic(Public):
@@ -260,7 +247,7 @@ class TreeMeasured(Strict):
     or its whole pose."""
 
     tool: BranchName
-    frame: BranchName | None = Field(default=None, description="In this tool's frame; null: the instrument's")
+    frame: BranchName | None = optional("In this tool's frame; null: the instrument's")
     measurement: Literal["position", "pose"] = "position"
     sigma_mm: float | None = Field(default=None, gt=0, le=100, description="Its position σ (default: the request's)")
 
@@ -352,7 +339,7 @@ class TreeTarget(Strict):
     in the positioner's part frame), with the program's joints that set the other branches and seed the tool's."""
 
     tool: BranchName
-    frame: BranchName | None = Field(default=None, description="The target is in this tool's frame; null: the world")
+    frame: BranchName | None = optional("The target is in this tool's frame; null: the world")
     position: Position
     orientation: Quaternion = Field(description="Unit quaternion [w, x, y, z]")
     joints: TreeJoints = Field(
@@ -386,15 +373,8 @@ class TreeCompensationPublic(Public):
 
 
 # ---------------------------------------------------------------------------------------------- exports
-class TreeFramePose(Public):
+class TreeFramePose(FramePublic):
     """A transform: x, y, z (mm), then roll, pitch, yaw (deg), R = Rz(yaw)·Ry(pitch)·Rx(roll)."""
-
-    x_mm: float
-    y_mm: float
-    z_mm: float
-    roll_deg: float
-    pitch_deg: float
-    yaw_deg: float
 
 
 class TreeUrdfExportPublic(Public):

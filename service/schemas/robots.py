@@ -3,9 +3,19 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Literal
 
-from pydantic import ConfigDict, Field
+from pydantic import Field
 
-from service.schemas.common import PARAMETER_UNITS, FreeText, OptionalFloat, Pose, PosePublic, Public, Strict
+from service.schemas.common import (
+    PARAMETER_UNITS,
+    STRICT_BY_ALIAS,
+    FreeText,
+    OptionalFloat,
+    Pose,
+    PosePublic,
+    Public,
+    Strict,
+    optional,
+)
 from service.schemas.structure import StructureDocument
 
 MAX_VERSION = 2**31 - 1
@@ -27,17 +37,16 @@ class RobotImport(Strict):
 
 
 class RobotCreate(Strict):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+    model_config = STRICT_BY_ALIAS
 
     name: PrintableName
     model: Literal["iwr", "custom"] = Field(
         default="iwr", description="'iwr' (built in), or 'custom' with `structure`, `urdf` or `import`"
     )
-    structure: StructureDocument | None = Field(
-        default=None,
-        description="The robot's description document (the StructureDocument schema: base, stages, tool; then "
+    structure: StructureDocument | None = optional(
+        "The robot's description document (the StructureDocument schema: base, stages, tool; then "
         "`model` reads 'custom'). A `dh` link whose alpha is 0 or ±180° may carry Hayati's `beta` (deg) as `mdh` "
-        "links do, then A_i = Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β)",
+        "links do, then A_i = Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β)"
     )
     urdf: str | None = Field(
         default=None, max_length=2_000_000, description="A URDF; the chain from `base_link` to `tip_link` is the robot"
@@ -50,15 +59,13 @@ class RobotCreate(Strict):
         description="A 6R arm from a UR's kinematics file, its nominal the file's (factory) calibration; the "
         "chain runs from the controller's base frame to tool0, as ur_description builds it",
     )
-    base: Pose | None = Field(
-        default=None,
-        description="Nominal guess of world <- robot base (default identity). With a URDF or an import it is "
-        "world <- base_link and composes with the URDF's own base_link <- first joint",
+    base: Pose | None = optional(
+        "Nominal guess of world <- robot base (default identity). With a URDF or an import it is "
+        "world <- base_link and composes with the URDF's own base_link <- first joint"
     )
-    tool: Pose | None = Field(
-        default=None,
-        description="Nominal guess of platform -> TCP (default identity). With a URDF or an import it is "
-        "tip_link -> TCP and composes after the URDF's own last joint -> tip_link",
+    tool: Pose | None = optional(
+        "Nominal guess of platform -> TCP (default identity). With a URDF or an import it is "
+        "tip_link -> TCP and composes after the URDF's own last joint -> tip_link"
     )
 
 
@@ -67,15 +74,13 @@ class RobotPatch(Strict):
     with those six values set to the guess and the rest kept from the current version."""
 
     name: PrintableName | None = None  # POST's rule: a NUL or a newline got past PATCH (issue 31)
-    base: Pose | None = Field(
-        default=None,
-        description="New nominal guess of world <- robot base (a URDF robot's: world <- base_link, as at creation)",
+    base: Pose | None = optional(
+        "New nominal guess of world <- robot base (a URDF robot's: world <- base_link, as at creation)"
     )
-    tool: Pose | None = Field(
-        default=None,
-        description="New nominal guess of platform -> TCP (a URDF robot's: tip_link -> TCP, as at creation)",
+    tool: Pose | None = optional(
+        "New nominal guess of platform -> TCP (a URDF robot's: tip_link -> TCP, as at creation)"
     )
-    notes: FreeText | None = Field(default=None, description='Free text; "" clears it')
+    notes: FreeText | None = optional('Free text; "" clears it')
 
 
 class StructureBuildPublic(Public):
@@ -109,10 +114,9 @@ class RobotPublic(Public):
     joint_names: list[str] = Field(description="The joint vector's order: q1 … q_m, then l1 … l6 for a hexapod")
     joint_units: list[Literal["mm", "deg"]]
     parameter_count: int
-    build: StructureBuildPublic | None = Field(
-        default=None,
-        description="The structure's build in this server, started when the robot is created (or first read "
-        "after a restart); on a single robot's responses (create, read, update), null in lists",
+    build: StructureBuildPublic | None = optional(
+        "The structure's build in this server, started when the robot is created (or first read "
+        "after a restart); on a single robot's responses (create, read, update), null in lists"
     )
 
 

@@ -18,7 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, SerializerFunctionWrapHandler
 from models.description.hexapod import N_LEGS
 from models.description.serial_chain import JointType
 from models.description.structure import MAX_LINKS
-from service.schemas.common import values_of
+from service.schemas.common import optional, values_of
 
 if TYPE_CHECKING:
     Joint = JointType
@@ -65,14 +65,11 @@ class StructureLink(Document):
     alpha: Number = Field(default=0.0, description="deg")
     d: Number = Field(default=0.0, description="mm")
     theta: Number = Field(default=0.0, description="deg")
-    beta: Number | None = Field(
-        default=None,
-        description="deg, Hayati's parameter: only on a link parallel to the previous one "
-        "(mdh; or dh with alpha within 5° of 0 or ±180°, an addition to robots.md)",
+    beta: Number | None = optional(
+        "deg, Hayati's parameter: only on a link parallel to the previous one "
+        "(mdh; or dh with alpha within 5° of 0 or ±180°, an addition to robots.md)"
     )
-    range: Interval | None = Field(
-        default=None, description="The joint's reading range (deg revolute, mm prismatic); none for a fixed link"
-    )
+    range: Interval | None = optional("The joint's reading range (deg revolute, mm prismatic); none for a fixed link")
 
 
 class SerialStage(Document):
@@ -116,6 +113,6 @@ class StructureDocument(Document):
     """A robot as a chain of stages from its base to its tool, in mm and degrees: serial links (DH or MDH) and at
     most one hexapod, between an optional base and tool."""
 
-    base: StructurePose | None = Field(default=None, description="world <- robot base (default identity)")
-    tool: StructurePose | None = Field(default=None, description="last frame -> TCP (default identity)")
+    base: StructurePose | None = optional("world <- robot base (default identity)")
+    tool: StructurePose | None = optional("last frame -> TCP (default identity)")
     stages: Annotated[list[Stage], Field(min_length=1)]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from datetime import datetime
 
-from pydantic import ConfigDict, Field
+from pydantic import Field
 
 from service.record_kinds import CampaignRecord, ReferenceDescriptions
 from service.schemas.calibrations import (
@@ -12,12 +12,16 @@ from service.schemas.calibrations import (
     Instrument,
     InstrumentPublic,
 )
-from service.schemas.common import FreeText, ImportNotes, Measurement, Public, Strict
-
-
-def _absent_if_none(value: object) -> bool:
-    return value is None
-
+from service.schemas.common import (
+    STRICT_BY_ALIAS,
+    FreeText,
+    ImportNotes,
+    ImportNotesPublic,
+    Measurement,
+    Public,
+    Strict,
+    absent_if_none,
+)
 
 MAX_VERSIONS = 50
 
@@ -27,8 +31,7 @@ class ValidationCreate(ReferenceDescriptions):
     and plane records with the version after their anchors, points and planes are placed where the records put
     them (`registered` is then true: the references' unknowns are fitted, the robot is not)."""
 
-    # `register` is the field's name on the wire; inside, it would shadow a class attribute of the model.
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_by_name=True, serialize_by_alias=True)
+    model_config = STRICT_BY_ALIAS
     measurements: list[CampaignRecord] = Field(min_length=1, max_length=MAX_MEASUREMENTS)
     versions: list[int] | None = Field(
         default=None,
@@ -67,7 +70,7 @@ class OrientationStatsPublic(Public):
 
 class PoseErrorPublic(Public):
     position_mm: float
-    orientation_deg: float | None = Field(default=None, exclude_if=_absent_if_none)
+    orientation_deg: float | None = absent_if_none()
 
 
 class IsoPosePublic(Public):
@@ -81,12 +84,8 @@ class IsoPosePublic(Public):
     AP_mm: float = Field(description="Distance of the barycentre of the attained positions from the command")
     AP_xyz_mm: list[float] = Field(description="Barycentre − command, per axis")
     RP_mm: float = Field(description="Mean distance to the barycentre + 3 × its sample standard deviation")
-    AP_abc_deg: list[float] | None = Field(
-        default=None, exclude_if=_absent_if_none, description="Orientation accuracy about a, b, c"
-    )
-    RP_abc_deg: list[float] | None = Field(
-        default=None, exclude_if=_absent_if_none, description="Orientation repeatability ±3 S about a, b, c"
-    )
+    AP_abc_deg: list[float] | None = absent_if_none("Orientation accuracy about a, b, c")
+    RP_abc_deg: list[float] | None = absent_if_none("Orientation repeatability ±3 S about a, b, c")
 
 
 class IsoDistancePublic(Public):
@@ -109,11 +108,9 @@ class VersionResultPublic(Public):
     version: int
     registered: bool
     position_mm: PositionStatsPublic
-    orientation_deg: OrientationStatsPublic | None = Field(default=None, exclude_if=_absent_if_none)
+    orientation_deg: OrientationStatsPublic | None = absent_if_none()
     per_pose: list[PoseErrorPublic]
-    iso9283: Iso9283Public | None = Field(
-        default=None, exclude_if=_absent_if_none, description="When the campaign repeats joint commands"
-    )
+    iso9283: Iso9283Public | None = absent_if_none("When the campaign repeats joint commands")
 
 
 class ValidationPublic(Public):
@@ -126,10 +123,7 @@ class ValidationPublic(Public):
     notes: str | None
     instrument: InstrumentPublic | None
     results: list[VersionResultPublic]
-    import_notes: list[str] = Field(
-        default_factory=list,
-        description="What the file reader noted (columns mapped, units converted); empty for records sent as JSON",
-    )
+    import_notes: ImportNotesPublic
 
 
 class IsoPosesCreate(Strict):

@@ -7,7 +7,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from service.schemas.common import PARAMETER_UNITS, ConditionsPublic, OptionalFloat, Public, Strict
+from service.schemas.common import PARAMETER_UNITS, ConditionsPublic, OptionalFloat, Public, Strict, optional
 
 Provenance = Literal["nominal", "calibration", "restore", "import", "edit"]
 
@@ -23,10 +23,9 @@ class ParameterVersionPublic(Public):
     created_at: datetime
     actor: str | None = Field(description="Name of the API key that made it (never the key); null without keys")
     current: bool
-    conditions: ConditionsPublic | None = Field(
-        default=None,
-        description="What the campaign that made it was measured under: checks and compensations outside these "
-        "ranges carry a warning; null: no campaign made it (or it was made before conditions were kept)",
+    conditions: ConditionsPublic | None = optional(
+        "What the campaign that made it was measured under: checks and compensations outside these "
+        "ranges carry a warning; null: no campaign made it (or it was made before conditions were kept)"
     )
 
 
@@ -56,26 +55,25 @@ class VersionDiffPublic(Public):
     parameters: list[ParameterDiffPublic]
     changed: list[str] = Field(description="Names whose values differ")
     max_abs_sigma: OptionalFloat = Field(description="Largest |difference_sigma|; null when no std error is known")
-    geometry_max_abs_sigma: OptionalFloat = Field(
-        default=None,
-        description="Largest |difference_sigma| of the robot's geometry, the registration (base) left out: what "
-        "changed in the robot rather than where the instrument stood",
+    geometry_max_abs_sigma: OptionalFloat = optional(
+        "Largest |difference_sigma| of the robot's geometry, the registration (base) left out: what "
+        "changed in the robot rather than where the instrument stood"
     )
 
 
 class ParameterValueIn(Strict):
     name: str = Field(min_length=1, max_length=100)
     value: float = Field(description="mm or deg, as the parameters export states it")
-    unit: PARAMETER_UNITS | None = Field(default=None, description="When given, checked against the robot's")
+    unit: PARAMETER_UNITS | None = optional("When given, checked against the robot's")
     std_error: float | None = Field(default=None, ge=0)
     identifiable: bool | None = None
-    nominal: float | None = Field(default=None, description="Ignored: the robot's own nominal is kept")
+    nominal: float | None = optional("Ignored: the robot's own nominal is kept")
 
 
 class ParameterVersionImport(Strict):
     """The JSON export of GET …/parameters (or the same as CSV): every parameter of the robot, once."""
 
-    version: int | None = Field(default=None, description="Ignored (the export's own version)")
-    provenance: str | None = Field(default=None, description="Ignored")
-    calibration_id: str | None = Field(default=None, description="Ignored")
+    version: int | None = optional("Ignored (the export's own version)")
+    provenance: str | None = optional("Ignored")
+    calibration_id: str | None = optional("Ignored")
     parameters: list[ParameterValueIn] = Field(min_length=1, max_length=10_000)
