@@ -98,6 +98,15 @@ def client(tmp_path: Path, registry: Registry, migrated_sqlite: Path) -> Iterato
     assert c.contract.checked > 0, "the test's responses went unchecked"
 
 
+@pytest.fixture(scope="module")
+def api(tmp_path_factory: pytest.TempPathFactory, migrated_sqlite: Path, registry: Registry) -> Iterator[TestClient]:
+    """One app for a whole module, on a copy of the migrated SQLite file: for modules whose tests share what they
+    build (a tree's chains, a calibrated robot) and keep their robots apart by name. A module that wants its own
+    `api` (an app per test, on each database) defines it."""
+    with make_client(fresh_sqlite(migrated_sqlite, tmp_path_factory.mktemp("module")), registry) as client:
+        yield client
+
+
 @pytest.fixture
 def robot_id(client: TestClient) -> str:
     response = client.post("/v1/robots", json={"name": "cell-3"})
