@@ -100,6 +100,14 @@ def ur5_truth(seed: int) -> np.ndarray:
     return truth
 
 
+def calibrate_robot(client: TestClient, robot_id: str, body: dict[str, Any]) -> dict[str, Any]:
+    """The robot calibrated through the API from `body` (records and options; 201): the calibration's document."""
+    answer = client.post(f"/v1/robots/{robot_id}/calibrations", json=body)
+    assert answer.status_code == 201, answer.text
+    found: dict[str, Any] = answer.json()
+    return found
+
+
 def ur5_tcp_error_mm(answer: dict[str, Any], truth: np.ndarray) -> float:
     """The UR5-like arm a calibration `answer` states (its parameters in the API's units) against the `truth`: the
     TCP's RMS distance (mm) over 300 fresh poses, in the frame the records fixed (no alignment)."""
