@@ -15,6 +15,8 @@ import sys
 import time
 from pathlib import Path
 
+from benchmarks.timing import markdown_table
+
 ROOT = Path(__file__).resolve().parent
 RESULTS = ROOT / "results.json"
 REPORT = ROOT.parent / "docs" / "benchmarks.md"
@@ -38,12 +40,11 @@ def _markdown(results: dict[str, dict[str, object]]) -> str:
         lines += [f"## {name.removeprefix('bench_')}", ""]
         targets = res.get("targets", [])
         if isinstance(targets, list) and targets:
-            lines += ["| measurement | value | target | met |", "|---|---|---|---|"]
-            for t in targets:
-                lines.append(
-                    f"| {t['name']} | {t['value']:.4g} | {t['op']} {t['limit']:.4g} | {'yes' if t['met'] else 'NO'} |"
-                )
-            lines.append("")
+            rows = [
+                [t["name"], f"{t['value']:.4g}", f"{t['op']} {t['limit']:.4g}", "yes" if t["met"] else "NO"]
+                for t in targets
+            ]
+            lines += [*markdown_table(["measurement", "value", "target", "met"], rows), ""]
         markdown = res.get("markdown")
         if isinstance(markdown, list):
             lines += [*markdown, ""]

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.timing import median_of, target
+from benchmarks.timing import markdown_table, median_of, target
 from harness.adaptive import AdaptiveRun, Blunders, FixedAtCount, fixed_at_count, run_adaptive
 from models import RobotDescription
 from models.description.examples import ur5_like
@@ -166,20 +166,29 @@ def step_seconds(desc: RobotDescription, candidates: int = 2000, records: int = 
 
 def summary(scenarios: dict[str, dict[str, Any]]) -> list[str]:
     """The scenarios side by side: median records and how often each really reaches the target."""
-    lines = [
-        "| scenario | adaptive records (median) | reached at the truth / actual | n0 sized at the nominal (median) "
-        "| n0 reached at the truth / actual | fixed records for 90 % at the truth (median) |",
-        "|---|---|---|---|---|---|",
+    header = [
+        "scenario",
+        "adaptive records (median)",
+        "reached at the truth / actual",
+        "n0 sized at the nominal (median)",
+        "n0 reached at the truth / actual",
+        "fixed records for 90 % at the truth (median)",
     ]
+    rows = []
     for name, found in scenarios.items():
         a, f0 = found["adaptive_reached"], found["fixed_reached_at_truth_by_margin"]
         actual0 = found["fixed_reached_actual_by_margin"]
-        lines.append(
-            f"| {name} | {found['median_adaptive_records']:g} | {a['at_truth']:.2f} / {a['actual']:.2f} "
-            f"| {float(np.median(found['nominal_counts'])):g} | {f0[0]:.2f} / {actual0[0]:.2f} "
-            f"| {found['median_fixed_records_for_90_at_truth']:g} |"
+        rows.append(
+            [
+                name,
+                f"{found['median_adaptive_records']:g}",
+                f"{a['at_truth']:.2f} / {a['actual']:.2f}",
+                f"{float(np.median(found['nominal_counts'])):g}",
+                f"{f0[0]:.2f} / {actual0[0]:.2f}",
+                f"{found['median_fixed_records_for_90_at_truth']:g}",
+            ]
         )
-    return lines
+    return markdown_table(header, rows)
 
 
 def run() -> dict[str, object]:

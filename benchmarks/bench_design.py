@@ -13,7 +13,7 @@ import json
 import subprocess
 import sys
 
-from benchmarks.timing import target
+from benchmarks.timing import markdown_table, target
 
 CRITERIA = ("D", "A", "E", "I", "condition")
 BOUND_SECONDS = (3.0, 20.0)
@@ -85,22 +85,25 @@ def _measure(criterion: str, m: int, extra: str = "") -> dict[str, object]:
 
 def _table(results: dict[str, dict[str, object]]) -> list[str]:
     """The markdown table of every criterion at both sizes."""
-    lines = [
-        "| criterion | M | wall (s) | peak memory (MB) | efficiency | greedy efficiency | TCP error / random |"
-        " condition / random |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
+    header = ["criterion", "M", "wall (s)", "peak memory (MB)", "efficiency", "greedy efficiency",
+              "TCP error / random", "condition / random"]  # fmt: skip
+    rows = []
     for key, r in results.items():
         criterion, m = key.split("_M")
-        eff = r["efficiency"]
         geff = r["greedy_efficiency"]
-        lines.append(
-            f"| {criterion} | {m.split('_')[0]} | {float(r['wall_s']):.2f} | {float(r['peak_rss_mb']):.0f} | "  # type: ignore[arg-type]
-            f"{float(eff):.4f} | {float(geff) if geff is not None else float('nan'):.4f} | "  # type: ignore[arg-type]
-            f"{float(r['rms_ratio_to_random']):.3f} | "  # type: ignore[arg-type]
-            f"{float(r['condition_number']) / float(r['random_condition_number']):.3f} |"  # type: ignore[arg-type]
+        rows.append(
+            [
+                criterion,
+                m.split("_")[0],
+                f"{float(r['wall_s']):.2f}",  # type: ignore[arg-type]
+                f"{float(r['peak_rss_mb']):.0f}",  # type: ignore[arg-type]
+                f"{float(r['efficiency']):.4f}",  # type: ignore[arg-type]
+                f"{float(geff) if geff is not None else float('nan'):.4f}",  # type: ignore[arg-type]
+                f"{float(r['rms_ratio_to_random']):.3f}",  # type: ignore[arg-type]
+                f"{float(r['condition_number']) / float(r['random_condition_number']):.3f}",  # type: ignore[arg-type]
+            ]
         )
-    return lines
+    return markdown_table(header, rows)
 
 
 def run() -> dict[str, object]:

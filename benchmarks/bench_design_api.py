@@ -24,7 +24,7 @@ from typing import Any
 
 import httpx
 
-from benchmarks.timing import target
+from benchmarks.timing import markdown_table, target
 from harness.live import running_server
 from models import Registry, iwr
 from optimal_design import design_poses
@@ -97,11 +97,10 @@ def _in_library(criterion: str, m: int) -> float:
 
 
 def _table(rows: dict[str, dict[str, Any]]) -> list[str]:
-    lines = [
-        "| design (K = 30) | how | API wall, median (best) (s) | service `seconds` | information / relaxation / greedy"
-        " / rounding (s) | outside the design (s) | library here (s) | efficiency (seeds 1-3) |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
+    header = ["design (K = 30)", "how", "API wall, median (best) (s)", "service `seconds`",
+              "information / relaxation / greedy / rounding (s)", "outside the design (s)", "library here (s)",
+              "efficiency (seeds 1-3)"]  # fmt: skip
+    lines = []
     for name, r in rows.items():
         split = " / ".join(
             f"{float(r[k]):.2f}" if r[k] is not None else "—"
@@ -109,10 +108,18 @@ def _table(rows: dict[str, dict[str, Any]]) -> list[str]:
         )
         efficiencies = " / ".join(f"{e:.3f}" for e in r["efficiencies"])
         lines.append(
-            f"| {name} | {r['mode']} | {r['wall_median_s']:.2f} ({r['wall_s']:.2f}) | {r['service_seconds']:.2f} | "
-            f"{split} | {r['outside_the_design_s']:.2f} | {r['library_s']:.2f} | {efficiencies} |"
+            [
+                name,
+                r["mode"],
+                f"{r['wall_median_s']:.2f} ({r['wall_s']:.2f})",
+                f"{r['service_seconds']:.2f}",
+                split,
+                f"{r['outside_the_design_s']:.2f}",
+                f"{r['library_s']:.2f}",
+                efficiencies,
+            ]
         )
-    return lines
+    return markdown_table(header, lines)
 
 
 def _sync_target(name: str, row: dict[str, Any], limit: float) -> dict[str, object]:

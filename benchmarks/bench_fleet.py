@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.timing import target
+from benchmarks.timing import markdown_table, target
 from models import RobotDescription, sample_workspace
 from models._types import Array
 from models.description.examples import ur5_like
@@ -222,36 +222,40 @@ def _ratio(result: dict[str, Any], reference: int) -> float:
 
 def _table(uniform: dict[str, Any], fleets: dict[str, dict[str, Any]]) -> list[str]:
     """The fleets side by side (docs/benchmarks.md): how alike the units are decides the saving."""
-    lines = [
-        f"Offsets {OFFSET_SPREAD:g} and tool {TOOL_SPREAD:g} of a tolerance per unit in the assembly-dominated "
-        f"fleets; the headline one machined {MACHINED_SPREAD:g}. Errors: geometry alone, mean of "
-        f"{len(NEW_UNITS)} new units × {SEEDS} draws, µm.",
-        "",
-        "| fleet (unit spread, of a tolerance) | error at 5 / 10 poses, with the prior (without: "
-        f"{uniform['validation_error_mm']['5']['free'] * 1000:.0f} / "
-        f"{uniform['validation_error_mm']['10']['free'] * 1000:.0f}) | "
-        + " | ".join(f"K prior / free for {r} free poses' error" for r in REFERENCES)
-        + " | target mode |",
-        "|---|---|" + "---|" * len(REFERENCES) + "---|",
+    free = uniform["validation_error_mm"]
+    header = [
+        "fleet (unit spread, of a tolerance)",
+        f"error at 5 / 10 poses, with the prior (without: {free['5']['free'] * 1000:.0f} / "
+        f"{free['10']['free'] * 1000:.0f})",
+        *(f"K prior / free for {r} free poses' error" for r in REFERENCES),
+        "target mode",
     ]
-    rows = [(f"uniform {UNIT_SPREAD:g} (acceptance)", uniform)]
-    rows += [
+    named = [(f"uniform {UNIT_SPREAD:g} (acceptance)", uniform)]
+    named += [
         (f"assembly, machined {m}" + (" (headline)" if float(m) == MACHINED_SPREAD else ""), r)
         for m, r in fleets.items()
     ]
-    for name, r in rows:
-        errors = r["validation_error_mm"]
-        cells = [
-            f"{r['by_reference'][str(ref)]['k_prior']} / {r['by_reference'][str(ref)]['k_free']} ({_ratio(r, ref):.2f})"
-            for ref in REFERENCES
-        ]
-        counted = r["target_mode_count"]
-        lines.append(
-            f"| {name} | {errors['5']['prior'] * 1000:.0f} / {errors['10']['prior'] * 1000:.0f} | "
-            + " | ".join(cells)
-            + f" | {counted['prior']} / {counted['free']} |"
+    rows = []
+    for name, r in named:
+        errors, counted = r["validation_error_mm"], r["target_mode_count"]
+        rows.append(
+            [
+                name,
+                f"{errors['5']['prior'] * 1000:.0f} / {errors['10']['prior'] * 1000:.0f}",
+                *(
+                    f"{r['by_reference'][str(ref)]['k_prior']} / {r['by_reference'][str(ref)]['k_free']} "
+                    f"({_ratio(r, ref):.2f})"
+                    for ref in REFERENCES
+                ),
+                f"{counted['prior']} / {counted['free']}",
+            ]
         )
-    return lines
+    note = (
+        f"Offsets {OFFSET_SPREAD:g} and tool {TOOL_SPREAD:g} of a tolerance per unit in the assembly-dominated "
+        f"fleets; the headline one machined {MACHINED_SPREAD:g}. Errors: geometry alone, mean of "
+        f"{len(NEW_UNITS)} new units × {SEEDS} draws, µm."
+    )
+    return [note, "", *markdown_table(header, rows)]
 
 
 def run() -> dict[str, object]:

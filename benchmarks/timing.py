@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 Clock = Callable[[], float]
@@ -29,6 +29,15 @@ def best_of(fn: Callable[[], Any], repeat: int = 3, *, clock: Clock = time.perf_
 def median_of(fn: Callable[[], Any], repeat: int, *, clock: Clock = time.perf_counter) -> float:
     """Median time of `repeat` calls, seconds on `clock`."""
     return statistics.median(_times(fn, repeat, clock))
+
+
+def markdown_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
+    """A markdown table's lines (docs/benchmarks.md): the `header` cells, the rule under them, a line per row."""
+
+    def line(cells: Sequence[str]) -> str:
+        return "| " + " | ".join(cells) + " |"
+
+    return [line(header), "|" + "---|" * len(header), *(line(row) for row in rows)]
 
 
 def target(name: str, value: float, limit: float, op: str = "<=") -> dict[str, object]:

@@ -79,7 +79,7 @@ def story_server(folder: Path, *, job_workers: int = 0, **env: str) -> Iterator[
         timeout_s=READY_TIMEOUT_S,  # by name: mypy would take a string of `env` for it
         IWR_JOB_WORKERS=str(job_workers),
         IWR_COMPUTE_PROCESSES="1",
-        IWR_COMPUTE_DEADLINE_SECONDS="60",
+        IWR_COMPUTE_DEADLINE_SECONDS=STORY_DEADLINE_S,
         **env,
     ) as url:
         yield url

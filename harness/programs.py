@@ -253,6 +253,29 @@ def rapid_cell_module(cell: Cell, *data: str) -> str:
     )
 
 
+def flexpendant_header(module: str) -> str:
+    """A module's first lines as the FlexPendant saves it (CRLF): the `%%%` header, then MODULE `module`."""
+    return f"%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\nMODULE {module}\r\n"
+
+
+@dataclass(frozen=True)
+class ProbeTargets:
+    """The targets the nominal controller reaches at joints `q` (one a row), taught with the probe's tooldata
+    tProbe, each in the fixture's wobjdata wFixture or where `in_fixture` says not, in wobj0 (the robot's base):
+    as the RAPID tests write them into their modules (`rapid_cell_module` declares both frames)."""
+
+    cell: Cell
+    q: Array
+    in_fixture: Sequence[bool]
+
+    def pose(self, k: int) -> Array:
+        base = FIXTURE if self.in_fixture[k] else None
+        return np.asarray(taught(self.cell, self.q[k : k + 1], base=base, tool=self.cell.tool)[0])
+
+    def robtarget(self, k: int) -> str:
+        return rapid_robtarget(self.pose(k), self.q[k])
+
+
 def rapid_module(poses: Sequence[Array], q: Array, *, base: Array, tool: Array) -> str:
     """A module as RobotStudio writes one: a tooldata and a wobjdata, CONST robtargets, MoveJ then MoveL."""
     lines = [

@@ -15,7 +15,7 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, TextIO, TypedDict
 
 from iwr_client import summary
 from iwr_client.client import Client, Json
@@ -139,6 +139,18 @@ def design(client: Client, args: argparse.Namespace, console: Console) -> int:
     return OK
 
 
+class _FileReading(TypedDict):
+    """How the service reads a campaign file: the options `_file_options` gives every command that sends one."""
+
+    columns: str | None
+    joint_unit: str | None
+    length_unit: str | None
+
+
+def _file_reading(args: argparse.Namespace) -> _FileReading:
+    return _FileReading(columns=args.columns, joint_unit=args.joint_unit, length_unit=args.length_unit)
+
+
 def calibrate(client: Client, args: argparse.Namespace, console: Console) -> int:
     bar = None if args.sync else console.progress()
     try:
@@ -150,9 +162,7 @@ def calibrate(client: Client, args: argparse.Namespace, console: Console) -> int
             async_=not args.sync,
             on_progress=bar,
             prior=args.prior,
-            columns=args.columns,
-            joint_unit=args.joint_unit,
-            length_unit=args.length_unit,
+            **_file_reading(args),
         )
     finally:
         if bar is not None:
@@ -204,9 +214,7 @@ def check(client: Client, args: argparse.Namespace, console: Console) -> int:
         noise_mm=args.noise_mm,
         alpha=args.alpha,
         notes=args.notes,
-        columns=args.columns,
-        joint_unit=args.joint_unit,
-        length_unit=args.length_unit,
+        **_file_reading(args),
     )
     console.document(found, lambda: summary.check_summary(found))
     return OK if found["verdict"] == "fine" else NOT_APPLIED
@@ -227,9 +235,7 @@ def validate(client: Client, args: argparse.Namespace, console: Console) -> int:
         args.records,
         versions=args.version,
         register=args.register,
-        columns=args.columns,
-        joint_unit=args.joint_unit,
-        length_unit=args.length_unit,
+        **_file_reading(args),
     )
     console.document(found, lambda: summary.validation_summary(found))
     return OK

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from harness.live import STORY_DEADLINE_S, running_server
+from harness.live import story_server
 from models.description.examples import ur5_like, ur5_like_document
 from models.simulation import measure, perturbed_robot
 from tests.cli.helpers import api, iwr
@@ -27,13 +27,7 @@ DESC = ur5_like()
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    database = tmp_path_factory.mktemp("campaign") / "cli.db"
-    with running_server(
-        f"sqlite:///{database}",
-        IWR_JOB_WORKERS="0",
-        IWR_COMPUTE_PROCESSES="1",
-        IWR_COMPUTE_DEADLINE_SECONDS=STORY_DEADLINE_S,
-    ) as url:
+    with story_server(tmp_path_factory.mktemp("campaign")) as url:
         yield url
 
 

@@ -9,12 +9,12 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
-import scipy.optimize
 from scipy.spatial.transform import Rotation
 
 from models.noise import NoiseModel
 from models.tree import (
     RobotTree,
+    SimulatedTree,
     ToolRecords,
     identify_tree,
     measure_tree,
@@ -23,50 +23,14 @@ from models.tree import (
     tree_joint_samples,
 )
 from models.tree.examples import arm_with_positioner, dual_arm_torso
-from tests.models.tree_reference import POSITIONER, TORSO, Segment, chain_fk, relative
+from tests.models.tree_reference import POSITIONER, TORSO, Segment, reference_fit, rms_error
 
 NOISE = NoiseModel(position_mm=0.02)
 
 
-def _reference_fit(
-    segments: dict[str, list[Segment]],
-    groups: list[ToolRecords],
-    start: np.ndarray,
-    free: np.ndarray,
-    scales: np.ndarray,
-) -> np.ndarray:
-    """scipy's 'trf' on the numpy model, finite differences, the same unknowns and start: the parameters."""
-
-    def positions(theta: np.ndarray, group: ToolRecords) -> np.ndarray:
-        a = chain_fk(segments[group.tool], theta, group.joints)
-        t = a if group.frame is None else relative(a, chain_fk(segments[group.frame], theta, group.joints))
-        return t[:, :3, 3]
-
-    def residuals(z: np.ndarray) -> np.ndarray:
-        theta = start.copy()
-        theta[free] += scales[free] * z
-        return np.concatenate([((positions(theta, g) - g.positions) / NOISE.position_mm).ravel() for g in groups])
-
-    fit = scipy.optimize.least_squares(residuals, np.zeros(free.size), method="trf", x_scale="jac", xtol=1e-12)
-    theta = start.copy()
-    theta[free] += scales[free] * fit.x
-    return theta
-
-
-def _held_out(
-    segments: dict[str, list[Segment]], theta: np.ndarray, truth: np.ndarray, q: np.ndarray
-) -> Callable[[str, str | None], float]:
-    def rms(tool: str, frame: str | None) -> float:
-        def at(p: np.ndarray) -> np.ndarray:
-            a = chain_fk(segments[tool], p, q)
-            return (a if frame is None else relative(a, chain_fk(segments[frame], p, q)))[:, :3, 3]
-
-        return float(np.sqrt(np.mean(np.sum((at(theta) - at(truth)) ** 2, axis=1))))
-
-    return rms
-
-
-def _campaign(tree: RobotTree, pair: tuple[str, str], poses: int) -> tuple[object, list[ToolRecords]]:
+def simulated_campaign(tree: RobotTree, pair: tuple[str, str], poses: int) -> tuple[SimulatedTree, list[ToolRecords]]:
+    """`tree` perturbed with known truth, measured with noise at `poses` random joint vectors: each tool's
+    positions, and the `pair`'s first tool in the second's frame (the tree tests here and over the API)."""
     sim = perturbed_tree(tree, seed=11)
     q = tree_joint_samples(tree, poses, seed=12)
     groups = [measure_tree(sim, tip, q, noise=NOISE, seed=k) for k, tip in enumerate(tree.tips)]
@@ -84,28 +48,28 @@ def test_held_out_accuracy_of_both_tools_and_the_relative_pose_matches_a_scipy_r
     make: Callable[[], RobotTree], segments: dict[str, list[Segment]], pair: tuple[str, str], poses: int
 ) -> None:
     tree = make()
-    sim, groups = _campaign(tree, pair, poses)
+    sim, groups = simulated_campaign(tree, pair, poses)
     fit = identify_tree(tree, groups, noise=NOISE)
     assert fit.statistics.noise_consistent, fit.statistics.variance_factor
     free = np.array(fit.estimated)
-    reference = _reference_fit(segments, groups, fit.start, free, tree.parameters.scales)
+    reference = reference_fit(segments, groups, fit.start, free, tree.parameters.scales, NOISE.position_mm)
     q = tree_joint_samples(tree, 100, seed=99)
-    ours = _held_out(segments, fit.parameters, sim.truth, q)  # type: ignore[attr-defined]
-    theirs = _held_out(segments, reference, sim.truth, q)  # type: ignore[attr-defined]
+    truth = sim.truth
     predicted = {a.label: a for a in tree_accuracy(tree, fit, relative=[pair], joints=q)}
     for tool, frame in [(tip, None) for tip in tree.tips] + [pair]:
         label = tool if frame is None else f"{tool}/{frame}"
-        assert ours(tool, frame) <= 1.1 * theirs(tool, frame), label
+        ours = rms_error(segments, fit.parameters, truth, q, tool, frame)
+        assert ours <= 1.1 * rms_error(segments, reference, truth, q, tool, frame), label
         # The prediction is the held-out error's size (first order, one draw of the noise).
-        assert 0.5 < ours(tool, frame) / predicted[label].rms_position_mm < 2.0, label
-        before = _held_out(segments, fit.start, sim.truth, q)(tool, frame)  # type: ignore[attr-defined]
-        assert ours(tool, frame) < before / 20, label  # the calibration is worth having
+        assert 0.5 < ours / predicted[label].rms_position_mm < 2.0, label
+        before = rms_error(segments, fit.start, truth, q, tool, frame)
+        assert ours < before / 20, label  # the calibration is worth having
 
 
 @pytest.mark.slow  # one fit: ~1 s of CPU
 def test_the_shared_waist_is_identified_from_both_arms() -> None:
     tree = dual_arm_torso()
-    sim, groups = _campaign(tree, ("left", "right"), 24)
+    sim, groups = simulated_campaign(tree, ("left", "right"), 24)
     fit = identify_tree(tree, groups, noise=NOISE)
     waist = tree.parameters.index["waist.link1.alpha"]
     assert waist in fit.estimated
@@ -116,7 +80,7 @@ def test_the_shared_waist_is_identified_from_both_arms() -> None:
     def axis(theta: np.ndarray) -> np.ndarray:
         return Rotation.from_rotvec(theta[3:6]).as_matrix()[:, 2]
 
-    truth = sim.truth  # type: ignore[attr-defined]
+    truth = sim.truth
     error = np.arccos(np.clip(axis(fit.parameters) @ axis(truth), -1, 1))
     assert error < 5e-5  # rad: 0.003°, against the 0.1° tolerances the tree was perturbed by
     assert error < np.arccos(np.clip(axis(fit.start) @ axis(truth), -1, 1)) / 10

@@ -7,12 +7,13 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import scipy.optimize
 from scipy.spatial.transform import Rotation
 
 from models._types import Array
 
 if TYPE_CHECKING:
-    from models.tree import RobotTree
+    from models.tree import RobotTree, ToolRecords
 
 Segment = tuple[str, int, int]
 """("pose", first parameter, -1) or ("dh", first parameter, global joint index)."""
@@ -72,6 +73,49 @@ POSITIONER_NAMES = {30: "positioner.mount.x", 36: "positioner.link1.theta", 44: 
 def relative(a: Array, b: Array) -> Array:
     """(N, 4, 4) A in B's frame."""
     return np.linalg.inv(b) @ a
+
+
+def tool_positions(segments: dict[str, list[Segment]], theta: Array, tool: str, frame: str | None, q: Array) -> Array:
+    """(N, 3) `tool`'s positions at joints `q` for parameters `theta`: in the world, or in tool `frame`'s frame."""
+    a = chain_fk(segments[tool], theta, q)
+    return (a if frame is None else relative(a, chain_fk(segments[frame], theta, q)))[:, :3, 3]
+
+
+def reference_fit(
+    segments: dict[str, list[Segment]],
+    groups: list[ToolRecords],
+    start: Array,
+    free: Array,
+    scales: Array,
+    sigma_mm: float,
+) -> Array:
+    """scipy's 'trf' on this model (finite-difference Jacobian) over the parameters `free` (indices, moved in
+    units of their `scales`) from `start`, the position residuals weighted by `sigma_mm`: the parameters of the
+    independent fit the tree calibrations are checked against."""
+
+    def residuals(z: Array) -> Array:
+        theta = start.copy()
+        theta[free] += scales[free] * z
+        return np.concatenate(
+            [
+                ((tool_positions(segments, theta, g.tool, g.frame, g.joints) - g.positions) / sigma_mm).ravel()
+                for g in groups
+            ]
+        )
+
+    fit = scipy.optimize.least_squares(residuals, np.zeros(free.size), method="trf", x_scale="jac", xtol=1e-12)
+    theta = start.copy()
+    theta[free] += scales[free] * fit.x
+    return theta
+
+
+def rms_error(
+    segments: dict[str, list[Segment]], theta: Array, truth: Array, q: Array, tool: str, frame: str | None = None
+) -> float:
+    """RMS distance (mm) between `tool`'s positions at joints `q` for `theta` and for the `truth`, in the world or
+    in tool `frame`'s frame."""
+    error = tool_positions(segments, theta, tool, frame, q) - tool_positions(segments, truth, tool, frame, q)
+    return float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
 
 
 def pinocchio_tips(pin: Any, urdf: str, tree: RobotTree, q: Array) -> dict[str, Array]:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,38 +65,40 @@ def _ur10e_urdf() -> str:
     return _urdf("ur10e", links, joints)
 
 
+def _industrial_urdf(name: str, joint_names: Sequence[str], origins: Sequence[str], axes: Sequence[str]) -> str:
+    """ROS-Industrial's six-axis layout, which both vendors' packages follow: base_link -> `base` identity (the
+    controller's base frame), link_1 … link_6 by the joints `joint_names` at their `origins` (m) about their
+    `axes`, and tool0 on link_6 turned so its z points out of the flange."""
+    links = [f"link_{k}" for k in range(1, 7)]
+    joints = [_joint("base_link-base", "base_link", "base", "0 0 0")]
+    for joint, parent, child, xyz, axis in zip(
+        joint_names, ["base_link", *links[:-1]], links, origins, axes, strict=True
+    ):
+        joints.append(_joint(joint, parent, child, xyz, axis=axis))
+    joints.append(_joint(f"{joint_names[-1]}-tool0", "link_6", "tool0", "0 0 0", "0 1.5707963267948966 0"))
+    return _urdf(name, ["base_link", "base", *links, "tool0"], joints)
+
+
 def _kr6_urdf() -> str:
     """kuka_experimental's shape: A1 about −z 400 mm up, A4 and A6 about −x, base_link -> `base` identity
     ($ROBROOT), tool0 turned so its z points out of the flange."""
-    joints = [
-        _joint("base_link-base", "base_link", "base", "0 0 0"),
-        _joint("joint_a1", "base_link", "link_1", "0 0 0.400", axis="0 0 -1"),
-        _joint("joint_a2", "link_1", "link_2", "0.025 0 0", axis="0 1 0"),
-        _joint("joint_a3", "link_2", "link_3", "0.455 0 0", axis="0 1 0"),
-        _joint("joint_a4", "link_3", "link_4", "0 0 0.035", axis="-1 0 0"),
-        _joint("joint_a5", "link_4", "link_5", "0.420 0 0", axis="0 1 0"),
-        _joint("joint_a6", "link_5", "link_6", "0.080 0 0", axis="-1 0 0"),
-        _joint("joint_a6-tool0", "link_6", "tool0", "0 0 0", "0 1.5707963267948966 0"),
-    ]
-    links = ["base_link", "base", *(f"link_{k}" for k in range(1, 7)), "tool0"]
-    return _urdf("kuka_kr6_like", links, joints)
+    return _industrial_urdf(
+        "kuka_kr6_like",
+        [f"joint_a{k}" for k in range(1, 7)],
+        origins=("0 0 0.400", "0.025 0 0", "0.455 0 0", "0 0 0.035", "0.420 0 0", "0.080 0 0"),
+        axes=("0 0 -1", "0 1 0", "0 1 0", "-1 0 0", "0 1 0", "-1 0 0"),
+    )
 
 
 def _irb140_urdf() -> str:
     """abb_experimental's shape for an IRB 140: 352 mm to axis 2, 70 mm out, 360 mm arm, 380 mm to the wrist,
     65 mm flange; base_link -> `base` identity (ABB's base frame)."""
-    joints = [
-        _joint("base_link-base", "base_link", "base", "0 0 0"),
-        _joint("joint_1", "base_link", "link_1", "0 0 0", axis="0 0 1"),
-        _joint("joint_2", "link_1", "link_2", "0.070 0 0.352", axis="0 1 0"),
-        _joint("joint_3", "link_2", "link_3", "0 0 0.360", axis="0 1 0"),
-        _joint("joint_4", "link_3", "link_4", "0.190 0 0", axis="1 0 0"),
-        _joint("joint_5", "link_4", "link_5", "0.190 0 0", axis="0 1 0"),
-        _joint("joint_6", "link_5", "link_6", "0.065 0 0", axis="1 0 0"),
-        _joint("joint_6-tool0", "link_6", "tool0", "0 0 0", "0 1.5707963267948966 0"),
-    ]
-    links = ["base_link", "base", *(f"link_{k}" for k in range(1, 7)), "tool0"]
-    return _urdf("abb_irb140_like", links, joints)
+    return _industrial_urdf(
+        "abb_irb140_like",
+        [f"joint_{k}" for k in range(1, 7)],
+        origins=("0 0 0", "0.070 0 0.352", "0 0 0.360", "0.190 0 0", "0.190 0 0", "0.065 0 0"),
+        axes=("0 0 1", "0 1 0", "0 1 0", "1 0 0", "0 1 0", "1 0 0"),
+    )
 
 
 def _rot(axis: Array, angle: float) -> Array:

@@ -25,16 +25,15 @@ import pytest
 from harness.programs import (
     FIXTURE,
     HOME_DEG,
+    ProbeTargets,
     executed,
+    flexpendant_header,
     joints,
     rapid_cell_module,
     rapid_pose,
-    rapid_robtarget,
-    taught,
     ur5_cell,
     world_positions,
 )
-from models._types import Array
 from programs import PROGRAM, Target, read_program
 from service.services.programs import compensate_program
 
@@ -44,22 +43,14 @@ FRAMES = ("wFixture", "wFixture", None, "wFixture", "wFixture")
 """Each target's work object (None: wobj0, the robot's base); all are taught with the tooldata tProbe."""
 
 
-def _taught(k: int) -> Array:
-    base = FIXTURE if FRAMES[k] else None
-    return np.asarray(taught(CELL, Q[k : k + 1], base=base, tool=CELL.tool)[0])
-
-
-def _robtarget(k: int) -> str:
-    return rapid_robtarget(_taught(k), Q[k])
-
-
+TARGETS = ProbeTargets(CELL, Q, [frame is not None for frame in FRAMES])
 CELL_SYS = rapid_cell_module(
     CELL,
     '  PERS wobjdata wCalib:=[FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];\r\n',
     "  PERS loaddata load2:=[2,[0,0,60],[1,0,0,0],0,0,0];\r\n",
 )
-HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\nMODULE Weld\r\n"
-DATA = "".join(f"  CONST robtarget p{10 * (k + 1)}:={_robtarget(k)};\r\n" for k in range(5)) + (
+HEADER = flexpendant_header("Weld")
+DATA = "".join(f"  CONST robtarget p{10 * (k + 1)}:={TARGETS.robtarget(k)};\r\n" for k in range(5)) + (
     "  VAR num nMaxErr;\r\n  VAR num nMeanErr;\r\n"
     "  CONST jointtarget jt1:=[[0,-90,80,-90,90,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\r\n"
 )
@@ -140,7 +131,7 @@ def test_program_displacement_keeps_the_targets_moved_to_until_pdispoff() -> Non
     """PDispOn at line 17 displaces p20 and p30 (line 18, 19) until PDispOff; PDispSet at line 22 displaces p50
     and the inline target after it (the program ends without PDispOff). p40 is also moved to under the
     displacement (line 20) and without it (line 21): kept. EOffsSet (line 16) offsets only the external axes."""
-    inline = f"MoveL {_robtarget(4)},v500,fine,tProbe\\WObj:=wFixture;"
+    inline = f"MoveL {TARGETS.robtarget(4)},v500,fine,tProbe\\WObj:=wFixture;"
     module = _module(
         "EOffsSet [100,9E9,9E9,9E9,9E9,9E9];",
         "PDispOn \\ExeP:=p10, p10, tProbe \\WObj:=wFixture;",
@@ -243,7 +234,7 @@ def test_a_routine_of_the_files_is_followed() -> None:
     """SetCell (cell.mod) gives wCalib a field: wCalib's targets are kept, nothing is warned after the call.
     Measure writes its INOUT parameter: wFixture, passed to it, is changed by the call."""
     cell = "MODULE Cell\r\n" + ROUTINES + "ENDMODULE\r\n"
-    inline = f"MoveL {_robtarget(4)},v500,z10,tProbe\\WObj:=wCalib;"
+    inline = f"MoveL {TARGETS.robtarget(4)},v500,z10,tProbe\\WObj:=wCalib;"
     found = _read(_module("SetCell;", *MOVES, inline), **{"cell.mod": cell})
     assert "wobjdata wCalib is changed at run time by `wCalib.uframe.trans := [0, 0, 50];` (line 3 of cell.mod)" in (
         str(found["line 22"].kept)
@@ -273,9 +264,9 @@ def test_the_targets_left_are_compensated_exactly_and_the_kept_ones_keep_their_t
         assert "wobjdata wFixture is changed at run time" in str(by_name[name].reason)
     again = read_program("rapid", done.texts[PROGRAM], {"celldata.sys": CELL_SYS})
     p30 = next(t for t in again.targets if t.name == "p30")
-    wanted = world_positions(CELL, np.array([_taught(2)]))
+    wanted = world_positions(CELL, np.array([TARGETS.pose(2)]))
     run = executed(CELL, np.array([p30.pose]), Q[2:3], tool=CELL.tool)
-    before = executed(CELL, np.array([_taught(2)]), Q[2:3], tool=CELL.tool)
+    before = executed(CELL, np.array([TARGETS.pose(2)]), Q[2:3], tool=CELL.tool)
     assert np.linalg.norm(run - wanted) <= 0.05 and np.linalg.norm(before - wanted) > 0.5
     lines = zip(module.splitlines(), done.texts[PROGRAM].splitlines(), strict=True)
     changed = [k for k, (a, b) in enumerate(lines, start=1) if a != b]

@@ -22,15 +22,14 @@ import pytest
 from harness.programs import (
     FIXTURE,
     HOME_DEG,
+    ProbeTargets,
     executed,
+    flexpendant_header,
     joints,
     rapid_cell_module,
-    rapid_robtarget,
-    taught,
     ur5_cell,
     world_positions,
 )
-from models._types import Array
 from programs import PROGRAM, ProgramError, Target, read_program
 from service.services.programs import compensate_program
 
@@ -57,26 +56,19 @@ Q = joints(COUNT, seed=33)
 IN_FIXTURE = [fixture for text, fixture in MOTIONS for _ in range(text.count("{"))]
 
 
-def _taught(k: int) -> Array:
-    return np.asarray(taught(CELL, Q[k : k + 1], base=FIXTURE if IN_FIXTURE[k] else None, tool=CELL.tool)[0])
-
-
-def _robtarget(k: int) -> str:
-    return rapid_robtarget(_taught(k), Q[k])
-
-
+TARGETS = ProbeTargets(CELL, Q, IN_FIXTURE)
 CELL_SYS = rapid_cell_module(
     CELL,
     "  PERS seamdata seam1:=[0.5,0.5,[5,0,24,120,0,0,0,0,0],0.5,1,2,0,0,[5,0,24,120,0,0,0,0,0]];\r\n",
     '  PERS gundata gun1:=["gun1",1,2,0.5,0.5,FALSE,0,0,0];\r\n',
 )
-HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\nMODULE Process\r\n"
+HEADER = flexpendant_header("Process")
 
 
 def _data(count: int = COUNT) -> str:
     """Module lines 7..: the robtargets p1..p{count}, then pFound (a SearchPoint) and other data."""
-    return "".join(f"  PERS robtarget p{k + 1}:={_robtarget(k)};\r\n" for k in range(count)) + (
-        f"  PERS robtarget pFound:={_robtarget(0)};\r\n"
+    return "".join(f"  PERS robtarget p{k + 1}:={TARGETS.robtarget(k)};\r\n" for k in range(count)) + (
+        f"  PERS robtarget pFound:={TARGETS.robtarget(0)};\r\n"
         "  VAR triggdata trOn;\r\n  VAR triggdata trOff;\r\n  VAR triggios ios1{1};\r\n"
     )
 
@@ -122,9 +114,9 @@ def test_each_process_motion_is_compensated_exactly_in_its_tool_and_work_object(
     again = {t.name: t for t in read_program("rapid", done.texts[PROGRAM], {"celldata.sys": CELL_SYS}).targets}
     for k in range(COUNT):
         base = FIXTURE if IN_FIXTURE[k] else None
-        wanted = world_positions(CELL, np.array([_taught(k)]), base=base)
+        wanted = world_positions(CELL, np.array([TARGETS.pose(k)]), base=base)
         run = executed(CELL, np.array([again[f"p{k + 1}"].pose]), Q[k : k + 1], base=base, tool=CELL.tool)
-        before = executed(CELL, np.array([_taught(k)]), Q[k : k + 1], base=base, tool=CELL.tool)
+        before = executed(CELL, np.array([TARGETS.pose(k)]), Q[k : k + 1], base=base, tool=CELL.tool)
         assert np.linalg.norm(run - wanted) <= 0.05, (k, np.linalg.norm(run - wanted))
         assert np.linalg.norm(before - wanted) > 0.5, k
     changed = [
@@ -149,7 +141,7 @@ def test_a_motion_of_an_unknown_layout_keeps_its_targets(motion: str) -> None:
     """p1 is also moved to by a MoveL (line 15, read): one value cannot be compensated for one motion and left
     for another; p2 only by MoveL: compensated. A robtarget written inside the motion is kept too. The last
     SpotL names a gundata where the tool should be: a version of SpotL the reader does not know."""
-    inline = _robtarget(2)
+    inline = TARGETS.robtarget(2)
     body = ["MoveL p1, v500, z10, tProbe \\WObj:=wFixture;", "MoveL p2, v500, z10, tProbe;", motion.format("p1")]
     body.append(motion.format(inline))
     found = _read(_module(body, count=3))
@@ -186,9 +178,9 @@ def test_a_robtarget_changed_at_run_time_keeps_every_motion_to_it(statement: str
 def test_an_array_element_written_keeps_that_element_and_two_literals_keep_both() -> None:
     """`path{2} := CRobT();` keeps path{2}, not path{1}; p1 given another literal at line 20 keeps both of its
     values (its declaration at line 7 too); p2 given its own value again, written otherwise, does not."""
-    path = f"  VAR robtarget path{{2}}:=[{_robtarget(0)},{_robtarget(1)}];\r\n"
-    moved = _robtarget(2)
-    same = _robtarget(1).replace("9E+09", "9E9").replace("],[", "], [", 1)
+    path = f"  VAR robtarget path{{2}}:=[{TARGETS.robtarget(0)},{TARGETS.robtarget(1)}];\r\n"
+    moved = TARGETS.robtarget(2)
+    same = TARGETS.robtarget(1).replace("9E+09", "9E9").replace("],[", "], [", 1)
     body = [
         "path{2} := CRobT();",
         "MoveL path{1}, v500, z10, tProbe \\WObj:=wFixture;",

@@ -11,11 +11,13 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
+from harness.programs import Cell, ur5_cell
 from models import Registry
 from service.http.app import create_app
 from service.persistence import Database
 from service.settings import Settings
 from tests.service.contract_check import ContractClient, committed
+from tests.service.helpers import ur5_with_truth
 
 POSTGRES_ADMIN = os.environ.get("IWR_TEST_POSTGRES", "postgresql://postgres@127.0.0.1:5432/postgres")
 
@@ -96,6 +98,27 @@ def client(tmp_path: Path, registry: Registry, migrated_sqlite: Path) -> Iterato
     with make_client(fresh_sqlite(migrated_sqlite, tmp_path), registry) as c:
         yield c
     assert c.contract.checked > 0, "the test's responses went unchecked"
+
+
+@pytest.fixture(scope="module")
+def api(tmp_path_factory: pytest.TempPathFactory, migrated_sqlite: Path, registry: Registry) -> Iterator[TestClient]:
+    """One app for a whole module, on a copy of the migrated SQLite file: for modules whose tests share what they
+    build (a tree's chains, a calibrated robot) and keep their robots apart by name. A module that wants its own
+    `api` (an app per test, on each database) defines it."""
+    with make_client(fresh_sqlite(migrated_sqlite, tmp_path_factory.mktemp("module")), registry) as client:
+        yield client
+
+
+@pytest.fixture(scope="module")
+def cell() -> Cell:
+    """The UR5-like cell the program tests teach their targets in and run them on (harness.programs)."""
+    return ur5_cell()
+
+
+@pytest.fixture
+def ur5(client: TestClient, cell: Cell) -> str:
+    """A UR5-like robot whose version 2 is the `cell`'s truth: what the program tests compensate with."""
+    return ur5_with_truth(client, cell)
 
 
 @pytest.fixture

@@ -35,7 +35,7 @@ from models.measurements.camera import Camera, Intrinsics
 from models.noise import NoiseModel
 from models.transforms import matrix_to_rotvec_np, rotvec_to_matrix_np
 from optimal_design.references import camera_candidates, design_reference_records
-from tests.service.helpers import assert_design_kept, posted_ur5
+from tests.service.helpers import assert_design_kept, calibrate_robot, posted_ur5, ur5_tcp_error_mm
 
 UR5 = ur5_like()
 SIGMA_PX = 0.1
@@ -95,12 +95,7 @@ def _calibrated_error(client: TestClient, arm: str, design: dict[str, Any], seed
     images, _ = world_images(UR5, truth, joints, np.random.default_rng(seed), sigma_px=SIGMA_PX)
     records = [{**r, "joints": (np.asarray(r["joints"]) * UR5.joint_to_boundary).tolist()} for r in images]
     body = {"measurements": records, "cameras": WORLD_CAMERA, "apply": False}
-    answer = client.post(f"/v1/robots/{arm}/calibrations", json=body)
-    assert answer.status_code == 201, answer.text
-    fitted = UR5.parameters.from_boundary([float(p["value"]) for p in answer.json()["parameters"]])
-    fresh = sample_workspace(UR5, 300, seed=999)
-    error = forward_kinematics(UR5, fresh, fitted).positions - forward_kinematics(UR5, fresh, truth).positions
-    return float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
+    return ur5_tcp_error_mm(calibrate_robot(client, arm, body), truth)
 
 
 @pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)

@@ -14,7 +14,7 @@ from fastapi.testclient import TestClient
 from harness.ballbar import reaching
 from models import forward_kinematics, sample_workspace
 from models.description.examples import ur5_like
-from tests.service.helpers import posted_ur5, ur5_truth
+from tests.service.helpers import calibrate_robot, posted_ur5, ur5_tcp_error_mm, ur5_truth
 
 UR5 = ur5_like()
 TRACKER_SIGMA_MM = 0.01
@@ -62,13 +62,6 @@ def _tracker(truth: np.ndarray, n: int, seed: int) -> list[dict[str, Any]]:
     return [{"joints": q, "position": p.tolist()} for q, p in zip(deg, tcp, strict=True)]
 
 
-def _tcp_error_mm(answer: dict[str, Any], truth: np.ndarray) -> float:
-    fitted = UR5.parameters.from_boundary([float(p["value"]) for p in answer["parameters"]])
-    fresh = sample_workspace(UR5, 300, seed=999)
-    error = forward_kinematics(UR5, fresh, fitted).positions - forward_kinematics(UR5, fresh, truth).positions
-    return float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
-
-
 @pytest.mark.slow  # two calibrations of 30 tracker and 32 displacement records: ~2 s
 def test_two_beams_beside_a_tracker_calibrate_the_arm_and_find_themselves(client: TestClient, arm: str) -> None:
     truth = ur5_truth(7)
@@ -76,9 +69,7 @@ def test_two_beams_beside_a_tracker_calibrate_the_arm_and_find_themselves(client
     for k, name in enumerate(LINES):
         records += _displacements(truth, name, _on_beam(truth, name, 20 + k), seed=30 + k)
     body = {"measurements": records, "noise": {"position_mm": TRACKER_SIGMA_MM}, "apply": False}
-    answer = client.post(f"/v1/robots/{arm}/calibrations", json=body)
-    assert answer.status_code == 201, answer.text
-    report = answer.json()
+    report = calibrate_robot(client, arm, body)
     assert report["record_kinds"] == {"position": 30, "line": 32}
     found = {r["name"]: r for r in report["references"] if r["kind"] == "line"}
     assert set(found) == set(LINES)
@@ -95,9 +86,8 @@ def test_two_beams_beside_a_tracker_calibrate_the_arm_and_find_themselves(client
         assert line["origin_mm"] == [u["value"] for u in place]
         assert line["rms_residual_mm"] < 3 * SIGMA_MM
     # and the beams help: the TCP error on fresh poses below the tracker's alone (measured: 3.3 µm, 9.7 µm alone)
-    alone = client.post(f"/v1/robots/{arm}/calibrations", json={**body, "measurements": _tracker(truth, 30, seed=71)})
-    assert alone.status_code == 201, alone.text
-    with_beams, without = _tcp_error_mm(report, truth), _tcp_error_mm(alone.json(), truth)
+    alone = calibrate_robot(client, arm, {**body, "measurements": _tracker(truth, 30, seed=71)})
+    with_beams, without = ur5_tcp_error_mm(report, truth), ur5_tcp_error_mm(alone, truth)
     assert with_beams < without and with_beams < TRACKER_SIGMA_MM, (with_beams, without)
 
 

@@ -20,6 +20,7 @@ from service.campaign_io import ImportOptions
 from service.campaign_io.records import campaign_records
 from service.campaign_io.tabular import read_table
 from service.conversions.drift import condition_warnings
+from tests.service.helpers import calibrate_robot
 
 DESC = iwr()
 NOISE = NoiseModel(0.010, float(np.radians(0.002)))
@@ -71,9 +72,7 @@ def test_a_drift_aware_calibration_then_checks_and_commands_outside_its_conditio
 ) -> None:
     sim = drift_campaign(DESC, 2, noise=NOISE)
     temperatures = np.linspace(20.5, 22.0, sim.drifted.size)
-    r = client.post(f"/v1/robots/{robot_id}/calibrations", json=_body(_records(sim, temperatures=temperatures)))
-    assert r.status_code == 201, r.text
-    body = r.json()
+    body = calibrate_robot(client, robot_id, _body(_records(sim, temperatures=temperatures)))
     assert body["status"] == "succeeded" and body["applied"], body.get("not_applied_reason")
     drift = body["drift"]
     _assert_the_drift_found(drift, sim)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.live import ROOT, STORY_DEADLINE_S, running_server
+from harness.live import ROOT, story_server
 
 # A live server and a full calibration through the example client: ~14 s.
 pytestmark = pytest.mark.slow
@@ -19,12 +19,7 @@ def test_example_session_with_the_system_python(tmp_path: Path) -> None:
     """The README runs it with whatever Python the user has: the base interpreter, isolated (-I) and without
     site-packages (-S), so not one third-party package is importable."""
     interpreter = Path(sys.base_prefix) / "bin" / f"python{sys.version_info.major}.{sys.version_info.minor}"
-    with running_server(
-        f"sqlite:///{tmp_path}/example.db",
-        IWR_JOB_WORKERS="0",
-        IWR_COMPUTE_PROCESSES="1",
-        IWR_COMPUTE_DEADLINE_SECONDS=STORY_DEADLINE_S,
-    ) as url:
+    with story_server(tmp_path) as url:
         run = subprocess.run(
             [str(interpreter), "-I", "-S", str(ROOT / "examples" / "calibrate_cell.py"), url],
             capture_output=True,

@@ -30,7 +30,7 @@ import httpx
 import numpy as np
 import pytest
 
-from harness.live import ROOT, STORY_DEADLINE_S, running_server
+from harness.live import ROOT, story_server
 
 pytestmark = pytest.mark.slow
 
@@ -135,12 +135,7 @@ def _campaign_as_json() -> dict[str, Any]:
 
 def test_generated_client_runs_the_example_session(generated: ModuleType, tmp_path: Path) -> None:
     with (
-        running_server(
-            f"sqlite:///{tmp_path}/client.db",
-            IWR_JOB_WORKERS="0",
-            IWR_COMPUTE_PROCESSES="1",
-            IWR_COMPUTE_DEADLINE_SECONDS=STORY_DEADLINE_S,
-        ) as url,
+        story_server(tmp_path) as url,
         httpx.Client(base_url=url, timeout=120) as direct,
         generated.Client(base_url=url, timeout=httpx.Timeout(120.0)) as client,
     ):

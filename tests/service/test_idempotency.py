@@ -5,12 +5,13 @@ from __future__ import annotations
 import time
 from collections.abc import Iterator
 from datetime import UTC, datetime, timedelta
+from pathlib import Path
 
 import httpx
 import pytest
 from sqlalchemy import update
 
-from harness.live import STORY_DEADLINE_S, running_server
+from harness.live import story_server
 from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.persistence.tables import IdempotencyRecord
@@ -97,15 +98,10 @@ def test_keys_are_per_api_key(tmp_path: object) -> None:
 
 
 @pytest.mark.slow
-def test_a_client_that_times_out_and_retries_creates_one_calibration(tmp_path: object) -> None:
+def test_a_client_that_times_out_and_retries_creates_one_calibration(tmp_path: Path) -> None:
     """The measured bug: a retried POST after a client timeout created a second calibration and version."""
     with (
-        running_server(
-            f"sqlite:///{tmp_path}/live.db",
-            IWR_JOB_WORKERS="0",
-            IWR_COMPUTE_PROCESSES="1",
-            IWR_COMPUTE_DEADLINE_SECONDS=STORY_DEADLINE_S,
-        ) as url,
+        story_server(tmp_path) as url,
         httpx.Client(base_url=url) as c,
     ):
         rid = c.post("/v1/robots", json={"name": "cell"}).json()["id"]

@@ -101,12 +101,14 @@ class LateWorker:
             assert execute_job(job_id, ctx).ran
 
 
+@pytest.fixture
+def worker(api: ContractClient, registry: Registry, monkeypatch: pytest.MonkeyPatch) -> LateWorker:
+    return LateWorker(api, registry, monkeypatch)
+
+
 @pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
-def test_a_job_starts_from_the_version_current_at_submission(
-    api: ContractClient, registry: Registry, monkeypatch: pytest.MonkeyPatch
-) -> None:
+def test_a_job_starts_from_the_version_current_at_submission(api: ContractClient, worker: LateWorker) -> None:
     """The probe: a job submitted at version 1 was applied as version 3 over a synchronous version 2, no 409."""
-    worker = LateWorker(api, registry, monkeypatch)
     rid = api.post("/v1/robots", json={"name": "cell"}).json()["id"]
     accepted = api.post(f"/v1/robots/{rid}/calibrations", params={"async": "true"}, json={"measurements": RECS})
     assert accepted.status_code == 202
@@ -123,10 +125,7 @@ def test_a_job_starts_from_the_version_current_at_submission(
 
 
 @pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
-def test_a_job_with_nothing_in_between_applies(
-    api: ContractClient, registry: Registry, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    worker = LateWorker(api, registry, monkeypatch)
+def test_a_job_with_nothing_in_between_applies(api: ContractClient, worker: LateWorker) -> None:
     rid = api.post("/v1/robots", json={"name": "cell"}).json()["id"]
     api.post(f"/v1/robots/{rid}/calibrations", params={"async": "true"}, json={"measurements": RECS})
     worker.run()
@@ -135,11 +134,8 @@ def test_a_job_with_nothing_in_between_applies(
 
 @pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
 @pytest.mark.parametrize("run_async", [False, True])
-def test_calibrations_honour_if_match(
-    api: ContractClient, registry: Registry, monkeypatch: pytest.MonkeyPatch, run_async: bool
-) -> None:
+def test_calibrations_honour_if_match(api: ContractClient, worker: LateWorker, run_async: bool) -> None:
     """The same ETag twice was 201, 201: the second now finds the robot changed (412, nothing stored)."""
-    worker = LateWorker(api, registry, monkeypatch)
     made = api.post("/v1/robots", json={"name": "cell"})
     rid, etag = made.json()["id"], made.headers["etag"]
     url, params = f"/v1/robots/{rid}/calibrations", {"async": "true"} if run_async else {}

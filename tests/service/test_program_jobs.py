@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from harness.programs import Cell, executed, joints, taught, ur5_cell, urscript_approached, world_positions
+from harness.programs import Cell, executed, joints, taught, urscript_approached, world_positions
 from models import Registry
 from models.description.examples import ur5_like_document
 from programs import read_program
@@ -29,16 +29,6 @@ from tests.service.conftest import fresh_sqlite, make_client
 from tests.service.helpers import finished_job, ur5_with_truth
 
 URL = "/v1/robots/{}/programs/compensate"
-
-
-@pytest.fixture(scope="module")
-def cell() -> Cell:
-    return ur5_cell()
-
-
-@pytest.fixture
-def ur5(client: TestClient, cell: Cell) -> str:
-    return ur5_with_truth(client, cell)
 
 
 def _script(cell: Cell, n: int, seed: int) -> tuple[str, np.ndarray]:

@@ -26,7 +26,6 @@ from harness.programs import (
     joints,
     rapid_module,
     taught,
-    ur5_cell,
     urscript_program,
 )
 from models import Registry, forward_kinematics
@@ -38,19 +37,8 @@ from service.compute import limits
 from tests.programs.robots import UR10E_BOX, ur_file_fk
 from tests.programs.samples import KRL_CONFIG, KRL_DAT, KRL_SRC
 from tests.service.conftest import make_client
-from tests.service.helpers import ur5_with_truth
 
 N_TARGETS = 12
-
-
-@pytest.fixture(scope="module")
-def cell() -> Cell:
-    return ur5_cell()
-
-
-@pytest.fixture
-def ur5(client: TestClient, cell: Cell) -> str:
-    return ur5_with_truth(client, cell)
 
 
 def _post(client: TestClient, robot_id: str, **body: Any) -> Any:

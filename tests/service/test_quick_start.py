@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.live import ROOT, STORY_DEADLINE_S, running_server
+from harness.live import ROOT, story_server
 
 pytestmark = pytest.mark.slow  # a live server and an IWR calibration: a few seconds
 
@@ -24,12 +24,7 @@ def test_the_quick_start_calibrates_and_writes_its_report(tmp_path: Path) -> Non
         pytest.skip("curl is not installed")
     (tmp_path / "examples").mkdir()
     shutil.copy(ROOT / "examples" / "campaign.csv", tmp_path / "examples" / "campaign.csv")
-    with running_server(
-        f"sqlite:///{tmp_path}/quick.db",
-        IWR_JOB_WORKERS="0",
-        IWR_COMPUTE_PROCESSES="1",
-        IWR_COMPUTE_DEADLINE_SECONDS=STORY_DEADLINE_S,
-    ) as url:
+    with story_server(tmp_path) as url:
         script = block.group(1).replace("API=http://127.0.0.1:8000", f"API={url}")
         run = subprocess.run(
             ["bash", "-euo", "pipefail", "-c", script],

@@ -22,7 +22,6 @@ import csv
 import hashlib
 import re
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,9 +33,7 @@ from scipy.linalg import qr
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from models import Registry
 from tests.robot_data import robot_file
-from tests.service.conftest import fresh_sqlite, make_client
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "real" / "tiago_mocap"
 TRAINING = "qualisys_2021-11-30_static_postures.csv"
@@ -212,12 +209,8 @@ class Calibrated:
 
 
 @pytest.fixture(scope="module")
-def calibrated(
-    registry: Registry, migrated_sqlite: Path, tmp_path_factory: pytest.TempPathFactory
-) -> Iterator[Calibrated]:
-    urdf = robot_file(URDF).read_text()
-    with make_client(fresh_sqlite(migrated_sqlite, tmp_path_factory.mktemp("tiago")), registry) as client:
-        yield _calibrate(client, urdf)
+def calibrated(api: TestClient) -> Calibrated:
+    return _calibrate(api, robot_file(URDF).read_text())
 
 
 def _calibrate(client: TestClient, urdf: str) -> Calibrated:

@@ -23,7 +23,7 @@ from models.formats.urdf import document_from_urdf
 from models.identification.registration import rigid_fit
 from models.measurements.references import ReferenceRecords
 from tests.models.test_urdf import UR5_URDF
-from tests.service.helpers import finished_job, posted_ur5
+from tests.service.helpers import calibrate_robot, finished_job, posted_ur5
 
 UR5 = ur5_like()
 SIGMA_MM = 0.002
@@ -64,9 +64,7 @@ def test_a_ballbar_campaign_calibrates_the_arm_and_reports_its_anchors(
     client: TestClient, arm: str, campaign: Campaign
 ) -> None:
     truth, groups = campaign
-    answer = client.post(f"/v1/robots/{arm}/calibrations", json=_body(groups))
-    assert answer.status_code == 201, answer.text
-    report = answer.json()
+    report = calibrate_robot(client, arm, _body(groups))
     assert report["status"] == "succeeded" and report["applied"], report["not_applied_reason"]
     assert all(c["passed"] for c in report["checks"]), report["checks"]
     assert report["record_kinds"] == {"distance": 3 * 32}
@@ -151,9 +149,7 @@ def test_points_and_planes_beside_tracker_positions_fix_the_frame(client: TestCl
     assert touches.shape[0] == 12
     records += [{"kind": "plane", "joints": q.tolist(), "plane": "table"} for q in touches * UR5.joint_to_boundary]
     body = {"measurements": records, "noise": {"position_mm": SIGMA_MM}, "planes": {"table": {"normal": [0, 0, 1]}}}
-    answer = client.post(f"/v1/robots/{arm}/calibrations", json=body)
-    assert answer.status_code == 201, answer.text
-    report = answer.json()
+    report = calibrate_robot(client, arm, body)
     assert report["record_kinds"] == {"position": 40, "plane": 12}
     assert not any(n.startswith("base.") for n in report["unidentifiable"])  # the tracker fixes the frame
     plane = report["references"][1]
@@ -261,9 +257,7 @@ def _images_body(records: list[dict[str, Any]]) -> dict[str, Any]:
 @pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_a_world_camera_calibrates_the_arm_and_finds_its_own_pose(client: TestClient, arm: str) -> None:
     seen = world_camera_campaign(UR5, 2, images=30)
-    answer = client.post(f"/v1/robots/{arm}/calibrations", json=_images_body(seen.images))
-    assert answer.status_code == 201, answer.text
-    report = answer.json()
+    report = calibrate_robot(client, arm, _images_body(seen.images))
     assert report["status"] == "succeeded" and report["noise_consistent"], report["checks"]
     assert report["record_kinds"] == {"image": 30} and report["measurements"] == 30
     [camera] = report["references"]

@@ -22,7 +22,7 @@ from models.measurements.references import Anchor, ReferenceRecords
 from models.noise import NoiseModel
 from optimal_design.references import design_reference_records
 from service.schemas.designs import PoseDesignCreate
-from tests.service.helpers import assert_design_kept, finished_job
+from tests.service.helpers import assert_design_kept, calibrate_robot, finished_job
 
 UR5 = ur5_like()
 SIGMA_MM = 0.002
@@ -76,9 +76,8 @@ def _calibrated_error(client: TestClient, arm: str, design: dict[str, Any], seed
         for q, name, d in zip(design["poses"], design["references"], distances, strict=True)
     ]
     body = {"measurements": records, "anchors": {n: {} for n in NAMES}, "noise": NOISE, "apply": False}
-    answer = client.post(f"/v1/robots/{arm}/calibrations", json=body)
-    assert answer.status_code == 201, answer.text
-    fitted = UR5.parameters.from_boundary([float(p["value"]) for p in answer.json()["parameters"]])
+    answer = calibrate_robot(client, arm, body)
+    fitted = UR5.parameters.from_boundary([float(p["value"]) for p in answer["parameters"]])
     fresh = sample_workspace(UR5, 200, seed=77)
     return aligned_rms(
         forward_kinematics(UR5, fresh, fitted).positions, forward_kinematics(UR5, fresh, truth).positions

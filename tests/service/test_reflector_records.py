@@ -12,7 +12,7 @@ from fastapi.testclient import TestClient
 
 from models import forward_kinematics, sample_workspace
 from models.description.examples import ur5_like
-from tests.service.helpers import posted_ur5, ur5_truth
+from tests.service.helpers import calibrate_robot, posted_ur5, ur5_tcp_error_mm, ur5_truth
 
 UR5 = ur5_like()
 SIGMA_MM = 0.01
@@ -46,14 +46,6 @@ def _records(truth: np.ndarray, joints: np.ndarray, reflectors: list[str], seed:
     return out
 
 
-def _tcp_error_mm(answer: dict[str, Any], truth: np.ndarray) -> float:
-    """The calibrated arm's TCP against the truth's on 300 fresh poses, RMS (the tracker fixes the frame)."""
-    fitted = UR5.parameters.from_boundary([float(p["value"]) for p in answer["parameters"]])
-    fresh = sample_workspace(UR5, 300, seed=999)
-    error = forward_kinematics(UR5, fresh, fitted).positions - forward_kinematics(UR5, fresh, truth).positions
-    return float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
-
-
 @pytest.mark.slow  # two calibrations of 30 poses: ~2 s
 def test_two_more_reflectors_calibrate_the_arm_better_and_their_offsets_are_reported(
     client: TestClient, arm: str
@@ -61,9 +53,7 @@ def test_two_more_reflectors_calibrate_the_arm_better_and_their_offsets_are_repo
     truth = ur5_truth(7)
     joints = sample_workspace(UR5, 30, seed=71)
     body = {"measurements": _records(truth, joints, ["r2", "r3"], seed=8), "noise": NOISE, "apply": False}
-    answer = client.post(f"/v1/robots/{arm}/calibrations", json=body)
-    assert answer.status_code == 201, answer.text
-    report = answer.json()
+    report = calibrate_robot(client, arm, body)
     assert report["record_kinds"] == {"position": 30, "reflector": 60}
     found = {r["name"]: r for r in report["references"] if r["kind"] == "reflector"}
     assert set(found) == set(OFFSETS)
@@ -72,14 +62,11 @@ def test_two_more_reflectors_calibrate_the_arm_better_and_their_offsets_are_repo
         length, sigma = np.linalg.norm(reference["tool_offset_mm"]), max(u["std_error"] for u in reference["unknowns"])
         assert abs(length - np.linalg.norm(OFFSETS[name])) < 4.5 * sigma, (name, reference)
         assert reference["rms_residual_mm"] < 3 * SIGMA_MM
-    with_nest = _tcp_error_mm(report, truth)
-    alone = client.post(
-        f"/v1/robots/{arm}/calibrations",
-        json={"measurements": _records(truth, joints, [], seed=8), "noise": NOISE, "apply": False},
-    )
-    assert alone.status_code == 201, alone.text
+    with_nest = ur5_tcp_error_mm(report, truth)
+    tcp_only = {"measurements": _records(truth, joints, [], seed=8), "noise": NOISE, "apply": False}
+    alone = calibrate_robot(client, arm, tcp_only)
     # Measured: 0.006 mm with the nest, 0.012 with the TCP's reflector alone (σ 0.01 mm, 30 poses).
-    assert with_nest < 0.8 * _tcp_error_mm(alone.json(), truth) and with_nest < SIGMA_MM, with_nest
+    assert with_nest < 0.8 * ur5_tcp_error_mm(alone, truth) and with_nest < SIGMA_MM, with_nest
 
 
 @pytest.mark.slow  # a design, then a calibration of its records: ~2 s
@@ -111,11 +98,8 @@ def test_a_design_of_reflector_records_reaches_its_prediction(client: TestClient
     for q, name, at in zip(design["poses"], design["references"], joints, strict=True):
         seen = _read(truth, at[None, :], OFFSETS[name])[0] + rng.normal(0, SIGMA_MM, 3)
         records.append({"kind": "reflector", "joints": q, "reflector": name, "position": seen.tolist()})
-    fitted = client.post(
-        f"/v1/robots/{arm}/calibrations", json={"measurements": records, "noise": NOISE, "apply": False}
-    )
-    assert fitted.status_code == 201, fitted.text
-    reached, predicted = _tcp_error_mm(fitted.json(), truth), metrics["predicted_rms_tcp_mm"]
+    fitted = calibrate_robot(client, arm, {"measurements": records, "noise": NOISE, "apply": False})
+    reached, predicted = ur5_tcp_error_mm(fitted, truth), metrics["predicted_rms_tcp_mm"]
     assert reached <= 2 * predicted, (reached, predicted)
 
 

@@ -10,9 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,12 +18,10 @@ import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
-from models import Registry
 from models.compensation.poses import pose_matrices
 from models.noise import NoiseModel
 from models.tree import (
     RobotTree,
-    ToolRecords,
     measure_tree,
     perturbed_tree,
     relative_poses,
@@ -37,36 +33,17 @@ from models.tree.examples import arm_with_positioner, dual_arm_torso
 from tests.models.test_tree_compensation import _away_from_singularities
 from tests.models.test_tree_urdf import TIPS, URDF
 from tests.models.tree_reference import POSITIONER, chain_fk, relative
-from tests.service.conftest import fresh_sqlite, make_client
 from tests.service.helpers import InProcess
-from tests.service.test_robot_trees import by_name, positioner_document, to_internal, torso_document
-
-NOISE = NoiseModel(position_mm=0.02)
-
-
-@pytest.fixture(scope="module")
-def api(tmp_path_factory: pytest.TempPathFactory, migrated_sqlite: Path, registry: Registry) -> Iterator[TestClient]:
-    with make_client(fresh_sqlite(migrated_sqlite, tmp_path_factory.mktemp("treeops")), registry) as client:
-        yield client
-
-
-def _create(api: TestClient, body: dict[str, Any]) -> dict[str, Any]:
-    made = api.post("/v1/robot-trees", json=body)
-    assert made.status_code == 201, made.text
-    found: dict[str, Any] = made.json()
-    return found
-
-
-def _docs(tree: RobotTree, groups: list[ToolRecords]) -> list[dict[str, Any]]:
-    """Records as the API's, with their orientation where measured."""
-    out = []
-    for g in groups:
-        for k, (j, p) in enumerate(zip(by_name(tree, g.joints), g.positions, strict=True)):
-            doc: dict[str, Any] = {"tool": g.tool, "frame": g.frame, "joints": j, "position": p.tolist()}
-            if g.quaternions is not None:
-                doc["orientation"] = g.quaternions[k].tolist()
-            out.append(doc)
-    return out
+from tests.service.trees import (
+    NOISE,
+    by_name,
+    calibrate_tree,
+    create_tree,
+    positioner_document,
+    record_docs,
+    to_internal,
+    torso_document,
+)
 
 
 def _joints(tree: RobotTree, records: list[dict[str, Any]]) -> np.ndarray:
@@ -81,7 +58,7 @@ COUNT = 24
 @pytest.mark.slow  # a design and two calibrations through the API: ~3 s of CPU
 def test_designed_records_predict_and_calibrate_better_than_as_many_random_ones(api: TestClient) -> None:
     tree = arm_with_positioner()
-    made = _create(api, positioner_document("design-cell"))
+    made = create_tree(api, positioner_document("design-cell"))
     body = {"count": COUNT, "criterion": "D", "candidate_count": 150, "seed": 3, "noise_position_mm": 0.02}
     answer = api.post(f"/v1/robot-trees/{made['id']}/designs", json=body)
     assert answer.status_code == 200, answer.text
@@ -108,13 +85,10 @@ def test_designed_records_predict_and_calibrate_better_than_as_many_random_ones(
         for k, tip in enumerate(tree.tips):
             rows = [i for i, r in enumerate(design["records"]) if r["tool"] == tip]
             groups.append(measure_tree(sim, tip, q[rows], noise=NOISE, seed=seed + k))
-        fit = api.post(
-            f"/v1/robot-trees/{made['id']}/calibrations",
-            json={"records": _docs(tree, groups), "held_out": _docs(tree, held), "noise_position_mm": 0.02,
-                  "apply": False, "accuracy_samples": 10},
-        )  # fmt: skip
-        assert fit.status_code == 201, fit.text
-        return {e["label"]: e["rms_mm"] for e in fit.json()["held_out"]}
+        body = {"records": record_docs(groups, tree), "held_out": record_docs(held, tree), "noise_position_mm": 0.02,
+                "apply": False, "accuracy_samples": 10}  # fmt: skip
+        fit = calibrate_tree(api, made["id"], body)
+        return {e["label"]: e["rms_mm"] for e in fit["held_out"]}
 
     by_design, by_chance = calibrated(designed, 50), calibrated(rng_q, 50)
     for tip in tree.tips:
@@ -124,7 +98,7 @@ def test_designed_records_predict_and_calibrate_better_than_as_many_random_ones(
 @pytest.mark.slow  # one small design, twice (JSON, CSV): ~0.6 s of CPU
 def test_a_design_of_pose_and_relative_records_within_sub_ranges_and_its_csv(api: TestClient) -> None:
     tree = arm_with_positioner()
-    made = _create(api, positioner_document("design-kinds"))
+    made = create_tree(api, positioner_document("design-kinds"))
     body = {
         "count": 12,
         "criterion": "I",
@@ -166,18 +140,17 @@ def calibrated_cell(api: TestClient) -> Calibrated:
     simulated truth, with a fine instrument (1 µm, 0.0005°): the compensation is then judged by its own error,
     not by the calibration's."""
     tree = arm_with_positioner()
-    made = _create(api, positioner_document("compensated-cell"))
+    made = create_tree(api, positioner_document("compensated-cell"))
     sim = perturbed_tree(tree, seed=61, tolerances=1.5)  # errors that a program misses by > 0.5 mm
     fine = NoiseModel(position_mm=0.001, orientation_rad=np.radians(0.0005))
     q = tree_joint_samples(tree, 30, seed=62)
     groups = [measure_tree(sim, tip, q, noise=fine, seed=63 + k, position_only=False) for k, tip in
               enumerate(tree.tips)]  # fmt: skip
-    body = {"records": _docs(tree, groups), "noise_position_mm": 0.001, "noise_orientation_deg": 0.0005,
+    body = {"records": record_docs(groups, tree), "noise_position_mm": 0.001, "noise_orientation_deg": 0.0005,
             "accuracy_samples": 10}  # fmt: skip
-    fit = api.post(f"/v1/robot-trees/{made['id']}/calibrations", json=body)
-    assert fit.status_code == 201, fit.text
+    fit = calibrate_tree(api, made["id"], body)
     after = api.get(f"/v1/robot-trees/{made['id']}").json()
-    return Calibrated(tree, made["id"], sim.truth, to_internal(after), fit.json()["id"])
+    return Calibrated(tree, made["id"], sim.truth, to_internal(after), fit["id"])
 
 
 def _pose_doc(t: np.ndarray) -> dict[str, list[float]]:
@@ -235,7 +208,7 @@ def test_compensated_joints_reach_world_and_relative_targets_on_the_true_tree(
 def test_a_target_past_a_joints_range_is_refused_with_its_reason(api: TestClient) -> None:
     doc = positioner_document("narrow-cell")
     doc["branches"][0]["stages"][0]["links"][1]["range"] = [-170.0, 170.0]
-    made = _create(api, doc)
+    made = create_tree(api, doc)
     tree = arm_with_positioner()
     q = tree_joint_samples(tree, 2, seed=4, margin=0.1)
     q[:, 1] = np.radians(169.8)
@@ -252,17 +225,22 @@ def test_a_target_past_a_joints_range_is_refused_with_its_reason(api: TestClient
 
 
 # ---------------------------------------------------------------------------------------------- exports
+def _calibrate_on_a_perturbed_truth(api: TestClient, tree_id: str, tree: RobotTree, *, seed: int, poses: int) -> None:
+    """`tree` perturbed (`seed`), every tool's position measured at `poses` random joint vectors, and the API's
+    tree `tree_id` calibrated from them (applied: its revision 2)."""
+    sim = perturbed_tree(tree, seed=seed)
+    q = tree_joint_samples(tree, poses, seed=seed + 1)
+    groups = [measure_tree(sim, tip, q, noise=NOISE, seed=seed + 2 + k) for k, tip in enumerate(tree.tips)]
+    body = {"records": record_docs(groups, tree), "noise_position_mm": 0.02, "accuracy_samples": 10}
+    calibrate_tree(api, tree_id, body)
+
+
 @pytest.fixture(scope="module")
 def calibrated_urdf(api: TestClient) -> tuple[dict[str, Any], RobotTree]:
     """The URDF dual-arm tree calibrated through the API from positions of both hands on a perturbed truth."""
     tree = tree_from_urdf(URDF, "world", TIPS, name="yumi-export")
-    made = _create(api, {"name": "yumi-export", "urdf": URDF, "base_link": "world", "tip_links": TIPS})
-    sim = perturbed_tree(tree, seed=71)
-    q = tree_joint_samples(tree, 30, seed=72)
-    groups = [measure_tree(sim, tip, q, noise=NOISE, seed=73 + k) for k, tip in enumerate(tree.tips)]
-    fit = api.post(f"/v1/robot-trees/{made['id']}/calibrations", json={"records": _docs(tree, groups),
-                   "noise_position_mm": 0.02, "accuracy_samples": 10})  # fmt: skip
-    assert fit.status_code == 201, fit.text
+    made = create_tree(api, {"name": "yumi-export", "urdf": URDF, "base_link": "world", "tip_links": TIPS})
+    _calibrate_on_a_perturbed_truth(api, made["id"], tree, seed=71, poses=30)
     return api.get(f"/v1/robot-trees/{made['id']}").json(), tree
 
 
@@ -318,13 +296,8 @@ def _dh_link(link: dict[str, Any], q: np.ndarray) -> np.ndarray:
 @pytest.mark.slow  # a calibration of the torso through the API: ~1.5 s
 def test_the_dh_tables_composed_by_hand_are_the_calibrated_torsos_kinematics(api: TestClient) -> None:
     tree = dual_arm_torso()
-    made = _create(api, torso_document("torso-dh"))
-    sim = perturbed_tree(tree, seed=81)
-    q = tree_joint_samples(tree, 24, seed=82)
-    groups = [measure_tree(sim, tip, q, noise=NOISE, seed=83 + k) for k, tip in enumerate(tree.tips)]
-    fit = api.post(f"/v1/robot-trees/{made['id']}/calibrations", json={"records": _docs(tree, groups),
-                   "noise_position_mm": 0.02, "accuracy_samples": 10})  # fmt: skip
-    assert fit.status_code == 201, fit.text
+    made = create_tree(api, torso_document("torso-dh"))
+    _calibrate_on_a_perturbed_truth(api, made["id"], tree, seed=81, poses=24)
     theta = to_internal(api.get(f"/v1/robot-trees/{made['id']}").json())
     tables = api.get(f"/v1/robot-trees/{made['id']}/exports/dh").json()
     assert tables["revision"] == 2 and tables["left_out"] == []
@@ -361,7 +334,7 @@ def _problem(answer: Any, status: int = 422) -> dict[str, Any]:
 
 @pytest.mark.slow  # twenty refusals, the tree's chains built for the joints' checks: ~0.4 s
 def test_bad_designs_compensations_and_exports_are_refused_naming_the_field(api: TestClient) -> None:
-    made = _create(api, positioner_document("refused-ops"))
+    made = create_tree(api, positioner_document("refused-ops"))
     tree = arm_with_positioner()
     path = f"/v1/robot-trees/{made['id']}"
     cases = [
@@ -413,7 +386,7 @@ def test_bad_designs_compensations_and_exports_are_refused_naming_the_field(api:
 def test_a_tool_whose_every_joint_carries_another_tool_cannot_be_compensated(api: TestClient) -> None:
     doc = torso_document("torso-fixture")
     doc["branches"].append({"name": "fixture", "parent": "waist", "tool": doc["branches"][0]["tool"]})
-    made = _create(api, doc)
+    made = create_tree(api, doc)
     names = made["joint_names"]
     target = {"tool": "fixture", "joints": dict.fromkeys(names, 0.0), "position": [0.0, 0.0, 900.0],
               "orientation": [1.0, 0, 0, 0]}  # fmt: skip

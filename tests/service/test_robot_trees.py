@@ -7,89 +7,42 @@ relative error measured against the truth. Every refusal a 4xx naming its field.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-import scipy.optimize
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
 from iwr_client.errors import ApiError
-from models import Registry
 from models.description.examples import UR5_DH
-from models.noise import NoiseModel
-from models.tree import RobotTree, ToolRecords, measure_tree, perturbed_tree, tree_joint_samples
-from models.tree.examples import PART, POSITIONER, TORCH, WAIST, arm_with_positioner, dual_arm_torso
+from models.tree import RobotTree, ToolRecords, measure_tree, tree_joint_samples
+from models.tree.examples import arm_with_positioner, dual_arm_torso
+from tests.models.test_tree_identification import simulated_campaign
 from tests.models.test_tree_urdf import TIPS, URDF, _urdf_fk
 from tests.models.tree_reference import POSITIONER as POSITIONER_SEGMENTS
-from tests.models.tree_reference import TORSO, Segment, chain_fk, relative
-from tests.service.conftest import fresh_sqlite, make_client
+from tests.models.tree_reference import (
+    TORSO,
+    Segment,
+    chain_fk,
+    reference_fit,
+    relative,
+    rms_error,
+    tool_positions,
+)
 from tests.service.helpers import InProcess
-
-NOISE = NoiseModel(position_mm=0.02)
-ARM = {"kind": "serial", "convention": "dh", "links": [dict(row) for row in UR5_DH]}
-
-
-def pose_doc(pose: tuple[float, ...] | np.ndarray) -> dict[str, list[float]]:
-    """(x, y, z mm, rotation vector rad) as the API's pose: mm and a unit quaternion [w, x, y, z]."""
-    x, y, z, w = Rotation.from_rotvec(np.asarray(pose[3:], dtype=float)).as_quat()
-    return {"position": [float(v) for v in pose[:3]], "orientation": [float(w), float(x), float(y), float(z)]}
-
-
-def torso_document(name: str = "torso") -> dict[str, Any]:
-    """The models' `dual_arm_torso` as the API's document, written here; the left arm listed before the waist it
-    hangs from (the service orders them)."""
-    tilt = np.radians(30.0)
-    return {
-        "name": name,
-        "branches": [
-            {"name": "left", "parent": "waist", "mount": pose_doc((0, 250, 350, -tilt, 0, 0)), "stages": [ARM],
-             "tool": pose_doc(TORCH)},
-            {"name": "waist", "stages": [{"kind": "serial", "convention": "dh", "links": [WAIST]}]},
-            {"name": "right", "parent": "waist", "mount": pose_doc((0, -250, 350, tilt, 0, 0)), "stages": [ARM],
-             "tool": pose_doc(TORCH)},
-        ],
-    }  # fmt: skip
-
-
-def positioner_document(name: str = "cell") -> dict[str, Any]:
-    mount = (1200.0, 0.0, 600.0, np.pi / 2, 0.0, 0.0)
-    return {
-        "name": name,
-        "branches": [
-            {"name": "arm", "stages": [ARM], "tool": pose_doc(TORCH)},
-            {"name": "positioner", "mount": pose_doc(mount),
-             "stages": [{"kind": "serial", "convention": "dh", "links": POSITIONER}], "tool": pose_doc(PART)},
-        ],
-    }  # fmt: skip
-
-
-@pytest.fixture(scope="module")
-def api(tmp_path_factory: pytest.TempPathFactory, migrated_sqlite: Path, registry: Registry) -> Iterator[TestClient]:
-    """One app for the module: its trees' chains are built once."""
-    with make_client(fresh_sqlite(migrated_sqlite, tmp_path_factory.mktemp("trees")), registry) as client:
-        yield client
-
-
-def _create(api: TestClient, body: dict[str, Any]) -> dict[str, Any]:
-    made = api.post("/v1/robot-trees", json=body)
-    assert made.status_code == 201, made.text
-    found: dict[str, Any] = made.json()
-    return found
-
-
-def to_internal(tree: dict[str, Any]) -> np.ndarray:
-    """The API's current parameters (mm, deg) as the models' vector (mm, rad), in the tree's order."""
-    return np.array([p["value"] if p["unit"] == "mm" else np.radians(p["value"]) for p in tree["parameters"]])
-
-
-def by_name(tree: RobotTree, q: np.ndarray) -> list[dict[str, float]]:
-    """Internal joint vectors as the API's: by name, in degrees (every joint of these trees is revolute)."""
-    return [dict(zip(tree.joint_names, np.degrees(row).tolist(), strict=True)) for row in q]
+from tests.service.trees import (
+    NOISE,
+    by_name,
+    calibrate_tree,
+    create_tree,
+    positioner_document,
+    record_docs,
+    to_internal,
+    torso_document,
+)
 
 
 # ---------------------------------------------------------------------------------------------- the resource
@@ -125,7 +78,7 @@ def test_a_tree_is_stored_ordered_and_shown_back(api: TestClient) -> None:
 
 @pytest.mark.slow  # the torso's two chains and their frames' Functions: ~0.3 s
 def test_kinematics_equal_the_hand_written_numpy_model(api: TestClient) -> None:
-    tree = _create(api, torso_document("torso-fk"))
+    tree = create_tree(api, torso_document("torso-fk"))
     models_tree = dual_arm_torso()
     q = tree_joint_samples(models_tree, 4, seed=3)
     answer = api.post(f"/v1/robot-trees/{tree['id']}/kinematics", json={"joints": by_name(models_tree, q)})
@@ -234,7 +187,7 @@ def test_bad_trees_are_refused_naming_the_field(api: TestClient) -> None:
 
 @pytest.mark.slow  # a refused fit of eight records runs the identifiability analysis: ~0.4 s
 def test_bad_records_and_joints_are_refused_naming_them(api: TestClient) -> None:
-    tree = _create(api, positioner_document("refusals"))
+    tree = create_tree(api, positioner_document("refusals"))
     models_tree = arm_with_positioner()
     joints = by_name(models_tree, tree_joint_samples(models_tree, 1, seed=1))[0]
     record = {"tool": "arm", "joints": joints, "position": [1000.0, 0.0, 500.0]}
@@ -280,40 +233,18 @@ def _kabsch(model: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.nda
     return r, cs - r @ cm
 
 
-def reference_fit(
+def _registered_fit(
     segments: dict[str, list[Segment]], groups: list[ToolRecords], nominal: np.ndarray, free: np.ndarray,
     scales: np.ndarray,
 ) -> np.ndarray:  # fmt: skip
-    """scipy's 'trf' on the numpy model (finite differences) over the parameters the API estimated, from the
-    nominal with the base registered by this test's own Kabsch fit: the reference's parameters."""
-
-    def positions(theta: np.ndarray, group: ToolRecords) -> np.ndarray:
-        a = chain_fk(segments[group.tool], theta, group.joints)
-        t = a if group.frame is None else relative(a, chain_fk(segments[group.frame], theta, group.joints))
-        return t[:, :3, 3]
-
+    """The scipy reference fit over the parameters the API estimated, from the nominal with the base registered by
+    this test's own Kabsch fit: the reference's parameters."""
     absolute = [g for g in groups if g.frame is None]
-    r, t = _kabsch(np.vstack([positions(nominal, g) for g in absolute]), np.vstack([g.positions for g in absolute]))
+    model = np.vstack([tool_positions(segments, nominal, g.tool, None, g.joints) for g in absolute])
+    r, t = _kabsch(model, np.vstack([g.positions for g in absolute]))
     start = nominal.copy()
     start[:6] = np.r_[t, Rotation.from_matrix(r).as_rotvec()]
-
-    def residuals(z: np.ndarray) -> np.ndarray:
-        theta = start.copy()
-        theta[free] += scales[free] * z
-        return np.concatenate([((positions(theta, g) - g.positions) / NOISE.position_mm).ravel() for g in groups])
-
-    fit = scipy.optimize.least_squares(residuals, np.zeros(free.size), method="trf", x_scale="jac", xtol=1e-12)
-    theta = start.copy()
-    theta[free] += scales[free] * fit.x
-    return theta
-
-
-def record_docs(groups: list[ToolRecords], tree: RobotTree) -> list[dict[str, Any]]:
-    return [
-        {"tool": g.tool, "frame": g.frame, "joints": j, "position": p.tolist()}
-        for g in groups
-        for j, p in zip(by_name(tree, g.joints), g.positions, strict=True)
-    ]
+    return reference_fit(segments, groups, start, free, scales, NOISE.position_mm)
 
 
 @dataclass(frozen=True)
@@ -335,11 +266,8 @@ class Campaign:
 def _campaign(api: TestClient, doc: dict[str, Any], make: Callable[[], RobotTree], segments: dict[str, list[Segment]],
               pair: tuple[str, str], poses: int) -> Campaign:  # fmt: skip
     tree = make()
-    made = _create(api, doc)
-    sim = perturbed_tree(tree, seed=11)
-    q = tree_joint_samples(tree, poses, seed=12)
-    groups = [measure_tree(sim, tip, q, noise=NOISE, seed=k) for k, tip in enumerate(tree.tips)]
-    groups.append(measure_tree(sim, pair[0], q, frame=pair[1], noise=NOISE, seed=7))
+    made = create_tree(api, doc)
+    sim, groups = simulated_campaign(tree, pair, poses)
     held_q = tree_joint_samples(tree, 15, seed=13)
     held = [measure_tree(sim, tip, held_q, noise=NOISE, seed=20 + k) for k, tip in enumerate(tree.tips)]
     body = {
@@ -347,14 +275,13 @@ def _campaign(api: TestClient, doc: dict[str, Any], make: Callable[[], RobotTree
         "held_out": record_docs(held, tree),
         "noise_position_mm": NOISE.position_mm,
     }
-    answer = api.post(f"/v1/robot-trees/{made['id']}/calibrations", json=body, headers={"If-Match": '"1"'})
-    assert answer.status_code == 201, answer.text
+    answer = calibrate_tree(api, made["id"], body, headers={"If-Match": '"1"'})
     after = api.get(f"/v1/robot-trees/{made['id']}").json()
     names = tree.parameters.index
-    free = np.array([names[n] for n in answer.json()["estimated"]])
-    reference = reference_fit(segments, groups, tree.parameters.nominal, free, tree.parameters.scales)
+    free = np.array([names[n] for n in answer["estimated"]])
+    reference = _registered_fit(segments, groups, tree.parameters.nominal, free, tree.parameters.scales)
     return Campaign(
-        tree, segments, pair, sim.truth, answer.json(), to_internal(after), reference,
+        tree, segments, pair, sim.truth, answer, to_internal(after), reference,
         tree_joint_samples(tree, 100, seed=99), made, after,
     )  # fmt: skip
 
@@ -372,12 +299,7 @@ def positioner(api: TestClient) -> Campaign:
 
 def _error(c: Campaign, theta: np.ndarray, tool: str, frame: str | None) -> float:
     """RMS position error over the test joints against the truth, on the numpy model."""
-
-    def at(p: np.ndarray) -> np.ndarray:
-        a = chain_fk(c.segments[tool], p, c.test_joints)
-        return (a if frame is None else relative(a, chain_fk(c.segments[frame], p, c.test_joints)))[:, :3, 3]
-
-    return float(np.sqrt(np.mean(np.sum((at(theta) - at(c.truth)) ** 2, axis=1))))
+    return rms_error(c.segments, theta, c.truth, c.test_joints, tool, frame)
 
 
 @pytest.mark.slow  # two calibrations through the API and two finite-difference reference fits: ~6 s of CPU

@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import html
 import re
-from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -27,32 +25,22 @@ from models.tree import (
 from models.tree.examples import arm_with_positioner
 from service.reports.tree import sorted_profile
 from service.services.tree_reports import build_tree_report, region_joints
-from tests.service.conftest import fresh_sqlite, make_client
-from tests.service.test_robot_trees import NOISE, positioner_document, record_docs
+from tests.service.trees import NOISE, calibrate_tree, create_tree, positioner_document, record_docs
 
 NAME = "cell <script>alert(1)</script>"
-
-
-@pytest.fixture(scope="module")
-def api(tmp_path_factory: pytest.TempPathFactory, migrated_sqlite: Path, registry: Registry) -> Iterator[TestClient]:
-    with make_client(fresh_sqlite(migrated_sqlite, tmp_path_factory.mktemp("tree-report")), registry) as client:
-        yield client
 
 
 @pytest.fixture(scope="module")
 def calibrated(api: TestClient) -> dict[str, Any]:
     """The arm and positioner cell, named with markup, calibrated from 16 poses of both tools and held-out ones."""
     tree = arm_with_positioner()
-    made = api.post("/v1/robot-trees", json=positioner_document(NAME))
-    assert made.status_code == 201, made.text
+    made = create_tree(api, positioner_document(NAME))
     sim = perturbed_tree(tree, seed=31)
     q = tree_joint_samples(tree, 16, seed=32)
     groups = [measure_tree(sim, tip, q, noise=NOISE, seed=k) for k, tip in enumerate(tree.tips)]
     held = [measure_tree(sim, tip, tree_joint_samples(tree, 6, seed=33), noise=NOISE, seed=9) for tip in tree.tips]
     body = {"records": record_docs(groups, tree), "held_out": record_docs(held, tree), "noise_position_mm": 0.02}
-    answer = api.post(f"/v1/robot-trees/{made.json()['id']}/calibrations", json=body)
-    assert answer.status_code == 201, answer.text
-    return {"tree": tree, "groups": groups, "answer": answer.json()}
+    return {"tree": tree, "groups": groups, "answer": calibrate_tree(api, made["id"], body)}
 
 
 def _values(page: str) -> dict[str, str]:

@@ -22,7 +22,7 @@ from models.noise import NoiseModel
 from models.tree import measure_tree, perturbed_tree, tree_joint_samples
 from models.tree.examples import arm_with_positioner
 from tests.models.test_tree_compensation import _away_from_singularities
-from tests.service.test_robot_trees import positioner_document, record_docs, torso_document
+from tests.service.trees import positioner_document, record_docs, torso_document
 from tests.ui.conftest import PAGE_WAIT_MS, screenshot, watched_page
 from tests.ui.pages import ready, to_mm, view_mapping
 

@@ -42,12 +42,25 @@ def _ready(page: Any, pattern: str) -> str:
     return fragment
 
 
-def _create_iwr(page: Any, server: str, name: str) -> str:
+def _robot_form(page: Any, server: str, name: str, source: str | None = None) -> None:
+    """The new-robot form, the robot named `name` and described by `source` (the label of its choice: "A DH / MDH
+    table", "A URDF file"; None: the IWR, the form's default)."""
     page.goto(f"{server}/ui#/")
     _ready(page, "^#/$")
     page.get_by_label("Name").fill(name)
+    if source is not None:
+        page.get_by_label(source).check()
+
+
+def _create(page: Any) -> str:
+    """Creates the robot the form describes: its id, once its page is drawn."""
     page.get_by_role("button", name="Create the robot").click()
     return _ready(page, "^#/robots/[0-9a-f-]+$").split("/")[-1]
+
+
+def _create_iwr(page: Any, server: str, name: str) -> str:
+    _robot_form(page, server, name)
+    return _create(page)
 
 
 def _calibrate(page: Any, campaign: Path, *, noise_mm: float | None = None) -> str:
@@ -207,16 +220,12 @@ DH_ROWS = (
 
 
 def test_a_robot_from_a_pasted_dh_table(page: Any, server: str) -> None:
-    page.goto(f"{server}/ui#/")
-    _ready(page, "^#/$")
-    page.get_by_label("Name").fill("arm-dh")
-    page.get_by_label("A DH / MDH table").check()
+    _robot_form(page, server, "arm-dh", "A DH / MDH table")
     page.get_by_label("Or paste rows from a spreadsheet").fill(DH_ROWS)
     page.get_by_role("button", name="Fill the table from the pasted rows").click()
     assert page.locator("#dh-table tbody tr").count() == 3
     screenshot(page, "robot-dh")
-    page.get_by_role("button", name="Create the robot").click()
-    robot_id = _ready(page, "^#/robots/[0-9a-f-]+$").split("/")[-1]
+    robot_id = _create(page)
     robot = httpx.get(f"{server}/v1/robots/{robot_id}").json()
     assert robot["model"] == "custom" and robot["joint_names"] == ["q1", "q2", "q3"]
     links = robot["structure"]["stages"][0]["links"]
@@ -231,25 +240,18 @@ def test_a_robot_from_a_urdf_file(page: Any, server: str, tmp_path: Path) -> Non
     joints = [joint(f"j{i}", f"l{i}", f"l{i + 1}") for i in range(3)] + [joint("mount", "l1", "camera", "fixed")]
     path = tmp_path / "arm.urdf"
     path.write_text(urdf(links, joints))
-    page.goto(f"{server}/ui#/")
-    _ready(page, "^#/$")
-    page.get_by_label("Name").fill("arm-urdf")
-    page.get_by_label("A URDF file").check()
+    _robot_form(page, server, "arm-urdf", "A URDF file")
     page.set_input_files("#urdf-file", str(path))
     expect(page.locator("#urdf-tip option")).to_have_count(5)
     assert page.locator("#urdf-base").input_value() == "l0"  # the root, offered first
     page.select_option("#urdf-tip", "l3")
-    page.get_by_role("button", name="Create the robot").click()
-    robot_id = _ready(page, "^#/robots/[0-9a-f-]+$").split("/")[-1]
+    robot_id = _create(page)
     robot = httpx.get(f"{server}/v1/robots/{robot_id}").json()
     assert robot["model"] == "custom" and robot["joint_names"] == ["q1", "q2", "q3"]
 
 
 def test_a_wrong_table_is_refused_in_words(page: Any, server: str) -> None:
-    page.goto(f"{server}/ui#/")
-    _ready(page, "^#/$")
-    page.get_by_label("Name").fill("arm-wrong")
-    page.get_by_label("A DH / MDH table").check()
+    _robot_form(page, server, "arm-wrong", "A DH / MDH table")
     page.locator("#dh-table tbody tr").first.locator('[data-key="a"]').fill("twelve")
     page.get_by_role("button", name="Create the robot").click()
     text = page.locator("#create-error").inner_text()
@@ -378,10 +380,7 @@ def test_a_running_job_is_cancelled_and_listed(page: Any, server: str) -> None:
 def test_a_dh_robot_takes_its_base_and_tool_and_the_last_link_stays_as_typed(page: Any, server: str) -> None:
     """Issue 45: the DH form had no tool, so a tracker reflector's 95 mm went into the last link (82.3 → 177.1 mm)
     and every export carried it. The tool (and the base) are now fields of their own, into the document's."""
-    page.goto(f"{server}/ui#/")
-    _ready(page, "^#/$")
-    page.get_by_label("Name").fill("arm-dh-tool")
-    page.get_by_label("A DH / MDH table").check()
+    _robot_form(page, server, "arm-dh-tool", "A DH / MDH table")
     page.get_by_label("Or paste rows from a spreadsheet").fill(DH_ROWS)
     page.get_by_role("button", name="Fill the table from the pasted rows").click()
     typed_base = {"x": "1200", "y": "-350,5", "z": "0", "rz": "30", "ry": "0", "rx": "0"}  # a decimal comma too
@@ -391,8 +390,7 @@ def test_a_dh_robot_takes_its_base_and_tool_and_the_last_link_stays_as_typed(pag
             unit = "mm" if key in "xyz" else "deg"
             page.get_by_label(f"{what} {key} ({unit})", exact=True).fill(value)
     screenshot(page, "robot-dh-base-tool")
-    page.get_by_role("button", name="Create the robot").click()
-    robot_id = _ready(page, "^#/robots/[0-9a-f-]+$").split("/")[-1]
+    robot_id = _create(page)
     robot = httpx.get(f"{server}/v1/robots/{robot_id}").json()
     document = robot["structure"]
     for pose, typed in ((document["base"], typed_base), (document["tool"], typed_tool)):
@@ -445,10 +443,7 @@ def test_a_xacro_file_is_named_with_its_command(page: Any, server: str, tmp_path
         '<xacro:macro name="abb_irb2400" params="prefix">\n  <link name="${prefix}base_link"/>\n'
         "</xacro:macro>\n</robot>\n"
     )
-    page.goto(f"{server}/ui#/")
-    _ready(page, "^#/$")
-    page.get_by_label("Name").fill("arm-xacro")
-    page.get_by_label("A URDF file").check()
+    _robot_form(page, server, "arm-xacro", "A URDF file")
     page.set_input_files("#urdf-file", str(path))
     expect(page.locator("#urdf-info")).to_contain_text("xacro")
     assert "xacro robot.urdf.xacro > robot.urdf" in page.locator("#urdf-info").inner_text()
