@@ -4,7 +4,7 @@ from typing import Any
 
 from fastapi import APIRouter, Query, Request, Response
 
-from service.http.deps import DatabaseDep, MetricsDep, compute, negotiate
+from service.http.deps import ComputeDep, DatabaseDep, negotiate
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import Runs, operation
 from service.http.security import Scope
@@ -30,7 +30,7 @@ async def calibration_report(
     calibration_id: str,
     request: Request,
     db: DatabaseDep,
-    m: MetricsDep,
+    compute: ComputeDep,
     format: str | None = Query(None, pattern="^(html|pdf)$", description="Overrides Accept"),
 ) -> Response:
     """Before/after errors per pose, histograms, the measured poses in 3-D, the variance-factor test, parameter
@@ -38,8 +38,8 @@ async def calibration_report(
     and the parameter table. Every number is the API's."""
     media = _FORMATS[format] if format else negotiate(request, list(_FORMATS.values()))
     if media == "application/pdf":
-        pdf = await compute(m, "report", reports.report_pdf, db=db, calibration_id=calibration_id)
+        pdf = await compute("report", reports.report_pdf, db=db, calibration_id=calibration_id)
         disposition = f'inline; filename="calibration-{calibration_id}.pdf"'
         return Response(pdf, media_type="application/pdf", headers={"Content-Disposition": disposition})
-    page = await compute(m, "report", reports.report_html, db=db, calibration_id=calibration_id)
+    page = await compute("report", reports.report_html, db=db, calibration_id=calibration_id)
     return Response(page, media_type="text/html; charset=utf-8")

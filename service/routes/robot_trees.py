@@ -13,17 +13,7 @@ from fastapi.concurrency import run_in_threadpool
 from pydantic import TypeAdapter
 
 from service.compute import limits
-from service.http.deps import (
-    ActorDep,
-    DatabaseDep,
-    Limit,
-    MetricsDep,
-    Offset,
-    RegistryDep,
-    SettingsDep,
-    compute,
-    negotiate,
-)
+from service.http.deps import ActorDep, ComputeDep, DatabaseDep, Limit, Offset, RegistryDep, negotiate
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import Runs, operation
 from service.http.responses import model_json, models_json
@@ -96,22 +86,15 @@ async def robot_tree_kinematics(
     body: TreeKinematicsRequest,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
 ) -> Response:
     """Per joint vector (by name, or in the tree's order; deg and mm): each tool's pose in the world frame,
     each tool in every other tool's frame (`a/b`), and with `frames` every frame of every branch once and each
     tool's chain of frame names, to draw the tree. The tree's current parameters."""
     size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
-    limits.admit(
-        limits.tree_kinematics(len(body.joints), size.tools, size.frames if body.frames else 0),
-        run_async=False,
-        can_run_async=False,
-        budget_s=settings.sync_budget_seconds,
-    )
-    found = await compute(
-        m, "tree_kinematics", robot_trees.kinematics, db=db, registry=registry, tree_id=tree_id, body=body
-    )
+    cost = limits.tree_kinematics(len(body.joints), size.tools, size.frames if body.frames else 0)
+    on_tree = {"db": db, "registry": registry, "tree_id": tree_id, "body": body}
+    found = await compute.admitted(cost, "tree_kinematics", robot_trees.kinematics, **on_tree)
     return model_json(found)
 
 
@@ -128,9 +111,8 @@ async def create_robot_tree_calibration(
     body: TreeCalibrationCreate,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
+    compute: ComputeDep,
     actor: ActorDep,
-    settings: SettingsDep,
     if_match: IfMatch = None,
 ) -> Response:
     """The tree's parameters from records of its tools (each naming the `tool` it measured, in the instrument's
@@ -139,22 +121,10 @@ async def create_robot_tree_calibration(
     frame). Applied (the default) it becomes the tree's parameters, a new revision."""
     size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
     records = len(body.records) + len(body.held_out)
-    limits.admit(
-        limits.tree_calibration(records, size.parameters),
-        run_async=False,
-        can_run_async=False,
-        budget_s=settings.sync_budget_seconds,
-    )
-    found = await compute(
-        m,
-        "tree_calibration",
-        robot_trees.calibrate,
-        db=db,
-        registry=registry,
-        tree_id=tree_id,
-        body=body,
-        actor=actor,
-        if_match=if_match,
+    cost = limits.tree_calibration(records, size.parameters)
+    on_tree = {"db": db, "registry": registry, "tree_id": tree_id, "body": body}
+    found = await compute.admitted(
+        cost, "tree_calibration", robot_trees.calibrate, actor=actor, if_match=if_match, **on_tree
     )
     return model_json(found, status_code=201)
 
@@ -196,7 +166,7 @@ async def robot_tree_calibration_report(
     request: Request,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
+    compute: ComputeDep,
     format: str | None = Query(None, pattern="^(html|pdf)$", description="Overrides Accept"),
 ) -> Response:
     """The calibration's report: the tree's branches, each tool's fit and held-out error (a figure and a table),
@@ -205,10 +175,10 @@ async def robot_tree_calibration_report(
     media = _REPORT_FORMATS[format] if format else negotiate(request, list(_REPORT_FORMATS.values()))
     kwargs = {"db": db, "registry": registry, "tree_id": tree_id, "calibration_id": calibration_id}
     if media == "application/pdf":
-        pdf = await compute(m, "tree_report", tree_reports.tree_report_pdf, **kwargs)
+        pdf = await compute("tree_report", tree_reports.tree_report_pdf, **kwargs)
         disposition = f'inline; filename="tree-calibration-{calibration_id}.pdf"'
         return Response(pdf, media_type="application/pdf", headers={"Content-Disposition": disposition})
-    page = await compute(m, "tree_report", tree_reports.tree_report_html, **kwargs)
+    page = await compute("tree_report", tree_reports.tree_report_html, **kwargs)
     return Response(page, media_type="text/html; charset=utf-8")
 
 
@@ -231,8 +201,7 @@ async def design_robot_tree_records(
     request: Request,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
     format: Literal["json", "csv"] | None = Query(None, description="json (the default) or csv; or by Accept"),
 ) -> Response:
     """Which records to take of the tree's tools (`measure`: each tool's position or pose, in the instrument's
@@ -244,15 +213,9 @@ async def design_robot_tree_records(
     size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
     records = body.offered(size.tools)
     rows = TreeMeasured.most_rows(body.measure)
-    limits.admit(
-        limits.tree_design(records, rows, size.parameters, body.count, body.criterion.value),
-        run_async=False,
-        can_run_async=False,
-        budget_s=settings.sync_budget_seconds,
-    )
-    found = await compute(
-        m, "tree_design", tree_operations.design, db=db, registry=registry, tree_id=tree_id, body=body
-    )
+    cost = limits.tree_design(records, rows, size.parameters, body.count, body.criterion.value)
+    on_tree = {"db": db, "registry": registry, "tree_id": tree_id, "body": body}
+    found = await compute.admitted(cost, "tree_design", tree_operations.design, **on_tree)
     media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(
         request, ["application/json", "text/csv"]
     )
@@ -270,23 +233,16 @@ async def compensate_robot_tree_targets(
     body: TreeCompensationCreate,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
 ) -> Response:
     """Per target (a tool's pose in the world, or in another tool's `frame`: the torch in the positioner's part
     frame), with the program's joints: the joints that put the tool there on the tree's current (calibrated)
     parameters, next to the program's. Only the tool's own branches move; the frame tool's and any branch it
     shares with another tool are kept. A target left as given says why (out of a joint's range, near a singular
     configuration or the edge of the reach, only on another configuration)."""
-    limits.admit(
-        limits.tree_compensation(len(body.targets)),
-        run_async=False,
-        can_run_async=False,
-        budget_s=settings.sync_budget_seconds,
-    )
-    found = await compute(
-        m, "tree_compensation", tree_operations.compensate, db=db, registry=registry, tree_id=tree_id, body=body
-    )
+    cost = limits.tree_compensation(len(body.targets))
+    on_tree = {"db": db, "registry": registry, "tree_id": tree_id, "body": body}
+    found = await compute.admitted(cost, "tree_compensation", tree_operations.compensate, **on_tree)
     return model_json(found)
 
 
