@@ -168,6 +168,16 @@ def negotiate(request: Request, offered: list[str]) -> str:
     return best
 
 
+JSON_OR_CSV = {"json": "application/json", "csv": "text/csv"}
+"""The `?format=` values of an answer offered as JSON (the default) or CSV, and their media types."""
+
+
+def requested_media(request: Request, format: str | None, formats: dict[str, str]) -> str:
+    """The media type that `?format=` names (a key of `formats`, validated by the route's query), else the first
+    of `formats` that the Accept header allows (`negotiate`; 406 if none)."""
+    return formats.get(format or "") or negotiate(request, list(formats.values()))
+
+
 def wants_csv(request: Request) -> bool:
     accept = request.headers.get("accept", "")
     return "text/csv" in accept and "application/json" not in accept

@@ -15,7 +15,7 @@ from service.files.campaign_requests import (
     query_fields,
     robot_columns,
 )
-from service.http.deps import ComputeDep, DatabaseDep, Limit, Offset, RegistryDep, negotiate
+from service.http.deps import JSON_OR_CSV, ComputeDep, DatabaseDep, Limit, Offset, RegistryDep, requested_media
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import QUICK_CHECK, Runs, operation
 from service.http.responses import model_json, models_json
@@ -34,7 +34,6 @@ from service.services import checks
 router = APIRouter(tags=["checks"], route_class=OffloopRoute)
 _CHECKS = TypeAdapter(list[QuickCheckPublic])
 _HISTORY = TypeAdapter(list[HistoryEventPublic])
-_FORMATS = {"json": "application/json", "csv": "text/csv"}
 _HISTORY_CSV: dict[int | str, dict[str, Any]] = {
     200: {
         "content": {"text/csv": {"schema": {"type": "string", "description": "header: " + ",".join(HISTORY_COLUMNS)}}}
@@ -138,7 +137,7 @@ def history(
 ) -> Response:
     """The robot's calibrations and checks on one timeline, oldest first, with the accuracy measured then: JSON,
     or CSV to export."""
-    media = _FORMATS[format] if format else negotiate(request, list(_FORMATS.values()))
+    media = requested_media(request, format, JSON_OR_CSV)
     events = checks.history(db=db, robot_id=robot_id, limit=limit, offset=offset)
     if media == "text/csv":
         return Response(

@@ -13,11 +13,21 @@ from fastapi.concurrency import run_in_threadpool
 from pydantic import TypeAdapter
 
 from service.compute import limits
-from service.http.deps import ActorDep, ComputeDep, DatabaseDep, Limit, Offset, RegistryDep, negotiate
+from service.http.deps import (
+    JSON_OR_CSV,
+    ActorDep,
+    ComputeDep,
+    DatabaseDep,
+    Limit,
+    Offset,
+    RegistryDep,
+    requested_media,
+)
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import Runs, operation
 from service.http.responses import model_json, models_json
 from service.http.security import Scope
+from service.routes.reports import REPORT_RESPONSES, Report, ReportFormat
 from service.schemas.robot_trees import (
     RobotTreeCreate,
     RobotTreePublic,
@@ -141,23 +151,10 @@ def get_robot_tree_calibration(tree_id: str, calibration_id: str, db: DatabaseDe
     return model_json(robot_trees.calibration(db=db, tree_id=tree_id, calibration_id=calibration_id))
 
 
-_REPORT_FORMATS = {"html": "text/html", "pdf": "application/pdf"}
+_TREE_REPORT = Report("tree_report", tree_reports.tree_report_html, tree_reports.tree_report_pdf)
 
 
-@router.get(
-    "/{tree_id}/calibrations/{calibration_id}/report",
-    response_class=Response,
-    responses={
-        200: {
-            "description": "The report: self-contained HTML (inline SVG figures) or PDF",
-            "content": {
-                "text/html": {"schema": {"type": "string"}},
-                "application/pdf": {"schema": {"type": "string", "format": "binary"}},
-            },
-        },
-        406: {"description": "Accept allows neither HTML nor PDF"},
-    },
-)
+@router.get("/{tree_id}/calibrations/{calibration_id}/report", response_class=Response, responses=REPORT_RESPONSES)
 @operation(Scope.read, runs=Runs.COMPUTE)
 async def robot_tree_calibration_report(
     tree_id: str,
@@ -167,22 +164,17 @@ async def robot_tree_calibration_report(
     db: DatabaseDep,
     registry: RegistryDep,
     compute: ComputeDep,
-    format: str | None = Query(None, pattern="^(html|pdf)$", description="Overrides Accept"),
+    format: ReportFormat = None,
 ) -> Response:
     """The calibration's report: the tree's branches, each tool's fit and held-out error (a figure and a table),
     each tool's and pair's predicted accuracy as the calibration states it, and a figure of each pair's RELATIVE
     position accuracy over joint vectors of the measured region (predicted after, moved by the fit ≈ before)."""
-    media = _REPORT_FORMATS[format] if format else negotiate(request, list(_REPORT_FORMATS.values()))
     kwargs = {"db": db, "registry": registry, "tree_id": tree_id, "calibration_id": calibration_id}
-    if media == "application/pdf":
-        pdf = await compute("tree_report", tree_reports.tree_report_pdf, **kwargs)
-        disposition = f'inline; filename="tree-calibration-{calibration_id}.pdf"'
-        return Response(pdf, media_type="application/pdf", headers={"Content-Disposition": disposition})
-    page = await compute("tree_report", tree_reports.tree_report_html, **kwargs)
-    return Response(page, media_type="text/html; charset=utf-8")
+    return await _TREE_REPORT.answer(compute, request, format, f"tree-calibration-{calibration_id}", **kwargs)
 
 
 _CSV = {"text/csv": {"schema": {"type": "string"}}}
+_URDF_OR_JSON = {"urdf": "application/xml", "json": "application/json"}
 
 
 @router.post(
@@ -216,10 +208,7 @@ async def design_robot_tree_records(
     cost = limits.tree_design(records, rows, size.parameters, body.count, body.criterion.value)
     on_tree = {"db": db, "registry": registry, "tree_id": tree_id, "body": body}
     found = await compute.admitted(cost, "tree_design", tree_operations.design, **on_tree)
-    media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(
-        request, ["application/json", "text/csv"]
-    )
-    if media == "text/csv":
+    if requested_media(request, format, JSON_OR_CSV) == "text/csv":
         names = await run_in_threadpool(tree_operations.joint_names, db=db, tree_id=tree_id)
         return Response(tree_operations.design_csv(names, found), media_type="text/csv")
     return model_json(found)
@@ -267,10 +256,7 @@ def export_robot_tree_urdf(
     drop-in), world <- base_link and each tip -> its TCP in a comment at its top and, as JSON, beside it. A 422
     for a tree given as a document (no URDF to write into: export its DH tables)."""
     found = tree_operations.urdf_export(db=db, tree_id=tree_id)
-    media = {"urdf": "application/xml", "json": "application/json"}.get(format or "") or negotiate(
-        request, ["application/xml", "application/json"]
-    )
-    if media == "application/json":
+    if requested_media(request, format, _URDF_OR_JSON) == "application/json":
         return model_json(found.public)
     return Response(found.xml, media_type="application/xml")
 
@@ -291,9 +277,6 @@ def export_robot_tree_dh(
     for a branch from the base) to its end, and its tool: JSON, or one CSV sheet (a base row, a row per link, a
     tool row per branch). Branches without serial stages are listed in `left_out`."""
     found = tree_operations.dh_export(db=db, tree_id=tree_id)
-    media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(
-        request, ["application/json", "text/csv"]
-    )
-    if media == "text/csv":
+    if requested_media(request, format, JSON_OR_CSV) == "text/csv":
         return Response(tree_operations.dh_csv(found), media_type="text/csv")
     return model_json(found)

@@ -6,7 +6,7 @@ from fastapi import APIRouter, Header, Query, Request, Response
 from pydantic import TypeAdapter
 
 from service.files.parameters_csv import PARAMETER_HEADER, parameters_csv
-from service.http.deps import ActorDep, BuildsDep, DatabaseDep, Limit, Offset, negotiate
+from service.http.deps import JSON_OR_CSV, ActorDep, BuildsDep, DatabaseDep, Limit, Offset, requested_media
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import operation
 from service.http.responses import model_json, models_json
@@ -20,7 +20,6 @@ router = APIRouter(prefix="/v1/robots", tags=["robots"], route_class=OffloopRout
 _ROBOTS = TypeAdapter(list[RobotPublic])
 IfMatch = Annotated[str | None, Header(description="The robot's ETag as last read: 412 when it has changed since")]
 _PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}
-_PARAMETER_FORMATS = ["application/json", "text/csv"]
 _PARAMETERS_CSV: dict[int | str, dict[str, Any]] = {
     200: {
         "content": {"text/csv": {"schema": {"type": "string", "description": "header " + ",".join(PARAMETER_HEADER)}}}
@@ -131,7 +130,7 @@ def get_parameters(
     if format in ("urdf", "dh", "ur-calibration"):
         out = exports.export(db=db, robot_id=robot_id, version=version, format=format)
         return Response(content=out.content, media_type=out.media_type)
-    media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(request, _PARAMETER_FORMATS)
+    media = requested_media(request, format, JSON_OR_CSV)
     parameters, etag = robots.get_parameters(db=db, robot_id=robot_id, version=version)
     if media == "text/csv":
         response = Response(parameters_csv(parameters), media_type="text/csv")
