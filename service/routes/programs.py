@@ -84,7 +84,7 @@ async def compensate(
     if run_async:
         body, encoding = await (_text_body(request, format, filename, version) if text else _json_body(request))
         # Over the cap of any job (time or memory) it is refused here, before it is stored.
-        limits.admit(_estimate(body), run_async=True)
+        compute.admit(_estimate(body), run_async=True)
         accepted = submit_job(
             db=db,
             jobs=jobs,
@@ -94,24 +94,15 @@ async def compensate(
             extra=None if encoding is None else {ENCODING: encoding},
         )
         return model_json(accepted, status_code=202)
+    on_robot: dict[str, Any] = {"db": db, "models": models, "registry": registry, "robot_id": robot_id}
     if not text:
-        out = await computed(compute, COMPENSATE, request, db=db, models=models, registry=registry, robot_id=robot_id)
+        out = await computed(compute, COMPENSATE, request, **on_robot)
         return Response(out, media_type="application/json")
     raw = await request.body()
     # The guard counts JSON bodies (the operation's precount); a text body is counted here, before it is parsed.
     compute.admit(limits.program_compensation(program_targets(raw), len(raw)), run_async=False)
-    answer = await compute(
-        COMPENSATE.kind,
-        programs.compensate_text,
-        raw=raw,
-        format_name=format,
-        filename=filename,
-        version=version,
-        db=db,
-        models=models,
-        registry=registry,
-        robot_id=robot_id,
-    )
+    program = {"raw": raw, "format_name": format, "filename": filename, "version": version}
+    answer = await compute(COMPENSATE.kind, programs.compensate_text, **program, **on_robot)
     return Response(answer.model_dump_json(), media_type="application/json")
 
 
