@@ -40,9 +40,7 @@ def put_cell(
     cell, etag = cells.put_cell(
         db=db, models=models, registry=registry, robot_id=robot_id, body=body, actor=actor, if_match=if_match
     )
-    response = model_json(cell)
-    response.headers["ETag"] = etag
-    return response
+    return model_json(cell, etag=etag)
 
 
 @router.get("", response_model=CellPublic, responses=_NOT_FOUND)

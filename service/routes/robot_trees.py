@@ -59,9 +59,7 @@ def create_robot_tree(body: RobotTreeCreate, db: DatabaseDep, actor: ActorDep) -
     a URDF and the links that carry its tools. A 422 names the field: a duplicate name, an unknown parent, a
     cycle, an end branch without a tool, too many links or joints, a xacro (with the command to expand it)."""
     tree, etag = robot_trees.create_tree(db=db, body=body, actor=actor)
-    response = model_json(tree, status_code=201)
-    response.headers["ETag"] = etag
-    return response
+    return model_json(tree, status_code=201, etag=etag)
 
 
 @router.get("", response_model=list[RobotTreePublic])
@@ -76,9 +74,7 @@ def get_robot_tree(tree_id: str, db: DatabaseDep) -> Response:
     """The tree: its branches (parents, children, mounts, tools, joints, stages), its parameters by name and group
     with their current values (the last applied calibration's, else nominal)."""
     tree, etag = robot_trees.get_tree(db=db, tree_id=tree_id)
-    response = model_json(tree)
-    response.headers["ETag"] = etag
-    return response
+    return model_json(tree, etag=etag)
 
 
 @router.delete("/{tree_id}", status_code=204, responses=_PRECONDITION)

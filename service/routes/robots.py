@@ -36,17 +36,15 @@ _CONTROLLER_FORMATS = {
 }
 
 
-def _etag(revision: int) -> dict[str, str]:
-    return {"ETag": f'"{revision}"'}
+def _etag(robot: RobotPublic) -> str:
+    return f'"{robot.revision}"'
 
 
 @router.post("", status_code=201, response_model=RobotPublic)
 @operation(Scope.write)
 def create_robot(body: RobotCreate, db: DatabaseDep, actor: ActorDep, builds: BuildsDep) -> Response:
     robot = robots.create_robot(db=db, body=body, actor=actor, builds=builds)
-    response = model_json(robot, status_code=201)
-    response.headers.update(_etag(robot.revision))
-    return response
+    return model_json(robot, status_code=201, etag=_etag(robot))
 
 
 @router.get("", response_model=list[RobotPublic])
@@ -63,9 +61,7 @@ def list_robots(
 @operation(Scope.read)
 def get_robot(robot_id: str, db: DatabaseDep, builds: BuildsDep) -> Response:
     robot = robots.get_robot(db=db, robot_id=robot_id, builds=builds)
-    response = model_json(robot)
-    response.headers.update(_etag(robot.revision))
-    return response
+    return model_json(robot, etag=_etag(robot))
 
 
 @router.patch(
@@ -84,9 +80,7 @@ def patch_robot(
     if_match: IfMatch = None,
 ) -> Response:
     robot = robots.patch_robot(db=db, robot_id=robot_id, body=body, actor=actor, if_match=if_match, builds=builds)
-    response = model_json(robot)
-    response.headers.update(_etag(robot.revision))
-    return response
+    return model_json(robot, etag=_etag(robot))
 
 
 @router.delete("/{robot_id}", status_code=204, responses=_PRECONDITION)
