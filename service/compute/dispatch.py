@@ -25,10 +25,9 @@ from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel
 
 from service.compute import limits
-from service.http.deps import compute
+from service.http.deps import Compute
 from service.http.guards import OFFLOOP_BYTES
 from service.http.json_bodies import raw_json_body, validate_json, validated
-from service.metrics import Metrics
 
 B = TypeVar("B", bound=BaseModel)
 
@@ -47,13 +46,13 @@ class BodyComputation(Generic[B]):
 
 
 async def computed(
-    m: Metrics, what: BodyComputation[B], request: Request, *, as_json: bool = True, **dependencies: Any
+    compute: Compute, what: BodyComputation[B], request: Request, *, as_json: bool = True, **dependencies: Any
 ) -> Any:
     """The use case's answer for the request's body: JSON bytes, or with `as_json=False` its model."""
     raw = await raw_json_body(request)
     if len(raw) > OFFLOOP_BYTES:
         out = await compute(
-            m, what.kind, _from_bytes, schema=what.schema, run=what.run, raw=raw, as_json=as_json, **dependencies
+            what.kind, _from_bytes, schema=what.schema, run=what.run, raw=raw, as_json=as_json, **dependencies
         )
         if isinstance(out, list):  # the body's validation errors, found in the compute process
             raise RequestValidationError(out)
@@ -61,9 +60,8 @@ async def computed(
     body = validated(what.schema, raw)
     if what.inline is not None and what.inline(body):
         return _answer(what.run(body=body, **dependencies), as_json)
-    budget = request.app.state.settings.sync_budget_seconds
-    limits.admit(what.estimate(body), run_async=False, can_run_async=False, budget_s=budget)
-    return await compute(m, what.kind, _from_model, run=what.run, body=body, as_json=as_json, **dependencies)
+    run = {"run": what.run, "body": body, "as_json": as_json}
+    return await compute.admitted(what.estimate(body), what.kind, _from_model, **run, **dependencies)
 
 
 def _answer(out: BaseModel, as_json: bool) -> Any:

@@ -4,6 +4,7 @@ what they measured, and the answers back in boundary units."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -19,7 +20,7 @@ from models.formats.urdf import refuse_xacro
 from models.stages import SerialStage, Stage
 from models.stages.document import pose, pose_document
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np
-from models.tree import Branch, MountStage, RobotTree, ToolRecords, TreePoses, tree_from_urdf
+from models.tree import Branch, MountStage, RobotTree, ToolAccuracy, ToolRecords, TreePoses, tree_from_urdf
 from models.tree.kinematics import tree_joints
 from service.compute import limits
 from service.conversions.kinematics import unit_quaternion
@@ -262,6 +263,21 @@ def parameters_out(tree: RobotTree, values: Array, std: Array | None) -> list[Tr
             std_error=None if std is None or not np.isfinite(std[i]) else float(std[i] * scale[i]),
         )
         for i, spec in enumerate(table.specs)
+    ]
+
+
+def accuracy_out(found: Sequence[ToolAccuracy]) -> list[dict[str, Any]]:
+    """Predicted accuracies as the API's `TreeAccuracyPublic` (deg for the orientation)."""
+    return [
+        {
+            "label": a.label,
+            "tool": a.label.split("/")[0],
+            "frame": a.label.split("/")[1] if "/" in a.label else None,
+            "rms_position_mm": a.rms_position_mm,
+            "max_position_mm": a.max_position_mm,
+            "rms_orientation_deg": math.degrees(a.rms_orientation_rad),
+        }
+        for a in found
     ]
 
 

@@ -57,16 +57,30 @@ from service.settings import Settings, get_settings
 log = logging.getLogger("service.http")
 
 
-class BodyLimit:
-    """413 for bodies over the limit, by Content-Length or by counting a streamed body."""
+class HttpMiddleware:
+    """An ASGI middleware of HTTP requests (`handle`); anything else (the lifespan) passes straight through."""
 
-    def __init__(self, app: ASGIApp, limit: int) -> None:
-        self.app, self.limit = app, limit
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
+        await self.handle(scope, receive, send)
+
+    async def handle(self, scope: Scope, receive: Receive, send: Send) -> None:
+        raise NotImplementedError
+
+
+class BodyLimit(HttpMiddleware):
+    """413 for bodies over the limit, by Content-Length or by counting a streamed body."""
+
+    def __init__(self, app: ASGIApp, limit: int) -> None:
+        super().__init__(app)
+        self.limit = limit
+
+    async def handle(self, scope: Scope, receive: Receive, send: Send) -> None:
         declared = dict(scope.get("headers", [])).get(b"content-length")
         if declared is not None and declared.isdigit() and int(declared) > self.limit:
             await self._reject(scope, receive, send)
@@ -89,16 +103,14 @@ class BodyLimit:
         await problems.response(problems.to_problem(exc))(scope, receive, send)
 
 
-class Observe:
+class Observe(HttpMiddleware):
     """Request id, metrics and a structured log line per request (plain ASGI: no extra task per call)."""
 
     def __init__(self, app: ASGIApp, metrics: Metrics) -> None:
-        self.app, self.metrics = app, metrics
+        super().__init__(app)
+        self.metrics = metrics
 
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
+    async def handle(self, scope: Scope, receive: Receive, send: Send) -> None:
         headers = dict(scope.get("headers", []))
         rid = headers.get(b"x-request-id", b"").decode("latin-1")[:200] or uuid.uuid4().hex
         token = logs.request_id.set(rid)
@@ -165,18 +177,12 @@ with the user's credentials)."""
 _INLINE_SCRIPT = re.compile(rb"<script>(.*?)</script>", re.DOTALL)
 
 
-class SecurityHeaders:
+class SecurityHeaders(HttpMiddleware):
     """Content-Security-Policy, X-Frame-Options, nosniff and no referrer on every response. Swagger UI's page
     (/docs) starts itself with an inline script, which its policy allows by that script's hash (computed from
     the page as sent, so it holds whatever FastAPI writes) and nothing else inline."""
 
-    def __init__(self, app: ASGIApp) -> None:
-        self.app = app
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
+    async def handle(self, scope: Scope, receive: Receive, send: Send) -> None:
         docs = scope["path"] == "/docs"
         held: list[Message] = []
 

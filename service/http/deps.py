@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
 from typing import Annotated, Any, TypeVar
 
 from fastapi import Depends, Query, Request
@@ -93,6 +94,40 @@ async def compute(m: Metrics, kind: str, fn: Callable[..., T], /, **kwargs: Any)
         m.solve.labels(kind).observe(time.perf_counter() - started)
 
 
+@dataclass(frozen=True)
+class Compute:
+    """The compute pool as a route uses it: each computation within the compute slots and timed into the metrics
+    (`compute`), its estimated cost first admitted within the application's synchronous budget
+    (`Settings.sync_budget_seconds`) where the route counts the work itself, once its body is read."""
+
+    metrics: Metrics
+    settings: Settings
+
+    def admit(self, cost: limits.Estimate, *, run_async: bool, can_run_async: bool = True) -> None:
+        """422 `work-too-large` for `cost` over the synchronous budget (unless it runs as a job) or over any job's
+        cap (`limits.admit`); the refusal advises ?async=true where the operation has a job form."""
+        budget_s = self.settings.sync_budget_seconds
+        limits.admit(cost, run_async=run_async, can_run_async=can_run_async, budget_s=budget_s)
+
+    async def __call__(self, kind: str, fn: Callable[..., T], /, **kwargs: Any) -> T:
+        """`fn(**kwargs)` in the compute pool, timed as `kind` (`compute`)."""
+        return await compute(self.metrics, kind, fn, **kwargs)
+
+    async def admitted(self, cost: limits.Estimate, kind: str, fn: Callable[..., T], /, **kwargs: Any) -> T:
+        """An operation with no job form: `cost` admitted (over the budget the client is told to send fewer at a
+        time), then `fn(**kwargs)` in the compute pool."""
+        self.admit(cost, run_async=False, can_run_async=False)
+        return await self(kind, fn, **kwargs)
+
+
+async def _compute(m: MetricsDep, settings: SettingsDep) -> Compute:
+    return Compute(m, settings)
+
+
+ComputeDep = Annotated[Compute, Depends(_compute)]
+"""The compute pool with the application's metrics and budget (`Compute`)."""
+
+
 def negotiate(request: Request, offered: list[str]) -> str:
     """The first of `offered` (the default) that the Accept header allows, by its q-values; 406 if none.
 
@@ -131,6 +166,16 @@ def negotiate(request: Request, offered: list[str]) -> str:
             f"Accept {accept!r} allows none of {', '.join(offered)}; ask for one of them", offered=offered
         )
     return best
+
+
+JSON_OR_CSV = {"json": "application/json", "csv": "text/csv"}
+"""The `?format=` values of an answer offered as JSON (the default) or CSV, and their media types."""
+
+
+def requested_media(request: Request, format: str | None, formats: dict[str, str]) -> str:
+    """The media type that `?format=` names (a key of `formats`, validated by the route's query), else the first
+    of `formats` that the Accept header allows (`negotiate`; 406 if none)."""
+    return formats.get(format or "") or negotiate(request, list(formats.values()))
 
 
 def wants_csv(request: Request) -> bool:

@@ -12,10 +12,19 @@ from fastapi.responses import Response
 from pydantic import BaseModel, TypeAdapter
 
 
-def model_json(model: BaseModel, status_code: int = 200) -> Response:
+def model_json(model: BaseModel, status_code: int = 200, *, etag: str | None = None) -> Response:
+    """The model as JSON; with `etag`, the ETag of what it shows (a robot's or a tree's revision)."""
     body = model.__pydantic_serializer__.to_json(model)
-    return Response(body, status_code=status_code, media_type="application/json")
+    return _tagged(Response(body, status_code=status_code, media_type="application/json"), etag)
 
 
-def models_json(models: list[Any], adapter: TypeAdapter[Any], status_code: int = 200) -> Response:
-    return Response(adapter.dump_json(models), status_code=status_code, media_type="application/json")
+def models_json(
+    models: list[Any], adapter: TypeAdapter[Any], status_code: int = 200, *, etag: str | None = None
+) -> Response:
+    return _tagged(Response(adapter.dump_json(models), status_code=status_code, media_type="application/json"), etag)
+
+
+def _tagged(response: Response, etag: str | None) -> Response:
+    if etag is not None:
+        response.headers["ETag"] = etag
+    return response

@@ -56,18 +56,23 @@ def etag(robot: Robot) -> str:
     return f'"{robot.revision}"'
 
 
-def check_revision(robot: Robot, if_match: str | None) -> None:
-    """RFC 9110 If-Match with strong comparison: absent or `*` passes, otherwise one listed tag must be current."""
+def check_if_match(if_match: str | None, current: str, what: str) -> None:
+    """RFC 9110 If-Match with strong comparison: absent or `*` passes, otherwise one listed tag must be `current`,
+    the ETag of `what` (as the refusal names it)."""
     if if_match is None:
         return
     tags = [t.strip() for t in if_match.split(",") if t.strip()]
-    if "*" in tags or etag(robot) in tags:
+    if "*" in tags or current in tags:
         return
     raise PreconditionFailed(
-        f"If-Match {if_match!r} does not match robot {robot.id!r}, now at revision {etag(robot)}: "
-        "read it again and retry",
-        current=etag(robot),
+        f"If-Match {if_match!r} does not match {what}, now at revision {current}: read it again and retry",
+        current=current,
     )
+
+
+def check_revision(robot: Robot, if_match: str | None) -> None:
+    """If-Match against the robot's revision (`check_if_match`)."""
+    check_if_match(if_match, etag(robot), f"robot {robot.id!r}")
 
 
 class Lifecycle(Store):

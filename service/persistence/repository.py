@@ -61,13 +61,8 @@ class Repository(Store):
         return robot
 
     def robot(self, robot_id: str, *, lock: bool = False) -> Robot:
-        query = select(Robot).where(Robot.id == robot_id)
-        if lock:
-            query = query.with_for_update()
-        found = self.s.scalars(query).first()
-        if found is None:
-            raise NotFound(f"no robot with id {robot_id!r}", resource="robot", id=robot_id)
-        return found
+        robot: Robot = self._selected_by_id(Robot, robot_id, "robot", lock=lock)
+        return robot
 
     def robot_named(self, name: str) -> Robot | None:
         return self.s.scalars(select(Robot).where(Robot.name == name).limit(1)).first()

@@ -10,8 +10,7 @@ from typing import Any
 from sqlalchemy import select
 
 from service.audit_actions import AuditAction
-from service.errors import NotFound, PreconditionFailed
-from service.persistence.lifecycle import Actor
+from service.persistence.lifecycle import Actor, check_if_match
 from service.persistence.repository import new_id
 from service.persistence.store import Store
 from service.persistence.tables import AuditEvent, RobotTreeCalibrationRecord, RobotTreeRecord
@@ -22,17 +21,8 @@ def tree_etag(tree: RobotTreeRecord) -> str:
 
 
 def check_tree_revision(tree: RobotTreeRecord, if_match: str | None) -> None:
-    """RFC 9110 If-Match, strong comparison, as a robot's (`lifecycle.check_revision`)."""
-    if if_match is None:
-        return
-    tags = [t.strip() for t in if_match.split(",") if t.strip()]
-    if "*" in tags or tree_etag(tree) in tags:
-        return
-    raise PreconditionFailed(
-        f"If-Match {if_match!r} does not match robot tree {tree.id!r}, now at revision {tree_etag(tree)}: "
-        "read it again and retry",
-        current=tree_etag(tree),
-    )
+    """If-Match against the tree's revision, as a robot's (`lifecycle.check_if_match`)."""
+    check_if_match(if_match, tree_etag(tree), f"robot tree {tree.id!r}")
 
 
 class TreeStore(Store):
@@ -48,13 +38,8 @@ class TreeStore(Store):
         return row
 
     def tree(self, tree_id: str, *, lock: bool = False) -> RobotTreeRecord:
-        query = select(RobotTreeRecord).where(RobotTreeRecord.id == tree_id)
-        if lock:
-            query = query.with_for_update()
-        found = self.s.scalars(query).first()
-        if found is None:
-            raise NotFound(f"no robot tree with id {tree_id!r}", resource="robot_tree", id=tree_id)
-        return found
+        tree: RobotTreeRecord = self._selected_by_id(RobotTreeRecord, tree_id, "robot_tree", lock=lock)
+        return tree
 
     def trees(self, limit: int, offset: int) -> list[RobotTreeRecord]:
         query = select(RobotTreeRecord).order_by(RobotTreeRecord.created_at, RobotTreeRecord.id)

@@ -13,6 +13,12 @@ from service.errors import NotFound
 Row = TypeVar("Row")
 
 
+def _found(row: Row | None, row_id: str, resource: str) -> Row:
+    if row is None:
+        raise NotFound(f"no {resource.replace('_', ' ')} with id {row_id!r}", resource=resource, id=row_id)
+    return row
+
+
 class Store:
     def __init__(self, session: Session) -> None:
         self.s = session
@@ -24,10 +30,13 @@ class Store:
         return row
 
     def _by_id(self, table: type[Row], row_id: str, resource: str) -> Row:
-        found = self.s.get(table, row_id)
-        if found is None:
-            raise NotFound(f"no {resource.replace('_', ' ')} with id {row_id!r}", resource=resource, id=row_id)
-        return found
+        return _found(self.s.get(table, row_id), row_id, resource)
+
+    def _selected_by_id(self, table: Any, row_id: str, resource: str, *, lock: bool = False) -> Any:
+        """The row by id as a SELECT reads it (FOR UPDATE with `lock`: held until the transaction ends), or
+        `NotFound` naming the resource."""
+        query = select(table).where(table.id == row_id)
+        return _found(self.s.scalars(query.with_for_update() if lock else query).first(), row_id, resource)
 
     def _of_robot(self, table: Any, robot_id: str, limit: int, offset: int) -> list[Any]:
         """`table`'s rows of the robot, oldest first (the id breaks ties of one timestamp, so pages never

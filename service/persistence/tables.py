@@ -104,47 +104,39 @@ class CampaignRecord(Base):
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
 
 
-class CalibrationRecord(Base):
-    __tablename__ = "calibrations"
+class CampaignOutcome:
+    """The columns of what an operation made of a stored campaign (a calibration, a validation, a quick check):
+    its robot and campaign, its result document, the notes and the instrument it was sent with."""
+
     id: Mapped[str] = mapped_column(String(36), primary_key=True)
     robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id", ondelete="CASCADE"), index=True)
     campaign_id: Mapped[str] = mapped_column(ForeignKey("campaigns.id", ondelete="CASCADE"))
+    result: Mapped[dict[str, Any]] = mapped_column(JSON)
+    notes: Mapped[str | None] = mapped_column(Text, nullable=True)
+    instrument: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    """{"name", "serial"} of the instrument that measured the campaign."""
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
+
+
+class CalibrationRecord(CampaignOutcome, Base):
+    __tablename__ = "calibrations"
     status: Mapped[str] = mapped_column(String(20))
     applied: Mapped[bool] = mapped_column(default=False)
     parameter_version: Mapped[int | None] = mapped_column(Integer, nullable=True)
     start_version: Mapped[int | None] = mapped_column(Integer, nullable=True)
     """The parameter version the fit started from (null for calibrations stored before it was recorded)."""
-    result: Mapped[dict[str, Any]] = mapped_column(JSON)
-    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
-    notes: Mapped[str | None] = mapped_column(Text, nullable=True)
-    instrument: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
-    """{"name", "serial"} of the instrument that measured the campaign."""
 
 
-class ValidationRecord(Base):
+class ValidationRecord(CampaignOutcome, Base):
     __tablename__ = "validations"
-    id: Mapped[str] = mapped_column(String(36), primary_key=True)
-    robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id", ondelete="CASCADE"), index=True)
-    campaign_id: Mapped[str] = mapped_column(ForeignKey("campaigns.id", ondelete="CASCADE"))
-    result: Mapped[dict[str, Any]] = mapped_column(JSON)
-    notes: Mapped[str | None] = mapped_column(Text, nullable=True)
-    instrument: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
-    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
 
 
-class CheckRecord(Base):
+class CheckRecord(CampaignOutcome, Base):
     """A quick check (models.evaluation.checks): a few records against the version current then, and its verdict."""
 
     __tablename__ = "checks"
-    id: Mapped[str] = mapped_column(String(36), primary_key=True)
-    robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id", ondelete="CASCADE"), index=True)
-    campaign_id: Mapped[str] = mapped_column(ForeignKey("campaigns.id", ondelete="CASCADE"))
     version: Mapped[int] = mapped_column(Integer)
     verdict: Mapped[str] = mapped_column(String(20))
-    result: Mapped[dict[str, Any]] = mapped_column(JSON)
-    notes: Mapped[str | None] = mapped_column(Text, nullable=True)
-    instrument: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
-    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=now)
 
 
 class AuditEvent(Base):

@@ -6,17 +6,7 @@ from fastapi import APIRouter, Response
 from pydantic import TypeAdapter
 
 from service.compute import limits
-from service.http.deps import (
-    ActorDep,
-    DatabaseDep,
-    Limit,
-    MetricsDep,
-    ModelCacheDep,
-    Offset,
-    RegistryDep,
-    SettingsDep,
-    compute,
-)
+from service.http.deps import ActorDep, ComputeDep, DatabaseDep, Limit, ModelCacheDep, Offset, RegistryDep
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import Runs, operation
 from service.http.responses import model_json, models_json
@@ -45,17 +35,15 @@ async def create_adaptive_campaign(
     db: DatabaseDep,
     models: ModelCacheDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
 ) -> Response:
     """A campaign that asks for one pose at a time, re-identifies after each record and stops when the
     predicted accuracy reaches the target (or the budget is spent): its candidate pool and the first poses to
     measure (the identifiable minimum and two spare, D-optimal). With a cell, only poses it can measure."""
     # no job form: a start over the synchronous budget (a cell's checks of many candidates) asks for fewer
     cost = limits.adaptive_start(body.candidate_count, in_cell=body.cell is not None)
-    limits.admit(cost, run_async=False, can_run_async=False, budget_s=settings.sync_budget_seconds)
     kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "body": body}
-    result = await compute(m, "adaptive", adaptive.create_campaign, **kwargs)
+    result = await compute.admitted(cost, "adaptive", adaptive.create_campaign, **kwargs)
     return model_json(result, status_code=201)
 
 
@@ -69,13 +57,13 @@ async def post_adaptive_records(
     db: DatabaseDep,
     models: ModelCacheDep,
     registry: RegistryDep,
-    m: MetricsDep,
+    compute: ComputeDep,
 ) -> Response:
     """Records measured (tracker records, as a calibration takes them): the updated estimate, the predicted
     accuracy, the blunders flagged, and the next pose or `done` with why. With an Idempotency-Key a retry replays
     the answer instead of posting the records twice."""
     kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "campaign_id": campaign_id}
-    result = await compute(m, "adaptive", adaptive.post_records, body=body, **kwargs)
+    result = await compute("adaptive", adaptive.post_records, body=body, **kwargs)
     return model_json(result)
 
 
@@ -105,13 +93,11 @@ async def finish_adaptive_campaign(
     models: ModelCacheDep,
     registry: RegistryDep,
     actor: ActorDep,
-    m: MetricsDep,
+    compute: ComputeDep,
     body: AdaptiveFinish | None = None,
 ) -> Response:
     """End the campaign; by default store a calibration of its records (blunders left out) through the
     calibration path, whose checks decide whether it is applied."""
     kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "campaign_id": campaign_id}
-    result = await compute(
-        m, "adaptive", adaptive.finish_campaign, body=body or AdaptiveFinish(), actor=actor, **kwargs
-    )
+    result = await compute("adaptive", adaptive.finish_campaign, body=body or AdaptiveFinish(), actor=actor, **kwargs)
     return model_json(result)

@@ -14,18 +14,7 @@ from service.files.campaign_requests import (
     campaign_request_body,
     robot_columns,
 )
-from service.http.deps import (
-    ActorDep,
-    DatabaseDep,
-    JobsDep,
-    Limit,
-    MetricsDep,
-    Offset,
-    RegistryDep,
-    SettingsDep,
-    compute,
-    negotiate,
-)
+from service.http.deps import ActorDep, ComputeDep, DatabaseDep, JobsDep, Limit, Offset, RegistryDep, negotiate
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import CALIBRATION, Runs, operation
 from service.http.responses import model_json, models_json
@@ -73,11 +62,10 @@ async def create_calibration(
     request: Request,
     db: DatabaseDep,
     jobs: JobsDep,
-    m: MetricsDep,
+    compute: ComputeDep,
     *,
     registry: RegistryDep,
     actor: ActorDep,
-    settings: SettingsDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
     query: Annotated[CampaignQuery, Depends(campaign_query)],
     if_match: IfMatch = None,
@@ -85,14 +73,13 @@ async def create_calibration(
     # A JSON body over the budget was refused before any parsing (its `precount`, service.http.operations); a CSV one is
     # counted once parsed.
     body = await campaign_body(request, query, functools.partial(robot_columns, db, robot_id))
-    limits.admit(limits.calibration(len(body.measurements)), run_async=run_async, budget_s=settings.sync_budget_seconds)
+    compute.admit(limits.calibration(len(body.measurements)), run_async=run_async)
     if run_async:
         accepted = submit_job(
             db=db, jobs=jobs, kind="calibration", robot_id=robot_id, body=body, actor=actor, if_match=if_match
         )
         return model_json(accepted, status_code=202)
     calibration = await compute(
-        m,
         "identification",
         calibrations.calibrate,
         db=db,

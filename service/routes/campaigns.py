@@ -8,7 +8,7 @@ from typing import Any
 from fastapi import APIRouter, Query, Request, Response
 
 from service.files.csv_codec import CAMPAIGN_HEADER
-from service.http.deps import DatabaseDep, ModelCacheDep, negotiate
+from service.http.deps import JSON_OR_CSV, DatabaseDep, ModelCacheDep, requested_media
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import operation
 from service.http.responses import model_json
@@ -18,7 +18,6 @@ from service.schemas.campaigns import CampaignPublic
 from service.services import campaigns
 
 router = APIRouter(tags=["campaigns"], route_class=OffloopRoute)
-_FORMATS = {"json": "application/json", "csv": "text/csv"}
 _CSV: dict[int | str, dict[str, Any]] = {
     200: {
         "content": {
@@ -70,7 +69,7 @@ def get_campaign(
     format: str | None = Query(None, pattern="^(json|csv)$", description="Overrides Accept"),
 ) -> Response:
     """The measurements behind a calibration or validation, as received: JSON, or the spec's CSV."""
-    media = _FORMATS[format] if format else negotiate(request, list(_FORMATS.values()))
+    media = requested_media(request, format, JSON_OR_CSV)
     campaign = campaigns.get_campaign(db=db, campaign_id=campaign_id)
     if media == "text/csv":
         names = models.current(campaign.robot_id)[0].joint_names

@@ -9,17 +9,7 @@ from fastapi import APIRouter, Header, Query, Response
 from pydantic import TypeAdapter
 
 from service.compute import limits
-from service.http.deps import (
-    ActorDep,
-    DatabaseDep,
-    Limit,
-    MetricsDep,
-    ModelCacheDep,
-    Offset,
-    RegistryDep,
-    SettingsDep,
-    compute,
-)
+from service.http.deps import ActorDep, ComputeDep, DatabaseDep, Limit, ModelCacheDep, Offset, RegistryDep
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import Runs, operation
 from service.http.responses import model_json, models_json
@@ -50,9 +40,7 @@ def put_cell(
     cell, etag = cells.put_cell(
         db=db, models=models, registry=registry, robot_id=robot_id, body=body, actor=actor, if_match=if_match
     )
-    response = model_json(cell)
-    response.headers["ETag"] = etag
-    return response
+    return model_json(cell, etag=etag)
 
 
 @router.get("", response_model=CellPublic, responses=_NOT_FOUND)
@@ -93,19 +81,12 @@ async def check_cell(
     db: DatabaseDep,
     models: ModelCacheDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
 ) -> Response:
     """Each pose (joints in mm and degrees) feasible or not, with the first reason and what caused it: a
     plant engineer checks a pose list before running it. Joints outside their ranges are refused, not a 422."""
     # Counted after parsing: a body's brackets would count a mesh's triangles as poses.
-    limits.admit(
-        limits.cell_check(len(body.poses)),
-        run_async=False,
-        can_run_async=False,
-        budget_s=settings.sync_budget_seconds,
-    )
-    found = await compute(
-        m, "cell_check", cells.check_cell, db=db, models=models, registry=registry, robot_id=robot_id, body=body
-    )
+    cost = limits.cell_check(len(body.poses))
+    kwargs = {"db": db, "models": models, "registry": registry, "robot_id": robot_id, "body": body}
+    found = await compute.admitted(cost, "cell_check", cells.check_cell, **kwargs)
     return model_json(found)

@@ -15,7 +15,7 @@ from service.files.campaign_requests import (
     query_fields,
     robot_columns,
 )
-from service.http.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute, negotiate
+from service.http.deps import JSON_OR_CSV, ComputeDep, DatabaseDep, Limit, Offset, RegistryDep, requested_media
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import QUICK_CHECK, Runs, operation
 from service.http.responses import model_json, models_json
@@ -34,7 +34,6 @@ from service.services import checks
 router = APIRouter(tags=["checks"], route_class=OffloopRoute)
 _CHECKS = TypeAdapter(list[QuickCheckPublic])
 _HISTORY = TypeAdapter(list[HistoryEventPublic])
-_FORMATS = {"json": "application/json", "csv": "text/csv"}
 _HISTORY_CSV: dict[int | str, dict[str, Any]] = {
     200: {
         "content": {"text/csv": {"schema": {"type": "string", "description": "header: " + ",".join(HISTORY_COLUMNS)}}}
@@ -76,9 +75,8 @@ async def create_check(
     request: Request,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
+    compute: ComputeDep,
     *,
-    settings: SettingsDep,
     options: FileOptions,
     fields: dict[str, Any] = Depends(check_fields),
 ) -> Response:
@@ -90,21 +88,26 @@ async def create_check(
         request, QuickCheckCreate, options, query_fields(fields), functools.partial(robot_columns, db, robot_id)
     )
     cost = limits.quick_check(len(body.measurements))
-    limits.admit(cost, run_async=False, can_run_async=False, budget_s=settings.sync_budget_seconds)
-    result = await compute(m, "check", checks.create_check, db=db, registry=registry, robot_id=robot_id, body=body)
+    result = await compute.admitted(
+        cost, "check", checks.create_check, db=db, registry=registry, robot_id=robot_id, body=body
+    )
     return model_json(result, status_code=201)
 
 
 @router.post("/v1/robots/{robot_id}/checks/design", response_model=QuickCheckDesignPublic)
 @operation(Scope.read, runs=Runs.COMPUTE)  # computes the poses, stores nothing
 async def design_check(
-    robot_id: str, db: DatabaseDep, registry: RegistryDep, m: MetricsDep, body: QuickCheckDesignCreate | None = None
+    robot_id: str,
+    db: DatabaseDep,
+    registry: RegistryDep,
+    compute: ComputeDep,
+    body: QuickCheckDesignCreate | None = None,
 ) -> Response:
     """The poses of a check that see the likely changes best (the joint offsets, the tool), and the change of
     each the check would flag with 95 % probability."""
     chosen = body or QuickCheckDesignCreate()
     result = await compute(
-        m, "check_design", checks.design_check_poses, db=db, registry=registry, robot_id=robot_id, body=chosen
+        "check_design", checks.design_check_poses, db=db, registry=registry, robot_id=robot_id, body=chosen
     )
     return model_json(result)
 
@@ -134,7 +137,7 @@ def history(
 ) -> Response:
     """The robot's calibrations and checks on one timeline, oldest first, with the accuracy measured then: JSON,
     or CSV to export."""
-    media = _FORMATS[format] if format else negotiate(request, list(_FORMATS.values()))
+    media = requested_media(request, format, JSON_OR_CSV)
     events = checks.history(db=db, robot_id=robot_id, limit=limit, offset=offset)
     if media == "text/csv":
         return Response(

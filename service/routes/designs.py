@@ -9,18 +9,7 @@ from optimal_design.problem import MAX_CANDIDATES
 from service.compute import limits
 from service.compute.model_cache import ModelCache
 from service.files.csv_codec import joints_csv
-from service.http.deps import (
-    DatabaseDep,
-    JobsDep,
-    Limit,
-    MetricsDep,
-    ModelCacheDep,
-    Offset,
-    RegistryDep,
-    SettingsDep,
-    compute,
-    wants_csv,
-)
+from service.http.deps import ComputeDep, DatabaseDep, JobsDep, Limit, ModelCacheDep, Offset, RegistryDep, wants_csv
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import POSE_DESIGN, Runs, operation
 from service.http.responses import model_json, models_json
@@ -65,8 +54,7 @@ async def create_design(
     models: ModelCacheDep,
     registry: RegistryDep,
     jobs: JobsDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
     run_async: bool = Query(False, alias="async", description="Run as a job: 202 with a job id"),
 ) -> Response:
     candidates = body.offered()
@@ -80,12 +68,12 @@ async def create_design(
         # Given candidates are each checked once; sampled ones until candidate_count are feasible.
         checked = candidates if body.candidates is not None else candidates * limits.CELL_SAMPLED_PER_CANDIDATE
         cost = limits.with_cell(cost, min(checked, MAX_CANDIDATES))
-    limits.admit(cost, run_async=run_async, budget_s=settings.sync_budget_seconds)
+    compute.admit(cost, run_async=run_async)
     if run_async:
         accepted = submit_job(db=db, jobs=jobs, kind="pose_design", robot_id=robot_id, body=body)
         return model_json(accepted, status_code=202)
     design = await compute(
-        m, "pose_design", designs.create_design, db=db, models=models, registry=registry, robot_id=robot_id, body=body
+        "pose_design", designs.create_design, db=db, models=models, registry=registry, robot_id=robot_id, body=body
     )
     return _answer(request, design, 201, models)
 

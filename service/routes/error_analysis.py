@@ -3,7 +3,7 @@ from __future__ import annotations
 from fastapi import APIRouter, Response
 
 from service.compute import limits
-from service.http.deps import MetricsDep, ModelCacheDep, RegistryDep, SettingsDep, compute
+from service.http.deps import ComputeDep, ModelCacheDep, RegistryDep
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import Runs, operation
 from service.http.responses import model_json
@@ -21,11 +21,11 @@ router = APIRouter(tags=["error analysis"], route_class=OffloopRoute)
 )
 @operation(Scope.read, runs=Runs.COMPUTE)
 async def run_error_analysis(
-    body: ErrorAnalysisRequest, registry: RegistryDep, m: MetricsDep, models: ModelCacheDep, settings: SettingsDep
+    body: ErrorAnalysisRequest, registry: RegistryDep, compute: ComputeDep, models: ModelCacheDep
 ) -> Response:
     """The tolerance study on the IWR, or on the robot `robot_id` names (any structure)."""
     cost = limits.error_analysis(body.poses, body.draws)
-    limits.admit(cost, run_async=False, can_run_async=False, budget_s=settings.sync_budget_seconds)
-    return model_json(
-        await compute(m, "error_analysis", error_analysis.analyse, registry=registry, body=body, models=models)
+    analysis = await compute.admitted(
+        cost, "error_analysis", error_analysis.analyse, registry=registry, body=body, models=models
     )
+    return model_json(analysis)

@@ -5,7 +5,7 @@ from fastapi import APIRouter, Request, Response
 from service.compute import limits
 from service.compute.dispatch import BodyComputation, computed
 from service.files.csv_codec import joints_csv
-from service.http.deps import MetricsDep, ModelCacheDep, RegistryDep, wants_csv
+from service.http.deps import ComputeDep, ModelCacheDep, RegistryDep, wants_csv
 from service.http.json_bodies import OffloopRoute, request_body
 from service.http.operations import FORWARD_KINEMATICS, INVERSE_KINEMATICS, Runs, operation
 from service.http.security import Scope
@@ -37,9 +37,9 @@ INVERSE = BodyComputation(
 @router.post("/forward-kinematics", response_model=ForwardResponse, openapi_extra=request_body(ForwardRequest))
 @operation(Scope.read, runs=Runs.COMPUTE, precount=FORWARD_KINEMATICS)
 async def forward(
-    robot_id: str, request: Request, models: ModelCacheDep, registry: RegistryDep, m: MetricsDep
+    robot_id: str, request: Request, models: ModelCacheDep, registry: RegistryDep, compute: ComputeDep
 ) -> Response:
-    out = await computed(m, FORWARD, request, models=models, registry=registry, robot_id=robot_id)
+    out = await computed(compute, FORWARD, request, models=models, registry=registry, robot_id=robot_id)
     return Response(out, media_type="application/json")
 
 
@@ -56,10 +56,12 @@ async def inverse(
     request: Request,
     models: ModelCacheDep,
     registry: RegistryDep,
-    m: MetricsDep,
+    compute: ComputeDep,
 ) -> Response:
     csv = wants_csv(request)
-    out = await computed(m, INVERSE, request, as_json=not csv, models=models, registry=registry, robot_id=robot_id)
+    out = await computed(
+        compute, INVERSE, request, as_json=not csv, models=models, registry=registry, robot_id=robot_id
+    )
     if not csv:
         return Response(out, media_type="application/json")
     names = models.current(robot_id)[0].joint_names

@@ -14,7 +14,7 @@ from fastapi.exceptions import RequestValidationError
 
 from service.compute import limits
 from service.compute.dispatch import BodyComputation, computed
-from service.http.deps import DatabaseDep, JobsDep, MetricsDep, ModelCacheDep, RegistryDep, compute
+from service.http.deps import ComputeDep, DatabaseDep, JobsDep, ModelCacheDep, RegistryDep
 from service.http.guards import OFFLOOP_BYTES
 from service.http.json_bodies import OffloopRoute, raw_json_body, request_body, validate_json
 from service.http.operations import PROGRAM_COMPENSATION, Runs, operation, program_targets
@@ -67,7 +67,7 @@ async def compensate(
     models: ModelCacheDep,
     registry: RegistryDep,
     jobs: JobsDep,
-    m: MetricsDep,
+    compute: ComputeDep,
     format: ProgramFormat | None = Query(default=None, description="The format of a program sent as text"),
     filename: str | None = Query(
         default=None, max_length=255, description="Its file name (the extension names the format)"
@@ -84,7 +84,7 @@ async def compensate(
     if run_async:
         body, encoding = await (_text_body(request, format, filename, version) if text else _json_body(request))
         # Over the cap of any job (time or memory) it is refused here, before it is stored.
-        limits.admit(_estimate(body), run_async=True)
+        compute.admit(_estimate(body), run_async=True)
         accepted = submit_job(
             db=db,
             jobs=jobs,
@@ -94,27 +94,15 @@ async def compensate(
             extra=None if encoding is None else {ENCODING: encoding},
         )
         return model_json(accepted, status_code=202)
+    on_robot: dict[str, Any] = {"db": db, "models": models, "registry": registry, "robot_id": robot_id}
     if not text:
-        out = await computed(m, COMPENSATE, request, db=db, models=models, registry=registry, robot_id=robot_id)
+        out = await computed(compute, COMPENSATE, request, **on_robot)
         return Response(out, media_type="application/json")
     raw = await request.body()
     # The guard counts JSON bodies (the operation's precount); a text body is counted here, before it is parsed.
-    budget = request.app.state.settings.sync_budget_seconds
-    estimate = limits.program_compensation(program_targets(raw), len(raw))
-    limits.admit(estimate, run_async=False, budget_s=budget)
-    answer = await compute(
-        m,
-        COMPENSATE.kind,
-        programs.compensate_text,
-        raw=raw,
-        format_name=format,
-        filename=filename,
-        version=version,
-        db=db,
-        models=models,
-        registry=registry,
-        robot_id=robot_id,
-    )
+    compute.admit(limits.program_compensation(program_targets(raw), len(raw)), run_async=False)
+    program = {"raw": raw, "format_name": format, "filename": filename, "version": version}
+    answer = await compute(COMPENSATE.kind, programs.compensate_text, **program, **on_robot)
     return Response(answer.model_dump_json(), media_type="application/json")
 
 

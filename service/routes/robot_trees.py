@@ -14,20 +14,20 @@ from pydantic import TypeAdapter
 
 from service.compute import limits
 from service.http.deps import (
+    JSON_OR_CSV,
     ActorDep,
+    ComputeDep,
     DatabaseDep,
     Limit,
-    MetricsDep,
     Offset,
     RegistryDep,
-    SettingsDep,
-    compute,
-    negotiate,
+    requested_media,
 )
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import Runs, operation
 from service.http.responses import model_json, models_json
 from service.http.security import Scope
+from service.routes.reports import REPORT_RESPONSES, Report, ReportFormat
 from service.schemas.robot_trees import (
     RobotTreeCreate,
     RobotTreePublic,
@@ -59,9 +59,7 @@ def create_robot_tree(body: RobotTreeCreate, db: DatabaseDep, actor: ActorDep) -
     a URDF and the links that carry its tools. A 422 names the field: a duplicate name, an unknown parent, a
     cycle, an end branch without a tool, too many links or joints, a xacro (with the command to expand it)."""
     tree, etag = robot_trees.create_tree(db=db, body=body, actor=actor)
-    response = model_json(tree, status_code=201)
-    response.headers["ETag"] = etag
-    return response
+    return model_json(tree, status_code=201, etag=etag)
 
 
 @router.get("", response_model=list[RobotTreePublic])
@@ -76,9 +74,7 @@ def get_robot_tree(tree_id: str, db: DatabaseDep) -> Response:
     """The tree: its branches (parents, children, mounts, tools, joints, stages), its parameters by name and group
     with their current values (the last applied calibration's, else nominal)."""
     tree, etag = robot_trees.get_tree(db=db, tree_id=tree_id)
-    response = model_json(tree)
-    response.headers["ETag"] = etag
-    return response
+    return model_json(tree, etag=etag)
 
 
 @router.delete("/{tree_id}", status_code=204, responses=_PRECONDITION)
@@ -96,22 +92,15 @@ async def robot_tree_kinematics(
     body: TreeKinematicsRequest,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
 ) -> Response:
     """Per joint vector (by name, or in the tree's order; deg and mm): each tool's pose in the world frame,
     each tool in every other tool's frame (`a/b`), and with `frames` every frame of every branch once and each
     tool's chain of frame names, to draw the tree. The tree's current parameters."""
     size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
-    limits.admit(
-        limits.tree_kinematics(len(body.joints), size.tools, size.frames if body.frames else 0),
-        run_async=False,
-        can_run_async=False,
-        budget_s=settings.sync_budget_seconds,
-    )
-    found = await compute(
-        m, "tree_kinematics", robot_trees.kinematics, db=db, registry=registry, tree_id=tree_id, body=body
-    )
+    cost = limits.tree_kinematics(len(body.joints), size.tools, size.frames if body.frames else 0)
+    on_tree = {"db": db, "registry": registry, "tree_id": tree_id, "body": body}
+    found = await compute.admitted(cost, "tree_kinematics", robot_trees.kinematics, **on_tree)
     return model_json(found)
 
 
@@ -128,9 +117,8 @@ async def create_robot_tree_calibration(
     body: TreeCalibrationCreate,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
+    compute: ComputeDep,
     actor: ActorDep,
-    settings: SettingsDep,
     if_match: IfMatch = None,
 ) -> Response:
     """The tree's parameters from records of its tools (each naming the `tool` it measured, in the instrument's
@@ -139,22 +127,10 @@ async def create_robot_tree_calibration(
     frame). Applied (the default) it becomes the tree's parameters, a new revision."""
     size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
     records = len(body.records) + len(body.held_out)
-    limits.admit(
-        limits.tree_calibration(records, size.parameters),
-        run_async=False,
-        can_run_async=False,
-        budget_s=settings.sync_budget_seconds,
-    )
-    found = await compute(
-        m,
-        "tree_calibration",
-        robot_trees.calibrate,
-        db=db,
-        registry=registry,
-        tree_id=tree_id,
-        body=body,
-        actor=actor,
-        if_match=if_match,
+    cost = limits.tree_calibration(records, size.parameters)
+    on_tree = {"db": db, "registry": registry, "tree_id": tree_id, "body": body}
+    found = await compute.admitted(
+        cost, "tree_calibration", robot_trees.calibrate, actor=actor, if_match=if_match, **on_tree
     )
     return model_json(found, status_code=201)
 
@@ -171,23 +147,10 @@ def get_robot_tree_calibration(tree_id: str, calibration_id: str, db: DatabaseDe
     return model_json(robot_trees.calibration(db=db, tree_id=tree_id, calibration_id=calibration_id))
 
 
-_REPORT_FORMATS = {"html": "text/html", "pdf": "application/pdf"}
+_TREE_REPORT = Report("tree_report", tree_reports.tree_report_html, tree_reports.tree_report_pdf)
 
 
-@router.get(
-    "/{tree_id}/calibrations/{calibration_id}/report",
-    response_class=Response,
-    responses={
-        200: {
-            "description": "The report: self-contained HTML (inline SVG figures) or PDF",
-            "content": {
-                "text/html": {"schema": {"type": "string"}},
-                "application/pdf": {"schema": {"type": "string", "format": "binary"}},
-            },
-        },
-        406: {"description": "Accept allows neither HTML nor PDF"},
-    },
-)
+@router.get("/{tree_id}/calibrations/{calibration_id}/report", response_class=Response, responses=REPORT_RESPONSES)
 @operation(Scope.read, runs=Runs.COMPUTE)
 async def robot_tree_calibration_report(
     tree_id: str,
@@ -196,23 +159,18 @@ async def robot_tree_calibration_report(
     request: Request,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    format: str | None = Query(None, pattern="^(html|pdf)$", description="Overrides Accept"),
+    compute: ComputeDep,
+    format: ReportFormat = None,
 ) -> Response:
     """The calibration's report: the tree's branches, each tool's fit and held-out error (a figure and a table),
     each tool's and pair's predicted accuracy as the calibration states it, and a figure of each pair's RELATIVE
     position accuracy over joint vectors of the measured region (predicted after, moved by the fit ≈ before)."""
-    media = _REPORT_FORMATS[format] if format else negotiate(request, list(_REPORT_FORMATS.values()))
     kwargs = {"db": db, "registry": registry, "tree_id": tree_id, "calibration_id": calibration_id}
-    if media == "application/pdf":
-        pdf = await compute(m, "tree_report", tree_reports.tree_report_pdf, **kwargs)
-        disposition = f'inline; filename="tree-calibration-{calibration_id}.pdf"'
-        return Response(pdf, media_type="application/pdf", headers={"Content-Disposition": disposition})
-    page = await compute(m, "tree_report", tree_reports.tree_report_html, **kwargs)
-    return Response(page, media_type="text/html; charset=utf-8")
+    return await _TREE_REPORT.answer(compute, request, format, f"tree-calibration-{calibration_id}", **kwargs)
 
 
 _CSV = {"text/csv": {"schema": {"type": "string"}}}
+_URDF_OR_JSON = {"urdf": "application/xml", "json": "application/json"}
 
 
 @router.post(
@@ -231,8 +189,7 @@ async def design_robot_tree_records(
     request: Request,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
     format: Literal["json", "csv"] | None = Query(None, description="json (the default) or csv; or by Accept"),
 ) -> Response:
     """Which records to take of the tree's tools (`measure`: each tool's position or pose, in the instrument's
@@ -244,19 +201,10 @@ async def design_robot_tree_records(
     size = await run_in_threadpool(robot_trees.tree_size, db=db, tree_id=tree_id)
     records = body.offered(size.tools)
     rows = TreeMeasured.most_rows(body.measure)
-    limits.admit(
-        limits.tree_design(records, rows, size.parameters, body.count, body.criterion.value),
-        run_async=False,
-        can_run_async=False,
-        budget_s=settings.sync_budget_seconds,
-    )
-    found = await compute(
-        m, "tree_design", tree_operations.design, db=db, registry=registry, tree_id=tree_id, body=body
-    )
-    media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(
-        request, ["application/json", "text/csv"]
-    )
-    if media == "text/csv":
+    cost = limits.tree_design(records, rows, size.parameters, body.count, body.criterion.value)
+    on_tree = {"db": db, "registry": registry, "tree_id": tree_id, "body": body}
+    found = await compute.admitted(cost, "tree_design", tree_operations.design, **on_tree)
+    if requested_media(request, format, JSON_OR_CSV) == "text/csv":
         names = await run_in_threadpool(tree_operations.joint_names, db=db, tree_id=tree_id)
         return Response(tree_operations.design_csv(names, found), media_type="text/csv")
     return model_json(found)
@@ -270,23 +218,16 @@ async def compensate_robot_tree_targets(
     body: TreeCompensationCreate,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
 ) -> Response:
     """Per target (a tool's pose in the world, or in another tool's `frame`: the torch in the positioner's part
     frame), with the program's joints: the joints that put the tool there on the tree's current (calibrated)
     parameters, next to the program's. Only the tool's own branches move; the frame tool's and any branch it
     shares with another tool are kept. A target left as given says why (out of a joint's range, near a singular
     configuration or the edge of the reach, only on another configuration)."""
-    limits.admit(
-        limits.tree_compensation(len(body.targets)),
-        run_async=False,
-        can_run_async=False,
-        budget_s=settings.sync_budget_seconds,
-    )
-    found = await compute(
-        m, "tree_compensation", tree_operations.compensate, db=db, registry=registry, tree_id=tree_id, body=body
-    )
+    cost = limits.tree_compensation(len(body.targets))
+    on_tree = {"db": db, "registry": registry, "tree_id": tree_id, "body": body}
+    found = await compute.admitted(cost, "tree_compensation", tree_operations.compensate, **on_tree)
     return model_json(found)
 
 
@@ -311,10 +252,7 @@ def export_robot_tree_urdf(
     drop-in), world <- base_link and each tip -> its TCP in a comment at its top and, as JSON, beside it. A 422
     for a tree given as a document (no URDF to write into: export its DH tables)."""
     found = tree_operations.urdf_export(db=db, tree_id=tree_id)
-    media = {"urdf": "application/xml", "json": "application/json"}.get(format or "") or negotiate(
-        request, ["application/xml", "application/json"]
-    )
-    if media == "application/json":
+    if requested_media(request, format, _URDF_OR_JSON) == "application/json":
         return model_json(found.public)
     return Response(found.xml, media_type="application/xml")
 
@@ -335,9 +273,6 @@ def export_robot_tree_dh(
     for a branch from the base) to its end, and its tool: JSON, or one CSV sheet (a base row, a row per link, a
     tool row per branch). Branches without serial stages are listed in `left_out`."""
     found = tree_operations.dh_export(db=db, tree_id=tree_id)
-    media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(
-        request, ["application/json", "text/csv"]
-    )
-    if media == "text/csv":
+    if requested_media(request, format, JSON_OR_CSV) == "text/csv":
         return Response(tree_operations.dh_csv(found), media_type="text/csv")
     return model_json(found)

@@ -6,7 +6,7 @@ from fastapi import APIRouter, Header, Query, Request, Response
 from pydantic import TypeAdapter
 
 from service.files.parameters_csv import PARAMETER_HEADER, parameters_csv
-from service.http.deps import ActorDep, BuildsDep, DatabaseDep, Limit, Offset, negotiate
+from service.http.deps import JSON_OR_CSV, ActorDep, BuildsDep, DatabaseDep, Limit, Offset, requested_media
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import operation
 from service.http.responses import model_json, models_json
@@ -20,7 +20,6 @@ router = APIRouter(prefix="/v1/robots", tags=["robots"], route_class=OffloopRout
 _ROBOTS = TypeAdapter(list[RobotPublic])
 IfMatch = Annotated[str | None, Header(description="The robot's ETag as last read: 412 when it has changed since")]
 _PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}
-_PARAMETER_FORMATS = ["application/json", "text/csv"]
 _PARAMETERS_CSV: dict[int | str, dict[str, Any]] = {
     200: {
         "content": {"text/csv": {"schema": {"type": "string", "description": "header " + ",".join(PARAMETER_HEADER)}}}
@@ -37,17 +36,15 @@ _CONTROLLER_FORMATS = {
 }
 
 
-def _etag(revision: int) -> dict[str, str]:
-    return {"ETag": f'"{revision}"'}
+def _etag(robot: RobotPublic) -> str:
+    return f'"{robot.revision}"'
 
 
 @router.post("", status_code=201, response_model=RobotPublic)
 @operation(Scope.write)
 def create_robot(body: RobotCreate, db: DatabaseDep, actor: ActorDep, builds: BuildsDep) -> Response:
     robot = robots.create_robot(db=db, body=body, actor=actor, builds=builds)
-    response = model_json(robot, status_code=201)
-    response.headers.update(_etag(robot.revision))
-    return response
+    return model_json(robot, status_code=201, etag=_etag(robot))
 
 
 @router.get("", response_model=list[RobotPublic])
@@ -64,9 +61,7 @@ def list_robots(
 @operation(Scope.read)
 def get_robot(robot_id: str, db: DatabaseDep, builds: BuildsDep) -> Response:
     robot = robots.get_robot(db=db, robot_id=robot_id, builds=builds)
-    response = model_json(robot)
-    response.headers.update(_etag(robot.revision))
-    return response
+    return model_json(robot, etag=_etag(robot))
 
 
 @router.patch(
@@ -85,9 +80,7 @@ def patch_robot(
     if_match: IfMatch = None,
 ) -> Response:
     robot = robots.patch_robot(db=db, robot_id=robot_id, body=body, actor=actor, if_match=if_match, builds=builds)
-    response = model_json(robot)
-    response.headers.update(_etag(robot.revision))
-    return response
+    return model_json(robot, etag=_etag(robot))
 
 
 @router.delete("/{robot_id}", status_code=204, responses=_PRECONDITION)
@@ -131,7 +124,7 @@ def get_parameters(
     if format in ("urdf", "dh", "ur-calibration"):
         out = exports.export(db=db, robot_id=robot_id, version=version, format=format)
         return Response(content=out.content, media_type=out.media_type)
-    media = {"json": "application/json", "csv": "text/csv"}.get(format or "") or negotiate(request, _PARAMETER_FORMATS)
+    media = requested_media(request, format, JSON_OR_CSV)
     parameters, etag = robots.get_parameters(db=db, robot_id=robot_id, version=version)
     if media == "text/csv":
         response = Response(parameters_csv(parameters), media_type="text/csv")

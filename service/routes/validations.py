@@ -14,7 +14,7 @@ from service.files.campaign_requests import (
     query_fields,
     robot_columns,
 )
-from service.http.deps import DatabaseDep, Limit, MetricsDep, Offset, RegistryDep, SettingsDep, compute
+from service.http.deps import ComputeDep, DatabaseDep, Limit, Offset, RegistryDep
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import VALIDATION, Runs, operation
 from service.http.responses import model_json, models_json
@@ -58,8 +58,7 @@ async def create_validation(
     *,
     db: DatabaseDep,
     registry: RegistryDep,
-    m: MetricsDep,
-    settings: SettingsDep,
+    compute: ComputeDep,
     options: FileOptions,
     fields: dict[str, Any] = Depends(validation_fields),
 ) -> Response:
@@ -77,9 +76,8 @@ async def create_validation(
     # versions), counted here, as a file once read. No job form: over the budget, fewer at a time.
     records = len(body.measurements)
     cost = limits.validation(records * len(body.versions or [None]), records)
-    limits.admit(cost, run_async=False, can_run_async=False, budget_s=settings.sync_budget_seconds)
-    result = await compute(
-        m, "validation", validations.validate, db=db, registry=registry, robot_id=robot_id, body=body
+    result = await compute.admitted(
+        cost, "validation", validations.validate, db=db, registry=registry, robot_id=robot_id, body=body
     )
     return model_json(result, status_code=201)
 
@@ -104,12 +102,10 @@ def get_validation(validation_id: str, db: DatabaseDep) -> Response:
 @router.post("/v1/robots/{robot_id}/iso9283-poses", response_model=IsoPosesPublic)
 @operation(Scope.read, runs=Runs.COMPUTE)  # computes the cube's commands, stores nothing
 async def iso9283_poses(
-    robot_id: str, db: DatabaseDep, registry: RegistryDep, m: MetricsDep, body: IsoPosesCreate | None = None
+    robot_id: str, db: DatabaseDep, registry: RegistryDep, compute: ComputeDep, body: IsoPosesCreate | None = None
 ) -> Response:
     """The ISO 9283 test cube inside the workspace (C1…C8, P1…P5) and the joint commands of P1…P5 from the
     chosen version (default: current). Measure P1…P5 in cycles and POST them as a validation."""
     chosen = body or IsoPosesCreate()
-    result = await compute(
-        m, "iso9283", validations.iso_poses, db=db, registry=registry, robot_id=robot_id, body=chosen
-    )
+    result = await compute("iso9283", validations.iso_poses, db=db, registry=registry, robot_id=robot_id, body=chosen)
     return model_json(result)

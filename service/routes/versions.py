@@ -40,9 +40,7 @@ _IMPORT_BODY = {
 def list_versions(robot_id: str, db: DatabaseDep) -> Response:
     """Oldest first; the ETag is the robot's (If-Match of a restore)."""
     rows, etag = versions.list_versions(db=db, robot_id=robot_id)
-    response = models_json(rows, _VERSIONS)
-    response.headers["ETag"] = etag
-    return response
+    return models_json(rows, _VERSIONS, etag=etag)
 
 
 @router.get("/{a}/diff/{b}", response_model=VersionDiffPublic)
@@ -58,9 +56,7 @@ def restore_version(
 ) -> Response:
     """A new current version equal to `version`; nothing is deleted or overwritten."""
     row, etag = versions.restore(db=db, robot_id=robot_id, version=version, actor=actor, if_match=if_match)
-    response = model_json(row, status_code=201)
-    response.headers["ETag"] = etag
-    return response
+    return model_json(row, status_code=201, etag=etag)
 
 
 async def _import_body(request: Request) -> ParameterVersionImport:
@@ -94,6 +90,4 @@ async def import_version(
     row, etag = await anyio.to_thread.run_sync(
         lambda: versions.import_version(db=db, robot_id=robot_id, body=body, actor=actor, if_match=if_match)
     )
-    response = model_json(row, status_code=201)
-    response.headers["ETag"] = etag
-    return response
+    return model_json(row, status_code=201, etag=etag)

@@ -12,6 +12,8 @@ import time
 from dataclasses import replace
 from typing import Any
 
+from sqlalchemy.orm import Session
+
 from models import Registry
 from models.measurement import MeasurementKind
 from optimal_design.adaptive import Pool, Progress, advance
@@ -93,10 +95,7 @@ def post_records(
     started = time.perf_counter()
     desc, _ = models.current(robot_id)
     with db.reader() as s:
-        store = AdaptiveStore(s)
-        row = store.campaign(robot_id, campaign_id)
-        _measuring(row)
-        before = [r for step in store.steps(row.id) for r in step.records]
+        row, before = _measuring_records(s, robot_id, campaign_id)
         request, state, pool_json, expected = row.request, dict(row.state), row.pool, row.steps
     settings = settings_in(request)
     posted = [r.model_dump(mode="json") for r in body.measurements]
@@ -117,6 +116,16 @@ def post_records(
         stored = store.add_step(row, expected, posted, document)
         row.state = state_document(step, asked, len(records))
         return step_public(desc, document, stored)
+
+
+def _measuring_records(
+    s: Session, robot_id: str, campaign_id: str
+) -> tuple[AdaptiveCampaignRecord, list[dict[str, Any]]]:
+    """The campaign, still measuring (a 409 once it is finished or ended), and every record its steps took."""
+    store = AdaptiveStore(s)
+    row = store.campaign(robot_id, campaign_id)
+    _measuring(row)
+    return row, [r for step in store.steps(row.id) for r in step.records]
 
 
 def _measuring(row: AdaptiveCampaignRecord) -> None:
@@ -156,10 +165,7 @@ def finish_campaign(
     the calibration path, so its checks (never worse, apply) hold as for any other."""
     desc, _ = models.current(robot_id)
     with db.reader() as s:
-        store = AdaptiveStore(s)
-        row = store.campaign(robot_id, campaign_id)
-        _measuring(row)
-        records = [r for step in store.steps(row.id) for r in step.records]
+        row, records = _measuring_records(s, robot_id, campaign_id)
         request, state = row.request, row.state
     calibration_id = None
     if body.calibrate:

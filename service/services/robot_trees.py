@@ -19,6 +19,7 @@ from models.noise import NoiseModel
 from models.tree import RobotTree, ToolRecords, TreeFit, identify_tree, relative_of, tool_poses, tree_accuracy
 from service.conversions.robot_trees import (
     Grouped,
+    accuracy_out,
     current_values,
     frame_names,
     frames_out,
@@ -216,17 +217,7 @@ def _answer(
         "seen_by": {name: list(labels) for name, labels in fit.seen_by.items()},
         "fit": _errors(tree, fitted.groups, fit.parameters, registry, None),
         "held_out": _errors(tree, held.groups, fit.parameters, registry, fit.start),
-        "accuracy": [
-            {
-                "label": a.label,
-                "tool": a.label.split("/")[0],
-                "frame": a.label.split("/")[1] if "/" in a.label else None,
-                "rms_position_mm": a.rms_position_mm,
-                "max_position_mm": a.max_position_mm,
-                "rms_orientation_deg": math.degrees(a.rms_orientation_rad),
-            }
-            for a in accuracy
-        ],
+        "accuracy": accuracy_out(accuracy),
         "variance_factor": float(fit.statistics.variance_factor),
         "noise_consistent": bool(fit.statistics.noise_consistent),
         "parameters": parameters_out(tree, fit.parameters, fit.std_errors),

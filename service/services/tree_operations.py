@@ -28,7 +28,6 @@ from models.noise import NoiseModel
 from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
 from models.tree import (
     RobotTree,
-    ToolAccuracy,
     branch_dh_tables,
     calibrate_urdf_tree,
     compensate_relative,
@@ -37,7 +36,7 @@ from models.tree import (
 )
 from optimal_design.tree import TreeCandidate, design_tree
 from service.conversions.kinematics import unit_quaternion
-from service.conversions.robot_trees import current_values, joint_scale, joints_in, tree_in
+from service.conversions.robot_trees import accuracy_out, current_values, joint_scale, joints_in, tree_in
 from service.persistence import Database
 from service.persistence.robot_trees import TreeStore
 from service.schemas.exports import ROTATION
@@ -76,21 +75,6 @@ def _current(db: Database, tree_id: str) -> _Current:
         tree = tree_in(row.document, row.name)
         theta, _ = current_values(row, tree)
         return _Current(tree, theta, row.revision, row.calibration_id, row.source, row.urdf, row.base_link, row.name)
-
-
-def accuracy_out(found: Sequence[ToolAccuracy]) -> list[dict[str, Any]]:
-    """Predicted accuracies as the API's `TreeAccuracyPublic` (deg for the orientation)."""
-    return [
-        {
-            "label": a.label,
-            "tool": a.label.split("/")[0],
-            "frame": a.label.split("/")[1] if "/" in a.label else None,
-            "rms_position_mm": a.rms_position_mm,
-            "max_position_mm": a.max_position_mm,
-            "rms_orientation_deg": math.degrees(a.rms_orientation_rad),
-        }
-        for a in found
-    ]
 
 
 def _by_name(tree: RobotTree, q: Array) -> dict[str, float]:
