@@ -72,6 +72,10 @@ test_contract_fuzz.py."""
 # took 11 min of wall at load ~9 (issue 48), so it gets 15 min.
 # POST /v1/error-analysis is the slowest operation here: schemathesis sends requests of up to the budget's
 # 18 000 poses x draws (service.compute.limits), seconds each.
+# Not traced by coverage (pytest-cov's no_cover, the call only): its ~12 500 requests are Python-heavy (the
+# generator, requests' adapter, the app's middleware and validation), and tracing them cost 42 s of this test's
+# 113 s of CPU; the service code they reach is measured by the API tests, and the floor holds without them.
+@pytest.mark.no_cover
 @pytest.mark.timeout(900)
 @schema.parametrize()
 @settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=list(HealthCheck))

@@ -110,6 +110,8 @@ def postgres_schema(postgres_app: TestClient) -> BaseSchema:
 
 # One item runs every operation (each a subtest): 15 min, not the run's 300 s per test (it took 4 min 16 s of wall at
 # load ~9, issue 48).
+# Not traced by coverage, as test_contract.py's test_api_contract (Python-heavy; the API tests measure this code).
+@pytest.mark.no_cover
 @pytest.mark.timeout(900)
 @schemathesis.pytest.from_fixture("postgres_schema").exclude(path=SLOW).parametrize()
 @SETTINGS
@@ -159,6 +161,7 @@ def _machine(schema: Any, app: Any) -> Any:
     return Machine
 
 
+@pytest.mark.no_cover  # Python-heavy generation, as test_api_contract (test_contract.py)
 @pytest.mark.parametrize("database", ["sqlite", "postgres"])
 def test_stateful(database: str, request: pytest.FixtureRequest) -> None:
     client = request.getfixturevalue(f"{database}_app")
