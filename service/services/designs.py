@@ -153,12 +153,12 @@ def _problem(
     if body.candidates is not None and not body.candidates:
         raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
     joint_ranges, keep_out = constraints_in(desc, body)
-    tracker = body.joint_candidates()
+    tracker, fixed = body.joint_candidates(), body.joint_fixed()
     options = DesignOptions(
         candidates=joints_in(desc, tracker) if tracker is not None else None,
         candidate_count=body.candidate_count,
         seed=body.seed,
-        fixed=joints_in(desc, body.fixed) if body.fixed is not None else None,
+        fixed=joints_in(desc, fixed) if fixed is not None else None,
         params=theta,
         joint_ranges=joint_ranges,
         keep_out=keep_out,

@@ -8,12 +8,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from models import NoiseModel, RobotDescription
+from models import RobotDescription
 from models._types import Array
 from models.engine.runtime import Runtime
 from models.errors import TargetUnreachable
+from models.measurement import MeasurementKind
 from optimal_design import PoseDesign, TargetDesign
-from optimal_design.references import design_reference_records, reference_records_for_target
+from optimal_design.references import DesignedOptions, design_reference_records, reference_records_for_target
 from service.conversions.designs import design_noise, report_out, target_report_out
 from service.conversions.reference_designs import ReferenceCandidates, reference_candidates_in, refuse_unsupported
 from service.schemas.designs import PoseDesignCreate, PoseDesignReportPublic
@@ -27,17 +28,27 @@ def reference_report(
     found = reference_candidates_in(desc, theta, body, runtime)
     given = body.candidates is not None
     noise = design_noise(body)
+    options = DesignedOptions(fixed=found.fixed, min_spread=body.min_spread, noise=noise, params=theta, runtime=runtime)
     if body.target is not None:
-        target = _for_target(desc, body, found, theta=theta, noise=noise, runtime=runtime)
-        assert target.design is not None  # without records already measured, a target always needs some
-        design, names = _as_offered(target.design, found)
-        report = target_report_out(
-            desc, replace(target, design=design), candidates_given=given, criterion=body.criterion
-        )
+        target = _for_target(desc, body, found, options)
+        names: list[str] = []
+        if target.design is not None:  # None: the records already measured reach the target
+            design, names = _as_offered(target.design, found)
+            target = replace(target, design=design)
+        # The core names the references' kinds; the report names what was asked (below).
+        target = replace(target, measurement=MeasurementKind.POSITION.value)
+        report = target_report_out(desc, target, candidates_given=given, criterion=body.criterion)
     else:
         assert body.count is not None  # the schema asks for count or target
         chosen = design_reference_records(
-            desc, found.groups, body.count, body.criterion, seed=body.seed, noise=noise, params=theta, runtime=runtime
+            desc,
+            found.groups,
+            body.count,
+            body.criterion,
+            seed=body.seed,
+            d_efficiency_floor=body.d_efficiency_floor,
+            bound_seconds=body.bound_seconds,
+            **options,
         )
         design, names = _as_offered(chosen, found)
         report = report_out(desc, design, candidates_given=given)
@@ -48,13 +59,7 @@ def reference_report(
 
 
 def _for_target(
-    desc: RobotDescription,
-    body: PoseDesignCreate,
-    found: ReferenceCandidates,
-    *,
-    theta: Array,
-    noise: NoiseModel | None,
-    runtime: Runtime,
+    desc: RobotDescription, body: PoseDesignCreate, found: ReferenceCandidates, options: DesignedOptions
 ) -> TargetDesign:
     """The target mode on the reference candidates; an unreachable target said in the records' words (the
     core's advice to measure the full pose is a tracker's)."""
@@ -67,9 +72,7 @@ def _for_target(
             max_tcp_mm=body.target.max_tcp_mm,
             criterion=body.criterion,
             seed=body.seed,
-            noise=noise,
-            params=theta,
-            runtime=runtime,
+            **options,
         )
     except TargetUnreachable as exc:
         raise TargetUnreachable(
