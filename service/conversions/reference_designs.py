@@ -4,8 +4,8 @@ groups of `optimal_design.references`: which reference each candidate (and each 
 anchor's readable range, what a camera would see), and the options it refuses.
 
 The design takes the tracker's options (records already measured, a minimum spread, a D-efficiency floor, branch
-and bound) but model terms: the reference fit evaluates the robot without a record's temperature or load, so
-terms and their levels are refused here with the reason, never ignored.
+and bound) but model terms (the reference fit evaluates the robot without a record's temperature or load), a cell
+and a fleet's prior (a tracker's for now): those are refused here with the reason, never ignored.
 """
 
 from __future__ import annotations
@@ -62,6 +62,10 @@ def refuse_unsupported(body: PoseDesignCreate) -> None:
         "terms): design them without terms, or design the terms' poses with a tracker's records (pose or position)"
     )
     refused = {
+        "cell": body.cell is not None
+        and "designs among the poses a cell can measure are of a tracker's records (pose or position) for now",
+        "prior": body.prior != "none"
+        and "fleet designs tracker poses: a reference campaign's fit takes no prior yet; omit it",
         "terms": bool(body.terms) and no_terms,
         "temperature_levels_c": body.temperature_levels_c is not None
         and "levels belong to a design with terms; omit them",

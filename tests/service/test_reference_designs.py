@@ -262,6 +262,8 @@ def _few(body: dict[str, Any]) -> None:
         (_few, "anchor 'a2' has 3 admissible candidates"),
         (lambda b: b.update({"terms": ["thermal"]}), "terms: distance, point, plane, image"),
         (lambda b: b.update({"temperature_levels_c": [20.0]}), "temperature_levels_c: levels belong to a design"),
+        (lambda b: b.update({"cell": "stored"}), "cell: designs among the poses a cell can measure are of a tracker"),
+        (lambda b: b.update({"prior": "fleet"}), "prior: fleet designs tracker poses"),
         (lambda b: b.update({"fixed": [b["candidates"][0]["joints"]]}), "fixed 0 is a bare joint vector"),
         (lambda b: b.update({"fixed": [{**b["candidates"][0], "anchor": "zz"}]}), "fixed 0 names anchor 'zz'"),
         (lambda b: b.update({"min_spread": 1.0}), "min_spread 1: only"),
