@@ -12,6 +12,10 @@ A candidate is a stop of the robot: the records of one reference at the same joi
 rows stacked in its block. For a ballbar that is one record; for a camera it is an image, all the points it sees
 at that pose (`camera_candidates` makes them: only the points in front of the camera and on its image), since a
 camera cannot be made to take some of an image's points and not the others.
+
+Records already measured (`fixed`) are evaluated with the candidates in one fit's rows (a reference measured so
+far keeps its unknowns): their information is the problem's base, which the chosen records complete, and their
+stops count in the minimum spread, as a tracker's fixed poses do.
 """
 
 from __future__ import annotations
