@@ -424,3 +424,14 @@ def test_min_spread_keeps_the_chosen_ballbar_poses_apart_and_from_the_fixed_ones
     assert apart.min() >= spread and distances(poses, measured).min() >= spread
     unconstrained = np.asarray(_design(client, arm, body)["poses"])
     assert distances(unconstrained, unconstrained)[np.triu_indices(len(poses), 1)].min() < spread  # it binds
+
+
+def test_a_target_the_fixed_ballbar_records_reach_needs_no_more(client: TestClient, arm: str) -> None:
+    measured = sample_workspace(UR5, 60, seed=902) * UR5.joint_to_boundary
+    fixed = [{"joints": q.tolist(), "anchor": NAMES[i % 3]} for i, q in enumerate(measured)]
+    goal = 0.05
+    report = _design(client, arm, _ballbar(count=None, target={"rms_tcp_mm": goal}, noise=NOISE, fixed=fixed))
+    by_hand = _predicted_rms(_campaign(fixed))
+    assert report["count"] == 0 and report["poses"] == [] and report["references"] == []
+    assert report["measurement"] == "distance"
+    assert report["fixed_mm"] == pytest.approx(by_hand, rel=1e-6) and by_hand <= goal
