@@ -12,11 +12,16 @@ A candidate is a stop of the robot: the records of one reference at the same joi
 rows stacked in its block. For a ballbar that is one record; for a camera it is an image, all the points it sees
 at that pose (`camera_candidates` makes them: only the points in front of the camera and on its image), since a
 camera cannot be made to take some of an image's points and not the others.
+
+Records already measured (`fixed`) are evaluated with the candidates in one fit's rows (a reference measured so
+far keeps its unknowns): their information is the problem's base, which the chosen records complete, and their
+stops count in the minimum spread, as a tracker's fixed poses do.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from typing import TypedDict, Unpack
 
 import numpy as np
@@ -30,6 +35,7 @@ from models.identification.reference_fit import check_references, reference_prob
 from models.kinematics import forward_kinematics
 from models.measurements.camera import Camera
 from models.measurements.references import ReferenceRecords
+from optimal_design.constraints import Spread
 from optimal_design.criteria import Criterion, DesignCriterion, criterion_of
 from optimal_design.information import CandidateInformation, task_matrix, task_rows
 from optimal_design.problem import DesignProblem
@@ -49,14 +55,41 @@ def reference_information(
 ) -> CandidateInformation:
     """The blocks of every candidate record (`candidates`: per reference, its candidate joints; their values are
     not used) over the unknowns the fit would estimate."""
-    rt, noise = runtime_for(desc, runtime), noise or NoiseModel()
-    check_references(candidates)
+    options: _Options = {"noise": noise, "params": params, "estimate": estimate, "runtime": runtime}
+    return _weighed(desc, candidates, (), options).info
+
+
+@dataclass(frozen=True)
+class _Weighed:
+    """The candidates' information, and what the records already measured (`fixed`) add to it: their rows'
+    information (`base`) and their stops (one per reference and distinct joint vector, as a candidate is)."""
+
+    info: CandidateInformation
+    base: Array
+    fixed_joints: Array
+
+
+def _weighed(
+    desc: RobotDescription,
+    candidates: tuple[ReferenceRecords, ...],
+    fixed: tuple[ReferenceRecords, ...],
+    options: _Options,
+) -> _Weighed:
+    """One evaluation of the fit's rows over the candidates and the fixed records together: the unknowns are the
+    fit's of both (a reference measured only so far has its unknowns too), the fixed rows' information the base
+    the candidates complete."""
+    rt, noise = runtime_for(desc, options.get("runtime")), options.get("noise") or NoiseModel()
+    params = options.get("params")
     theta = desc.parameters.nominal if params is None else desc.parameters.vector(params)
-    problem = reference_problem(desc, candidates, noise=noise, theta=theta, estimate=estimate, runtime=rt)
+    groups, fixed_of = _with_fixed(candidates, fixed, noise)
+    check_references(groups)
+    estimate = options.get("estimate", IdentificationOptions().estimate)
+    problem = reference_problem(desc, groups, noise=noise, theta=theta, estimate=estimate, runtime=rt)
     at_start = problem.evaluate(np.zeros(problem.n_free))
     if at_start is None:
         raise ValueError("the model is undefined at these candidates")  # sampled or checked joints: a bug
-    joints, blocks = _stops(candidates, at_start.jacobian)
+    fixed_rows, candidate_rows = _split_rows(groups, fixed_of, at_start.jacobian)
+    joints, blocks = _stops(candidates, candidate_rows)
     free = tuple(int(i) for i in problem.free)
     n_robot, n_all = len(free), problem.n_free
     task = np.zeros((n_all, n_all))
@@ -64,7 +97,7 @@ def reference_information(
     robot_rows = task_rows(desc, free, runtime=rt)
     tcp_rows = np.zeros((*robot_rows.shape[:2], n_all))
     tcp_rows[:, :, :n_robot] = robot_rows
-    return CandidateInformation(
+    info = CandidateInformation(
         joints=joints,
         blocks=blocks,
         free=free,
@@ -72,6 +105,56 @@ def reference_information(
         position_only=True,
         task_rows=tcp_rows,
     )
+    stops = [np.unique(g.joints, axis=0) for g in fixed]
+    fixed_joints = np.vstack(stops) if stops else np.empty((0, desc.n_joints))
+    return _Weighed(info, fixed_rows.T @ fixed_rows, fixed_joints)
+
+
+def _with_fixed(
+    candidates: tuple[ReferenceRecords, ...], fixed: tuple[ReferenceRecords, ...], noise: NoiseModel
+) -> tuple[tuple[ReferenceRecords, ...], list[int]]:
+    """The groups the fit would see (each reference's fixed records, then its candidates; the candidates'
+    references in their order, then those only measured so far) and how many of each group's records are
+    fixed."""
+    by_name = {g.reference.name: g for g in fixed}
+    if len(by_name) != len(fixed):
+        raise ValueError("fixed records: one group per reference")  # the service groups them: a bug
+    groups, fixed_of = [], []
+    for group in candidates:
+        done = by_name.pop(group.reference.name, None)
+        groups.append(group if done is None else _stacked(done, group, noise))
+        fixed_of.append(0 if done is None else done.size)
+    for done in by_name.values():
+        groups.append(done)
+        fixed_of.append(done.size)
+    return tuple(groups), fixed_of
+
+
+def _stacked(done: ReferenceRecords, group: ReferenceRecords, noise: NoiseModel) -> ReferenceRecords:
+    """One reference's fixed records then its candidates, as one group (a σ each where either states one)."""
+    sigma = None
+    if done.sigma_mm is not None or group.sigma_mm is not None:
+        sigma = np.concatenate(
+            [g.sigma_mm if g.sigma_mm is not None else np.full(g.size, noise.position_mm) for g in (done, group)]
+        )
+    return ReferenceRecords(
+        group.reference,
+        np.vstack([done.joints, group.joints]),
+        np.concatenate([done.values, group.values]),
+        sigma,
+    )
+
+
+def _split_rows(groups: tuple[ReferenceRecords, ...], fixed_of: list[int], jacobian: Array) -> tuple[Array, Array]:
+    """(the fixed records' rows, the candidates' rows in their groups' order) of the fit's Jacobian."""
+    fixed_rows, candidate_rows = [], []
+    row = 0
+    for group, done in zip(groups, fixed_of, strict=True):
+        r = group.reference.traits.rows
+        fixed_rows.append(jacobian[row : row + done * r])
+        candidate_rows.append(jacobian[row + done * r : row + group.size * r])
+        row += group.size * r
+    return np.vstack(fixed_rows), np.vstack(candidate_rows)
 
 
 def _stops(candidates: tuple[ReferenceRecords, ...], jacobian: Array) -> tuple[Array, Array]:
@@ -132,6 +215,15 @@ class _Options(TypedDict, total=False):
     runtime: Runtime | None
 
 
+class DesignedOptions(_Options, total=False):
+    """The options of a design beside the candidates': the records already measured (`fixed`, per reference:
+    their information joins the design's, which completes it) and the minimum spread between the chosen stops
+    and from the fixed ones (`min_spread`, the metric of optimal_design.constraints)."""
+
+    fixed: tuple[ReferenceRecords, ...]
+    min_spread: float | None
+
+
 @single_threaded_blas
 def design_reference_records(
     desc: RobotDescription,
@@ -140,15 +232,27 @@ def design_reference_records(
     criterion: str | Criterion | DesignCriterion = Criterion.I,
     *,
     seed: int = 0,
-    **options: Unpack[_Options],
+    d_efficiency_floor: float | None = None,
+    bound_seconds: float = 0.0,
+    **options: Unpack[DesignedOptions],
 ) -> PoseDesign:
     """Choose `count` of the candidates (their order: the candidates' groups one after the other, each group's
     distinct joint vectors in the order they first appear, so a chosen index says which reference it belongs to;
     a camera's candidate is an image). The I criterion (default) minimises the predicted TCP
-    error directly."""
+    error directly. `d_efficiency_floor` and `bound_seconds` as `optimal_design.design_poses`' (branch and bound
+    tightens the relaxation's bound on these blocks)."""
     started = time.perf_counter()
-    problem = _problem(desc, candidates, options)
-    return solve(desc, problem, criterion_of(criterion), count, seed=seed, started=started)
+    problem = reference_design_problem(desc, candidates, **options)
+    return solve(
+        desc,
+        problem,
+        criterion_of(criterion),
+        count,
+        seed=seed,
+        started=started,
+        d_efficiency_floor=d_efficiency_floor,
+        bound_seconds=bound_seconds,
+    )
 
 
 @single_threaded_blas
@@ -160,27 +264,39 @@ def reference_records_for_target(
     max_tcp_mm: float | None = None,
     criterion: str | Criterion | DesignCriterion = Criterion.I,
     seed: int = 0,
-    **options: Unpack[_Options],
+    **options: Unpack[DesignedOptions],
 ) -> TargetDesign:
     """How many of the candidate records reach a predicted TCP accuracy ("how many ballbar records for
     0.05 mm"): the smallest count whose design does, and the curve of the error against the count."""
     started = time.perf_counter()
     target = Target.of(rms_tcp_mm, max_tcp_mm, criterion)
-    problem = _problem(desc, candidates, options)
+    problem = reference_design_problem(desc, candidates, **options)
     kinds = sorted({g.reference.traits.kind for g in candidates})
     return target_on(desc, problem, target, seed=seed, measurement="+".join(kinds), started=started)
 
 
-def _problem(desc: RobotDescription, candidates: tuple[ReferenceRecords, ...], options: _Options) -> DesignProblem:
-    info = reference_information(desc, candidates, **options)
+def reference_design_problem(
+    desc: RobotDescription,
+    candidates: tuple[ReferenceRecords, ...],
+    *,
+    fixed: tuple[ReferenceRecords, ...] = (),
+    min_spread: float | None = None,
+    **options: Unpack[_Options],
+) -> DesignProblem:
+    """The design problem of the candidate records: their blocks, the fixed records' information as its base
+    (a fixed stop counts as a chosen one in `n_fixed`), and the spread over the candidates' and fixed stops'
+    joints."""
+    weighed = _weighed(desc, candidates, fixed, options)
+    info, done = weighed.info, weighed.fixed_joints
+    spread = Spread.of(desc, info.joints, done, float(min_spread)) if min_spread else None
     return DesignProblem(
         info=info,
-        base=np.zeros((info.n_params, info.n_params)),
-        n_fixed=0,
+        base=weighed.base,
+        n_fixed=done.shape[0],
         rows=info.rows,
         position_only=True,
         origin=np.arange(info.size),
         excluded={},
-        spread=None,
+        spread=spread,
         offered=info.size,
     )

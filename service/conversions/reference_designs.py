@@ -1,15 +1,16 @@
 """A pose design's request against references (anchors, points, planes, cameras) as the candidate record
-groups of `optimal_design.references`: which reference each candidate measures, the filters the service applies
-before the design (joint sub-ranges, the keep-out box, an anchor's readable range, what a camera would see), and
-the options it refuses.
+groups of `optimal_design.references`: which reference each candidate (and each record already measured,
+`fixed`) measures, the filters the service applies before the design (joint sub-ranges, the keep-out box, an
+anchor's readable range, what a camera would see), and the options it refuses.
 
-The design core weighs candidate records alone: it takes no records already measured, no minimum spread, no
-D-efficiency floor and no branch and bound, so those options are refused here with the reason, never ignored.
+The design takes the tracker's options (records already measured, a minimum spread, a D-efficiency floor, branch
+and bound) but model terms (the reference fit evaluates the robot without a record's temperature or load), a cell
+and a fleet's prior (a tracker's for now): those are refused here with the reason, never ignored.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -50,22 +51,25 @@ class ReferenceCandidates:
     offered: int
     """Candidates before the filters (a sampled pose counts once per anchor it is offered against)."""
     excluded: dict[str, int]
+    fixed: tuple[ReferenceRecords, ...] = ()
+    """The records already measured, grouped by reference (each reference once)."""
 
 
 def refuse_unsupported(body: PoseDesignCreate) -> None:
-    """The options the reference design does not take: a 422 naming each, with why."""
+    """The options the reference design does not take: a 422 naming each, with why and what to do."""
+    no_terms = (
+        f"{PLANNED} records are fitted without a temperature or load per record (the reference fit has no model "
+        "terms): design them without terms, or design the terms' poses with a tracker's records (pose or position)"
+    )
     refused = {
-        "fixed": body.fixed is not None
-        and "records already measured are not taken yet (each would need its reference); design the new ones alone",
-        "min_spread": body.min_spread is not None
-        and "the reference design keeps no spread between chosen poses yet; omit it",
-        "bound_seconds": body.bound_seconds > 0
-        and "branch and bound is not run on reference designs yet; the report's efficiency is the relaxation's",
-        "d_efficiency_floor": body.d_efficiency_floor is not None
-        and "a D-efficiency floor is not kept by the reference design yet (condition keeps its default floor)",
-        "terms": bool(body.terms) and f"{PLANNED} records carry no temperature or load per record: no model terms",
-        "temperature_levels_c": body.temperature_levels_c is not None and "levels belong to a design with terms",
-        "payload_levels": body.payload_levels is not None and "levels belong to a design with terms",
+        "cell": body.cell is not None
+        and "designs among the poses a cell can measure are of a tracker's records (pose or position) for now",
+        "prior": body.prior != "none"
+        and "fleet designs tracker poses: a reference campaign's fit takes no prior yet; omit it",
+        "terms": bool(body.terms) and no_terms,
+        "temperature_levels_c": body.temperature_levels_c is not None
+        and "levels belong to a design with terms; omit them",
+        "payload_levels": body.payload_levels is not None and "levels belong to a design with terms; omit them",
     }
     for name, why in refused.items():
         if why:
@@ -114,9 +118,35 @@ def reference_candidates_in(
     describes = described(body)
     descriptions = {key: BY_REFERENCE[key[0]].descriptions(describes)[key[1]] for key in references}
     request = _Request(desc, theta, body, references, runtime, descriptions)
-    found = _given(request) if body.candidates is not None else _sampled(request)
+    fixed = _fixed(request)
+    found = _given(request, fixed) if body.candidates is not None else _sampled(request)
+    found = replace(found, fixed=fixed)
     _check_determined(found, references, given=body.candidates is not None)
     return found
+
+
+def _fixed(request: _Request) -> tuple[ReferenceRecords, ...]:
+    """The records already measured, by the reference each names (a bare joint vector: the measurement's one),
+    as the records the design would plan at their poses (a camera's: the points it sees there). No filter
+    applies: they were measured."""
+    desc, body, references = request.desc, request.body, request.references
+    if not body.fixed:
+        return ()
+    tags = [_reference_of(body, references, i, c, what="fixed") for i, c in enumerate(body.fixed)]
+    joints = joints_in(desc, [c.joints if isinstance(c, ReferenceCandidate) else c for c in body.fixed])
+    check_joint_ranges(desc, joints)
+    forward_kinematics(desc, joints, request.theta, runtime=request.runtime)  # UnreachablePose names the first
+    groups = []
+    for key, reference in references.items():
+        mine = np.asarray([i for i, tag in enumerate(tags) if tag == key], dtype=np.intp)
+        if mine.size == 0:
+            continue
+        group, _ = BY_REFERENCE[key[0]].design_records(
+            desc, reference, request.descriptions[key], joints[mine], theta=request.theta, runtime=request.runtime
+        )
+        if group.size:
+            groups.append(group)
+    return tuple(groups)
 
 
 def _filters(request: _Request, joints: Array) -> tuple[NDArray[np.bool_], dict[str, int]]:
@@ -137,12 +167,12 @@ def _filters(request: _Request, joints: Array) -> tuple[NDArray[np.bool_], dict[
     return ok, excluded
 
 
-def _given(request: _Request) -> ReferenceCandidates:
+def _given(request: _Request, fixed: tuple[ReferenceRecords, ...]) -> ReferenceCandidates:
     desc, body, references = request.desc, request.body, request.references
     assert body.candidates is not None
     if not body.candidates:
         raise InvalidInput("candidates is empty: give at least `count` joint vectors, or omit them", field="candidates")
-    tags = [_reference_of(body, references, i, c) for i, c in enumerate(body.candidates)]
+    tags = [_reference_of(body, references, i, c, what="candidate") for i, c in enumerate(body.candidates)]
     rows = [c.joints if isinstance(c, ReferenceCandidate) else c for c in body.candidates]
     joints = joints_in(desc, rows)
     check_joint_ranges(desc, joints)
@@ -153,7 +183,8 @@ def _given(request: _Request) -> ReferenceCandidates:
     for i, tag in enumerate(tags):
         if ok[i]:
             by_reference[tag].append(i)
-    named = set(tags)
+    measured = {g.reference.name for g in fixed}  # a reference measured so far needs no candidate
+    named = set(tags) | {key for key in references if key[1] in measured}
     missing = [key for key in references if key not in named]
     if missing:
         kind, name = missing[0]
@@ -172,17 +203,20 @@ def _reference_of(
     references: dict[tuple[str, str], ModelReference],
     index: int,
     candidate: list[float] | ReferenceCandidate,
+    *,
+    what: str,
 ) -> tuple[str, str]:
-    """The (kind, name) of the reference a given candidate's record would measure."""
+    """The (kind, name) of the reference a given candidate's record would measure (`what`: "candidate"), or a
+    fixed record measured ("fixed")."""
     if isinstance(candidate, ReferenceCandidate):
         kind, name = candidate.reference
         if (kind, name) not in references:
             plural = PLURAL[kind]
             needs = BY_REFERENCE[kind].design_description
             raise InvalidInput(
-                f'candidate {index} names {kind} {name!r}, which the body does not describe: add "{plural}": '
+                f'{what} {index} names {kind} {name!r}, which the body does not describe: add "{plural}": '
                 f'{{"{name}": {needs}}}',
-                field="candidates",
+                field="candidates" if what == "candidate" else what,
                 value=name,
                 reason="undescribed_reference",
             )
@@ -191,10 +225,10 @@ def _reference_of(
     mine = [key for key in references if key[0] == kind]
     if len(mine) != 1:
         raise InvalidInput(
-            f"candidate {index} is a bare joint vector, which belongs to the one {kind} of measurement "
+            f"{what} {index} is a bare joint vector, which belongs to the one {kind} of measurement "
             f"{body.measurement!r}; the body describes {len(mine)}: say which, "
             f'{{"joints": [...], "{kind}": "<name>"}}',
-            field="candidates",
+            field="candidates" if what == "candidate" else what,
             reason="ambiguous_reference",
         )
     return mine[0]
@@ -313,6 +347,8 @@ def _check_determined(
     """Enough admissible candidates for each reference to be determined, and a length among them: a 4xx in a
     design's words (the core would speak of records measured)."""
     sizes = {g.reference.name: g.size for g in found.groups}
+    for done in found.fixed:  # what was measured counts towards determining its reference
+        sizes[done.reference.name] = sizes.get(done.reference.name, 0) + done.size
     for (kind, name), reference in references.items():
         have, needed = sizes.get(name, 0), reference.minimum_records
         if have < needed:
@@ -327,7 +363,7 @@ def _check_determined(
                 missing=needed - have,
                 kind=kind,
             )
-    if not any(g.reference.traits.fixes_scale for g in found.groups):
+    if not any(g.reference.traits.fixes_scale for g in (*found.groups, *found.fixed)):
         raise InvalidInput(
             "fixed points and planes fix no length (the robot and its points and planes scaled together fit them "
             "as well): describe an anchor (a ballbar pivot) and add candidates naming it, "

@@ -64,6 +64,10 @@ CANDIDATES_DOC = (
     "Joint vectors; against references, each may name the one its record measures: "
     f'{{"joints": [...], "{_NAMED_BY[0]}": "a1"}} (or {_OTHERS}), which a design of several references needs'
 )
+FIXED_DOC = (
+    "Poses already measured; against references, as candidates: each names the reference its record measured "
+    f'({{"joints": [...], "{_NAMED_BY[0]}": "a1"}}), which the design completes'
+)
 MEASURED_DOC = f"Against references: the {_either(_NAMED_BY)} each chosen pose's record measures"
 
 
@@ -123,7 +127,7 @@ class PoseDesignCreate(ReferenceDescriptions):
     )
     candidate_count: int = Field(default=2000, ge=1, le=MAX_CANDIDATES)
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
-    fixed: list[JointVector] | None = Field(default=None, max_length=MAX_FIXED, description="Poses already measured")
+    fixed: list[DesignCandidate] | None = Field(default=None, max_length=MAX_FIXED, description=FIXED_DOC)
     joint_ranges: dict[str, tuple[float, float]] | None = Field(
         default=None,
         description="Sub-ranges by joint name (q1…, l1…; mm or deg) the candidates must stay within",
@@ -196,13 +200,15 @@ class PoseDesignCreate(ReferenceDescriptions):
         return self
 
     def _tied(self) -> list[ReferenceCandidate]:
-        return [c for c in self.candidates or [] if isinstance(c, ReferenceCandidate)]
+        return [c for c in [*(self.candidates or []), *(self.fixed or [])] if isinstance(c, ReferenceCandidate)]
 
     def joint_candidates(self) -> list[list[float]] | None:
         """The candidates of a tracker's design: bare joint vectors (the validator refuses the others there)."""
-        if self.candidates is None:
-            return None
-        return [c for c in self.candidates if not isinstance(c, ReferenceCandidate)]
+        return _bare(self.candidates)
+
+    def joint_fixed(self) -> list[list[float]] | None:
+        """The poses a tracker already measured: bare joint vectors (the validator refuses the others there)."""
+        return _bare(self.fixed)
 
     def offered(self) -> int:
         """How many candidates the design weighs (the request's cost): those given, or those sampled, each
@@ -213,6 +219,12 @@ class PoseDesignCreate(ReferenceDescriptions):
         if kind is not None and kind.sampled:  # each sampled pose offered against each of its references
             return self.candidate_count * max(1, len(kind.descriptions(described(self))))
         return self.candidate_count
+
+
+def _bare(poses: list[DesignCandidate] | None) -> list[list[float]] | None:
+    if poses is None:
+        return None
+    return [c for c in poses if not isinstance(c, ReferenceCandidate)]
 
 
 class DesignMetricsPublic(Public):

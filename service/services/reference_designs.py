@@ -1,6 +1,8 @@
-"""Pose design against references (a ballbar's anchors, sockets, plates, cameras): the records to take, designed with
-the robot's current parameters by `optimal_design.references`, reported as a tracker's design is, with the
-reference each chosen record measures."""
+"""Pose design against references (a ballbar's anchors, sockets, plates, cameras): the candidate records of a
+request as the design problem of `optimal_design.references` (the records already measured its base), and how
+its designs are said in the request's words: indices into the candidates as given, the reference each chosen
+record measures, an unreachable target in the records' words. `service.services.designs` solves and reports it
+as it does a tracker's."""
 
 from __future__ import annotations
 
@@ -10,81 +12,51 @@ import numpy as np
 
 from models import NoiseModel, RobotDescription
 from models._types import Array
+from models.engine.blas import single_threaded_blas
 from models.engine.runtime import Runtime
 from models.errors import TargetUnreachable
-from optimal_design import PoseDesign, TargetDesign
-from optimal_design.references import design_reference_records, reference_records_for_target
-from service.conversions.designs import design_noise, report_out, target_report_out
-from service.conversions.reference_designs import ReferenceCandidates, reference_candidates_in, refuse_unsupported
-from service.schemas.designs import PoseDesignCreate, PoseDesignReportPublic
+from optimal_design import PoseDesign
+from optimal_design.problem import DesignProblem
+from optimal_design.references import reference_design_problem
+from service.conversions.reference_designs import ReferenceCandidates, reference_candidates_in
+from service.schemas.designs import PoseDesignCreate
 
 
-def reference_report(
-    desc: RobotDescription, theta: Array, body: PoseDesignCreate, runtime: Runtime
-) -> PoseDesignReportPublic:
-    """The report of a design of distance, point, plane or image records (count or target), as stored."""
-    refuse_unsupported(body)
+def reference_problem_of(
+    desc: RobotDescription, theta: Array, body: PoseDesignCreate, runtime: Runtime, noise: NoiseModel | None
+) -> tuple[DesignProblem, ReferenceCandidates]:
+    """The design problem of a request's distance, point, plane, image or displacement records, and the
+    candidates it was built from (what `as_offered` maps its designs back to)."""
     found = reference_candidates_in(desc, theta, body, runtime)
-    given = body.candidates is not None
-    noise = design_noise(body)
-    if body.target is not None:
-        target = _for_target(desc, body, found, theta=theta, noise=noise, runtime=runtime)
-        assert target.design is not None  # without records already measured, a target always needs some
-        design, names = _as_offered(target.design, found)
-        report = target_report_out(
-            desc, replace(target, design=design), candidates_given=given, criterion=body.criterion
-        )
-    else:
-        assert body.count is not None  # the schema asks for count or target
-        chosen = design_reference_records(
-            desc, found.groups, body.count, body.criterion, seed=body.seed, noise=noise, params=theta, runtime=runtime
-        )
-        design, names = _as_offered(chosen, found)
-        report = report_out(desc, design, candidates_given=given)
-    # The core designs position rows (its `measurement` would read "position"): the report names what was asked.
-    return PoseDesignReportPublic.model_validate(
-        {**report.model_dump(), "measurement": body.measurement, "references": names}
+    # Built with one BLAS thread, as the design that follows and the library's entry points are.
+    problem = single_threaded_blas(reference_design_problem)(
+        desc,
+        found.groups,
+        fixed=found.fixed,
+        min_spread=body.min_spread,
+        noise=noise,
+        params=theta,
+        runtime=runtime,
+    )
+    return problem, found
+
+
+def in_records_words(exc: TargetUnreachable) -> TargetUnreachable:
+    """An unreachable target said in the records' words (the core's advice to measure the full pose is a
+    tracker's)."""
+    return TargetUnreachable(
+        f"no selection of the {exc.candidates} candidate records reaches a predicted TCP error of "
+        f"{exc.target_mm:g} mm: taking every one of them gives {exc.reachable_mm:.4g} mm, the best reachable; add "
+        "candidates (more poses, another anchor or camera across the volume), give the instrument's σ (noise, a "
+        "camera's sigma_px), or relax the target",
+        field=str(exc.field),
+        target_mm=exc.target_mm,
+        reachable_mm=exc.reachable_mm,
+        candidates=exc.candidates,
     )
 
 
-def _for_target(
-    desc: RobotDescription,
-    body: PoseDesignCreate,
-    found: ReferenceCandidates,
-    *,
-    theta: Array,
-    noise: NoiseModel | None,
-    runtime: Runtime,
-) -> TargetDesign:
-    """The target mode on the reference candidates; an unreachable target said in the records' words (the
-    core's advice to measure the full pose is a tracker's)."""
-    assert body.target is not None
-    try:
-        return reference_records_for_target(
-            desc,
-            found.groups,
-            rms_tcp_mm=body.target.rms_tcp_mm,
-            max_tcp_mm=body.target.max_tcp_mm,
-            criterion=body.criterion,
-            seed=body.seed,
-            noise=noise,
-            params=theta,
-            runtime=runtime,
-        )
-    except TargetUnreachable as exc:
-        raise TargetUnreachable(
-            f"no selection of the {exc.candidates} candidate records reaches a predicted TCP error of "
-            f"{exc.target_mm:g} mm: taking every one of them gives {exc.reachable_mm:.4g} mm, the best reachable; add "
-            "candidates (more poses, another anchor or camera across the volume), give the instrument's σ (noise, a "
-            "camera's sigma_px), or relax the target",
-            field=str(exc.field),
-            target_mm=exc.target_mm,
-            reachable_mm=exc.reachable_mm,
-            candidates=exc.candidates,
-        ) from exc
-
-
-def _as_offered(design: PoseDesign, found: ReferenceCandidates) -> tuple[PoseDesign, list[str]]:
+def as_offered(design: PoseDesign, found: ReferenceCandidates) -> tuple[PoseDesign, list[str]]:
     """The design with its indices into the candidates as the request gave (or sampled) them and the filters the
     service applied before the core saw them; and each chosen record's reference."""
     chosen = np.asarray(design.indices, dtype=np.intp)

@@ -18,8 +18,13 @@ from fastapi.testclient import TestClient
 from harness.ballbar import PIVOTS, aligned_rms, gauge_truth, reaching
 from models import forward_kinematics, sample_workspace
 from models.description.examples import ur5_like, ur5_like_document
+from models.engine.runtime import runtime_for
+from models.identification.options import IdentificationOptions
+from models.identification.reference_fit import reference_problem
 from models.measurements.references import Anchor, ReferenceRecords
 from models.noise import NoiseModel
+from models.workspace import workspace_samples
+from optimal_design.information import WORKSPACE_POSES, WORKSPACE_SEED
 from optimal_design.references import design_reference_records
 from service.schemas.designs import PoseDesignCreate
 from tests.service.helpers import assert_design_kept, calibrate_robot, finished_job
@@ -255,10 +260,14 @@ def _few(body: dict[str, Any]) -> None:
         (lambda b: b["anchors"].update({"spare": {"position_mm": [0, 0, 900]}}), "no candidate names it"),
         (lambda b: b.update({"candidates": [c["joints"] for c in b["candidates"]]}), "say which"),
         (_few, "anchor 'a2' has 3 admissible candidates"),
-        (lambda b: b.update({"terms": ["thermal"]}), "terms:"),
-        (lambda b: b.update({"fixed": [b["candidates"][0]["joints"]]}), "fixed:"),
-        (lambda b: b.update({"min_spread": 0.1}), "min_spread:"),
-        (lambda b: b.update({"d_efficiency_floor": 0.5, "criterion": "E"}), "d_efficiency_floor:"),
+        (lambda b: b.update({"terms": ["thermal"]}), "terms: distance, point, plane, image"),
+        (lambda b: b.update({"temperature_levels_c": [20.0]}), "temperature_levels_c: levels belong to a design"),
+        (lambda b: b.update({"cell": "stored"}), "cell: designs among the poses a cell can measure are of a tracker"),
+        (lambda b: b.update({"prior": "fleet"}), "prior: fleet designs tracker poses"),
+        (lambda b: b.update({"fixed": [b["candidates"][0]["joints"]]}), "fixed 0 is a bare joint vector"),
+        (lambda b: b.update({"fixed": [{**b["candidates"][0], "anchor": "zz"}]}), "fixed 0 names anchor 'zz'"),
+        (lambda b: b.update({"min_spread": 1.0}), "min_spread 1: only"),
+        (lambda b: b.update({"d_efficiency_floor": 0.5}), "d_efficiency_floor applies to the"),
         (lambda b: b.update({"count": None, "target": {"rms_tcp_mm": 0.01}, "criterion": "E"}), "not E"),
         (lambda b: b.update({"candidates": None, "measurement": "point", "points": {"s1": {}}}), "give candidates"),
         (lambda b: b["anchors"]["a1"].update({"range_mm": [500, 100]}), "min < max"),
@@ -315,3 +324,114 @@ def test_a_rounding_that_loses_rank_starts_the_exchange_from_the_greedy_design(c
     assert len(design["poses"]) == 30
     predicted = design["metrics"]["predicted_rms_tcp_mm"]
     assert math.isfinite(predicted) and predicted < 0.5 * design["random_baseline"]["predicted_rms_tcp_mm"]
+
+
+def _by_hand(records: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(M, L, the robot parameters a fit of these records estimates) of a ballbar campaign (joints per anchor,
+    internal units), from the fit's own Jacobian: M its information, L the mean TCP sensitivity over the
+    workspace (zeros in the anchors' columns), so that trace(L M⁻¹) is the predicted mean TCP variance."""
+    pivots = dict(zip(NAMES, PIVOTS, strict=True))
+    groups = tuple(
+        ReferenceRecords(Anchor(name, tuple(pivots[name])), q, np.zeros(len(q))) for name, q in records.items()
+    )
+    noise = NoiseModel(SIGMA_MM, math.radians(0.01))
+    problem = reference_problem(
+        UR5,
+        groups,
+        noise=noise,
+        theta=UR5.parameters.nominal,
+        estimate=IdentificationOptions().estimate,
+        runtime=runtime_for(UR5),
+    )
+    evaluated = problem.evaluate(np.zeros(problem.n_free))
+    assert evaluated is not None
+    jacobian = evaluated.jacobian
+    free = list(problem.free)
+    workspace = workspace_samples(UR5, WORKSPACE_POSES, WORKSPACE_SEED)
+    rows = forward_kinematics(UR5, workspace, jacobian=True).jacobians[:, :3, free] * UR5.parameters.scales[free]
+    flat = rows.reshape(-1, len(free))
+    task = np.zeros((problem.n_free,) * 2)
+    task[: len(free), : len(free)] = flat.T @ flat / workspace.shape[0]
+    return jacobian.T @ jacobian, task, [UR5.parameters.names[i] for i in free]
+
+
+def _campaign(*tagged: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+    """Tagged records (boundary units) as joints per anchor (internal units)."""
+    records: dict[str, list[list[float]]] = {}
+    for r in (r for group in tagged for r in group):
+        records.setdefault(r["anchor"], []).append(r["joints"])
+    return {name: np.asarray(q) / UR5.joint_to_boundary for name, q in records.items()}
+
+
+def _predicted_rms(records: dict[str, np.ndarray]) -> float:
+    m, task, _ = _by_hand(records)
+    return float(np.sqrt(np.trace(task @ np.linalg.inv(m))))
+
+
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
+def test_a_ballbar_design_with_fixed_records_completes_what_was_measured(client: TestClient, arm: str) -> None:
+    """Twelve records already measured (eight against a1, four against a2): the design of 30 more predicts the
+    TCP error that the fit of all 42 has, computed by hand; and it completes them better than the design that
+    does not know them."""
+    deg = UR5.joint_to_boundary
+    measured = sample_workspace(UR5, 12, seed=900) * deg
+    fixed = [{"joints": q.tolist(), "anchor": "a1" if i < 8 else "a2"} for i, q in enumerate(measured)]
+    body = _ballbar(count=30, criterion="I", noise=NOISE)
+    report = _design(client, arm, {**body, "fixed": fixed})
+    assert report["fixed"] == 12 and report["count"] == 30
+    chosen = [body["candidates"][i] for i in report["indices"]]
+    assert [c["anchor"] for c in chosen] == report["references"]
+    m, _, estimated = _by_hand(_campaign(fixed, chosen))
+    assert report["identifiable"] == estimated
+    assert report["metrics"]["predicted_rms_tcp_mm"] == pytest.approx(
+        _predicted_rms(_campaign(fixed, chosen)), rel=1e-6
+    )
+    assert report["metrics"]["log_det"] == pytest.approx(np.linalg.slogdet(m)[1], rel=1e-6)
+    blind = _design(client, arm, body)  # the same design without the fixed records
+    unaware = _predicted_rms(_campaign(fixed, [body["candidates"][i] for i in blind["indices"]]))
+    assert report["metrics"]["predicted_rms_tcp_mm"] < unaware
+
+
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
+def test_branch_and_bound_tightens_a_ballbar_designs_bound(client: TestClient, arm: str) -> None:
+    body = _ballbar(count=30, criterion="D", noise=NOISE)
+    plain = _design(client, arm, body)
+    report = _design(client, arm, {**body, "bound_seconds": 1.0})
+    branched = report["bound"]["branch_and_bound"]
+    assert plain["bound"]["branch_and_bound"] is None and branched is not None and branched["nodes"] > 0
+    # Not looser than the relaxation's bound, and no K-subset above it: the design's log det by hand is under it.
+    assert report["bound"]["utility"] <= branched["root_utility"] == pytest.approx(plain["bound"]["utility"])
+    chosen = [body["candidates"][i] for i in report["indices"]]
+    log_det = float(np.linalg.slogdet(_by_hand(_campaign(chosen))[0])[1])
+    assert report["bound"]["utility"] - log_det >= -1e-9
+    assert branched["root_efficiency"] <= report["efficiency"] <= 1.0
+
+
+@pytest.mark.slow  # over 0.25 s of CPU: outside the inner loop (make test-fast)
+def test_min_spread_keeps_the_chosen_ballbar_poses_apart_and_from_the_fixed_ones(client: TestClient, arm: str) -> None:
+    spread = 0.2
+    measured = sample_workspace(UR5, 4, seed=901) * UR5.joint_to_boundary
+    fixed = [{"joints": q.tolist(), "anchor": "a3"} for q in measured]
+    body = _ballbar(count=30, criterion="I", noise=NOISE, fixed=fixed)
+    report = _design(client, arm, {**body, "min_spread": spread})
+    width = (np.asarray(UR5.joint_max) - np.asarray(UR5.joint_min)) * UR5.joint_to_boundary
+
+    def distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:  # RMS over joints of the difference / range
+        return np.asarray(np.sqrt(np.mean(((a[:, None, :] - b[None, :, :]) / width) ** 2, axis=2)))
+
+    poses = np.asarray(report["poses"])
+    apart = distances(poses, poses)[np.triu_indices(len(poses), 1)]
+    assert apart.min() >= spread and distances(poses, measured).min() >= spread
+    unconstrained = np.asarray(_design(client, arm, body)["poses"])
+    assert distances(unconstrained, unconstrained)[np.triu_indices(len(poses), 1)].min() < spread  # it binds
+
+
+def test_a_target_the_fixed_ballbar_records_reach_needs_no_more(client: TestClient, arm: str) -> None:
+    measured = sample_workspace(UR5, 60, seed=902) * UR5.joint_to_boundary
+    fixed = [{"joints": q.tolist(), "anchor": NAMES[i % 3]} for i, q in enumerate(measured)]
+    goal = 0.05
+    report = _design(client, arm, _ballbar(count=None, target={"rms_tcp_mm": goal}, noise=NOISE, fixed=fixed))
+    by_hand = _predicted_rms(_campaign(fixed))
+    assert report["count"] == 0 and report["poses"] == [] and report["references"] == []
+    assert report["measurement"] == "distance"
+    assert report["fixed_mm"] == pytest.approx(by_hand, rel=1e-6) and by_hand <= goal
