@@ -29,6 +29,16 @@ def _range(lo: float, hi: float, field: str) -> None:
         raise InvalidInput(f"{field}: need 0 <= min < max (mm), got {lo}, {hi}", field=field)
 
 
+def _acceptance(value: float, field: str) -> None:
+    if not 0 < value <= np.pi:
+        raise InvalidInput(f"{field}: a half-angle in (0, 180°]", field=field)
+
+
+def _clearance(value: float, field: str) -> None:
+    if not (np.isfinite(value) and value > 0):
+        raise InvalidInput(f"{field} must be positive (mm)", field=field)
+
+
 @dataclass(frozen=True)
 class Target:
     """Where the measured point sits on the tool (TCP frame, mm) and which way it faces (a direction there)."""
@@ -60,10 +70,8 @@ class Tracker:
     def __post_init__(self) -> None:
         _finite(self.position, "tracker.position")
         _range(self.range_min, self.range_max, "tracker.range")
-        if not 0 < self.acceptance <= np.pi:
-            raise InvalidInput("tracker.acceptance: a half-angle in (0, 180°]", field="tracker.acceptance")
-        if not (np.isfinite(self.beam_clearance) and self.beam_clearance > 0):
-            raise InvalidInput("tracker.beam_clearance must be positive (mm)", field="tracker.beam_clearance")
+        _acceptance(self.acceptance, "tracker.acceptance")
+        _clearance(self.beam_clearance, "tracker.beam_clearance")
 
 
 @dataclass(frozen=True)
@@ -87,6 +95,10 @@ class Camera:
         for name in ("half_width", "half_height"):
             if not 0 < getattr(self, name) < np.pi / 2:
                 raise InvalidInput(f"camera.{name}: a half-angle in (0, 90°)", field=f"camera.{name}")
+        # As the tracker's: a NaN or zero cone would see nothing, and a negative clearance let a sight line
+        # graze a link (neither was checked here before).
+        _acceptance(self.acceptance, "camera.acceptance")
+        _clearance(self.sight_clearance, "camera.sight_clearance")
 
 
 @dataclass(frozen=True)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 
@@ -174,6 +176,25 @@ def test_segment_distance_reference_is_right() -> None:
     a = np.array([[0.0, 5, 0], [5, -5, 3], [13, 4, 0]])
     b = np.array([[10.0, 5, 0], [5, 5, 3], [20, 4, 0]])
     np.testing.assert_allclose(segment_distance(p, q, a, b), [5.0, 3.0, 5.0])
+
+
+@pytest.mark.parametrize(
+    ("make", "field"),
+    [
+        (lambda: Tracker((0.0, 0.0, 0.0), acceptance=0.0), "tracker.acceptance"),
+        (lambda: Tracker((0.0, 0.0, 0.0), beam_clearance=-1.0), "tracker.beam_clearance"),
+        (lambda: Camera(acceptance=float("nan")), "camera.acceptance"),
+        (lambda: Camera(acceptance=4.0), "camera.acceptance"),
+        (lambda: Camera(sight_clearance=0.0), "camera.sight_clearance"),
+        (lambda: Camera(sight_clearance=float("inf")), "camera.sight_clearance"),
+    ],
+)
+def test_an_instruments_cone_and_clearance_are_checked_alike(make: Callable[[], object], field: str) -> None:
+    # The camera's acceptance and sight clearance went unchecked (a NaN cone saw nothing, a negative clearance let
+    # a sight line graze a link); the tracker's were checked.
+    with pytest.raises(InvalidInput) as err:
+        make()
+    assert err.value.field == field
 
 
 def test_bad_cells_are_refused_naming_the_field() -> None:
