@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from _pytest.mark.expression import Expression
 
+from harness.live import story_server
 from models import Registry, RobotDescription, default_registry, iwr
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -155,6 +156,16 @@ def _loggers_stay_enabled() -> Iterator[None]:
         logger = loggers.get(name)
         if isinstance(logger, logging.Logger):
             logger.disabled = disabled
+
+
+@pytest.fixture(scope="session")
+def story_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """One live service per test process for the story modules (the CLI's sessions and campaigns, the README's
+    quick start, the example, the generated client, a retried POST), each keeping its robots apart by name:
+    starting and stopping a `python -m service` with its compute and parse processes is ~7 s of CPU, and these
+    seven modules each started their own."""
+    with story_server(tmp_path_factory.mktemp("story")) as url:
+        yield url
 
 
 @pytest.fixture(scope="session")

@@ -8,14 +8,12 @@ import csv
 import io
 import json
 import subprocess
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from harness.live import story_server
 from models.description.examples import ur5_like, ur5_like_document
 from models.simulation import measure, perturbed_robot
 from tests.cli.helpers import api, iwr
@@ -26,9 +24,8 @@ DESC = ur5_like()
 
 
 @pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    with story_server(tmp_path_factory.mktemp("campaign")) as url:
-        yield url
+def server(story_url: str) -> str:
+    return story_url  # the session's live service (tests/conftest.py)
 
 
 def _records_csv(poses_csv: Path, out: Path) -> None:

@@ -17,7 +17,6 @@ from urllib.parse import parse_qs, urlsplit
 import numpy as np
 import pytest
 
-from harness.live import story_server
 from iwr_client import Client
 from iwr_client.cli import main
 from models import iwr as iwr_description
@@ -110,9 +109,8 @@ def test_records_go_as_json_and_a_column_map_is_for_files_only(recorder: str) ->
 
 
 @pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    with story_server(tmp_path_factory.mktemp("files")) as url:
-        yield url
+def server(story_url: str) -> str:
+    return story_url  # the session's live service (tests/conftest.py)
 
 
 def _controller_file(path: Path, n: int, seed: int) -> list[dict[str, Any]]:

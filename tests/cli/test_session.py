@@ -14,7 +14,6 @@ import pty
 import subprocess
 import sys
 import urllib.request
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +21,7 @@ import numpy as np
 import pytest
 
 from harness.checks import changed
-from harness.live import ROOT, free_port, story_server
+from harness.live import ROOT, free_port
 from models import iwr as iwr_description
 from models.simulation import SimulatedRobot, measure, perturbed_robot
 from tests.cli.helpers import api, environment, iwr
@@ -36,9 +35,8 @@ IWR = iwr_description()
 
 
 @pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    with story_server(tmp_path_factory.mktemp("cli")) as url:
-        yield url
+def server(story_url: str) -> str:
+    return story_url  # the session's live service (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")

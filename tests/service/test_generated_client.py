@@ -30,7 +30,7 @@ import httpx
 import numpy as np
 import pytest
 
-from harness.live import ROOT, story_server
+from harness.live import ROOT
 
 pytestmark = pytest.mark.slow
 
@@ -133,13 +133,12 @@ def _campaign_as_json() -> dict[str, Any]:
     }
 
 
-def test_generated_client_runs_the_example_session(generated: ModuleType, tmp_path: Path) -> None:
+def test_generated_client_runs_the_example_session(generated: ModuleType, story_url: str) -> None:
     with (
-        story_server(tmp_path) as url,
-        httpx.Client(base_url=url, timeout=120) as direct,
-        generated.Client(base_url=url, timeout=httpx.Timeout(120.0)) as client,
+        httpx.Client(base_url=story_url, timeout=120) as direct,
+        generated.Client(base_url=story_url, timeout=httpx.Timeout(120.0)) as client,
     ):
-        robot = _call(generated, client, "post", "/v1/robots", {"name": "cell-3", "model": "iwr"})
+        robot = _call(generated, client, "post", "/v1/robots", {"name": "cell-3-generated", "model": "iwr"})
         rid = robot["id"]
         report = _call(
             generated, client, "post", "/v1/robots/{robot_id}/calibrations", _campaign_as_json(), robot_id=rid

@@ -5,13 +5,11 @@ from __future__ import annotations
 import time
 from collections.abc import Iterator
 from datetime import UTC, datetime, timedelta
-from pathlib import Path
 
 import httpx
 import pytest
 from sqlalchemy import update
 
-from harness.live import story_server
 from models import Registry, iwr, sample_workspace
 from models.simulation import perturbed_robot
 from service.persistence.tables import IdempotencyRecord
@@ -98,13 +96,10 @@ def test_keys_are_per_api_key(tmp_path: object) -> None:
 
 
 @pytest.mark.slow
-def test_a_client_that_times_out_and_retries_creates_one_calibration(tmp_path: Path) -> None:
+def test_a_client_that_times_out_and_retries_creates_one_calibration(story_url: str) -> None:
     """The measured bug: a retried POST after a client timeout created a second calibration and version."""
-    with (
-        story_server(tmp_path) as url,
-        httpx.Client(base_url=url) as c,
-    ):
-        rid = c.post("/v1/robots", json={"name": "cell"}).json()["id"]
+    with httpx.Client(base_url=story_url) as c:
+        rid = c.post("/v1/robots", json={"name": "cell-retried"}).json()["id"]
         body = {"measurements": _campaign(400)}  # ~0.3 s of identification here: longer than the client waits
         headers = {"Idempotency-Key": "calibration-of-monday"}
         with pytest.raises(httpx.TimeoutException):
