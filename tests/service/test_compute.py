@@ -119,7 +119,7 @@ def test_errors_travel_back_with_their_data(pool: ComputePool) -> None:
     assert raised.value.data == {"resource": "robot", "id": "r-1"}
 
 
-@pytest.mark.serial  # stopped between 0.3 and 2 s of wall time: alone on the cores
+@pytest.mark.serial  # stopped after 0.3 s and well before its 30 s of wall time
 def test_a_token_set_here_stops_the_computation_there(pool: ComputePool) -> None:
     token = CancellationToken()
 
@@ -139,7 +139,9 @@ def test_a_token_set_here_stops_the_computation_there(pool: ComputePool) -> None
 
     started = time.perf_counter()
     assert anyio.run(main) == "cancelled"
-    assert 0.3 <= time.perf_counter() - started < 2.0  # stopped at its next step, not after 30 s
+    # Stopped at its next step, not after its 30 s: 0.3-0.5 s idle; 2.5 s at load 4 (stress --cpu 4 beside the
+    # suite, 2026-12-07), which a bound of 2 s failed. A third of the task's length still tells the two apart.
+    assert 0.3 <= time.perf_counter() - started < 10.0
     assert pool._free == [0]  # the slot is free again
 
 
@@ -331,7 +333,7 @@ def _alive(process_id: int) -> bool:
     return Path(f"/proc/{process_id}/stat").read_text().split()[2] != "Z"  # a zombie is dead, not yet reaped
 
 
-@pytest.mark.serial  # refused within 2 s of wall time: alone on the cores
+@pytest.mark.serial  # refused at its 0.5 s deadline, not after the minute it asks for
 def test_a_parse_past_its_deadline_is_refused_and_frees_the_parse_process(
     pool: ComputePool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -350,7 +352,7 @@ def test_a_parse_past_its_deadline_is_refused_and_frees_the_parse_process(
         return stuck, took, fresh
 
     stuck, took, fresh = anyio.run(main)
-    assert took < 2.0, took  # the deadline, not the minute
+    assert took < 10.0, took  # the deadline (0.5 s, ~0.6 s idle), not the minute: a bound that load cannot reach
     assert fresh != stuck  # a new parse process serves the next body
     deadline = time.monotonic() + 5
     while _alive(stuck) and time.monotonic() < deadline:
