@@ -490,6 +490,15 @@ class Client:
         answer = self.request("GET", path, query={"format": fmt, "version": version}, accept=accept)
         return dict(answer.json()) if fmt == "json" else answer.body.decode()
 
+    def forward_kinematics(
+        self, robot_id: str, joints: Sequence[Sequence[float]], *, accuracy: bool = False, frames: bool = False
+    ) -> Json:
+        """The TCP's pose per joint vector (robots.md's order; deg and mm) on the current version; with `accuracy`,
+        each pose's predicted error and whether it lies in the region the calibration measured (outside it:
+        `extrapolation` and why); with `frames`, every frame to draw."""
+        body = {"joints": [[float(v) for v in row] for row in joints], "accuracy": accuracy, "frames": frames}
+        return dict(self._post(f"/v1/robots/{_segment(robot_id)}/forward-kinematics", body))
+
     def validate(
         self,
         robot_id: str,

@@ -219,6 +219,8 @@ class Estimate:
     rechecked: bool
     after: ResidualSummary
     accuracy: PredictedAccuracy
+    prediction_cov: Array
+    """The predictive covariance of `_by_direction` (the prior's covariance where a prior bounds every direction)."""
 
 
 def _checked(noise: NoiseModel) -> NoiseModel:
@@ -570,6 +572,7 @@ def _estimate(
             f"at the solution {recheck.rank} parameters are identifiable (at the start: {ident.rank}); "
             "the estimate used the starting subset"
         )
+    observable, prediction_cov = (None, cov_theta) if prior_rows is not None else _by_direction(ev, cov, scales)
     accuracy = predicted_accuracy(
         desc,
         ev.theta,
@@ -578,24 +581,32 @@ def _estimate(
         options.workspace_samples,
         runtime=rt,
         measured=campaign.joints,
-        observable_cov_theta=None
-        if prior_rows is not None
-        else observable_covariance(ev, cov) * np.outer(scales, scales),
+        observable_cov_theta=observable,
     )
     accuracy = with_record_scatter(accuracy, after.position_mm, cov.dof, free.size)
     if accuracy.extrapolation is not None:
         notes.append(accuracy.extrapolation)
-    rechecked = recheck.rank == ident.rank
-    return Estimate(ev.theta, free, cov, cov_theta, ident, rechecked, ResidualSummary.of(after), accuracy)
+    summary, rechecked = ResidualSummary.of(after), recheck.rank == ident.rank
+    return Estimate(ev.theta, free, cov, cov_theta, ident, rechecked, summary, accuracy, prediction_cov)
 
 
-def observable_covariance(ev: Evaluation, cov: Covariance) -> Array:
-    """The a-posteriori covariance (z units) restricted to the directions the records observe
-    (`trust_region.UNOBSERVABLE_SIGMA`); equal to `cov.z` when every direction is observable."""
-    _, sv, vt = np.linalg.svd(ev.jacobian, full_matrices=False)
+def _by_direction(ev: Evaluation, cov: Covariance, scales: Array) -> tuple[Array, Array]:
+    """(observable, predictive) covariances in internal units, from the Jacobian's SVD (inverting JᵀJ at
+    condition 1e17 leaves the observable directions noise, negative variances included).
+
+    Observable: the a-posteriori covariance restricted to the directions the records observe
+    (`trust_region.UNOBSERVABLE_SIGMA`), what the measured region's prediction uses. Predictive: that, plus one
+    tolerance² along each direction the records did not see, which the fit left at its start: the error there
+    is the start's, each parameter's expected error, not the thousands of tolerances of its a-posteriori
+    variance; what a prediction at a fresh pose uses (`models.identification.pose_accuracy`)."""
+    _, sv, vt = np.linalg.svd(ev.jacobian, full_matrices=True)
+    sv = np.concatenate([sv, np.zeros(vt.shape[0] - sv.size)])
     seen = sv > UNOBSERVABLE_SIGMA
     factor = cov.variance_factor if np.isfinite(cov.variance_factor) else 1.0
-    return np.asarray(factor * (vt[seen].T / sv[seen] ** 2) @ vt[seen], dtype=float)
+    observable = factor * (vt[seen].T / sv[seen] ** 2) @ vt[seen]
+    to_internal = np.outer(scales, scales)
+    unseen = vt[~seen]
+    return np.asarray(observable * to_internal), np.asarray((observable + unseen.T @ unseen) * to_internal)
 
 
 def _verdict(
@@ -681,6 +692,7 @@ def make_result(
         notes=tuple(notes),
         diagnoses=diagnoses,
         missing=() if e is None else e.ident.missing,
+        prediction_covariance=None if e is None else e.prediction_cov,
     )
 
 

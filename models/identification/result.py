@@ -184,6 +184,10 @@ class IdentificationResult:
     frame); None: the instrument's frame, registered as the base."""
     record_kinds: tuple[tuple[str, int], ...] = ()
     """(kind, records) of a campaign of several kinds: "distance", "point", "plane", "position"."""
+    prediction_covariance: Array | None = None
+    """The covariance a prediction at a fresh pose uses (internal units, `estimated` order): the fit's along the
+    directions the records saw, one tolerance² along those they did not (left at their start); None: the fit
+    gave none (use `covariance`). `models.identification.pose_accuracy` judges poses with it."""
 
     @property
     def succeeded(self) -> bool:

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from service.conversions.terms import stored_model
 from service.persistence import Database, Repository
 
 Model = tuple[RobotDescription, Array]
+T = TypeVar("T")
 
 
 class ModelCache:
@@ -28,6 +30,7 @@ class ModelCache:
         self.db, self.size = db, size
         self._entries: OrderedDict[tuple[str, int], Model] = OrderedDict()
         self._conditions: OrderedDict[tuple[str, int], dict[str, Any] | None] = OrderedDict()
+        self._derived: OrderedDict[tuple[str, int, str], Any] = OrderedDict()
         self._lock = threading.Lock()
 
     def current(self, robot_id: str) -> Model:
@@ -68,6 +71,27 @@ class ModelCache:
                 self._conditions.popitem(last=False)
         return version, stored
 
+    def derived(self, robot_id: str, what: str, build: Callable[[int], T]) -> T:
+        """`build(version)` of the robot's current version, kept under `what` for that version: a version never
+        changes, so what is derived from it (a calibration's covariance and measured region) is built once. A
+        build that raises keeps nothing."""
+        version = self.db.current_version(robot_id)
+        if version is None:
+            self.current(robot_id)  # NotFound for an unknown robot
+            version = self.db.current_version(robot_id)
+            assert version is not None
+        key = (robot_id, version, what)
+        with self._lock:
+            if key in self._derived:
+                self._derived.move_to_end(key)
+                return self._derived[key]  # type: ignore[no-any-return]
+        value = build(version)
+        with self._lock:
+            self._derived[key] = value
+            while len(self._derived) > self.size:
+                self._derived.popitem(last=False)
+        return value
+
     def __len__(self) -> int:
         return len(self._entries)
 
@@ -75,3 +99,4 @@ class ModelCache:
         with self._lock:
             self._entries.clear()
             self._conditions.clear()
+            self._derived.clear()

@@ -218,12 +218,35 @@ def _correlation(result: IdentificationResult) -> dict[str, Any] | None:
     return {"names": list(result.identifiable_names), "matrix": matrix.tolist()}
 
 
+PREDICTION_KEY = "prediction_covariance"
+"""The stored document's key for the covariance predictions at fresh poses use (`forward-kinematics` with
+accuracy): kept with the calibration, never shown (internal units, and the correlation says it publicly)."""
+
+
+def stored_document(report: CalibrationReportPublic, result: IdentificationResult) -> dict[str, Any]:
+    """What a calibration's row keeps: its public report, and the covariance predictions use."""
+    document = report.model_dump(mode="json")
+    cov = result.prediction_covariance
+    if cov is not None and cov.size and cov.shape == (len(result.estimated), len(result.estimated)):
+        document[PREDICTION_KEY] = {"names": list(result.identifiable_names), "matrix": cov.tolist()}
+    return document
+
+
+def stored_prediction(document: dict[str, Any]) -> tuple[list[str], Array] | None:
+    """(parameter names, covariance in internal units) a calibration's document keeps for predictions; None for
+    one stored before it was kept, or whose fit gave none."""
+    found = document.get(PREDICTION_KEY)
+    if not found:
+        return None
+    return list(found["names"]), np.asarray(found["matrix"], dtype=float)
+
+
 def calibration_public(record: CalibrationRecord) -> CalibrationPublic:
     """The stored report with the row's columns. Validated again on the way out: a calibration stored before a
     field existed gets its default, as the declared response model gave it."""
     return CalibrationPublic.model_validate(
         {
-            **record.result,
+            **{key: value for key, value in record.result.items() if key != PREDICTION_KEY},
             "id": record.id,
             "robot_id": record.robot_id,
             "campaign_id": record.campaign_id,

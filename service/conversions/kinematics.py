@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -10,11 +12,17 @@ from models import RobotDescription
 from models._types import IDENTITY, Array, Pose6
 from models.compensation import Compensation
 from models.errors import InvalidQuaternion
+from models.identification.pose_accuracy import MeasuredRegion, PoseAccuracy
 from models.kinematics import ForwardResult, as_joint_array
 from models.transforms import matrix_to_quaternion, matrix_to_rotvec_np, quaternion_to_matrix, rotvec_to_matrix_np
 from service.errors import BadRequest
 from service.schemas.common import PosePublic, Target
-from service.schemas.kinematics import ForwardResponse, InverseResponse
+from service.schemas.kinematics import (
+    ForwardResponse,
+    InverseResponse,
+    MeasuredRegionPublic,
+    PoseAccuracyPublic,
+)
 
 QUATERNION_TOLERANCE = 1e-3
 
@@ -99,6 +107,32 @@ def forward_out(
             "frames": frames,
         }
     )
+
+
+def accuracy_out(found: PoseAccuracy, region: MeasuredRegion, calibration_id: str, version: int) -> dict[str, Any]:
+    """The `accuracy` and `measured_region` of a forward answer (orientations in degrees)."""
+    return {
+        "accuracy": [
+            PoseAccuracyPublic(
+                position_mm=float(p),
+                orientation_deg=math.degrees(float(r)),
+                distance_to_measured=float(d),
+                in_measured_region=why is None,
+                extrapolation=why,
+            )
+            for p, r, d, why in zip(
+                found.position_mm, found.orientation_rad, found.distance, found.extrapolation, strict=True
+            )
+        ],
+        "measured_region": MeasuredRegionPublic(
+            calibration_id=calibration_id,
+            version=version,
+            poses=int(region.joints.shape[0]),
+            rms_position_mm=region.rms_position_mm,
+            max_position_mm=region.max_position_mm,
+            widest_gap=region.widest_gap,
+        ),
+    }
 
 
 def inverse_out(desc: RobotDescription, answer: Compensation) -> InverseResponse:

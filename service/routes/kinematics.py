@@ -24,7 +24,8 @@ FORWARD = BodyComputation(
     ForwardRequest,
     kinematics.forward,
     estimate=lambda body: limits.forward_kinematics(len(body.joints)),
-    inline=lambda body: len(body.joints) <= INLINE_POSES,
+    # A prediction reads the calibration's campaign once per version: never on the event loop.
+    inline=lambda body: len(body.joints) <= INLINE_POSES and not body.accuracy,
 )
 INVERSE = BodyComputation(
     "inverse_kinematics",

@@ -18,6 +18,7 @@ from service.conversions.calibrations import (
     noise_in,
     options_in,
     report_out,
+    stored_document,
 )
 from service.conversions.drift import conditions_out
 from service.conversions.references import described
@@ -218,7 +219,7 @@ def _store(
             }
         )
         record = repo.add_calibration(
-            calibration_id, robot_id, stored.id, result.status, document.model_dump(mode="json")
+            calibration_id, robot_id, stored.id, result.status, stored_document(document, result)
         )
         record.start_version = start.version
         record.notes = body.notes

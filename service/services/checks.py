@@ -5,22 +5,15 @@ history of calibrations and checks. Read, compute outside any transaction, write
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
 
-import numpy as np
-
-from models import NoiseModel, Registry, RobotDescription
-from models._types import Array
+from models import NoiseModel, Registry
 from models.errors import InvalidInput
-from models.evaluation.checks import CALIBRATION_POSES, CheckOptions, version_covariance
+from models.evaluation.checks import CheckOptions
 from models.measurement import MeasurementKind
 from optimal_design.checks import design_check
 from service.conversions.checks import check_design_out, check_document, check_public, history_out
 from service.conversions.drift import condition_warnings
 from service.conversions.references import described
-from service.conversions.robots import description
-from service.conversions.terms import stored_model
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
 from service.schemas.calibrations import Noise
@@ -34,51 +27,25 @@ from service.schemas.checks import (
 )
 from service.services.pages import robot_page
 from service.services.pipelines import fitting_in
+from service.services.version_uncertainty import VersionUncertainty, calibrated_uncertainty, nominal_uncertainty
 
 HISTORY_MAX = 10_000
 
 
-@dataclass(frozen=True)
-class _Version:
-    """The current version as a check needs it: its model, values and parameter covariance."""
-
-    desc: RobotDescription
-    number: int
-    values: Array
-    covariance: Array
-    calibration_poses: int
-    conditions: dict[str, Any] | None = None
-    """What the version's campaign was measured under (None: no campaign made it)."""
-
-
-def _current(repo: Repository, robot_id: str, against: Against) -> _Version:
-    desc = description(repo.robot(robot_id))
-    row = repo.version(robot_id)
-    values = np.asarray(row.values, dtype=float)
-    model = stored_model(desc, values.size)
-    table = model.parameters
+def _current(repo: Repository, robot_id: str, against: Against) -> VersionUncertainty:
     if against == "tolerances":
-        # The nominal tolerances (each parameter's expected error) as the version's uncertainty.
-        return _Version(model, row.version, values, np.diag(table.scales**2), CALIBRATION_POSES, row.conditions)
-    stored = list(row.std_errors or [])
-    std = np.array([math.nan if v is None else float(v) for v in stored] + [math.nan] * (len(table) - len(stored)))
-    if not np.any(np.isfinite(std) & (std > 0)):
+        return nominal_uncertainty(repo, robot_id)
+    found = calibrated_uncertainty(repo, robot_id)
+    if found is None:
+        version = repo.version(robot_id).version
         raise InvalidInput(
-            f"version {row.version} of robot {robot_id!r} carries no calibrated uncertainty (it is the nominal or an "
+            f"version {version} of robot {robot_id!r} carries no calibrated uncertainty (it is the nominal or an "
             "imported version): calibrate the robot first, or check against its nominal tolerances "
             '("against": "tolerances")',
             field="against",
             reason="not_calibrated",
         )
-    names, correlation, poses = None, None, CALIBRATION_POSES
-    if row.calibration_id is not None:
-        document = repo.calibration(row.calibration_id).result
-        stored_correlation = document.get("correlation")
-        if stored_correlation:
-            names, correlation = stored_correlation["names"], np.asarray(stored_correlation["matrix"], dtype=float)
-        poses = int(document.get("measurements") or CALIBRATION_POSES)
-    covariance = version_covariance(table, std[: len(table)], names, correlation)
-    return _Version(model, row.version, values, covariance, poses, row.conditions)
+    return found
 
 
 def _noise(noise: Noise) -> NoiseModel:
