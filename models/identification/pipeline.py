@@ -599,7 +599,10 @@ def _by_direction(ev: Evaluation, cov: Covariance, scales: Array) -> tuple[Array
     tolerance² along each direction the records did not see, which the fit left at its start: the error there
     is the start's, each parameter's expected error, not the thousands of tolerances of its a-posteriori
     variance; what a prediction at a fresh pose uses (`models.identification.pose_accuracy`)."""
-    _, sv, vt = np.linalg.svd(ev.jacobian, full_matrices=True)
+    rows, unknowns = ev.jacobian.shape
+    # Every right singular vector, with fewer rows than unknowns too (the rest is the null space, unseen);
+    # full U only then, where it is small (6 000 rows would make it 288 MB).
+    _, sv, vt = np.linalg.svd(ev.jacobian, full_matrices=rows < unknowns)
     sv = np.concatenate([sv, np.zeros(vt.shape[0] - sv.size)])
     seen = sv > UNOBSERVABLE_SIGMA
     factor = cov.variance_factor if np.isfinite(cov.variance_factor) else 1.0
