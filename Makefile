@@ -127,7 +127,7 @@ test: lint
 # then hypothesis on the URDF and structure readers, 2 000 random documents per property, not the fixed seed
 # of `make test` (~20 s).
 fuzz: $(STAMP)
-	IWR_FUZZ_EXAMPLES=150 IWR_FUZZ_STEPS=10 IWR_CONTRACT_EXAMPLES=150 $(BIN)/pytest -p no:cacheprovider \
+	IWR_FUZZ_EXAMPLES=150 IWR_FUZZ_STEPS=10 IWR_CONTRACT_EXAMPLES=150 IWR_CONTRACT_BOUNDARIES=1 $(BIN)/pytest -p no:cacheprovider \
 		tests/service/test_contract.py tests/service/test_contract_fuzz.py
 	IWR_URDF_FUZZ_EXAMPLES=2000 $(BIN)/pytest -p no:cacheprovider tests/models/test_urdf_fuzz.py \
 		tests/models/test_importer_fuzz.py
