@@ -38,12 +38,16 @@ def test_fifty_clients_under_load(tmp_path: Path) -> None:
         overloaded = np.zeros(CLIENTS, dtype=int)
         stop = time.monotonic() + SECONDS
 
+        def answered() -> int:
+            return sum(len(c) for c in created) + sum(len(c) for c in not_applied)
+
         def client(k: int) -> None:
             with httpx.Client(base_url=url, timeout=60) as http:
                 i = 0
-                # For the time, and in any case until one calibration of its own was answered: a count of work,
-                # not a rate, so a busy machine (CI's cores shared) slows the test instead of failing it.
-                while time.monotonic() < stop or not (created[k] or not_applied[k]):
+                # For the time, and in any case until half the clients' calibrations were answered: a count of
+                # work, not a rate, so a busy machine (CI's cores shared) slows the test instead of failing it.
+                # (Until every client's own: 50 IWR fits after the time, most of the test's 35 s.)
+                while time.monotonic() < stop or answered() < CLIENTS // 2:
                     i += 1
                     if i % 15 == 0:
                         r = http.post(f"/v1/robots/{robot}/calibrations", json={"measurements": campaign})
