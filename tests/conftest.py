@@ -105,8 +105,16 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     # The modules with the most slow tests first, each whole and in its own order (its module fixtures still built
     # once): pytest-xdist hands the collection out in order and workers steal from each other's ends, so the long
     # tests start early and the run ends on sub-second ones, not on one worker's fleet test while the rest idle.
+    # Before them, the items that need more than the run's hang guard (the schemathesis items, 20-40 s of CPU
+    # each): started last, one of them kept a worker busy alone for the run's last half minute.
     slow = Counter(_relative(item.path) for item in items if item.get_closest_marker("slow") is not None)
-    items.sort(key=lambda item: -slow[_relative(item.path)])
+    items.sort(key=lambda item: (not _outlasts_the_guard(item), -slow[_relative(item.path)]))
+
+
+def _outlasts_the_guard(item: pytest.Item) -> bool:
+    marker = item.get_closest_marker("timeout")
+    guard = float(item.config.getini("timeout") or 0)
+    return bool(marker is not None and marker.args and float(marker.args[0]) > guard)
 
 
 def _relative(path: Path) -> str:
