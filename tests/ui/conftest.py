@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlparse
 
+import httpx
 import pytest
 
 from harness.live import story_server
@@ -28,6 +30,15 @@ CHROMIUM_FLAGS = [
     "--disable-component-update",
     "--disable-sync",
 ]
+
+
+@pytest.fixture(autouse=True)
+def _api_calls_wait_as_the_page_does(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The tests' own calls to the API (`httpx.get(...)` beside the page) wait as long as the page's `expect`
+    does, not httpx's 5 s: under `stress --cpu 4` the server's first GET /openapi.json (the document built on
+    first use) took longer, and the test failed on the machine's load. A call that names its timeout keeps it."""
+    for name in ("get", "post", "put", "patch", "delete"):
+        monkeypatch.setattr(httpx, name, functools.partial(getattr(httpx, name), timeout=PAGE_WAIT_MS / 1000))
 
 
 # Package scope, not session: Playwright's sync API holds an asyncio loop in this thread while it runs, and a
