@@ -100,7 +100,11 @@ def pose_accuracy(
     scales = desc.parameters.scales[free]
     pos, rot, jac = _sigma(desc, joints, theta, free, cov_theta, runtime=runtime)
     distance = _nearest(joints, region.joints, region.ranges, exclude_self=False)
-    judge = _Judge(desc, region, cov_theta, tuple(desc.parameters.names[i] for i in free), scales)
+    # The covariance's directions in tolerances (mm and rad compare), once for every pose that names one.
+    values, vectors = np.linalg.eigh(cov_theta / np.outer(scales, scales))
+    judge = _Judge(
+        desc, region, np.clip(values, 0.0, None), vectors, tuple(desc.parameters.names[i] for i in free), scales
+    )
     reasons = tuple(judge.reason(joints[m], float(pos[m]), float(distance[m]), jac[m]) for m in range(joints.shape[0]))
     return PoseAccuracy(position_mm=pos, orientation_rad=rot, distance=distance, extrapolation=reasons)
 
@@ -142,13 +146,24 @@ def _nearest(poses: Array, measured: Array, ranges: Array, *, exclude_self: bool
 
 @dataclass(frozen=True)
 class _Judge:
-    """What a pose is judged against: the region, and the covariance to name a direction by."""
+    """What a pose is judged against: the region, and the covariance's directions (in tolerances: variances and
+    eigenvectors as columns) to name one by."""
 
     desc: RobotDescription
     region: MeasuredRegion
-    cov_theta: Array
+    variances: Array
+    directions: Array
     names: tuple[str, ...]
     scales: Array
+
+    def direction(self, jacobian: Array) -> str:
+        """The direction of the parameters that carries most of this pose's predicted variance, by its largest
+        components."""
+        moved = (jacobian * self.scales) @ self.directions  # (3, n): how each direction moves the TCP per tolerance
+        v = self.directions[:, int(np.argmax(self.variances * np.sum(moved**2, axis=0)))]
+        order = np.argsort(-np.abs(v))
+        v = v * np.sign(v[order[0]])
+        return " ".join(f"{v[i]:+.2f}·{self.names[i]}" for i in order[:SHOWN_COMPONENTS] if abs(v[i]) >= 0.1)
 
     def reason(self, q: Array, position_mm: float, distance: float, jacobian: Array) -> str | None:
         """None for a pose inside the region, else the sentence that says why it is extrapolation."""
@@ -162,7 +177,7 @@ class _Judge:
                 f"within {100 * region.widest_gap:.0f} % of one another)"
             )
         if np.isfinite(region.max_position_mm) and position_mm > FIGURE_RATIO * region.max_position_mm:
-            direction = _direction(jacobian, self.cov_theta, self.names, self.scales)
+            direction = self.direction(jacobian)
             parts.append(
                 f"its predicted {position_mm:.3g} mm is {position_mm / region.max_position_mm:.0f}× the measured "
                 f"region's worst ({region.max_position_mm:.3g} mm), mostly along {direction}"
@@ -187,16 +202,3 @@ def _outside_spans(desc: RobotDescription, q: Array, region: MeasuredRegion) -> 
                 f"{name} at {shown(q[j]):.4g}{unit} outside the measured {shown(lo[j]):.4g}…{shown(hi[j]):.4g}{unit}"
             )
     return out
-
-
-def _direction(jacobian: Array, cov_theta: Array, names: tuple[str, ...], scales: Array) -> str:
-    """The direction of the parameters (in tolerances, so mm and rad compare) that carries most of this pose's
-    predicted variance, by its largest components."""
-    scaled_cov = cov_theta / np.outer(scales, scales)
-    values, vectors = np.linalg.eigh(scaled_cov)
-    moved = (jacobian * scales) @ vectors  # (3, n): how each direction moves the TCP per tolerance
-    variance = np.clip(values, 0.0, None) * np.sum(moved**2, axis=0)
-    v = vectors[:, int(np.argmax(variance))]
-    order = np.argsort(-np.abs(v))
-    v = v * np.sign(v[order[0]])
-    return " ".join(f"{v[i]:+.2f}·{names[i]}" for i in order[:SHOWN_COMPONENTS] if abs(v[i]) >= 0.1)
