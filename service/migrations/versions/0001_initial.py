@@ -12,8 +12,6 @@ from service.migrations.shapes import create_table, created_at, drop_table, mome
 
 revision = "0001"
 down_revision = None
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

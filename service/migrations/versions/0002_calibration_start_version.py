@@ -12,8 +12,6 @@ from service.migrations.shapes import add_columns, drop_columns
 
 revision = "0002"
 down_revision = "0001"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

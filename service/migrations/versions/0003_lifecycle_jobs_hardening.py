@@ -33,8 +33,6 @@ from service.migrations.shapes import (
 
 revision = "0003"
 down_revision = "0002"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

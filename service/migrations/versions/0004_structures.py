@@ -14,8 +14,6 @@ from service.migrations.shapes import add_columns, drop_columns
 
 revision = "0004_structures"
 down_revision = "0003"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

@@ -14,8 +14,6 @@ from service.migrations.shapes import create_table, created_at, drop_table, note
 
 revision = "0005_checks"
 down_revision = "0004_structures"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

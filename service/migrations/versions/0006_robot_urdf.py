@@ -15,8 +15,6 @@ from service.migrations.shapes import add_columns, drop_columns
 
 revision = "0006_robot_urdf"
 down_revision = "0005_checks"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

@@ -16,8 +16,6 @@ from service.migrations.shapes import add_columns, drop_columns
 
 revision = "0007_version_conditions"
 down_revision = "0006_robot_urdf"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

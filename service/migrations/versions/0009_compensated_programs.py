@@ -15,8 +15,6 @@ from service.migrations.shapes import create_table, created_at, drop_table, owne
 
 revision = "0009_compensated_programs"
 down_revision = "0008_robot_fleet_key"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

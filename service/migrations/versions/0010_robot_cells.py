@@ -16,8 +16,6 @@ from service.migrations.shapes import actor, create_table, created_at, drop_tabl
 
 revision = "0010_robot_cells"
 down_revision = "0009_compensated_programs"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

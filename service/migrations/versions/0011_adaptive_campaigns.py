@@ -16,8 +16,6 @@ from service.migrations.shapes import create_table, created_at, drop_table, mome
 
 revision = "0011_adaptive_campaigns"
 down_revision = "0010_robot_cells"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:

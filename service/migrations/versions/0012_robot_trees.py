@@ -19,8 +19,6 @@ from service.migrations.shapes import actor, create_table, created_at, drop_tabl
 
 revision = "0012_robot_trees"
 down_revision = "0011_adaptive_campaigns"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:
