@@ -8,7 +8,7 @@ another schema than one upgraded before). A new shape gets a new helper, or is s
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import sqlalchemy as sa
@@ -83,3 +83,17 @@ def drop_columns(table: str, *names: str) -> None:
     with op.batch_alter_table(table) as batch:
         for name in names:
             batch.drop_column(name)
+
+
+def columns_added(table: str, *columns: sa.Column[Any]) -> tuple[Callable[[], None], Callable[[], None]]:
+    """The `upgrade` and `downgrade` of a revision that only adds `columns` to `table`, from the one list: the
+    upgrade adds them (`add_columns`), the downgrade drops them, last added first (`drop_columns`). Alembic copies a
+    column that an earlier run attached to a table, so the list serves every database a process migrates."""
+
+    def upgrade() -> None:
+        add_columns(table, *columns)
+
+    def downgrade() -> None:
+        drop_columns(table, *(column.name for column in reversed(columns)))
+
+    return upgrade, downgrade

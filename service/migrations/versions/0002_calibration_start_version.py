@@ -8,15 +8,9 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import add_columns, drop_columns
+from service.migrations.shapes import columns_added
 
 revision = "0002"
 down_revision = "0001"
 
-
-def upgrade() -> None:
-    add_columns("calibrations", sa.Column("start_version", sa.Integer(), nullable=True))
-
-
-def downgrade() -> None:
-    drop_columns("calibrations", "start_version")
+upgrade, downgrade = columns_added("calibrations", sa.Column("start_version", sa.Integer(), nullable=True))
