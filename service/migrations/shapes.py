@@ -70,6 +70,16 @@ def drop_table(name: str, *, indexed: Sequence[str] = ()) -> None:
     op.drop_table(name)
 
 
+def create_robot_table(name: str, key: sa.Column[Any], *columns: sa.Column[Any] | sa.Constraint) -> None:
+    """A table of a robot's rows: its `key`, the robot each row belongs to (`robot_id`, indexed), then `columns`."""
+    create_table(name, key, owner("robot_id", "robots"), *columns, indexed=["robot_id"])
+
+
+def drop_robot_table(name: str) -> None:
+    """A table `create_robot_table` made, with its index."""
+    drop_table(name, indexed=["robot_id"])
+
+
 def add_columns(table: str, *columns: sa.Column[Any]) -> None:
     """The columns added to `table` in one batch (on SQLite: one copy of the table)."""
     with op.batch_alter_table(table) as batch:

@@ -8,7 +8,16 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import create_table, created_at, drop_table, moment, owner, serial_key, uuid_key
+from service.migrations.shapes import (
+    create_robot_table,
+    create_table,
+    created_at,
+    drop_table,
+    moment,
+    owner,
+    serial_key,
+    uuid_key,
+)
 
 revision = "0001"
 down_revision = None
@@ -25,10 +34,9 @@ def upgrade() -> None:
         sa.Column("current_version", sa.Integer(), nullable=False),
         created_at(),
     )
-    create_table(
+    create_robot_table(
         "parameter_versions",
         serial_key(),
-        owner("robot_id", "robots"),
         sa.Column("version", sa.Integer(), nullable=False),
         sa.Column("values", sa.JSON(), nullable=False),
         sa.Column("std_errors", sa.JSON(), nullable=True),
@@ -37,36 +45,29 @@ def upgrade() -> None:
         sa.Column("calibration_id", sa.String(36), nullable=True),
         created_at(),
         sa.UniqueConstraint("robot_id", "version"),
-        indexed=["robot_id"],
     )
-    create_table(
+    create_robot_table(
         "campaigns",
         uuid_key(),
-        owner("robot_id", "robots"),
         sa.Column("records", sa.JSON(), nullable=False),
         created_at(),
-        indexed=["robot_id"],
     )
-    create_table(
+    create_robot_table(
         "calibrations",
         uuid_key(),
-        owner("robot_id", "robots"),
         owner("campaign_id", "campaigns"),
         sa.Column("status", sa.String(20), nullable=False),
         sa.Column("applied", sa.Boolean(), nullable=False),
         sa.Column("parameter_version", sa.Integer(), nullable=True),
         sa.Column("result", sa.JSON(), nullable=False),
         created_at(),
-        indexed=["robot_id"],
     )
-    create_table(
+    create_robot_table(
         "pose_designs",
         uuid_key(),
-        owner("robot_id", "robots"),
         sa.Column("request", sa.JSON(), nullable=False),
         sa.Column("result", sa.JSON(), nullable=False),
         created_at(),
-        indexed=["robot_id"],
     )
     create_table(
         "jobs",

@@ -20,6 +20,7 @@ from alembic import op
 from service.migrations.shapes import (
     actor,
     add_columns,
+    create_robot_table,
     create_table,
     created_at,
     drop_columns,
@@ -52,15 +53,13 @@ def upgrade() -> None:
         sa.Column("cancel_requested", sa.Boolean(), nullable=False, server_default=sa.false()),
     )
     op.create_index("ix_jobs_lease_expires_at", "jobs", ["lease_expires_at"])
-    create_table(
+    create_robot_table(
         "validations",
         uuid_key(),
-        owner("robot_id", "robots"),
         owner("campaign_id", "campaigns"),
         sa.Column("result", sa.JSON(), nullable=False),
         *notes_and_instrument(),
         created_at(),
-        indexed=["robot_id"],
     )
     create_table(
         "audit_events",

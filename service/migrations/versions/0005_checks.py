@@ -10,26 +10,31 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import create_table, created_at, drop_table, notes_and_instrument, owner, uuid_key
+from service.migrations.shapes import (
+    create_robot_table,
+    created_at,
+    drop_robot_table,
+    notes_and_instrument,
+    owner,
+    uuid_key,
+)
 
 revision = "0005_checks"
 down_revision = "0004_structures"
 
 
 def upgrade() -> None:
-    create_table(
+    create_robot_table(
         "checks",
         uuid_key(),
-        owner("robot_id", "robots"),
         owner("campaign_id", "campaigns"),
         sa.Column("version", sa.Integer(), nullable=False),
         sa.Column("verdict", sa.String(20), nullable=False),
         sa.Column("result", sa.JSON(), nullable=False),
         *notes_and_instrument(),
         created_at(),
-        indexed=["robot_id"],
     )
 
 
 def downgrade() -> None:
-    drop_table("checks", indexed=["robot_id"])
+    drop_robot_table("checks")

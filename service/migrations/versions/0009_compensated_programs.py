@@ -11,22 +11,20 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import create_table, created_at, drop_table, owner, uuid_key
+from service.migrations.shapes import create_robot_table, created_at, drop_robot_table, uuid_key
 
 revision = "0009_compensated_programs"
 down_revision = "0008_robot_fleet_key"
 
 
 def upgrade() -> None:
-    create_table(
+    create_robot_table(
         "compensated_programs",
         uuid_key(),
-        owner("robot_id", "robots"),
         sa.Column("result", sa.JSON(), nullable=False),
         created_at(),
-        indexed=["robot_id"],
     )
 
 
 def downgrade() -> None:
-    drop_table("compensated_programs", indexed=["robot_id"])
+    drop_robot_table("compensated_programs")

@@ -12,25 +12,23 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import actor, create_table, created_at, drop_table, owner, serial_key
+from service.migrations.shapes import actor, create_robot_table, created_at, drop_robot_table, serial_key
 
 revision = "0010_robot_cells"
 down_revision = "0009_compensated_programs"
 
 
 def upgrade() -> None:
-    create_table(
+    create_robot_table(
         "robot_cells",
         serial_key(),
-        owner("robot_id", "robots"),
         sa.Column("version", sa.Integer(), nullable=False),
         sa.Column("document", sa.JSON(), nullable=True),
         actor(),
         created_at(),
         sa.UniqueConstraint("robot_id", "version"),
-        indexed=["robot_id"],
     )
 
 
 def downgrade() -> None:
-    drop_table("robot_cells", indexed=["robot_id"])
+    drop_robot_table("robot_cells")

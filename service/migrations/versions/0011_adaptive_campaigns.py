@@ -12,17 +12,25 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import create_table, created_at, drop_table, moment, owner, uuid_key
+from service.migrations.shapes import (
+    create_robot_table,
+    create_table,
+    created_at,
+    drop_robot_table,
+    drop_table,
+    moment,
+    owner,
+    uuid_key,
+)
 
 revision = "0011_adaptive_campaigns"
 down_revision = "0010_robot_cells"
 
 
 def upgrade() -> None:
-    create_table(
+    create_robot_table(
         "adaptive_campaigns",
         uuid_key(),
-        owner("robot_id", "robots"),
         sa.Column("version", sa.Integer(), nullable=False),
         sa.Column("request", sa.JSON(), nullable=False),
         sa.Column("pool", sa.JSON(), nullable=False),
@@ -31,7 +39,6 @@ def upgrade() -> None:
         sa.Column("calibration_id", sa.String(36), nullable=True),
         created_at(),
         moment("updated_at"),
-        indexed=["robot_id"],
     )
     create_table(
         "adaptive_steps",
@@ -48,4 +55,4 @@ def upgrade() -> None:
 
 def downgrade() -> None:
     drop_table("adaptive_steps", indexed=["campaign_id"])
-    drop_table("adaptive_campaigns", indexed=["robot_id"])
+    drop_robot_table("adaptive_campaigns")
