@@ -45,6 +45,27 @@ def actor() -> sa.Column[Any]:
     return sa.Column("actor", sa.String(100), nullable=True)
 
 
+def document(name: str, *, nullable: bool = False) -> sa.Column[Any]:
+    """A JSON document (a request, a result, parameters, records as received)."""
+    return sa.Column(name, sa.JSON(), nullable=nullable)
+
+
+def integer(name: str, *, nullable: bool = False) -> sa.Column[Any]:
+    """A whole number (a version, a revision, a count)."""
+    return sa.Column(name, sa.Integer(), nullable=nullable)
+
+
+def free_text(name: str) -> sa.Column[Any]:
+    """Text of any length, optional (notes, a URDF as sent)."""
+    return sa.Column(name, sa.Text(), nullable=True)
+
+
+def reference(name: str, *, nullable: bool = False) -> sa.Column[Any]:
+    """The UUID of a row elsewhere, with no foreign key: the row may go before this one, or be of one of several
+    tables."""
+    return sa.Column(name, sa.String(36), nullable=nullable)
+
+
 def notes_and_instrument() -> tuple[sa.Column[Any], sa.Column[Any]]:
     """What a fit of a campaign (calibration, validation, check) was told: free-text notes and the instrument
     (name, serial), both optional."""

@@ -6,11 +6,9 @@ Revises: 0001
 
 from __future__ import annotations
 
-import sqlalchemy as sa
-
-from service.migrations.shapes import columns_added
+from service.migrations.shapes import columns_added, integer
 
 revision = "0002"
 down_revision = "0001"
 
-upgrade, downgrade = columns_added("calibrations", sa.Column("start_version", sa.Integer(), nullable=True))
+upgrade, downgrade = columns_added("calibrations", integer("start_version", nullable=True))

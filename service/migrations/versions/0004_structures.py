@@ -8,11 +8,9 @@ Revises: 0003
 
 from __future__ import annotations
 
-import sqlalchemy as sa
-
-from service.migrations.shapes import columns_added
+from service.migrations.shapes import columns_added, document
 
 revision = "0004_structures"
 down_revision = "0003"
 
-upgrade, downgrade = columns_added("robots", sa.Column("structure", sa.JSON(), nullable=True))
+upgrade, downgrade = columns_added("robots", document("structure", nullable=True))

@@ -13,7 +13,9 @@ import sqlalchemy as sa
 from service.migrations.shapes import (
     create_robot_table,
     created_at,
+    document,
     drop_robot_table,
+    integer,
     notes_and_instrument,
     owner,
     uuid_key,
@@ -28,9 +30,9 @@ def upgrade() -> None:
         "checks",
         uuid_key(),
         owner("campaign_id", "campaigns"),
-        sa.Column("version", sa.Integer(), nullable=False),
+        integer("version"),
         sa.Column("verdict", sa.String(20), nullable=False),
-        sa.Column("result", sa.JSON(), nullable=False),
+        document("result"),
         *notes_and_instrument(),
         created_at(),
     )

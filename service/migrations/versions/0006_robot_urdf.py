@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import columns_added
+from service.migrations.shapes import columns_added, free_text
 
 revision = "0006_robot_urdf"
 down_revision = "0005_checks"
 
 upgrade, downgrade = columns_added(
     "robots",
-    sa.Column("urdf", sa.Text(), nullable=True),
+    free_text("urdf"),
     sa.Column("base_link", sa.String(200), nullable=True),
     sa.Column("tip_link", sa.String(200), nullable=True),
 )

@@ -10,11 +10,9 @@ Revises: 0006_robot_urdf
 
 from __future__ import annotations
 
-import sqlalchemy as sa
-
-from service.migrations.shapes import columns_added
+from service.migrations.shapes import columns_added, document
 
 revision = "0007_version_conditions"
 down_revision = "0006_robot_urdf"
 
-upgrade, downgrade = columns_added("parameter_versions", sa.Column("conditions", sa.JSON(), nullable=True))
+upgrade, downgrade = columns_added("parameter_versions", document("conditions", nullable=True))

@@ -9,9 +9,7 @@ Revises: 0008_robot_fleet_key
 
 from __future__ import annotations
 
-import sqlalchemy as sa
-
-from service.migrations.shapes import create_robot_table, created_at, drop_robot_table, uuid_key
+from service.migrations.shapes import create_robot_table, created_at, document, drop_robot_table, uuid_key
 
 revision = "0009_compensated_programs"
 down_revision = "0008_robot_fleet_key"
@@ -21,7 +19,7 @@ def upgrade() -> None:
     create_robot_table(
         "compensated_programs",
         uuid_key(),
-        sa.Column("result", sa.JSON(), nullable=False),
+        document("result"),
         created_at(),
     )
 

@@ -12,7 +12,15 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import actor, create_robot_table, created_at, drop_robot_table, serial_key
+from service.migrations.shapes import (
+    actor,
+    create_robot_table,
+    created_at,
+    document,
+    drop_robot_table,
+    integer,
+    serial_key,
+)
 
 revision = "0010_robot_cells"
 down_revision = "0009_compensated_programs"
@@ -22,8 +30,8 @@ def upgrade() -> None:
     create_robot_table(
         "robot_cells",
         serial_key(),
-        sa.Column("version", sa.Integer(), nullable=False),
-        sa.Column("document", sa.JSON(), nullable=True),
+        integer("version"),
+        document("document", nullable=True),
         actor(),
         created_at(),
         sa.UniqueConstraint("robot_id", "version"),
