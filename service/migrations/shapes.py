@@ -14,6 +14,9 @@ from typing import Any
 import sqlalchemy as sa
 from alembic import op
 
+Step = Callable[[], None]
+"""A revision's `upgrade` or `downgrade`."""
+
 
 def uuid_key() -> sa.Column[Any]:
     """The primary key `id` of a table whose rows are named by a UUID (text)."""
@@ -116,15 +119,31 @@ def drop_columns(table: str, *names: str) -> None:
             batch.drop_column(name)
 
 
-def columns_added(table: str, *columns: sa.Column[Any]) -> tuple[Callable[[], None], Callable[[], None]]:
+def columns_added(table: str, *columns: sa.Column[Any]) -> tuple[Step, Step]:
     """The `upgrade` and `downgrade` of a revision that only adds `columns` to `table`, from the one list: the
     upgrade adds them (`add_columns`), the downgrade drops them, last added first (`drop_columns`). Alembic copies a
-    column that an earlier run attached to a table, so the list serves every database a process migrates."""
+    column an earlier run attached to a table (operations/toimpl.py add_column), so the one list serves every
+    database a process migrates."""
 
     def upgrade() -> None:
         add_columns(table, *columns)
 
     def downgrade() -> None:
         drop_columns(table, *(column.name for column in reversed(columns)))
+
+    return upgrade, downgrade
+
+
+def robot_table_added(name: str, key: sa.Column[Any], *columns: sa.Column[Any] | sa.Constraint) -> tuple[Step, Step]:
+    """The `upgrade` and `downgrade` of a revision that only adds a table of a robot's rows, from the one list: the
+    upgrade creates it (`create_robot_table`), the downgrade drops it (`drop_robot_table`). Alembic copies the
+    columns and constraints an earlier run attached to a table (operations/schemaobj.py SchemaObjects.table), as
+    for `columns_added`."""
+
+    def upgrade() -> None:
+        create_robot_table(name, key, *columns)
+
+    def downgrade() -> None:
+        drop_robot_table(name)
 
     return upgrade, downgrade

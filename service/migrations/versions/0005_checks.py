@@ -11,32 +11,25 @@ from __future__ import annotations
 import sqlalchemy as sa
 
 from service.migrations.shapes import (
-    create_robot_table,
     created_at,
     document,
-    drop_robot_table,
     integer,
     notes_and_instrument,
     owner,
+    robot_table_added,
     uuid_key,
 )
 
 revision = "0005_checks"
 down_revision = "0004_structures"
 
-
-def upgrade() -> None:
-    create_robot_table(
-        "checks",
-        uuid_key(),
-        owner("campaign_id", "campaigns"),
-        integer("version"),
-        sa.Column("verdict", sa.String(20), nullable=False),
-        document("result"),
-        *notes_and_instrument(),
-        created_at(),
-    )
-
-
-def downgrade() -> None:
-    drop_robot_table("checks")
+upgrade, downgrade = robot_table_added(
+    "checks",
+    uuid_key(),
+    owner("campaign_id", "campaigns"),
+    integer("version"),
+    sa.Column("verdict", sa.String(20), nullable=False),
+    document("result"),
+    *notes_and_instrument(),
+    created_at(),
+)

@@ -9,20 +9,14 @@ Revises: 0008_robot_fleet_key
 
 from __future__ import annotations
 
-from service.migrations.shapes import create_robot_table, created_at, document, drop_robot_table, uuid_key
+from service.migrations.shapes import created_at, document, robot_table_added, uuid_key
 
 revision = "0009_compensated_programs"
 down_revision = "0008_robot_fleet_key"
 
-
-def upgrade() -> None:
-    create_robot_table(
-        "compensated_programs",
-        uuid_key(),
-        document("result"),
-        created_at(),
-    )
-
-
-def downgrade() -> None:
-    drop_robot_table("compensated_programs")
+upgrade, downgrade = robot_table_added(
+    "compensated_programs",
+    uuid_key(),
+    document("result"),
+    created_at(),
+)

@@ -12,31 +12,17 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import (
-    actor,
-    create_robot_table,
-    created_at,
-    document,
-    drop_robot_table,
-    integer,
-    serial_key,
-)
+from service.migrations.shapes import actor, created_at, document, integer, robot_table_added, serial_key
 
 revision = "0010_robot_cells"
 down_revision = "0009_compensated_programs"
 
-
-def upgrade() -> None:
-    create_robot_table(
-        "robot_cells",
-        serial_key(),
-        integer("version"),
-        document("document", nullable=True),
-        actor(),
-        created_at(),
-        sa.UniqueConstraint("robot_id", "version"),
-    )
-
-
-def downgrade() -> None:
-    drop_robot_table("robot_cells")
+upgrade, downgrade = robot_table_added(
+    "robot_cells",
+    serial_key(),
+    integer("version"),
+    document("document", nullable=True),
+    actor(),
+    created_at(),
+    sa.UniqueConstraint("robot_id", "version"),
+)
