@@ -8,11 +8,14 @@ another schema than one upgraded before). A new shape gets a new helper, or is s
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import sqlalchemy as sa
 from alembic import op
+
+Step = Callable[[], None]
+"""A revision's `upgrade` or `downgrade`."""
 
 
 def uuid_key() -> sa.Column[Any]:
@@ -45,6 +48,27 @@ def actor() -> sa.Column[Any]:
     return sa.Column("actor", sa.String(100), nullable=True)
 
 
+def document(name: str, *, nullable: bool = False) -> sa.Column[Any]:
+    """A JSON document (a request, a result, parameters, records as received)."""
+    return sa.Column(name, sa.JSON(), nullable=nullable)
+
+
+def integer(name: str, *, nullable: bool = False) -> sa.Column[Any]:
+    """A whole number (a version, a revision, a count)."""
+    return sa.Column(name, sa.Integer(), nullable=nullable)
+
+
+def free_text(name: str) -> sa.Column[Any]:
+    """Text of any length, optional (notes, a URDF as sent)."""
+    return sa.Column(name, sa.Text(), nullable=True)
+
+
+def reference(name: str, *, nullable: bool = False) -> sa.Column[Any]:
+    """The UUID of a row elsewhere, with no foreign key: the row may go before this one, or be of one of several
+    tables."""
+    return sa.Column(name, sa.String(36), nullable=nullable)
+
+
 def notes_and_instrument() -> tuple[sa.Column[Any], sa.Column[Any]]:
     """What a fit of a campaign (calibration, validation, check) was told: free-text notes and the instrument
     (name, serial), both optional."""
@@ -70,6 +94,16 @@ def drop_table(name: str, *, indexed: Sequence[str] = ()) -> None:
     op.drop_table(name)
 
 
+def create_robot_table(name: str, key: sa.Column[Any], *columns: sa.Column[Any] | sa.Constraint) -> None:
+    """A table of a robot's rows: its `key`, the robot each row belongs to (`robot_id`, indexed), then `columns`."""
+    create_table(name, key, owner("robot_id", "robots"), *columns, indexed=["robot_id"])
+
+
+def drop_robot_table(name: str) -> None:
+    """A table `create_robot_table` made, with its index."""
+    drop_table(name, indexed=["robot_id"])
+
+
 def add_columns(table: str, *columns: sa.Column[Any]) -> None:
     """The columns added to `table` in one batch (on SQLite: one copy of the table)."""
     with op.batch_alter_table(table) as batch:
@@ -83,3 +117,33 @@ def drop_columns(table: str, *names: str) -> None:
     with op.batch_alter_table(table) as batch:
         for name in names:
             batch.drop_column(name)
+
+
+def columns_added(table: str, *columns: sa.Column[Any]) -> tuple[Step, Step]:
+    """The `upgrade` and `downgrade` of a revision that only adds `columns` to `table`, from the one list: the
+    upgrade adds them (`add_columns`), the downgrade drops them, last added first (`drop_columns`). Alembic copies a
+    column an earlier run attached to a table (operations/toimpl.py add_column), so the one list serves every
+    database a process migrates."""
+
+    def upgrade() -> None:
+        add_columns(table, *columns)
+
+    def downgrade() -> None:
+        drop_columns(table, *(column.name for column in reversed(columns)))
+
+    return upgrade, downgrade
+
+
+def robot_table_added(name: str, key: sa.Column[Any], *columns: sa.Column[Any] | sa.Constraint) -> tuple[Step, Step]:
+    """The `upgrade` and `downgrade` of a revision that only adds a table of a robot's rows, from the one list: the
+    upgrade creates it (`create_robot_table`), the downgrade drops it (`drop_robot_table`). Alembic copies the
+    columns and constraints an earlier run attached to a table (operations/schemaobj.py SchemaObjects.table), as
+    for `columns_added`."""
+
+    def upgrade() -> None:
+        create_robot_table(name, key, *columns)
+
+    def downgrade() -> None:
+        drop_robot_table(name)
+
+    return upgrade, downgrade

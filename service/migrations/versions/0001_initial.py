@@ -8,12 +8,23 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import create_table, created_at, drop_table, moment, owner, serial_key, uuid_key
+from service.migrations.shapes import (
+    create_robot_table,
+    create_table,
+    created_at,
+    document,
+    drop_table,
+    free_text,
+    integer,
+    moment,
+    owner,
+    reference,
+    serial_key,
+    uuid_key,
+)
 
 revision = "0001"
 down_revision = None
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:
@@ -22,67 +33,59 @@ def upgrade() -> None:
         uuid_key(),
         sa.Column("name", sa.String(200), nullable=False),
         sa.Column("model", sa.String(20), nullable=False),
-        sa.Column("base", sa.JSON(), nullable=False),
-        sa.Column("tool", sa.JSON(), nullable=False),
-        sa.Column("current_version", sa.Integer(), nullable=False),
+        document("base"),
+        document("tool"),
+        integer("current_version"),
         created_at(),
     )
-    create_table(
+    create_robot_table(
         "parameter_versions",
         serial_key(),
-        owner("robot_id", "robots"),
-        sa.Column("version", sa.Integer(), nullable=False),
-        sa.Column("values", sa.JSON(), nullable=False),
-        sa.Column("std_errors", sa.JSON(), nullable=True),
-        sa.Column("identifiable", sa.JSON(), nullable=True),
+        integer("version"),
+        document("values"),
+        document("std_errors", nullable=True),
+        document("identifiable", nullable=True),
         sa.Column("provenance", sa.String(20), nullable=False),
-        sa.Column("calibration_id", sa.String(36), nullable=True),
+        reference("calibration_id", nullable=True),
         created_at(),
         sa.UniqueConstraint("robot_id", "version"),
-        indexed=["robot_id"],
     )
-    create_table(
+    create_robot_table(
         "campaigns",
         uuid_key(),
-        owner("robot_id", "robots"),
-        sa.Column("records", sa.JSON(), nullable=False),
+        document("records"),
         created_at(),
-        indexed=["robot_id"],
     )
-    create_table(
+    create_robot_table(
         "calibrations",
         uuid_key(),
-        owner("robot_id", "robots"),
         owner("campaign_id", "campaigns"),
         sa.Column("status", sa.String(20), nullable=False),
         sa.Column("applied", sa.Boolean(), nullable=False),
-        sa.Column("parameter_version", sa.Integer(), nullable=True),
-        sa.Column("result", sa.JSON(), nullable=False),
+        integer("parameter_version", nullable=True),
+        document("result"),
         created_at(),
-        indexed=["robot_id"],
     )
-    create_table(
+    create_robot_table(
         "pose_designs",
         uuid_key(),
-        owner("robot_id", "robots"),
-        sa.Column("request", sa.JSON(), nullable=False),
-        sa.Column("result", sa.JSON(), nullable=False),
+        document("request"),
+        document("result"),
         created_at(),
-        indexed=["robot_id"],
     )
     create_table(
         "jobs",
         uuid_key(),
         sa.Column("kind", sa.String(30), nullable=False),
-        sa.Column("robot_id", sa.String(36), nullable=False),
-        sa.Column("request", sa.JSON(), nullable=False),
+        reference("robot_id"),
+        document("request"),
         sa.Column("status", sa.String(20), nullable=False),
-        sa.Column("result_id", sa.String(36), nullable=True),
-        sa.Column("error", sa.JSON(), nullable=True),
+        reference("result_id", nullable=True),
+        document("error", nullable=True),
         created_at(),
         moment("started_at", nullable=True),
         moment("finished_at", nullable=True),
-        sa.Column("note", sa.Text(), nullable=True),
+        free_text("note"),
         indexed=["robot_id", "status"],
     )
 

@@ -6,19 +6,9 @@ Revises: 0001
 
 from __future__ import annotations
 
-import sqlalchemy as sa
-
-from service.migrations.shapes import add_columns, drop_columns
+from service.migrations.shapes import columns_added, integer
 
 revision = "0002"
 down_revision = "0001"
-branch_labels = None
-depends_on = None
 
-
-def upgrade() -> None:
-    add_columns("calibrations", sa.Column("start_version", sa.Integer(), nullable=True))
-
-
-def downgrade() -> None:
-    drop_columns("calibrations", "start_version")
+upgrade, downgrade = columns_added("calibrations", integer("start_version", nullable=True))

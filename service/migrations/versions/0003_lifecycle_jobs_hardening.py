@@ -20,49 +20,50 @@ from alembic import op
 from service.migrations.shapes import (
     actor,
     add_columns,
+    create_robot_table,
     create_table,
     created_at,
+    document,
     drop_columns,
     drop_table,
+    free_text,
+    integer,
     moment,
     notes_and_instrument,
     owner,
+    reference,
     serial_key,
     uuid_key,
 )
 
 revision = "0003"
 down_revision = "0002"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:
     add_columns(
         "robots",
-        sa.Column("notes", sa.Text(), nullable=True),
+        free_text("notes"),
         sa.Column("revision", sa.Integer(), nullable=False, server_default="1"),
     )
-    add_columns("parameter_versions", actor(), sa.Column("restored_from", sa.Integer(), nullable=True))
+    add_columns("parameter_versions", actor(), integer("restored_from", nullable=True))
     add_columns("calibrations", *notes_and_instrument())
     add_columns(
         "jobs",
         sa.Column("attempts", sa.Integer(), nullable=False, server_default="0"),
         sa.Column("worker", sa.String(200), nullable=True),
         moment("lease_expires_at", nullable=True),
-        sa.Column("progress", sa.JSON(), nullable=True),
+        document("progress", nullable=True),
         sa.Column("cancel_requested", sa.Boolean(), nullable=False, server_default=sa.false()),
     )
     op.create_index("ix_jobs_lease_expires_at", "jobs", ["lease_expires_at"])
-    create_table(
+    create_robot_table(
         "validations",
         uuid_key(),
-        owner("robot_id", "robots"),
         owner("campaign_id", "campaigns"),
-        sa.Column("result", sa.JSON(), nullable=False),
+        document("result"),
         *notes_and_instrument(),
         created_at(),
-        indexed=["robot_id"],
     )
     create_table(
         "audit_events",
@@ -72,9 +73,9 @@ def upgrade() -> None:
         sa.Column("request_id", sa.String(64), nullable=True),
         sa.Column("action", sa.String(40), nullable=False),
         # No foreign key: the trail of a deleted robot stays.
-        sa.Column("robot_id", sa.String(36), nullable=True),
-        sa.Column("version", sa.Integer(), nullable=True),
-        sa.Column("details", sa.JSON(), nullable=True),
+        reference("robot_id", nullable=True),
+        integer("version", nullable=True),
+        document("details", nullable=True),
         indexed=["robot_id", "at"],
     )
     create_table(
@@ -84,7 +85,7 @@ def upgrade() -> None:
         sa.Column("method", sa.String(10), nullable=False),
         sa.Column("path", sa.String(500), nullable=False),
         sa.Column("body_sha256", sa.String(64), nullable=False),
-        sa.Column("status", sa.Integer(), nullable=True),
+        integer("status", nullable=True),
         sa.Column("content_type", sa.String(100), nullable=True),
         sa.Column("body", sa.LargeBinary(), nullable=True),
         created_at(),

@@ -8,19 +8,9 @@ Revises: 0003
 
 from __future__ import annotations
 
-import sqlalchemy as sa
-
-from service.migrations.shapes import add_columns, drop_columns
+from service.migrations.shapes import columns_added, document
 
 revision = "0004_structures"
 down_revision = "0003"
-branch_labels = None
-depends_on = None
 
-
-def upgrade() -> None:
-    add_columns("robots", sa.Column("structure", sa.JSON(), nullable=True))
-
-
-def downgrade() -> None:
-    drop_columns("robots", "structure")
+upgrade, downgrade = columns_added("robots", document("structure", nullable=True))

@@ -10,28 +10,26 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import create_table, created_at, drop_table, notes_and_instrument, owner, uuid_key
+from service.migrations.shapes import (
+    created_at,
+    document,
+    integer,
+    notes_and_instrument,
+    owner,
+    robot_table_added,
+    uuid_key,
+)
 
 revision = "0005_checks"
 down_revision = "0004_structures"
-branch_labels = None
-depends_on = None
 
-
-def upgrade() -> None:
-    create_table(
-        "checks",
-        uuid_key(),
-        owner("robot_id", "robots"),
-        owner("campaign_id", "campaigns"),
-        sa.Column("version", sa.Integer(), nullable=False),
-        sa.Column("verdict", sa.String(20), nullable=False),
-        sa.Column("result", sa.JSON(), nullable=False),
-        *notes_and_instrument(),
-        created_at(),
-        indexed=["robot_id"],
-    )
-
-
-def downgrade() -> None:
-    drop_table("checks", indexed=["robot_id"])
+upgrade, downgrade = robot_table_added(
+    "checks",
+    uuid_key(),
+    owner("campaign_id", "campaigns"),
+    integer("version"),
+    sa.Column("verdict", sa.String(20), nullable=False),
+    document("result"),
+    *notes_and_instrument(),
+    created_at(),
+)

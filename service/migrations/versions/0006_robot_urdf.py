@@ -11,22 +11,14 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import add_columns, drop_columns
+from service.migrations.shapes import columns_added, free_text
 
 revision = "0006_robot_urdf"
 down_revision = "0005_checks"
-branch_labels = None
-depends_on = None
 
-
-def upgrade() -> None:
-    add_columns(
-        "robots",
-        sa.Column("urdf", sa.Text(), nullable=True),
-        sa.Column("base_link", sa.String(200), nullable=True),
-        sa.Column("tip_link", sa.String(200), nullable=True),
-    )
-
-
-def downgrade() -> None:
-    drop_columns("robots", "tip_link", "base_link", "urdf")
+upgrade, downgrade = columns_added(
+    "robots",
+    free_text("urdf"),
+    sa.Column("base_link", sa.String(200), nullable=True),
+    sa.Column("tip_link", sa.String(200), nullable=True),
+)

@@ -10,19 +10,9 @@ Revises: 0006_robot_urdf
 
 from __future__ import annotations
 
-import sqlalchemy as sa
-
-from service.migrations.shapes import add_columns, drop_columns
+from service.migrations.shapes import columns_added, document
 
 revision = "0007_version_conditions"
 down_revision = "0006_robot_urdf"
-branch_labels = None
-depends_on = None
 
-
-def upgrade() -> None:
-    add_columns("parameter_versions", sa.Column("conditions", sa.JSON(), nullable=True))
-
-
-def downgrade() -> None:
-    drop_columns("parameter_versions", "conditions")
+upgrade, downgrade = columns_added("parameter_versions", document("conditions", nullable=True))

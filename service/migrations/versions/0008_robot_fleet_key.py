@@ -20,8 +20,6 @@ from alembic import op
 
 revision = "0008_robot_fleet_key"
 down_revision = "0007_version_conditions"
-branch_labels = None
-depends_on = None
 
 
 def _key(structure: dict[str, Any] | None) -> str:

@@ -9,26 +9,14 @@ Revises: 0008_robot_fleet_key
 
 from __future__ import annotations
 
-import sqlalchemy as sa
-
-from service.migrations.shapes import create_table, created_at, drop_table, owner, uuid_key
+from service.migrations.shapes import created_at, document, robot_table_added, uuid_key
 
 revision = "0009_compensated_programs"
 down_revision = "0008_robot_fleet_key"
-branch_labels = None
-depends_on = None
 
-
-def upgrade() -> None:
-    create_table(
-        "compensated_programs",
-        uuid_key(),
-        owner("robot_id", "robots"),
-        sa.Column("result", sa.JSON(), nullable=False),
-        created_at(),
-        indexed=["robot_id"],
-    )
-
-
-def downgrade() -> None:
-    drop_table("compensated_programs", indexed=["robot_id"])
+upgrade, downgrade = robot_table_added(
+    "compensated_programs",
+    uuid_key(),
+    document("result"),
+    created_at(),
+)

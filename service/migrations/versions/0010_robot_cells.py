@@ -12,27 +12,17 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import actor, create_table, created_at, drop_table, owner, serial_key
+from service.migrations.shapes import actor, created_at, document, integer, robot_table_added, serial_key
 
 revision = "0010_robot_cells"
 down_revision = "0009_compensated_programs"
-branch_labels = None
-depends_on = None
 
-
-def upgrade() -> None:
-    create_table(
-        "robot_cells",
-        serial_key(),
-        owner("robot_id", "robots"),
-        sa.Column("version", sa.Integer(), nullable=False),
-        sa.Column("document", sa.JSON(), nullable=True),
-        actor(),
-        created_at(),
-        sa.UniqueConstraint("robot_id", "version"),
-        indexed=["robot_id"],
-    )
-
-
-def downgrade() -> None:
-    drop_table("robot_cells", indexed=["robot_id"])
+upgrade, downgrade = robot_table_added(
+    "robot_cells",
+    serial_key(),
+    integer("version"),
+    document("document", nullable=True),
+    actor(),
+    created_at(),
+    sa.UniqueConstraint("robot_id", "version"),
+)

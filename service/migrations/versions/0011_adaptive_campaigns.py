@@ -12,36 +12,44 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import create_table, created_at, drop_table, moment, owner, uuid_key
+from service.migrations.shapes import (
+    create_robot_table,
+    create_table,
+    created_at,
+    document,
+    drop_robot_table,
+    drop_table,
+    integer,
+    moment,
+    owner,
+    reference,
+    uuid_key,
+)
 
 revision = "0011_adaptive_campaigns"
 down_revision = "0010_robot_cells"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:
-    create_table(
+    create_robot_table(
         "adaptive_campaigns",
         uuid_key(),
-        owner("robot_id", "robots"),
-        sa.Column("version", sa.Integer(), nullable=False),
-        sa.Column("request", sa.JSON(), nullable=False),
-        sa.Column("pool", sa.JSON(), nullable=False),
-        sa.Column("state", sa.JSON(), nullable=False),
-        sa.Column("steps", sa.Integer(), nullable=False),
-        sa.Column("calibration_id", sa.String(36), nullable=True),
+        integer("version"),
+        document("request"),
+        document("pool"),
+        document("state"),
+        integer("steps"),
+        reference("calibration_id", nullable=True),
         created_at(),
         moment("updated_at"),
-        indexed=["robot_id"],
     )
     create_table(
         "adaptive_steps",
         uuid_key(),
         owner("campaign_id", "adaptive_campaigns"),
-        sa.Column("number", sa.Integer(), nullable=False),
-        sa.Column("records", sa.JSON(), nullable=False),
-        sa.Column("result", sa.JSON(), nullable=False),
+        integer("number"),
+        document("records"),
+        document("result"),
         created_at(),
         sa.UniqueConstraint("campaign_id", "number", name="uq_adaptive_steps_campaign_number"),
         indexed=["campaign_id"],
@@ -50,4 +58,4 @@ def upgrade() -> None:
 
 def downgrade() -> None:
     drop_table("adaptive_steps", indexed=["campaign_id"])
-    drop_table("adaptive_campaigns", indexed=["robot_id"])
+    drop_robot_table("adaptive_campaigns")

@@ -15,12 +15,21 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from service.migrations.shapes import actor, create_table, created_at, drop_table, owner, uuid_key
+from service.migrations.shapes import (
+    actor,
+    create_table,
+    created_at,
+    document,
+    drop_table,
+    free_text,
+    integer,
+    owner,
+    reference,
+    uuid_key,
+)
 
 revision = "0012_robot_trees"
 down_revision = "0011_adaptive_campaigns"
-branch_labels = None
-depends_on = None
 
 
 def upgrade() -> None:
@@ -28,15 +37,15 @@ def upgrade() -> None:
         "robot_trees",
         uuid_key(),
         sa.Column("name", sa.String(200), nullable=False),
-        sa.Column("document", sa.JSON(), nullable=False),
+        document("document"),
         sa.Column("source", sa.String(20), nullable=False),
-        sa.Column("urdf", sa.Text(), nullable=True),
+        free_text("urdf"),
         sa.Column("base_link", sa.String(200), nullable=True),
-        sa.Column("tip_links", sa.JSON(), nullable=True),
-        sa.Column("revision", sa.Integer(), nullable=False),
-        sa.Column("parameters", sa.JSON(), nullable=True),
-        sa.Column("std_errors", sa.JSON(), nullable=True),
-        sa.Column("calibration_id", sa.String(36), nullable=True),
+        document("tip_links", nullable=True),
+        integer("revision"),
+        document("parameters", nullable=True),
+        document("std_errors", nullable=True),
+        reference("calibration_id", nullable=True),
         created_at(),
         actor(),
     )
@@ -45,10 +54,10 @@ def upgrade() -> None:
         uuid_key(),
         owner("tree_id", "robot_trees"),
         sa.Column("applied", sa.Boolean(), nullable=False),
-        sa.Column("revision", sa.Integer(), nullable=True),
-        sa.Column("start_revision", sa.Integer(), nullable=False),
-        sa.Column("records", sa.JSON(), nullable=False),
-        sa.Column("result", sa.JSON(), nullable=False),
+        integer("revision", nullable=True),
+        integer("start_revision"),
+        document("records"),
+        document("result"),
         created_at(),
         actor(),
         indexed=["tree_id"],
