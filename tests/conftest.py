@@ -107,8 +107,16 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     # tests start early and the run ends on sub-second ones, not on one worker's fleet test while the rest idle.
     # Before them, the items that need more than the run's hang guard (the schemathesis items, 20-40 s of CPU
     # each): started last, one of them kept a worker busy alone for the run's last half minute.
-    slow = Counter(_relative(item.path) for item in items if item.get_closest_marker("slow") is not None)
-    items.sort(key=lambda item: (not _outlasts_the_guard(item), -slow[_relative(item.path)]))
+    # The browser tests count as one module: each worker that runs any starts a UI server and a Chromium (package
+    # scope: leaving tests/ui closes it, coming back launches another), so they are handed out as one block.
+    slow = Counter(_ordering_unit(item) for item in items if item.get_closest_marker("slow") is not None)
+    items.sort(key=lambda item: (not _outlasts_the_guard(item), -slow[_ordering_unit(item)]))
+
+
+def _ordering_unit(item: pytest.Item) -> str:
+    """What the collection is ordered by: the test's module, or the browser tests' package as a whole."""
+    path = _relative(item.path)
+    return "tests/ui" if path.startswith("tests/ui/") else path
 
 
 def _outlasts_the_guard(item: pytest.Item) -> bool:
