@@ -97,6 +97,11 @@ class Reading(ABC):
 
     field: str
 
+    @property
+    @abstractmethod
+    def written(self) -> tuple[str, ...]:
+        """The columns of the layout of several kinds its `cells` fill."""
+
     @abstractmethod
     def read(self, row: FileRow, what: str) -> Any:
         """The row's reading (mm); a `CampaignFileError` naming `what` where the file cannot give it."""
@@ -115,11 +120,15 @@ class PositionReading(Reading):
 
     field = "position"
 
+    @property
+    def written(self) -> tuple[str, ...]:
+        return POSITION_COLUMNS
+
     def read(self, row: FileRow, what: str) -> list[float]:
         return row.position_mm(what)
 
     def cells(self, value: Any) -> dict[str, str]:
-        return {c: cell(v) for c, v in zip(POSITION_COLUMNS, value, strict=True)}
+        return {c: cell(v) for c, v in zip(self.written, value, strict=True)}
 
 
 @dataclass(frozen=True)
@@ -130,6 +139,10 @@ class LengthReading(Reading):
     field: str
     columns: tuple[str, ...]
     plural: str
+
+    @property
+    def written(self) -> tuple[str, ...]:
+        return (self.field,)
 
     def read(self, row: FileRow, what: str) -> float:
         column = first_column(row.table, self.columns)
@@ -165,11 +178,6 @@ class RecordKind(ABC):
     """Its stored, public schema (a member of `CampaignPublic.measurements`)."""
     named_by: ClassVar[str | None] = None
     """The record's field that names the reference it measures; none where it measures no named reference."""
-    label: ClassVar[str]
-    """How messages name what it measures ("anchor", "image", …)."""
-    described_in: ClassVar[str | None] = None
-    """The body's map that describes the references it measures ("anchors", …; `Described`): a field of
-    `ReferenceDescriptions`, which the calibration, check, validation and pose-design bodies share."""
     description: ClassVar[type[BaseModel] | None] = None
     """The schema of one of its references' descriptions (the values of that map)."""
     described_field: ClassVar[Any] = None
@@ -192,16 +200,36 @@ class RecordKind(ABC):
     unseen_filter: ClassVar[str | None] = None
     """The name under which a design counts the candidate poses that give none of its records ("not_seen": a
     camera that would see none of its targets there); None: every pose gives its record."""
-    file_kinds: ClassVar[tuple[str, ...]]
-    """Its values of a file's `kind` column, lower case; the first is the one written."""
-    file_columns: ClassVar[tuple[str, ...]]
-    """The columns of the layout of several kinds it fills beside `kind`, `reference` and the joints."""
     timed: ClassVar[bool] = False
     """Whether its records say when they were measured (`time`): a campaign of them alone has a timeline (the
     instrument's drift fitted over it, the span the report's conditions state)."""
     reading: ClassVar[Reading | None] = None
     """What each record measured (a position, a length), from which its file rows, its cells and the values the
     models fit follow; None: it measured nothing (a touch), or the kind reads and writes its own (an image)."""
+
+    @property
+    def label(self) -> str:
+        """How messages name what it measures: by default the field that names its reference ("anchor"), or its
+        tag where its records name none ("tracker")."""
+        return self.named_by or self.name
+
+    @property
+    def described_in(self) -> str | None:
+        """The body's map that describes the references it measures, its naming field's plural ("anchors", …;
+        `Described`): a field of `ReferenceDescriptions`, which the calibration, check, validation and pose-design
+        bodies share. None where its records name no reference."""
+        return None if self.named_by is None else f"{self.named_by}s"
+
+    @property
+    def file_kinds(self) -> tuple[str, ...]:
+        """Its values of a file's `kind` column, lower case; the first is the one written. By default its tag."""
+        return (self.name,)
+
+    @property
+    def file_columns(self) -> tuple[str, ...]:
+        """The columns of the layout of several kinds it fills beside `kind`, `reference` and the joints. By
+        default what `file_rows` writes: its `reading`'s and its σ."""
+        return (*(() if self.reading is None else self.reading.written), "sigma_mm")
 
     @property
     def whole_campaign(self) -> bool:

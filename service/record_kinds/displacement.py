@@ -60,8 +60,6 @@ class DisplacementKind(RecordKind):
     record = DisplacementRecord
     public = DisplacementRecordPublic
     named_by: ClassVar[str | None] = "line"
-    label: ClassVar[str] = "line"
-    described_in: ClassVar[str | None] = "lines"
     description = LineDescription
     described_field: ClassVar[Any] = described_map(
         20,
@@ -80,8 +78,6 @@ class DisplacementKind(RecordKind):
     }
     example_name: ClassVar[str] = "l1"
     design_description: ClassVar[str] = '{"direction": [dx, dy, dz], "origin_mm": [x, y, z]}'
-    file_kinds: ClassVar[tuple[str, ...]] = ("displacement",)
-    file_columns: ClassVar[tuple[str, ...]] = ("displacement_mm", "sigma_mm")
     reading: ClassVar[Reading | None] = LengthReading("displacement_mm", DISPLACEMENT_COLUMNS, "displacements")
 
     def design_reference(self, name: str, description: Any) -> ModelReference:

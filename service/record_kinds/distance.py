@@ -43,8 +43,6 @@ class DistanceKind(RecordKind):
     record = DistanceRecord
     public = DistanceRecordPublic
     named_by: ClassVar[str | None] = "anchor"
-    label: ClassVar[str] = "anchor"
-    described_in: ClassVar[str | None] = "anchors"
     description = AnchorDescription
     described_field: ClassVar[Any] = described_map(
         100,
@@ -63,8 +61,6 @@ class DistanceKind(RecordKind):
     sampled: ClassVar[bool] = True
     more_candidates: ClassVar[str] = "widen its range_mm or raise candidate_count"
     readable_filter: ClassVar[str | None] = "range_mm"
-    file_kinds: ClassVar[tuple[str, ...]] = ("distance",)
-    file_columns: ClassVar[tuple[str, ...]] = ("distance_mm", "sigma_mm")
     reading: ClassVar[Reading | None] = LengthReading("distance_mm", DISTANCE_COLUMNS, "distances")
 
     def check_described(self, described: Described, name: str, record: int) -> None:

@@ -97,7 +97,6 @@ class ImageKind(RecordKind):
     public = ImageRecordPublic
     named_by: ClassVar[str | None] = "camera"
     label: ClassVar[str] = "image"
-    described_in: ClassVar[str | None] = "cameras"
     description = CameraDescription
     described_field: ClassVar[Any] = described_map(
         20,
@@ -121,7 +120,6 @@ class ImageKind(RecordKind):
     )
     sampled: ClassVar[bool] = True
     unseen_filter: ClassVar[str | None] = "not_seen"
-    file_kinds: ClassVar[tuple[str, ...]] = ("image",)
     file_columns: ClassVar[tuple[str, ...]] = (*SEEN_COLUMNS, "sigma_px")
 
     def design_has(self, have: int) -> str:

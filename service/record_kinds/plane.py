@@ -40,8 +40,6 @@ class PlaneKind(RecordKind):
     record = PlaneRecord
     public = PlaneRecordPublic
     named_by: ClassVar[str | None] = "plane"
-    label: ClassVar[str] = "plane"
-    described_in: ClassVar[str | None] = "planes"
     description = PlaneDescription
     described_field: ClassVar[Any] = described_map(
         100,
@@ -56,8 +54,6 @@ class PlaneKind(RecordKind):
     }
     example_name: ClassVar[str] = "f1"
     design_description: ClassVar[str] = '{"normal": [nx, ny, nz]}'
-    file_kinds: ClassVar[tuple[str, ...]] = ("plane",)
-    file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         if description.normal is None or math.hypot(*description.normal) == 0.0:

@@ -36,16 +36,12 @@ class PointKind(RecordKind):
     record = PointRecord
     public = PointRecordPublic
     named_by: ClassVar[str | None] = "point"
-    label: ClassVar[str] = "point"
-    described_in: ClassVar[str | None] = "points"
     description = PointDescription
     described_field: ClassVar[Any] = described_map(
         100,
         "Optional guesses of the fixed points' positions (a pose design: the points records would be on)",
     )
     example_name: ClassVar[str] = "p1"
-    file_kinds: ClassVar[tuple[str, ...]] = ("point",)
-    file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         px, py, pz = description.position_mm or (0.0, 0.0, 0.0)  # its rows do not depend on where it is

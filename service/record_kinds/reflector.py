@@ -14,7 +14,6 @@ from pydantic import Field
 from models.measurements.references import Reflector
 from service.record_kinds.base import (
     POSITION,
-    POSITION_COLUMNS,
     Described,
     ModelReference,
     Reading,
@@ -49,8 +48,6 @@ class ReflectorKind(RecordKind):
     record = ReflectorRecord
     public = ReflectorRecordPublic
     named_by: ClassVar[str | None] = "reflector"
-    label: ClassVar[str] = "reflector"
-    described_in: ClassVar[str | None] = "reflectors"
     description = ReflectorDescription
     described_field: ClassVar[Any] = described_map(
         20,
@@ -66,8 +63,6 @@ class ReflectorKind(RecordKind):
     example_name: ClassVar[str] = "r2"
     design_description: ClassVar[str] = '{"offset_mm": [x, y, z]}'
     sampled: ClassVar[bool] = True
-    file_kinds: ClassVar[tuple[str, ...]] = ("reflector",)
-    file_columns: ClassVar[tuple[str, ...]] = (*POSITION_COLUMNS, "sigma_mm")
     reading: ClassVar[Reading | None] = POSITION
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
