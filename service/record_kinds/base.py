@@ -8,7 +8,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 from pydantic import BaseModel, Field
@@ -163,6 +163,18 @@ POSITION = PositionReading()
 """The reading of a tracker's records and of a second reflector's: where the instrument saw the target."""
 
 
+class MustDescribe(NamedTuple):
+    """What the 400 says where a record measures a reference the body must describe and does not
+    (`RecordKind.must_describe`)."""
+
+    measures: str
+    """How a record measures one ("measures anchor")."""
+    least: str
+    """The least description that will do, as the body gives it ("{}")."""
+    why: str
+    """What the message adds after it, in brackets."""
+
+
 class RecordKind(ABC):
     """A kind of campaign record: its schemas, its file rows and how its records become the model's inputs."""
 
@@ -182,6 +194,9 @@ class RecordKind(ABC):
     """The schema of one of its references' descriptions (the values of that map)."""
     described_field: ClassVar[Any] = None
     """The map's `Field` (its description in the contract, its size bound)."""
+    must_describe: ClassVar[MustDescribe | None] = None
+    """Whether the body must describe every reference its records measure (`check_described`), and how the 400
+    says it; None: a description is an optional guess."""
     report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {}
     """The fields of `ReferencePublic` its identified references fill of their own beside `position_mm`
     (`reported`), each (annotation, `Field`)."""
@@ -323,8 +338,17 @@ class RecordKind(ABC):
         """A design's count of its candidate records, in its words (a camera's records are points seen)."""
         return f"has {have} admissible candidates"
 
-    def check_described(self, described: Described, name: str, record: int) -> None:  # noqa: B027  (optional)
-        """A 4xx where the body must describe the reference `name` that record `record` measures and does not."""
+    def check_described(self, described: Described, name: str, record: int) -> None:
+        """A 400 where the body must describe the reference `name` that record `record` measures
+        (`must_describe`) and does not."""
+        if self.must_describe is None or name in self.descriptions(described):
+            return
+        measures, least, why = self.must_describe
+        raise BadRequest(
+            f"record {record} {measures} {name!r}, which the campaign does not describe: add "
+            f'"{self.described_in}": {{"{name}": {least}}} ({why})',
+            record=record,
+        )
 
     def public_of(self, stored: Mapping[str, Any]) -> dict[str, Any]:
         """A stored record in its public form: the public schema's fields, as stored."""

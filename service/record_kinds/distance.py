@@ -10,8 +10,15 @@ import numpy as np
 from pydantic import Field
 
 from models.measurements.references import Anchor
-from service.errors import BadRequest
-from service.record_kinds.base import Described, LengthReading, ModelReference, Reading, RecordKind, described_map
+from service.record_kinds.base import (
+    Described,
+    LengthReading,
+    ModelReference,
+    MustDescribe,
+    Reading,
+    RecordKind,
+    described_map,
+)
 from service.schemas.common import JointVector, Public, Strict
 from service.schemas.references import AnchorDescription, RecordSigma, ReferenceName
 
@@ -61,16 +68,10 @@ class DistanceKind(RecordKind):
     sampled: ClassVar[bool] = True
     more_candidates: ClassVar[str] = "widen its range_mm or raise candidate_count"
     readable_filter: ClassVar[str | None] = "range_mm"
+    must_describe: ClassVar[MustDescribe | None] = MustDescribe(
+        "measures anchor", "{}", 'with "length_unknown": true for a ballbar whose length offset is not known'
+    )
     reading: ClassVar[Reading | None] = LengthReading("distance_mm", DISTANCE_COLUMNS, "distances")
-
-    def check_described(self, described: Described, name: str, record: int) -> None:
-        if name not in self.descriptions(described):
-            raise BadRequest(
-                f"record {record} measures anchor {name!r}, which the campaign does not describe: add "
-                f'"anchors": {{"{name}": {{}}}} (with "length_unknown": true for a ballbar whose length offset is '
-                "not known)",
-                record=record,
-            )
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         if description.position_mm is None:
