@@ -5,13 +5,16 @@ one it holds (the registry: `service.record_kinds`)."""
 from __future__ import annotations
 
 import math
+import operator
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, NamedTuple
+from functools import reduce
+from types import UnionType
+from typing import Annotated, Any, ClassVar, NamedTuple, Union, get_args, get_origin
 
 import numpy as np
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, create_model
 
 from models import RobotDescription
 from models.engine.runtime import Runtime
@@ -23,6 +26,7 @@ from service.campaign_io.records import ImportOptions, length_factor
 from service.campaign_io.tabular import Row, Table
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
+from service.schemas.common import Public
 
 ModelReference = AnyReference
 """What a group of records measures in the models (`ReferenceRecords.reference`)."""
@@ -89,6 +93,30 @@ def described_map(max_length: int, description: str) -> Any:
     """The `Field` of a body's map of a kind's references (`RecordKind.described_field`): none by default, at most
     `max_length`, `description` in the contract."""
     return Field(default_factory=dict, max_length=max_length, description=description)
+
+
+def public_form(record: type[BaseModel]) -> type[BaseModel]:
+    """The public schema of a kind whose stored record is its request as taken (`RecordKind.public`): the
+    request's fields in its order, their types without the bounds, descriptions and examples (what the service
+    gives back, it took validated), named as the request's schema with `Public` after it."""
+    fields: dict[str, Any] = {
+        name: (_unbounded(info.annotation), ... if info.is_required() else info.default)
+        for name, info in record.model_fields.items()
+    }
+    return create_model(f"{record.__name__}Public", __base__=Public, __module__=record.__module__, **fields)
+
+
+def _unbounded(annotation: Any) -> Any:
+    """A field's type without its `Annotated` bounds at any depth: `list[Annotated[float, …]] | None` is
+    `list[float] | None` (a `Literal`, a plain type as it is)."""
+    origin, args = get_origin(annotation), get_args(annotation)
+    if origin is Annotated:
+        return _unbounded(args[0])
+    if origin is list:
+        return list[_unbounded(args[0])]  # type: ignore[misc]  # a type built at run time
+    if origin in (Union, UnionType):
+        return reduce(operator.or_, map(_unbounded, args))
+    return annotation
 
 
 class Reading(ABC):
@@ -187,7 +215,8 @@ class RecordKind(ABC):
     record: ClassVar[type[BaseModel]]
     """Its request schema (a member of the campaign record union)."""
     public: ClassVar[type[BaseModel]]
-    """Its stored, public schema (a member of `CampaignPublic.measurements`)."""
+    """Its stored, public schema (a member of `CampaignPublic.measurements`): `public_form(record)` where the stored
+    record is the request as taken."""
     named_by: ClassVar[str | None] = None
     """The record's field that names the reference it measures; none where it measures no named reference."""
     description: ClassVar[type[BaseModel] | None] = None

@@ -18,8 +18,9 @@ from service.record_kinds.base import (
     Reading,
     RecordKind,
     described_map,
+    public_form,
 )
-from service.schemas.common import JointVector, Public, Strict
+from service.schemas.common import JointVector, Strict
 from service.schemas.references import AnchorDescription, RecordSigma, ReferenceName
 
 DISTANCE_COLUMNS = ("distance_mm", "distance", "length")
@@ -36,19 +37,11 @@ class DistanceRecord(Strict):
     sigma_mm: RecordSigma | None = None
 
 
-class DistanceRecordPublic(Public):
-    kind: Literal["distance"]
-    joints: list[float]
-    anchor: str
-    distance_mm: float
-    sigma_mm: float | None = None
-
-
 class DistanceKind(RecordKind):
     name: ClassVar[str] = "distance"
     model: ClassVar[str] = Anchor.traits.kind
     record = DistanceRecord
-    public = DistanceRecordPublic
+    public = public_form(DistanceRecord)
     named_by: ClassVar[str | None] = "anchor"
     description = AnchorDescription
     described_field: ClassVar[Any] = described_map(

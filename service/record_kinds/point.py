@@ -8,8 +8,8 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 
 from models.measurements.references import FixedPoint
-from service.record_kinds.base import Described, ModelReference, RecordKind, described_map
-from service.schemas.common import JointVector, Public, Strict
+from service.record_kinds.base import Described, ModelReference, RecordKind, described_map, public_form
+from service.schemas.common import JointVector, Strict
 from service.schemas.references import PointDescription, RecordSigma, ReferenceName
 
 
@@ -23,18 +23,11 @@ class PointRecord(Strict):
     sigma_mm: RecordSigma | None = None
 
 
-class PointRecordPublic(Public):
-    kind: Literal["point"]
-    joints: list[float]
-    point: str
-    sigma_mm: float | None = None
-
-
 class PointKind(RecordKind):
     name: ClassVar[str] = "point"
     model: ClassVar[str] = FixedPoint.traits.kind
     record = PointRecord
-    public = PointRecordPublic
+    public = public_form(PointRecord)
     named_by: ClassVar[str | None] = "point"
     description = PointDescription
     described_field: ClassVar[Any] = described_map(

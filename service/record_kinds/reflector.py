@@ -19,8 +19,9 @@ from service.record_kinds.base import (
     Reading,
     RecordKind,
     described_map,
+    public_form,
 )
-from service.schemas.common import JointVector, Position, Public, Strict
+from service.schemas.common import JointVector, Position, Strict
 from service.schemas.references import RecordSigma, ReferenceName, ReflectorDescription
 
 
@@ -34,19 +35,11 @@ class ReflectorRecord(Strict):
     sigma_mm: RecordSigma | None = None
 
 
-class ReflectorRecordPublic(Public):
-    kind: Literal["reflector"]
-    joints: list[float]
-    reflector: str
-    position: list[float]
-    sigma_mm: float | None = None
-
-
 class ReflectorKind(RecordKind):
     name: ClassVar[str] = "reflector"
     model: ClassVar[str] = Reflector.traits.kind
     record = ReflectorRecord
-    public = ReflectorRecordPublic
+    public = public_form(ReflectorRecord)
     named_by: ClassVar[str | None] = "reflector"
     description = ReflectorDescription
     described_field: ClassVar[Any] = described_map(
