@@ -5,13 +5,16 @@ one it holds (the registry: `service.record_kinds`)."""
 from __future__ import annotations
 
 import math
+import operator
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from functools import reduce
+from types import UnionType
+from typing import Annotated, Any, ClassVar, NamedTuple, Union, get_args, get_origin
 
 import numpy as np
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, create_model
 
 from models import RobotDescription
 from models.engine.runtime import Runtime
@@ -23,6 +26,7 @@ from service.campaign_io.records import ImportOptions, length_factor
 from service.campaign_io.tabular import Row, Table
 from service.conversions.kinematics import joints_in
 from service.errors import BadRequest
+from service.schemas.common import Public
 
 ModelReference = AnyReference
 """What a group of records measures in the models (`ReferenceRecords.reference`)."""
@@ -91,11 +95,40 @@ def described_map(max_length: int, description: str) -> Any:
     return Field(default_factory=dict, max_length=max_length, description=description)
 
 
+def public_form(record: type[BaseModel]) -> type[BaseModel]:
+    """The public schema of a kind whose stored record is its request as taken (`RecordKind.public`): the
+    request's fields in its order, their types without the bounds, descriptions and examples (what the service
+    gives back, it took validated), named as the request's schema with `Public` after it."""
+    fields: dict[str, Any] = {
+        name: (_unbounded(info.annotation), ... if info.is_required() else info.default)
+        for name, info in record.model_fields.items()
+    }
+    return create_model(f"{record.__name__}Public", __base__=Public, __module__=record.__module__, **fields)
+
+
+def _unbounded(annotation: Any) -> Any:
+    """A field's type without its `Annotated` bounds at any depth: `list[Annotated[float, …]] | None` is
+    `list[float] | None` (a `Literal`, a plain type as it is)."""
+    origin, args = get_origin(annotation), get_args(annotation)
+    if origin is Annotated:
+        return _unbounded(args[0])
+    if origin is list:
+        return list[_unbounded(args[0])]  # type: ignore[misc]  # a type built at run time
+    if origin in (Union, UnionType):
+        return reduce(operator.or_, map(_unbounded, args))
+    return annotation
+
+
 class Reading(ABC):
     """What a kind's records measured, one field of each (`field`): how a file's row gives it, the cells the layout
     of several kinds writes it in, and the numbers the models fit."""
 
     field: str
+
+    @property
+    @abstractmethod
+    def written(self) -> tuple[str, ...]:
+        """The columns of the layout of several kinds its `cells` fill."""
 
     @abstractmethod
     def read(self, row: FileRow, what: str) -> Any:
@@ -115,11 +148,15 @@ class PositionReading(Reading):
 
     field = "position"
 
+    @property
+    def written(self) -> tuple[str, ...]:
+        return POSITION_COLUMNS
+
     def read(self, row: FileRow, what: str) -> list[float]:
         return row.position_mm(what)
 
     def cells(self, value: Any) -> dict[str, str]:
-        return {c: cell(v) for c, v in zip(POSITION_COLUMNS, value, strict=True)}
+        return {c: cell(v) for c, v in zip(self.written, value, strict=True)}
 
 
 @dataclass(frozen=True)
@@ -130,6 +167,10 @@ class LengthReading(Reading):
     field: str
     columns: tuple[str, ...]
     plural: str
+
+    @property
+    def written(self) -> tuple[str, ...]:
+        return (self.field,)
 
     def read(self, row: FileRow, what: str) -> float:
         column = first_column(row.table, self.columns)
@@ -150,6 +191,18 @@ POSITION = PositionReading()
 """The reading of a tracker's records and of a second reflector's: where the instrument saw the target."""
 
 
+class MustDescribe(NamedTuple):
+    """What the 400 says where a record measures a reference the body must describe and does not
+    (`RecordKind.must_describe`)."""
+
+    measures: str
+    """How a record measures one ("measures anchor")."""
+    least: str
+    """The least description that will do, as the body gives it ("{}")."""
+    why: str
+    """What the message adds after it, in brackets."""
+
+
 class RecordKind(ABC):
     """A kind of campaign record: its schemas, its file rows and how its records become the model's inputs."""
 
@@ -162,18 +215,17 @@ class RecordKind(ABC):
     record: ClassVar[type[BaseModel]]
     """Its request schema (a member of the campaign record union)."""
     public: ClassVar[type[BaseModel]]
-    """Its stored, public schema (a member of `CampaignPublic.measurements`)."""
+    """Its stored, public schema (a member of `CampaignPublic.measurements`): `public_form(record)` where the stored
+    record is the request as taken."""
     named_by: ClassVar[str | None] = None
     """The record's field that names the reference it measures; none where it measures no named reference."""
-    label: ClassVar[str]
-    """How messages name what it measures ("anchor", "image", …)."""
-    described_in: ClassVar[str | None] = None
-    """The body's map that describes the references it measures ("anchors", …; `Described`): a field of
-    `ReferenceDescriptions`, which the calibration, check, validation and pose-design bodies share."""
     description: ClassVar[type[BaseModel] | None] = None
     """The schema of one of its references' descriptions (the values of that map)."""
     described_field: ClassVar[Any] = None
     """The map's `Field` (its description in the contract, its size bound)."""
+    must_describe: ClassVar[MustDescribe | None] = None
+    """Whether the body must describe every reference its records measure (`check_described`), and how the 400
+    says it; None: a description is an optional guess."""
     report_fields: ClassVar[Mapping[str, tuple[Any, Any]]] = {}
     """The fields of `ReferencePublic` its identified references fill of their own beside `position_mm`
     (`reported`), each (annotation, `Field`)."""
@@ -192,16 +244,36 @@ class RecordKind(ABC):
     unseen_filter: ClassVar[str | None] = None
     """The name under which a design counts the candidate poses that give none of its records ("not_seen": a
     camera that would see none of its targets there); None: every pose gives its record."""
-    file_kinds: ClassVar[tuple[str, ...]]
-    """Its values of a file's `kind` column, lower case; the first is the one written."""
-    file_columns: ClassVar[tuple[str, ...]]
-    """The columns of the layout of several kinds it fills beside `kind`, `reference` and the joints."""
     timed: ClassVar[bool] = False
     """Whether its records say when they were measured (`time`): a campaign of them alone has a timeline (the
     instrument's drift fitted over it, the span the report's conditions state)."""
     reading: ClassVar[Reading | None] = None
     """What each record measured (a position, a length), from which its file rows, its cells and the values the
     models fit follow; None: it measured nothing (a touch), or the kind reads and writes its own (an image)."""
+
+    @property
+    def label(self) -> str:
+        """How messages name what it measures: by default the field that names its reference ("anchor"), or its
+        tag where its records name none ("tracker")."""
+        return self.named_by or self.name
+
+    @property
+    def described_in(self) -> str | None:
+        """The body's map that describes the references it measures, its naming field's plural ("anchors", …;
+        `Described`): a field of `ReferenceDescriptions`, which the calibration, check, validation and pose-design
+        bodies share. None where its records name no reference."""
+        return None if self.named_by is None else f"{self.named_by}s"
+
+    @property
+    def file_kinds(self) -> tuple[str, ...]:
+        """Its values of a file's `kind` column, lower case; the first is the one written. By default its tag."""
+        return (self.name,)
+
+    @property
+    def file_columns(self) -> tuple[str, ...]:
+        """The columns of the layout of several kinds it fills beside `kind`, `reference` and the joints. By
+        default what `file_rows` writes: its `reading`'s and its σ."""
+        return (*(() if self.reading is None else self.reading.written), "sigma_mm")
 
     @property
     def whole_campaign(self) -> bool:
@@ -295,8 +367,17 @@ class RecordKind(ABC):
         """A design's count of its candidate records, in its words (a camera's records are points seen)."""
         return f"has {have} admissible candidates"
 
-    def check_described(self, described: Described, name: str, record: int) -> None:  # noqa: B027  (optional)
-        """A 4xx where the body must describe the reference `name` that record `record` measures and does not."""
+    def check_described(self, described: Described, name: str, record: int) -> None:
+        """A 400 where the body must describe the reference `name` that record `record` measures
+        (`must_describe`) and does not."""
+        if self.must_describe is None or name in self.descriptions(described):
+            return
+        measures, least, why = self.must_describe
+        raise BadRequest(
+            f"record {record} {measures} {name!r}, which the campaign does not describe: add "
+            f'"{self.described_in}": {{"{name}": {least}}} ({why})',
+            record=record,
+        )
 
     def public_of(self, stored: Mapping[str, Any]) -> dict[str, Any]:
         """A stored record in its public form: the public schema's fields, as stored."""

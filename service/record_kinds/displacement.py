@@ -12,8 +12,16 @@ import numpy as np
 from pydantic import Field
 
 from models.measurements.line import Line
-from service.record_kinds.base import Described, LengthReading, ModelReference, Reading, RecordKind, described_map
-from service.schemas.common import JointVector, Position, Public, Strict
+from service.record_kinds.base import (
+    Described,
+    LengthReading,
+    ModelReference,
+    Reading,
+    RecordKind,
+    described_map,
+    public_form,
+)
+from service.schemas.common import JointVector, Position, Strict
 from service.schemas.references import RecordSigma, ReferenceName
 
 DISPLACEMENT_COLUMNS = ("displacement_mm", "displacement")
@@ -46,22 +54,12 @@ class DisplacementRecord(Strict):
     sigma_mm: RecordSigma | None = None
 
 
-class DisplacementRecordPublic(Public):
-    kind: Literal["displacement"]
-    joints: list[float]
-    line: str
-    displacement_mm: float
-    sigma_mm: float | None = None
-
-
 class DisplacementKind(RecordKind):
     name: ClassVar[str] = "displacement"
     model: ClassVar[str] = Line.traits.kind
     record = DisplacementRecord
-    public = DisplacementRecordPublic
+    public = public_form(DisplacementRecord)
     named_by: ClassVar[str | None] = "line"
-    label: ClassVar[str] = "line"
-    described_in: ClassVar[str | None] = "lines"
     description = LineDescription
     described_field: ClassVar[Any] = described_map(
         20,
@@ -80,8 +78,6 @@ class DisplacementKind(RecordKind):
     }
     example_name: ClassVar[str] = "l1"
     design_description: ClassVar[str] = '{"direction": [dx, dy, dz], "origin_mm": [x, y, z]}'
-    file_kinds: ClassVar[tuple[str, ...]] = ("displacement",)
-    file_columns: ClassVar[tuple[str, ...]] = ("displacement_mm", "sigma_mm")
     reading: ClassVar[Reading | None] = LengthReading("displacement_mm", DISPLACEMENT_COLUMNS, "displacements")
 
     def design_reference(self, name: str, description: Any) -> ModelReference:

@@ -10,9 +10,17 @@ import numpy as np
 from pydantic import Field
 
 from models.measurements.references import Anchor
-from service.errors import BadRequest
-from service.record_kinds.base import Described, LengthReading, ModelReference, Reading, RecordKind, described_map
-from service.schemas.common import JointVector, Public, Strict
+from service.record_kinds.base import (
+    Described,
+    LengthReading,
+    ModelReference,
+    MustDescribe,
+    Reading,
+    RecordKind,
+    described_map,
+    public_form,
+)
+from service.schemas.common import JointVector, Strict
 from service.schemas.references import AnchorDescription, RecordSigma, ReferenceName
 
 DISTANCE_COLUMNS = ("distance_mm", "distance", "length")
@@ -29,22 +37,12 @@ class DistanceRecord(Strict):
     sigma_mm: RecordSigma | None = None
 
 
-class DistanceRecordPublic(Public):
-    kind: Literal["distance"]
-    joints: list[float]
-    anchor: str
-    distance_mm: float
-    sigma_mm: float | None = None
-
-
 class DistanceKind(RecordKind):
     name: ClassVar[str] = "distance"
     model: ClassVar[str] = Anchor.traits.kind
     record = DistanceRecord
-    public = DistanceRecordPublic
+    public = public_form(DistanceRecord)
     named_by: ClassVar[str | None] = "anchor"
-    label: ClassVar[str] = "anchor"
-    described_in: ClassVar[str | None] = "anchors"
     description = AnchorDescription
     described_field: ClassVar[Any] = described_map(
         100,
@@ -63,18 +61,10 @@ class DistanceKind(RecordKind):
     sampled: ClassVar[bool] = True
     more_candidates: ClassVar[str] = "widen its range_mm or raise candidate_count"
     readable_filter: ClassVar[str | None] = "range_mm"
-    file_kinds: ClassVar[tuple[str, ...]] = ("distance",)
-    file_columns: ClassVar[tuple[str, ...]] = ("distance_mm", "sigma_mm")
+    must_describe: ClassVar[MustDescribe | None] = MustDescribe(
+        "measures anchor", "{}", 'with "length_unknown": true for a ballbar whose length offset is not known'
+    )
     reading: ClassVar[Reading | None] = LengthReading("distance_mm", DISTANCE_COLUMNS, "distances")
-
-    def check_described(self, described: Described, name: str, record: int) -> None:
-        if name not in self.descriptions(described):
-            raise BadRequest(
-                f"record {record} measures anchor {name!r}, which the campaign does not describe: add "
-                f'"anchors": {{"{name}": {{}}}} (with "length_unknown": true for a ballbar whose length offset is '
-                "not known)",
-                record=record,
-            )
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         if description.position_mm is None:

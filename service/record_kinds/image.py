@@ -20,8 +20,7 @@ from models.transforms import matrix_to_rotvec_np
 from service.campaign_io.errors import CampaignFileError, listed
 from service.campaign_io.records import length_factor
 from service.conversions.kinematics import joints_in
-from service.errors import BadRequest
-from service.record_kinds.base import Described, FileRow, ModelReference, RecordKind, cell, described_map
+from service.record_kinds.base import Described, FileRow, ModelReference, MustDescribe, RecordKind, cell, described_map
 from service.schemas.common import JointVector, Position, Public, Strict
 from service.schemas.references import CameraDescription, ReferenceName
 
@@ -97,7 +96,6 @@ class ImageKind(RecordKind):
     public = ImageRecordPublic
     named_by: ClassVar[str | None] = "camera"
     label: ClassVar[str] = "image"
-    described_in: ClassVar[str | None] = "cameras"
     description = CameraDescription
     described_field: ClassVar[Any] = described_map(
         20,
@@ -121,20 +119,13 @@ class ImageKind(RecordKind):
     )
     sampled: ClassVar[bool] = True
     unseen_filter: ClassVar[str | None] = "not_seen"
-    file_kinds: ClassVar[tuple[str, ...]] = ("image",)
+    must_describe: ClassVar[MustDescribe | None] = MustDescribe(
+        "is an image of camera", '{"fx": …, "fy": …, "cx": …, "cy": …, "mount": "world"}', "its intrinsics in px"
+    )
     file_columns: ClassVar[tuple[str, ...]] = (*SEEN_COLUMNS, "sigma_px")
 
     def design_has(self, have: int) -> str:
         return f"would see {have} targets over its candidate images"
-
-    def check_described(self, described: Described, name: str, record: int) -> None:
-        if name not in self.descriptions(described):
-            raise BadRequest(
-                f"record {record} is an image of camera {name!r}, which the campaign does not describe: add "
-                f'"cameras": {{"{name}": {{"fx": …, "fy": …, "cx": …, "cy": …, "mount": "world"}}}} (its '
-                "intrinsics in px)",
-                record=record,
-            )
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         """The described camera at the pose the body guesses for it."""

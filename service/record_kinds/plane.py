@@ -10,8 +10,8 @@ import numpy as np
 from pydantic import Field
 
 from models.measurements.references import Plane
-from service.record_kinds.base import Described, ModelReference, RecordKind, described_map
-from service.schemas.common import JointVector, Public, Strict
+from service.record_kinds.base import Described, ModelReference, RecordKind, described_map, public_form
+from service.schemas.common import JointVector, Strict
 from service.schemas.references import PlaneDescription, RecordSigma, ReferenceName
 
 DEFAULT_PLANE_SIDE = (0.0, 0.0, 1.0)
@@ -27,21 +27,12 @@ class PlaneRecord(Strict):
     sigma_mm: RecordSigma | None = None
 
 
-class PlaneRecordPublic(Public):
-    kind: Literal["plane"]
-    joints: list[float]
-    plane: str
-    sigma_mm: float | None = None
-
-
 class PlaneKind(RecordKind):
     name: ClassVar[str] = "plane"
     model: ClassVar[str] = Plane.traits.kind
     record = PlaneRecord
-    public = PlaneRecordPublic
+    public = public_form(PlaneRecord)
     named_by: ClassVar[str | None] = "plane"
-    label: ClassVar[str] = "plane"
-    described_in: ClassVar[str | None] = "planes"
     description = PlaneDescription
     described_field: ClassVar[Any] = described_map(
         100,
@@ -56,8 +47,6 @@ class PlaneKind(RecordKind):
     }
     example_name: ClassVar[str] = "f1"
     design_description: ClassVar[str] = '{"normal": [nx, ny, nz]}'
-    file_kinds: ClassVar[tuple[str, ...]] = ("plane",)
-    file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         if description.normal is None or math.hypot(*description.normal) == 0.0:

@@ -8,8 +8,8 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 
 from models.measurements.references import FixedPoint
-from service.record_kinds.base import Described, ModelReference, RecordKind, described_map
-from service.schemas.common import JointVector, Public, Strict
+from service.record_kinds.base import Described, ModelReference, RecordKind, described_map, public_form
+from service.schemas.common import JointVector, Strict
 from service.schemas.references import PointDescription, RecordSigma, ReferenceName
 
 
@@ -23,29 +23,18 @@ class PointRecord(Strict):
     sigma_mm: RecordSigma | None = None
 
 
-class PointRecordPublic(Public):
-    kind: Literal["point"]
-    joints: list[float]
-    point: str
-    sigma_mm: float | None = None
-
-
 class PointKind(RecordKind):
     name: ClassVar[str] = "point"
     model: ClassVar[str] = FixedPoint.traits.kind
     record = PointRecord
-    public = PointRecordPublic
+    public = public_form(PointRecord)
     named_by: ClassVar[str | None] = "point"
-    label: ClassVar[str] = "point"
-    described_in: ClassVar[str | None] = "points"
     description = PointDescription
     described_field: ClassVar[Any] = described_map(
         100,
         "Optional guesses of the fixed points' positions (a pose design: the points records would be on)",
     )
     example_name: ClassVar[str] = "p1"
-    file_kinds: ClassVar[tuple[str, ...]] = ("point",)
-    file_columns: ClassVar[tuple[str, ...]] = ("sigma_mm",)
 
     def design_reference(self, name: str, description: Any) -> ModelReference:
         px, py, pz = description.position_mm or (0.0, 0.0, 0.0)  # its rows do not depend on where it is

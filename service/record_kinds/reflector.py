@@ -14,14 +14,14 @@ from pydantic import Field
 from models.measurements.references import Reflector
 from service.record_kinds.base import (
     POSITION,
-    POSITION_COLUMNS,
     Described,
     ModelReference,
     Reading,
     RecordKind,
     described_map,
+    public_form,
 )
-from service.schemas.common import JointVector, Position, Public, Strict
+from service.schemas.common import JointVector, Position, Strict
 from service.schemas.references import RecordSigma, ReferenceName, ReflectorDescription
 
 
@@ -35,22 +35,12 @@ class ReflectorRecord(Strict):
     sigma_mm: RecordSigma | None = None
 
 
-class ReflectorRecordPublic(Public):
-    kind: Literal["reflector"]
-    joints: list[float]
-    reflector: str
-    position: list[float]
-    sigma_mm: float | None = None
-
-
 class ReflectorKind(RecordKind):
     name: ClassVar[str] = "reflector"
     model: ClassVar[str] = Reflector.traits.kind
     record = ReflectorRecord
-    public = ReflectorRecordPublic
+    public = public_form(ReflectorRecord)
     named_by: ClassVar[str | None] = "reflector"
-    label: ClassVar[str] = "reflector"
-    described_in: ClassVar[str | None] = "reflectors"
     description = ReflectorDescription
     described_field: ClassVar[Any] = described_map(
         20,
@@ -66,8 +56,6 @@ class ReflectorKind(RecordKind):
     example_name: ClassVar[str] = "r2"
     design_description: ClassVar[str] = '{"offset_mm": [x, y, z]}'
     sampled: ClassVar[bool] = True
-    file_kinds: ClassVar[tuple[str, ...]] = ("reflector",)
-    file_columns: ClassVar[tuple[str, ...]] = (*POSITION_COLUMNS, "sigma_mm")
     reading: ClassVar[Reading | None] = POSITION
 
     def design_reference(self, name: str, description: Any) -> ModelReference:

@@ -60,9 +60,7 @@ class TrackerKind(RecordKind):
     measurement_kinds: ClassVar[tuple[MeasurementKind, ...]] = (MeasurementKind.POSE, MeasurementKind.POSITION)
     record = Record
     public = CampaignRecordPublic
-    label: ClassVar[str] = "tracker"
     file_kinds: ClassVar[tuple[str, ...]] = ("tracker", "", "position")
-    file_columns: ClassVar[tuple[str, ...]] = (*POSITION_COLUMNS, "sigma_mm")
     timed: ClassVar[bool] = True
     sampled: ClassVar[bool] = True  # a tracker reads wherever it sees the reflector
     # The layout of several kinds carries a tracker record's position and σ; its orientation and temperature only
