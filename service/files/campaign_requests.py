@@ -204,12 +204,14 @@ async def _read_files(
 
 def query_fields(fields: dict[str, Any]) -> Callable[[list[dict[str, object]]], dict[str, Any]]:
     """What the query adds to a validation or a quick check read from a file (`fields`: the body's fields a file
-    has no column for) and the anchors its records name, described as unknown (their place is fitted, as a
-    calibration's file's anchors are; a multipart `descriptions` part says more)."""
+    has no column for, None where the query leaves one out: the body's default) and the anchors its records
+    name, described as unknown (their place is fitted, as a calibration's file's anchors are; a multipart
+    `descriptions` part says more)."""
+    given = {k: v for k, v in fields.items() if v is not None}
 
     def fields_of(measurements: list[dict[str, object]]) -> dict[str, Any]:
         anchors = anchor_names(measurements)
-        return {**({"anchors": {a: {} for a in anchors}} if anchors else {}), **fields}
+        return {**({"anchors": {a: {} for a in anchors}} if anchors else {}), **given}
 
     return fields_of
 

@@ -51,16 +51,11 @@ def check_fields(  # one FastAPI dependency: a Query declaration per body field 
     against: Against | None = Query(None, description="CSV and multipart bodies: the body's against"),
     notes: str | None = Query(None, max_length=NOTES_MAX, description="CSV and multipart bodies: the body's notes"),
 ) -> dict[str, Any]:
-    """What the query adds to a quick check read from a file: the body's fields a file has no column for."""
+    """What the query adds to a quick check read from a file: the body's fields a file has no column for (None:
+    not given)."""
     noise = {"position_mm": noise_position_mm, "orientation_deg": noise_orientation_deg}
-    given = {
-        "noise": {k: v for k, v in noise.items() if v is not None} or None,
-        "alpha": alpha,
-        "register": register,
-        "against": against,
-        "notes": notes,
-    }
-    return {k: v for k, v in given.items() if v is not None}
+    given_noise = {k: v for k, v in noise.items() if v is not None} or None
+    return {"noise": given_noise, "alpha": alpha, "register": register, "against": against, "notes": notes}
 
 
 @router.post(

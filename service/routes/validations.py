@@ -40,9 +40,9 @@ def validation_fields(
     register: bool | None = Query(None, description="CSV and multipart bodies: the body's register"),
     notes: str | None = Query(None, max_length=NOTES_MAX, description="CSV and multipart bodies: the body's notes"),
 ) -> dict[str, Any]:
-    """What the query adds to a validation read from a file: the body's fields a file has no column for."""
-    given = {"versions": versions, "register": register, "notes": notes}
-    return {k: v for k, v in given.items() if v is not None}
+    """What the query adds to a validation read from a file: the body's fields a file has no column for (None: not
+    given)."""
+    return {"versions": versions, "register": register, "notes": notes}
 
 
 @router.post(
