@@ -293,6 +293,20 @@ def rapid_module(poses: Sequence[Array], q: Array, *, base: Array, tool: Array) 
     return "".join(lines)
 
 
+def krl_in_fixture(cell: Cell, q: Array, tool: Array | None = None) -> tuple[str, str]:
+    """`krl_pair` of the targets the nominal controller reaches at joints `q`, taught in the fixture with `tool`
+    (default the cell's): the frames `krl_config(FIXTURE, tool)` declares as BASE_DATA[1] and TOOL_DATA[1]."""
+    tool = cell.tool if tool is None else tool
+    return krl_pair(list(taught(cell, q, base=FIXTURE, tool=tool)), q)
+
+
+def rapid_in_fixture(cell: Cell, q: Array, tool: Array | None = None) -> str:
+    """`rapid_module` of the targets the nominal controller reaches at joints `q`, taught in the fixture's
+    wobjdata with `tool` (default the cell's) as its tooldata."""
+    tool = cell.tool if tool is None else tool
+    return rapid_module(list(taught(cell, q, base=FIXTURE, tool=tool)), q, base=FIXTURE, tool=tool)
+
+
 def urscript_program(poses: Sequence[Array]) -> str:
     """A script as Polyscope exports one: waypoints as global variables, movej to the first, movel after."""
     lines = ["def program():\n", "  # waypoints\n"]
