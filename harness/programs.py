@@ -275,6 +275,15 @@ class ProbeTargets:
     def robtarget(self, k: int) -> str:
         return rapid_robtarget(self.pose(k), self.q[k])
 
+    def misses(self, k: int, compensated: Array) -> tuple[float, float]:
+        """How far (mm) the true robot's TCP lands from target `k` when the nominal controller runs to it from the
+        joints it was taught at: to `compensated` (its pose as the rewritten program reads), then as taught."""
+        base = FIXTURE if self.in_fixture[k] else None
+        wanted = world_positions(self.cell, self.pose(k)[None], base=base)
+        run = executed(self.cell, compensated[None], self.q[k : k + 1], base=base, tool=self.cell.tool)
+        before = executed(self.cell, self.pose(k)[None], self.q[k : k + 1], base=base, tool=self.cell.tool)
+        return float(np.linalg.norm(run - wanted)), float(np.linalg.norm(before - wanted))
+
 
 def rapid_module(poses: Sequence[Array], q: Array, *, base: Array, tool: Array) -> str:
     """A module as RobotStudio writes one: a tooldata and a wobjdata, CONST robtargets, MoveJ then MoveL."""
