@@ -275,6 +275,15 @@ class ProbeTargets:
     def robtarget(self, k: int) -> str:
         return rapid_robtarget(self.pose(k), self.q[k])
 
+    def misses(self, k: int, compensated: Array) -> tuple[float, float]:
+        """How far (mm) the true robot's TCP lands from target `k` when the nominal controller runs to it from the
+        joints it was taught at: to `compensated` (its pose as the rewritten program reads), then as taught."""
+        base = FIXTURE if self.in_fixture[k] else None
+        wanted = world_positions(self.cell, self.pose(k)[None], base=base)
+        run = executed(self.cell, compensated[None], self.q[k : k + 1], base=base, tool=self.cell.tool)
+        before = executed(self.cell, self.pose(k)[None], self.q[k : k + 1], base=base, tool=self.cell.tool)
+        return float(np.linalg.norm(run - wanted)), float(np.linalg.norm(before - wanted))
+
 
 def rapid_module(poses: Sequence[Array], q: Array, *, base: Array, tool: Array) -> str:
     """A module as RobotStudio writes one: a tooldata and a wobjdata, CONST robtargets, MoveJ then MoveL."""
@@ -291,6 +300,20 @@ def rapid_module(poses: Sequence[Array], q: Array, *, base: Array, tool: Array) 
         lines.append(f"        {move} Target_{k * 10},v1000,z100,tProbe\\WObj:=wFixture;\r\n")
     lines.append("    ENDPROC\r\nENDMODULE\r\n")
     return "".join(lines)
+
+
+def krl_in_fixture(cell: Cell, q: Array, tool: Array | None = None) -> tuple[str, str]:
+    """`krl_pair` of the targets the nominal controller reaches at joints `q`, taught in the fixture with `tool`
+    (default the cell's): the frames `krl_config(FIXTURE, tool)` declares as BASE_DATA[1] and TOOL_DATA[1]."""
+    tool = cell.tool if tool is None else tool
+    return krl_pair(list(taught(cell, q, base=FIXTURE, tool=tool)), q)
+
+
+def rapid_in_fixture(cell: Cell, q: Array, tool: Array | None = None) -> str:
+    """`rapid_module` of the targets the nominal controller reaches at joints `q`, taught in the fixture's
+    wobjdata with `tool` (default the cell's) as its tooldata."""
+    tool = cell.tool if tool is None else tool
+    return rapid_module(list(taught(cell, q, base=FIXTURE, tool=tool)), q, base=FIXTURE, tool=tool)
 
 
 def urscript_program(poses: Sequence[Array]) -> str:

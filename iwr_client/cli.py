@@ -199,10 +199,7 @@ def parameters(client: Client, args: argparse.Namespace, console: Console) -> in
 
 def check_poses(client: Client, args: argparse.Namespace, console: Console) -> int:
     plan = client.check_design(args.robot, count=args.count, measurement=args.measurement, seed=args.seed)
-    if args.csv:
-        names = client.robot(args.robot)["joint_names"]
-        lines = [",".join(names)] + [",".join(repr(float(v)) for v in pose["joints"]) for pose in plan["poses"]]
-        Path(args.csv).write_text("\n".join(lines) + "\n")
+    _poses_csv(client, args, plan["poses"])
     console.document(plan, lambda: summary.check_design_summary(plan, args.csv))
     return OK
 

@@ -126,12 +126,9 @@ class JointOutOfRange(InvalidInput):
         unit: str,
         count: int = 1,
     ) -> None:
-        super().__init__(detail, field="joints")
+        super().__init__(detail, field="joints", value=value, min=min, max=max)
         self.pose = pose
         self.joint = joint
-        self.value = value
-        self.min = min
-        self.max = max
         self.unit = unit
         self.count = count
 

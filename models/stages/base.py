@@ -156,6 +156,10 @@ class WithoutClosure:
     """The closure half of `Stage` for a stage whose end frame follows from its joints in closed form (a serial
     chain, a fixed mount): no closure equations, no unknowns, nothing to condition."""
 
+    @property
+    def n_unknowns(self) -> int:
+        return 0
+
     def closure(self, q: Sym, x: Sym, p: Sym) -> Sym | None:
         return None
 

@@ -50,10 +50,6 @@ class SerialStage(WithoutClosure):
         return sum(link.joint.moves for link in self.links)
 
     @property
-    def n_unknowns(self) -> int:
-        return 0
-
-    @property
     def n_params(self) -> int:
         return sum(link.n_params for link in self.links)
 

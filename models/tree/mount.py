@@ -47,10 +47,6 @@ class MountStage(WithoutClosure):
         return 0
 
     @property
-    def n_unknowns(self) -> int:
-        return 0
-
-    @property
     def n_params(self) -> int:
         return 6
 

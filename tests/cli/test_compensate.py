@@ -26,8 +26,8 @@ from harness.programs import (
     executed,
     joints,
     krl_config,
-    krl_pair,
-    rapid_module,
+    krl_in_fixture,
+    rapid_in_fixture,
     taught,
     ur5_cell,
     urscript_approached,
@@ -75,7 +75,7 @@ def backup(cell: Cell, q: np.ndarray, folder: Path) -> dict[str, Path]:
     """weld.src, weld.dat and $config.dat as a KRC backup holds them: Windows-1252 (a German comment in each),
     CRLF, KUKA's inline forms; the .dat also declares an INT and a target far outside the arm's reach that a LIN
     goes to last."""
-    src, dat = krl_pair(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q)
+    src, dat = krl_in_fixture(cell, q)
     src = src.replace("&REL 1\r\n", HEADER, 1).replace("  BAS (#INITMOV,0 )\r\n", INI, 1)
     dat = dat.replace("&REL 1\r\n", "&REL 1\r\n&PARAM EDITMASK = *\r\n", 1).replace("%V3.2.0\r\n", EXTERNAL, 1)
     src = src.replace("END\r\n", "; zum Schluss: außer Reichweite\r\nLIN XFAR\r\nEND\r\n")
@@ -175,7 +175,7 @@ def test_a_rapid_module_exported_in_utf16_comes_back_in_utf16(
     """A module as RobotStudio writes one (tooldata, wobjdata, CONST robtargets, MoveJ then MoveL), saved as
     UTF-16 with its byte-order mark and a German comment: written back in UTF-16, landing on its targets."""
     q = joints(5, seed=23)
-    module = rapid_module(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q, base=FIXTURE, tool=cell.tool)
+    module = rapid_in_fixture(cell, q)
     module = module.replace("MODULE Module1\r\n", "MODULE Module1\r\n    ! Schweißzelle 3, Vorrichtung links\r\n")
     source = tmp_path / "Module1.mod"
     source.write_bytes(b"\xff\xfe" + module.encode("utf-16-le"))

@@ -18,8 +18,8 @@ from harness.programs import (
     executed,
     joints,
     krl_config,
-    krl_pair,
-    rapid_module,
+    krl_in_fixture,
+    rapid_in_fixture,
     taught,
     ur5_cell,
     world_positions,
@@ -88,7 +88,7 @@ def test_rapid_confl_off_lets_the_controller_choose_and_moveabsj_says_where_from
     to the taught joints, the controller takes the solution nearest the arm, and they are compensated."""
     cell = ur5_cell()
     q = joints(6, seed=17)
-    module = rapid_module(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q, base=FIXTURE, tool=cell.tool)
+    module = rapid_in_fixture(cell, q)
     wrong = module
     for k in range(1, 7):  # every cf1 a quarter turn off
         head = f"Target_{k * 10}:="
@@ -117,7 +117,7 @@ def test_kuka_holds_s_and_t_on_a_ptp_only() -> None:
     in, so its T is a hint and the target is compensated."""
     cell = ur5_cell()
     q = joints(10, seed=19)
-    src, dat = krl_pair(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q)
+    src, dat = krl_in_fixture(cell, q)
     wrong = re.sub(r",T (\d+),", lambda m: f",T {int(m.group(1)) ^ 1},", dat)  # axis 1's sign bit flipped
     program = read_program("krl", src, {"weld.dat": wrong, "$config.dat": krl_config(FIXTURE, cell.tool)})
     done = compensate_program(cell.desc, cell.truth, program, nominal=cell.nominal, seed=np.radians(HOME_DEG))

@@ -22,8 +22,8 @@ from harness.programs import (
     executed,
     joints,
     krl_config,
-    krl_pair,
-    rapid_module,
+    krl_in_fixture,
+    rapid_in_fixture,
     taught,
     ur5_cell,
     urscript_program,
@@ -54,12 +54,10 @@ def _case(cell: Cell, format_name: str, q: Array, tool: Array | None = None) -> 
     """The program of `format_name` taught at joints `q`; KRL and RAPID declare `tool` (default: the nominal)."""
     tool = cell.tool if tool is None else tool
     if format_name == "krl":
-        poses = list(taught(cell, q, base=FIXTURE, tool=tool))
-        src, dat = krl_pair(poses, q)
+        src, dat = krl_in_fixture(cell, q, tool)
         return Case(src, {"weld.dat": dat, "$config.dat": krl_config(FIXTURE, tool)}, FIXTURE, tool)
     if format_name == "rapid":
-        poses = list(taught(cell, q, base=FIXTURE, tool=tool))
-        return Case(rapid_module(poses, q, base=FIXTURE, tool=tool), {}, FIXTURE, tool)
+        return Case(rapid_in_fixture(cell, q, tool), {}, FIXTURE, tool)
     poses = list(taught(cell, q))
     return Case(urscript_program(poses) if format_name == "urscript" else csv_table(poses), {}, None, None)
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.programs import FIXTURE, HOME_DEG, joints, krl_pair, rapid_module, taught, ur5_cell
+from harness.programs import FIXTURE, HOME_DEG, joints, krl_in_fixture, rapid_in_fixture, ur5_cell
 from models._types import Array
 from programs import PROGRAM, read_program
 from programs.frames import matrix_abc
@@ -72,7 +72,7 @@ def _changed_lines(before: str, after: str) -> list[int]:
 def test_a_kuka_cell_backup_changes_only_its_motion_targets() -> None:
     cell = ur5_cell()
     q = joints(N, seed=3)
-    src, dat = krl_pair(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q)
+    src, dat = krl_in_fixture(cell, q)
     # The program also measures a point, computes a base from it, writes it into BASE_DATA[16] and does
     # arithmetic with another value: none of these is a motion target.
     dat = dat.replace(
@@ -108,7 +108,7 @@ def test_a_kuka_cell_backup_changes_only_its_motion_targets() -> None:
 def test_an_abb_cell_changes_only_what_its_moves_go_to() -> None:
     cell = ur5_cell()
     q = joints(N, seed=4)
-    module = rapid_module(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q, base=FIXTURE, tool=cell.tool)
+    module = rapid_in_fixture(cell, q)
     # Its tooldata and wobjdata move to a system module, as a cell keeps them; beside them a home robtarget.
     lines = module.splitlines(keepends=True)
     frames = [line for line in lines if "tooldata" in line or "wobjdata" in line]

@@ -17,13 +17,13 @@ import pytest
 from fastapi.testclient import TestClient
 
 from harness.programs import (
-    FIXTURE,
     HOME_DEG,
     UR10E_KINEMATICS,
     Cell,
     csv_table,
     executed,
     joints,
+    rapid_in_fixture,
     rapid_module,
     taught,
     urscript_program,
@@ -240,7 +240,7 @@ def test_a_module_of_1500_targets_is_compensated_in_one_request(client: TestClie
     """Issue 44: a 245 kB RAPID module of 1 488 targets was a 503. Its cost (bytes and targets) is under the
     budget: it is compensated, every target answered."""
     q = joints(1_500, seed=31)
-    module = rapid_module(list(taught(cell, q, base=FIXTURE, tool=cell.tool)), q, base=FIXTURE, tool=cell.tool)
+    module = rapid_in_fixture(cell, q)
     assert len(module) > 200_000
     answer = _post(client, ur5, format="rapid", program=module, seed=list(HOME_DEG))
     assert answer.status_code == 200, answer.text[:500]
