@@ -8,13 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from models import NoiseModel, RobotDescription
+from models import RobotDescription
 from models._types import Array
 from models.campaign import Campaign
 from models.errors import InvalidInput
 from optimal_design.adaptive import AdaptiveSettings, Pool, Step
 from service.conversions.calibrations import records_in
 from service.conversions.kinematics import joints_out
+from service.conversions.units import instrument_noise
 from service.persistence.tables import AdaptiveCampaignRecord, AdaptiveStepRecord
 from service.record_kinds.tracker import Record
 from service.schemas.adaptive import (
@@ -41,7 +42,7 @@ def settings_in(request: dict[str, Any]) -> AdaptiveSettings:
         criterion=body.criterion,
         candidate_count=body.candidate_count,
         seed=body.seed,
-        noise=NoiseModel(body.noise.position_mm, math.radians(body.noise.orientation_deg)),
+        noise=instrument_noise(body.noise.position_mm, body.noise.orientation_deg),
         blunder_sigma=body.blunder_sigma,
     )
 

@@ -18,6 +18,7 @@ from models.noise import NoiseModel
 from service.conversions.kinematics import joints_in
 from service.conversions.references import references_out
 from service.conversions.terms import record_conditions
+from service.conversions.units import instrument_noise
 from service.errors import BadRequest
 from service.persistence.tables import CalibrationRecord
 from service.record_kinds.tracker import Record
@@ -53,7 +54,7 @@ def records_in(
 
 
 def noise_in(body: CalibrationCreate) -> NoiseModel:
-    return NoiseModel(body.noise.position_mm, math.radians(body.noise.orientation_deg))
+    return instrument_noise(body.noise.position_mm, body.noise.orientation_deg)
 
 
 def options_in(body: CalibrationCreate) -> IdentificationOptions:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from models import NoiseModel, RobotDescription
@@ -11,6 +10,7 @@ from models.measurement import MeasurementKind
 from optimal_design import PoseDesign, TargetDesign
 from optimal_design.criteria import Criterion
 from service.conversions.kinematics import joints_out
+from service.conversions.units import instrument_noise
 from service.persistence.tables import PoseDesignRecord
 from service.schemas.common import timestamp
 from service.schemas.designs import (
@@ -103,7 +103,7 @@ def design_noise(body: PoseDesignCreate) -> NoiseModel | None:
     """The instrument's σ the predictions are for, internal units; None: the models' default."""
     if body.noise is None:
         return None
-    return NoiseModel(body.noise.position_mm, math.radians(body.noise.orientation_deg))
+    return instrument_noise(body.noise.position_mm, body.noise.orientation_deg)
 
 
 def constraints_in(

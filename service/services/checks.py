@@ -4,8 +4,6 @@ history of calibrations and checks. Read, compute outside any transaction, write
 
 from __future__ import annotations
 
-import math
-
 from models import NoiseModel, Registry
 from models.errors import InvalidInput
 from models.evaluation.checks import CheckOptions
@@ -14,6 +12,7 @@ from optimal_design.checks import design_check
 from service.conversions.checks import check_design_out, check_document, check_public, history_out
 from service.conversions.drift import condition_warnings
 from service.conversions.references import described
+from service.conversions.units import instrument_noise
 from service.persistence import Database, Repository
 from service.persistence.lifecycle import Lifecycle
 from service.schemas.calibrations import Noise
@@ -49,7 +48,7 @@ def _current(repo: Repository, robot_id: str, against: Against) -> VersionUncert
 
 
 def _noise(noise: Noise) -> NoiseModel:
-    return NoiseModel(noise.position_mm, math.radians(noise.orientation_deg))
+    return instrument_noise(noise.position_mm, noise.orientation_deg)
 
 
 def create_check(*, db: Database, registry: Registry, robot_id: str, body: QuickCheckCreate) -> QuickCheckPublic:

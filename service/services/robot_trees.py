@@ -5,7 +5,6 @@ pair's predicted accuracy, applied as a new revision of the tree's parameters.""
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -15,7 +14,6 @@ import numpy as np
 from models import Registry
 from models.cell import stage_frames
 from models.errors import TooFewMeasurements
-from models.noise import NoiseModel
 from models.tree import RobotTree, ToolRecords, TreeFit, identify_tree, relative_of, tool_poses, tree_accuracy
 from service.conversions.robot_trees import (
     Grouped,
@@ -31,6 +29,7 @@ from service.conversions.robot_trees import (
     tree_in,
     tree_public,
 )
+from service.conversions.units import instrument_noise
 from service.errors import Conflict, NotFound
 from service.persistence import Database
 from service.persistence.lifecycle import Actor
@@ -187,7 +186,7 @@ def calibrate(
         start_revision = row.revision
     fitted = records_in(tree, body.records, "records")
     held = records_in(tree, body.held_out, "held_out")
-    noise = NoiseModel(position_mm=body.noise_position_mm, orientation_rad=math.radians(body.noise_orientation_deg))
+    noise = instrument_noise(body.noise_position_mm, body.noise_orientation_deg)
     try:
         fit = identify_tree(tree, fitted.groups, noise=noise, nominal=start, registry=registry)
     except TooFewMeasurements as exc:

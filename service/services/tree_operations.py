@@ -11,7 +11,6 @@ from __future__ import annotations
 import csv
 import io
 import itertools
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -24,7 +23,6 @@ from models.errors import InvalidInput
 from models.formats.dh_table import LINK_TRANSFORMS, frame_row
 from models.formats.urdf_calibrated import frame_text, splice_origins
 from models.measurement import MeasurementKind
-from models.noise import NoiseModel
 from models.transforms import matrix_to_rotvec_np, quaternion_to_matrix
 from models.tree import (
     RobotTree,
@@ -37,6 +35,7 @@ from models.tree import (
 from optimal_design.tree import TreeCandidate, design_tree
 from service.conversions.kinematics import unit_quaternion
 from service.conversions.robot_trees import accuracy_out, current_values, joint_scale, joints_in, tree_in
+from service.conversions.units import instrument_noise
 from service.persistence import Database
 from service.persistence.robot_trees import TreeStore
 from service.schemas.exports import ROTATION
@@ -162,7 +161,7 @@ def design(*, db: Database, registry: Registry, tree_id: str, body: TreeDesignCr
             field="count",
             value=body.count,
         )
-    noise = NoiseModel(position_mm=body.noise_position_mm, orientation_rad=math.radians(body.noise_orientation_deg))
+    noise = instrument_noise(body.noise_position_mm, body.noise_orientation_deg)
     found = design_tree(
         tree,
         candidates,

@@ -9,15 +9,14 @@ calibration's parameters with its covariance (`restated_fit`, the fit evaluated 
 from __future__ import annotations
 
 import itertools
-import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from models import Registry
-from models.noise import NoiseModel
 from models.tree import RobotTree, accuracy_profiles, relative_changes, restated_fit, tree_joint_samples
 from service.conversions.robot_trees import records_in, tree_in, tree_public
+from service.conversions.units import instrument_noise
 from service.persistence import Database
 from service.persistence.robot_trees import TreeStore
 from service.schemas.robot_trees import TreeCalibrationCreate
@@ -66,11 +65,9 @@ def build_tree_report(*, db: Database, registry: Registry, tree_id: str, calibra
     tree, tree_doc, document, stored = report_data(db=db, tree_id=tree_id, calibration_id=calibration_id)
     joints, groups = region_joints(tree, stored)
     defaults = TreeCalibrationCreate.model_fields
-    noise = NoiseModel(
-        position_mm=float(stored.get("noise_position_mm", defaults["noise_position_mm"].default)),
-        orientation_rad=math.radians(
-            float(stored.get("noise_orientation_deg", defaults["noise_orientation_deg"].default))
-        ),
+    noise = instrument_noise(
+        float(stored.get("noise_position_mm", defaults["noise_position_mm"].default)),
+        float(stored.get("noise_orientation_deg", defaults["noise_orientation_deg"].default)),
     )
     table = tree.parameters
     theta = np.array([p["value"] for p in document["parameters"]], dtype=float) / table.to_boundary
