@@ -1,7 +1,9 @@
 """A robot's fleet in /ui: a calibration (and a pose design) with the fleet's prior refused in words while the fleet
 is too small, and the fleet section's numbers (units, calibrated, needed, the outlier unit, the population) equal
 to the API's.
-The robots are UR5-like (a structure no other UI test uses), so the fleet is this test's own on the shared server."""
+The robots are UR5-like with a real UR5's ±360° joint ranges (`FLEET_DOCUMENT`), a structure no other UI test uses, so
+the fleet is this test's own on the shared server: the other UI tests' UR5-like robots (±180°) are another fleet, and
+they may run before it on the same server."""
 
 from __future__ import annotations
 
@@ -23,6 +25,18 @@ from tests.ui.conftest import PageProblems, screenshot
 
 pytestmark = pytest.mark.slow  # a structure the live server compiles first (~9 s), six calibrations (~1 s)
 DESC = ur5_like()
+
+
+def _fleet_document() -> dict[str, Any]:
+    """ur5_like_document() with every joint's range ±360° (a real UR5's): the same kinematics, another fleet key
+    (a fleet is one structure document; the ranges are part of it). The records, drawn within ±180°, fit both."""
+    document = ur5_like_document()
+    for link in document["stages"][0]["links"]:
+        link["range"] = [-360.0, 360.0]
+    return document
+
+
+FLEET_DOCUMENT = _fleet_document()
 
 
 @pytest.fixture
@@ -57,9 +71,7 @@ def _campaign_csv(path: Path, recs: list[dict[str, Any]]) -> Path:
 
 def test_fleet_prior_refused_then_the_fleet_section(page: Any, server: str, tmp_path: Path) -> None:
     with httpx.Client(base_url=server, timeout=120) as http:
-        made = [
-            http.post("/v1/robots", json={"name": f"ur5-fleet-{k}", "structure": ur5_like_document()}) for k in range(6)
-        ]
+        made = [http.post("/v1/robots", json={"name": f"ur5-fleet-{k}", "structure": FLEET_DOCUMENT}) for k in range(6)]
         assert all(m.status_code == 201 for m in made), [m.text for m in made]
         units = [m.json()["id"] for m in made]
 
