@@ -292,7 +292,15 @@ def test_the_embedded_pool_dies_with_its_server(tmp_path: Path, stop: signal.Sig
     notices its parent is gone). SIGTERM is a clean stop: status 0 and no semaphores left to the resource
     tracker (service/__main__.py's handler)."""
     port = free_port()
-    env = {**os.environ, "DATABASE_URL": f"sqlite:///{tmp_path}/e.db", "IWR_JOB_WORKERS": "2", "IWR_WARM_UP": "0"}
+    # One compute process, not one per core: the pool under test is the jobs'; a compute process is ~2 s of CPU
+    # to start, and one still has its semaphores for the clean stop to leave none of.
+    env = {
+        **os.environ,
+        "DATABASE_URL": f"sqlite:///{tmp_path}/e.db",
+        "IWR_JOB_WORKERS": "2",
+        "IWR_WARM_UP": "0",
+        "IWR_COMPUTE_PROCESSES": "1",
+    }
     server = subprocess.Popen(
         [sys.executable, "-m", "service", "--host", "127.0.0.1", "--port", str(port)],
         cwd=ROOT,
