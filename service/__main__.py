@@ -20,6 +20,7 @@ from types import FrameType  # noqa: E402
 
 import uvicorn  # noqa: E402
 
+from models.engine.native import optimization_flag  # noqa: E402
 from service.compute.limits import DEADLINE_PER_BUDGET, GIL_SWITCH_INTERVAL_S  # noqa: E402
 from service.compute.registry import build_registry  # noqa: E402
 from service.http import slow_clients  # noqa: E402
@@ -38,6 +39,10 @@ def main(argv: list[str] | None = None) -> None:
         "(IWR_CACHE_DIR), then exit: the image's build stage, which has the compiler the runtime stage lacks",
     )
     args = parser.parse_args(argv)
+    try:
+        optimization_flag()  # IWR_NATIVE_OPT_LEVEL refused before anything is built with it, not at a first request
+    except ValueError as exc:
+        parser.error(str(exc))
     if args.warm_only:
         build_registry(get_settings().model_copy(update={"warm_up": True}))
         return

@@ -136,6 +136,13 @@ SCRUBBED = ("DATABASE_URL", "CC")
 """Besides every IWR_* variable: the service's database and the compiler of the native Functions."""
 
 
+SUITE_SETTINGS = {"IWR_NATIVE_OPT_LEVEL": "0"}
+"""What the suite sets in place of the shell's: its native libraries built at gcc's -O0, three times faster to build
+than the service's -O1 and the same numbers (models/engine/native.py). The suite builds ~80 libraries of ~40
+structures and evaluates each a little: on a cold cache the builds were ~195 s of its CPU at -O1
+(docs/development.md, "Test suite time"). A test of the default level sets it back with monkeypatch."""
+
+
 def _shell_variables() -> list[str]:
     return [name for name in os.environ if name.startswith("IWR_") or name in SCRUBBED]
 
@@ -148,6 +155,8 @@ def _clean_session_environment() -> Iterator[None]:
     with pytest.MonkeyPatch.context() as mp:
         for name in _shell_variables():
             mp.delenv(name)
+        for name, value in SUITE_SETTINGS.items():
+            mp.setenv(name, value)
         yield
 
 
@@ -157,6 +166,8 @@ def _clean_environment(monkeypatch: pytest.MonkeyPatch) -> None:
     the server it starts), whatever an earlier test left in os.environ."""
     for name in _shell_variables():
         monkeypatch.delenv(name)
+    for name, value in SUITE_SETTINGS.items():
+        monkeypatch.setenv(name, value)
 
 
 @pytest.fixture(autouse=True)

@@ -39,8 +39,14 @@ import casadi as ca
 
 log = logging.getLogger(__name__)
 
-COMPILE_FLAGS = ("-O1", "-fPIC", "-shared")
+COMPILE_FLAGS = ("-fPIC", "-shared")
 COMPILE_TIMEOUT_S = 300
+OPTIMIZATION_LEVELS = ("0", "1", "2")
+"""`IWR_NATIVE_OPT_LEVEL`: gcc's -O of the libraries; 1 by default. The register allocator is most of a build
+(CasADi writes each Function as one long basic block): -O1 builds a group of the IWR's Functions in 1.5 s of gcc
+and evaluates a batch of pose Jacobians at 8 us a pose; -O0 builds it in 0.55 s and evaluates at 15-19 us, the
+same numbers to the bit (x86-64's baseline has no fused multiply-add to contract to). -O0 is for processes that
+build many structures and evaluate each a little: the test suite, on a cold cache (docs/development.md)."""
 
 
 class VmReason(StrEnum):
@@ -86,6 +92,19 @@ def native_enabled() -> bool:
     return os.environ.get("IWR_NATIVE", "1") != "0"
 
 
+def optimization_flag() -> str:
+    """gcc's -O for the libraries built now: `IWR_NATIVE_OPT_LEVEL` (0, 1 or 2), 1 when unset."""
+    level = os.environ.get("IWR_NATIVE_OPT_LEVEL", "1")
+    if level not in OPTIMIZATION_LEVELS:
+        raise ValueError(f"IWR_NATIVE_OPT_LEVEL={level!r}: use one of {', '.join(OPTIMIZATION_LEVELS)}")
+    return f"-O{level}"
+
+
+def compile_flags() -> tuple[str, ...]:
+    """The compiler's flags, part of every library's hash: a library built at another level is another file."""
+    return (optimization_flag(), *COMPILE_FLAGS)
+
+
 def compiler_available() -> bool:
     return shutil.which(_compiler()) is not None
 
@@ -111,7 +130,7 @@ def library_path(name: str, serialised: list[str]) -> Path:
     five libraries), which every process paid at start-up only to find the library it already had.
     """
     digest = hashlib.sha256()
-    for part in (ca.__version__, " ".join(COMPILE_FLAGS), *serialised):
+    for part in (ca.__version__, " ".join(compile_flags()), *serialised):
         digest.update(part.encode())
         digest.update(b"\0")
     return cache_dir() / f"{name}-{digest.hexdigest()[:16]}.so"
@@ -201,7 +220,7 @@ def _build(sources: list[tuple[str, Path]]) -> None:
                 c_file = Path(tmp) / f"functions{i}.c"
                 c_file.write_text(source)
                 tmp_lib = Path(tmp) / library.name
-                command = [_compiler(), *COMPILE_FLAGS, str(c_file), "-o", str(tmp_lib), "-lm"]
+                command = [_compiler(), *compile_flags(), str(c_file), "-o", str(tmp_lib), "-lm"]
                 process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
                 running.append((command, process, tmp_lib, library))
             for command, process, _, _ in running:

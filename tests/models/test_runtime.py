@@ -136,6 +136,33 @@ def test_a_built_library_loads_without_a_compiler(tmp_path: Path, monkeypatch: p
     assert fallback.class_name() == "SXFunction"
 
 
+def test_each_optimization_level_is_a_library_of_its_own_with_the_same_numbers(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`IWR_NATIVE_OPT_LEVEL` is gcc's -O and part of the hash: the suite's -O0 libraries and the service's -O1
+    ones live side by side in one cache, never one loaded for the other, and compute the same bits; a level gcc's
+    flags do not name is refused with the setting's name."""
+    if shutil.which(os.environ.get("CC", "cc")) is None:
+        pytest.skip("needs a compiler")
+    x = ca.SX.sym("x", 3)
+    f = ca.Function("probe_mix", [x], [ca.sin(x) * x[0] + ca.sqrt(1 + x * x) / 3])
+    monkeypatch.setenv("IWR_CACHE_DIR", str(tmp_path))
+    point = [0.3, -1.7, 2.9]
+    values = {}
+    for level in ("0", "1"):
+        monkeypatch.setenv("IWR_NATIVE_OPT_LEVEL", level)
+        assert native.compile_flags()[0] == f"-O{level}"
+        values[level] = np.asarray(compile_functions("levels", [f])["probe_mix"](point)).ravel()
+    assert len(list(tmp_path.glob("levels-*.so"))) == 2
+    np.testing.assert_array_equal(values["0"], values["1"])
+    np.testing.assert_allclose(values["1"], np.asarray(f(point)).ravel(), rtol=1e-15)
+    monkeypatch.delenv("IWR_NATIVE_OPT_LEVEL")
+    assert native.optimization_flag() == "-O1"  # the service's default
+    monkeypatch.setenv("IWR_NATIVE_OPT_LEVEL", "3")
+    with pytest.raises(ValueError, match="IWR_NATIVE_OPT_LEVEL='3'"):
+        compile_functions("levels", [f])
+
+
 @pytest.mark.slow  # over 0.25 s: outside the inner loop (make test-fast)
 def test_concurrent_builders_of_one_library_compile_it_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Two test workers (or job workers) meeting a new structure on a cold cache: one compiles, the other waits

@@ -18,6 +18,7 @@ from models.description.structure import description_from_document
 from models.engine.native import compiler_available
 from models.engine.runtime import structure_tag
 from models.warm import warm_everything
+from service.__main__ import main as serve
 from service.compute import builds
 from service.compute.builds import BuildState, StructureBuilds
 from tests.service.conftest import make_client
@@ -150,3 +151,15 @@ def test_without_native_code_the_robot_says_it_runs_on_the_virtual_machine(
     assert done is not None and done.state == BuildState.READY
     assert done.native is False
     assert done.detail is not None and "virtual machine" in done.detail and "disabled" in done.detail
+
+
+def test_a_native_level_gcc_does_not_name_stops_the_service_before_it_serves(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A plant's `IWR_NATIVE_OPT_LEVEL=3` is refused at start-up with its name (argparse's exit 2), not by the
+    first request that builds a structure."""
+    monkeypatch.setenv("IWR_NATIVE_OPT_LEVEL", "3")
+    with pytest.raises(SystemExit) as stopped:
+        serve(["--port", "1"])
+    assert stopped.value.code == 2
+    assert "IWR_NATIVE_OPT_LEVEL='3': use one of 0, 1, 2" in capsys.readouterr().err
