@@ -4,6 +4,9 @@ done instead of compiling."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import time
 import uuid
 from pathlib import Path
@@ -13,12 +16,12 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from harness.live import ROOT
 from models import Registry, RobotDescription, iwr
 from models.description.structure import description_from_document
 from models.engine.native import compiler_available
 from models.engine.runtime import structure_tag
 from models.warm import warm_everything
-from service.__main__ import main as serve
 from service.compute import builds
 from service.compute.builds import BuildState, StructureBuilds
 from tests.service.conftest import make_client
@@ -153,13 +156,19 @@ def test_without_native_code_the_robot_says_it_runs_on_the_virtual_machine(
     assert done.detail is not None and "virtual machine" in done.detail and "disabled" in done.detail
 
 
-def test_a_native_level_gcc_does_not_name_stops_the_service_before_it_serves(
-    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
-) -> None:
+@pytest.mark.slow  # a `python -m service` started: its imports are ~2 s of CPU
+def test_a_native_level_gcc_does_not_name_stops_the_service_before_it_serves() -> None:
     """A plant's `IWR_NATIVE_OPT_LEVEL=3` is refused at start-up with its name (argparse's exit 2), not by the
-    first request that builds a structure."""
-    monkeypatch.setenv("IWR_NATIVE_OPT_LEVEL", "3")
-    with pytest.raises(SystemExit) as stopped:
-        serve(["--port", "1"])
-    assert stopped.value.code == 2
-    assert "IWR_NATIVE_OPT_LEVEL='3': use one of 0, 1, 2" in capsys.readouterr().err
+    first request that builds a structure. (In a process of its own: importing `service.__main__` sets the
+    service's defaults in os.environ, which the apps of later tests would read.)"""
+    started = subprocess.run(
+        [sys.executable, "-m", "service", "--port", "1"],
+        cwd=ROOT,
+        env={**os.environ, "IWR_NATIVE_OPT_LEVEL": "3"},
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert started.returncode == 2, started.stderr
+    assert "IWR_NATIVE_OPT_LEVEL='3': use one of 0, 1, 2" in started.stderr
