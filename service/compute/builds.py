@@ -24,7 +24,6 @@ page starts a build again, which finds the cached libraries and is ready in abou
 from __future__ import annotations
 
 import logging
-import multiprocessing
 import os
 import threading
 import time
@@ -38,6 +37,7 @@ from models.description.robot import RobotDescription
 from models.engine.native import vm_only_libraries
 from models.engine.runtime import structure_tag
 from models.warm import warm_everything
+from service.compute import processes
 from service.compute.parent_watch import watch_parent
 
 log = logging.getLogger("service.compute.builds")
@@ -164,10 +164,10 @@ class StructureBuilds:
             self._status[tag] = done
 
     def _in_own_process(self, desc: RobotDescription) -> _Built:
-        context = multiprocessing.get_context("spawn")
         # With a parent watch, like the compute processes: a build never outlives its server (kill -9 included).
+        start, args = processes.initializer(watch_parent, os.getpid())
         with ProcessPoolExecutor(
-            max_workers=1, mp_context=context, initializer=watch_parent, initargs=(os.getpid(),)
+            max_workers=1, mp_context=processes.context(), initializer=start, initargs=args
         ) as process:
             future: Future[_Built] = process.submit(build_structure, desc)
             return future.result()

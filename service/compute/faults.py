@@ -10,9 +10,9 @@ import os
 KILLED = 137
 """The exit status of a process killed by SIGKILL (128 + 9), which is what the crash stands for."""
 
-_ARMED = os.environ.get("IWR_FAULT")
-
 
 def crash_point(name: str) -> None:
-    if name == _ARMED:
+    # Read at each point, not at import: a helper forked from the forkserver (service.compute.processes) has the
+    # modules the forkserver imported, with the environment its own server gave it since.
+    if name == os.environ.get("IWR_FAULT"):
         os._exit(KILLED)

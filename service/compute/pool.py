@@ -5,10 +5,10 @@ calls back into Python at every evaluation, pydantic and json hold the GIL for a
 and numpy's small calls hand it back rarely. Measured with threads (benchmarks/bench_hardening.py, 2 cores):
 /healthz p99 1.08 s under the mixed load. In a process, a computation can only take a core.
 
-- `ComputePool(processes=N)`: N spawned processes (one per core by default, `IWR_COMPUTE_PROCESSES`), each
-  started by `start_process`: its own engine, model cache and registry (built once by
-  `service.compute.registry.build_registry`, the API's factory), and a watch that ends it with its parent.
-  `processes=0`: the same calls in threads of this process, with the app's own (tests, scripts).
+- `ComputePool(processes=N)`: N processes (one per core by default, `IWR_COMPUTE_PROCESSES`), forks of the
+  forkserver (`service.compute.processes`), each started by `start_process`: its own engine, model cache and
+  registry (built once by `service.compute.registry.build_registry`, the API's factory), and a watch that ends it
+  with its server. `processes=0`: the same calls in threads of this process, with the app's own (tests, scripts).
 - A `Task` is a module-level function and its keyword arguments (pickled to the process); `inject` names what
   the process supplies itself (`db`, `models`, `registry`): a Database, a cache or compiled Functions cannot
   travel.
@@ -41,7 +41,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import multiprocessing
 import os
 import signal
 import threading
@@ -57,6 +56,7 @@ import anyio
 from models import Registry
 from models.engine.cancellation import DEADLINE, CancellationToken, cancellable, exempt_builds, on_builds
 from service import logs
+from service.compute import processes
 from service.compute.model_cache import ModelCache
 from service.compute.parent_watch import watch_parent
 from service.compute.registry import build_registry
@@ -264,7 +264,7 @@ class ComputePool:
         self.settings, self.processes = settings, settings.compute_processes
         self.memory_bytes = memory_bytes
         self.local = _Process(db, models, registry, None)  # what the threads use without processes
-        self._context = multiprocessing.get_context("spawn")
+        self._context = processes.context()
         self.flags = self._context.Array("b", max(slots, 1), lock=False)
         lanes = max(self.processes, 1)
         self._shared = self._context.Array("i", _LANE_FIELDS * lanes, lock=False)
@@ -282,22 +282,20 @@ class ComputePool:
         with self._lock:
             executor = self._lanes[lane]
             if executor is None:
+                start, args = processes.initializer(
+                    start_process, self.settings, self.flags, os.getpid(), self._shared, lane
+                )
                 executor = self._lanes[lane] = ProcessPoolExecutor(
-                    max_workers=1,
-                    mp_context=self._context,
-                    initializer=start_process,
-                    initargs=(self.settings, self.flags, os.getpid(), self._shared, lane),
+                    max_workers=1, mp_context=self._context, initializer=start, initargs=args
                 )
             return executor
 
     def _parse_pool(self) -> ProcessPoolExecutor:
         with self._lock:
             if self._parser is None:
+                start, args = processes.initializer(start_parser, os.getpid())
                 self._parser = ProcessPoolExecutor(
-                    max_workers=PARSE_PROCESSES,
-                    mp_context=self._context,
-                    initializer=start_parser,
-                    initargs=(os.getpid(),),
+                    max_workers=PARSE_PROCESSES, mp_context=self._context, initializer=start, initargs=args
                 )
             return self._parser
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import logging
-import multiprocessing
 import os
 import signal
 import socket
@@ -32,6 +31,7 @@ from sqlalchemy.orm import Session
 
 from models import Registry
 from models.engine.cancellation import CancellationToken, Cancelled, Step, cancellable
+from service.compute import processes
 from service.compute.faults import crash_point
 from service.compute.limits import JOB_MEMORY_BYTES
 from service.compute.model_cache import ModelCache
@@ -390,8 +390,8 @@ class Requeuing:
 
 
 class JobRunner(Requeuing):
-    """The embedded engine: a pool of `workers` spawned processes (0: one thread of this process), fed from
-    this process, plus the requeue of expired leases. The default when no broker is configured."""
+    """The embedded engine: a pool of `workers` processes (`service.compute.processes`; 0: one thread of this
+    process), fed from this process, plus the requeue of expired leases. The default when no broker is configured."""
 
     def __init__(self, context: WorkerContext, settings: Settings) -> None:
         super().__init__(context)
@@ -403,12 +403,10 @@ class JobRunner(Requeuing):
         self.start()
 
     def _processes(self) -> ProcessPoolExecutor:
+        # Each pool process builds its own registry (with warm_up: 0.5 s here); the API's is not shared.
+        start, args = processes.initializer(start_worker, self.worker_settings, os.getpid())
         return ProcessPoolExecutor(
-            max_workers=self.workers,
-            mp_context=multiprocessing.get_context("spawn"),
-            initializer=start_worker,
-            # Each pool process builds its own registry (with warm_up: 0.5 s here); the API's is not shared.
-            initargs=(self.worker_settings, os.getpid()),
+            max_workers=self.workers, mp_context=processes.context(), initializer=start, initargs=args
         )
 
     def submit(self, job_id: str, kind: str = "") -> None:

@@ -57,6 +57,11 @@ def settings(db: Database, processes: int) -> Settings:
     return Settings(database_url=db.url, compute_processes=processes, warm_up=False)
 
 
+def surroundings() -> tuple[str | None, str, int]:
+    """What a compute process sees of its server: a variable, its working directory, its parent's pid."""
+    return os.environ.get("IWR_PROBE"), os.getcwd(), os.getppid()
+
+
 def die() -> None:
     os._exit(3)
 
@@ -299,6 +304,32 @@ def test_a_computation_whose_client_left_is_ended(two: ComputePool, monkeypatch:
     monkeypatch.setattr(compute, "KILL_GRACE_S", 0.3)
     refused = _deaf_run(two, Task(deaf, {"seconds": 60.0}), "stop")  # nobody waits for it: no CPU needed
     assert "past its deadline" in str(refused) or "stopped" in str(refused)
+
+
+def test_a_process_has_its_servers_environment_of_when_the_pool_started(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The compute processes are forks of a forkserver that this process started once, with the environment and
+    directory of then (service.compute.processes); a pool started later still hands its processes this
+    process's of now, as a spawned process had them: a setting changed between two pools reaches the second."""
+    db = Database(f"sqlite:///{tmp_path / 'env.db'}")
+    db.migrate()
+    seen = []
+    for value in ("first", "second"):
+        monkeypatch.setenv("IWR_PROBE", value)
+        monkeypatch.chdir(_folder(tmp_path, value))
+        probe = ComputePool(db, ModelCache(db), Registry(), settings(db, 1), slots=1)
+        try:
+            seen.append(anyio.run(probe.run, Task(surroundings), CancellationToken()))
+        finally:
+            probe.shutdown()
+    assert [(variable, Path(cwd).name) for variable, cwd, _ in seen] == [("first", "first"), ("second", "second")]
+    assert all(parent != os.getpid() for _, _, parent in seen), "a fork of the forkserver, not of this process"
+
+
+def _folder(root: Path, name: str) -> Path:
+    (root / name).mkdir()
+    return root / name
 
 
 def test_threads_when_no_processes(tmp_path: Path) -> None:
