@@ -1,10 +1,11 @@
-"""A live server and Debian's Chromium driven by Playwright; screenshots are kept in build/test-artifacts/ui."""
+"""A live server and Debian's Chromium driven by Playwright; screenshots go to build/test-artifacts/ui: of the page
+of each test that fails, and of every page the tests show with IWR_UI_SCREENSHOTS=1."""
 
 from __future__ import annotations
 
 import functools
 import os
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlparse
@@ -20,6 +21,10 @@ PAGE_WAIT_MS = 60_000
 loaded 2-core machine (CI may be busy) a calibration's report took 16-25 s and a forced re-fit over 5 s,
 Playwright's default for `expect`; the tests must not depend on the machine's load."""
 ARTIFACTS = Path(__file__).resolve().parents[2] / "build" / "test-artifacts" / "ui"
+EVERY_PAGE = os.environ.get("IWR_UI_SCREENSHOTS") == "1"
+"""Read at import, before the suite scrubs IWR_ variables. Off by default: a full-page screenshot is Chromium's
+rendering and PNG encoding of the whole page, 12 of the UI tests' 74 s of Chromium CPU for 34 pictures nobody
+looks at when the tests pass (measured 2026-12-07); a failing test's page is kept whatever this says."""
 # Without the background-networking flags Chromium keeps trying Google's hosts, which this closed network refuses.
 CHROMIUM_FLAGS = [
     "--no-sandbox",
@@ -78,11 +83,32 @@ class PageProblems:
         page.on("requestfailed", lambda r: self.messages.append(f"request failed: {r.url}"))  # type: ignore[attr-defined]
 
 
-def screenshot(page: object, name: str) -> Path:
+def screenshot(page: object, name: str, *, always: bool = False) -> Path | None:
+    """The whole page as `name`.png (its path), with IWR_UI_SCREENSHOTS=1 or `always`; else nothing (None)."""
+    if not (EVERY_PAGE or always):
+        return None
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     path = ARTIFACTS / f"{name}.png"
     page.screenshot(path=str(path), full_page=True)  # type: ignore[attr-defined]
     return path
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(
+    item: pytest.Item, call: pytest.CallInfo[None]
+) -> Generator[None, pytest.TestReport, pytest.TestReport]:
+    """A failing test's page, as it was when the test failed, kept as `<test>-failed.png` (the page fixtures
+    yield the page or a tuple that starts with it)."""
+    report = yield
+    if report.when == "call" and report.failed:
+        found = getattr(item, "funcargs", {}).get("page")
+        page = found[0] if isinstance(found, tuple) else found
+        if page is not None:
+            try:
+                screenshot(page, item.name.replace("/", "_"), always=True)
+            except Exception as exc:  # a closed or crashed page: the failure itself is what matters
+                report.sections.append(("screenshot", f"no screenshot of the failed page: {exc}"))
+    return report
 
 
 def watched_page(browser: Any, server: str, **options: Any) -> Iterator[Any]:

@@ -1,5 +1,6 @@
 """/ui in a real browser: every page loads with no console error and no request outside the service, the plots
-draw one mark per datum, the report shows the API's numbers, and a screenshot of each page is kept."""
+draw one mark per datum, the report shows the API's numbers, and a screenshot of each page is kept (with
+IWR_UI_SCREENSHOTS=1)."""
 
 from __future__ import annotations
 
@@ -153,7 +154,7 @@ def test_jobs_page(page: tuple[Any, PageProblems, set[str]], server: str) -> Non
     if listed is None:
         # The page says so instead of failing; the progress table comes with GET /v1/jobs (the jobs branch).
         assert p.locator("#no-job-list").count() == 1
-        pytest.skip("this service has no GET /v1/jobs yet: the page shows its note (screenshot kept)")
+        pytest.skip("this service has no GET /v1/jobs yet: the page shows its note")
     assert p.locator("#jobs, p.muted").count() >= 1
 
 
