@@ -14,6 +14,7 @@ import pty
 import subprocess
 import sys
 import urllib.request
+import uuid
 from pathlib import Path
 from typing import Any
 
@@ -41,7 +42,9 @@ def server(story_url: str) -> str:
 
 @pytest.fixture(scope="module")
 def robot(server: str) -> dict[str, Any]:
-    run = iwr(server, "robots", "create", "cell-cli", "--json")
+    # A name of its own each time: pytest-xdist may hand this module's tests to a worker in two runs, and the
+    # module's fixtures are then set up twice against the worker's one session server (names are unique there).
+    run = iwr(server, "robots", "create", f"cell-cli-{uuid.uuid4().hex[:8]}", "--json")
     assert run.returncode == 0, run.stderr
     document: dict[str, Any] = json.loads(run.stdout)
     assert document == api(server, f"/v1/robots/{document['id']}")
@@ -59,7 +62,7 @@ def calibration(server: str, robot: dict[str, Any]) -> tuple[subprocess.Complete
 def test_robots_are_listed_by_name_and_as_json(server: str, robot: dict[str, Any]) -> None:
     human = iwr(server, "robots", "list")
     assert human.returncode == 0, human.stderr
-    assert robot["id"] in human.stdout and "cell-cli" in human.stdout
+    assert robot["id"] in human.stdout and robot["name"] in human.stdout
     machine = iwr(server, "robots", "list", "--json")
     assert json.loads(machine.stdout) == api(server, "/v1/robots")
 
@@ -149,13 +152,13 @@ def test_a_calibration_not_applied_exits_1_with_its_reason(server: str, tmp_path
 
 
 def test_the_report_is_written_as_html_and_as_pdf(
-    server: str, calibration: tuple[Any, dict[str, Any]], tmp_path: Path
+    server: str, robot: dict[str, Any], calibration: tuple[Any, dict[str, Any]], tmp_path: Path
 ) -> None:
     calibration_id = calibration[1]["id"]
     html, pdf = tmp_path / "report.html", tmp_path / "report.pdf"
     run = iwr(server, "report", calibration_id, "-o", str(html))
     assert run.returncode == 0, run.stderr
-    assert "Calibration of cell-cli" in html.read_text()
+    assert f"Calibration of {robot['name']}" in html.read_text()
     run = iwr(server, "report", calibration_id, "--pdf", "-o", str(pdf))
     assert run.returncode == 0, run.stderr
     assert pdf.read_bytes().startswith(b"%PDF")

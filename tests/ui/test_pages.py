@@ -5,6 +5,7 @@ IWR_UI_SCREENSHOTS=1)."""
 from __future__ import annotations
 
 import re
+import uuid
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -29,7 +30,9 @@ DESIGN_COUNT = 12
 def data(server: str) -> dict[str, Any]:
     """A robot with two calibrations, a restore (four versions), a pose design and a validation."""
     with httpx.Client(base_url=server, timeout=60) as http:
-        robot = http.post("/v1/robots", json={"name": "cell-ui"}).json()
+        # A name of its own each time: a worker may run this module twice (pytest-xdist's work stealing) against
+        # its one session server, where names are unique.
+        robot = http.post("/v1/robots", json={"name": f"cell-ui-{uuid.uuid4().hex[:8]}"}).json()
         sim = perturbed_robot(DESC, seed=121)
         calibrations = []
         for seed in (122, 125):
@@ -76,12 +79,12 @@ def _open(page: Any, server: str, fragment: str) -> None:
 
 
 @pytest.mark.usefixtures("data")
-def test_robots_page(page: tuple[Any, PageProblems, set[str]], server: str) -> None:
+def test_robots_page(page: tuple[Any, PageProblems, set[str]], server: str, data: dict[str, Any]) -> None:
     p, _, _ = page
     _open(p, server, "#/")
     listed = httpx.get(f"{server}/v1/robots").json()  # the server is shared: other UI tests add robots
     assert p.locator("#robots tbody tr").count() == len(listed)
-    assert "cell-ui" in p.locator("#robots a").all_inner_texts()
+    assert data["robot"]["name"] in p.locator("#robots a").all_inner_texts()
     screenshot(p, "robots")
 
 

@@ -9,6 +9,7 @@ refused program says where."""
 from __future__ import annotations
 
 import json
+import uuid
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -28,6 +29,10 @@ from tests.ui.pages import ready
 pytestmark = pytest.mark.slow  # a browser against the live server of tests/ui
 
 
+NAMES: dict[str, str] = {}
+"""The programs robots' names by id (`robot`)."""
+
+
 @pytest.fixture(scope="module")
 def cell() -> Cell:
     return ur5_cell()
@@ -38,9 +43,13 @@ def robot(server: str, cell: Cell) -> str:
     """A UR5-like robot with the truth imported as its version 2 (set up through the API: the page under test is
     the program's)."""
     with httpx.Client(base_url=server, timeout=60) as api:
-        created = api.post("/v1/robots", json={"name": "ur5-programs", "structure": ur5_like_document()})
+        # A name of its own each time: a worker may run this module twice (pytest-xdist's work stealing) against
+        # its one session server, where names are unique.
+        name = f"ur5-programs-{uuid.uuid4().hex[:8]}"
+        created = api.post("/v1/robots", json={"name": name, "structure": ur5_like_document()})
         assert created.status_code == 201, created.text
         robot_id = str(created.json()["id"])
+        NAMES[robot_id] = name
         export = api.get(f"/v1/robots/{robot_id}/parameters").json()
         boundary = dict(zip(cell.desc.parameters.names, cell.desc.parameters.as_boundary(cell.truth), strict=True))
         for row in export["parameters"]:
@@ -60,7 +69,7 @@ def _open(page: Any, server: str, robot: str) -> None:
     ready(page, "^#/$")
     page.get_by_role("navigation", name="main").get_by_role("link", name="Programs").click()
     ready(page, "^#/programs$")
-    page.locator("#program-robots tr", has_text="ur5-programs").get_by_role("link").click()
+    page.locator("#program-robots tr", has_text=NAMES[robot]).get_by_role("link").click()
     ready(page, f"^#/robots/{robot}/programs$")
 
 
