@@ -34,32 +34,41 @@ def _marks(node: ast.AST) -> set[str]:
     }
 
 
-def _modules_marked(marker: str, *, whole: bool) -> frozenset[str]:
-    """The test modules that mark tests with `marker`, read from their source (nothing is imported): with
-    `whole`, only those whose module-level `pytestmark` carries it (every test of the module has it)."""
-    out = set()
+def _modules_marked() -> dict[tuple[str, bool], frozenset[str]]:
+    """The test modules that mark tests `slow` or `serial`, read from their source (nothing is imported), by
+    (marker, whole): with `whole`, only those whose module-level `pytestmark` carries it (every test of the
+    module has it). Each file is parsed once, and only if its text names one of the markers: parsing every
+    test module for each marker was 2.4 s of every pytest process's start (each xdist worker's, the serial part's)."""
+    out: dict[tuple[str, bool], set[str]] = {(m, w): set() for m in ("slow", "serial") for w in (True, False)}
     for path in (ROOT / "tests").rglob("test_*.py"):
-        tree = ast.parse(path.read_text(encoding="utf-8"))
-        if whole:
-            nodes: list[ast.AST] = [
-                stmt.value
-                for stmt in tree.body
-                if isinstance(stmt, ast.Assign)
-                and any(isinstance(t, ast.Name) and t.id == "pytestmark" for t in stmt.targets)
-            ]
-        else:
-            nodes = [tree]
-        if any(marker in _marks(node) for node in nodes):
-            out.add(path.relative_to(ROOT).as_posix())
-    return frozenset(out)
+        source = path.read_text(encoding="utf-8")
+        named = [m for m in ("slow", "serial") if f"mark.{m}" in source]
+        if not named:
+            continue
+        tree = ast.parse(source)
+        module_marks: set[str] = set()
+        for stmt in tree.body:
+            if isinstance(stmt, ast.Assign) and any(
+                isinstance(t, ast.Name) and t.id == "pytestmark" for t in stmt.targets
+            ):
+                module_marks |= _marks(stmt.value)
+        every_mark = _marks(tree)
+        for marker in named:
+            name = path.relative_to(ROOT).as_posix()
+            if marker in module_marks:
+                out[(marker, True)].add(name)
+            if marker in every_mark:
+                out[(marker, False)].add(name)
+    return {key: frozenset(names) for key, names in out.items()}
 
 
-SLOW_MODULES = _modules_marked("slow", whole=True)
+_MARKED = _modules_marked()
+SLOW_MODULES = _MARKED[("slow", True)]
 """Modules whose every test is `slow` (their `pytestmark`): under `-m "not slow"` they are not even imported,
 which saves `make test-fast` their collection (the contract and fuzz modules generate their schemathesis cases at
 import, the fuzz module creates a PostgreSQL database too: ~8 s each here)."""
 
-SERIAL_MODULES = _modules_marked("serial", whole=False)
+SERIAL_MODULES = _MARKED[("serial", False)]
 """Modules with tests marked `serial` (wall times, deadlines, load: they run after the parallel part, alone on
 the cores). The serial part (`-m serial`, `-m "serial and not slow"`) collects only these: importing the others
 (schemathesis generates the contract cases at collection) would cost it ~15 s for nothing."""
