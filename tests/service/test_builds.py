@@ -161,14 +161,8 @@ def test_a_native_level_gcc_does_not_name_stops_the_service_before_it_serves() -
     """A plant's `IWR_NATIVE_OPT_LEVEL=3` is refused at start-up with its name (argparse's exit 2), not by the
     first request that builds a structure. (In a process of its own: importing `service.__main__` sets the
     service's defaults in os.environ, which the apps of later tests would read.)"""
-    started = subprocess.run(
-        [sys.executable, "-m", "service", "--port", "1"],
-        cwd=ROOT,
-        env={**os.environ, "IWR_NATIVE_OPT_LEVEL": "3"},
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
+    command = [sys.executable, "-m", "service", "--port", "1"]  # refused before it would bind the port
+    environment = {**os.environ, "IWR_NATIVE_OPT_LEVEL": "3"}
+    started = subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True, check=False)
     assert started.returncode == 2, started.stderr
     assert "IWR_NATIVE_OPT_LEVEL='3': use one of 0, 1, 2" in started.stderr
