@@ -27,7 +27,7 @@ import logging
 import os
 import threading
 import time
-from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from enum import StrEnum
@@ -165,10 +165,7 @@ class StructureBuilds:
 
     def _in_own_process(self, desc: RobotDescription) -> _Built:
         # With a parent watch, like the compute processes: a build never outlives its server (kill -9 included).
-        start, args = processes.initializer(watch_parent, os.getpid())
-        with ProcessPoolExecutor(
-            max_workers=1, mp_context=processes.context(), initializer=start, initargs=args
-        ) as process:
+        with processes.executor(1, watch_parent, os.getpid()) as process:
             future: Future[_Built] = process.submit(build_structure, desc)
             return future.result()
 

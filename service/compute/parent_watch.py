@@ -24,8 +24,6 @@ def _exit_with(server: int, parent: int) -> None:
 def _exists(pid: int) -> bool:
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # someone else's process under that pid: ours is gone
+    except (ProcessLookupError, PermissionError):  # gone, or someone else's process under that pid
         return False
     return True

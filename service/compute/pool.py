@@ -282,21 +282,15 @@ class ComputePool:
         with self._lock:
             executor = self._lanes[lane]
             if executor is None:
-                start, args = processes.initializer(
-                    start_process, self.settings, self.flags, os.getpid(), self._shared, lane
-                )
-                executor = self._lanes[lane] = ProcessPoolExecutor(
-                    max_workers=1, mp_context=self._context, initializer=start, initargs=args
+                executor = self._lanes[lane] = processes.executor(
+                    1, start_process, self.settings, self.flags, os.getpid(), self._shared, lane
                 )
             return executor
 
     def _parse_pool(self) -> ProcessPoolExecutor:
         with self._lock:
             if self._parser is None:
-                start, args = processes.initializer(start_parser, os.getpid())
-                self._parser = ProcessPoolExecutor(
-                    max_workers=PARSE_PROCESSES, mp_context=self._context, initializer=start, initargs=args
-                )
+                self._parser = processes.executor(PARSE_PROCESSES, start_parser, os.getpid())
             return self._parser
 
     async def start(self) -> None:

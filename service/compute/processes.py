@@ -9,9 +9,9 @@ written. The forkserver holds no threads or connections, so forking it is safe w
 event loop, its database pool, its watchdog thread) is not.
 
 What a spawned helper got for free and a fork of the forkserver does not: the starting process's environment
-and working directory as they are now (the forkserver has them as they were when it started). `initializer`
-hands them over: each helper first takes the environment and directory of the process that created its pool,
-then runs its own initializer. Settings read from the environment at import (`service.compute.faults`) are read
+and working directory as they are now (the forkserver has them as they were when it started). `executor` hands
+them over: each helper first takes the environment and directory of the process that created its pool, then runs
+its own initializer. Settings read from the environment at import (`service.compute.faults`) are read
 at each use instead.
 """
 
@@ -20,6 +20,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from multiprocessing.context import ForkServerContext
 from typing import Any
 
@@ -35,15 +36,19 @@ def context() -> ForkServerContext:
     return forkserver
 
 
-def initializer(start: Callable[..., Any] | None, *args: Any) -> tuple[Callable[..., None], tuple[Any, ...]]:
-    """(initializer, initargs) for an executor of `context()`: its helpers take this process's environment and
-    working directory of now, then run `start(*args)` (None: nothing more)."""
-    return _adopt, (dict(os.environ), os.getcwd(), start, args)
+def executor(workers: int, start: Callable[..., Any], *args: Any) -> ProcessPoolExecutor:
+    """An executor of `workers` helper processes, each of which takes this process's environment and working
+    directory of now, then runs `start(*args)`."""
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=context(),
+        initializer=_adopt,
+        initargs=(dict(os.environ), os.getcwd(), start, args),
+    )
 
 
-def _adopt(environment: dict[str, str], cwd: str, start: Callable[..., Any] | None, args: tuple[Any, ...]) -> None:
+def _adopt(environment: dict[str, str], cwd: str, start: Callable[..., Any], args: tuple[Any, ...]) -> None:
     os.environ.clear()
     os.environ.update(environment)
     os.chdir(cwd)
-    if start is not None:
-        start(*args)
+    start(*args)

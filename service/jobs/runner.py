@@ -404,10 +404,7 @@ class JobRunner(Requeuing):
 
     def _processes(self) -> ProcessPoolExecutor:
         # Each pool process builds its own registry (with warm_up: 0.5 s here); the API's is not shared.
-        start, args = processes.initializer(start_worker, self.worker_settings, os.getpid())
-        return ProcessPoolExecutor(
-            max_workers=self.workers, mp_context=processes.context(), initializer=start, initargs=args
-        )
+        return processes.executor(self.workers, start_worker, self.worker_settings, os.getpid())
 
     def submit(self, job_id: str, kind: str = "") -> None:
         if self._stop.is_set():

@@ -317,7 +317,8 @@ def test_a_process_has_its_servers_environment_of_when_the_pool_started(
     seen = []
     for value in ("first", "second"):
         monkeypatch.setenv("IWR_PROBE", value)
-        monkeypatch.chdir(_folder(tmp_path, value))
+        (tmp_path / value).mkdir()
+        monkeypatch.chdir(tmp_path / value)
         probe = ComputePool(db, ModelCache(db), Registry(), settings(db, 1), slots=1)
         try:
             seen.append(anyio.run(probe.run, Task(surroundings), CancellationToken()))
@@ -325,11 +326,6 @@ def test_a_process_has_its_servers_environment_of_when_the_pool_started(
             probe.shutdown()
     assert [(variable, Path(cwd).name) for variable, cwd, _ in seen] == [("first", "first"), ("second", "second")]
     assert all(parent != os.getpid() for _, _, parent in seen), "a fork of the forkserver, not of this process"
-
-
-def _folder(root: Path, name: str) -> Path:
-    (root / name).mkdir()
-    return root / name
 
 
 def test_threads_when_no_processes(tmp_path: Path) -> None:
