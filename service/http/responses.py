@@ -6,10 +6,13 @@ does not dump, validate and serialise the same model a second time.
 
 from __future__ import annotations
 
-from typing import Any
+import functools
+from typing import Any, TypeVar
 
 from fastapi.responses import Response
 from pydantic import BaseModel, TypeAdapter
+
+M = TypeVar("M", bound=BaseModel)
 
 
 def model_json(model: BaseModel, status_code: int = 200, *, etag: str | None = None) -> Response:
@@ -18,10 +21,16 @@ def model_json(model: BaseModel, status_code: int = 200, *, etag: str | None = N
     return _tagged(Response(body, status_code=status_code, media_type="application/json"), etag)
 
 
-def models_json(
-    models: list[Any], adapter: TypeAdapter[Any], status_code: int = 200, *, etag: str | None = None
-) -> Response:
-    return _tagged(Response(adapter.dump_json(models), status_code=status_code, media_type="application/json"), etag)
+def models_json(models: list[M], item: type[M], status_code: int = 200, *, etag: str | None = None) -> Response:
+    """The models, each an `item`, as a JSON array; with `etag`, as `model_json`."""
+    body = _list_of(item).dump_json(models)
+    return _tagged(Response(body, status_code=status_code, media_type="application/json"), etag)
+
+
+@functools.cache
+def _list_of(item: type[BaseModel]) -> TypeAdapter[list[Any]]:
+    """The adapter of a list of `item`, built once per response model (building one costs a schema build)."""
+    return TypeAdapter(list[item])  # type: ignore[valid-type]  # a list of the model given at run time
 
 
 def _tagged(response: Response, etag: str | None) -> Response:

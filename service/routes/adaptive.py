@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from fastapi import APIRouter, Response
-from pydantic import TypeAdapter
 
 from service.compute import limits
 from service.http.deps import ActorDep, ComputeDep, DatabaseDep, Limit, ModelCacheDep, Offset, RegistryDep
@@ -23,7 +22,6 @@ from service.services import adaptive
 
 router = APIRouter(tags=["adaptive campaigns"], route_class=OffloopRoute)
 _PATH = "/v1/robots/{robot_id}/adaptive-campaigns"
-_SUMMARIES = TypeAdapter(list[AdaptiveCampaignSummaryPublic])
 
 
 @router.post(_PATH, status_code=201, response_model=AdaptiveCampaignPublic)
@@ -73,7 +71,7 @@ def list_adaptive_campaigns(robot_id: str, db: DatabaseDep, limit: Limit = 100, 
     """The robot's adaptive campaigns, oldest first: each one's settings, status, records and predicted accuracy
     (its steps by its id)."""
     result = adaptive.list_campaigns(db=db, robot_id=robot_id, limit=limit, offset=offset)
-    return models_json(result, _SUMMARIES)
+    return models_json(result, AdaptiveCampaignSummaryPublic)
 
 
 @router.get(_PATH + "/{campaign_id}", response_model=AdaptiveCampaignPublic)

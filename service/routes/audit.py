@@ -3,7 +3,6 @@ from __future__ import annotations
 from datetime import datetime
 
 from fastapi import APIRouter, Query, Response
-from pydantic import TypeAdapter
 
 from service.http.deps import DatabaseDep, Limit, Offset
 from service.http.json_bodies import OffloopRoute
@@ -15,7 +14,6 @@ from service.schemas.audit import Action, AuditEventPublic
 from service.services import audit
 
 router = APIRouter(tags=["audit"], route_class=OffloopRoute)
-_EVENTS = TypeAdapter(list[AuditEventPublic])
 
 
 @router.get("/v1/audit", response_model=list[AuditEventPublic])
@@ -33,4 +31,4 @@ def list_audit(
     """Oldest first: robots created, changed and deleted, and every change of a robot's current version."""
     wanted = AuditQuery(robot_id=robot_id, action=action, since=since, until=until, limit=limit, offset=offset)
     events = audit.list_events(db=db, query=wanted)
-    return models_json(events, _EVENTS)
+    return models_json(events, AuditEventPublic)

@@ -4,7 +4,6 @@ import functools
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, Query, Request, Response
-from pydantic import TypeAdapter
 
 from service.compute import limits
 from service.files.campaign_requests import (
@@ -25,10 +24,6 @@ from service.services import calibrations
 from service.services.jobs import submit_job
 
 router = APIRouter(tags=["calibrations"], route_class=OffloopRoute)
-# Stored reports are validated as `CalibrationPublic` where the service reads them (service.conversions), so the
-# contract holds for every answer; `model_json` then serialises that model once instead of FastAPI validating it
-# a second time.
-_CALIBRATIONS = TypeAdapter(list[CalibrationPublic])
 
 _BODY = {
     **campaign_request_body(CalibrationCreate),
@@ -101,7 +96,7 @@ def list_calibrations(
     offset: Offset = 0,
 ) -> Response:
     return models_json(
-        calibrations.list_calibrations(db=db, robot_id=robot_id, limit=limit, offset=offset), _CALIBRATIONS
+        calibrations.list_calibrations(db=db, robot_id=robot_id, limit=limit, offset=offset), CalibrationPublic
     )
 
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Header, Query, Response
-from pydantic import TypeAdapter
 
 from service.compute import limits
 from service.http.deps import ActorDep, ComputeDep, DatabaseDep, Limit, ModelCacheDep, Offset, RegistryDep
@@ -18,7 +17,6 @@ from service.schemas.cells import CellCheckCreate, CellCheckPublic, CellDocument
 from service.services import cells
 
 router = APIRouter(prefix="/v1/robots/{robot_id}/cell", tags=["cells"], route_class=OffloopRoute)
-_VERSIONS = TypeAdapter(list[CellVersionPublic])
 IfMatch = Annotated[str | None, Header(description="The robot's ETag as last read: 412 when it has changed since")]
 _PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}
 _NOT_FOUND: dict[int | str, dict[str, Any]] = {404: {"description": "No such robot, no cell, or the cell ended"}}
@@ -61,7 +59,7 @@ def get_cell(
 @operation(Scope.read)
 def list_cell_versions(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
     """Every version of the robot's cell, oldest first, those that ended it included."""
-    return models_json(cells.cell_versions(db=db, robot_id=robot_id, limit=limit, offset=offset), _VERSIONS)
+    return models_json(cells.cell_versions(db=db, robot_id=robot_id, limit=limit, offset=offset), CellVersionPublic)
 
 
 @router.delete("", status_code=204, responses={**_PRECONDITION, **_NOT_FOUND})

@@ -4,7 +4,6 @@ import functools
 from typing import Any
 
 from fastapi import APIRouter, Depends, Query, Request, Response
-from pydantic import TypeAdapter
 
 from service.compute import limits
 from service.conversions.checks import HISTORY_COLUMNS, history_csv
@@ -32,8 +31,6 @@ from service.schemas.common import NOTES_MAX
 from service.services import checks
 
 router = APIRouter(tags=["checks"], route_class=OffloopRoute)
-_CHECKS = TypeAdapter(list[QuickCheckPublic])
-_HISTORY = TypeAdapter(list[HistoryEventPublic])
 _HISTORY_CSV: dict[int | str, dict[str, Any]] = {
     200: {
         "content": {"text/csv": {"schema": {"type": "string", "description": "header: " + ",".join(HISTORY_COLUMNS)}}}
@@ -110,7 +107,7 @@ async def design_check(
 @router.get("/v1/robots/{robot_id}/checks", response_model=list[QuickCheckPublic])
 @operation(Scope.read)
 def list_checks(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
-    return models_json(checks.list_checks(db=db, robot_id=robot_id, limit=limit, offset=offset), _CHECKS)
+    return models_json(checks.list_checks(db=db, robot_id=robot_id, limit=limit, offset=offset), QuickCheckPublic)
 
 
 @router.get("/v1/checks/{check_id}", response_model=QuickCheckPublic)
@@ -140,4 +137,4 @@ def history(
             media_type="text/csv",
             headers={"content-disposition": f'attachment; filename="history-{robot_id}.csv"'},
         )
-    return models_json(events, _HISTORY)
+    return models_json(events, HistoryEventPublic)

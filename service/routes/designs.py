@@ -3,7 +3,6 @@ from __future__ import annotations
 from typing import Any
 
 from fastapi import APIRouter, Query, Request, Response
-from pydantic import TypeAdapter
 
 from optimal_design.problem import MAX_CANDIDATES
 from service.compute import limits
@@ -20,7 +19,6 @@ from service.services import designs
 from service.services.jobs import submit_job
 
 router = APIRouter(tags=["pose designs"], route_class=OffloopRoute)
-_SUMMARIES = TypeAdapter(list[PoseDesignSummaryPublic])
 _CSV_BODY = {
     "content": {
         "text/csv": {"schema": {"type": "string", "description": "header: the robot's joint names (q1 … q_m, l1 … l6)"}}
@@ -93,4 +91,6 @@ def list_designs(
     offset: Offset = 0,
 ) -> Response:
     """The robot's stored designs, oldest first (criterion, count, value); each one's poses by its id."""
-    return models_json(designs.list_designs(db=db, robot_id=robot_id, limit=limit, offset=offset), _SUMMARIES)
+    return models_json(
+        designs.list_designs(db=db, robot_id=robot_id, limit=limit, offset=offset), PoseDesignSummaryPublic
+    )

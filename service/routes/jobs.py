@@ -1,7 +1,6 @@
 from __future__ import annotations
 
 from fastapi import APIRouter, Query, Response
-from pydantic import TypeAdapter
 
 from service.http.deps import DatabaseDep, Limit, Offset
 from service.http.json_bodies import OffloopRoute
@@ -12,7 +11,6 @@ from service.schemas.jobs import JobKind, JobPublic, JobStatus
 from service.services import jobs
 
 router = APIRouter(tags=["jobs"], route_class=OffloopRoute)
-_JOBS = TypeAdapter(list[JobPublic])
 
 
 @router.get("/v1/jobs", response_model=list[JobPublic])
@@ -28,7 +26,7 @@ def list_jobs(
 ) -> Response:
     """Newest first; results are left out (`result: null`): GET the job for its result."""
     found = jobs.list_jobs(db=db, status=status, kind=kind, robot_id=robot_id, limit=limit, offset=offset)
-    return models_json(found, _JOBS)
+    return models_json(found, JobPublic)
 
 
 @router.get("/v1/jobs/{job_id}", response_model=JobPublic)

@@ -10,7 +10,6 @@ from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Header, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
-from pydantic import TypeAdapter
 
 from service.compute import limits
 from service.http.deps import (
@@ -46,8 +45,6 @@ from service.schemas.robot_trees import (
 from service.services import robot_trees, tree_operations, tree_reports
 
 router = APIRouter(prefix="/v1/robot-trees", tags=["robot-trees"], route_class=OffloopRoute)
-_TREES = TypeAdapter(list[RobotTreePublic])
-_CALIBRATIONS = TypeAdapter(list[TreeCalibrationPublic])
 IfMatch = Annotated[str | None, Header(description="The tree's ETag as last read: 412 when it has changed since")]
 _PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}
 
@@ -65,7 +62,7 @@ def create_robot_tree(body: RobotTreeCreate, db: DatabaseDep, actor: ActorDep) -
 @router.get("", response_model=list[RobotTreePublic])
 @operation(Scope.read)
 def list_robot_trees(db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
-    return models_json(robot_trees.list_trees(db=db, limit=limit, offset=offset), _TREES)
+    return models_json(robot_trees.list_trees(db=db, limit=limit, offset=offset), RobotTreePublic)
 
 
 @router.get("/{tree_id}", response_model=RobotTreePublic)
@@ -138,7 +135,9 @@ async def create_robot_tree_calibration(
 @router.get("/{tree_id}/calibrations", response_model=list[TreeCalibrationPublic])
 @operation(Scope.read)
 def list_robot_tree_calibrations(tree_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
-    return models_json(robot_trees.calibrations(db=db, tree_id=tree_id, limit=limit, offset=offset), _CALIBRATIONS)
+    return models_json(
+        robot_trees.calibrations(db=db, tree_id=tree_id, limit=limit, offset=offset), TreeCalibrationPublic
+    )
 
 
 @router.get("/{tree_id}/calibrations/{calibration_id}", response_model=TreeCalibrationPublic)

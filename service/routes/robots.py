@@ -3,7 +3,6 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Header, Query, Request, Response
-from pydantic import TypeAdapter
 
 from service.files.parameters_csv import PARAMETER_HEADER, parameters_csv
 from service.http.deps import JSON_OR_CSV, ActorDep, BuildsDep, DatabaseDep, Limit, Offset, requested_media
@@ -17,7 +16,6 @@ from service.services import exports, robots
 from service.services.exports import DH_MEDIA_TYPE
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"], route_class=OffloopRoute)
-_ROBOTS = TypeAdapter(list[RobotPublic])
 IfMatch = Annotated[str | None, Header(description="The robot's ETag as last read: 412 when it has changed since")]
 _PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}
 _PARAMETERS_CSV: dict[int | str, dict[str, Any]] = {
@@ -54,7 +52,7 @@ def list_robots(
     limit: Limit = 100,
     offset: Offset = 0,
 ) -> Response:
-    return models_json(robots.list_robots(db=db, limit=limit, offset=offset), _ROBOTS)
+    return models_json(robots.list_robots(db=db, limit=limit, offset=offset), RobotPublic)
 
 
 @router.get("/{robot_id}", response_model=RobotPublic)

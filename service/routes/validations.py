@@ -4,7 +4,6 @@ import functools
 from typing import Any
 
 from fastapi import APIRouter, Depends, Query, Request, Response
-from pydantic import TypeAdapter
 
 from service.compute import limits
 from service.files.campaign_requests import (
@@ -30,7 +29,6 @@ from service.schemas.validations import (
 from service.services import validations
 
 router = APIRouter(tags=["validations"], route_class=OffloopRoute)
-_VALIDATIONS = TypeAdapter(list[ValidationPublic])
 
 
 def validation_fields(
@@ -90,7 +88,9 @@ def list_validations(
     limit: Limit = 100,
     offset: Offset = 0,
 ) -> Response:
-    return models_json(validations.list_validations(db=db, robot_id=robot_id, limit=limit, offset=offset), _VALIDATIONS)
+    return models_json(
+        validations.list_validations(db=db, robot_id=robot_id, limit=limit, offset=offset), ValidationPublic
+    )
 
 
 @router.get("/v1/validations/{validation_id}", response_model=ValidationPublic)

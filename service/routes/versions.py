@@ -5,7 +5,7 @@ from typing import Annotated, Any
 import anyio
 from fastapi import APIRouter, Path, Request, Response
 from fastapi.exceptions import RequestValidationError
-from pydantic import TypeAdapter, ValidationError
+from pydantic import ValidationError
 
 from service.errors import BadRequest, UnsupportedMediaType
 from service.files.parameters_csv import PARAMETER_HEADER, parse_parameters
@@ -21,7 +21,6 @@ from service.services import versions
 router = APIRouter(
     prefix="/v1/robots/{robot_id}/parameter-versions", tags=["parameter versions"], route_class=OffloopRoute
 )
-_VERSIONS = TypeAdapter(list[ParameterVersionPublic])
 Version = Annotated[int, Path(ge=1, le=2**31 - 1)]
 _PRECONDITION: dict[int | str, dict[str, Any]] = {412: {"description": "If-Match is stale"}}
 _IMPORT_BODY = {
@@ -40,7 +39,7 @@ _IMPORT_BODY = {
 def list_versions(robot_id: str, db: DatabaseDep) -> Response:
     """Oldest first; the ETag is the robot's (If-Match of a restore)."""
     rows, etag = versions.list_versions(db=db, robot_id=robot_id)
-    return models_json(rows, _VERSIONS, etag=etag)
+    return models_json(rows, ParameterVersionPublic, etag=etag)
 
 
 @router.get("/{a}/diff/{b}", response_model=VersionDiffPublic)
