@@ -5,11 +5,12 @@ from __future__ import annotations
 from fastapi import APIRouter, Response
 
 from service.compute import limits
-from service.http.deps import ActorDep, ComputeDep, DatabaseDep, Limit, ModelCacheDep, Offset, RegistryDep
+from service.http.deps import ActorDep, ComputeDep, DatabaseDep, ModelCacheDep, RegistryDep
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import Runs, operation
-from service.http.responses import model_json, models_json
+from service.http.responses import model_json
 from service.http.security import Scope
+from service.routes.pages import robot_list
 from service.schemas.adaptive import (
     AdaptiveCampaignCreate,
     AdaptiveCampaignPublic,
@@ -65,13 +66,15 @@ async def post_adaptive_records(
     return model_json(result)
 
 
-@router.get(_PATH, response_model=list[AdaptiveCampaignSummaryPublic])
-@operation(Scope.read)
-def list_adaptive_campaigns(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
-    """The robot's adaptive campaigns, oldest first: each one's settings, status, records and predicted accuracy
-    (its steps by its id)."""
-    result = adaptive.list_campaigns(db=db, robot_id=robot_id, limit=limit, offset=offset)
-    return models_json(result, AdaptiveCampaignSummaryPublic)
+robot_list(
+    router,
+    _PATH,
+    AdaptiveCampaignSummaryPublic,
+    adaptive.list_campaigns,
+    name="list_adaptive_campaigns",
+    doc="""The robot's adaptive campaigns, oldest first: each one's settings, status, records and predicted accuracy
+    (its steps by its id).""",
+)
 
 
 @router.get(_PATH + "/{campaign_id}", response_model=AdaptiveCampaignPublic)

@@ -13,11 +13,12 @@ from service.files.campaign_requests import (
     campaign_request_body,
     robot_columns,
 )
-from service.http.deps import ActorDep, ComputeDep, DatabaseDep, JobsDep, Limit, Offset, RegistryDep, negotiate
+from service.http.deps import ActorDep, ComputeDep, DatabaseDep, JobsDep, RegistryDep, negotiate
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import CALIBRATION, Runs, operation
-from service.http.responses import model_json, models_json
+from service.http.responses import model_json
 from service.http.security import Scope
+from service.routes.pages import robot_list
 from service.routes.robots import IfMatch
 from service.schemas.calibrations import CalibrationCreate, CalibrationPublic
 from service.services import calibrations
@@ -87,17 +88,13 @@ async def create_calibration(
     return model_json(calibration, status_code=201)
 
 
-@router.get("/v1/robots/{robot_id}/calibrations", response_model=list[CalibrationPublic])
-@operation(Scope.read)
-def list_calibrations(
-    robot_id: str,
-    db: DatabaseDep,
-    limit: Limit = 100,
-    offset: Offset = 0,
-) -> Response:
-    return models_json(
-        calibrations.list_calibrations(db=db, robot_id=robot_id, limit=limit, offset=offset), CalibrationPublic
-    )
+robot_list(
+    router,
+    "/v1/robots/{robot_id}/calibrations",
+    CalibrationPublic,
+    calibrations.list_calibrations,
+    name="list_calibrations",
+)
 
 
 @router.get(

@@ -8,11 +8,12 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Header, Query, Response
 
 from service.compute import limits
-from service.http.deps import ActorDep, ComputeDep, DatabaseDep, Limit, ModelCacheDep, Offset, RegistryDep
+from service.http.deps import ActorDep, ComputeDep, DatabaseDep, ModelCacheDep, RegistryDep
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import Runs, operation
-from service.http.responses import model_json, models_json
+from service.http.responses import model_json
 from service.http.security import Scope
+from service.routes.pages import robot_list
 from service.schemas.cells import CellCheckCreate, CellCheckPublic, CellDocument, CellPublic, CellVersionPublic
 from service.services import cells
 
@@ -55,11 +56,14 @@ def get_cell(
     return model_json(cells.get_cell(db=db, models=models, registry=registry, robot_id=robot_id, version=version))
 
 
-@router.get("/versions", response_model=list[CellVersionPublic])
-@operation(Scope.read)
-def list_cell_versions(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
-    """Every version of the robot's cell, oldest first, those that ended it included."""
-    return models_json(cells.cell_versions(db=db, robot_id=robot_id, limit=limit, offset=offset), CellVersionPublic)
+robot_list(
+    router,
+    "/versions",
+    CellVersionPublic,
+    cells.cell_versions,
+    name="list_cell_versions",
+    doc="""Every version of the robot's cell, oldest first, those that ended it included.""",
+)
 
 
 @router.delete("", status_code=204, responses={**_PRECONDITION, **_NOT_FOUND})

@@ -19,6 +19,7 @@ from service.http.json_bodies import OffloopRoute
 from service.http.operations import QUICK_CHECK, Runs, operation
 from service.http.responses import model_json, models_json
 from service.http.security import Scope
+from service.routes.pages import robot_list
 from service.schemas.checks import (
     Against,
     HistoryEventPublic,
@@ -104,10 +105,7 @@ async def design_check(
     return model_json(result)
 
 
-@router.get("/v1/robots/{robot_id}/checks", response_model=list[QuickCheckPublic])
-@operation(Scope.read)
-def list_checks(robot_id: str, db: DatabaseDep, limit: Limit = 100, offset: Offset = 0) -> Response:
-    return models_json(checks.list_checks(db=db, robot_id=robot_id, limit=limit, offset=offset), QuickCheckPublic)
+robot_list(router, "/v1/robots/{robot_id}/checks", QuickCheckPublic, checks.list_checks, name="list_checks")
 
 
 @router.get("/v1/checks/{check_id}", response_model=QuickCheckPublic)

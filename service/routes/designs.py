@@ -8,11 +8,12 @@ from optimal_design.problem import MAX_CANDIDATES
 from service.compute import limits
 from service.compute.model_cache import ModelCache
 from service.files.csv_codec import joints_csv
-from service.http.deps import ComputeDep, DatabaseDep, JobsDep, Limit, ModelCacheDep, Offset, RegistryDep, wants_csv
+from service.http.deps import ComputeDep, DatabaseDep, JobsDep, ModelCacheDep, RegistryDep, wants_csv
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import POSE_DESIGN, Runs, operation
-from service.http.responses import model_json, models_json
+from service.http.responses import model_json
 from service.http.security import Scope
+from service.routes.pages import robot_list
 from service.schemas.designs import PoseDesignCreate, PoseDesignPublic, PoseDesignSummaryPublic
 from service.schemas.jobs import JobAccepted
 from service.services import designs
@@ -82,15 +83,11 @@ def get_design(design_id: str, request: Request, db: DatabaseDep, models: ModelC
     return _answer(request, designs.get_design(db=db, design_id=design_id), 200, models)
 
 
-@router.get("/v1/robots/{robot_id}/pose-designs", response_model=list[PoseDesignSummaryPublic])
-@operation(Scope.read)
-def list_designs(
-    robot_id: str,
-    db: DatabaseDep,
-    limit: Limit = 100,
-    offset: Offset = 0,
-) -> Response:
-    """The robot's stored designs, oldest first (criterion, count, value); each one's poses by its id."""
-    return models_json(
-        designs.list_designs(db=db, robot_id=robot_id, limit=limit, offset=offset), PoseDesignSummaryPublic
-    )
+robot_list(
+    router,
+    "/v1/robots/{robot_id}/pose-designs",
+    PoseDesignSummaryPublic,
+    designs.list_designs,
+    name="list_designs",
+    doc="""The robot's stored designs, oldest first (criterion, count, value); each one's poses by its id.""",
+)

@@ -13,11 +13,12 @@ from service.files.campaign_requests import (
     query_fields,
     robot_columns,
 )
-from service.http.deps import ComputeDep, DatabaseDep, Limit, Offset, RegistryDep
+from service.http.deps import ComputeDep, DatabaseDep, RegistryDep
 from service.http.json_bodies import OffloopRoute
 from service.http.operations import VALIDATION, Runs, operation
-from service.http.responses import model_json, models_json
+from service.http.responses import model_json
 from service.http.security import Scope
+from service.routes.pages import robot_list
 from service.schemas.common import NOTES_MAX
 from service.schemas.validations import (
     MAX_VERSIONS,
@@ -80,17 +81,9 @@ async def create_validation(
     return model_json(result, status_code=201)
 
 
-@router.get("/v1/robots/{robot_id}/validations", response_model=list[ValidationPublic])
-@operation(Scope.read)
-def list_validations(
-    robot_id: str,
-    db: DatabaseDep,
-    limit: Limit = 100,
-    offset: Offset = 0,
-) -> Response:
-    return models_json(
-        validations.list_validations(db=db, robot_id=robot_id, limit=limit, offset=offset), ValidationPublic
-    )
+robot_list(
+    router, "/v1/robots/{robot_id}/validations", ValidationPublic, validations.list_validations, name="list_validations"
+)
 
 
 @router.get("/v1/validations/{validation_id}", response_model=ValidationPublic)
