@@ -11,6 +11,8 @@ product does not use them (see `models.identification.solver`):
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -50,60 +52,74 @@ def _figures(started: float, built: float, solver: ca.Function, out: dict[str, c
     }
 
 
+@dataclass(frozen=True)
+class _Build:
+    """What both formulations are built from: the clock their build is timed from, the runtime's kinematic
+    functions, the unknowns z (the free parameters in their tolerances, as the product's solver scales them) with
+    θ(z) = θ_start + scales · z, and the campaign as the NLP's parameters: symbols q, pm, rm (joints, measured
+    positions, measured rotations; one column a record) and the vector `p` they stand in."""
+
+    started: float
+    fns: Any
+    n: int
+    z: Any
+    theta: Any
+    q: Any
+    pm: Any
+    rm: Any
+    campaign: Campaign
+
+    @classmethod
+    def start(cls, symbols: Any, desc: RobotDescription, campaign: Campaign, theta_start: Array, free: Array) -> _Build:
+        """`symbols`: ca.MX or ca.SX, the graph the formulation is built in."""
+        started = time.perf_counter()
+        fns = default_registry().runtime(desc).kinematics
+        z = symbols.sym("z", free.size)
+        theta = symbols(theta_start)
+        theta[free.tolist()] = theta[free.tolist()] + desc.parameters.scales[free] * z
+        q, pm, rm = (symbols.sym(k, *a.shape) for k, a in zip(("q", "pm", "rm"), _data(campaign), strict=True))
+        return cls(started, fns, campaign.size, z, theta, q, pm, rm, campaign)
+
+    @property
+    def p(self) -> Any:
+        return ca.vertcat(ca.vec(self.q), ca.vec(self.pm), ca.vec(self.rm))
+
+    def p_values(self) -> Array:
+        """The campaign's values of `p`, in its order."""
+        return np.concatenate([a.reshape(-1, order="F") for a in _data(self.campaign)])
+
+
 def solve_nested(
     desc: RobotDescription, campaign: Campaign, theta_start: Array, free: Array, noise: NoiseModel
 ) -> dict[str, float]:
-    started = time.perf_counter()
-    fns = default_registry().runtime(desc).kinematics
-    n = campaign.size
-    scales = desc.parameters.scales[free]
-    q, pm, rm = (ca.MX.sym(k, *a.shape) for k, a in zip(("q", "pm", "rm"), _data(campaign), strict=True))
-    z = ca.MX.sym("z", free.size)
-    theta = ca.MX(theta_start)
-    theta[free.tolist()] = theta[free.tolist()] + scales * z
+    build = _Build.start(ca.MX, desc, campaign, theta_start, free)
     qi, pi, ri, th = ca.MX.sym("q", desc.n_joints), ca.MX.sym("p", 3), ca.MX.sym("r", 9), ca.MX.sym("t", desc.n_params)
     assert desc.hexapod is not None
-    pos, rot, _ = fns["fk"](qi, th, ca.DM(desc.hexapod.home))
+    pos, rot, _ = build.fns["fk"](qi, th, ca.DM(desc.hexapod.home))
     res = _residual(pos, rot, pi, ri, noise)
-    per_pose = ca.Function("res", [qi, th, pi, ri], [ca.sumsqr(res)]).map(n)
-    f = 0.5 * ca.sum2(per_pose(q, theta, pm, rm)) / (6 * n)
-    solver = ca.nlpsol("nested", "ipopt", {"x": z, "f": f, "p": ca.vertcat(ca.vec(q), ca.vec(pm), ca.vec(rm))}, OPTIONS)
+    per_pose = ca.Function("res", [qi, th, pi, ri], [ca.sumsqr(res)]).map(build.n)
+    f = 0.5 * ca.sum2(per_pose(build.q, build.theta, build.pm, build.rm)) / (6 * build.n)
+    solver = ca.nlpsol("nested", "ipopt", {"x": build.z, "f": f, "p": build.p}, OPTIONS)
     built = time.perf_counter()
-    data = np.concatenate([a.reshape(-1, order="F") for a in _data(campaign)])
-    out = solver(x0=np.zeros(free.size), p=data)
-    return _figures(started, built, solver, out)
+    out = solver(x0=np.zeros(free.size), p=build.p_values())
+    return _figures(build.started, built, solver, out)
 
 
 def solve_implicit(
     desc: RobotDescription, campaign: Campaign, theta_start: Array, free: Array, noise: NoiseModel
 ) -> dict[str, float]:
-    started = time.perf_counter()
-    fns = default_registry().runtime(desc).kinematics
-    n = campaign.size
-    scales = desc.parameters.scales[free]
-    z = ca.SX.sym("z", free.size)
-    x = ca.SX.sym("x", 6, n)
-    theta = ca.SX(theta_start)
-    for k, i in enumerate(free):
-        theta[int(i)] = theta[int(i)] + scales[k] * z[k]
-    q_np, pm_np, rm_np = _data(campaign)
-    q, pm, rm = ca.SX.sym("q", *q_np.shape), ca.SX.sym("pm", 3, n), ca.SX.sym("rm", 9, n)
-    closure = fns["closure"].map(n)(q, theta, x)
+    build = _Build.start(ca.SX, desc, campaign, theta_start, free)
+    x = ca.SX.sym("x", 6, build.n)
+    closure = build.fns["closure"].map(build.n)(build.q, build.theta, x)
     qi, th, xi = ca.SX.sym("q", desc.n_joints), ca.SX.sym("t", desc.n_params), ca.SX.sym("x", 6)
     pi, ri = ca.SX.sym("p", 3), ca.SX.sym("r", 9)
-    pos, rot = fns["pose_at"](qi, th, xi)
-    res = ca.Function("res", [qi, th, xi, pi, ri], [ca.sumsqr(_residual(pos, rot, pi, ri, noise))]).map(n)
-    f = 0.5 * ca.sum2(res(q, theta, x, pm, rm)) / (6 * n)
-    nlp = {
-        "x": ca.vertcat(z, ca.vec(x)),
-        "f": f,
-        "g": ca.vec(closure),
-        "p": ca.vertcat(ca.vec(q), ca.vec(pm), ca.vec(rm)),
-    }
+    pos, rot = build.fns["pose_at"](qi, th, xi)
+    res = ca.Function("res", [qi, th, xi, pi, ri], [ca.sumsqr(_residual(pos, rot, pi, ri, noise))]).map(build.n)
+    f = 0.5 * ca.sum2(res(build.q, build.theta, x, build.pm, build.rm)) / (6 * build.n)
+    nlp = {"x": ca.vertcat(build.z, ca.vec(x)), "f": f, "g": ca.vec(closure), "p": build.p}
     solver = ca.nlpsol("implicit", "ipopt", nlp, OPTIONS)
     built = time.perf_counter()
     platforms, _ = solve_platforms(desc, campaign.joints, theta_start)
-    data = np.concatenate([a.reshape(-1, order="F") for a in (q_np, pm_np, rm_np)])
     x0 = np.concatenate([np.zeros(free.size), platforms.T.reshape(-1, order="F")])
-    out = solver(x0=x0, p=data, lbg=0, ubg=0)
-    return _figures(started, built, solver, out)
+    out = solver(x0=x0, p=build.p_values(), lbg=0, ubg=0)
+    return _figures(build.started, built, solver, out)

@@ -15,39 +15,26 @@ from models.errors import InvalidInput
 from models.formats.urdf import document_from_urdf, urdf_from_description
 from models.identifiability import structural_identifiability
 from models.measurement import MeasurementKind
+from tests.urdf import Y_AXIS, Z_AXIS, UrdfJoint, urdf_robot
 
 # The UR5 as the public ur_description package describes it (metres, radians): joint origins with y offsets
 # and quarter-turn pitches, axes along y, none of them in DH form.
-UR5_URDF = """<?xml version="1.0"?>
-<robot name="ur5">
-  <link name="world"/><link name="base_link"/><link name="shoulder_link"/><link name="upper_arm_link"/>
-  <link name="forearm_link"/><link name="wrist_1_link"/><link name="wrist_2_link"/><link name="wrist_3_link"/>
-  <link name="ee_link"/><link name="tool0"/>
-  <joint name="world_joint" type="fixed"><parent link="world"/><child link="base_link"/>
-    <origin xyz="0.1 -0.2 0.05" rpy="0 0 0.3"/></joint>
-  <joint name="shoulder_pan_joint" type="revolute"><parent link="base_link"/><child link="shoulder_link"/>
-    <origin xyz="0 0 0.089159" rpy="0 0 0"/><axis xyz="0 0 1"/>
-    <limit lower="-6.2832" upper="6.2832" effort="150" velocity="3.15"/></joint>
-  <joint name="shoulder_lift_joint" type="revolute"><parent link="shoulder_link"/><child link="upper_arm_link"/>
-    <origin xyz="0 0.13585 0" rpy="0 1.570796325 0"/><axis xyz="0 1 0"/>
-    <limit lower="-6.2832" upper="6.2832" effort="150" velocity="3.15"/></joint>
-  <joint name="elbow_joint" type="revolute"><parent link="upper_arm_link"/><child link="forearm_link"/>
-    <origin xyz="0 -0.1197 0.425" rpy="0 0 0"/><axis xyz="0 1 0"/>
-    <limit lower="-3.1416" upper="3.1416" effort="150" velocity="3.15"/></joint>
-  <joint name="wrist_1_joint" type="revolute"><parent link="forearm_link"/><child link="wrist_1_link"/>
-    <origin xyz="0 0 0.39225" rpy="0 1.570796325 0"/><axis xyz="0 1 0"/>
-    <limit lower="-6.2832" upper="6.2832" effort="28" velocity="3.2"/></joint>
-  <joint name="wrist_2_joint" type="revolute"><parent link="wrist_1_link"/><child link="wrist_2_link"/>
-    <origin xyz="0 0.093 0" rpy="0 0 0"/><axis xyz="0 0 1"/>
-    <limit lower="-6.2832" upper="6.2832" effort="28" velocity="3.2"/></joint>
-  <joint name="wrist_3_joint" type="continuous"><parent link="wrist_2_link"/><child link="wrist_3_link"/>
-    <origin xyz="0 0 0.09465" rpy="0 0 0"/><axis xyz="0 1 0"/></joint>
-  <joint name="ee_fixed_joint" type="fixed"><parent link="wrist_3_link"/><child link="ee_link"/>
-    <origin xyz="0 0.0823 0" rpy="0 0 1.570796325"/></joint>
-  <joint name="tool_joint" type="fixed"><parent link="ee_link"/><child link="tool0"/>
-    <origin xyz="0.05 0.02 0.1" rpy="0.2 -0.1 0.4"/></joint>
-</robot>
-"""
+ARM = ("-6.2832", "6.2832", "150", "3.15")
+ELBOW = ("-3.1416", "3.1416", "150", "3.15")
+WRIST = ("-6.2832", "6.2832", "28", "3.2")
+PITCH = "0 1.570796325 0"  # a quarter turn about y
+UR5_JOINTS = [
+    UrdfJoint("world_joint", "fixed", "world", "base_link", "0.1 -0.2 0.05", rpy="0 0 0.3"),
+    UrdfJoint("shoulder_pan_joint", "revolute", "base_link", "shoulder_link", "0 0 0.089159", Z_AXIS, ARM),
+    UrdfJoint("shoulder_lift_joint", "revolute", "shoulder_link", "upper_arm_link", "0 0.13585 0", Y_AXIS, ARM, PITCH),
+    UrdfJoint("elbow_joint", "revolute", "upper_arm_link", "forearm_link", "0 -0.1197 0.425", Y_AXIS, ELBOW),
+    UrdfJoint("wrist_1_joint", "revolute", "forearm_link", "wrist_1_link", "0 0 0.39225", Y_AXIS, WRIST, PITCH),
+    UrdfJoint("wrist_2_joint", "revolute", "wrist_1_link", "wrist_2_link", "0 0.093 0", Z_AXIS, WRIST),
+    UrdfJoint("wrist_3_joint", "continuous", "wrist_2_link", "wrist_3_link", "0 0 0.09465", Y_AXIS),
+    UrdfJoint("ee_fixed_joint", "fixed", "wrist_3_link", "ee_link", "0 0.0823 0", rpy="0 0 1.570796325"),
+    UrdfJoint("tool_joint", "fixed", "ee_link", "tool0", "0.05 0.02 0.1", rpy="0.2 -0.1 0.4"),
+]
+UR5_URDF = urdf_robot("ur5", UR5_JOINTS)
 MOVING = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
 
 
