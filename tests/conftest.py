@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import gc
 import itertools
 import logging
 import os
@@ -222,3 +223,12 @@ def registry() -> Registry:
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(12345)
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """What the collection built (the imported project and libraries, ~700 000 objects a worker) moved out of the
+    garbage collector's reach: it lives as long as the process, and each full collection walked all of it again,
+    ~0.15 s a time, over a dozen times a worker, and five times more at the end (pytest's search for unraisable
+    exceptions). Objects the tests make are collected as before."""
+    gc.collect()
+    gc.freeze()
