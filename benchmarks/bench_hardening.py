@@ -22,7 +22,6 @@ import asyncio
 import json
 import multiprocessing
 import os
-import socket
 import tempfile
 import threading
 import time
@@ -34,6 +33,7 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
+from benchmarks.load import close_request, probe_healthz, send_once, timed
 from harness.live import running_server
 from models import forward_kinematics, iwr, sample_workspace
 from models.simulation import measure, perturbed_robot
@@ -68,89 +68,21 @@ COMPUTE_BUDGET_S = limits.QUEUE_WAIT_S + limits.COMPUTE_DEADLINE_S + STOP_MARGIN
 answered 503 (service.compute.limits), then the stop."""
 
 
-def _request(host: str, method: str, path: str, body: bytes = b"", headers: dict[str, str] | None = None) -> bytes:
-    lines = [f"{method} {path} HTTP/1.1", f"Host: {host}", "Connection: close"]
-    extra = {"Content-Type": "application/json", "Content-Length": str(len(body))} if method == "POST" else {}
-    extra.update(headers or {})
-    lines += [f"{k}: {v}" for k, v in extra.items()]
-    return ("\r\n".join(lines) + "\r\n\r\n").encode() + body
-
-
-async def _send(port: int, raw: bytes) -> tuple[int, float, bytes]:
-    """One request; the answer is read while the body is still being written, as a browser does, so an answer
-    sent before the whole body arrived is seen (and the rest of the body is not pushed into a closed socket)."""
-    started = time.perf_counter()
-    reader, writer = await asyncio.open_connection("127.0.0.1", port)
-
-    async def write() -> None:
-        try:
-            writer.write(raw)
-            await writer.drain()
-        except (ConnectionError, OSError):
-            pass  # the server answered and closed before the whole body was written
-
-    sending = asyncio.create_task(write())
-    data = b""
-    try:
-        while chunk := await reader.read(65536):
-            data += chunk
-    except (ConnectionError, OSError):
-        pass
-    sending.cancel()
-    writer.close()
-    elapsed = time.perf_counter() - started
-    return _status(data), elapsed, data.split(b"\r\n\r\n", 1)[-1]
-
-
-def _status(data: bytes) -> int:
-    try:
-        return int(data.split(b" ", 2)[1])
-    except (IndexError, ValueError):
-        return 0  # no answer at all: a reset connection
-
-
-def _probe(port: int, duration_s: float, period_s: float) -> list[float]:
-    """/healthz every `period_s` from a process of its own (`_timed`): the load generator's event loop, busy
-    with its other requests, would otherwise count its own stalls as the server's latency."""
-    answers = _timed(port, _request(f"127.0.0.1:{port}", "GET", "/healthz"), duration_s, period_s)
-    return [elapsed if status == 200 else float("inf") for status, elapsed, _ in answers]
-
-
-def _timed(port: int, raw: bytes, duration_s: float, period_s: float) -> list[tuple[int, float, bytes]]:
-    """One request every `period_s` from a process of its own, with blocking sockets (as `_probe`): the
-    refusals' budget is the server's answer time, which the load generator's loop, busy with 25 MB bodies,
-    would otherwise add its own stalls to (measured: 1.6 s in the generator for a 0.5 s check)."""
-    seen: list[tuple[int, float, bytes]] = []
-    stop = time.monotonic() + duration_s
-    while time.monotonic() < stop:
-        started = time.perf_counter()
-        data = b""
-        with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
-            try:
-                sock.sendall(raw)
-                while chunk := sock.recv(65536):
-                    data += chunk
-            except OSError:
-                pass  # the server answered and closed before the whole body was written
-        elapsed = time.perf_counter() - started
-        seen.append((_status(data), elapsed, data.split(b"\r\n\r\n", 1)[-1]))
-        time.sleep(max(0.0, period_s - elapsed))
-    return seen
-
-
 def _separate(host: str, robot: str, bodies: dict[str, bytes]) -> dict[str, tuple[bytes, float]]:
-    """The refusals, each from a process of its own (`_timed`): (the raw request, its period in seconds)."""
+    """The refusals, each from a process of its own (`benchmarks.load.timed`): (the raw request, its period in
+    seconds)."""
     base = f"/v1/robots/{robot}"
-    chunked = _request(host, "POST", "/v1/robots", b"", {"Transfer-Encoding": "chunked"}).replace(
+    too_large = bodies["calibration_too_large"]
+    chunked = close_request(host, "POST", "/v1/robots", b"", {"Transfer-Encoding": "chunked"}).replace(
         b"Content-Length: 0\r\n", b""
     )
     chunk = b"x" * 1_000_000
     return {
-        "calibration_too_large": (_request(host, "POST", f"{base}/calibrations", bodies["calibration_too_large"]), 1.0),
-        "design_too_large": (_request(host, "POST", f"{base}/pose-designs", bodies["design_too_large"]), 1.0),
-        "unknown_keys": (_request(host, "POST", f"{base}/forward-kinematics", bodies["unknown_keys"]), 1.0),
+        "calibration_too_large": (close_request(host, "POST", f"{base}/calibrations", too_large), 1.0),
+        "design_too_large": (close_request(host, "POST", f"{base}/pose-designs", bodies["design_too_large"]), 1.0),
+        "unknown_keys": (close_request(host, "POST", f"{base}/forward-kinematics", bodies["unknown_keys"]), 1.0),
         "declared_25MB": (
-            _request(host, "POST", f"{base}/calibrations", b"", {"Content-Length": "25000000"}) + b"x" * 100_000,
+            close_request(host, "POST", f"{base}/calibrations", b"", {"Content-Length": "25000000"}) + b"x" * 100_000,
             1.0,
         ),
         "chunked_25MB": (chunked + (f"{len(chunk):x}\r\n".encode() + chunk + b"\r\n") * 25 + b"0\r\n\r\n", 2.0),
@@ -272,14 +204,14 @@ async def _load(url: str, robot: str, duration_s: float) -> dict[str, list[tuple
     async def loop(kind: str, raw: bytes, period_s: float) -> None:
         while time.monotonic() < stop:
             started = time.monotonic()
-            seen[kind].append(await _send(port, raw))
+            seen[kind].append(await send_once(port, raw))
             await asyncio.sleep(max(0.0, period_s - (time.monotonic() - started)))
 
     def post(path: str, name: str) -> bytes:
-        return _request(host, "POST", path, bodies[name])
+        return close_request(host, "POST", path, bodies[name])
 
     tasks = [
-        loop("healthz", _request(host, "GET", "/healthz"), 0.05),
+        loop("healthz", close_request(host, "GET", "/healthz"), 0.05),
         *(loop("fk", post(f"{base}/forward-kinematics", "fk"), 0.05) for _ in range(2)),
         loop("fk_large", post(f"{base}/forward-kinematics", "fk_large"), 1.0),
         *(loop("calibration", post(f"{base}/calibrations", "calibration"), 0.3) for _ in range(2)),
@@ -310,7 +242,8 @@ def run(duration_s: float = DURATION_S) -> dict[str, object]:
     with tempfile.TemporaryDirectory() as tmp, running_server(f"sqlite:///{tmp}/load.db", IWR_JOB_WORKERS="1") as url:
         port = int(urlsplit(url).port or 0)
         pid = _server_pid(port)
-        created = asyncio.run(_send(port, _request(urlsplit(url).netloc, "POST", "/v1/robots", b'{"name": "load"}')))
+        create = close_request(urlsplit(url).netloc, "POST", "/v1/robots", b'{"name": "load"}')
+        created = asyncio.run(send_once(port, create))
         robot = json.loads(created[2])["id"]
         load_before = os.getloadavg()[0]
         rss_before = _peak_rss(pid)
@@ -319,9 +252,9 @@ def run(duration_s: float = DURATION_S) -> dict[str, object]:
             _PssPeak(pid) as pss,
             ProcessPoolExecutor(1 + len(separate), mp_context=multiprocessing.get_context("spawn")) as prober,
         ):
-            probe = prober.submit(_probe, port, duration_s, 0.05)
+            probe = prober.submit(probe_healthz, port, duration_s, 0.05)
             sent = {
-                kind: prober.submit(_timed, port, raw, duration_s, period) for kind, (raw, period) in separate.items()
+                kind: prober.submit(timed, port, raw, duration_s, period) for kind, (raw, period) in separate.items()
             }
             seen = asyncio.run(_load(url, robot, duration_s))
             probed = probe.result()

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import socket
 import time
 from urllib.parse import urlsplit
 
@@ -62,3 +63,79 @@ async def open_loop(
 
     await asyncio.gather(*(client(k) for k in range(clients)))
     return latencies, errors
+
+
+# One request per connection (`Connection: close`), for what must be timed from a process of its own (a probe,
+# the refusals of benchmarks/bench_hardening.py): this module imports the standard library only, so such a process
+# starts in ~0.1 s of CPU, where importing the benchmark (numpy, CasADi, the models) took ~2 s, six times over, on
+# the cores the server under load shares.
+
+
+def close_request(host: str, method: str, path: str, body: bytes = b"", headers: dict[str, str] | None = None) -> bytes:
+    lines = [f"{method} {path} HTTP/1.1", f"Host: {host}", "Connection: close"]
+    extra = {"Content-Type": "application/json", "Content-Length": str(len(body))} if method == "POST" else {}
+    extra.update(headers or {})
+    lines += [f"{k}: {v}" for k, v in extra.items()]
+    return ("\r\n".join(lines) + "\r\n\r\n").encode() + body
+
+
+async def send_once(port: int, raw: bytes) -> tuple[int, float, bytes]:
+    """One request; the answer is read while the body is still being written, as a browser does, so an answer
+    sent before the whole body arrived is seen (and the rest of the body is not pushed into a closed socket)."""
+    started = time.perf_counter()
+    reader, writer = await asyncio.open_connection("127.0.0.1", port)
+
+    async def write() -> None:
+        try:
+            writer.write(raw)
+            await writer.drain()
+        except (ConnectionError, OSError):
+            pass  # the server answered and closed before the whole body was written
+
+    sending = asyncio.create_task(write())
+    data = b""
+    try:
+        while chunk := await reader.read(65536):
+            data += chunk
+    except (ConnectionError, OSError):
+        pass
+    sending.cancel()
+    writer.close()
+    elapsed = time.perf_counter() - started
+    return status_of(data), elapsed, data.split(b"\r\n\r\n", 1)[-1]
+
+
+def status_of(data: bytes) -> int:
+    try:
+        return int(data.split(b" ", 2)[1])
+    except (IndexError, ValueError):
+        return 0  # no answer at all: a reset connection
+
+
+def probe_healthz(port: int, duration_s: float, period_s: float) -> list[float]:
+    """/healthz every `period_s` from a process of its own (`_timed`): the load generator's event loop, busy
+    with its other requests, would otherwise count its own stalls as the server's latency."""
+    answers = timed(port, close_request(f"127.0.0.1:{port}", "GET", "/healthz"), duration_s, period_s)
+    return [elapsed if status == 200 else float("inf") for status, elapsed, _ in answers]
+
+
+def timed(port: int, raw: bytes, duration_s: float, period_s: float) -> list[tuple[int, float, bytes]]:
+    """One request every `period_s` from a process of its own, with blocking sockets (as `_probe`): the
+    refusals' budget is the server's answer time, which the load generator's loop, busy with 25 MB bodies,
+    would otherwise add its own stalls to (measured: 1.6 s in the generator for a 0.5 s check)."""
+    seen: list[tuple[int, float, bytes]] = []
+    stop = time.monotonic() + duration_s
+    while time.monotonic() < stop:
+        started = time.perf_counter()
+        data = b""
+        with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
+            try:
+                sock.sendall(raw)
+                while chunk := sock.recv(65536):
+                    data += chunk
+            except OSError:
+                pass  # the server answered and closed before the whole body was written
+        elapsed = time.perf_counter() - started
+        seen.append((status_of(data), elapsed, data.split(b"\r\n\r\n", 1)[-1]))
+        time.sleep(max(0.0, period_s - elapsed))
+    return seen
