@@ -183,11 +183,21 @@ def test_mixed_jobs_through_two_apis_and_two_workers_with_a_restart_and_a_kill(p
             designs = c.execute(text("SELECT count(*) FROM pose_designs")).scalar_one()
             results = c.execute(text("SELECT count(DISTINCT result_id) FROM jobs")).scalar_one()
             applied = c.execute(text("SELECT count(*) FROM calibrations WHERE applied")).scalar_one()
+            # Per robot, for the message of a failure below: how many were applied, and why the others were not.
+            outcomes = c.execute(
+                text("SELECT robot_id, applied, result ->> 'not_applied_reason' FROM calibrations ORDER BY created_at")
+            ).all()
         engine.dispose()
         assert (calibrations, designs, results) == (MIXED_JOBS * 3 // 4, MIXED_JOBS // 4, MIXED_JOBS)
-        # One new version per applied calibration, none twice. (The same campaign again predicts no better than
-        # the version it made, so the acceptance checks leave most of them stored and not applied.)
-        assert applied >= 4 and versions == 4 + applied
+        # One new version per applied calibration, none twice. Each calibrated robot (the fourth gets designs only)
+        # applied at least its first fit from the nominal, or one of its fits that ran beside it from the same
+        # version; the others lost that race or, started from the version a fit made, predicted no better, and
+        # are stored, not applied. How many apply beyond the first depends on how the fits overlapped: the
+        # machine's load, not the service (an earlier `applied >= 4` failed on a busy machine with 3, one each).
+        calibrated = {robots[i % 4] for i in range(MIXED_JOBS) if i % 4 != 3}
+        applied_to = {robot for robot, was_applied, _ in outcomes if was_applied}
+        assert applied_to == calibrated, [(r[:8], a, (why or "")[:160]) for r, a, why in outcomes]
+        assert versions == 4 + applied
         # Only the killed worker's job (prefetch 1, concurrency 1: at most one) ran more than once.
         assert sum(1 for j in jobs.values() if j["attempts"] > 1) <= 1
 
