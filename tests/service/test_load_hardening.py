@@ -20,6 +20,9 @@ REFUSAL_S = 2 * bench_hardening.REFUSAL_BUDGET_S
 chunked 25 MB body, drained before its 413), the others at most 0.49 s; 1.1-1.2 s on 2026-12-02, a day this
 machine ran everything ~1.5x slower. (The assertion had drifted to the bare 1 s; `make bench` reports against it.)"""
 
+MIN_PROBES = 100
+"""/healthz probes the run must have answered on a machine left to it (one every 50 ms: at most 140 in 7 s)."""
+
 
 def busy_cores(load_average: float) -> float:
     """How many times over the cores were asked for before the load began (1 on a machine left to this test):
@@ -44,5 +47,8 @@ def test_mixed_load_with_oversized_requests() -> None:
             kind,
             result,
         )
-    assert result["healthz_probe_count"] >= 100, result
+    # Enough probes that the p99 is not simply the slowest: one every 50 ms, each waiting for its answer, so a busy
+    # machine sends fewer in the same 7 s (98 at `stress --cpu 4`, once the probe ran with the load and no longer
+    # spent its first 2 s importing): a bound on time like the others, stretched alike.
+    assert result["healthz_probe_count"] >= MIN_PROBES / stretch, result
     assert result["healthz_p99_s"] <= HEALTHZ_P99_S * stretch, result
