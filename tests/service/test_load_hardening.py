@@ -51,4 +51,9 @@ def test_mixed_load_with_oversized_requests() -> None:
     # machine sends fewer in the same 7 s (98 at `stress --cpu 4`, once the probe ran with the load and no longer
     # spent its first 2 s importing): a bound on time like the others, stretched alike.
     assert result["healthz_probe_count"] >= MIN_PROBES / stretch, result
-    assert result["healthz_p99_s"] <= HEALTHZ_P99_S * stretch, result
+    # The probe's p99 stretches by the square: each probe waits for a core at every wake-up on both sides (its
+    # send, the server's accept, read and answer, its read) behind k times as many runnable processes, and the
+    # server's own loop is slowed k times by the same. Measured at `stress --cpu 4` (k 2.8) with the probe
+    # inside the load window: 0.355 s. What this bound is for, /healthz queued behind a computation, costs the
+    # seconds of that computation (3-8 s), past 0.1 s on a machine left to the test and 0.77 s at k 2.8.
+    assert result["healthz_p99_s"] <= HEALTHZ_P99_S * stretch**2, result
