@@ -24,9 +24,10 @@ from concurrent.futures import ProcessPoolExecutor
 from multiprocessing.context import ForkServerContext
 from typing import Any
 
-PRELOAD = ["service.http.app", "service.jobs.runner", "service.compute.builds"]
+PRELOAD = ["service.http.app", "service.jobs.runner", "service.compute.builds", "service.compute.preload"]
 """What the forkserver imports before its first fork: the app imports every route, service and model a task can
-name, and the job runner and the builds are what the other helpers run."""
+name, and the job runner and the builds are what the other helpers run; the last builds the IWR's runtimes that
+each compute lane and job-pool process would otherwise build for itself (service.compute.registry.preload)."""
 
 
 def context() -> ForkServerContext:

@@ -3,7 +3,10 @@ errors that travel back intact, cancellation through shared memory, the parse la
 
 from __future__ import annotations
 
+import json
 import os
+import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -341,6 +344,53 @@ def test_threads_when_no_processes(tmp_path: Path) -> None:
 
     assert anyio.run(main) == ([], os.getpid(), (id(app_registry), os.getpid()))  # the app's own registry
     assert len(app_registry) == 1
+
+
+def cpu_and_structures(*, registry: Registry) -> tuple[float, int]:
+    """The CPU this process has spent since its fork (a fork's times start at zero) and the structures its
+    registry holds."""
+    return time.process_time(), len(registry)
+
+
+def report_two_lanes(folder: str) -> None:
+    """In a process of its own, whose forkserver this starts: a warm lane under the environment the forkserver
+    started with, then one under a changed environment. Prints both lanes' (CPU, structures) as JSON."""
+    db = Database(f"sqlite:///{folder}/lanes.db")
+    db.migrate()
+    seen = []
+    for probe in (None, "changed"):
+        if probe:
+            os.environ["IWR_PROBE"] = probe  # a setting changed after the forkserver started
+        warm = Settings(database_url=db.url, compute_processes=1, warm_up=True)
+        lanes = ComputePool(db, ModelCache(db), Registry(), warm, slots=1)
+        try:
+            anyio.run(lanes.start)
+            seen.append(anyio.run(lanes.run, Task(cpu_and_structures, {}, ("registry",)), CancellationToken()))
+        finally:
+            lanes.shutdown()
+    db.dispose()
+    sys.stdout.write(json.dumps(seen) + "\n")
+
+
+def test_a_warm_lane_starts_with_the_runtimes_its_forkserver_built(tmp_path: Path) -> None:
+    """A compute lane forked from the forkserver takes the IWR's runtimes the forkserver built before its first
+    fork (service.compute.preload), instead of spending ~0.9 s of CPU building its own; a lane started under
+    another environment (the native libraries' options are read from it) builds its own."""
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            f"from tests.service.test_compute import report_two_lanes; report_two_lanes({str(tmp_path)!r})",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=240,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    (preloaded_cpu, preloaded_structures), (own_cpu, own_structures) = json.loads(done.stdout.splitlines()[-1])
+    assert preloaded_structures == own_structures == 4  # the IWR and its three structures with model terms
+    assert own_cpu > 3 * preloaded_cpu, (preloaded_cpu, own_cpu)
 
 
 def test_a_process_serves_from_its_own_registry(pool: ComputePool) -> None:
