@@ -232,3 +232,19 @@ def pytest_collection_finish(session: pytest.Session) -> None:
     exceptions). Objects the tests make are collected as before."""
     gc.collect()
     gc.freeze()
+
+
+FINAL_PASSES = 5
+"""At most as many full collections as pytest's own search for unraisable exceptions at its cleanup."""
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    """Full collections until one frees nothing, then what survives (the session's registry of every structure
+    the tests built, their caches: up to 1.7 million objects in one worker) moved out of the collector's reach,
+    before pytest's cleanup runs its five full collections: those then walk only what is left, not 1.4-1.6 s each
+    of survivors. Every object that became garbage was collected by then, while pytest's hook for unraisable
+    exceptions was still installed: a connection or file a test left open still warns and fails the run."""
+    for _ in range(FINAL_PASSES):
+        if gc.collect() == 0:
+            break
+    gc.freeze()
