@@ -94,26 +94,36 @@ COV_PART := --cov --cov-report= --cov-fail-under=0
 # (The test modules are compiled again by pytest's assertion rewriting, which keeps a cache of its own.)
 COMPILED := models optimal_design programs service harness iwr_client tests
 
-# Everything: the serial part and the parallel part started together, the parallel one at the lowest priority
-# (`nice -n 19`, inherited by every server, worker and browser it starts). The serial tests then have the cores
-# whenever they ask for them: Linux's scheduler gives a nice-19 process ~1.5 % of a core beside a nice-0 one.
-# They mostly wait (servers starting, deadlines, fixed-length loads: ~46 s of CPU in ~75 s), and the parallel
-# part takes what they leave; it then has the cores alone. Run one after the other, the two took 6 min 56 s
-# here; together 6 min 16 s, the serial part's bounds met with the same margins (docs/development.md). The
-# serial part's report is printed after the parallel one's. Without coverage: tracing every line of the
-# project's Python cost the parallel part 1 min 19 s of its 6 min 32 s (2026-12-07, clean clone), past `make
-# test`'s budget; `make coverage` runs the same suite traced and checks the floor.
+# Everything, in two parts that both run whatever the other's outcome. Where this user may raise a priority again
+# (root, CAP_SYS_NICE: harness/priority.py checks), the serial part starts at the normal priority and the
+# parallel part beside it at the lowest (`nice -n 19`, inherited by every server, worker and browser it starts),
+# raised back to normal once the serial part has ended. The serial tests mostly wait (servers starting,
+# deadlines, fixed-length loads: ~46 s of CPU in ~75 s) and Linux gives a nice-19 process ~1.5 % of a core
+# beside a nice-0 one, so the parallel part fills their idle time without taking a core from them: one after the
+# other the two took 6 min 56 s here, together 6 min 16 s (docs/development.md). Raised back, the parallel part
+# does not starve when other work shares the machine. Elsewhere the parts run one after the other. The serial
+# part's report is printed after the parallel one's. Without coverage: tracing every line of the project's
+# Python cost the parallel part 1 min 19 s of its 6 min 32 s (2026-12-07, clean clone), past `make test`'s
+# budget; `make coverage` runs the same suite traced and checks the floor.
+SERIAL_PART := $(BIN)/pytest -m serial -p no:cov
 pytest: $(STAMP) browser
 ifeq ($(XDIST),0)
 	$(BIN)/pytest
 else
-	rc=0; serial_log=$$(mktemp); \
+	rc=0; \
 	$(BIN)/python -m compileall -q -j 0 $(COMPILED) >/dev/null || rc=$$?; \
-	$(BIN)/pytest -m serial -p no:cov >"$$serial_log" 2>&1 & serial=$$!; \
-	nice -n 19 $(PYTEST_PARALLEL) -m "not serial" -p no:cov || rc=$$?; \
-	wait $$serial || rc=$$?; \
-	echo "--- the serial part (the tests marked serial, run beside the parallel part at a higher priority) ---"; \
-	cat "$$serial_log"; rm -f "$$serial_log"; \
+	if $(BIN)/python -m harness.priority --can-raise; then \
+	  serial_log=$$(mktemp); \
+	  { $(SERIAL_PART) >"$$serial_log" 2>&1; echo $$? >"$$serial_log.rc"; \
+	    $(BIN)/python -m harness.priority $(or $(PRIORITY_ROOT),$$$$); } & serial=$$!; \
+	  nice -n 19 $(PYTEST_PARALLEL) -m "not serial" -p no:cov || rc=$$?; \
+	  wait $$serial; serial_rc=$$(cat "$$serial_log.rc"); [ "$$serial_rc" = 0 ] || rc=$$serial_rc; \
+	  echo "--- the serial part (run beside the parallel part, which yielded it the cores) ---"; \
+	  cat "$$serial_log"; rm -f "$$serial_log" "$$serial_log.rc"; \
+	else \
+	  $(PYTEST_PARALLEL) -m "not serial" -p no:cov || rc=$$?; \
+	  $(SERIAL_PART) || rc=$$?; \
+	fi; \
 	exit $$rc
 endif
 
@@ -143,12 +153,14 @@ else
 endif
 
 # mypy (one process: ~49 s of CPU on a new machine, under 1 s with its cache warm) runs beside the tests rather
-# than before them, at the parallel part's low priority so that it never takes a core from the serial tests; its
-# report is printed at the end, and any failure of either fails the target.
+# than before them, at the parallel part's priority (so it never takes a core from the serial tests, and is raised
+# back with it: PRIORITY_ROOT, this recipe's shell); its report is printed at the end, and any failure of either
+# fails the target.
 test: lint
 	@log=$$(mktemp); rc=0; \
-	nice -n 19 $(MAKE) --no-print-directory typecheck >"$$log" 2>&1 & typecheck=$$!; \
-	$(MAKE) --no-print-directory pytest || rc=$$?; \
+	if $(BIN)/python -m harness.priority --can-raise; then background="nice -n 19"; else background=; fi; \
+	$$background $(MAKE) --no-print-directory typecheck >"$$log" 2>&1 & typecheck=$$!; \
+	$(MAKE) --no-print-directory pytest PRIORITY_ROOT=$$$$ || rc=$$?; \
 	wait $$typecheck || rc=1; \
 	cat "$$log"; rm -f "$$log"; exit $$rc
 
