@@ -27,7 +27,8 @@ def build_registry(settings: Settings) -> Registry:
     that registry instead, when it was built under the environment this process has now."""
     if not settings.warm_up:
         return Registry()
-    return _take_preloaded() or _warmed()
+    preloaded = _take_preloaded()
+    return preloaded if preloaded is not None else _warmed()
 
 
 def _warmed() -> Registry:
@@ -62,12 +63,11 @@ def preload() -> None:
     per server start. Without warm-up in the environment, nothing is built; a failure is logged and each helper
     builds its own, as before."""
     global _preloaded  # noqa: PLW0603  (the forkserver's state, inherited by its forks)
-    settings = Settings()
-    if not settings.warm_up:
-        return
     try:
+        if not Settings().warm_up:
+            return
         registry = _warmed()
-    except Exception:  # the forkserver must serve whatever happens here: the helpers then build their own
+    except Exception:  # the forkserver must serve whatever happens here (a bad setting too): helpers build their own
         log.exception("forkserver: the IWR's runtimes could not be built ahead; each helper builds its own")
         return
     _preloaded = (_environment(), registry)
