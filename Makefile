@@ -94,14 +94,15 @@ COV_PART := --cov --cov-report= --cov-fail-under=0
 # (The test modules are compiled again by pytest's assertion rewriting, which keeps a cache of its own.)
 COMPILED := models optimal_design programs service harness iwr_client tests
 
-# Everything, in two parts that both run whatever the other's outcome. Where this user may raise a priority again
-# (root, CAP_SYS_NICE: harness/priority.py checks), the serial part starts at the normal priority and the
-# parallel part beside it at the lowest (`nice -n 19`, inherited by every server, worker and browser it starts),
-# raised back to normal once the serial part has ended. The serial tests mostly wait (servers starting,
+# Everything, in two parts that both run whatever the other's outcome. On a machine free at the start where this
+# user may raise a priority again (root, CAP_SYS_NICE: harness/priority.py checks both), the serial part starts at
+# the normal priority and the parallel part beside it at the lowest (`nice -n 19`, inherited by every server,
+# worker and browser it starts), raised back to normal once the serial part has ended. The serial tests mostly wait (servers starting,
 # deadlines, fixed-length loads: ~46 s of CPU in ~75 s) and Linux gives a nice-19 process ~1.5 % of a core
 # beside a nice-0 one, so the parallel part fills their idle time without taking a core from them: one after the
 # other the two took 6 min 56 s here, together 6 min 16 s (docs/development.md). Raised back, the parallel part
-# does not starve when other work shares the machine. Elsewhere the parts run one after the other. The serial
+# does not starve when other work shares the machine. Elsewhere, and on a busy machine (where the overlap only
+# slows the serial part), the parts run one after the other, anything niced raised first. The serial
 # part's report is printed after the parallel one's. Without coverage: tracing every line of the project's
 # Python cost the parallel part 1 min 19 s of its 6 min 32 s (2026-12-07, clean clone), past `make test`'s
 # budget; `make coverage` runs the same suite traced and checks the floor.
@@ -112,7 +113,7 @@ ifeq ($(XDIST),0)
 else
 	rc=0; \
 	$(BIN)/python -m compileall -q -j 0 $(COMPILED) >/dev/null || rc=$$?; \
-	if $(BIN)/python -m harness.priority --can-raise; then \
+	if $(BIN)/python -m harness.priority --overlap; then \
 	  serial_log=$$(mktemp); \
 	  { $(SERIAL_PART) >"$$serial_log" 2>&1; echo $$? >"$$serial_log.rc"; \
 	    $(BIN)/python -m harness.priority $(or $(PRIORITY_ROOT),$$$$); } & serial=$$!; \
@@ -121,6 +122,7 @@ else
 	  echo "--- the serial part (run beside the parallel part, which yielded it the cores) ---"; \
 	  cat "$$serial_log"; rm -f "$$serial_log" "$$serial_log.rc"; \
 	else \
+	  $(BIN)/python -m harness.priority $(or $(PRIORITY_ROOT),$$$$); \
 	  $(PYTEST_PARALLEL) -m "not serial" -p no:cov || rc=$$?; \
 	  $(SERIAL_PART) || rc=$$?; \
 	fi; \
@@ -158,7 +160,7 @@ endif
 # fails the target.
 test: lint
 	@log=$$(mktemp); rc=0; \
-	if $(BIN)/python -m harness.priority --can-raise; then background="nice -n 19"; else background=; fi; \
+	if $(BIN)/python -m harness.priority --overlap; then background="nice -n 19"; else background=; fi; \
 	$$background $(MAKE) --no-print-directory typecheck >"$$log" 2>&1 & typecheck=$$!; \
 	$(MAKE) --no-print-directory pytest PRIORITY_ROOT=$$$$ || rc=$$?; \
 	wait $$typecheck || rc=1; \

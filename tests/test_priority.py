@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.priority import BACKGROUND, can_raise, descendants, raise_background
+from harness.priority import BACKGROUND, can_raise, descendants, machine_is_free, raise_background
 
 
 @pytest.fixture
@@ -66,3 +66,13 @@ def _has_sys_nice() -> bool:
     status = Path("/proc/self/status").read_text()
     effective = int(next(line.split()[1] for line in status.splitlines() if line.startswith("CapEff")), 16)
     return bool(effective & (1 << 23))  # CAP_SYS_NICE
+
+
+@pytest.mark.parametrize(("load", "free"), [(1.2, True), (1.99, True), (2.0, False), (6.5, False)])
+def test_the_parts_overlap_only_on_a_machine_free_at_the_start(
+    monkeypatch: pytest.MonkeyPatch, load: float, free: bool
+) -> None:
+    # Two cores: the run's own install and lint leave ~1-1.5, `stress --cpu 4` 5-7.
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(os, "getloadavg", lambda: (load, load, load))
+    assert machine_is_free() is free
