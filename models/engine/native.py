@@ -191,7 +191,10 @@ def compile_functions(name: str, functions: list[ca.Function]) -> dict[str, ca.F
         except (OSError, subprocess.CalledProcessError, subprocess.TimeoutExpired) as exc:
             log.warning("native compilation of %s failed (%s); using the CasADi VM", name, exc)
             return _on_vm(name, VmReason.COMPILE_FAILED, functions)
-    return {f.name(): ca.external(f.name(), str(library)) for library, part in parts for f in part}
+    native = {f.name(): ca.external(f.name(), str(library)) for library, part in parts for f in part}
+    with _vm_lock:  # built natively now: no longer on the VM, whatever an earlier build in this process recorded
+        _vm_only.pop(name, None)
+    return native
 
 
 @contextlib.contextmanager

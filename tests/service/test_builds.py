@@ -166,3 +166,16 @@ def test_a_native_level_gcc_does_not_name_stops_the_service_before_it_serves() -
     started = subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True, check=False)
     assert started.returncode == 2, started.stderr
     assert "IWR_NATIVE_OPT_LEVEL='3': use one of 0, 1, 2" in started.stderr
+
+
+@pytest.mark.slow  # two builds of a 3R arm
+@pytest.mark.skipif(not compiler_available(), reason="no C compiler: nothing is compiled natively")
+def test_a_structure_built_on_the_vm_then_natively_says_native(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The VM record is per process: a structure built once without native code (IWR_NATIVE=0, as the test above
+    does) and again with it is native. Before, the first record stayed, and a later test's build in the same
+    pytest worker said `native: false` whenever the order of the tests put that one first."""
+    desc = description_from_document(_unique_arm())
+    monkeypatch.setenv("IWR_NATIVE", "0")
+    assert builds.build_structure(desc).vm, "IWR_NATIVE=0 should have put the structure on the VM"
+    monkeypatch.delenv("IWR_NATIVE")
+    assert builds.build_structure(desc).vm == {}
