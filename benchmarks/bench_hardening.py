@@ -33,7 +33,7 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
-from benchmarks.load import close_request, probe_healthz, send_once, timed
+from benchmarks.load import probe_healthz, raw_request, send_once, timed
 from harness.live import running_server
 from models import forward_kinematics, iwr, sample_workspace
 from models.simulation import measure, perturbed_robot
@@ -73,16 +73,16 @@ def _separate(host: str, robot: str, bodies: dict[str, bytes]) -> dict[str, tupl
     seconds)."""
     base = f"/v1/robots/{robot}"
     too_large = bodies["calibration_too_large"]
-    chunked = close_request(host, "POST", "/v1/robots", b"", {"Transfer-Encoding": "chunked"}).replace(
+    chunked = raw_request(host, "POST", "/v1/robots", b"", {"Transfer-Encoding": "chunked"}).replace(
         b"Content-Length: 0\r\n", b""
     )
     chunk = b"x" * 1_000_000
     return {
-        "calibration_too_large": (close_request(host, "POST", f"{base}/calibrations", too_large), 1.0),
-        "design_too_large": (close_request(host, "POST", f"{base}/pose-designs", bodies["design_too_large"]), 1.0),
-        "unknown_keys": (close_request(host, "POST", f"{base}/forward-kinematics", bodies["unknown_keys"]), 1.0),
+        "calibration_too_large": (raw_request(host, "POST", f"{base}/calibrations", too_large), 1.0),
+        "design_too_large": (raw_request(host, "POST", f"{base}/pose-designs", bodies["design_too_large"]), 1.0),
+        "unknown_keys": (raw_request(host, "POST", f"{base}/forward-kinematics", bodies["unknown_keys"]), 1.0),
         "declared_25MB": (
-            close_request(host, "POST", f"{base}/calibrations", b"", {"Content-Length": "25000000"}) + b"x" * 100_000,
+            raw_request(host, "POST", f"{base}/calibrations", b"", {"Content-Length": "25000000"}) + b"x" * 100_000,
             1.0,
         ),
         "chunked_25MB": (chunked + (f"{len(chunk):x}\r\n".encode() + chunk + b"\r\n") * 25 + b"0\r\n\r\n", 2.0),
@@ -208,10 +208,10 @@ async def _load(url: str, robot: str, duration_s: float) -> dict[str, list[tuple
             await asyncio.sleep(max(0.0, period_s - (time.monotonic() - started)))
 
     def post(path: str, name: str) -> bytes:
-        return close_request(host, "POST", path, bodies[name])
+        return raw_request(host, "POST", path, bodies[name])
 
     tasks = [
-        loop("healthz", close_request(host, "GET", "/healthz"), 0.05),
+        loop("healthz", raw_request(host, "GET", "/healthz"), 0.05),
         *(loop("fk", post(f"{base}/forward-kinematics", "fk"), 0.05) for _ in range(2)),
         loop("fk_large", post(f"{base}/forward-kinematics", "fk_large"), 1.0),
         *(loop("calibration", post(f"{base}/calibrations", "calibration"), 0.3) for _ in range(2)),
@@ -242,7 +242,7 @@ def run(duration_s: float = DURATION_S) -> dict[str, object]:
     with tempfile.TemporaryDirectory() as tmp, running_server(f"sqlite:///{tmp}/load.db", IWR_JOB_WORKERS="1") as url:
         port = int(urlsplit(url).port or 0)
         pid = _server_pid(port)
-        create = close_request(urlsplit(url).netloc, "POST", "/v1/robots", b'{"name": "load"}')
+        create = raw_request(urlsplit(url).netloc, "POST", "/v1/robots", b'{"name": "load"}')
         created = asyncio.run(send_once(port, create))
         robot = json.loads(created[2])["id"]
         load_before = os.getloadavg()[0]

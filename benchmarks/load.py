@@ -15,12 +15,8 @@ from urllib.parse import urlsplit
 
 
 def request_bytes(host: str, path: str, body: object) -> bytes:
-    payload = json.dumps(body).encode()
-    head = (
-        f"POST {path} HTTP/1.1\r\nHost: {host}\r\nContent-Type: application/json\r\n"
-        f"Content-Length: {len(payload)}\r\nConnection: keep-alive\r\n\r\n"
-    )
-    return head.encode() + payload
+    """A JSON POST on a kept-alive connection."""
+    return raw_request(host, "POST", path, json.dumps(body).encode(), keep_alive=True)
 
 
 async def _read_response(reader: asyncio.StreamReader) -> int:
@@ -71,8 +67,17 @@ async def open_loop(
 # the cores the server under load shares.
 
 
-def close_request(host: str, method: str, path: str, body: bytes = b"", headers: dict[str, str] | None = None) -> bytes:
-    lines = [f"{method} {path} HTTP/1.1", f"Host: {host}", "Connection: close"]
+def raw_request(
+    host: str,
+    method: str,
+    path: str,
+    body: bytes = b"",
+    headers: dict[str, str] | None = None,
+    *,
+    keep_alive: bool = False,
+) -> bytes:
+    """A request's bytes as sent on the wire: one request per connection unless `keep_alive`."""
+    lines = [f"{method} {path} HTTP/1.1", f"Host: {host}", f"Connection: {'keep-alive' if keep_alive else 'close'}"]
     extra = {"Content-Type": "application/json", "Content-Length": str(len(body))} if method == "POST" else {}
     extra.update(headers or {})
     lines += [f"{k}: {v}" for k, v in extra.items()]
@@ -115,7 +120,7 @@ def status_of(data: bytes) -> int:
 def probe_healthz(port: int, duration_s: float, period_s: float) -> list[float]:
     """/healthz every `period_s` from a process of its own (`_timed`): the load generator's event loop, busy
     with its other requests, would otherwise count its own stalls as the server's latency."""
-    answers = timed(port, close_request(f"127.0.0.1:{port}", "GET", "/healthz"), duration_s, period_s)
+    answers = timed(port, raw_request(f"127.0.0.1:{port}", "GET", "/healthz"), duration_s, period_s)
     return [elapsed if status == 200 else float("inf") for status, elapsed, _ in answers]
 
 
